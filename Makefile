@@ -1,0 +1,80 @@
+# imu-allan: the one entry point.
+#   make deps      install the toolchain, Unity and the host package
+#   make           build the firmware (MCU, F_CPU, BAUD may be overridden)
+#   make test      every test
+#   make demo      the main job, on a synthetic IMU
+#   make clean
+
+MCU   ?= atmega168
+F_CPU ?= 10000000
+BAUD  ?= 115200
+PYTHON ?= python3
+BUILD ?= build
+UNITY_DIR ?= $(CURDIR)/$(BUILD)/unity
+
+AVR_CC   := avr-gcc
+AVR_SIZE := avr-size
+AVR_OBJCOPY := avr-objcopy
+
+FW_DIR   := firmware
+FW_BUILD := $(BUILD)/avr-$(MCU)
+FW_SRC   := $(wildcard $(FW_DIR)/*.c)
+FW_OBJ   := $(patsubst $(FW_DIR)/%.c,$(FW_BUILD)/%.o,$(FW_SRC))
+ELF      := $(FW_BUILD)/imu-allan.elf
+HEX      := $(FW_BUILD)/imu-allan.hex
+
+FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
+             -std=gnu99 -Os -Wall -Wextra -Werror \
+             -ffunction-sections -fdata-sections -MMD -MP
+FW_LDFLAGS := -mmcu=$(MCU) -Wl,--gc-sections
+
+HOST_CC ?= cc
+HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
+
+.PHONY: all firmware deps test unit pytest demo clean
+
+all: firmware
+
+firmware: $(HEX)
+
+$(FW_BUILD)/%.o: $(FW_DIR)/%.c | $(FW_BUILD)
+	$(AVR_CC) $(FW_CFLAGS) -c $< -o $@
+
+$(ELF): $(FW_OBJ)
+	$(AVR_CC) $(FW_LDFLAGS) $^ -o $@
+	$(AVR_SIZE) -C --mcu=$(MCU) $@
+
+$(HEX): $(ELF)
+	$(AVR_OBJCOPY) -O ihex -R .eeprom $< $@
+
+$(FW_BUILD):
+	mkdir -p $@
+
+-include $(FW_OBJ:.o=.d)
+
+deps:
+	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh
+
+# ---- tests ---------------------------------------------------------------
+test: firmware unit pytest
+
+unit:
+	cmake -S tests/unit -B $(BUILD)/unit -DUNITY_DIR=$(UNITY_DIR) >/dev/null
+	cmake --build $(BUILD)/unit -j 2
+	cd $(BUILD)/unit && ctest --output-on-failure
+
+pytest:
+	cd host_scripts && $(PYTHON) -m pytest -q
+
+# ---- demo ------------------------------------------------------------------
+DEMO := $(BUILD)/host/allan-demo
+
+$(DEMO): sim/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)/config.h
+	mkdir -p $(dir $@)
+	$(HOST_CC) $(HOST_CFLAGS) sim/allan_demo.c $(FW_DIR)/allan.c -lm -o $@
+
+demo: $(DEMO)
+	$(DEMO)
+
+clean:
+	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/host

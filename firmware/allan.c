@@ -1,0 +1,155 @@
+/*
+ * allan.c - the on-device Allan engine (see allan.h for the contract).
+ *
+ * Cascade: a level-k cluster is two consecutive level-(k-1) clusters, so
+ * when level k-1 completes an even-numbered cluster, level k's new sum is
+ * (level k-1's previous sum) + (its new sum).  The previous sum is exactly
+ * what level k-1 stores for its own difference, so each channel-level needs
+ * nothing beyond its last sum and its accumulator.
+ */
+#include "allan.h"
+
+#include <string.h>
+
+#define SUM_MASK 0x00FFFFFFul
+#define SUM_SIGN 0x00800000ul
+#define ACC_HI_MAX 0xFFFFu
+#define ACC_LO_MAX 0xFFFFFFFFul
+
+#if ALLAN_CODE_MAX * (1ul << (ALLAN_WIDE_LEVEL - 1)) >= (1ul << ALLAN_SUM_BITS)
+#  error "ALLAN_WIDE_LEVEL is wrong for ALLAN_CODE_MAX: level WIDE-1 sums must fit 24 bits"
+#endif
+
+static void cell_saturate(allan_cell_t *c)
+{
+  c->acc_lo = ACC_LO_MAX;
+  c->acc_hi = ACC_HI_MAX;
+}
+
+/* acc += d^2 for |d| < 2^24, saturating at 2^48 - 1. */
+static void cell_add_square(allan_cell_t *c, uint32_t d)
+{
+  if (d < 0x10000ul) {
+    /* Fast path, every level-0 and nearly every other pair: a 16x16
+     * multiply and a 48-bit add with carry. */
+    uint32_t sq = (uint32_t)(uint16_t)d * (uint16_t)d;
+    uint32_t lo = c->acc_lo + sq;
+    if (lo < sq) {
+      if (c->acc_hi == ACC_HI_MAX) {
+        cell_saturate(c);
+        return;
+      }
+      c->acc_hi++;
+    }
+    c->acc_lo = lo;
+  } else {
+    /* Rare: large differences at high levels.  Both terms < 2^48, so the
+     * 64-bit sum cannot wrap. */
+    uint64_t acc = ((uint64_t)c->acc_hi << 32) | c->acc_lo;
+    acc += (uint64_t)d * d;
+    if (acc > 0xFFFFFFFFFFFFull) {
+      cell_saturate(c);
+      return;
+    }
+    c->acc_lo = (uint32_t)acc;
+    c->acc_hi = (uint16_t)(acc >> 32);
+  }
+}
+
+/* The 2^23 difference bound for a wide level, from the channel's code range. */
+static uint8_t range_breaks(uint16_t min, uint16_t max, uint8_t level)
+{
+  if (level < ALLAN_WIDE_LEVEL || max < min)
+    return 0;
+  return (uint16_t)(max - min) >= (1ul << (ALLAN_SUM_BITS - 1 - level));
+}
+
+void allan_reset(allan_t *a)
+{
+  uint8_t ch;
+  memset(a->cell, 0, sizeof a->cell);
+  for (ch = 0; ch < ALLAN_CHANNELS; ch++) {
+    a->min[ch] = ALLAN_CODE_MAX;
+    a->max[ch] = 0;
+  }
+  a->n = 0;
+}
+
+uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
+{
+  uint8_t ch;
+  uint32_t n;
+
+  if (a->n == 0xFFFFFFFFul)
+    return ALLAN_ERR_FULL;
+  for (ch = 0; ch < ALLAN_CHANNELS; ch++)
+    if (code[ch] > ALLAN_CODE_MAX)
+      return ALLAN_ERR_CODE;
+  n = ++a->n;
+
+  for (ch = 0; ch < ALLAN_CHANNELS; ch++) {
+    uint16_t x = code[ch];
+    allan_cell_t *c = a->cell[ch];
+    uint32_t v = x;  /* sum of the cluster just completed at this level */
+    uint32_t t = n;  /* complete clusters at this level, this one included */
+    uint8_t k = 0;
+
+    if (x < a->min[ch])
+      a->min[ch] = x;
+    if (x > a->max[ch])
+      a->max[ch] = x;
+
+    for (;;) {
+      uint32_t last = c->sum_lo | ((uint32_t)c->sum_hi << 16);
+      if (t >= 2) {
+        uint32_t d;
+        if (k < ALLAN_WIDE_LEVEL) {
+          /* True sums below 2^24: plain subtraction is exact. */
+          d = v >= last ? v - last : last - v;
+        } else if (range_breaks(a->min[ch], a->max[ch], k)) {
+          cell_saturate(c); /* cannot vouch for this difference */
+          d = 0;
+        } else {
+          /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
+          d = (v - last) & SUM_MASK;
+          if (d & SUM_SIGN)
+            d = (SUM_MASK + 1ul) - d;
+        }
+        cell_add_square(c, d);
+      }
+      c->sum_lo = (uint16_t)v;
+      c->sum_hi = (uint8_t)(v >> 16);
+      /* An odd count means this cluster opens a pair one level up. */
+      if ((t & 1u) || ++k == ALLAN_LEVELS)
+        break;
+      v = (v + last) & SUM_MASK;
+      t >>= 1;
+      c++;
+    }
+  }
+  return ALLAN_OK;
+}
+
+uint32_t allan_pairs(const allan_t *a, uint8_t level)
+{
+  uint32_t clusters = a->n >> level;
+  return clusters >= 2 ? clusters - 1 : 0;
+}
+
+uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level)
+{
+  const allan_cell_t *c = &a->cell[ch][level];
+  uint8_t f = 0;
+  if (c->acc_hi == ACC_HI_MAX && c->acc_lo == ACC_LO_MAX)
+    f |= ALLAN_FLAG_SAT;
+  if (a->n && range_breaks(a->min[ch], a->max[ch], level))
+    f |= ALLAN_FLAG_RANGE;
+  return f;
+}
+
+void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)
+{
+  const allan_cell_t *c = &a->cell[ch][level];
+  *hi = c->acc_hi;
+  *lo = c->acc_lo;
+}

@@ -1,0 +1,86 @@
+/*
+ * allan.h - exact, streaming, non-overlapping Allan variance at octave
+ * cluster sizes, in integers, for ALLAN_CHANNELS channels of 10-bit codes.
+ *
+ * For every channel c and level k (cluster size m = 2^k) the engine keeps
+ *   - the last complete cluster sum S (stored modulo 2^24, 3 bytes), and
+ *   - acc = sum over consecutive complete clusters of (S_j - S_{j-1})^2
+ *     (48 bits, saturating, 6 bytes),
+ * so that the non-overlapping Allan variance in code^2 is
+ *     avar = acc / (2 * m^2 * pairs),   pairs = floor(n / m) - 1,
+ * exactly what allantools' adev computes at tau = m / fs.
+ *
+ * Pure module: no <avr/io.h>, builds natively for the unit tests.
+ * Per sample: additions, compares and one 16x16 multiply per level visited;
+ * the cascade visits level k once every 2^k samples (amortised < 2 levels
+ * per channel), its worst case (all levels) once every 2^(L-1) samples.
+ *
+ * Exactness guarantees (see docs/allan-engine.md):
+ *   - levels with ALLAN_CODE_MAX * m < 2^24 hold true cluster sums, so every
+ *     difference is exact;
+ *   - higher levels (only when ALLAN_LEVELS > 15) rely on |dS| < 2^23, which
+ *     the channel's observed code range proves:  (max - min) * m < 2^23.
+ *     Where that bound fails the level is flagged ALLAN_FLAG_RANGE and its
+ *     accumulator saturates at its next pair;
+ *   - an accumulator whose true sum would reach 2^48 - 1 saturates there and
+ *     is flagged ALLAN_FLAG_SAT.
+ * A result without flags is exact.
+ */
+#ifndef ALLAN_H
+#define ALLAN_H
+
+#include <stdint.h>
+#include "config.h"
+
+/* First level whose cluster sums may not fit 24 bits (ALLAN_CODE_MAX*2^k >= 2^24). */
+#define ALLAN_WIDE_LEVEL 15u
+#define ALLAN_SUM_BITS 24u
+#define ALLAN_ACC_BITS 48u
+
+/* Per-level result flags. */
+#define ALLAN_FLAG_SAT   0x01u /* accumulator saturated: true sum >= 2^48 - 1 */
+#define ALLAN_FLAG_RANGE 0x02u /* code range too wide for an exact 24-bit difference */
+
+/* allan_push() return codes. */
+#define ALLAN_OK         0u
+#define ALLAN_ERR_CODE   1u /* a code above ALLAN_CODE_MAX: nothing was pushed */
+#define ALLAN_ERR_FULL   2u /* sample counter at 2^32 - 1: nothing was pushed */
+
+#if defined(__GNUC__) && !defined(__AVR__)
+#  define ALLAN_PACKED __attribute__((packed))
+#else
+#  define ALLAN_PACKED /* the AVR has no alignment: structs are packed anyway */
+#endif
+
+/* One channel-level: 9 bytes. */
+typedef struct ALLAN_PACKED {
+  uint16_t sum_lo; /* last complete cluster sum, bits 0..15  (mod 2^24) */
+  uint8_t  sum_hi; /*                             bits 16..23 */
+  uint32_t acc_lo; /* sum of squared differences, bits 0..31 */
+  uint16_t acc_hi; /*                             bits 32..47 */
+} allan_cell_t;
+
+typedef struct {
+  allan_cell_t cell[ALLAN_CHANNELS][ALLAN_LEVELS];
+  uint16_t min[ALLAN_CHANNELS]; /* smallest code seen (ALLAN_CODE_MAX before any) */
+  uint16_t max[ALLAN_CHANNELS]; /* largest code seen (0 before any) */
+  uint32_t n;                   /* sample sets pushed */
+} allan_t;
+
+/* Clear all accumulators and the sample count. */
+void allan_reset(allan_t *a);
+
+/* Feed one sample set (ALLAN_CHANNELS codes, 0..ALLAN_CODE_MAX).
+ * Returns ALLAN_OK, or an ALLAN_ERR_* code with the state untouched. */
+uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS]);
+
+/* Number of (S_j, S_{j-1}) pairs behind level's accumulator. */
+uint32_t allan_pairs(const allan_t *a, uint8_t level);
+
+/* ALLAN_FLAG_* bits for one channel-level; 0 means exact. */
+uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level);
+
+/* The 48-bit accumulator of one channel-level, as hi (bits 32..47) and lo. */
+void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo);
+
+#endif /* ALLAN_H */

@@ -1,0 +1,67 @@
+/*
+ * board.h - everything specific to the thesis board and its MCU: ADC pin
+ * map, reference, ADC clock, MMA7260Q g-select pins.  Change this file (and
+ * only this file) for another board.
+ */
+#ifndef BOARD_H
+#define BOARD_H
+
+#include <avr/io.h>
+
+#ifndef F_CPU
+#  error "F_CPU must be given (the Makefile passes the board's 10 MHz crystal)"
+#endif
+
+/* ADC multiplexer channel of each column of a thesis row, in row order:
+ * accel X Y Z, gyro X Y Z, temperature. */
+#define BOARD_ADC_ACC_X 0
+#define BOARD_ADC_ACC_Y 1
+#define BOARD_ADC_ACC_Z 2
+#define BOARD_ADC_GYR_X 3
+#define BOARD_ADC_GYR_Y 4
+#define BOARD_ADC_GYR_Z 5
+#define BOARD_ADC_TEMP  6
+#define BOARD_ADC_COLUMNS 7
+#define BOARD_ADC_MUX_LIST { BOARD_ADC_ACC_X, BOARD_ADC_ACC_Y, BOARD_ADC_ACC_Z, \
+                             BOARD_ADC_GYR_X, BOARD_ADC_GYR_Y, BOARD_ADC_GYR_Z, \
+                             BOARD_ADC_TEMP }
+
+/* Reference: AVCC, the board's regulated 3.3 V (the thesis' Vref). */
+#define BOARD_ADMUX_REF (1 << REFS0)
+#define BOARD_VREF_MV 3300
+
+/* ADC clock must be 50..200 kHz for full 10-bit accuracy: pick the
+ * smallest prescaler that brings F_CPU under 200 kHz. */
+#if   F_CPU / 2   <= 200000UL
+#  define BOARD_ADC_PRESCALER 2
+#  define BOARD_ADPS ((1 << ADPS0))
+#elif F_CPU / 4   <= 200000UL
+#  define BOARD_ADC_PRESCALER 4
+#  define BOARD_ADPS ((1 << ADPS1))
+#elif F_CPU / 8   <= 200000UL
+#  define BOARD_ADC_PRESCALER 8
+#  define BOARD_ADPS ((1 << ADPS1) | (1 << ADPS0))
+#elif F_CPU / 16  <= 200000UL
+#  define BOARD_ADC_PRESCALER 16
+#  define BOARD_ADPS ((1 << ADPS2))
+#elif F_CPU / 32  <= 200000UL
+#  define BOARD_ADC_PRESCALER 32
+#  define BOARD_ADPS ((1 << ADPS2) | (1 << ADPS0))
+#elif F_CPU / 64  <= 200000UL
+#  define BOARD_ADC_PRESCALER 64
+#  define BOARD_ADPS ((1 << ADPS2) | (1 << ADPS1))
+#else
+#  define BOARD_ADC_PRESCALER 128
+#  define BOARD_ADPS ((1 << ADPS2) | (1 << ADPS1) | (1 << ADPS0))
+#endif
+#if F_CPU / BOARD_ADC_PRESCALER < 50000UL || F_CPU / BOARD_ADC_PRESCALER > 200000UL
+#  error "no ADC prescaler puts the ADC clock within 50..200 kHz at this F_CPU"
+#endif
+
+/* MMA7260Q g-select: GS1 on PD6, GS2 on PD7 (00=1.5g 01=2g 10=4g 11=6g). */
+#define BOARD_GSEL_DDR  DDRD
+#define BOARD_GSEL_PORT PORTD
+#define BOARD_GSEL1_BIT PD6
+#define BOARD_GSEL2_BIT PD7
+
+#endif /* BOARD_H */
