@@ -19,6 +19,9 @@
 #if ALLAN_CODE_MAX * (1ul << (ALLAN_WIDE_LEVEL - 1)) >= (1ul << ALLAN_SUM_BITS)
 #  error "ALLAN_WIDE_LEVEL is wrong for ALLAN_CODE_MAX: level WIDE-1 sums must fit 24 bits"
 #endif
+#if ALLAN_CODE_MAX * (1ul << (ALLAN_NARROW_LEVELS - 1)) >= (1ul << 16)
+#  error "ALLAN_NARROW_LEVELS is wrong for ALLAN_CODE_MAX: its sums must fit 16 bits"
+#endif
 
 static void cell_saturate(allan_cell_t *c)
 {
@@ -56,23 +59,26 @@ static void cell_add_square(allan_cell_t *c, uint32_t d)
   }
 }
 
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
 /* The 2^23 difference bound for a wide level, from the channel's code range. */
-static uint8_t range_breaks(uint16_t min, uint16_t max, uint8_t level)
+static uint8_t range_breaks(const allan_t *a, uint8_t ch, uint8_t level)
 {
-  if (level < ALLAN_WIDE_LEVEL || max < min)
+  if (level < ALLAN_WIDE_LEVEL || a->max[ch] < a->min[ch])
     return 0;
-  return (uint16_t)(max - min) >= (1ul << (ALLAN_SUM_BITS - 1 - level));
+  return (uint16_t)(a->max[ch] - a->min[ch]) >= (1ul << (ALLAN_SUM_BITS - 1 - level));
 }
+#endif
 
 void allan_reset(allan_t *a)
 {
-  uint8_t ch;
-  memset(a->cell, 0, sizeof a->cell);
-  for (ch = 0; ch < ALLAN_CHANNELS; ch++) {
-    a->min[ch] = ALLAN_CODE_MAX;
-    a->max[ch] = 0;
+  memset(a, 0, sizeof *a);
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+  {
+    uint8_t ch;
+    for (ch = 0; ch < ALLAN_CHANNELS; ch++)
+      a->min[ch] = ALLAN_CODE_MAX;
   }
-  a->n = 0;
+#endif
 }
 
 uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
@@ -88,37 +94,47 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
   n = ++a->n;
 
   for (ch = 0; ch < ALLAN_CHANNELS; ch++) {
-    uint16_t x = code[ch];
     allan_cell_t *c = a->cell[ch];
-    uint32_t v = x;  /* sum of the cluster just completed at this level */
-    uint32_t t = n;  /* complete clusters at this level, this one included */
+    uint8_t *hi = a->sum_hi[ch]; /* bits 16..23 of level k's sum at hi[k - NARROW] */
+    uint32_t v = code[ch]; /* sum of the cluster just completed at this level */
+    uint32_t t = n;        /* complete clusters at this level, this one included */
     uint8_t k = 0;
 
-    if (x < a->min[ch])
-      a->min[ch] = x;
-    if (x > a->max[ch])
-      a->max[ch] = x;
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+    if (code[ch] < a->min[ch])
+      a->min[ch] = code[ch];
+    if (code[ch] > a->max[ch])
+      a->max[ch] = code[ch];
+#endif
 
     for (;;) {
-      uint32_t last = c->sum_lo | ((uint32_t)c->sum_hi << 16);
+      uint32_t last = c->sum_lo;
+      if (k >= ALLAN_NARROW_LEVELS)
+        last |= (uint32_t)hi[k - ALLAN_NARROW_LEVELS] << 16;
       if (t >= 2) {
         uint32_t d;
-        if (k < ALLAN_WIDE_LEVEL) {
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+        if (k >= ALLAN_WIDE_LEVEL) {
+          if (range_breaks(a, ch, k)) {
+            cell_saturate(c); /* cannot vouch for this difference */
+            d = 0;
+          } else {
+            /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
+            d = (v - last) & SUM_MASK;
+            if (d & SUM_SIGN)
+              d = (SUM_MASK + 1ul) - d;
+          }
+        } else
+#endif
+        {
           /* True sums below 2^24: plain subtraction is exact. */
           d = v >= last ? v - last : last - v;
-        } else if (range_breaks(a->min[ch], a->max[ch], k)) {
-          cell_saturate(c); /* cannot vouch for this difference */
-          d = 0;
-        } else {
-          /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
-          d = (v - last) & SUM_MASK;
-          if (d & SUM_SIGN)
-            d = (SUM_MASK + 1ul) - d;
         }
         cell_add_square(c, d);
       }
       c->sum_lo = (uint16_t)v;
-      c->sum_hi = (uint8_t)(v >> 16);
+      if (k >= ALLAN_NARROW_LEVELS)
+        hi[k - ALLAN_NARROW_LEVELS] = (uint8_t)(v >> 16);
       /* An odd count means this cluster opens a pair one level up. */
       if ((t & 1u) || ++k == ALLAN_LEVELS)
         break;
@@ -142,8 +158,10 @@ uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level)
   uint8_t f = 0;
   if (c->acc_hi == ACC_HI_MAX && c->acc_lo == ACC_LO_MAX)
     f |= ALLAN_FLAG_SAT;
-  if (a->n && range_breaks(a->min[ch], a->max[ch], level))
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+  if (a->n && range_breaks(a, ch, level))
     f |= ALLAN_FLAG_RANGE;
+#endif
   return f;
 }
 

@@ -3,7 +3,8 @@
  * cluster sizes, in integers, for ALLAN_CHANNELS channels of 10-bit codes.
  *
  * For every channel c and level k (cluster size m = 2^k) the engine keeps
- *   - the last complete cluster sum S (stored modulo 2^24, 3 bytes), and
+ *   - the last complete cluster sum S (stored modulo 2^24; 2 bytes for
+ *     m <= 64, where sums stay below 2^16, 3 bytes above), and
  *   - acc = sum over consecutive complete clusters of (S_j - S_{j-1})^2
  *     (48 bits, saturating, 6 bytes),
  * so that the non-overlapping Allan variance in code^2 is
@@ -52,20 +53,32 @@
 #  define ALLAN_PACKED /* the AVR has no alignment: structs are packed anyway */
 #endif
 
-/* One channel-level: 9 bytes. */
+/* Levels 0..ALLAN_NARROW_LEVELS-1 hold sums below 1023*64 < 2^16: two bytes
+ * suffice.  Higher levels keep the sum's bits 16..23 in sum_hi[]. */
+#define ALLAN_NARROW_LEVELS 7u
+
+/* One channel-level: 8 bytes, plus one in sum_hi[] above the narrow levels. */
 typedef struct ALLAN_PACKED {
-  uint16_t sum_lo; /* last complete cluster sum, bits 0..15  (mod 2^24) */
-  uint8_t  sum_hi; /*                             bits 16..23 */
+  uint16_t sum_lo; /* last complete cluster sum, bits 0..15 (mod 2^24) */
   uint32_t acc_lo; /* sum of squared differences, bits 0..31 */
   uint16_t acc_hi; /*                             bits 32..47 */
 } allan_cell_t;
 
 typedef struct {
   allan_cell_t cell[ALLAN_CHANNELS][ALLAN_LEVELS];
+  uint8_t sum_hi[ALLAN_CHANNELS][ALLAN_LEVELS - ALLAN_NARROW_LEVELS];
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+  /* Only wide levels need the code range (the 2^23 difference bound). */
   uint16_t min[ALLAN_CHANNELS]; /* smallest code seen (ALLAN_CODE_MAX before any) */
   uint16_t max[ALLAN_CHANNELS]; /* largest code seen (0 before any) */
+#endif
   uint32_t n;                   /* sample sets pushed */
 } allan_t;
+
+/* Bytes of state for a build: what `avr-size` sees of the engine. */
+#define ALLAN_STATE_BYTES \
+  (ALLAN_CHANNELS * (8u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) \
+   + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 4u)
 
 /* Clear all accumulators and the sample count. */
 void allan_reset(allan_t *a);

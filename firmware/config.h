@@ -24,8 +24,8 @@
 #  endif
 #endif
 
-#if ALLAN_LEVELS < 2
-#  error "ALLAN_LEVELS must be at least 2 (one octave step)"
+#if ALLAN_LEVELS < 8
+#  error "ALLAN_LEVELS must be at least 8 (m up to 128)"
 #endif
 /* Cluster sums are kept modulo 2^24; at level 23 and above even a range of a
  * single code could break the 2^23 difference bound, so such levels could
