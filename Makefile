@@ -66,6 +66,9 @@ unit:
 pytest:
 	cd host_scripts && $(PYTHON) -m pytest -q
 
+# ---- simulator harness (sim/sim.mk) ----------------------------------------
+-include sim/sim.mk
+
 # ---- demo ------------------------------------------------------------------
 DEMO := $(BUILD)/host/allan-demo
 
