@@ -1,27 +1,153 @@
 /*
- * adc.c - polled 7-channel scan.  One conversion per column, in the order
- * of board.h's mux list.
+ * adc.c - Timer1 CTC tick + interrupt-driven ADC scan into a 3-slot ring.
+ * simavr does not emulate the ADC's timer auto-trigger, and the ISR chain
+ * is as cheap, so each conversion's interrupt starts the next one.
  */
 #include "adc.h"
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/pgmspace.h>
+#include <util/atomic.h>
+
 #include "board.h"
 
-static const uint8_t adc_mux[ADC_COLUMNS] = BOARD_ADC_MUX_LIST;
+#define ADC_RING 3 /* the slot at head is being filled; two wait for main */
+
+static const uint8_t adc_mux[ADC_COLUMNS] PROGMEM = BOARD_ADC_MUX_LIST;
+
+static volatile uint16_t ring[ADC_RING][ADC_COLUMNS];
+static volatile uint8_t ring_head, ring_tail;
+static volatile uint8_t scan_col;
+static volatile uint8_t scanning;
+static volatile uint8_t limited;
+static volatile uint32_t budget; /* scans left when limited */
+static volatile uint32_t drops;
+static uint16_t rate_hz = 100;
+
+static uint8_t ring_next(uint8_t i)
+{
+  return (uint8_t)(i + 1u == ADC_RING ? 0u : i + 1u);
+}
 
 void adc_init(void)
 {
+  BOARD_PROBE_INIT();
   ADMUX = BOARD_ADMUX_REF;
-  ADCSRA = (1 << ADEN) | BOARD_ADPS;
+  ADCSRA = (1 << ADEN) | (1 << ADIE) | BOARD_ADPS;
   DIDR0 = 0x3F; /* ADC0..5 are analog only: no digital input buffers */
+  TCCR1A = 0;
+  TCCR1B = (1 << WGM12); /* CTC on OCR1A, clock off until adc_start */
+  adc_set_rate(rate_hz);
 }
 
-void adc_scan(uint16_t code[ADC_COLUMNS])
+void adc_set_rate(uint16_t hz)
 {
-  uint8_t i;
-  for (i = 0; i < ADC_COLUMNS; i++) {
-    ADMUX = BOARD_ADMUX_REF | adc_mux[i];
-    ADCSRA |= (1 << ADSC);
-    while (ADCSRA & (1 << ADSC))
-      ;
-    code[i] = ADC;
+  rate_hz = hz;
+  OCR1A = (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / hz - 1u);
+}
+
+uint16_t adc_rate(void)
+{
+  return rate_hz;
+}
+
+void adc_start(uint8_t lim, uint32_t count)
+{
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    limited = lim;
+    budget = count;
+    TCNT1 = 0;
+    TIFR1 = (1 << OCF1A);
+    TCCR1B = (1 << WGM12) | BOARD_TIMER1_CS;
+    TIMSK1 = (1 << OCIE1A);
   }
+}
+
+void adc_stop(void)
+{
+  TIMSK1 = 0;
+  TCCR1B = (1 << WGM12);
+  while (scanning)
+    ;
+}
+
+uint8_t adc_running(void)
+{
+  return (TIMSK1 & (1 << OCIE1A)) != 0;
+}
+
+uint8_t adc_pending(void)
+{
+  uint8_t h = ring_head, t = ring_tail;
+  return (uint8_t)(h >= t ? h - t : h + ADC_RING - t);
+}
+
+uint8_t adc_pop(uint16_t code[ADC_COLUMNS])
+{
+  uint8_t t = ring_tail, i;
+  if (t == ring_head)
+    return 0;
+  for (i = 0; i < ADC_COLUMNS; i++)
+    code[i] = ring[t][i];
+  ring_tail = ring_next(t);
+  return 1;
+}
+
+uint32_t adc_drops(void)
+{
+  uint32_t d;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { d = drops; }
+  return d;
+}
+
+void adc_clear_drops(void)
+{
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { drops = 0; }
+}
+
+static void count_drop(void)
+{
+  if (drops != 0xFFFFFFFFul)
+    drops++;
+}
+
+ISR(TIMER1_COMPA_vect)
+{
+  if (scanning) {
+    count_drop(); /* previous scan unfinished: the rate outruns the ADC */
+    return;
+  }
+  if (limited) {
+    if (budget == 0) {
+      TIMSK1 = 0; /* done: the count asked for by `start <count>` */
+      TCCR1B = (1 << WGM12);
+      return;
+    }
+    budget--;
+  }
+  scanning = 1;
+  scan_col = 0;
+  ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[0]);
+  ADCSRA |= (1 << ADSC);
+}
+
+ISR(ADC_vect)
+{
+  uint8_t col = scan_col, h = ring_head;
+  BOARD_PROBE_ISR_ON();
+  ring[h][col] = ADC;
+  if (++col < ADC_COLUMNS) {
+    scan_col = col;
+    ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[col]);
+    ADCSRA |= (1 << ADSC);
+  } else {
+    uint8_t next = ring_next(h);
+    if (next == ring_tail)
+      count_drop(); /* main loop behind: this set is lost, and counted */
+    else
+      ring_head = next;
+    scanning = 0;
+  }
+  BOARD_PROBE_ISR_OFF();
 }

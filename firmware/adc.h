@@ -1,5 +1,9 @@
 /*
- * adc.h - the 7-channel ADC scan (accel X Y Z, gyro X Y Z, temperature).
+ * adc.h - timed sampling: Timer1 ticks at the sample rate, each tick starts
+ * a scan of the 7 columns (accel X Y Z, gyro X Y Z, temperature) driven by
+ * the ADC interrupt, and a finished scan lands in a small ring that the main
+ * loop drains.  A scan that finds no room, or a tick that finds the previous
+ * scan unfinished, counts as a dropped sample set.
  */
 #ifndef ADC_H
 #define ADC_H
@@ -8,10 +12,29 @@
 
 #define ADC_COLUMNS 7
 
-/* Reference, prescaler, digital input buffers off on the used pins. */
 void adc_init(void);
 
-/* Convert all columns in row order, blocking until done. */
-void adc_scan(uint16_t code[ADC_COLUMNS]);
+/* Sample rate in Hz (one of command_rate_ok's); call while stopped. */
+void adc_set_rate(uint16_t hz);
+uint16_t adc_rate(void);
+
+/* Start ticking. With limited, take exactly `count` more scans, then stop. */
+void adc_start(uint8_t limited, uint32_t count);
+
+/* Stop ticking and wait for an unfinished scan to land in the ring. */
+void adc_stop(void);
+
+/* 1 while the tick runs. */
+uint8_t adc_running(void);
+
+/* Copy the oldest finished scan out of the ring; 0 when the ring is empty. */
+uint8_t adc_pop(uint16_t code[ADC_COLUMNS]);
+
+/* Finished scans waiting in the ring. */
+uint8_t adc_pending(void);
+
+/* Dropped sample sets since the last adc_clear_drops(). */
+uint32_t adc_drops(void);
+void adc_clear_drops(void);
 
 #endif /* ADC_H */

@@ -13,8 +13,6 @@
 
 #define SUM_MASK 0x00FFFFFFul
 #define SUM_SIGN 0x00800000ul
-#define ACC_HI_MAX 0xFFFFu
-#define ACC_LO_MAX 0xFFFFFFFFul
 
 #if ALLAN_CODE_MAX * (1ul << (ALLAN_WIDE_LEVEL - 1)) >= (1ul << ALLAN_SUM_BITS)
 #  error "ALLAN_WIDE_LEVEL is wrong for ALLAN_CODE_MAX: level WIDE-1 sums must fit 24 bits"
@@ -23,40 +21,57 @@
 #  error "ALLAN_NARROW_LEVELS is wrong for ALLAN_CODE_MAX: its sums must fit 16 bits"
 #endif
 
-static void cell_saturate(allan_cell_t *c)
+/* ext: the accumulator's bits 40..47, or 0 for a 40-bit level. */
+static void cell_saturate(allan_cell_t *c, uint8_t *ext)
 {
-  c->acc_lo = ACC_LO_MAX;
-  c->acc_hi = ACC_HI_MAX;
+  c->acc_lo = 0xFFFFFFFFul;
+  c->acc_mid = 0xFF;
+  if (ext)
+    *ext = 0xFF;
 }
 
-/* acc += d^2 for |d| < 2^24, saturating at 2^48 - 1. */
-static void cell_add_square(allan_cell_t *c, uint32_t d)
+/* acc += d^2 for d < 2^24, saturating at the accumulator's width. */
+static void cell_add_square(allan_cell_t *c, uint8_t *ext, uint32_t d)
 {
+  uint32_t sq_lo, lo;
+  uint16_t sq_hi, mid; /* d^2 = sq_hi * 2^32 + sq_lo, below 2^48 */
+
   if (d < 0x10000ul) {
-    /* Fast path, every level-0 and nearly every other pair: a 16x16
-     * multiply and a 48-bit add with carry. */
-    uint32_t sq = (uint32_t)(uint16_t)d * (uint16_t)d;
-    uint32_t lo = c->acc_lo + sq;
-    if (lo < sq) {
-      if (c->acc_hi == ACC_HI_MAX) {
-        cell_saturate(c);
-        return;
-      }
-      c->acc_hi++;
-    }
-    c->acc_lo = lo;
+    /* Every level-0 pair and nearly all others: one 16x16 multiply. */
+    sq_lo = (uint32_t)(uint16_t)d * (uint16_t)d;
+    sq_hi = 0;
   } else {
-    /* Rare: large differences at high levels.  Both terms < 2^48, so the
-     * 64-bit sum cannot wrap. */
-    uint64_t acc = ((uint64_t)c->acc_hi << 32) | c->acc_lo;
-    acc += (uint64_t)d * d;
-    if (acc > 0xFFFFFFFFFFFFull) {
-      cell_saturate(c);
+    /* d = a 2^16 + b: d^2 = a^2 2^32 + 2ab 2^16 + b^2, in 32-bit pieces. */
+    uint8_t a = (uint8_t)(d >> 16);
+    uint16_t b = (uint16_t)d;
+    uint32_t cross = (uint32_t)a * b * 2u; /* below 2^25 */
+    uint32_t t;
+    sq_lo = (uint32_t)b * b;
+    sq_hi = (uint16_t)((uint16_t)a * a);
+    t = sq_lo + (cross << 16);
+    if (t < sq_lo)
+      sq_hi++;
+    sq_lo = t;
+    sq_hi = (uint16_t)(sq_hi + (cross >> 16));
+  }
+
+  lo = c->acc_lo + sq_lo;
+  mid = (uint16_t)(c->acc_mid + (uint8_t)sq_hi + (lo < sq_lo));
+  sq_hi = (uint16_t)((sq_hi >> 8) + (mid >> 8)); /* what goes above bit 39 */
+  if (sq_hi) {
+    if (!ext || (uint16_t)(*ext + sq_hi) > 0xFFu) {
+      cell_saturate(c, ext);
       return;
     }
-    c->acc_lo = (uint32_t)acc;
-    c->acc_hi = (uint16_t)(acc >> 32);
+    *ext = (uint8_t)(*ext + sq_hi);
   }
+  c->acc_lo = lo;
+  c->acc_mid = (uint8_t)mid;
+}
+
+static uint8_t *acc_ext(allan_t *a, uint8_t ch, uint8_t level)
+{
+  return ALLAN_IS_ACC48(level) ? &a->acc_hi[ch][level - ALLAN_ACC48_FROM] : 0;
 }
 
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
@@ -96,8 +111,8 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
   for (ch = 0; ch < ALLAN_CHANNELS; ch++) {
     allan_cell_t *c = a->cell[ch];
     uint8_t *hi = a->sum_hi[ch]; /* bits 16..23 of level k's sum at hi[k - NARROW] */
-    uint32_t v = code[ch]; /* sum of the cluster just completed at this level */
-    uint32_t t = n;        /* complete clusters at this level, this one included */
+    uint32_t v = code[ch];       /* sum of the cluster just completed at this level */
+    uint32_t t = n;              /* complete clusters at this level, this one included */
     uint8_t k = 0;
 
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
@@ -116,7 +131,7 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
         if (k >= ALLAN_WIDE_LEVEL) {
           if (range_breaks(a, ch, k)) {
-            cell_saturate(c); /* cannot vouch for this difference */
+            cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
             d = 0;
           } else {
             /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
@@ -130,7 +145,7 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
           /* True sums below 2^24: plain subtraction is exact. */
           d = v >= last ? v - last : last - v;
         }
-        cell_add_square(c, d);
+        cell_add_square(c, acc_ext(a, ch, k), d);
       }
       c->sum_lo = (uint16_t)v;
       if (k >= ALLAN_NARROW_LEVELS)
@@ -152,22 +167,27 @@ uint32_t allan_pairs(const allan_t *a, uint8_t level)
   return clusters >= 2 ? clusters - 1 : 0;
 }
 
-uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level)
+void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)
 {
   const allan_cell_t *c = &a->cell[ch][level];
+  uint16_t h = c->acc_mid;
+  if (ALLAN_IS_ACC48(level))
+    h |= (uint16_t)a->acc_hi[ch][level - ALLAN_ACC48_FROM] << 8;
+  *hi = h;
+  *lo = c->acc_lo;
+}
+
+uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level)
+{
+  uint16_t hi;
+  uint32_t lo;
   uint8_t f = 0;
-  if (c->acc_hi == ACC_HI_MAX && c->acc_lo == ACC_LO_MAX)
+  allan_acc(a, ch, level, &hi, &lo);
+  if (lo == 0xFFFFFFFFul && hi == (ALLAN_IS_ACC48(level) ? 0xFFFFu : 0xFFu))
     f |= ALLAN_FLAG_SAT;
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
   if (a->n && range_breaks(a, ch, level))
     f |= ALLAN_FLAG_RANGE;
 #endif
   return f;
-}
-
-void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)
-{
-  const allan_cell_t *c = &a->cell[ch][level];
-  *hi = c->acc_hi;
-  *lo = c->acc_lo;
 }

@@ -5,8 +5,9 @@
  * For every channel c and level k (cluster size m = 2^k) the engine keeps
  *   - the last complete cluster sum S (stored modulo 2^24; 2 bytes for
  *     m <= 64, where sums stay below 2^16, 3 bytes above), and
- *   - acc = sum over consecutive complete clusters of (S_j - S_{j-1})^2
- *     (48 bits, saturating, 6 bytes),
+ *   - acc = sum over consecutive complete clusters of (S_j - S_{j-1})^2,
+ *     saturating, 40 bits below level ALLAN_ACC48_FROM and 48 bits from it
+ *     (5 or 6 bytes; see config.h for why),
  * so that the non-overlapping Allan variance in code^2 is
  *     avar = acc / (2 * m^2 * pairs),   pairs = floor(n / m) - 1,
  * exactly what allantools' adev computes at tau = m / fs.
@@ -23,8 +24,8 @@
  *     the channel's observed code range proves:  (max - min) * m < 2^23.
  *     Where that bound fails the level is flagged ALLAN_FLAG_RANGE and its
  *     accumulator saturates at its next pair;
- *   - an accumulator whose true sum would reach 2^48 - 1 saturates there and
- *     is flagged ALLAN_FLAG_SAT.
+ *   - an accumulator whose true sum would reach its maximum (2^40 - 1 or
+ *     2^48 - 1) saturates there and is flagged ALLAN_FLAG_SAT.
  * A result without flags is exact.
  */
 #ifndef ALLAN_H
@@ -36,10 +37,9 @@
 /* First level whose cluster sums may not fit 24 bits (ALLAN_CODE_MAX*2^k >= 2^24). */
 #define ALLAN_WIDE_LEVEL 15u
 #define ALLAN_SUM_BITS 24u
-#define ALLAN_ACC_BITS 48u
 
 /* Per-level result flags. */
-#define ALLAN_FLAG_SAT   0x01u /* accumulator saturated: true sum >= 2^48 - 1 */
+#define ALLAN_FLAG_SAT   0x01u /* accumulator saturated: true sum >= its maximum */
 #define ALLAN_FLAG_RANGE 0x02u /* code range too wide for an exact 24-bit difference */
 
 /* allan_push() return codes. */
@@ -57,16 +57,18 @@
  * suffice.  Higher levels keep the sum's bits 16..23 in sum_hi[]. */
 #define ALLAN_NARROW_LEVELS 7u
 
-/* One channel-level: 8 bytes, plus one in sum_hi[] above the narrow levels. */
+/* One channel-level: 7 bytes, plus one in sum_hi[] above the narrow levels
+ * and one in acc_hi[] from level ALLAN_ACC48_FROM. */
 typedef struct ALLAN_PACKED {
-  uint16_t sum_lo; /* last complete cluster sum, bits 0..15 (mod 2^24) */
-  uint32_t acc_lo; /* sum of squared differences, bits 0..31 */
-  uint16_t acc_hi; /*                             bits 32..47 */
+  uint16_t sum_lo;  /* last complete cluster sum, bits 0..15 (mod 2^24) */
+  uint32_t acc_lo;  /* sum of squared differences, bits 0..31 */
+  uint8_t  acc_mid; /*                             bits 32..39 */
 } allan_cell_t;
 
 typedef struct {
   allan_cell_t cell[ALLAN_CHANNELS][ALLAN_LEVELS];
   uint8_t sum_hi[ALLAN_CHANNELS][ALLAN_LEVELS - ALLAN_NARROW_LEVELS];
+  uint8_t acc_hi[ALLAN_CHANNELS][ALLAN_LEVELS - ALLAN_ACC48_FROM]; /* bits 40..47 */
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
   /* Only wide levels need the code range (the 2^23 difference bound). */
   uint16_t min[ALLAN_CHANNELS]; /* smallest code seen (ALLAN_CODE_MAX before any) */
@@ -77,8 +79,14 @@ typedef struct {
 
 /* Bytes of state for a build: what `avr-size` sees of the engine. */
 #define ALLAN_STATE_BYTES \
-  (ALLAN_CHANNELS * (8u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) \
-   + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 4u)
+  (ALLAN_CHANNELS * (7u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) \
+   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 4u)
+
+/* 1 when a level's accumulator has 48 bits (written so that a zero
+ * ALLAN_ACC48_FROM draws no "always true" warning). */
+#define ALLAN_IS_ACC48(level) ((unsigned)(level) + 1u > ALLAN_ACC48_FROM)
+/* Width of a level's accumulator in bits: 40 or 48. */
+#define ALLAN_ACC_BITS(level) (ALLAN_IS_ACC48(level) ? 48u : 40u)
 
 /* Clear all accumulators and the sample count. */
 void allan_reset(allan_t *a);
@@ -93,7 +101,7 @@ uint32_t allan_pairs(const allan_t *a, uint8_t level);
 /* ALLAN_FLAG_* bits for one channel-level; 0 means exact. */
 uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level);
 
-/* The 48-bit accumulator of one channel-level, as hi (bits 32..47) and lo. */
+/* The accumulator of one channel-level, as hi (bits 32..47) and lo. */
 void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo);
 
 #endif /* ALLAN_H */

@@ -34,6 +34,53 @@
 #  error "ALLAN_LEVELS above 23 cannot be exact with 24-bit cluster sums"
 #endif
 
+#define FW_VERSION "0.2.0"
+
+/* MCU name for the reports, from the compiler's device macro. */
+#define CONFIG_STR2(x) #x
+#define CONFIG_STR(x) CONFIG_STR2(x)
+#ifdef __AVR_DEVICE_NAME__
+#  define FW_MCU_NAME CONFIG_STR(__AVR_DEVICE_NAME__)
+#else
+#  define FW_MCU_NAME "host"
+#endif
+
+/* Default sample rate (Hz) at power-up: 50, 100, 200, 250, 500 or 1000. */
+#ifndef FS_DEFAULT
+#  define FS_DEFAULT 100
+#endif
+#if FS_DEFAULT != 50 && FS_DEFAULT != 100 && FS_DEFAULT != 200 && \
+    FS_DEFAULT != 250 && FS_DEFAULT != 500 && FS_DEFAULT != 1000
+#  error "FS_DEFAULT must be one of 50, 100, 200, 250, 500, 1000"
+#endif
+
+/* Seconds of sampling between periodic reports (0: only on request). */
+#ifndef REPORT
+#  define REPORT 60
+#endif
+#if REPORT < 0 || REPORT > 3600
+#  error "REPORT must be 0..3600 seconds"
+#endif
+
+/* Accumulator width.  Levels from ALLAN_ACC48_FROM up get 48 bits, those
+ * below 40 bits.  Low levels are dominated by white noise, whose
+ * accumulator grows like 2 n sigma^2 at every level: 40 bits last 2^40 /
+ * (2 sigma^2) samples, i.e. 2 years at 1 kHz for sigma = 3 codes.  Drift and
+ * random walk grow like n m^2, so long clusters get 48 bits.  The ATmega168
+ * needs the 5 bytes this saves to keep its stack margin; the ATmega328P has
+ * room for 48 bits everywhere.  A full accumulator saturates and is
+ * flagged, never wraps. */
+#ifndef ALLAN_ACC48_FROM
+#  if defined(__AVR_ATmega328P__) || defined(__AVR_ATmega328__)
+#    define ALLAN_ACC48_FROM 0
+#  else
+#    define ALLAN_ACC48_FROM 11
+#  endif
+#endif
+#if ALLAN_ACC48_FROM < 0 || ALLAN_ACC48_FROM >= ALLAN_LEVELS
+#  error "ALLAN_ACC48_FROM must be 0..ALLAN_LEVELS-1 (the top level keeps 48 bits)"
+#endif
+
 /* Largest ADC code the engine accepts (10-bit converter). */
 #define ALLAN_CODE_MAX 1023u
 

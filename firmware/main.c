@@ -1,21 +1,161 @@
 /*
- * main.c - imu-allan firmware: scan the sensors and feed the Allan engine.
+ * main.c - imu-allan firmware: sample the IMU, feed the Allan engine,
+ * answer commands and send reports.  Interrupts fill rings; everything
+ * else happens here.
  */
-#include <stdint.h>
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/pgmspace.h>
+#include <avr/sleep.h>
+#include <avr/wdt.h>
 
 #include "adc.h"
-#include "allan.h"
+#include "command.h"
+#include "config.h"
+#include "proto.h"
+#include "report.h"
+#include "sample.h"
+#include "uart.h"
 
-static allan_t allan;
+/* MCUSR must be read before anything clears it (avr-libc's recipe). */
+static uint8_t main_mcusr __attribute__((section(".noinit")));
+void main_get_mcusr(void) __attribute__((naked, used, section(".init3")));
+void main_get_mcusr(void)
+{
+  main_mcusr = MCUSR;
+  MCUSR = 0;
+  wdt_disable();
+}
+
+static char line[COMMAND_LINE_MAX + 1];
+static uint8_t line_len;
+static uint8_t line_overflow;
+
+static void uart_sink(uint8_t c)
+{
+  uart_write(c);
+}
+
+static void stop_sampling(void)
+{
+  adc_stop();
+  sample_pump();
+}
+
+static void execute(const command_t *cmd)
+{
+  switch (cmd->id) {
+  case CMD_REPORT:
+    report_ok(0);
+    report_send();
+    break;
+  case CMD_RESET:
+    sample_pump();
+    sample_reset();
+    report_ok(PSTR("reset"));
+    break;
+  case CMD_STOP:
+    stop_sampling();
+    report_ok_n(PSTR("stopped n="), sample_engine.n);
+    break;
+  case CMD_START:
+    sample_pump();
+    if (cmd->has_arg) {
+      /* `start <count>`: stop by itself when the engine holds count sets */
+      uint32_t have = sample_engine.n + adc_pending();
+      if (cmd->arg < have) {
+        report_error(CMD_ERR_ARG, PSTR("count below samples taken"));
+        break;
+      }
+      adc_start(1, cmd->arg - have);
+    } else {
+      adc_start(0, 0);
+    }
+    report_ok(PSTR("started"));
+    break;
+  case CMD_RATE:
+    if (!command_rate_ok(cmd->arg)) {
+      report_error(CMD_ERR_ARG, PSTR("rate must be 50 100 200 250 500 1000"));
+      break;
+    }
+    {
+      uint8_t was_running = adc_running();
+      stop_sampling();
+      adc_set_rate((uint16_t)cmd->arg);
+      sample_reset(); /* results from two rates would be meaningless */
+      sample_stats.since_report = 0;
+      if (was_running)
+        adc_start(0, 0);
+    }
+    report_ok_n(PSTR("reset rate="), cmd->arg);
+    break;
+  default:
+    report_error(CMD_ERR_UNKNOWN, PSTR("unknown command"));
+    break;
+  }
+}
+
+/* Assemble command lines from the RX ring; act on each complete one. */
+static void poll_commands(void)
+{
+  int16_t c;
+  while ((c = uart_read()) >= 0) {
+    if (c == '\r' || c == '\n') {
+      if (line_overflow) {
+        report_error(CMD_ERR_LONG, PSTR("line too long"));
+      } else if (line_len) {
+        command_t cmd;
+        uint8_t err;
+        line[line_len] = 0;
+        err = command_parse(line, &cmd);
+        if (err == CMD_ERR_UNKNOWN)
+          report_error(err, PSTR("unknown command"));
+        else if (err)
+          report_error(err, PSTR("bad argument"));
+        else if (cmd.id != CMD_NONE)
+          execute(&cmd);
+      }
+      line_len = 0;
+      line_overflow = 0;
+    } else if (line_len < COMMAND_LINE_MAX) {
+      line[line_len++] = (char)c;
+    } else {
+      line_overflow = 1; /* discard the whole line at its end */
+    }
+  }
+}
 
 int main(void)
 {
-  uint16_t code[ADC_COLUMNS];
-
+  report_init(main_mcusr);
+  proto_init(uart_sink);
+  uart_init(sample_pump);
   adc_init();
-  allan_reset(&allan);
+  adc_set_rate(FS_DEFAULT);
+  sample_reset();
+  sample_temp_restart();
+  set_sleep_mode(SLEEP_MODE_IDLE);
+  sei();
+
+  report_boot();
+  adc_start(0, 0);
   for (;;) {
-    adc_scan(code);
-    allan_push(&allan, code); /* the first six columns are the sensors */
+    sample_pump();
+    poll_commands();
+#if REPORT > 0
+    if (sample_stats.since_report >= (uint32_t)REPORT * adc_rate()) {
+      sample_stats.since_report = 0;
+      report_send();
+    }
+#endif
+    /* Sleep until the next interrupt unless work arrived meanwhile. */
+    cli();
+    if (!adc_pending() && !uart_rx_pending()) {
+      sleep_enable();
+      sei();
+      sleep_cpu();
+      sleep_disable();
+    }
+    sei();
   }
 }

@@ -2,20 +2,345 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from typing import Any, NoReturn, Optional
 
-from . import __version__
+from . import CHANNELS, __version__
+from .errors import InputError
+
+EPILOG_EXIT = "exit status: 0 success, 1 {one}, 2 usage or input error (one line on stderr)"
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (exit 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _fs(text: str) -> float | int:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive number of Hz: {text!r}")
+    return int(v) if v.is_integer() else v
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must not be negative: {text}")
+    return v
+
+
+def _count(text: str) -> int:
+    """A row count: 100000, or 1e6."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a count: {text!r}") from None
+    if not (v >= 0 and v.is_integer()):
+        raise argparse.ArgumentTypeError(f"must be a whole number of rows: {text!r}")
+    return int(v)
+
+
+def _levels(text: str) -> int:
+    v = _positive_int(text)
+    if not 1 <= v <= 32:
+        raise argparse.ArgumentTypeError("must be 1..32")
+    return v
+
+
+def _read_bytes(path: str) -> bytes:
+    if path == "-":
+        return sys.stdin.buffer.read()
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError as exc:
+        raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
+
+
+def _add_format(p: argparse.ArgumentParser) -> None:
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--json", action="store_true",
+                   help="print JSON: {header, rows, errors} (a stable interface for scripts)")
+    g.add_argument("--csv", action="store_true", help="print CSV, one line per row, with a header line")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
         prog="imu-allan",
-        description="Host tools for imu-allan, the on-device Allan variance IMU firmware.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Host tools for imu-allan. The firmware on the IMU board computes, for\n"
+            "each sensor channel (ax ay az gx gy gz) and each cluster size\n"
+            "m = 1, 2, 4, ... (octave 'levels'), the exact integer sum behind the\n"
+            "non-overlapping Allan variance, and sends it over the serial link in\n"
+            "the format of docs/protocol.md. These tools read those logs, compute\n"
+            "the same statistic on the host, compare both, and make test data."),
+        epilog=(
+            "typical session:\n"
+            "  imu-allan gen -n 200000 --seed 1 -o imu.txt      # synthetic IMU rows\n"
+            "  imu-allan sim --adc imu.txt -o device.log        # run the firmware on them\n"
+            "  imu-allan decode device.log                      # the device's Allan table\n"
+            "  imu-allan reference imu.txt --fs 100             # the same, computed on the host\n"
+            "  imu-allan check device.log imu.txt               # do they agree exactly?\n\n"
+            "Units: Allan variance in ADC counts^2 (deviation in counts), tau in\n"
+            "seconds. Run 'imu-allan COMMAND --help' for a command's options."),
     )
     parser.add_argument("--version", action="version", version=f"imu-allan {__version__}")
-    parser.parse_args(argv)
-    parser.print_help()
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    p = sub.add_parser(
+        "decode", help="print the Allan table of a device log",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Read a log of what the device sent (any bytes: a serial capture,\n"
+            "garbage and all) and print its last complete report: the header\n"
+            "(firmware, sample rate fs, samples n, drops, clips, temperature,\n"
+            "reset cause) and one row per channel and level with tau = m/fs,\n"
+            "pairs, avar = acc / (2 m^2 pairs) and adev = sqrt(avar) in counts,\n"
+            "and flags (sat: the accumulator saturated, the value is a lower\n"
+            "bound; range: too wide a code range to be exact at that level).\n\n"
+            "Only intact lines (CRC checked) of complete reports are used. Lines\n"
+            "with a bad CRC, cut short, malformed or out of place are counted and\n"
+            "listed at the end, never used."),
+        epilog=EPILOG_EXIT.format(one="no complete report in the log"))
+    p.add_argument("log", metavar="LOG", help="device log file, or - for stdin")
+    _add_format(p)
+    p.add_argument("--all", action="store_true", help="every complete report, not only the last")
+
+    p = sub.add_parser(
+        "reference", help="compute the Allan table of a rows file on the host (float64)",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Compute the non-overlapping Allan variance at m = 1, 2, 4, ...\n"
+            "of a rows file, independently of the firmware, in float64 (cluster\n"
+            "sums are exact integers). Output has the same table, JSON and CSV\n"
+            "shape as 'decode'; 'acc' is the exact integer the device would send.\n\n"
+            "Rows file (thesis format): one sample set per line, 7 integer codes\n"
+            "0..1023 separated by tabs or spaces: ax ay az gx gy gz temp.\n"
+            "'#' starts a comment; blank lines are ignored."),
+        epilog="exit status: 0 success, 2 usage or input error (one line on stderr)")
+    p.add_argument("file", metavar="FILE", help="rows file, or - for stdin")
+    p.add_argument("--fs", type=_fs, required=True, metavar="HZ", help="sample rate of the rows, Hz")
+    p.add_argument("--levels", type=_levels, default=15, metavar="L",
+                   help="octave levels, m = 1 .. 2^(L-1) (default 15, the ATmega168 firmware's)")
+    _add_format(p)
+
+    p = sub.add_parser(
+        "check", help="compare a device log with the reference computed from the same rows",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Check the last complete report of LOG against FILE, the rows the\n"
+            "device sampled (e.g. the --adc input of 'imu-allan sim'). Each device\n"
+            "row covers exactly the first (pairs+1)*m rows of FILE; for each one\n"
+            "the host recomputes, over exactly those rows, the exact integer sum\n"
+            "(must equal the device's acc bit for bit) and the float64 Allan\n"
+            "variance (must agree within 1e-12 relative). Flagged rows (sat,\n"
+            "range) are listed, not compared; a SAT flag must match the exact sum.\n"
+            "The header must show no drops and at most as many samples as FILE."),
+        epilog=EPILOG_EXIT.format(one="any mismatch, or no complete report"))
+    p.add_argument("log", metavar="LOG", help="device log file (- for stdin)")
+    p.add_argument("file", metavar="FILE", help="rows file the device sampled (- for stdin)")
+    p.add_argument("--fs", type=_fs, metavar="HZ",
+                   help="expected sample rate: a report with another fs is a mismatch")
+
+    from .gen import HELP, KINDS, PROFILES, UNITS
+    p = sub.add_parser(
+        "gen", help="write a synthetic IMU rows file (thesis noise model)",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Write N rows of synthetic 10-bit ADC codes (ax ay az gx gy gz temp)\n"
+            "in the thesis format, from the thesis noise model, per channel:\n"
+            "  code = clip(round(offset + white noise + Gauss-Markov bias\n"
+            "                    + rate random walk + drift * t), 0, 1023)\n"
+            "Defaults (--profile thesis) resemble the thesis board at rest.\n"
+            "The same seed and parameters always give the same file; the first\n"
+            "lines are '#' comments with the command that reproduces it.\n\n"
+            "Noise parameters take a number (every channel) or a list such as\n"
+            "'gx=0.9,gy=0.6' (channels not named keep their default). Units:\n"
+            + "".join(f"  --{k.replace('_', '-'):<9} {v}\n" for k, v in UNITS.items()) +
+            "\nKinds (--kind):\n"
+            "  noise   the noise model above (default)\n"
+            "  walk    random walks (rrw 2 counts/step) reflected at 0 and 1023\n"
+            "  drift   the noise model plus linear drifts of a few hundredths count/s\n"
+            "  clip    mid-scale with white noise of 400 counts: hits 0 and 1023 often\n"
+            "  square  full-scale square waves 0/1023, half period 1, 2, 4 .. 32\n"
+            "          samples for ax .. gz (noise parameters unused)"),
+        epilog="exit status: 0 success, 2 usage or input error")
+    p.add_argument("-n", type=_count, default=100_000, metavar="N", help="rows (default 100000)")
+    p.add_argument("--fs", type=_fs, default=100, metavar="HZ", help="sample rate, Hz (default 100)")
+    p.add_argument("--seed", type=_positive_int, default=1, metavar="S", help="random seed (default 1)")
+    p.add_argument("--kind", choices=KINDS, default="noise", help="kind of stream (default noise)")
+    p.add_argument("--profile", choices=PROFILES, default="thesis", help="default parameters")
+    for name, text in HELP.items():
+        p.add_argument(f"--{name.replace('_', '-')}", metavar="SPEC", help=text)
+    p.add_argument("--json-params", metavar="PFILE", help="also write the exact parameters used, as JSON")
+    p.add_argument("-o", "--output", required=True, metavar="FILE", help="rows file to write (- for stdout)")
+
+    p = sub.add_parser(
+        "sim", help="run the firmware in the simulator on a rows file",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Run the firmware (an AVR ELF) in the simulator harness imu-sim, its\n"
+            "ADC fed from a rows file, and write what the device sent to LOG.\n"
+            "Nothing is built here: 'make' builds the firmware, 'make sim' the\n"
+            "harness. The harness is $IMU_SIM, else build/host/imu-sim of this\n"
+            "checkout, else imu-sim on PATH. Its exit status is returned."),
+        epilog="then: imu-allan decode LOG, imu-allan check LOG FILE")
+    p.add_argument("--adc", required=True, metavar="FILE", help="rows file the ADC reads")
+    p.add_argument("--fs", metavar="HZ", help="sample rate to set on the device, Hz")
+    p.add_argument("--uart-in", metavar="FILE", help="commands to send to the device")
+    p.add_argument("--firmware", metavar="ELF",
+                   help="firmware ELF (default build/avr-atmega168/imu-allan.elf)")
+    p.add_argument("--stats", nargs="?", const=True, metavar="SFILE",
+                   help="ask the harness for run statistics (to SFILE if given)")
+    p.add_argument("-o", "--output", required=True, metavar="LOG", help="device log to write")
+    return parser
+
+
+# ---- commands -------------------------------------------------------------------
+
+
+def _report_doc(rep: Any) -> dict[str, Any]:
+    from .decode import flag_names
+    from .report import row_dict
+    fs = rep.header["fs_hz"]
+    return {"header": rep.header,
+            "rows": [row_dict(r.channel, r.level, r.pairs, r.acc, r.avar, fs, flag_names(r.flags))
+                     for r in rep.rows]}
+
+
+def cmd_decode(args: argparse.Namespace) -> int:
+    from . import report as out
+    from .decode import decode_bytes
+    res = decode_bytes(_read_bytes(args.log))
+    if not res.reports:
+        lost = ", ".join(f"{k} {v}" for k, v in res.errors.items() if v) or "the log is empty"
+        print(f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})",
+              file=sys.stderr)
+        return 1
+    docs = [_report_doc(r) for r in (res.reports if args.all else res.reports[-1:])]
+    if args.json:
+        if args.all:
+            sys.stdout.write(out.to_json({"reports": docs, "errors": res.errors}))
+        else:
+            sys.stdout.write(out.to_json({**docs[0], "errors": res.errors,
+                                          "complete_reports": len(res.reports)}))
+    elif args.csv:
+        sys.stdout.write(out.to_csv(docs, with_seq=args.all))
+    else:
+        total = len(res.reports)
+        for i, d in enumerate(docs):
+            which = f"{i + 1} of {total}" if args.all else (
+                "the only complete report" if total == 1 else f"the last of {total} complete reports")
+            sys.stdout.write(f"{args.log}: report seq {d['header']['seq']} ({which})\n")
+            sys.stdout.write(out.device_header_text(d["header"]) + "\n")
+            sys.stdout.write(out.table(d["rows"]) + "\n")
+        sys.stdout.write(out.errors_text(res.errors))
     return 0
+
+
+def cmd_reference(args: argparse.Namespace) -> int:
+    from . import report as out
+    from .reference import OctaveCascade
+    from .rows import iter_blocks
+    cascade = OctaveCascade(args.levels, len(CHANNELS))
+    for block in iter_blocks(args.file):
+        cascade.push(block[: len(CHANNELS)])
+    pairs, acc, avar = cascade.pairs(), cascade.acc(), cascade.avar()
+    rows = [out.row_dict(ch, k, int(pairs[k, c]), acc[k][c], float(avar[k, c]), args.fs)
+            for c, ch in enumerate(CHANNELS) for k in range(args.levels)]
+    header = {"source": "reference", "file": args.file, "fs_hz": args.fs, "levels": args.levels,
+              "n": cascade.n}
+    if args.json:
+        sys.stdout.write(out.to_json({"header": header, "rows": rows, "errors": {}}))
+    elif args.csv:
+        sys.stdout.write(out.to_csv([{"header": header, "rows": rows}]))
+    else:
+        sys.stdout.write(f"{args.file}: float64 reference, n {cascade.n} rows "
+                         f"({cascade.n / args.fs:.6g} s at {args.fs} Hz), levels {args.levels}\n\n")
+        sys.stdout.write(out.table(rows))
+    return 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from .check import check_report, summary
+    from .decode import decode_bytes
+    if args.log == "-" and args.file == "-":
+        raise InputError("LOG and FILE cannot both be stdin")
+    res = decode_bytes(_read_bytes(args.log))
+    if not res.reports:
+        print(f"imu-allan check: no complete report in '{args.log}'", file=sys.stderr)
+        return 1
+    rep = res.reports[-1]
+    result = check_report(rep, args.file, args.fs)
+    sys.stdout.write(summary(result, rep, args.log, args.file))
+    return 0 if result.ok else 1
+
+
+def cmd_gen(args: argparse.Namespace) -> int:
+    from .gen import PARAMS, generate, make_params
+    from .rows import format_rows
+    params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
+                         profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
+    head = (f"# {params.command()}\n"
+            f"# columns: {' '.join(params.channels)} (10-bit ADC codes), {params.fs_hz:g} Hz\n")
+    try:
+        f = sys.stdout.buffer if args.output == "-" else open(args.output, "wb")
+    except OSError as exc:
+        raise InputError(f"cannot write '{args.output}': {exc.strerror or exc}") from None
+    try:
+        f.write(head.encode())
+        for block in generate(params):
+            f.write(format_rows(block))
+    finally:
+        if f is not sys.stdout.buffer:
+            f.close()
+    if args.json_params:
+        try:
+            with open(args.json_params, "w") as jf:
+                jf.write(params.to_json())
+        except OSError as exc:
+            raise InputError(f"cannot write '{args.json_params}': {exc.strerror or exc}") from None
+    return 0
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    from .simrun import run, sim_command
+    return run(sim_command(args.adc, args.output, fs=args.fs, uart_in=args.uart_in,
+                           firmware=args.firmware, stats=args.stats))
+
+
+COMMANDS = {"decode": cmd_decode, "reference": cmd_reference, "check": cmd_check,
+            "gen": cmd_gen, "sim": cmd_sim}
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return 2
+    try:
+        return COMMANDS[args.command](args)
+    except InputError as exc:
+        print(f"imu-allan {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 1
 
 
 if __name__ == "__main__":

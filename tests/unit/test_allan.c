@@ -18,7 +18,8 @@
 
 #define NCH ALLAN_CHANNELS
 #define NLEV ALLAN_LEVELS
-#define ACC_MAX ((((unsigned __int128)1) << 48) - 1)
+/* Largest value a level's accumulator holds (40 or 48 bits). */
+#define ACC_MAX(level) ((((unsigned __int128)1) << ALLAN_ACC_BITS(level)) - 1)
 
 static allan_t eng;
 static uint16_t *buf;      /* n rows of NCH codes */
@@ -114,7 +115,7 @@ static ref_t reference(const uint16_t *x, uint32_t n, int ch, int level)
   r.avar = r.pairs ? (s + comp) / (2.0 * r.pairs) : 0.0;
   if (n && level >= 15 && (uint64_t)(hi - lo) * m >= (1u << 23))
     r.flags |= ALLAN_FLAG_RANGE;
-  if (range_hit || r.sumsq >= ACC_MAX)
+  if (range_hit || r.sumsq >= ACC_MAX(level))
     r.flags |= ALLAN_FLAG_SAT;
   return r;
 }
@@ -148,7 +149,7 @@ static int check_all(const uint16_t *x, uint32_t n, const char *what)
       TEST_ASSERT_EQUAL_UINT32_MESSAGE(r.pairs, allan_pairs(&eng, (uint8_t)k), msg);
       TEST_ASSERT_EQUAL_HEX8_MESSAGE(r.flags, flags, msg);
       if (r.flags & ALLAN_FLAG_SAT)
-        TEST_ASSERT_TRUE_MESSAGE(engine_acc(ch, k) == ACC_MAX, msg);
+        TEST_ASSERT_TRUE_MESSAGE(engine_acc(ch, k) == ACC_MAX(k), msg);
       if (r.flags)
         continue;
       TEST_ASSERT_TRUE_MESSAGE(engine_acc(ch, k) == r.sumsq, msg);
@@ -214,10 +215,11 @@ void tearDown(void) {}
 
 static void test_state_is_packed(void)
 {
-  /* 8 bytes per channel-level, a ninth above m = 64, the code range only
-   * where wide levels need it, and the sample count. */
-  size_t expect = NCH * (8u * NLEV + (NLEV - 7u)) + (NLEV > 15 ? NCH * 4u : 0u) + 4u;
-  TEST_ASSERT_EQUAL_UINT32(8, sizeof(allan_cell_t));
+  /* 7 bytes per channel-level, an eighth for the sum above m = 64, a ninth
+   * for 48-bit levels, the code range only where wide levels need it, and
+   * the sample count. */
+  size_t expect = NCH * (7u * NLEV + (NLEV - 7u) + (NLEV - ALLAN_ACC48_FROM) + (NLEV > 15 ? 4u : 0u)) + 4u;
+  TEST_ASSERT_EQUAL_UINT32(7, sizeof(allan_cell_t));
   TEST_ASSERT_EQUAL_UINT32(expect, ALLAN_STATE_BYTES);
   TEST_ASSERT_TRUE(sizeof eng >= expect && sizeof eng <= expect + 3); /* + host alignment */
 }
@@ -242,22 +244,34 @@ static void test_square_wave_saturates_exactly_where_due(void)
   TEST_ASSERT_EQUAL_HEX8(0, allan_flags(&eng, 0, 12));
 }
 
-static void test_saturation_boundary_one_pair_fits_two_do_not(void)
+/* A full-scale step at level k has |dS| = 1023 * 2^k: its square fits the
+ * level's accumulator once (1023/1024 < 1) but not twice, for 40-bit level
+ * 10 and 48-bit level 14 alike.  Checked on every channel, exactly. */
+static void saturation_boundary(uint8_t k)
 {
-  const uint32_t m = 1u << 14;
+  const uint32_t m = 1u << k;
+  const unsigned __int128 step = (unsigned __int128)1023u * m;
   uint16_t *x = rows(3 * m);
   for (uint32_t i = 0; i < 3 * m; i++)
     for (int ch = 0; ch < NCH; ch++)
       x[(size_t)i * NCH + ch] = (i / m == 1) ? ALLAN_CODE_MAX : 0;
   allan_reset(&eng);
   push_all(x, 2 * m);
-  TEST_ASSERT_EQUAL_UINT32(1, allan_pairs(&eng, 14));
-  TEST_ASSERT_EQUAL_HEX8(0, allan_flags(&eng, 3, 14));
-  TEST_ASSERT_TRUE(engine_acc(3, 14) == (unsigned __int128)(1023u * m) * (1023u * m));
+  TEST_ASSERT_EQUAL_UINT32(1, allan_pairs(&eng, k));
+  TEST_ASSERT_EQUAL_HEX8(0, allan_flags(&eng, 3, k));
+  TEST_ASSERT_TRUE(engine_acc(3, k) == step * step);
+  TEST_ASSERT_TRUE(step * step * 2 > ACC_MAX(k));
   push_all(x + (size_t)2 * m * NCH, m);
-  TEST_ASSERT_EQUAL_HEX8(ALLAN_FLAG_SAT, allan_flags(&eng, 3, 14));
-  TEST_ASSERT_TRUE(engine_acc(3, 14) == ACC_MAX);
+  TEST_ASSERT_EQUAL_HEX8(ALLAN_FLAG_SAT, allan_flags(&eng, 3, k));
+  TEST_ASSERT_TRUE(engine_acc(3, k) == ACC_MAX(k));
   check_all(x, 3 * m, "boundary");
+}
+
+static void test_saturation_boundary_one_pair_fits_two_do_not(void)
+{
+  if (ALLAN_ACC_BITS(10) == 40)
+    saturation_boundary(10);
+  saturation_boundary(14);
 }
 
 static void test_pair_counts_follow_sample_count(void)

@@ -1,0 +1,44 @@
+/*
+ * command.h - parsing of command lines from the host (docs/protocol.md).
+ * Pure: turns a line into a command and its argument; main.c acts on it.
+ */
+#ifndef COMMAND_H
+#define COMMAND_H
+
+#include <stdint.h>
+
+/* Longest command line accepted, excluding its end of line. */
+#define COMMAND_LINE_MAX 31
+
+enum {
+  CMD_NONE = 0, /* empty line: ignored, no reply */
+  CMD_REPORT,
+  CMD_RESET,
+  CMD_STOP,
+  CMD_START,
+  CMD_RATE,
+  CMD_STATUS,
+  CMD_HELP
+};
+
+/* Error codes of `error:<code>` replies. */
+#define CMD_OK          0
+#define CMD_ERR_UNKNOWN 1
+#define CMD_ERR_ARG     2
+#define CMD_ERR_LONG    3
+#define CMD_ERR_STATE   4
+
+typedef struct {
+  uint8_t id;      /* CMD_* */
+  uint8_t has_arg; /* a number followed the word */
+  uint32_t arg;
+} command_t;
+
+/* Parse one line (NUL-terminated, no end of line). Returns CMD_OK or a
+ * CMD_ERR_* code; on CMD_OK *out holds the command (CMD_NONE for blank). */
+uint8_t command_parse(const char *line, command_t *out);
+
+/* The six supported sample rates; returns 1 when hz is one of them. */
+uint8_t command_rate_ok(uint32_t hz);
+
+#endif /* COMMAND_H */

@@ -1,0 +1,180 @@
+/*
+ * fmt.c - see fmt.h.  Runs only while a report is written, never per
+ * sample.  Values are carried as mant * 2^exp with a 32-bit mantissa kept
+ * normalised (top bit set), which is plenty for 3 significant digits and
+ * needs neither 64-bit arithmetic nor the float library.
+ */
+#include "fmt.h"
+
+uint8_t fmt_u32(char *buf, uint32_t v)
+{
+  char tmp[10];
+  uint8_t n = 0, i;
+  do {
+    tmp[n++] = (char)('0' + v % 10u);
+    v /= 10u;
+  } while (v);
+  for (i = 0; i < n; i++)
+    buf[i] = tmp[n - 1 - i];
+  return n;
+}
+
+void fmt_hex(char *buf, uint32_t v, uint8_t digits)
+{
+  while (digits--) {
+    uint8_t d = (uint8_t)(v & 0xFu);
+    buf[digits] = (char)(d < 10 ? '0' + d : 'A' + d - 10);
+    v >>= 4;
+  }
+}
+
+static void normalize(uint32_t *m, int8_t *e)
+{
+  while (!(*m & 0x80000000ul)) {
+    *m <<= 1;
+    (*e)--;
+  }
+}
+
+/* r has 3 digits; `point` of them stand before the decimal point (1..3). */
+static uint8_t put_digits(char *buf, uint16_t r, uint8_t point)
+{
+  uint8_t n = 0, i;
+  char d[3];
+  d[0] = (char)('0' + r / 100u);
+  d[1] = (char)('0' + r / 10u % 10u);
+  d[2] = (char)('0' + r % 10u);
+  for (i = 0; i < 3; i++) {
+    if (i == point)
+      buf[n++] = '.';
+    buf[n++] = d[i];
+  }
+  return n;
+}
+
+uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
+{
+  int8_t j = 0; /* value * 10^j = m * 2^e */
+  uint16_t r;
+  uint8_t n = 0;
+
+  if (!m) {
+    buf[0] = '0';
+    buf[1] = 0;
+    return 1;
+  }
+  normalize(&m, &e);
+  for (;;) {
+    /* With m in [2^31, 2^32), value in [2^(31+e), 2^(32+e)). */
+    if (e >= -21) {              /* >= 1024: divide by 10 */
+      m /= 10u;
+      j--;
+    } else if (e < -25) {        /* < 64: multiply by 10 = by 0.625 * 16 */
+      m = (m >> 1) + (m >> 3);
+      e = (int8_t)(e + 4);
+      j++;
+    } else {
+      /* Decide the decade on the truncated value, then round: 99.96 must
+       * become 100 (three digits), never "100." at the wrong decade. */
+      uint8_t s = (uint8_t)-e;
+      r = (uint16_t)(m >> s);
+      if (r < 100u) {
+        m = (m >> 1) + (m >> 3);
+        e = (int8_t)(e + 4);
+        j++;
+      } else if (r >= 1000u) {
+        m /= 10u;
+        j--;
+      } else {
+        r = (uint16_t)(((m >> (s - 1)) + 1u) >> 1);
+        if (r == 1000u) { /* 999.5 and up: 100 at the next decade */
+          r = 100u;
+          j--;
+        }
+        break;
+      }
+    }
+    normalize(&m, &e);
+  }
+  if (j <= 0) {                  /* r then -j zeros */
+    n = fmt_u32(buf, r);
+    while (j++ < 0)
+      buf[n++] = '0';
+  } else if (j <= 2) {
+    n = put_digits(buf, r, (uint8_t)(3 - j));
+  } else if (j <= 5) {
+    buf[n++] = '0';
+    buf[n++] = '.';
+    while (j-- > 3)
+      buf[n++] = '0';
+    n = (uint8_t)(n + put_digits(buf + n, r, 3));
+  } else {
+    n = put_digits(buf, r, 1);
+    buf[n++] = 'e';
+    buf[n++] = '-';
+    n = (uint8_t)(n + fmt_u32(buf + n, (uint32_t)(j - 2)));
+  }
+  buf[n] = 0;
+  return n;
+}
+
+static uint16_t isqrt32(uint32_t x)
+{
+  uint32_t r = 0, b = 1ul << 30;
+  while (b > x)
+    b >>= 2;
+  while (b) {
+    if (x >= r + b) {
+      x -= r + b;
+      r = (r >> 1) + b;
+    } else {
+      r >>= 1;
+    }
+    b >>= 2;
+  }
+  return (uint16_t)r;
+}
+
+uint8_t fmt_adev(char *buf, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs, uint8_t level)
+{
+  uint32_t a = acc_lo, p = pairs, q;
+  int8_t e = 0; /* avar * m^2 = q * 2^e */
+
+  if ((!acc_hi && !acc_lo) || !pairs)
+    return fmt_sig3(buf, 0, 0);
+  /* a: the accumulator's top 32 bits; p: pairs' top 16 bits. */
+  if (acc_hi) {
+    while (acc_hi) {
+      a = (a >> 1) | ((uint32_t)(acc_hi & 1u) << 31);
+      acc_hi >>= 1;
+      e++;
+    }
+  } else {
+    normalize(&a, &e);
+  }
+  while (p >> 16) {
+    p >>= 1;
+    e--;
+  }
+  while (!(p & 0x8000u)) {
+    p <<= 1;
+    e++;
+  }
+  q = a / p;           /* in (2^15, 2^17]: 16 significant bits */
+  e--;                 /* the 2 of 2 * pairs */
+  /* sqrt needs an even exponent and a mantissa near 2^30. */
+  if (e & 1) {
+    q <<= 1;
+    e--;
+  }
+  while (q < (1ul << 28)) {
+    q <<= 2;
+    e = (int8_t)(e - 2);
+  }
+  return fmt_sig3(buf, isqrt32(q), (int8_t)(e / 2 - (int8_t)level));
+}
+
+uint8_t fmt_tau(char *buf, uint8_t level, uint16_t fs)
+{
+  return fmt_sig3(buf, 0x80000000ul / fs, (int8_t)(level - 31));
+}

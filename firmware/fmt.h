@@ -1,0 +1,32 @@
+/*
+ * fmt.h - number formatting for the serial link without printf or floats:
+ * decimal, fixed-width hex, and 3 significant digits of Allan deviations
+ * and taus computed with 32-bit integers (a tiny binary floating point).
+ */
+#ifndef FMT_H
+#define FMT_H
+
+#include <stdint.h>
+
+/* Longest string fmt_sig3 and friends write, NUL included ("1.23e-12"). */
+#define FMT_SIG3_MAX 10
+
+/* Decimal digits of v (no NUL); returns the count, 1..10. */
+uint8_t fmt_u32(char *buf, uint32_t v);
+
+/* v as `digits` uppercase hex digits (no NUL). */
+void fmt_hex(char *buf, uint32_t v, uint8_t digits);
+
+/* mant * 2^exp to 3 significant digits, NUL-terminated: "164", "2.02",
+ * "0.0949", "0.00123", "1.23e-4" (below 0.001), "83900" (3 digits, then
+ * zeros).  Returns the length.  32-bit arithmetic only. */
+uint8_t fmt_sig3(char *buf, uint32_t mant, int8_t exp);
+
+/* Allan deviation sqrt(acc / (2 pairs)) / 2^level, acc = hi 2^32 + lo,
+ * 3 significant digits (relative error before rounding below 1e-4). */
+uint8_t fmt_adev(char *buf, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs, uint8_t level);
+
+/* tau = 2^level / fs seconds, 3 significant digits. fs > 0. */
+uint8_t fmt_tau(char *buf, uint8_t level, uint16_t fs);
+
+#endif /* FMT_H */

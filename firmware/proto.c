@@ -1,0 +1,71 @@
+/* proto.c - see proto.h. */
+#include "proto.h"
+
+#include "crc.h"
+#include "fmt.h"
+#include "pgm.h"
+
+static proto_sink_t proto_sink;
+static uint16_t proto_crc;
+
+void proto_init(proto_sink_t sink)
+{
+  proto_sink = sink;
+}
+
+void proto_begin(void)
+{
+  proto_crc = CRC16_INIT;
+  proto_sink('$');
+}
+
+void proto_putc(char c)
+{
+  /* The framing characters never appear in a body. */
+  if (c == '$' || c == '*' || (uint8_t)c < 0x20 || (uint8_t)c > 0x7E)
+    c = '?';
+  proto_crc = crc16_update(proto_crc, (uint8_t)c);
+  proto_sink((uint8_t)c);
+}
+
+void proto_puts(const char *s)
+{
+  while (*s)
+    proto_putc(*s++);
+}
+
+void proto_puts_P(const char *s)
+{
+  char c;
+  while ((c = (char)pgm_read_byte(s++)) != 0)
+    proto_putc(c);
+}
+
+void proto_u32(uint32_t v)
+{
+  char buf[10];
+  uint8_t i, n = fmt_u32(buf, v);
+  for (i = 0; i < n; i++)
+    proto_putc(buf[i]);
+}
+
+void proto_hex(uint32_t v, uint8_t digits)
+{
+  char buf[8];
+  uint8_t i;
+  fmt_hex(buf, v, digits);
+  for (i = 0; i < digits; i++)
+    proto_putc(buf[i]);
+}
+
+void proto_end(void)
+{
+  char buf[4];
+  uint8_t i;
+  fmt_hex(buf, proto_crc, 4);
+  proto_sink('*');
+  for (i = 0; i < 4; i++)
+    proto_sink((uint8_t)buf[i]);
+  proto_sink('\r');
+  proto_sink('\n');
+}

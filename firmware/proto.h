@@ -1,0 +1,25 @@
+/*
+ * proto.h - encoder of protocol lines (docs/protocol.md):
+ *     $<body>*<CRC16 hex>\r\n
+ * Characters go straight to a sink (the UART on the device, a buffer in
+ * tests) while the CRC runs, so no line buffer is needed.
+ */
+#ifndef PROTO_H
+#define PROTO_H
+
+#include <stdint.h>
+
+#define PROTO_VERSION 1
+
+typedef void (*proto_sink_t)(uint8_t c);
+
+void proto_init(proto_sink_t sink);
+void proto_begin(void);                 /* '$', CRC restarts */
+void proto_putc(char c);                /* one body character */
+void proto_puts(const char *s);         /* body text from RAM */
+void proto_puts_P(const char *s);       /* body text from flash (PSTR) */
+void proto_u32(uint32_t v);             /* decimal */
+void proto_hex(uint32_t v, uint8_t digits);
+void proto_end(void);                   /* '*', CRC, CR LF */
+
+#endif /* PROTO_H */

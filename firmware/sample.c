@@ -1,0 +1,51 @@
+/* sample.c - see sample.h. */
+#include "sample.h"
+
+#include "board.h"
+#include "config.h"
+
+#define COL_TEMP 6
+
+allan_t sample_engine;
+sample_stats_t sample_stats;
+
+void sample_pump(void)
+{
+  uint16_t code[ADC_COLUMNS];
+  while (adc_pop(code)) {
+    uint8_t i;
+    BOARD_PROBE_SAMPLE_ON();
+    for (i = 0; i < ADC_COLUMNS; i++)
+      if ((code[i] == 0 || code[i] == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFFFFFul)
+        sample_stats.clips[i]++;
+    sample_stats.temp_sum += code[COL_TEMP];
+    sample_stats.temp_n++;
+    if (code[COL_TEMP] < sample_stats.temp_min)
+      sample_stats.temp_min = code[COL_TEMP];
+    if (code[COL_TEMP] > sample_stats.temp_max)
+      sample_stats.temp_max = code[COL_TEMP];
+    sample_stats.since_report++;
+    /* columns 0..5 are the sensors */
+    if (allan_push(&sample_engine, code) != ALLAN_OK && sample_stats.refused != 0xFFFFFFFFul)
+      sample_stats.refused++;
+    BOARD_PROBE_SAMPLE_OFF();
+  }
+}
+
+void sample_reset(void)
+{
+  uint8_t i;
+  allan_reset(&sample_engine);
+  for (i = 0; i < ADC_COLUMNS; i++)
+    sample_stats.clips[i] = 0;
+  sample_stats.refused = 0;
+  adc_clear_drops();
+}
+
+void sample_temp_restart(void)
+{
+  sample_stats.temp_sum = 0;
+  sample_stats.temp_n = 0;
+  sample_stats.temp_min = 0xFFFF;
+  sample_stats.temp_max = 0;
+}

@@ -1,0 +1,34 @@
+/*
+ * sample.h - the main loop's side of sampling: drains finished scans into
+ * the Allan engine and keeps the per-run and per-report statistics.
+ */
+#ifndef SAMPLE_H
+#define SAMPLE_H
+
+#include <stdint.h>
+
+#include "adc.h"
+#include "allan.h"
+
+typedef struct {
+  uint32_t clips[ADC_COLUMNS]; /* codes at 0 or 1023 since the last reset */
+  uint32_t temp_sum;           /* temperature over the current report interval */
+  uint32_t temp_n;
+  uint16_t temp_min, temp_max;
+  uint32_t since_report;       /* sample sets since the last periodic report */
+  uint32_t refused;            /* sets the engine refused (its counter is full) */
+} sample_stats_t;
+
+extern allan_t sample_engine;
+extern sample_stats_t sample_stats;
+
+/* Feed every finished scan to the engine. Cheap when there is none. */
+void sample_pump(void);
+
+/* Clear the engine, clips and drops (a new run). */
+void sample_reset(void);
+
+/* Start a new report interval for the temperature statistics. */
+void sample_temp_restart(void);
+
+#endif /* SAMPLE_H */

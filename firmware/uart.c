@@ -1,0 +1,116 @@
+/*
+ * uart.c - USART0 at BAUD with TX/RX rings.  The ISRs only move bytes.
+ */
+#include "uart.h"
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <util/atomic.h>
+
+#include "config.h"
+
+#ifndef BAUD
+#  error "BAUD must be given (the Makefile passes 115200 by default)"
+#endif
+
+/* Pick normal or double speed, whichever is closer to BAUD, and refuse a
+ * baud rate the receiver at the other end may not tolerate: the datasheet's
+ * recommended maximum receiver error for 8 data bits is 2.0 % at normal
+ * speed and 1.5 % at double speed (U2X). Errors in units of 0.01 %. */
+#define UART_UBRR_1X ((F_CPU + 8UL * BAUD) / (16UL * BAUD) - 1UL)
+#define UART_UBRR_2X ((F_CPU + 4UL * BAUD) / (8UL * BAUD) - 1UL)
+#define UART_REAL_1X (F_CPU / (16UL * (UART_UBRR_1X + 1UL)))
+#define UART_REAL_2X (F_CPU / (8UL * (UART_UBRR_2X + 1UL)))
+#define UART_ERR(real) ((real) > BAUD ? ((real) - BAUD) * 10000UL / BAUD : (BAUD - (real)) * 10000UL / BAUD)
+
+#if UART_UBRR_1X <= 4095 && UART_ERR(UART_REAL_1X) <= UART_ERR(UART_REAL_2X) && UART_ERR(UART_REAL_1X) <= 200
+#  define UART_UBRR UART_UBRR_1X
+#  define UART_U2X 0
+#elif UART_UBRR_2X <= 4095 && UART_ERR(UART_REAL_2X) <= 150
+#  define UART_UBRR UART_UBRR_2X
+#  define UART_U2X 1
+#else
+#  error "BAUD cannot be generated from F_CPU within the USART's error limits (2.0% normal, 1.5% U2X)"
+#endif
+
+#define UART_TX_SIZE 16 /* powers of two */
+#define UART_RX_SIZE 16
+
+static volatile uint8_t tx_buf[UART_TX_SIZE];
+static volatile uint8_t tx_head, tx_tail;
+static volatile uint8_t rx_buf[UART_RX_SIZE];
+static volatile uint8_t rx_head, rx_tail;
+static volatile uint8_t rx_lost;
+static void (*uart_idle)(void);
+
+void uart_init(void (*idle)(void))
+{
+  uart_idle = idle;
+  UBRR0H = (uint8_t)(UART_UBRR >> 8);
+  UBRR0L = (uint8_t)UART_UBRR;
+#if UART_U2X
+  UCSR0A = (1 << U2X0);
+#else
+  UCSR0A = 0;
+#endif
+  UCSR0C = (1 << UCSZ01) | (1 << UCSZ00); /* 8N1 */
+  UCSR0B = (1 << RXEN0) | (1 << TXEN0) | (1 << RXCIE0);
+}
+
+void uart_write(uint8_t c)
+{
+  uint8_t next = (uint8_t)((tx_head + 1u) & (UART_TX_SIZE - 1u));
+  while (next == tx_tail)
+    uart_idle();
+  tx_buf[tx_head] = c;
+  tx_head = next;
+  UCSR0B |= (1 << UDRIE0);
+}
+
+uint8_t uart_tx_busy(void)
+{
+  return tx_head != tx_tail;
+}
+
+int16_t uart_read(void)
+{
+  uint8_t c;
+  if (rx_head == rx_tail)
+    return -1;
+  c = rx_buf[rx_tail];
+  rx_tail = (uint8_t)((rx_tail + 1u) & (UART_RX_SIZE - 1u));
+  return c;
+}
+
+uint8_t uart_rx_pending(void)
+{
+  return rx_head != rx_tail;
+}
+
+uint8_t uart_rx_overruns(void)
+{
+  return rx_lost;
+}
+
+ISR(USART_UDRE_vect)
+{
+  uint8_t t = tx_tail;
+  UDR0 = tx_buf[t];
+  t = (uint8_t)((t + 1u) & (UART_TX_SIZE - 1u));
+  tx_tail = t;
+  if (t == tx_head)
+    UCSR0B &= (uint8_t)~(1 << UDRIE0);
+}
+
+ISR(USART_RX_vect)
+{
+  uint8_t c = UDR0;
+  uint8_t next = (uint8_t)((rx_head + 1u) & (UART_RX_SIZE - 1u));
+  if (next == rx_tail) {
+    if (rx_lost != 0xFF)
+      rx_lost++;
+    return;
+  }
+  rx_buf[rx_head] = c;
+  rx_head = next;
+}

@@ -1,0 +1,136 @@
+"""Compare a device report with the host reference over the same rows.
+
+A device row (channel, level k, pairs p, acc) covers exactly the first
+(p + 1) * 2^k rows of the input (docs/protocol.md). One streaming cascade
+over the file, stopped per (level, channel) after p pairs, gives for every
+row both the exact integer sum of squared cluster-sum differences (must
+equal ``acc`` bit for bit) and the float64 Allan variance (must agree with
+acc / (2 m^2 p) within ``REL_TOL``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from . import CHANNELS
+from .decode import ACC_MAX, FLAG_RANGE, FLAG_SAT, Report, flag_names
+from .reference import OctaveCascade
+from .rows import PathLike, iter_blocks
+
+REL_TOL = 1e-12
+
+
+@dataclass
+class CheckResult:
+    file_rows: int = 0
+    rows: int = 0          # L rows in the report
+    compared: int = 0      # rows without flags, compared exactly
+    exact: int = 0         # ... whose acc equals the host's exact sum
+    flagged: list[str] = field(default_factory=list)
+    max_rel: float = 0.0
+    mismatches: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.mismatches
+
+
+def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = None) -> CheckResult:
+    h = report.header
+    levels = h["levels"]
+    res = CheckResult(rows=len(report.rows))
+    bad = res.mismatches.append
+
+    limit = np.zeros((levels, len(CHANNELS)), dtype=np.int64)
+    for r in report.rows:
+        limit[r.level, CHANNELS.index(r.channel)] = r.pairs
+    need = max([r.covers for r in report.rows if r.pairs] + [0])
+
+    cascade = OctaveCascade(levels, len(CHANNELS), limit)
+    for block in iter_blocks(rows_path):
+        take = min(block.shape[1], need - cascade.n)
+        if take > 0:
+            cascade.push(block[: len(CHANNELS), :take])
+        res.file_rows += block.shape[1]
+    exact = cascade.acc()
+    ref = cascade.avar()
+    got_pairs = cascade.pairs()
+
+    if fs_hz is not None and float(h["fs_hz"]) != float(fs_hz):
+        bad(f"header: fs={h['fs_hz']} Hz, expected {fs_hz:g} Hz")
+    if h["drops"] is None:
+        bad("header: no drops count (cannot tell whether rows line up with the file)")
+    elif h["drops"]:
+        bad(f"header: drops={h['drops']}: the device lost sample sets, its rows no longer "
+            "line up with the file")
+    if h["n"] > res.file_rows:
+        bad(f"header: n={h['n']} samples but the file has only {res.file_rows} rows")
+
+    for r in report.rows:
+        c, k, m = CHANNELS.index(r.channel), r.level, r.m
+        where = f"{r.channel} level {k}"
+        least = max(h["n"] // m - 1, 0)
+        if r.pairs < least:
+            bad(f"{where}: pairs {r.pairs} < floor(n/m) - 1 = {least}")
+        elif h["running"] is False and r.pairs != least:
+            bad(f"{where}: pairs {r.pairs}, but a stopped run of n={h['n']} has {least}")
+        if r.pairs and r.covers > res.file_rows:
+            bad(f"{where}: covers {r.covers} rows, the file has only {res.file_rows}")
+            continue
+        if got_pairs[k, c] != r.pairs:  # cannot happen once covers fits; kept as a guard
+            bad(f"{where}: pairs {r.pairs}, the file gives {got_pairs[k, c]}")
+            continue
+        true = exact[k][c]
+        if r.flags & ~(FLAG_SAT | FLAG_RANGE):
+            bad(f"{where}: unknown flags 0x{r.flags:02x}")
+            continue
+        if r.flags & FLAG_RANGE:
+            res.flagged.append(f"{where} {'+'.join(flag_names(r.flags))}")
+            continue
+        if bool(r.flags & FLAG_SAT) != (true >= ACC_MAX):
+            bad(f"{where}: SAT flag {'set' if r.flags & FLAG_SAT else 'clear'} but the exact sum "
+                f"is {true} ({'at least' if true >= ACC_MAX else 'below'} 2^48-1)")
+            continue
+        if r.flags & FLAG_SAT:
+            res.flagged.append(f"{where} sat")
+            continue
+        res.compared += 1
+        if r.acc == true:
+            res.exact += 1
+        else:
+            bad(f"{where}: acc {r.acc} (0x{r.acc:012X}) but the exact sum is {true} "
+                f"(0x{true:012X}), off by {r.acc - true:+d}")
+        if r.pairs:
+            want = float(ref[k, c])
+            rel = abs(r.avar - want) / abs(want) if want else (0.0 if r.avar == 0 else float("inf"))
+            res.max_rel = max(res.max_rel, rel)
+            if rel > REL_TOL:
+                bad(f"{where}: avar {r.avar!r} vs float64 reference {want!r} "
+                    f"(relative difference {rel:.3g} > {REL_TOL:g})")
+    return res
+
+
+def summary(res: CheckResult, report: Report, log_name: str, rows_name: str,
+            max_listed: int = 10) -> str:
+    h = report.header
+    lines = [
+        f"check: report seq {report.seq} of {log_name} (n {h['n']}, levels {h['levels']}, "
+        f"fs {h['fs_hz']} Hz) against {rows_name} ({res.file_rows} rows)",
+        f"rows: {res.rows}; compared exactly {res.compared}, exact {res.exact}; "
+        f"flagged (not compared) {len(res.flagged)}",
+        f"max relative difference of avar vs float64 reference: {res.max_rel:.3g} "
+        f"(limit {REL_TOL:g})",
+    ]
+    if res.flagged:
+        lines.append("flagged: " + ", ".join(res.flagged))
+    if res.ok:
+        lines.append("OK: the device report agrees with the reference")
+    else:
+        n = len(res.mismatches)
+        lines.append(f"MISMATCH: {n} problem{'s' if n != 1 else ''}")
+        lines += [f"  {m}" for m in res.mismatches[:max_listed]]
+        if n > max_listed:
+            lines.append(f"  ... and {n - max_listed} more")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,277 @@
+"""Records of the protocol (B, H, L, S, E, ok, error) and complete reports.
+
+``decode_bytes(data)`` turns a raw device log into the list of its complete
+reports (header + every L row + E, all intact) and the counts of everything
+that could not be used.  Nothing partial or unchecked is ever returned.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+from . import CHANNELS
+from .protocol import LINE_ERRORS, split_frames
+
+PROTO = 1
+FLAG_SAT = 0x01
+FLAG_RANGE = 0x02
+ACC_MAX = (1 << 48) - 1
+"""Saturation value of an accumulator (the SAT flag)."""
+
+ERROR_KEYS = LINE_ERRORS + ("unparsable", "unknown_records", "orphan_lines", "incomplete_reports")
+"""Keys of ``DecodeResult.errors`` (all always present)."""
+
+CLIP_KEYS = CHANNELS + ("temp",)
+_UINT = re.compile(r"\d+")
+_SEQ_MAX = 65535
+
+
+class BodyError(ValueError):
+    """A CRC-valid body that does not parse."""
+
+
+@dataclass(frozen=True)
+class LRow:
+    channel: str
+    level: int
+    pairs: int
+    acc: int
+    flags: int
+
+    @property
+    def m(self) -> int:
+        return 1 << self.level
+
+    @property
+    def covers(self) -> int:
+        """Samples of the run this row depends on: (pairs + 1) * m."""
+        return (self.pairs + 1) * self.m
+
+    @property
+    def avar(self) -> float:
+        """acc / (2 m^2 pairs), correctly rounded; nan without pairs."""
+        if self.pairs == 0:
+            return float("nan")
+        return self.acc / (2 * self.m * self.m * self.pairs)
+
+
+@dataclass
+class Report:
+    seq: int
+    header: dict[str, Any]
+    rows: list[LRow] = field(default_factory=list)
+
+
+@dataclass
+class DecodeResult:
+    reports: list[Report]
+    errors: dict[str, int]
+    boots: list[dict[str, Any]] = field(default_factory=list)
+
+
+def flag_names(flags: int) -> list[str]:
+    """``0x03`` -> ``["sat", "range"]``; unknown bits as ``"0x04"``."""
+    names = []
+    if flags & FLAG_SAT:
+        names.append("sat")
+    if flags & FLAG_RANGE:
+        names.append("range")
+    for bit in range(2, 8):
+        if flags & (1 << bit):
+            names.append(f"0x{1 << bit:02x}")
+    return names
+
+
+# ---- body parsers -------------------------------------------------------------
+
+
+def _uint(text: str, what: str, hi: Optional[int] = None) -> int:
+    if not _UINT.fullmatch(text):
+        raise BodyError(f"{what}: not a decimal number: {text!r}")
+    value = int(text)
+    if hi is not None and value > hi:
+        raise BodyError(f"{what}: {value} above {hi}")
+    return value
+
+
+def _number(text: str, what: str) -> int | float:
+    if _UINT.fullmatch(text):
+        return int(text)
+    if re.fullmatch(r"\d+\.\d+", text):
+        return float(text)
+    raise BodyError(f"{what}: not a number: {text!r}")
+
+
+def _pairs(fields: list[str]) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for f in fields:
+        key, eq, value = f.partition("=")
+        if not eq or not key or key in out:
+            raise BodyError(f"bad key=value field {f!r}")
+        out[key] = value
+    return out
+
+
+def _reset(text: str) -> list[str]:
+    if text == "none":
+        return []
+    parts = text.split("+")
+    if not all(re.fullmatch(r"[a-z]+", p) for p in parts):
+        raise BodyError(f"reset: {text!r}")
+    return parts
+
+
+def parse_boot(fields: list[str]) -> dict[str, Any]:
+    kv = _pairs(fields)
+    return {
+        "version": _uint(kv["proto"], "proto") if "proto" in kv else None,
+        "fw": kv.get("fw"),
+        "mcu": kv.get("mcu"),
+        "reset_cause": _reset(kv["reset"]) if "reset" in kv else None,
+    }
+
+
+_HEADER_KEYS = {"proto", "fw", "mcu", "fcpu", "baud", "fs", "levels", "n", "drops", "clips",
+                "temp", "run", "reset"}
+
+
+def parse_header(seq: int, fields: list[str]) -> dict[str, Any]:
+    """The ``key=value`` fields of an H record -> the JSON header dict."""
+    kv = _pairs(fields)
+    for need in ("proto", "fs", "levels", "n"):
+        if need not in kv:
+            raise BodyError(f"header without {need}")
+    version = _uint(kv["proto"], "proto")
+    if version != PROTO:
+        raise BodyError(f"protocol version {version} (this reader knows {PROTO})")
+    levels = _uint(kv["levels"], "levels", 32)
+    fs = _number(kv["fs"], "fs")
+    if levels < 1 or fs <= 0:
+        raise BodyError("levels and fs must be positive")
+
+    def opt_uint(key: str) -> Optional[int]:
+        return _uint(kv[key], key) if key in kv else None
+
+    clips = None
+    if "clips" in kv:
+        parts = kv["clips"].split(":")
+        if len(parts) != len(CLIP_KEYS):
+            raise BodyError(f"clips: {len(parts)} counts, expected {len(CLIP_KEYS)}")
+        clips = {k: _uint(p, "clips") for k, p in zip(CLIP_KEYS, parts)}
+    temp = None
+    if kv.get("temp", "-") != "-":
+        parts = kv["temp"].split(":")
+        if len(parts) != 3:
+            raise BodyError(f"temp: {kv['temp']!r}")
+        temp = {"mean": float(_number(parts[0], "temp")), "min": _uint(parts[1], "temp"),
+                "max": _uint(parts[2], "temp")}
+    running = None
+    if "run" in kv:
+        if kv["run"] not in ("0", "1"):
+            raise BodyError(f"run: {kv['run']!r}")
+        running = kv["run"] == "1"
+    return {
+        "version": version,
+        "fw": kv.get("fw"),
+        "mcu": kv.get("mcu"),
+        "fcpu_hz": opt_uint("fcpu"),
+        "baud": opt_uint("baud"),
+        "fs_hz": fs,
+        "levels": levels,
+        "n": _uint(kv["n"], "n"),
+        "drops": opt_uint("drops"),
+        "clips": clips,
+        "temp": temp,
+        "running": running,
+        "reset_cause": _reset(kv["reset"]) if "reset" in kv else None,
+        "seq": seq,
+        "extra": {k: v for k, v in kv.items() if k not in _HEADER_KEYS},
+    }
+
+
+def parse_row(fields: list[str]) -> LRow:
+    """``<ch>,<level>,<pairs>,<acc>,<flags>`` (after ``L,<seq>,``)."""
+    if len(fields) != 5:
+        raise BodyError(f"L row with {len(fields) + 2} fields, expected 7")
+    ch, level, pairs, acc, flags = fields
+    if ch not in CHANNELS:
+        raise BodyError(f"unknown channel {ch!r}")
+    if not re.fullmatch(r"[0-9A-Fa-f]{12}", acc):
+        raise BodyError(f"acc must be 12 hex digits: {acc!r}")
+    if not re.fullmatch(r"[0-9A-Fa-f]{2}", flags):
+        raise BodyError(f"flags must be 2 hex digits: {flags!r}")
+    return LRow(ch, _uint(level, "level", 31), _uint(pairs, "pairs"), int(acc, 16), int(flags, 16))
+
+
+# ---- report assembly ----------------------------------------------------------
+
+
+def decode_bytes(data: bytes) -> DecodeResult:
+    """Every complete report of a raw log, in order, and the error counts."""
+    frames = split_frames(data)
+    errors = dict.fromkeys(ERROR_KEYS, 0)
+    errors.update(frames.errors)
+    reports: list[Report] = []
+    boots: list[dict[str, Any]] = []
+    open_: Optional[Report] = None
+
+    def abandon() -> None:
+        nonlocal open_
+        if open_ is not None:
+            errors["incomplete_reports"] += 1
+        open_ = None
+
+    for body in frames.bodies:
+        fields = body.split(",")
+        kind = fields[0]
+        try:
+            if kind == "B":
+                boot = parse_boot(fields[1:])
+                abandon()  # the device reset: an open report never ends
+                boots.append(boot)
+            elif kind in ("H", "L", "S", "E"):
+                if len(fields) < 2:
+                    raise BodyError(f"{kind} without seq")
+                seq = _uint(fields[1], "seq", _SEQ_MAX)
+                if kind == "H":
+                    header = parse_header(seq, fields[2:])
+                    abandon()
+                    open_ = Report(seq, header)
+                    continue
+                if kind == "L":
+                    row = parse_row(fields[2:])
+                elif kind == "E":
+                    if len(fields) != 3:
+                        raise BodyError("E record needs exactly <seq>,<rows>")
+                    count = _uint(fields[2], "rows")
+                if open_ is None or seq != open_.seq:
+                    errors["orphan_lines"] += 1
+                    if kind == "E":
+                        errors["incomplete_reports"] += 1  # a report whose H was lost
+                    continue
+                if kind == "L":
+                    open_.rows.append(row)
+                elif kind == "E":
+                    if _complete(open_, count):
+                        open_.rows.sort(key=lambda r: (CHANNELS.index(r.channel), r.level))
+                        reports.append(open_)
+                        open_ = None
+                    else:
+                        abandon()
+            elif kind == "ok" or kind.startswith("ok ") or kind.startswith("error:"):
+                if kind.startswith("error:") and not re.match(r"error:\d+( |$)", body):
+                    raise BodyError("bad error reply")
+            else:
+                errors["unknown_records"] += 1  # readers ignore record types they do not know
+        except (BodyError, KeyError, ValueError):
+            errors["unparsable"] += 1  # a lost L row then fails the report's E count
+    abandon()
+    return DecodeResult(reports, errors, boots)
+
+
+def _complete(rep: Report, count: int) -> bool:
+    levels = rep.header["levels"]
+    keys = {(r.channel, r.level) for r in rep.rows}
+    return (count == len(rep.rows) == len(keys) == len(CHANNELS) * levels
+            and all(r.level < levels for r in rep.rows))

@@ -1,0 +1,153 @@
+"""Thesis rows: the raw ADC stream as text, one sample set per line.
+
+Each data line holds 7 integer codes (0..1023) separated by tabs or spaces:
+``ax ay az gx gy gz temp``. ``#`` starts a comment (to the end of the line);
+blank lines are ignored. ``-`` as a path means stdin/stdout.
+
+Reading is vectorized on blocks of a few MB (no per-line Python), so files of
+millions of rows read in seconds; writing is vectorized the same way.
+"""
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+from typing import BinaryIO, Iterator, Union
+
+import numpy as np
+
+from .errors import InputError
+
+COLUMNS = ("ax", "ay", "az", "gx", "gy", "gz", "temp")
+CODE_MAX = 1023
+BLOCK_BYTES = 1 << 23
+
+PathLike = Union[str, Path]
+_COMMENT = re.compile(rb"#[^\n]*")
+_POW10 = 10 ** np.arange(10, dtype=np.int64)
+
+
+def open_input(path: PathLike) -> BinaryIO:
+    """Open ``path`` for binary reading (``-`` is stdin); InputError if it cannot."""
+    if str(path) == "-":
+        return sys.stdin.buffer
+    try:
+        return open(path, "rb")
+    except OSError as exc:
+        raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
+
+
+def iter_blocks(path: PathLike, block_bytes: int = BLOCK_BYTES,
+                ncol: int = len(COLUMNS)) -> Iterator[np.ndarray]:
+    """Yield the rows of ``path`` as uint16 arrays of shape (ncol, rows).
+
+    Channel-major blocks (each channel contiguous). Raises InputError naming
+    the file and line on the first malformed line.
+    """
+    name = "<stdin>" if str(path) == "-" else str(path)
+    f = open_input(path)
+    try:
+        tail = b""
+        line = 1  # file line number of the first line of the next block
+        while True:
+            try:
+                chunk = f.read(block_bytes)
+            except OSError as exc:
+                raise InputError(f"cannot read '{name}': {exc.strerror or exc}") from None
+            if not chunk:
+                break
+            chunk = tail + chunk
+            cut = chunk.rfind(b"\n") + 1
+            if cut == 0:
+                tail = chunk
+                continue
+            tail = chunk[cut:]
+            yield parse_block(chunk[:cut], name, line, ncol)
+            line += chunk.count(b"\n", 0, cut)
+        if tail:
+            yield parse_block(tail, name, line, ncol)
+    finally:
+        if f is not sys.stdin.buffer:
+            f.close()
+
+
+def read_rows(path: PathLike, ncol: int = len(COLUMNS)) -> np.ndarray:
+    """All rows of ``path``: uint16 array of shape (ncol, rows)."""
+    blocks = list(iter_blocks(path, ncol=ncol))
+    if not blocks:
+        return np.zeros((ncol, 0), dtype=np.uint16)
+    return np.concatenate(blocks, axis=1)
+
+
+_CLASS = np.zeros(256, dtype=np.uint8)  # 0: not allowed, 1: blank, 2: digit
+_CLASS[[0x20, 0x09, 0x0A, 0x0B, 0x0C, 0x0D]] = 1
+_CLASS[0x30:0x3A] = 2
+
+
+def parse_block(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarray:
+    """Parse whole lines of text into a (ncol, rows) uint16 array."""
+    if b"#" in block:
+        block = _COMMENT.sub(b"", block)  # keeps the newlines: line numbers hold
+    b = np.frombuffer(block, dtype=np.uint8)
+    cls = _CLASS[b]
+    if not cls.all():
+        i = int(np.argmin(cls))
+        ch = chr(b[i])
+        what = repr(ch) if ch.isprintable() else f"byte 0x{b[i]:02x}"
+        raise InputError(f"{name}: line {_line_of(b, i, first_line)}: unexpected {what} "
+                         f"(a row is {ncol} integer codes separated by tabs or spaces)")
+    digit = cls.view(np.int8) - 1  # 1 digit, 0 blank
+    edge = np.flatnonzero(digit[1:] != digit[:-1]) + 1
+    if digit[0]:
+        edge = np.concatenate(([0], edge))
+    if digit[-1]:
+        edge = np.append(edge, b.size)
+    starts, ends = edge[0::2], edge[1::2]  # digit runs: [start, end)
+    newlines = np.flatnonzero(b == 0x0A)
+    before = np.searchsorted(starts, newlines)  # codes before each line end
+    counts = np.diff(before, prepend=0, append=starts.size)  # codes per line
+    wrong = (counts != 0) & (counts != ncol)
+    if wrong.any():
+        k = int(np.argmax(wrong))
+        raise InputError(f"{name}: line {first_line + k}: {counts[k]} columns, expected {ncol} "
+                         f"({' '.join(COLUMNS) if ncol == len(COLUMNS) else 'integer codes'})")
+    if starts.size == 0:
+        return np.zeros((ncol, 0), dtype=np.uint16)
+    lengths = ends - starts
+    width = int(lengths.max())
+    if width > 9:
+        i = int(starts[np.argmax(lengths > 9)])
+        raise InputError(f"{name}: line {_line_of(b, i, first_line)}: code out of range 0..{CODE_MAX}")
+    values = b[starts].astype(np.int64) - 0x30
+    for p in range(1, width):  # over digit positions (at most 9), each vectorized
+        more = np.flatnonzero(lengths > p)
+        values[more] = values[more] * 10 + (b[starts[more] + p].astype(np.int64) - 0x30)
+    over = values > CODE_MAX
+    if over.any():
+        t = int(np.argmax(over))
+        raise InputError(f"{name}: line {_line_of(b, int(starts[t]), first_line)}: code {values[t]} "
+                         f"out of range 0..{CODE_MAX}")
+    return np.ascontiguousarray(values.astype(np.uint16).reshape(-1, ncol).T)
+
+
+def _line_of(b: np.ndarray, index: int, first_line: int) -> int:
+    return first_line + int(np.count_nonzero(b[:index] == 0x0A))
+
+
+def format_rows(codes: np.ndarray) -> bytes:
+    """Rows (ncol, rows) of codes 0..9999 -> tab-separated text lines."""
+    v = np.asarray(codes, dtype=np.int64).T  # (rows, ncol)
+    if v.size == 0:
+        return b""
+    if v.min() < 0 or v.max() > 9999:
+        raise ValueError("codes must be 0..9999")
+    ndig = 1 + (v >= 10) + (v >= 100) + (v >= 1000)
+    width = (ndig + 1).ravel()  # digits and a tab (or the newline)
+    start = np.cumsum(width) - width
+    out = np.full(int(width.sum()), ord("\t"), dtype=np.uint8)
+    out[(start + width - 1).reshape(v.shape)[:, -1]] = ord("\n")
+    flat, nd = v.ravel(), ndig.ravel()
+    for p in range(4):
+        sel = nd > p
+        out[start[sel] + p] = 0x30 + (flat[sel] // _POW10[nd[sel] - 1 - p]) % 10
+    return out.tobytes()

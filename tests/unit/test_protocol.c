@@ -1,0 +1,224 @@
+/*
+ * Unity tests of the pure encoding modules: crc, fmt (number formatting
+ * without printf or floats), proto (line framing) and command (parsing),
+ * each against an independent computation written here.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "command.h"
+#include "crc.h"
+#include "fmt.h"
+#include "proto.h"
+#include "unity.h"
+
+void setUp(void) {}
+void tearDown(void) {}
+
+static uint64_t rng = 88172645463325252ull;
+static uint64_t next(void)
+{
+  rng ^= rng << 13;
+  rng ^= rng >> 7;
+  rng ^= rng << 17;
+  return rng;
+}
+
+/* ---- crc ---- */
+static uint16_t crc_ref(const char *s, size_t n)
+{
+  /* Table-free textbook CRC-16/CCITT-FALSE, bit by bit from the top. */
+  uint32_t reg = 0xFFFF;
+  for (size_t i = 0; i < n; i++)
+    for (int b = 7; b >= 0; b--) {
+      uint32_t in = ((uint8_t)s[i] >> b) & 1u, top = (reg >> 15) & 1u;
+      reg = (reg << 1) & 0xFFFF;
+      if (top ^ in)
+        reg ^= 0x1021;
+    }
+  return (uint16_t)reg;
+}
+
+static void test_crc_check_value_and_random_strings(void)
+{
+  uint16_t c = CRC16_INIT;
+  for (const char *p = "123456789"; *p; p++)
+    c = crc16_update(c, (uint8_t)*p);
+  TEST_ASSERT_EQUAL_HEX16(0x29B1, c);
+  for (int t = 0; t < 200; t++) {
+    char s[64];
+    size_t n = next() % sizeof s;
+    for (size_t i = 0; i < n; i++)
+      s[i] = (char)next();
+    c = CRC16_INIT;
+    for (size_t i = 0; i < n; i++)
+      c = crc16_update(c, (uint8_t)s[i]);
+    TEST_ASSERT_EQUAL_HEX16(crc_ref(s, n), c);
+  }
+}
+
+/* ---- fmt ---- */
+static void test_fmt_u32_and_hex_match_snprintf(void)
+{
+  uint32_t vals[] = {0, 1, 9, 10, 99, 100, 65535, 65536, 999999999u, 1000000000u, 4294967295u};
+  char buf[16], ref[16];
+  for (int t = 0; t < 1000 + 11; t++) {
+    uint32_t v = t < 11 ? vals[t] : (uint32_t)(next() >> (next() % 32));
+    uint8_t n = fmt_u32(buf, v);
+    buf[n] = 0;
+    snprintf(ref, sizeof ref, "%u", v);
+    TEST_ASSERT_EQUAL_STRING(ref, buf);
+    fmt_hex(buf, v, 8);
+    buf[8] = 0;
+    snprintf(ref, sizeof ref, "%08X", v);
+    TEST_ASSERT_EQUAL_STRING(ref, buf);
+  }
+  fmt_hex(buf, 0xABCDu, 4);
+  buf[4] = 0;
+  TEST_ASSERT_EQUAL_STRING("ABCD", buf);
+}
+
+/* The printed text must be `value` to 3 significant digits, in the
+ * protocol's notation, up to the stated 1e-4 relative slack. */
+static void assert_sig3(const char *s, double value, const char *what)
+{
+  char msg[160];
+  double p = strtod(s, NULL), e10 = floor(log10(value)), half = 0.5 * pow(10.0, e10 - 2);
+  int digits = 0, leading = 1;
+  snprintf(msg, sizeof msg, "%s: printed '%s' for %.9g", what, s, value);
+  for (const char *c = s; *c && *c != 'e'; c++) {
+    if (*c >= '1' && *c <= '9') leading = 0;
+    if (*c >= '0' && *c <= '9' && !leading) digits++;
+  }
+  if (p >= 1000.0) /* r and zeros */
+    TEST_ASSERT_TRUE_MESSAGE(digits >= 3 && strchr(s, '.') == NULL, msg);
+  else
+    TEST_ASSERT_EQUAL_INT_MESSAGE(3, digits, msg);
+  TEST_ASSERT_TRUE_MESSAGE((value < 0.001) == (strstr(s, "e-") != NULL), msg);
+  TEST_ASSERT_TRUE_MESSAGE(fabs(p - value) <= half * 1.000001 + 1e-4 * value, msg);
+}
+
+static void test_fmt_adev_three_significant_digits(void)
+{
+  char buf[FMT_SIG3_MAX + 2];
+  for (int t = 0; t < 20000; t++) {
+    uint64_t acc = next() >> (16 + next() % 48);
+    uint32_t pairs = (uint32_t)(next() >> (32 + next() % 32));
+    uint8_t level = (uint8_t)(next() % 23);
+    double value;
+    uint8_t n;
+    if (!pairs) pairs = 1;
+    if (!acc) acc = 1;
+    value = sqrt((double)acc / (2.0 * pairs)) / ldexp(1.0, level);
+    n = fmt_adev(buf, (uint16_t)(acc >> 32), (uint32_t)acc, pairs, level);
+    TEST_ASSERT_EQUAL_UINT8(strlen(buf), n);
+    TEST_ASSERT_TRUE(n < FMT_SIG3_MAX);
+    assert_sig3(buf, value, "adev");
+  }
+  fmt_adev(buf, 0, 0, 5, 3);
+  TEST_ASSERT_EQUAL_STRING("0", buf);
+  /* A few by hand: sqrt(8/2)/1 = 2, sqrt(2e6/2)/4 = 250, 1023 full scale. */
+  fmt_adev(buf, 0, 8, 1, 0);
+  TEST_ASSERT_EQUAL_STRING("2.00", buf);
+  fmt_adev(buf, 0, 2000000, 1, 2);
+  TEST_ASSERT_EQUAL_STRING("250", buf);
+  fmt_adev(buf, 0, 2, 1, 10);
+  TEST_ASSERT_EQUAL_STRING("9.77e-4", buf);
+}
+
+static void test_fmt_tau_every_level_and_rate(void)
+{
+  static const uint16_t rates[] = {50, 100, 200, 250, 500, 1000};
+  char buf[FMT_SIG3_MAX + 2];
+  for (int r = 0; r < 6; r++)
+    for (uint8_t k = 0; k < 23; k++) {
+      fmt_tau(buf, k, rates[r]);
+      assert_sig3(buf, ldexp(1.0, k) / rates[r], "tau");
+    }
+  fmt_tau(buf, 0, 100);
+  TEST_ASSERT_EQUAL_STRING("0.0100", buf);
+  fmt_tau(buf, 14, 100);
+  TEST_ASSERT_EQUAL_STRING("164", buf);
+  fmt_tau(buf, 22, 50);
+  TEST_ASSERT_EQUAL_STRING("83900", buf);
+}
+
+/* ---- proto ---- */
+static char out[512];
+static size_t out_len;
+static void sink(uint8_t c) { if (out_len < sizeof out - 1) out[out_len++] = (char)c; out[out_len] = 0; }
+
+static void test_proto_frames_a_line_with_its_crc(void)
+{
+  char expect[128];
+  const char *body = "L,3,gx,4,374,00000001A2F3,00";
+  out_len = 0;
+  proto_init(sink);
+  proto_begin();
+  proto_puts("L,");
+  proto_u32(3);
+  proto_puts(",gx,4,");
+  proto_u32(374);
+  proto_putc(',');
+  proto_hex(0x0000, 4);
+  proto_hex(0x0001A2F3, 8);
+  proto_puts(",00");
+  proto_end();
+  snprintf(expect, sizeof expect, "$%s*%04X\r\n", body, crc_ref(body, strlen(body)));
+  TEST_ASSERT_EQUAL_STRING(expect, out);
+}
+
+static void test_proto_never_lets_framing_characters_into_a_body(void)
+{
+  out_len = 0;
+  proto_init(sink);
+  proto_begin();
+  proto_puts("a$b*c\r\n\x01");
+  proto_end();
+  TEST_ASSERT_EQUAL_STRING_LEN("$a?b?c???*", out, 10);
+  TEST_ASSERT_EQUAL_INT(1, (int)(strchr(out + 1, '$') == NULL));
+}
+
+/* ---- command ---- */
+static void test_command_words_and_arguments(void)
+{
+  command_t c;
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("report", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_REPORT, c.id);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("  RePoRt  ", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_REPORT, c.id);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_NONE, c.id);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("start", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_START, c.id);
+  TEST_ASSERT_EQUAL_UINT8(0, c.has_arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("start 4294967295", &c));
+  TEST_ASSERT_EQUAL_UINT32(4294967295u, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("start 4294967296", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("rate\t250", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_RATE, c.id);
+  TEST_ASSERT_EQUAL_UINT32(250, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("rate", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("rate fast", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("rate 250 x", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("reset 3", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_UNKNOWN, command_parse("resets", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_UNKNOWN, command_parse("rep", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_UNKNOWN, command_parse("\x80\xff", &c));
+  TEST_ASSERT_TRUE(command_rate_ok(1000) && command_rate_ok(50) && !command_rate_ok(300) && !command_rate_ok(0));
+}
+
+int main(void)
+{
+  UNITY_BEGIN();
+  RUN_TEST(test_crc_check_value_and_random_strings);
+  RUN_TEST(test_fmt_u32_and_hex_match_snprintf);
+  RUN_TEST(test_fmt_adev_three_significant_digits);
+  RUN_TEST(test_fmt_tau_every_level_and_rate);
+  RUN_TEST(test_proto_frames_a_line_with_its_crc);
+  RUN_TEST(test_proto_never_lets_framing_characters_into_a_body);
+  RUN_TEST(test_command_words_and_arguments);
+  return UNITY_END();
+}
