@@ -26,7 +26,14 @@ HEX      := $(FW_BUILD)/imu-allan.hex
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 -Os -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP
-FW_LDFLAGS := -mmcu=$(MCU) -Wl,--gc-sections
+FW_LDFLAGS := -mmcu=$(MCU) -Wl,--gc-sections -Wl,--section-start=.mmcu=0x910000
+
+# simavr's .mmcu section header, when installed (the harness reads the MCU
+# and clock from it; the section is not flashed).
+ifneq ($(wildcard /usr/include/simavr/avr/avr_mcu_section.h),)
+FW_CFLAGS += -idirafter /usr/include/simavr -DHAVE_SIMAVR_SECTION
+FW_LDFLAGS += -Wl,--undefined=_mmcu
+endif
 
 HOST_CC ?= cc
 HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
@@ -45,7 +52,7 @@ $(ELF): $(FW_OBJ)
 	$(AVR_SIZE) -C --mcu=$(MCU) $@
 
 $(HEX): $(ELF)
-	$(AVR_OBJCOPY) -O ihex -R .eeprom $< $@
+	$(AVR_OBJCOPY) -O ihex -j .text -j .data $< $@
 
 $(FW_BUILD):
 	mkdir -p $@

@@ -16,7 +16,14 @@
 
 static const uint8_t adc_mux[ADC_COLUMNS] PROGMEM = BOARD_ADC_MUX_LIST;
 
-static volatile uint16_t ring[ADC_RING][ADC_COLUMNS];
+/* A scan packed in 9 bytes: low 8 bits of each code, and the top 2 bits of
+ * column i at bits 2i..2i+1 of hi (the ISR shifts them in). */
+typedef struct {
+  uint8_t lo[ADC_COLUMNS];
+  uint16_t hi;
+} adc_slot_t;
+
+static volatile adc_slot_t ring[ADC_RING];
 static volatile uint8_t ring_head, ring_tail;
 static volatile uint8_t scan_col;
 static volatile uint8_t scanning;
@@ -86,10 +93,14 @@ uint8_t adc_pending(void)
 uint8_t adc_pop(uint16_t code[ADC_COLUMNS])
 {
   uint8_t t = ring_tail, i;
+  uint16_t hi;
   if (t == ring_head)
     return 0;
-  for (i = 0; i < ADC_COLUMNS; i++)
-    code[i] = ring[t][i];
+  hi = ring[t].hi;
+  for (i = 0; i < ADC_COLUMNS; i++) {
+    code[i] = (uint16_t)(ring[t].lo[i] | ((hi & 3u) << 8));
+    hi >>= 2;
+  }
   ring_tail = ring_next(t);
   return 1;
 }
@@ -128,6 +139,7 @@ ISR(TIMER1_COMPA_vect)
   }
   scanning = 1;
   scan_col = 0;
+  ring[ring_head].hi = 0;
   ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[0]);
   ADCSRA |= (1 << ADSC);
 }
@@ -135,8 +147,12 @@ ISR(TIMER1_COMPA_vect)
 ISR(ADC_vect)
 {
   uint8_t col = scan_col, h = ring_head;
+  uint8_t lo, hi;
   BOARD_PROBE_ISR_ON();
-  ring[h][col] = ADC;
+  lo = ADCL; /* ADCL first: reading it locks ADCH until ADCH is read */
+  hi = ADCH;
+  ring[h].lo[col] = lo;
+  ring[h].hi = (uint16_t)((ring[h].hi >> 2) | ((uint16_t)hi << 12));
   if (++col < ADC_COLUMNS) {
     scan_col = col;
     ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[col]);

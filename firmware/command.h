@@ -8,7 +8,7 @@
 #include <stdint.h>
 
 /* Longest command line accepted, excluding its end of line. */
-#define COMMAND_LINE_MAX 31
+#define COMMAND_LINE_MAX 23
 
 enum {
   CMD_NONE = 0, /* empty line: ignored, no reply */

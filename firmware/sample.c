@@ -16,7 +16,7 @@ void sample_pump(void)
     uint8_t i;
     BOARD_PROBE_SAMPLE_ON();
     for (i = 0; i < ADC_COLUMNS; i++)
-      if ((code[i] == 0 || code[i] == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFFFFFul)
+      if ((code[i] == 0 || code[i] == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFu)
         sample_stats.clips[i]++;
     sample_stats.temp_sum += code[COL_TEMP];
     sample_stats.temp_n++;

@@ -11,7 +11,7 @@
 #include "allan.h"
 
 typedef struct {
-  uint32_t clips[ADC_COLUMNS]; /* codes at 0 or 1023 since the last reset */
+  uint16_t clips[ADC_COLUMNS]; /* codes at 0 or 1023 since the last reset (saturating) */
   uint32_t temp_sum;           /* temperature over the current report interval */
   uint32_t temp_n;
   uint16_t temp_min, temp_max;

@@ -34,7 +34,7 @@
 #endif
 
 #define UART_TX_SIZE 16 /* powers of two */
-#define UART_RX_SIZE 16
+#define UART_RX_SIZE 8
 
 static volatile uint8_t tx_buf[UART_TX_SIZE];
 static volatile uint8_t tx_head, tx_tail;

@@ -113,6 +113,8 @@ static struct {
   /* simavr log */
   char last_error[200];
   int log_shown;
+  int log_quiet;
+  uint64_t errors;
 } g = { .timeout_s = 5.0, .dev_n = -1, .dev_drops = -1, .sp_min = 0xFFFF };
 
 /* ---- messages -------------------------------------------------------- */
@@ -165,7 +167,7 @@ static void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
   int show = g.verbose >= 2 ? LOG_TRACE : LOG_WARNING;
   char msg[240], *w = msg;
   (void)avr;
-  if (level > show && level != LOG_ERROR)
+  if (g.log_quiet || (level > show && level != LOG_ERROR))
     return;
   vsnprintf(msg, sizeof msg, fmt, ap);
   /* drop simavr's colour escapes and line ends */
@@ -180,8 +182,16 @@ static void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
     }
   }
   *w = 0;
-  if (level == LOG_ERROR && strncmp(msg, "avr_sadly_crashed", 17))
+  /* Errors usually announce a crash: they go into its one-line message
+   * (or into a warning at the end), shown at once only with -v. */
+  if (level == LOG_ERROR) {
+    if (!strncmp(msg, "avr_sadly_crashed", 17))
+      return;
     snprintf(g.last_error, sizeof g.last_error, "%.199s", msg);
+    g.errors++;
+    if (!g.verbose)
+      return;
+  }
   if (level > show)
     return;
   if (!g.verbose && g.log_shown >= LOG_CAP) {
@@ -1029,7 +1039,9 @@ int main(int argc, char **argv)
     fw.frequency = 10000000;
   fw.avcc = fw.aref = 1023;   /* mV == code, see code_to_mv() */
 
+  g.log_quiet = 1;
   g.avr = avr_make_mcu_by_name(fw.mmcu);
+  g.log_quiet = 0;
   if (!g.avr)
     die(EXIT_INPUT, "unknown MCU '%s'", fw.mmcu);
   avr_t *avr = g.avr;
@@ -1088,8 +1100,8 @@ int main(int argc, char **argv)
              (unsigned long long)rows_consumed(),
              (unsigned long long)g.nrows, sim_time());
       else
-        fail(EXIT_TIMEOUT, "timeout: no %s within %g simulated s (t=%.3f s)",
-             st_wait[g.state], g.timeout_s, sim_time());
+        fail(EXIT_TIMEOUT, "timeout: waited %g simulated s for %s (t=%.3f s)",
+             g.timeout_s, st_wait[g.state], sim_time());
     }
   }
   clock_gettime(CLOCK_MONOTONIC, &t1);
@@ -1113,6 +1125,9 @@ int main(int argc, char **argv)
     code = g.fail;
   }
 
+  if (g.errors && st != cpu_Crashed && st != cpu_Stopped)
+    warn("simavr reported %llu error(s), the last: %s",
+         (unsigned long long)g.errors, g.last_error);
   if (g.bss_end && g.sp_min < g.bss_end)
     warn("stack overflow: the stack pointer went down to 0x%04x, below the "
          "end of .bss at 0x%04x", (unsigned)g.sp_min, (unsigned)g.bss_end);

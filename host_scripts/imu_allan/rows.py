@@ -89,6 +89,8 @@ def parse_block(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarr
     if b"#" in block:
         block = _COMMENT.sub(b"", block)  # keeps the newlines: line numbers hold
     b = np.frombuffer(block, dtype=np.uint8)
+    if b.size == 0:
+        return np.zeros((ncol, 0), dtype=np.uint16)
     cls = _CLASS[b]
     if not cls.all():
         i = int(np.argmin(cls))
