@@ -117,16 +117,21 @@ void adc_clear_drops(void)
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { drops = 0; }
 }
 
-static void count_drop(void)
+static inline void drop_one(void)
 {
   if (drops != 0xFFFFFFFFul)
     drops++;
 }
 
+void adc_count_drop(void)
+{
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { drop_one(); }
+}
+
 ISR(TIMER1_COMPA_vect)
 {
   if (scanning) {
-    count_drop(); /* previous scan unfinished: the rate outruns the ADC */
+    drop_one(); /* previous scan unfinished: the rate outruns the ADC */
     return;
   }
   if (limited) {
@@ -160,7 +165,7 @@ ISR(ADC_vect)
   } else {
     uint8_t next = ring_next(h);
     if (next == ring_tail)
-      count_drop(); /* main loop behind: this set is lost, and counted */
+      drop_one(); /* main loop behind: this set is lost, and counted */
     else
       ring_head = next;
     scanning = 0;

@@ -37,4 +37,7 @@ uint8_t adc_pending(void);
 uint32_t adc_drops(void);
 void adc_clear_drops(void);
 
+/* Count one more dropped set (also used by the main loop). */
+void adc_count_drop(void);
+
 #endif /* ADC_H */

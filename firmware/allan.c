@@ -14,6 +14,14 @@
 #define SUM_MASK 0x00FFFFFFul
 #define SUM_SIGN 0x00800000ul
 
+/* Cluster sums are 24-bit quantities: avr-gcc has a native 24-bit type,
+ * which saves registers in the cascade; the host uses 32 bits and masks. */
+#ifdef __AVR__
+typedef __uint24 allan_sum_t;
+#else
+typedef uint32_t allan_sum_t;
+#endif
+
 #if ALLAN_CODE_MAX * (1ul << (ALLAN_WIDE_LEVEL - 1)) >= (1ul << ALLAN_SUM_BITS)
 #  error "ALLAN_WIDE_LEVEL is wrong for ALLAN_CODE_MAX: level WIDE-1 sums must fit 24 bits"
 #endif
@@ -30,43 +38,68 @@ static void cell_saturate(allan_cell_t *c, uint8_t *ext)
     *ext = 0xFF;
 }
 
-/* acc += d^2 for d < 2^24, saturating at the accumulator's width. */
-static void cell_add_square(allan_cell_t *c, uint8_t *ext, uint32_t d)
+static uint8_t *acc_ext(allan_t *a, uint8_t ch, uint8_t level);
+
+/* A carry out of bit 31 ripples into bits 32..39, then 40..47 where the
+ * level has them; past its width the accumulator saturates.  Out of line:
+ * it runs once per 2^32 of accumulated squares at most. */
+static __attribute__((noinline)) void cell_carry(allan_t *a, uint8_t ch, uint8_t level, uint8_t carry)
 {
-  uint32_t sq_lo, lo;
-  uint16_t sq_hi, mid; /* d^2 = sq_hi * 2^32 + sq_lo, below 2^48 */
-
-  if (d < 0x10000ul) {
-    /* Every level-0 pair and nearly all others: one 16x16 multiply. */
-    sq_lo = (uint32_t)(uint16_t)d * (uint16_t)d;
-    sq_hi = 0;
-  } else {
-    /* d = a 2^16 + b: d^2 = a^2 2^32 + 2ab 2^16 + b^2, in 32-bit pieces. */
-    uint8_t a = (uint8_t)(d >> 16);
-    uint16_t b = (uint16_t)d;
-    uint32_t cross = (uint32_t)a * b * 2u; /* below 2^25 */
-    uint32_t t;
-    sq_lo = (uint32_t)b * b;
-    sq_hi = (uint16_t)((uint16_t)a * a);
-    t = sq_lo + (cross << 16);
-    if (t < sq_lo)
-      sq_hi++;
-    sq_lo = t;
-    sq_hi = (uint16_t)(sq_hi + (cross >> 16));
-  }
-
-  lo = c->acc_lo + sq_lo;
-  mid = (uint16_t)(c->acc_mid + (uint8_t)sq_hi + (lo < sq_lo));
-  sq_hi = (uint16_t)((sq_hi >> 8) + (mid >> 8)); /* what goes above bit 39 */
-  if (sq_hi) {
-    if (!ext || (uint16_t)(*ext + sq_hi) > 0xFFu) {
-      cell_saturate(c, ext);
-      return;
-    }
-    *ext = (uint8_t)(*ext + sq_hi);
-  }
-  c->acc_lo = lo;
+  allan_cell_t *c = &a->cell[ch][level];
+  uint8_t *ext = acc_ext(a, ch, level);
+  uint16_t mid = (uint16_t)(c->acc_mid + carry);
   c->acc_mid = (uint8_t)mid;
+  if (mid >> 8) {
+    if (!ext || *ext == 0xFF)
+      cell_saturate(c, ext);
+    else
+      (*ext)++;
+  }
+}
+
+/* acc += d^2 for d >= 2^16 (d < 2^24): d = a 2^16 + b, so
+ * d^2 = a^2 2^32 + 2ab 2^16 + b^2, added in 32-bit pieces.  Rare: only
+ * high levels see differences this large. */
+static __attribute__((noinline)) void cell_add_wide(allan_t *a, uint8_t ch, uint8_t level, uint32_t d)
+{
+  allan_cell_t *c = &a->cell[ch][level];
+  uint8_t hi8 = (uint8_t)(d >> 16);
+  uint16_t b = (uint16_t)d;
+  uint32_t cross = (uint32_t)hi8 * b * 2u; /* below 2^25 */
+  uint32_t sq_lo = (uint32_t)b * b, t;
+  uint16_t sq_hi = (uint16_t)((uint16_t)hi8 * hi8); /* d^2 = sq_hi 2^32 + sq_lo */
+  t = sq_lo + (cross << 16);
+  sq_hi = (uint16_t)(sq_hi + (t < sq_lo) + (cross >> 16));
+  sq_lo = t;
+  t = c->acc_lo + sq_lo;
+  sq_hi = (uint16_t)(sq_hi + (t < sq_lo)); /* at most 2^16 - 1: no wrap */
+  c->acc_lo = t;
+  /* Add sq_hi to bits 32..47 one byte at a time through the carry path. */
+  if ((uint8_t)sq_hi)
+    cell_carry(a, ch, level, (uint8_t)sq_hi);
+  if (sq_hi >> 8) {
+    uint8_t *ext = acc_ext(a, ch, level);
+    if (!ext || (uint16_t)(*ext + (sq_hi >> 8)) > 0xFFu)
+      cell_saturate(c, ext);
+    else
+      *ext = (uint8_t)(*ext + (sq_hi >> 8));
+  }
+}
+
+/* acc += d^2, saturating at the accumulator's width.  The common case, every
+ * level-0 pair and nearly all others, is one 16x16 multiply and a 32-bit
+ * add. */
+static void cell_add_square(allan_t *a, uint8_t ch, uint8_t level, allan_cell_t *c, uint32_t d)
+{
+  if (d < 0x10000ul) {
+    uint32_t sq = (uint32_t)(uint16_t)d * (uint16_t)d;
+    uint32_t lo = c->acc_lo + sq;
+    c->acc_lo = lo;
+    if (lo < sq)
+      cell_carry(a, ch, level, 1);
+  } else {
+    cell_add_wide(a, ch, level, d);
+  }
 }
 
 static uint8_t *acc_ext(allan_t *a, uint8_t ch, uint8_t level)
@@ -98,7 +131,7 @@ void allan_reset(allan_t *a)
 
 uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
 {
-  uint8_t ch;
+  uint8_t ch, depth, first;
   uint32_t n;
 
   if (a->n == 0xFFFFFFFFul)
@@ -108,12 +141,19 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
       return ALLAN_ERR_CODE;
   n = ++a->n;
 
+  /* Sample n completes a cluster at every level k with 2^k | n: `depth`
+   * levels.  Level k has a pair unless this is its very first cluster,
+   * i.e. unless n == 2^k: `first` names that level (none: 0xFF).  Both are
+   * worked out once here, in 8 bits, for all channels. */
+  depth = 1;
+  while (depth < ALLAN_LEVELS && !(n & (1ul << (depth - 1))))
+    depth++;
+  first = n == (1ul << (depth - 1)) ? (uint8_t)(depth - 1) : 0xFFu;
+
   for (ch = 0; ch < ALLAN_CHANNELS; ch++) {
     allan_cell_t *c = a->cell[ch];
-    uint8_t *hi = a->sum_hi[ch]; /* bits 16..23 of level k's sum at hi[k - NARROW] */
-    uint32_t v = code[ch];       /* sum of the cluster just completed at this level */
-    uint32_t t = n;              /* complete clusters at this level, this one included */
-    uint8_t k = 0;
+    allan_sum_t v = code[ch]; /* sum of the cluster just completed at this level */
+    uint8_t k;
 
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
     if (code[ch] < a->min[ch])
@@ -122,11 +162,11 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
       a->max[ch] = code[ch];
 #endif
 
-    for (;;) {
-      uint32_t last = c->sum_lo;
+    for (k = 0; k < depth; k++, c++) {
+      allan_sum_t last = c->sum_lo;
       if (k >= ALLAN_NARROW_LEVELS)
-        last |= (uint32_t)hi[k - ALLAN_NARROW_LEVELS] << 16;
-      if (t >= 2) {
+        last |= (allan_sum_t)a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] << 16;
+      if (k != first) {
         uint32_t d;
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
         if (k >= ALLAN_WIDE_LEVEL) {
@@ -135,7 +175,7 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
             d = 0;
           } else {
             /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
-            d = (v - last) & SUM_MASK;
+            d = (uint32_t)(v - last) & SUM_MASK;
             if (d & SUM_SIGN)
               d = (SUM_MASK + 1ul) - d;
           }
@@ -143,19 +183,15 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
 #endif
         {
           /* True sums below 2^24: plain subtraction is exact. */
-          d = v >= last ? v - last : last - v;
+          d = v >= last ? (uint32_t)(v - last) : (uint32_t)(last - v);
         }
-        cell_add_square(c, acc_ext(a, ch, k), d);
+        cell_add_square(a, ch, k, c, d);
       }
       c->sum_lo = (uint16_t)v;
       if (k >= ALLAN_NARROW_LEVELS)
-        hi[k - ALLAN_NARROW_LEVELS] = (uint8_t)(v >> 16);
-      /* An odd count means this cluster opens a pair one level up. */
-      if ((t & 1u) || ++k == ALLAN_LEVELS)
-        break;
-      v = (v + last) & SUM_MASK;
-      t >>= 1;
-      c++;
+        a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] = (uint8_t)(v >> 16);
+      /* The next level's cluster is this one and the one before it. */
+      v = (allan_sum_t)((v + last) & SUM_MASK);
     }
   }
   return ALLAN_OK;

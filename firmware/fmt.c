@@ -6,16 +6,25 @@
  */
 #include "fmt.h"
 
+#include "pgm.h"
+
 uint8_t fmt_u32(char *buf, uint32_t v)
 {
-  char tmp[10];
+  /* Digits from the top by repeated subtraction: no division, no buffer. */
+  static const uint32_t pow10[9] PROGMEM = {1000000000ul, 100000000ul, 10000000ul, 1000000ul,
+                                    100000ul, 10000ul, 1000ul, 100ul, 10ul};
   uint8_t n = 0, i;
-  do {
-    tmp[n++] = (char)('0' + v % 10u);
-    v /= 10u;
-  } while (v);
-  for (i = 0; i < n; i++)
-    buf[i] = tmp[n - 1 - i];
+  for (i = 0; i < 9; i++) {
+    uint32_t p = pgm_read_dword(&pow10[i]);
+    char d = '0';
+    while (v >= p) {
+      v -= p;
+      d++;
+    }
+    if (n || d != '0')
+      buf[n++] = d;
+  }
+  buf[n++] = (char)('0' + v);
   return n;
 }
 

@@ -1,7 +1,7 @@
 /*
  * main.c - imu-allan firmware: sample the IMU, feed the Allan engine,
  * answer commands and send reports.  Interrupts fill rings; everything
- * else happens here.
+ * else happens in the loop below, which never waits on the UART.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -27,9 +27,14 @@ void main_get_mcusr(void)
   wdt_disable();
 }
 
-static char line[COMMAND_LINE_MAX + 1];
-static uint8_t line_len;
-static uint8_t line_overflow;
+/* The command line being received; `ready` holds a complete one until no
+ * output job is running, so a reply never cuts into a report. */
+static struct {
+  char text[COMMAND_LINE_MAX + 1];
+  uint8_t len;
+  uint8_t overflow;
+  uint8_t ready;
+} line;
 
 static void uart_sink(uint8_t c)
 {
@@ -47,7 +52,7 @@ static void execute(const command_t *cmd)
   switch (cmd->id) {
   case CMD_REPORT:
     report_ok(0);
-    report_send();
+    report_start(); /* follows the reply */
     break;
   case CMD_RESET:
     sample_pump();
@@ -64,7 +69,7 @@ static void execute(const command_t *cmd)
       /* `start <count>`: stop by itself when the engine holds count sets */
       uint32_t have = sample_engine.n + adc_pending();
       if (cmd->arg < have) {
-        report_error(CMD_ERR_ARG, PSTR("count below samples taken"));
+        report_error(CMD_ERR_ARG, PSTR("count too small"));
         break;
       }
       adc_start(1, cmd->arg - have);
@@ -75,7 +80,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_RATE:
     if (!command_rate_ok(cmd->arg)) {
-      report_error(CMD_ERR_ARG, PSTR("rate must be 50 100 200 250 500 1000"));
+      report_error(CMD_ERR_ARG, PSTR("unsupported rate"));
       break;
     }
     {
@@ -95,41 +100,49 @@ static void execute(const command_t *cmd)
   }
 }
 
-/* Assemble command lines from the RX ring; act on each complete one. */
+static void run_line(void)
+{
+  command_t cmd;
+  uint8_t err;
+  line.ready = 0;
+  if (line.overflow) {
+    line.overflow = 0;
+    report_error(CMD_ERR_LONG, PSTR("line too long"));
+    return;
+  }
+  err = command_parse(line.text, &cmd);
+  if (err == CMD_ERR_UNKNOWN)
+    report_error(err, PSTR("unknown command"));
+  else if (err)
+    report_error(err, PSTR("bad argument"));
+  else if (cmd.id != CMD_NONE)
+    execute(&cmd);
+}
+
+/* Assemble command lines from the RX ring; run each when output is idle. */
 static void poll_commands(void)
 {
   int16_t c;
-  while ((c = uart_read()) >= 0) {
+  while (!line.ready && (c = uart_read()) >= 0) {
     if (c == '\r' || c == '\n') {
-      if (line_overflow) {
-        report_error(CMD_ERR_LONG, PSTR("line too long"));
-      } else if (line_len) {
-        command_t cmd;
-        uint8_t err;
-        line[line_len] = 0;
-        err = command_parse(line, &cmd);
-        if (err == CMD_ERR_UNKNOWN)
-          report_error(err, PSTR("unknown command"));
-        else if (err)
-          report_error(err, PSTR("bad argument"));
-        else if (cmd.id != CMD_NONE)
-          execute(&cmd);
-      }
-      line_len = 0;
-      line_overflow = 0;
-    } else if (line_len < COMMAND_LINE_MAX) {
-      line[line_len++] = (char)c;
+      line.text[line.len] = 0;
+      line.ready = line.len || line.overflow; /* blank lines are ignored */
+      line.len = 0;
+    } else if (line.len < COMMAND_LINE_MAX) {
+      line.text[line.len++] = (char)c;
     } else {
-      line_overflow = 1; /* discard the whole line at its end */
+      line.overflow = 1; /* discard the whole line at its end */
     }
   }
+  if (line.ready && !report_busy())
+    run_line();
 }
 
 int main(void)
 {
   report_init(main_mcusr);
   proto_init(uart_sink);
-  uart_init(sample_pump);
+  uart_init();
   adc_init();
   adc_set_rate(FS_DEFAULT);
   sample_reset();
@@ -141,16 +154,17 @@ int main(void)
   adc_start(0, 0);
   for (;;) {
     sample_pump();
+    report_poll();
     poll_commands();
 #if REPORT > 0
-    if (sample_stats.since_report >= (uint32_t)REPORT * adc_rate()) {
+    if (!report_busy() && sample_stats.since_report >= (uint32_t)REPORT * adc_rate()) {
       sample_stats.since_report = 0;
-      report_send();
+      report_start();
     }
 #endif
-    /* Sleep until the next interrupt unless work arrived meanwhile. */
+    /* Sleep until the next interrupt unless there is work to do now. */
     cli();
-    if (!adc_pending() && !uart_rx_pending()) {
+    if (!adc_pending() && !uart_rx_pending() && !(report_busy() && uart_tx_room() >= REPORT_STEP_MAX)) {
       sleep_enable();
       sei();
       sleep_cpu();

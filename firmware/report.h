@@ -1,27 +1,35 @@
 /*
- * report.h - the device's output lines (docs/protocol.md): boot line,
- * reports (header, rows, human summary, end) and command replies.
+ * report.h - the device's output (docs/protocol.md): boot line, reports
+ * (header, rows, human summary, end) and command replies.
+ *
+ * Output never blocks the main loop.  One job (a reply, or a whole report)
+ * runs at a time; report_poll() advances it in steps of at most
+ * REPORT_STEP_MAX characters, each taken only when the TX ring has room for
+ * it, so sampling goes on while a report drains and the stack never holds
+ * a report and the Allan engine at once.
  */
 #ifndef REPORT_H
 #define REPORT_H
 
 #include <stdint.h>
 
-/* MCUSR bits captured at boot, for the `reset=` field. */
+/* Most characters one step writes; the UART's TX ring holds more. */
+#define REPORT_STEP_MAX 20
+
+/* MCUSR bits captured at boot, for the `reset=` fields. */
 void report_init(uint8_t reset_cause);
 
+/* Queue jobs (only while !report_busy()). */
 void report_boot(void);
+void report_start(void);                         /* a whole report, after the current job */
+void report_ok(const char *text_P);              /* `ok` or `ok <text>` */
+void report_ok_n(const char *text_P, uint32_t n); /* `ok <text><n>` */
+void report_error(uint8_t code, const char *text_P);
 
-/* A whole report; sampling goes on while it drains. */
-void report_send(void);
+/* 1 while a job is being written. */
+uint8_t report_busy(void);
 
-/* `ok`, `ok <detail>` (detail from flash, may be 0). */
-void report_ok(const char *detail_P);
-
-/* `ok <detail><n>`, e.g. "ok stopped n=" 1234. */
-void report_ok_n(const char *detail_P, uint32_t n);
-
-/* `error:<code> <reason>` (reason from flash). */
-void report_error(uint8_t code, const char *reason_P);
+/* Write as much of the current job as the TX ring takes now. */
+void report_poll(void);
 
 #endif /* REPORT_H */

@@ -25,9 +25,10 @@ void sample_pump(void)
     if (code[COL_TEMP] > sample_stats.temp_max)
       sample_stats.temp_max = code[COL_TEMP];
     sample_stats.since_report++;
-    /* columns 0..5 are the sensors */
-    if (allan_push(&sample_engine, code) != ALLAN_OK && sample_stats.refused != 0xFFFFFFFFul)
-      sample_stats.refused++;
+    /* Columns 0..5 are the sensors.  A set the engine refuses (its 32-bit
+     * count is full) is lost like a dropped one, and counted as such. */
+    if (allan_push(&sample_engine, code) != ALLAN_OK)
+      adc_count_drop();
     BOARD_PROBE_SAMPLE_OFF();
   }
 }
@@ -38,7 +39,6 @@ void sample_reset(void)
   allan_reset(&sample_engine);
   for (i = 0; i < ADC_COLUMNS; i++)
     sample_stats.clips[i] = 0;
-  sample_stats.refused = 0;
   adc_clear_drops();
 }
 

@@ -16,7 +16,6 @@ typedef struct {
   uint32_t temp_n;
   uint16_t temp_min, temp_max;
   uint32_t since_report;       /* sample sets since the last periodic report */
-  uint32_t refused;            /* sets the engine refused (its counter is full) */
 } sample_stats_t;
 
 extern allan_t sample_engine;

@@ -8,6 +8,7 @@
 #include <util/atomic.h>
 
 #include "config.h"
+#include "report.h"
 
 #ifndef BAUD
 #  error "BAUD must be given (the Makefile passes 115200 by default)"
@@ -33,19 +34,25 @@
 #  error "BAUD cannot be generated from F_CPU within the USART's error limits (2.0% normal, 1.5% U2X)"
 #endif
 
-#define UART_TX_SIZE 16 /* powers of two */
-#define UART_RX_SIZE 8
+#define UART_TX_SIZE 24 /* above REPORT_STEP_MAX: one output step always fits */
+#define UART_RX_SIZE 8  /* a power of two */
+#if UART_TX_SIZE <= REPORT_STEP_MAX
+#  error "the TX ring must hold one whole output step"
+#endif
 
 static volatile uint8_t tx_buf[UART_TX_SIZE];
 static volatile uint8_t tx_head, tx_tail;
 static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
 static volatile uint8_t rx_lost;
-static void (*uart_idle)(void);
 
-void uart_init(void (*idle)(void))
+static uint8_t tx_next(uint8_t i)
 {
-  uart_idle = idle;
+  return (uint8_t)(i + 1u == UART_TX_SIZE ? 0u : i + 1u);
+}
+
+void uart_init(void)
+{
   UBRR0H = (uint8_t)(UART_UBRR >> 8);
   UBRR0L = (uint8_t)UART_UBRR;
 #if UART_U2X
@@ -59,17 +66,18 @@ void uart_init(void (*idle)(void))
 
 void uart_write(uint8_t c)
 {
-  uint8_t next = (uint8_t)((tx_head + 1u) & (UART_TX_SIZE - 1u));
+  uint8_t next = tx_next(tx_head);
   while (next == tx_tail)
-    uart_idle();
+    ; /* callers check uart_tx_room() first: this never waits in practice */
   tx_buf[tx_head] = c;
   tx_head = next;
   UCSR0B |= (1 << UDRIE0);
 }
 
-uint8_t uart_tx_busy(void)
+uint8_t uart_tx_room(void)
 {
-  return tx_head != tx_tail;
+  uint8_t h = tx_head, t = tx_tail;
+  return (uint8_t)(UART_TX_SIZE - 1u - (h >= t ? h - t : h + UART_TX_SIZE - t));
 }
 
 int16_t uart_read(void)
@@ -96,7 +104,7 @@ ISR(USART_UDRE_vect)
 {
   uint8_t t = tx_tail;
   UDR0 = tx_buf[t];
-  t = (uint8_t)((t + 1u) & (UART_TX_SIZE - 1u));
+  t = tx_next(t);
   tx_tail = t;
   if (t == tx_head)
     UCSR0B &= (uint8_t)~(1 << UDRIE0);

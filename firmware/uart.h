@@ -6,12 +6,14 @@
 
 #include <stdint.h>
 
-/* idle: called while uart_write waits for room in the TX ring, so the main
- * loop keeps feeding the Allan engine while a report drains. */
-void uart_init(void (*idle)(void));
+void uart_init(void);
 
-/* Queue one byte; waits (running idle) while the TX ring is full. */
+/* Queue one byte; waits while the TX ring is full, so callers first check
+ * uart_tx_room() (the output scheduler writes only what fits). */
 void uart_write(uint8_t c);
+
+/* Bytes the TX ring can take now. */
+uint8_t uart_tx_room(void);
 
 /* Next received byte, or -1 when none is waiting. */
 int16_t uart_read(void);
@@ -21,8 +23,5 @@ uint8_t uart_rx_pending(void);
 
 /* Bytes lost because the RX ring was full (since boot, saturating). */
 uint8_t uart_rx_overruns(void);
-
-/* 1 while bytes are still queued or being shifted out. */
-uint8_t uart_tx_busy(void);
 
 #endif /* UART_H */
