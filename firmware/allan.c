@@ -59,31 +59,31 @@ static __attribute__((noinline)) void cell_carry(allan_t *a, uint8_t ch, uint8_t
 
 /* acc += d^2 for d >= 2^16 (d < 2^24): d = a 2^16 + b, so
  * d^2 = a^2 2^32 + 2ab 2^16 + b^2, added in 32-bit pieces.  Rare: only
- * high levels see differences this large. */
-static __attribute__((noinline)) void cell_add_wide(allan_t *a, uint8_t ch, uint8_t level, uint32_t d)
+ * high levels see differences this large.  Calls nothing, to keep the
+ * deepest stack of the sampling path short. */
+static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ext, uint32_t d)
 {
-  allan_cell_t *c = &a->cell[ch][level];
   uint8_t hi8 = (uint8_t)(d >> 16);
   uint16_t b = (uint16_t)d;
   uint32_t cross = (uint32_t)hi8 * b * 2u; /* below 2^25 */
   uint32_t sq_lo = (uint32_t)b * b, t;
-  uint16_t sq_hi = (uint16_t)((uint16_t)hi8 * hi8); /* d^2 = sq_hi 2^32 + sq_lo */
+  uint32_t up = (uint16_t)hi8 * hi8; /* d^2 = up 2^32 + sq_lo */
   t = sq_lo + (cross << 16);
-  sq_hi = (uint16_t)(sq_hi + (t < sq_lo) + (cross >> 16));
-  sq_lo = t;
-  t = c->acc_lo + sq_lo;
-  sq_hi = (uint16_t)(sq_hi + (t < sq_lo)); /* at most 2^16 - 1: no wrap */
-  c->acc_lo = t;
-  /* Add sq_hi to bits 32..47 one byte at a time through the carry path. */
-  if ((uint8_t)sq_hi)
-    cell_carry(a, ch, level, (uint8_t)sq_hi);
-  if (sq_hi >> 8) {
-    uint8_t *ext = acc_ext(a, ch, level);
-    if (!ext || (uint16_t)(*ext + (sq_hi >> 8)) > 0xFFu)
+  up += (t < sq_lo) + (cross >> 16);
+  sq_lo = c->acc_lo + t;
+  up += (sq_lo < t) + c->acc_mid; /* below 2^17 */
+  /* up now holds bits 32.. of the sum: its low byte is the new acc_mid,
+   * the rest must fit the extension byte (48-bit levels only). */
+  if (up >> 8) {
+    uint16_t top = (uint16_t)(up >> 8);
+    if (!ext || (uint16_t)(*ext + top) > 0xFFu) {
       cell_saturate(c, ext);
-    else
-      *ext = (uint8_t)(*ext + (sq_hi >> 8));
+      return;
+    }
+    *ext = (uint8_t)(*ext + top);
   }
+  c->acc_lo = sq_lo;
+  c->acc_mid = (uint8_t)up;
 }
 
 /* acc += d^2, saturating at the accumulator's width.  The common case, every
@@ -98,7 +98,7 @@ static void cell_add_square(allan_t *a, uint8_t ch, uint8_t level, allan_cell_t 
     if (lo < sq)
       cell_carry(a, ch, level, 1);
   } else {
-    cell_add_wide(a, ch, level, d);
+    cell_add_wide(c, acc_ext(a, ch, level), d);
   }
 }
 

@@ -8,7 +8,7 @@
 #include <stdint.h>
 
 /* Longest command line accepted, excluding its end of line. */
-#define COMMAND_LINE_MAX 23
+#define COMMAND_LINE_MAX 16 /* "start 4294967295" */
 
 enum {
   CMD_NONE = 0, /* empty line: ignored, no reply */

@@ -138,6 +138,8 @@ static void poll_commands(void)
     run_line();
 }
 
+/* main never returns: OS_main spares it saving registers on the stack. */
+int main(void) __attribute__((OS_main));
 int main(void)
 {
   report_init(main_mcusr);

@@ -27,6 +27,9 @@
 
 #include "sim_rows.h"
 
+/* the accessors of avr_uart.h's receive FIFO (avr_uart_t.input) */
+DEFINE_FIFO(uint16_t, uart_fifo);
+
 #define PROG "imu-sim"
 #define NEUTRAL_CODE 512
 #define ROW_WIN 64          /* rows kept for channels that lag behind */
@@ -88,7 +91,7 @@ static struct {
   size_t txq_head, txq_len, txq_cap;
   int tx_busy, xoff;
   avr_cycle_count_t tx_free_at;
-  uint64_t bytes_in, bytes_lost;
+  uint64_t bytes_in, bytes_lost, xoffs;
   uart_in_t *uin;
   long nuin, uin_next;
   size_t user_line_len;
@@ -192,6 +195,11 @@ static void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
     if (!g.verbose)
       return;
   }
+  /* simavr 1.6 warns about any OCRnx write while the timer's clock is
+   * stopped; the value is applied when the clock starts: noise. */
+  if (!g.verbose && strstr(msg, "avr_timer_write_ocr") &&
+      strstr(msg, "mode 0 UNSUPPORTED"))
+    return;
   if (level > show)
     return;
   if (!g.verbose && g.log_shown >= LOG_CAP) {
@@ -217,12 +225,20 @@ static avr_cycle_count_t byte_cycles(void)
   return (avr_cycle_count_t)bits * (ubrr + 1) * (avr_regbit_get(avr, u->u2x) ? 8 : 16);
 }
 
+/* Sends the next queued byte, then comes back one byte time later.  While
+ * simavr's receive FIFO is full (XOFF) it waits, polling the FIFO once a
+ * byte time, so a missed XON cannot stall it. */
 static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *param)
 {
   (void)param;
-  if (!g.txq_len || g.xoff) {
-    g.tx_busy = 0;      /* restarted by tx_push() or by XON */
+  if (!g.txq_len) {
+    g.tx_busy = 0;      /* restarted by tx_push() */
     return 0;
+  }
+  if (g.xoff || uart_fifo_isfull(&g.uart->input)) {
+    if (uart_fifo_isfull(&g.uart->input))
+      return when + byte_cycles();
+    g.xoff = 0;
   }
   uint8_t c = g.txq[g.txq_head++];
   g.txq_len--;
@@ -233,7 +249,7 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
   avr_raise_irq(g.uart_irq + UART_IRQ_INPUT, c);
   g.bytes_in++;
   g.tx_free_at = when + byte_cycles();
-  if (!g.txq_len || g.xoff) {
+  if (!g.txq_len) {
     g.tx_busy = 0;
     return 0;
   }
@@ -242,7 +258,7 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
 
 static void tx_kick(void)
 {
-  if (g.tx_busy || !g.txq_len || g.xoff)
+  if (g.tx_busy || !g.txq_len)
     return;
   avr_cycle_count_t now = g.avr->cycle;
   g.tx_busy = 1;
@@ -270,18 +286,16 @@ static void tx_push(const uint8_t *b, size_t n)
 static void xon_notify(avr_irq_t *irq, uint32_t value, void *param)
 {
   (void)irq; (void)param;
-  if (value) {
+  if (value)
     g.xoff = 0;
-    tx_kick();
-  }
 }
 
 static void xoff_notify(avr_irq_t *irq, uint32_t value, void *param)
 {
   (void)irq; (void)param;
+  if (value && !g.xoff)
+    g.xoffs++;
   g.xoff = value != 0;
-  if (!g.xoff)
-    tx_kick();
 }
 
 /* A harness command: ends an unterminated user line first, so that the
@@ -690,10 +704,29 @@ static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
   g.slept += how_long + 1;   /* the core then adds 1 + how_long cycles */
 }
 
+/* 1 if PATH is an AVR ELF executable. */
+static int elf_is_avr(const char *path)
+{
+  int fd = open(path, O_RDONLY), ok = 0;
+  if (fd < 0 || elf_version(EV_CURRENT) == EV_NONE) {
+    if (fd >= 0)
+      close(fd);
+    return 0;
+  }
+  Elf *e = elf_begin(fd, ELF_C_READ, NULL);
+  GElf_Ehdr eh;
+  if (e && elf_kind(e) == ELF_K_ELF && gelf_getehdr(e, &eh))
+    ok = eh.e_machine == EM_AVR;
+  if (e)
+    elf_end(e);
+  close(fd);
+  return ok;
+}
+
 /* End of .bss (start of the heap) from the ELF symbol table, or 0. */
 static uint16_t elf_bss_end(const char *path)
 {
-  static const char *const names[] = { "__heap_start", "__bss_end", "_end" };
+  static const char *const names[] = { "__heap_start", "_end", "__bss_end" };
   uint32_t found[3] = { 0, 0, 0 };
   int fd = open(path, O_RDONLY);
   if (fd < 0 || elf_version(EV_CURRENT) == EV_NONE) {
@@ -749,21 +782,29 @@ static stack_t_ stack_mark(void)
   return s;
 }
 
-static void print_stats(void)
+static void print_stats(int json)
 {
   avr_t *avr = g.avr;
   stack_t_ st = stack_mark();
   double sim_s = sim_time();
   double busy = avr->cycle ? 1.0 - (double)g.slept / (double)avr->cycle : 0.0;
   FILE *f = stderr;
-  int json = g.stats_json != NULL;
-  char smean[32] = "null", imean[32] = "null";
+  char smean[32] = "null", imean[32] = "null", smax[32] = "null";
+  char imax[32] = "null", dn[32] = "null", dd[32] = "null";
   char sused[32] = "null", sfree[32] = "null", bss[32] = "null";
 
-  if (g.pb0.count)
+  if (g.pb0.count) {
     snprintf(smean, sizeof smean, "%.1f", (double)g.pb0.sum / g.pb0.count);
-  if (g.pb1.count)
+    snprintf(smax, sizeof smax, "%llu", (unsigned long long)g.pb0.max);
+  }
+  if (g.pb1.count) {
     snprintf(imean, sizeof imean, "%.1f", (double)g.pb1.sum / g.pb1.count);
+    snprintf(imax, sizeof imax, "%llu", (unsigned long long)g.pb1.max);
+  }
+  if (g.dev_n >= 0)
+    snprintf(dn, sizeof dn, "%lld", g.dev_n);
+  if (g.dev_drops >= 0)
+    snprintf(dd, sizeof dd, "%lld", g.dev_drops);
   if (st.have_stack) {
     snprintf(sused, sizeof sused, "%u", st.stack_used);
     snprintf(sfree, sizeof sfree, "%u", st.stack_free);
@@ -791,10 +832,10 @@ static void print_stats(void)
   KV("extra_conversions", "%llu", (unsigned long long)g.extra_conv);
   KV("sample_count", "%llu", (unsigned long long)g.pb0.count);
   KV("sample_cycles_mean", "%s", smean);
-  KV("sample_cycles_max", "%llu", (unsigned long long)g.pb0.max);
+  KV("sample_cycles_max", "%s", smax);
   KV("isr_count", "%llu", (unsigned long long)g.pb1.count);
   KV("isr_cycles_mean", "%s", imean);
-  KV("isr_cycles_max", "%llu", (unsigned long long)g.pb1.max);
+  KV("isr_cycles_max", "%s", imax);
   KV("cpu_busy_fraction", "%.6f", busy);
   KV("cycles_total", "%llu", (unsigned long long)avr->cycle);
   KV("cycles_slept", "%llu", (unsigned long long)g.slept);
@@ -806,9 +847,10 @@ static void print_stats(void)
   KV("stack_sp_depth_bytes", "%u", (unsigned)(avr->ramend - g.sp_min));
   KV("uart_bytes_out", "%llu", (unsigned long long)g.bytes_out);
   KV("uart_bytes_in", "%llu", (unsigned long long)g.bytes_in);
+  KV("uart_xoff_events", "%llu", (unsigned long long)g.xoffs);
   KV("bad_crc_lines", "%llu", (unsigned long long)g.bad_crc);
-  KV("device_n", "%lld", g.dev_n);
-  KV("device_drops", "%lld", g.dev_drops);
+  KV("device_n", "%s", dn);
+  KV("device_drops", "%s", dd);
   KV("sim_seconds", "%.6f", sim_s);
   KV("wall_seconds", "%.6f", g.wall_s);
   KV("sim_speed_x", "%.2f", g.wall_s > 0 ? sim_s / g.wall_s : 0.0);
@@ -858,11 +900,15 @@ static void usage(FILE *f)
 "                    blank lines and '#' comments are skipped.  The whole\n"
 "                    file is checked before the simulation starts (stdin is\n"
 "                    copied to a temporary file for that); a bad row stops\n"
-"                    with 'imu-sim: FILE:LINE: reason' and exit status 2.\n"
+"                    with 'imu-sim: FILE:LINE: reason' (LINE: line number\n"
+"                    in the file) and exit status 2.  Codes of mux channels\n"
+"                    other than 0..6 read 0 (with a warning).\n"
 "  --fs HZ           send 'rate HZ' before 'reset' (default: firmware's rate)\n"
-"  --uart-in FILE    timed host input.  Lines '<N><TAB><text>': text is sent\n"
-"                    once N rows have been consumed (N=0: right after\n"
-"                    'start' was acknowledged), lines in non-decreasing N.\n"
+"  --uart-in FILE    timed host input ('-' for stdin).  Lines\n"
+"                    '<N><TAB><text>': text is sent once N rows have been\n"
+"                    consumed, i.e. mux 6 of row N-1 was converted (N=0:\n"
+"                    right after 'start' was acknowledged); N must not\n"
+"                    decrease from line to line.\n"
 "                    Text is sent as is, with escapes \\r \\n \\t \\\\ \\xNN;\n"
 "                    end a command with \\r yourself (e.g. '500<TAB>report\\r').\n"
 "                    '#' lines and blank lines are skipped.  Replies to these\n"
@@ -888,15 +934,16 @@ static void usage(FILE *f)
 "  cpu_busy_fraction 1 - slept cycles / total cycles\n"
 "  stack_used_bytes, stack_free_bytes    SRAM is filled with 0xA5 before the\n"
 "                    run; the lowest overwritten byte above the end of .bss\n"
-"                    (__heap_start) marks the deepest stack; free = bytes\n"
-"                    between the end of .bss and that byte\n"
+"                    (__heap_start, else _end) marks the deepest stack;\n"
+"                    free = bytes between the end of .bss and that byte\n"
 "  stack_sp_min, stack_sp_depth_bytes    lowest stack pointer seen (checked\n"
 "                    after every instruction) and RAMEND minus it: counts\n"
 "                    reserved but unwritten frames too; below .bss = overflow\n"
 "  sim_seconds, wall_seconds, sim_speed_x  simulated and host time of the\n"
 "                    simulation, and their ratio\n"
 "  rows_consumed, extra_scans, device_n, device_drops (from the final $H),\n"
-"  uart_bytes_in/out, bad_crc_lines, cycles_total, cycles_slept\n"
+"  uart_bytes_in/out, uart_xoff_events (simavr's receive FIFO was full),\n"
+"  bad_crc_lines, cycles_total, cycles_slept\n"
 "  Unmeasured figures are null.\n"
 "\n"
 "Exit status: 0 done; 1 firmware crash or halt, device error reply, or\n"
@@ -1004,6 +1051,8 @@ int main(int argc, char **argv)
   }
   if (access(g.elf_path, R_OK))
     die(EXIT_INPUT, "%s: %s", g.elf_path, strerror(errno));
+  if (!elf_is_avr(g.elf_path))
+    die(EXIT_INPUT, "%s: not an AVR ELF file", g.elf_path);
 
   /* Serial output goes to the real stdout (or -o); simavr's own printf
    * chatter on fd 1 goes to /dev/null (stderr with -v). */
@@ -1027,8 +1076,8 @@ int main(int argc, char **argv)
 
   avr_global_logger_set(logger);
   memset(&fw, 0, sizeof fw);
-  if (elf_read_firmware(g.elf_path, &fw))
-    die(EXIT_INPUT, "%s: cannot load the firmware ELF", g.elf_path);
+  if (elf_read_firmware(g.elf_path, &fw) || !fw.flashsize)
+    die(EXIT_INPUT, "%s: no firmware could be loaded from this ELF", g.elf_path);
   if (g.mcu)
     snprintf(fw.mmcu, sizeof fw.mmcu, "%s", g.mcu);
   else if (!fw.mmcu[0])
@@ -1100,8 +1149,10 @@ int main(int argc, char **argv)
              (unsigned long long)rows_consumed(),
              (unsigned long long)g.nrows, sim_time());
       else
-        fail(EXIT_TIMEOUT, "timeout: waited %g simulated s for %s (t=%.3f s)",
-             g.timeout_s, st_wait[g.state], sim_time());
+        fail(EXIT_TIMEOUT, "timeout: waited %g simulated s for %s (t=%.3f s)%s",
+             g.timeout_s, st_wait[g.state], sim_time(),
+             g.pending_user_replies ? "; --uart-in commands still lack "
+             "replies: did the device drop command lines?" : "");
     }
   }
   clock_gettime(CLOCK_MONOTONIC, &t1);
@@ -1154,8 +1205,10 @@ int main(int argc, char **argv)
          (unsigned long long)g.uin[g.uin_next].index,
          (unsigned long long)g.nrows);
 
-  if ((g.stats_text || g.stats_json) && st != cpu_Done)
-    print_stats();
+  if (g.stats_text && st != cpu_Done)
+    print_stats(0);
+  if (g.stats_json && st != cpu_Done)
+    print_stats(1);
   if (code != EXIT_OK)
     fprintf(stderr, PROG ": %s\n", g.fail_msg);
   if (fclose(g.out))

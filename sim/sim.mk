@@ -7,11 +7,16 @@ IMU_SIM := $(BUILD)/host/imu-sim
 IMU_SIM_SRC := sim/imu_sim.c sim/sim_rows.c
 IMU_SIM_HDR := sim/sim_rows.h
 
-# simavr's headers include each other as "sim_avr.h": their directory must
-# be on the include path.  -isystem keeps -Werror off their warnings.
-SIMAVR_INC := $(or $(patsubst -I%,%,$(filter -I%,$(shell pkg-config --cflags simavr 2>/dev/null))),/usr/include/simavr)
-IMU_SIM_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -isystem $(SIMAVR_INC)
-IMU_SIM_LIBS := -lsimavr -lelf -lpthread
+# simavr's headers include each other as "sim_avr.h", so their directory
+# goes on the include path; as -isystem, so that -Werror spares them.
+SIMAVR_CFLAGS := $(patsubst -I%,-isystem %,$(shell pkg-config --cflags simavr 2>/dev/null))
+ifeq ($(strip $(SIMAVR_CFLAGS)),)
+SIMAVR_CFLAGS := -isystem /usr/include/simavr
+endif
+# libsimavr itself only needs libelf; imu-sim reads the ELF's symbols with
+# libelf too.
+IMU_SIM_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror $(SIMAVR_CFLAGS)
+IMU_SIM_LIBS := -lsimavr -lelf
 
 .PHONY: sim
 

@@ -5,7 +5,10 @@ A device row (channel, level k, pairs p, acc) covers exactly the first
 over the file, stopped per (level, channel) after p pairs, gives for every
 row both the exact integer sum of squared cluster-sum differences (must
 equal ``acc`` bit for bit) and the float64 Allan variance (must agree with
-acc / (2 m^2 p) within ``REL_TOL``).
+acc / (2 m^2 p) within ``REL_TOL``). Flagged rows are listed, not compared:
+a SAT row must carry a saturation value (2^48 - 1, or 2^40 - 1 for narrower
+accumulators) no larger than the exact sum, and an unflagged row's exact sum
+must stay below 2^48 - 1.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ from .reference import OctaveCascade
 from .rows import PathLike, iter_blocks
 
 REL_TOL = 1e-12
+SAT_VALUES = ((1 << 40) - 1, ACC_MAX)
 
 
 @dataclass
@@ -89,26 +93,34 @@ def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = N
         if r.flags & FLAG_RANGE:
             res.flagged.append(f"{where} {'+'.join(flag_names(r.flags))}")
             continue
-        if bool(r.flags & FLAG_SAT) != (true >= ACC_MAX):
-            bad(f"{where}: SAT flag {'set' if r.flags & FLAG_SAT else 'clear'} but the exact sum "
-                f"is {true} ({'at least' if true >= ACC_MAX else 'below'} 2^48-1)")
-            continue
         if r.flags & FLAG_SAT:
-            res.flagged.append(f"{where} sat")
+            # The device sends its accumulator's saturation value (all ones of
+            # its width: 2^48 - 1 per docs/protocol.md; 2^40 - 1 for the
+            # narrower accumulators of some builds); the true sum is at least that.
+            if r.acc not in SAT_VALUES or true < r.acc:
+                bad(f"{where}: SAT flag set with acc {r.acc} (0x{r.acc:012X}) but the exact "
+                    f"sum is {true} (0x{true:012X})" + (
+                        "" if r.acc in SAT_VALUES else f"; a saturated acc is 2^40-1 or 2^48-1"))
+            else:
+                res.flagged.append(f"{where} sat")
+            continue
+        if true >= ACC_MAX:
+            bad(f"{where}: SAT flag clear but the exact sum {true} is at least 2^48-1")
             continue
         res.compared += 1
-        if r.acc == true:
-            res.exact += 1
-        else:
-            bad(f"{where}: acc {r.acc} (0x{r.acc:012X}) but the exact sum is {true} "
-                f"(0x{true:012X}), off by {r.acc - true:+d}")
+        rel = 0.0
         if r.pairs:
             want = float(ref[k, c])
             rel = abs(r.avar - want) / abs(want) if want else (0.0 if r.avar == 0 else float("inf"))
             res.max_rel = max(res.max_rel, rel)
-            if rel > REL_TOL:
-                bad(f"{where}: avar {r.avar!r} vs float64 reference {want!r} "
-                    f"(relative difference {rel:.3g} > {REL_TOL:g})")
+        if r.acc != true:
+            bad(f"{where}: acc {r.acc} (0x{r.acc:012X}) but the exact sum is {true} "
+                f"(0x{true:012X}), off by {r.acc - true:+d}")
+            continue
+        res.exact += 1
+        if rel > REL_TOL:
+            bad(f"{where}: avar {r.avar!r} vs float64 reference {want!r} "
+                f"(relative difference {rel:.3g} > {REL_TOL:g})")
     return res
 
 

@@ -145,7 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
             "the host recomputes, over exactly those rows, the exact integer sum\n"
             "(must equal the device's acc bit for bit) and the float64 Allan\n"
             "variance (must agree within 1e-12 relative). Flagged rows (sat,\n"
-            "range) are listed, not compared; a SAT flag must match the exact sum.\n"
+            "range) are listed, not compared; a sat row's exact sum must reach\n"
+            "its acc (the saturation value).\n"
             "The header must show no drops and at most as many samples as FILE."),
         epilog=EPILOG_EXIT.format(one="any mismatch, or no complete report"))
     p.add_argument("log", metavar="LOG", help="device log file (- for stdin)")

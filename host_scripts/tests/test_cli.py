@@ -1,0 +1,108 @@
+"""The command line: help, one-line errors, exit codes, the sim wrapper."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from imu_allan import simrun
+
+COMMANDS = ("decode", "reference", "check", "gen", "sim")
+
+
+def test_help(run_cli) -> None:
+    rc, out, _ = run_cli("--help")
+    assert rc == 0 and all(c in out for c in COMMANDS) and "typical session" in out
+    for c in COMMANDS:
+        rc, out, _ = run_cli(c, "--help")
+        assert rc == 0 and out.startswith(f"usage: imu-allan {c}")
+
+
+def test_no_command_is_a_usage_error(run_cli) -> None:
+    rc, out, err = run_cli()
+    assert rc == 2 and "COMMAND" in err
+
+
+@pytest.mark.parametrize("argv", [
+    ("decode", "/nonexistent/dev.log"),
+    ("reference", "/nonexistent/rows.txt", "--fs", "100"),
+    ("check", "/nonexistent/dev.log", "/nonexistent/rows.txt"),
+])
+def test_missing_file_is_one_line(run_cli, argv) -> None:
+    rc, out, err = run_cli(*argv)
+    assert rc == 2 and out == ""
+    assert err == f"imu-allan {argv[0]}: cannot read '{argv[1]}': No such file or directory\n"
+
+
+def test_wrong_column_count_is_one_line(tmp_path: Path, run_cli) -> None:
+    p = tmp_path / "rows.txt"
+    p.write_text("# rows\n1\t2\t3\t4\t5\t6\t7\n1\t2\t3\t4\t5\t6\n")
+    rc, out, err = run_cli("reference", p, "--fs", "100")
+    assert rc == 2 and out == ""
+    assert err == f"imu-allan reference: {p}: line 3: 6 columns, expected 7 (ax ay az gx gy gz temp)\n"
+
+
+@pytest.mark.parametrize("argv", [("reference", "x.txt"), ("decode",), ("gen", "-n", "1"),
+                                  ("reference", "x", "--fs", "-3"), ("decode", "x", "--json", "--csv")])
+def test_usage_errors_are_one_line(run_cli, argv) -> None:
+    rc, out, err = run_cli(*argv)
+    assert rc == 2 and err.count("\n") == 1 and "--help" in err
+
+
+def test_console_script_has_no_traceback(tmp_path: Path) -> None:
+    exe = Path(sys.executable).with_name("imu-allan")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "imu_allan.cli"]
+    p = subprocess.run(cmd + ["decode", str(tmp_path / "none.log")], capture_output=True, text=True)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
+
+
+# ---- sim: a thin wrapper, tried with a fake harness --------------------------------
+
+@pytest.fixture
+def fake_sim(tmp_path: Path, monkeypatch) -> Path:
+    sim = tmp_path / "imu-sim"
+    sim.write_text('#!/bin/sh\nprintf "%s\\n" "$@" > "$(dirname "$0")/args"\nexit 3\n')
+    sim.chmod(0o755)
+    monkeypatch.setenv("IMU_SIM", str(sim))
+    return sim
+
+
+def test_sim_passes_options_through(tmp_path: Path, run_cli, fake_sim: Path) -> None:
+    elf, adc, uart = tmp_path / "fw.elf", tmp_path / "adc.txt", tmp_path / "cmds.txt"
+    for p in (elf, adc, uart):
+        p.write_text("x")
+    rc, _, _ = run_cli("sim", "--adc", adc, "--fs", "200", "--uart-in", uart, "--firmware", elf,
+                       "--stats", "-o", tmp_path / "dev.log")
+    assert rc == 3  # the harness's exit status
+    args = (tmp_path / "args").read_text().splitlines()
+    assert args == ["--adc", str(adc), "--fs", "200", "--uart-in", str(uart),
+                    "-o", str(tmp_path / "dev.log"), "--stats", str(elf)]
+    run_cli("sim", "--adc", adc, "--firmware", elf, "--stats", tmp_path / "st.json", "-o", "x.log")
+    assert f"--stats={tmp_path / 'st.json'}" in (tmp_path / "args").read_text().splitlines()
+
+
+def test_sim_hints(tmp_path: Path, run_cli, monkeypatch) -> None:
+    adc = tmp_path / "adc.txt"
+    adc.write_text("x")
+    monkeypatch.setattr(simrun, "DEFAULT_ELF", tmp_path / "missing.elf")
+    rc, _, err = run_cli("sim", "--adc", adc, "-o", tmp_path / "d.log")
+    assert rc == 2 and err.count("\n") == 1 and "run 'make' first" in err
+    elf = tmp_path / "fw.elf"
+    elf.write_text("x")
+    monkeypatch.delenv("IMU_SIM", raising=False)
+    monkeypatch.setattr(simrun, "DEFAULT_SIM", tmp_path / "no-imu-sim")
+    monkeypatch.setenv("PATH", str(tmp_path))
+    rc, _, err = run_cli("sim", "--adc", adc, "--firmware", elf, "-o", tmp_path / "d.log")
+    assert rc == 2 and err.count("\n") == 1 and "run 'make sim'" in err
+    rc, _, err = run_cli("sim", "--adc", tmp_path / "none.txt", "--firmware", elf, "-o", "d.log")
+    assert rc == 2 and "none.txt" in err
+
+
+def test_default_paths_point_into_the_checkout() -> None:
+    assert (simrun.REPO / "host_scripts" / "imu_allan" / "simrun.py").is_file()
+    assert simrun.DEFAULT_SIM == simrun.REPO / "build" / "host" / "imu-sim"
+    assert simrun.DEFAULT_ELF == simrun.REPO / "build" / "avr-atmega168" / "imu-allan.elf"
+    assert os.path.basename(simrun.DEFAULT_ELF) == "imu-allan.elf"

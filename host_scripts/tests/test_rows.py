@@ -1,0 +1,68 @@
+"""Reading and writing thesis rows."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import thesis_like, write_rows
+from imu_allan.errors import InputError
+from imu_allan.rows import format_rows, iter_blocks, read_rows
+
+
+def test_reads_comments_blank_lines_crlf_and_spaces(tmp_path: Path) -> None:
+    p = tmp_path / "r.txt"
+    p.write_bytes(b"# thesis rows\n\n498\t494\t791\t520\t497\t498\t63  # first\r\n"
+                  b"   \n0 1023 7 8 9 10 11\n#end\n1\t2\t3\t4\t5\t6\t0007")  # no final newline
+    got = read_rows(p)
+    assert got.dtype == np.uint16 and got.shape == (7, 3)
+    assert got.T.tolist() == [[498, 494, 791, 520, 497, 498, 63], [0, 1023, 7, 8, 9, 10, 11],
+                              [1, 2, 3, 4, 5, 6, 7]]
+
+
+@pytest.mark.parametrize("block", [7, 64, 1000, 1 << 20])
+def test_block_boundaries_do_not_matter(tmp_path: Path, block: int) -> None:
+    rows = thesis_like(3000, 2)
+    p = write_rows(tmp_path / "r.txt", rows)
+    got = np.concatenate(list(iter_blocks(p, block_bytes=block)), axis=1)
+    assert np.array_equal(got.T, rows)
+
+
+@pytest.mark.parametrize("text, message", [
+    (b"1 2 3 4 5 6 7\n1 2 3 4 5 6\n", "line 2: 6 columns, expected 7"),
+    (b"#c\n1 2 3 4 5 6 7 8\n", "line 2: 8 columns, expected 7"),
+    (b"1 2 3 4 5 6 7\n\n1 2 3 4.5 5 6 7\n", "line 3: unexpected '.'"),
+    (b"1 2 3 4 5 6 -7\n", "line 1: unexpected '-'"),
+    (b"1 2 3 4 5 6 7\n1 2 3 4 5 6 1024\n", "line 2: code 1024 out of range 0..1023"),
+    (b"1 2 3 4 5 6 99999999999\n", "line 1: code out of range"),
+    (b"1 2 3 4 5 6 7\x00\n", "line 1: unexpected byte 0x00"),
+])
+def test_malformed_rows_name_file_and_line(tmp_path: Path, text: bytes, message: str) -> None:
+    p = tmp_path / "bad.txt"
+    p.write_bytes(text)
+    with pytest.raises(InputError) as exc:
+        read_rows(p)
+    assert str(exc.value).startswith(f"{p}: ") and message in str(exc.value)
+    assert "\n" not in str(exc.value)
+
+
+def test_error_line_numbers_across_blocks(tmp_path: Path) -> None:
+    rows = thesis_like(5000, 3)
+    p = write_rows(tmp_path / "r.txt", rows, comment="# a\n# b\n")
+    lines = p.read_bytes().split(b"\n")
+    lines[4001] = b"1 2 3"  # file line 4002
+    p.write_bytes(b"\n".join(lines))
+    with pytest.raises(InputError, match="line 4002: 3 columns"):
+        for _ in iter_blocks(p, block_bytes=4096):
+            pass
+
+
+def test_format_round_trip(tmp_path: Path) -> None:
+    rows = np.random.default_rng(1).integers(0, 1024, (7, 5000)).astype(np.uint16)
+    rows[:, :4] = [0, 9, 10, 1023]
+    text = format_rows(rows)
+    assert text.splitlines()[0] == b"0\t0\t0\t0\t0\t0\t0"
+    assert text.splitlines()[3] == b"1023\t" * 6 + b"1023"
+    p = tmp_path / "r.txt"
+    p.write_bytes(text)
+    assert np.array_equal(read_rows(p), rows)
+    assert text == "".join("\t".join(map(str, r)) + "\n" for r in rows.T.tolist()).encode()
