@@ -29,7 +29,8 @@ static volatile uint8_t scan_col;
 static volatile uint8_t scanning;
 static volatile uint8_t limited;
 static volatile uint32_t budget; /* scans left when limited */
-static volatile uint32_t drops;
+static volatile uint8_t isr_drops; /* counted by the ISRs, 8 bits to keep them small */
+static uint32_t drops;             /* folded in by the main loop */
 static uint16_t rate_hz = 100;
 
 static uint8_t ring_next(uint8_t i)
@@ -84,6 +85,17 @@ uint8_t adc_running(void)
   return (TIMSK1 & (1 << OCIE1A)) != 0;
 }
 
+/* Move the ISRs' count into the 32-bit total (main loop only). */
+static void fold_drops(void)
+{
+  uint8_t d;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    d = isr_drops;
+    isr_drops = 0;
+  }
+  drops = drops + d < drops ? 0xFFFFFFFFul : drops + d;
+}
+
 uint8_t adc_pending(void)
 {
   uint8_t h = ring_head, t = ring_tail;
@@ -94,6 +106,8 @@ uint8_t adc_pop(uint16_t code[ADC_COLUMNS])
 {
   uint8_t t = ring_tail, i;
   uint16_t hi;
+  if (isr_drops)
+    fold_drops(); /* keep the 8-bit ISR count far from saturating */
   if (t == ring_head)
     return 0;
   hi = ring[t].hi;
@@ -107,25 +121,27 @@ uint8_t adc_pop(uint16_t code[ADC_COLUMNS])
 
 uint32_t adc_drops(void)
 {
-  uint32_t d;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { d = drops; }
-  return d;
+  fold_drops();
+  return drops;
 }
 
 void adc_clear_drops(void)
 {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { drops = 0; }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { isr_drops = 0; }
+  drops = 0;
 }
 
-static inline void drop_one(void)
+static inline __attribute__((always_inline)) void drop_one(void)
 {
-  if (drops != 0xFFFFFFFFul)
-    drops++;
+  if (isr_drops != 0xFF)
+    isr_drops++;
 }
 
 void adc_count_drop(void)
 {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { drop_one(); }
+  fold_drops();
+  if (drops != 0xFFFFFFFFul)
+    drops++;
 }
 
 ISR(TIMER1_COMPA_vect)

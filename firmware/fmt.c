@@ -144,13 +144,15 @@ static uint16_t isqrt32(uint32_t x)
   return (uint16_t)r;
 }
 
-uint8_t fmt_adev(char *buf, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs, uint8_t level)
+int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs, uint8_t level)
 {
   uint32_t a = acc_lo, p = pairs, q;
   int8_t e = 0; /* avar * m^2 = q * 2^e */
 
-  if ((!acc_hi && !acc_lo) || !pairs)
-    return fmt_sig3(buf, 0, 0);
+  if ((!acc_hi && !acc_lo) || !pairs) {
+    *mant = 0;
+    return 0;
+  }
   /* a: the accumulator's top 32 bits; p: pairs' top 16 bits. */
   if (acc_hi) {
     while (acc_hi) {
@@ -180,10 +182,12 @@ uint8_t fmt_adev(char *buf, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs, ui
     q <<= 2;
     e = (int8_t)(e - 2);
   }
-  return fmt_sig3(buf, isqrt32(q), (int8_t)(e / 2 - (int8_t)level));
+  *mant = isqrt32(q);
+  return (int8_t)(e / 2 - (int8_t)level);
 }
 
-uint8_t fmt_tau(char *buf, uint8_t level, uint16_t fs)
+int8_t fmt_tau(uint32_t *mant, uint8_t level, uint16_t fs)
 {
-  return fmt_sig3(buf, 0x80000000ul / fs, (int8_t)(level - 31));
+  *mant = 0x80000000ul / fs;
+  return (int8_t)(level - 31);
 }

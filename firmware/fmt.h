@@ -23,10 +23,11 @@ void fmt_hex(char *buf, uint32_t v, uint8_t digits);
 uint8_t fmt_sig3(char *buf, uint32_t mant, int8_t exp);
 
 /* Allan deviation sqrt(acc / (2 pairs)) / 2^level, acc = hi 2^32 + lo,
- * 3 significant digits (relative error before rounding below 1e-4). */
-uint8_t fmt_adev(char *buf, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs, uint8_t level);
+ * as mant * 2^exp (returned) for fmt_sig3; relative error below 1e-4.
+ * Kept apart from the printing so the two never stack on each other. */
+int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs, uint8_t level);
 
-/* tau = 2^level / fs seconds, 3 significant digits. fs > 0. */
-uint8_t fmt_tau(char *buf, uint8_t level, uint16_t fs);
+/* tau = 2^level / fs seconds, as mant * 2^exp (returned). fs > 0. */
+int8_t fmt_tau(uint32_t *mant, uint8_t level, uint16_t fs);
 
 #endif /* FMT_H */

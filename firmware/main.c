@@ -88,7 +88,7 @@ static void execute(const command_t *cmd)
       stop_sampling();
       adc_set_rate((uint16_t)cmd->arg);
       sample_reset(); /* results from two rates would be meaningless */
-      sample_stats.since_report = 0;
+      sample_interval_restart();
       if (was_running)
         adc_start(0, 0);
     }
@@ -100,7 +100,7 @@ static void execute(const command_t *cmd)
   }
 }
 
-static void run_line(void)
+static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
   uint8_t err;
@@ -120,7 +120,7 @@ static void run_line(void)
 }
 
 /* Assemble command lines from the RX ring; run each when output is idle. */
-static void poll_commands(void)
+static __attribute__((noinline)) void poll_commands(void)
 {
   int16_t c;
   while (!line.ready && (c = uart_read()) >= 0) {
@@ -148,7 +148,7 @@ int main(void)
   adc_init();
   adc_set_rate(FS_DEFAULT);
   sample_reset();
-  sample_temp_restart();
+  sample_interval_restart();
   set_sleep_mode(SLEEP_MODE_IDLE);
   sei();
 
@@ -159,10 +159,8 @@ int main(void)
     report_poll();
     poll_commands();
 #if REPORT > 0
-    if (!report_busy() && sample_stats.since_report >= (uint32_t)REPORT * adc_rate()) {
-      sample_stats.since_report = 0;
-      report_start();
-    }
+    if (!report_busy() && sample_stats.since_report >= (uint32_t)REPORT * adc_rate())
+      report_start(); /* its header restarts the interval */
 #endif
     /* Sleep until the next interrupt unless there is work to do now. */
     cli();

@@ -143,9 +143,10 @@ static void put_cell(const char *s, uint8_t len)
   proto_puts(s);
 }
 
-/* ---- lines: each returns 1 when its last step is done ---- */
+/* ---- lines: each returns 1 when its last step is done ----
+ * Out of line, so that only the running step's locals are on the stack. */
 
-static uint8_t step_identity(uint8_t step)
+static __attribute__((noinline)) uint8_t step_identity(uint8_t step)
 {
   switch (step) {
   case 0: proto_puts_P(PSTR("proto=1,fw=")); break;
@@ -156,7 +157,7 @@ static uint8_t step_identity(uint8_t step)
   return 0;
 }
 
-static uint8_t step_boot(uint8_t step)
+static __attribute__((noinline)) uint8_t step_boot(uint8_t step)
 {
   if (step == 0) {
     proto_begin();
@@ -174,7 +175,7 @@ static uint8_t step_boot(uint8_t step)
   return 0;
 }
 
-static uint8_t step_header(uint8_t step)
+static __attribute__((noinline)) uint8_t step_header(uint8_t step)
 {
   const uint8_t clip0 = 11, temp = clip0 + ADC_COLUMNS;
   if (step == 0) {
@@ -201,11 +202,11 @@ static uint8_t step_header(uint8_t step)
     proto_u32(sample_stats.clips[step - clip0]);
   } else if (step == temp) {
     proto_puts_P(PSTR(",temp="));
-    if (sample_stats.temp_n) {
+    if (sample_stats.since_report) {
       /* mean to one decimal, without overflowing 32 bits */
-      uint32_t q = sample_stats.temp_sum / sample_stats.temp_n;
-      uint32_t r = sample_stats.temp_sum % sample_stats.temp_n;
-      uint32_t tenth = (r * 10u + sample_stats.temp_n / 2u) / sample_stats.temp_n;
+      uint32_t q = sample_stats.temp_sum / sample_stats.since_report;
+      uint32_t r = sample_stats.temp_sum % sample_stats.since_report;
+      uint32_t tenth = (r * 10u + sample_stats.since_report / 2u) / sample_stats.since_report;
       if (tenth == 10) {
         q++;
         tenth = 0;
@@ -217,11 +218,11 @@ static uint8_t step_header(uint8_t step)
       proto_putc('-');
     }
   } else if (step == temp + 1) {
-    if (sample_stats.temp_n) {
+    if (sample_stats.since_report) {
       put_key_u32(PSTR(":"), sample_stats.temp_min);
       put_key_u32(PSTR(":"), sample_stats.temp_max);
     }
-    sample_temp_restart(); /* the next report's interval starts here */
+    sample_interval_restart(); /* the next report's interval starts here */
   } else if (step == temp + 2) {
     proto_puts_P(adc_running() ? PSTR(",run=1,reset=") : PSTR(",run=0,reset="));
   } else if (step == temp + 3) {
@@ -233,7 +234,7 @@ static uint8_t step_header(uint8_t step)
   return 0;
 }
 
-static uint8_t step_row(uint8_t step)
+static __attribute__((noinline)) uint8_t step_row(uint8_t step)
 {
   switch (step) {
   case 0:
@@ -263,7 +264,7 @@ static uint8_t step_row(uint8_t step)
   return 0;
 }
 
-static uint8_t step_sum_head(uint8_t step)
+static __attribute__((noinline)) uint8_t step_sum_head(uint8_t step)
 {
   if (step == 0) {
     begin_seq('S');
@@ -278,20 +279,24 @@ static uint8_t step_sum_head(uint8_t step)
   return 0;
 }
 
-static uint8_t step_sum_row(uint8_t step)
+static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
 {
   char buf[FMT_SIG3_MAX + 1];
   uint8_t len;
+  uint32_t mant;
+  int8_t exp;
   if (step == 0) {
     begin_seq('S');
-    len = fmt_tau(buf, out.level, adc_rate());
+    exp = fmt_tau(&mant, out.level, adc_rate());
+    len = fmt_sig3(buf, mant, exp);
     put_cell(buf, len);
   } else if (step <= ALLAN_CHANNELS) {
     uint8_t ch = (uint8_t)(step - 1);
     uint16_t hi;
     uint32_t lo;
     allan_acc(&sample_engine, ch, out.level, &hi, &lo);
-    len = fmt_adev(buf, hi, lo, allan_pairs(&sample_engine, out.level), out.level);
+    exp = fmt_adev(&mant, hi, lo, allan_pairs(&sample_engine, out.level), out.level);
+    len = fmt_sig3(buf, mant, exp);
     if (allan_flags(&sample_engine, ch, out.level)) {
       buf[len++] = '!';
       buf[len] = 0;
@@ -304,7 +309,7 @@ static uint8_t step_sum_row(uint8_t step)
   return 0;
 }
 
-static uint8_t step_reply(uint8_t step)
+static __attribute__((noinline)) uint8_t step_reply(uint8_t step)
 {
   switch (step) {
   case 0:
@@ -333,7 +338,7 @@ static uint8_t step_reply(uint8_t step)
 }
 
 /* Advance the report by one step; returns 1 when the report is complete. */
-static uint8_t step_report(void)
+static __attribute__((noinline)) uint8_t step_report(void)
 {
   uint8_t done;
   switch (out.part) {

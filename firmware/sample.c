@@ -19,7 +19,6 @@ void sample_pump(void)
       if ((code[i] == 0 || code[i] == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFu)
         sample_stats.clips[i]++;
     sample_stats.temp_sum += code[COL_TEMP];
-    sample_stats.temp_n++;
     if (code[COL_TEMP] < sample_stats.temp_min)
       sample_stats.temp_min = code[COL_TEMP];
     if (code[COL_TEMP] > sample_stats.temp_max)
@@ -42,10 +41,10 @@ void sample_reset(void)
   adc_clear_drops();
 }
 
-void sample_temp_restart(void)
+void sample_interval_restart(void)
 {
+  sample_stats.since_report = 0;
   sample_stats.temp_sum = 0;
-  sample_stats.temp_n = 0;
   sample_stats.temp_min = 0xFFFF;
   sample_stats.temp_max = 0;
 }

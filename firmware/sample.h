@@ -12,10 +12,9 @@
 
 typedef struct {
   uint16_t clips[ADC_COLUMNS]; /* codes at 0 or 1023 since the last reset (saturating) */
+  uint32_t since_report;       /* sample sets in the current report interval */
   uint32_t temp_sum;           /* temperature over the current report interval */
-  uint32_t temp_n;
   uint16_t temp_min, temp_max;
-  uint32_t since_report;       /* sample sets since the last periodic report */
 } sample_stats_t;
 
 extern allan_t sample_engine;
@@ -27,7 +26,8 @@ void sample_pump(void);
 /* Clear the engine, clips and drops (a new run). */
 void sample_reset(void);
 
-/* Start a new report interval for the temperature statistics. */
-void sample_temp_restart(void);
+/* Start a new report interval (temperature statistics and the periodic
+ * report's sample count). */
+void sample_interval_restart(void);
 
 #endif /* SAMPLE_H */

@@ -111,6 +111,7 @@ static struct {
   avr_cycle_count_t slept;
   uint16_t bss_end;
   uint16_t sp_min;            /* lowest stack pointer seen */
+  uint32_t sp_min_pc;         /* program counter (bytes) when it was seen */
   double wall_s;
 
   /* simavr log */
@@ -845,6 +846,7 @@ static void print_stats(int json)
   KV("stack_free_bytes", "%s", sfree);
   KV("stack_sp_min", "%u", (unsigned)g.sp_min);
   KV("stack_sp_depth_bytes", "%u", (unsigned)(avr->ramend - g.sp_min));
+  KV("stack_deepest_pc", "%lu", (unsigned long)g.sp_min_pc);
   KV("uart_bytes_out", "%llu", (unsigned long long)g.bytes_out);
   KV("uart_bytes_in", "%llu", (unsigned long long)g.bytes_in);
   KV("uart_xoff_events", "%llu", (unsigned long long)g.xoffs);
@@ -1138,8 +1140,10 @@ int main(int argc, char **argv)
     if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
       break;
     uint16_t sp = (uint16_t)(avr->data[R_SPL] | avr->data[R_SPH] << 8);
-    if (sp < g.sp_min)
+    if (sp < g.sp_min) {
       g.sp_min = sp;
+      g.sp_min_pc = avr->pc;
+    }
     if (avr->cycle >= g.deadline) {
       if (g.state == ST_DRAIN)
         break;
