@@ -38,7 +38,7 @@ endif
 HOST_CC ?= cc
 HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
 
-.PHONY: all firmware deps test unit pytest demo clean
+.PHONY: all firmware deps test unit pytest sim-test demo demo-native clean
 
 all: firmware
 
@@ -63,7 +63,7 @@ deps:
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh
 
 # ---- tests ---------------------------------------------------------------
-test: firmware unit pytest
+test: firmware unit pytest sim-test
 
 unit:
 	cmake -S tests/unit -B $(BUILD)/unit -DUNITY_DIR=$(UNITY_DIR) >/dev/null
@@ -73,18 +73,44 @@ unit:
 pytest:
 	cd host_scripts && $(PYTHON) -m pytest -q
 
+# The real firmware ELF in simavr on synthetic streams, each checked exactly.
+sim-test: firmware $(IMU_SIM)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -n 2 tests/sim
+
 # ---- simulator harness (sim/sim.mk) ----------------------------------------
 -include sim/sim.mk
 
 # ---- demo ------------------------------------------------------------------
-DEMO := $(BUILD)/host/allan-demo
+# The main job: 10 minutes of a synthetic thesis-like IMU at 100 Hz through
+# the simulated device, then the device's results as a user reads them.
+DEMO_DIR := $(BUILD)/demo
+IMU_ALLAN := $(PYTHON) -m imu_allan.cli
 
-$(DEMO): sim/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)/config.h
+demo: firmware $(IMU_SIM)
+	@mkdir -p $(DEMO_DIR)
+	@$(IMU_ALLAN) gen -n 60000 --fs 100 --seed 1 -o $(DEMO_DIR)/imu.tsv
+	@echo "== simulated device: 60000 samples (10 min at 100 Hz) =="
+	@$(IMU_ALLAN) sim --adc $(DEMO_DIR)/imu.tsv --fs 100 -o $(DEMO_DIR)/device.log \
+	  --stats $(DEMO_DIR)/stats.json
+	@$(PYTHON) -c 'import json,sys; s=json.load(open(sys.argv[1])); \
+	  print("simulated %.0f s in %.1f s of wall time (%.0fx), stack free %d bytes" % \
+	  (s["sim_seconds"], s["wall_seconds"], s["sim_speed_x"], s["stack_free_bytes"]))' $(DEMO_DIR)/stats.json
+	@echo "== what the device printed (human summary of its last report) =="
+	@grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 16 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'
+	@echo "== decoded by the host (imu-allan decode $(DEMO_DIR)/device.log) =="
+	@$(IMU_ALLAN) decode $(DEMO_DIR)/device.log
+	@echo "== exactness (imu-allan check against the float64 reference) =="
+	@$(IMU_ALLAN) check $(DEMO_DIR)/device.log $(DEMO_DIR)/imu.tsv
+
+# The engine alone, natively, on 2^20 synthetic samples.
+NATIVE_DEMO := $(BUILD)/host/allan-demo
+
+$(NATIVE_DEMO): sim/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)/config.h
 	mkdir -p $(dir $@)
 	$(HOST_CC) $(HOST_CFLAGS) sim/allan_demo.c $(FW_DIR)/allan.c -lm -o $@
 
-demo: $(DEMO)
-	$(DEMO)
+demo-native: $(NATIVE_DEMO)
+	$(NATIVE_DEMO)
 
 clean:
 	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/host
