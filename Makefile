@@ -38,6 +38,9 @@ endif
 HOST_CC ?= cc
 HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
 
+# The simulator harness imu-sim (defines IMU_SIM, used by rules below).
+include sim/sim.mk
+
 .PHONY: all firmware other-mcus deps test unit pytest sim-test demo demo-native clean
 
 all: firmware
@@ -80,9 +83,6 @@ pytest:
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM)
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -n 2 tests/sim
-
-# ---- simulator harness (sim/sim.mk) ----------------------------------------
--include sim/sim.mk
 
 # ---- demo ------------------------------------------------------------------
 # The main job: 10 minutes of a synthetic thesis-like IMU at 100 Hz through
