@@ -82,13 +82,14 @@ pytest:
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM)
-	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -n 2 tests/sim
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
 
 # ---- demo ------------------------------------------------------------------
 # The main job: 10 minutes of a synthetic thesis-like IMU at 100 Hz through
 # the simulated device, then the device's results as a user reads them.
 DEMO_DIR := $(BUILD)/demo
-IMU_ALLAN := $(PYTHON) -m imu_allan.cli
+# This checkout's own package, whatever another checkout installed.
+IMU_ALLAN := PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m imu_allan.cli
 
 demo: firmware $(IMU_SIM)
 	@mkdir -p $(DEMO_DIR)
