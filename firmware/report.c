@@ -190,6 +190,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
     put_key_u32(PSTR(",fs="), adc_rate());
   } else if (step == 7) {
     put_key_u32(PSTR(",levels="), ALLAN_LEVELS);
+    put_key_u32(PSTR(",acc48="), ALLAN_ACC48_FROM);
   } else if (step == 8) {
     put_key_u32(PSTR(",n="), sample_engine.n);
   } else if (step == 9) {

@@ -8,7 +8,8 @@ equal ``acc`` bit for bit) and the float64 Allan variance (must agree with
 acc / (2 m^2 p) within ``REL_TOL``). Flagged rows are listed, not compared:
 a SAT row must carry a saturation value (2^48 - 1, or 2^40 - 1 for narrower
 accumulators) no larger than the exact sum, and an unflagged row's exact sum
-must stay below 2^48 - 1.
+must stay below it.  When the header says from which level the accumulators
+have 48 bits (``acc48``; 40 bits below), each row is held to its own width.
 """
 from __future__ import annotations
 
@@ -87,6 +88,8 @@ def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = N
             bad(f"{where}: pairs {r.pairs}, the file gives {got_pairs[k, c]}")
             continue
         true = exact[k][c]
+        acc48 = h.get("acc48_from")
+        width_max = ACC_MAX if acc48 is None or k >= acc48 else (1 << 40) - 1
         if r.flags & ~(FLAG_SAT | FLAG_RANGE):
             bad(f"{where}: unknown flags 0x{r.flags:02x}")
             continue
@@ -97,15 +100,16 @@ def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = N
             # The device sends its accumulator's saturation value (all ones of
             # its width: 2^48 - 1 per docs/protocol.md; 2^40 - 1 for the
             # narrower accumulators of some builds); the true sum is at least that.
-            if r.acc not in SAT_VALUES or true < r.acc:
+            if r.acc not in SAT_VALUES or true < r.acc or (acc48 is not None and r.acc != width_max):
                 bad(f"{where}: SAT flag set with acc {r.acc} (0x{r.acc:012X}) but the exact "
                     f"sum is {true} (0x{true:012X})" + (
                         "" if r.acc in SAT_VALUES else f"; a saturated acc is 2^40-1 or 2^48-1"))
             else:
                 res.flagged.append(f"{where} sat")
             continue
-        if true >= ACC_MAX:
-            bad(f"{where}: SAT flag clear but the exact sum {true} is at least 2^48-1")
+        if true >= width_max:
+            bad(f"{where}: SAT flag clear but the exact sum {true} is at least "
+                f"{width_max} (the accumulator's maximum)")
             continue
         res.compared += 1
         rel = 0.0

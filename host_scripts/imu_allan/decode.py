@@ -132,8 +132,8 @@ def parse_boot(fields: list[str]) -> dict[str, Any]:
     }
 
 
-_HEADER_KEYS = {"proto", "fw", "mcu", "fcpu", "baud", "fs", "levels", "n", "drops", "clips",
-                "temp", "run", "reset"}
+_HEADER_KEYS = {"proto", "fw", "mcu", "fcpu", "baud", "fs", "levels", "acc48", "n", "drops",
+                "clips", "temp", "run", "reset"}
 
 
 def parse_header(seq: int, fields: list[str]) -> dict[str, Any]:
@@ -179,6 +179,7 @@ def parse_header(seq: int, fields: list[str]) -> dict[str, Any]:
         "baud": opt_uint("baud"),
         "fs_hz": fs,
         "levels": levels,
+        "acc48_from": opt_uint("acc48"),
         "n": _uint(kv["n"], "n"),
         "drops": opt_uint("drops"),
         "clips": clips,

@@ -39,14 +39,14 @@ def header_body(seq: int, levels: int, n: int, fs: int = 100, drops: int = 0,
 
 def report_lines(rows: np.ndarray, levels: int, seq: int = 0, fs: int = 100, drops: int = 0,
                  tweak: Optional[Callable[[str, int, int, int, int], tuple[int, int, int]]] = None,
-                 header_n: Optional[int] = None) -> list[bytes]:
+                 header_n: Optional[int] = None, extra: str = "") -> list[bytes]:
     """A complete report for codes ``rows`` (shape (N, 7)) as the device sends it
     at the end of a stopped run of N samples (or, with ``header_n``, while
     running: the header says n = header_n, the rows cover all N samples).
     ``tweak(ch, level, pairs, acc, flags)`` may alter a row's (pairs, acc, flags)."""
     n = len(rows)
     out = [line(header_body(seq, levels, n if header_n is None else header_n, fs, drops,
-                            run=0 if header_n is None else 1))]
+                            run=0 if header_n is None else 1, extra=extra))]
     for c, ch in enumerate(CH):
         codes = [int(v) for v in rows[:, c]]
         for k in range(levels):

@@ -131,3 +131,37 @@ def test_bad_input(tmp_path: Path, run_cli, rows) -> None:
     empty.write_bytes(b"")
     rc, out, err = run_cli("check", empty, data)
     assert rc == 1 and "no complete report" in err
+
+
+def test_each_row_is_held_to_its_accumulator_width(tmp_path: Path, run_cli) -> None:
+    """With `acc48=11` (the ATmega168), levels below 11 have 40-bit
+    accumulators.  Full-scale steps every 512 samples put level 9's exact
+    sum (5 * (1023*512)^2) above 2^40 - 1: the device must send SAT with
+    acc = 2^40 - 1 there; an unflagged exact value is a mismatch, and so is
+    a SAT row showing the 48-bit maximum."""
+    n = 3072
+    codes = np.where((np.arange(n) >> 9) & 1, 1023, 0)
+    rows = np.column_stack([codes] * 6 + [np.full(n, 63)])
+    true9 = 5 * (1023 * 512) ** 2
+    assert true9 > 2**40 - 1
+
+    def saturate_40(ch, k, pairs, acc, flags):
+        if k < 11 and acc >= 2**40 - 1:
+            return pairs, 2**40 - 1, 0x01
+        return pairs, acc, flags
+    log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=saturate_40, extra=",acc48=11"),
+                       file_rows=rows)
+    rc, out, _ = run_cli("check", log, data)
+    assert rc == 0, out
+    assert "ax level 9 sat" in out
+
+    log, data = _files(tmp_path, rows, report_lines(rows, 12, extra=",acc48=11"), file_rows=rows)
+    rc, out, _ = run_cli("check", log, data)
+    assert rc == 1 and "ax level 9: SAT flag clear" in out
+
+    def saturate_48(ch, k, pairs, acc, flags):
+        return (pairs, 2**48 - 1, 0x01) if k == 9 else saturate_40(ch, k, pairs, acc, flags)
+    log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=saturate_48, extra=",acc48=11"),
+                       file_rows=rows)
+    rc, out, _ = run_cli("check", log, data)
+    assert rc == 1 and "ax level 9: SAT flag set" in out
