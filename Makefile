@@ -5,6 +5,8 @@
 #   make demo      the main job, on a synthetic IMU
 #   make clean
 
+.DEFAULT_GOAL := all
+
 MCU   ?= atmega168
 F_CPU ?= 10000000
 BAUD  ?= 115200

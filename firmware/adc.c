@@ -31,7 +31,6 @@ static volatile uint8_t limited;
 static volatile uint32_t budget; /* scans left when limited */
 static volatile uint8_t isr_drops; /* counted by the ISRs, 8 bits to keep them small */
 static uint32_t drops;             /* folded in by the main loop */
-static uint16_t rate_hz = 100;
 
 static uint8_t ring_next(uint8_t i)
 {
@@ -46,18 +45,18 @@ void adc_init(void)
   DIDR0 = 0x3F; /* ADC0..5 are analog only: no digital input buffers */
   TCCR1A = 0;
   TCCR1B = (1 << WGM12); /* CTC on OCR1A, clock off until adc_start */
-  adc_set_rate(rate_hz);
+  adc_set_rate(100);
 }
 
 void adc_set_rate(uint16_t hz)
 {
-  rate_hz = hz;
   OCR1A = (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / hz - 1u);
 }
 
 uint16_t adc_rate(void)
 {
-  return rate_hz;
+  /* From the timer itself: exact for every supported rate at 10 MHz. */
+  return (uint16_t)((F_CPU / BOARD_TIMER1_PRESCALER + (OCR1A + 1ul) / 2u) / (OCR1A + 1ul));
 }
 
 void adc_start(uint8_t lim, uint32_t count)
@@ -102,7 +101,7 @@ uint8_t adc_pending(void)
   return (uint8_t)(h >= t ? h - t : h + ADC_RING - t);
 }
 
-uint8_t adc_pop(uint16_t code[ADC_COLUMNS])
+uint8_t adc_peek(uint16_t code[ADC_COLUMNS])
 {
   uint8_t t = ring_tail, i;
   uint16_t hi;
@@ -115,8 +114,36 @@ uint8_t adc_pop(uint16_t code[ADC_COLUMNS])
     code[i] = (uint16_t)(ring[t].lo[i] | ((hi & 3u) << 8));
     hi >>= 2;
   }
-  ring_tail = ring_next(t);
   return 1;
+}
+
+uint16_t adc_oldest(uint8_t col)
+{
+  uint8_t t = ring_tail;
+  return (uint16_t)(ring[t].lo[col] | (((ring[t].hi >> (2u * col)) & 3u) << 8));
+}
+
+uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES])
+{
+  uint8_t t = ring_tail, i;
+  if (t == ring_head)
+    return 0;
+  for (i = 0; i < ADC_COLUMNS; i++)
+    out[i] = ring[t].lo[i];
+  out[ADC_COLUMNS] = (uint8_t)ring[t].hi;
+  out[ADC_COLUMNS + 1] = (uint8_t)(ring[t].hi >> 8);
+  return 1;
+}
+
+void adc_discard(void)
+{
+  if (ring_tail != ring_head)
+    ring_tail = ring_next(ring_tail);
+}
+
+void adc_flush(void)
+{
+  ring_tail = ring_head;
 }
 
 uint32_t adc_drops(void)

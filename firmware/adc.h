@@ -27,8 +27,21 @@ void adc_stop(void);
 /* 1 while the tick runs. */
 uint8_t adc_running(void);
 
-/* Copy the oldest finished scan out of the ring; 0 when the ring is empty. */
-uint8_t adc_pop(uint16_t code[ADC_COLUMNS]);
+/* The oldest finished scan, left in the ring; 0 when the ring is empty. */
+uint8_t adc_peek(uint16_t code[ADC_COLUMNS]);
+
+/* Code of column col of the oldest scan (only while adc_pending()). */
+uint16_t adc_oldest(uint8_t col);
+
+/* The same scan as packed in the ring (and in binary frames): low 8 bits of
+ * each code, then a little-endian word holding code i's top 2 bits at bits
+ * 2i..2i+1.  0 when the ring is empty. */
+#define ADC_PACKED_BYTES 9
+uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES]);
+
+/* Remove the oldest scan; adc_flush() removes them all (call while stopped). */
+void adc_discard(void);
+void adc_flush(void);
 
 /* Finished scans waiting in the ring. */
 uint8_t adc_pending(void);

@@ -63,17 +63,20 @@ static __attribute__((noinline)) void cell_carry(allan_t *a, uint8_t ch, uint8_t
  * deepest stack of the sampling path short. */
 static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ext, uint32_t d)
 {
-  uint8_t hi8 = (uint8_t)(d >> 16);
+  /* Few values live at once, so that this rare path needs a small frame
+   * on the deepest stack of the sampling path. */
+  uint8_t a = (uint8_t)(d >> 16);
   uint16_t b = (uint16_t)d;
-  uint32_t cross = (uint32_t)hi8 * b * 2u; /* below 2^25 */
-  uint32_t sq_lo = (uint32_t)b * b, t;
-  uint32_t up = (uint16_t)hi8 * hi8; /* d^2 = up 2^32 + sq_lo */
-  t = sq_lo + (cross << 16);
-  up += (t < sq_lo) + (cross >> 16);
-  sq_lo = c->acc_lo + t;
-  up += (sq_lo < t) + c->acc_mid; /* below 2^17 */
-  /* up now holds bits 32.. of the sum: its low byte is the new acc_mid,
-   * the rest must fit the extension byte (48-bit levels only). */
+  uint32_t t = (uint32_t)b * b;    /* b^2 */
+  uint32_t lo = c->acc_lo + t;
+  uint32_t up = (lo < t) + c->acc_mid + (uint16_t)a * a; /* bits 32.. of acc + a^2 2^32 + b^2 */
+  t = (uint32_t)a * b * 2u;        /* 2ab, below 2^25, goes in at bit 16 */
+  up += t >> 16;
+  t <<= 16;
+  lo += t;
+  up += lo < t;
+  /* up now holds bits 32.. of the sum (below 2^17): its low byte is the new
+   * acc_mid, the rest must fit the extension byte (48-bit levels only). */
   if (up >> 8) {
     uint16_t top = (uint16_t)(up >> 8);
     if (!ext || (uint16_t)(*ext + top) > 0xFFu) {
@@ -82,7 +85,7 @@ static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ex
     }
     *ext = (uint8_t)(*ext + top);
   }
-  c->acc_lo = sq_lo;
+  c->acc_lo = lo;
   c->acc_mid = (uint8_t)up;
 }
 
@@ -129,18 +132,14 @@ void allan_reset(allan_t *a)
 #endif
 }
 
-uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
+uint8_t allan_begin(allan_t *a)
 {
-  uint8_t ch, depth, first;
   uint32_t n;
+  uint8_t depth;
 
   if (a->n == 0xFFFFFFFFul)
     return ALLAN_ERR_FULL;
-  for (ch = 0; ch < ALLAN_CHANNELS; ch++)
-    if (code[ch] > ALLAN_CODE_MAX)
-      return ALLAN_ERR_CODE;
   n = ++a->n;
-
   /* Sample n completes a cluster at every level k with 2^k | n: `depth`
    * levels.  Level k has a pair unless this is its very first cluster,
    * i.e. unless n == 2^k: `first` names that level (none: 0xFF).  Both are
@@ -148,52 +147,68 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
   depth = 1;
   while (depth < ALLAN_LEVELS && !(n & (1ul << (depth - 1))))
     depth++;
-  first = n == (1ul << (depth - 1)) ? (uint8_t)(depth - 1) : 0xFFu;
+  a->depth = depth;
+  a->first = n == (1ul << (depth - 1)) ? (uint8_t)(depth - 1) : 0xFFu;
+  return ALLAN_OK;
+}
 
-  for (ch = 0; ch < ALLAN_CHANNELS; ch++) {
-    allan_cell_t *c = a->cell[ch];
-    allan_sum_t v = code[ch]; /* sum of the cluster just completed at this level */
-    uint8_t k;
+void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
+{
+  allan_cell_t *c = a->cell[ch];
+  allan_sum_t v = code; /* sum of the cluster just completed at this level */
+  uint8_t k;
 
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
-    if (code[ch] < a->min[ch])
-      a->min[ch] = code[ch];
-    if (code[ch] > a->max[ch])
-      a->max[ch] = code[ch];
+  if (code < a->min[ch])
+    a->min[ch] = code;
+  if (code > a->max[ch])
+    a->max[ch] = code;
 #endif
 
-    for (k = 0; k < depth; k++, c++) {
-      allan_sum_t last = c->sum_lo;
-      if (k >= ALLAN_NARROW_LEVELS)
-        last |= (allan_sum_t)a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] << 16;
-      if (k != first) {
-        uint32_t d;
+  for (k = 0; k < a->depth; k++, c++) {
+    allan_sum_t last = c->sum_lo;
+    if (k >= ALLAN_NARROW_LEVELS)
+      last |= (allan_sum_t)a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] << 16;
+    if (k != a->first) {
+      uint32_t d;
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
-        if (k >= ALLAN_WIDE_LEVEL) {
-          if (range_breaks(a, ch, k)) {
-            cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
-            d = 0;
-          } else {
-            /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
-            d = (uint32_t)(v - last) & SUM_MASK;
-            if (d & SUM_SIGN)
-              d = (SUM_MASK + 1ul) - d;
-          }
-        } else
-#endif
-        {
-          /* True sums below 2^24: plain subtraction is exact. */
-          d = v >= last ? (uint32_t)(v - last) : (uint32_t)(last - v);
+      if (k >= ALLAN_WIDE_LEVEL) {
+        if (range_breaks(a, ch, k)) {
+          cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
+          d = 0;
+        } else {
+          /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
+          d = (uint32_t)(v - last) & SUM_MASK;
+          if (d & SUM_SIGN)
+            d = (SUM_MASK + 1ul) - d;
         }
-        cell_add_square(a, ch, k, c, d);
+      } else
+#endif
+      {
+        /* True sums below 2^24: plain subtraction is exact. */
+        d = v >= last ? (uint32_t)(v - last) : (uint32_t)(last - v);
       }
-      c->sum_lo = (uint16_t)v;
-      if (k >= ALLAN_NARROW_LEVELS)
-        a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] = (uint8_t)(v >> 16);
-      /* The next level's cluster is this one and the one before it. */
-      v = (allan_sum_t)((v + last) & SUM_MASK);
+      cell_add_square(a, ch, k, c, d);
     }
+    c->sum_lo = (uint16_t)v;
+    if (k >= ALLAN_NARROW_LEVELS)
+      a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] = (uint8_t)(v >> 16);
+    /* The next level's cluster is this one and the one before it. */
+    v = (allan_sum_t)((v + last) & SUM_MASK);
   }
+}
+
+uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
+{
+  uint8_t ch, err;
+  for (ch = 0; ch < ALLAN_CHANNELS; ch++)
+    if (code[ch] > ALLAN_CODE_MAX)
+      return ALLAN_ERR_CODE;
+  err = allan_begin(a);
+  if (err)
+    return err;
+  for (ch = 0; ch < ALLAN_CHANNELS; ch++)
+    allan_channel(a, ch, code[ch]);
   return ALLAN_OK;
 }
 

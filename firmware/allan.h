@@ -75,12 +75,13 @@ typedef struct {
   uint16_t max[ALLAN_CHANNELS]; /* largest code seen (0 before any) */
 #endif
   uint32_t n;                   /* sample sets pushed */
+  uint8_t depth, first;         /* the cascade of the set in progress (allan_begin) */
 } allan_t;
 
 /* Bytes of state for a build: what `avr-size` sees of the engine. */
 #define ALLAN_STATE_BYTES \
   (ALLAN_CHANNELS * (7u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) \
-   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 4u)
+   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 6u)
 
 /* 1 when a level's accumulator has 48 bits (written so that a zero
  * ALLAN_ACC48_FROM draws no "always true" warning). */
@@ -94,6 +95,14 @@ void allan_reset(allan_t *a);
 /* Feed one sample set (ALLAN_CHANNELS codes, 0..ALLAN_CODE_MAX).
  * Returns ALLAN_OK, or an ALLAN_ERR_* code with the state untouched. */
 uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS]);
+
+/* The same in pieces, for a caller that decodes codes one at a time (the
+ * firmware's main loop, to keep its stack short): allan_begin() counts the
+ * set (ALLAN_ERR_FULL: nothing counted, feed no channel), then
+ * allan_channel() once for every channel, with a code the caller knows to
+ * be 0..ALLAN_CODE_MAX (a 10-bit converter's). */
+uint8_t allan_begin(allan_t *a);
+void allan_channel(allan_t *a, uint8_t ch, uint16_t code);
 
 /* Number of (S_j, S_{j-1}) pairs behind level's accumulator. */
 uint32_t allan_pairs(const allan_t *a, uint8_t level);

@@ -3,11 +3,21 @@
 
 #include "pgm.h"
 
-/* Words, in the order of the CMD_* ids starting at CMD_REPORT, and whether
- * each takes a number: 0 none, 1 optional, 2 required. */
-static const char cmd_words[] PROGMEM = "report\0reset\0stop\0start\0rate\0status\0help\0";
-static const uint8_t cmd_arg[] PROGMEM = {0, 0, 0, 1, 2, 0, 0};
-#define CMD_COUNT 7
+/* Kinds of argument a command takes. */
+enum { ARG_NONE, ARG_OPT_NUM, ARG_NUM, ARG_MODE, ARG_RANGE };
+
+/* Words, in the order of the CMD_* ids starting at CMD_REPORT, and the
+ * argument each takes. */
+static const char cmd_words[] PROGMEM =
+  "report\0reset\0stop\0start\0rate\0status\0help\0interval\0mode\0range\0save\0load\0defaults\0";
+static const uint8_t cmd_arg[] PROGMEM = {ARG_NONE, ARG_NONE, ARG_NONE, ARG_OPT_NUM, ARG_NUM,
+                                          ARG_NONE, ARG_NONE, ARG_NUM, ARG_MODE, ARG_RANGE,
+                                          ARG_NONE, ARG_NONE, ARG_NONE};
+#define CMD_COUNT 13
+
+/* Argument words, each list in the order of its MODE_* / RANGE_* values. */
+static const char mode_words[] PROGMEM = "allan\0raw\0binary\0both\0";
+static const char range_words[] PROGMEM = "1.5\0" "2\0" "4\0" "6\0";
 
 static char lower(char c)
 {
@@ -19,58 +29,85 @@ static uint8_t is_space(char c)
   return c == ' ' || c == '\t';
 }
 
+/* Length of the word at p (up to a space, a tab or the end). */
+static uint8_t word_len(const char *p)
+{
+  uint8_t n = 0;
+  while (p[n] && !is_space(p[n]))
+    n++;
+  return n;
+}
+
+/* Index of the word p[0..len) in a list of NUL-separated flash words
+ * (ended by an empty word), ignoring case; `count` when absent. */
+static uint8_t find_word(const char *list, uint8_t count, const char *p, uint8_t len)
+{
+  uint8_t i;
+  for (i = 0; i < count; i++) {
+    uint8_t j = 0;
+    while (j < len && pgm_read_byte(list + j) && lower(p[j]) == (char)pgm_read_byte(list + j))
+      j++;
+    if (j == len && !pgm_read_byte(list + j))
+      return i;
+    while (pgm_read_byte(list))
+      list++;
+    list++;
+  }
+  return count;
+}
+
 uint8_t command_parse(const char *line, command_t *out)
 {
-  const char *w = cmd_words;
-  const char *p;
-  uint8_t id;
+  const char *p = line;
+  uint8_t id, len, kind;
 
   out->id = CMD_NONE;
   out->has_arg = 0;
   out->arg = 0;
-  while (is_space(*line))
-    line++;
-  if (!*line)
-    return CMD_OK;
-
-  for (id = 0; id < CMD_COUNT; id++) {
-    /* Compare the first word of the line with this table word. */
-    const char *q = w;
-    p = line;
-    while (pgm_read_byte(q) && lower(*p) == (char)pgm_read_byte(q)) {
-      p++;
-      q++;
-    }
-    if (!pgm_read_byte(q) && (!*p || is_space(*p)))
-      break;
-    while (pgm_read_byte(w))
-      w++;
-    w++;
-  }
-  if (id == CMD_COUNT)
-    return CMD_ERR_UNKNOWN;
-
   while (is_space(*p))
     p++;
+  if (!*p)
+    return CMD_OK;
+
+  len = word_len(p);
+  id = find_word(cmd_words, CMD_COUNT, p, len);
+  if (id == CMD_COUNT)
+    return CMD_ERR_UNKNOWN;
+  kind = pgm_read_byte(&cmd_arg[id]);
+  p += len;
+  while (is_space(*p))
+    p++;
+
   if (*p) {
-    uint32_t v = 0;
-    if (!pgm_read_byte(&cmd_arg[id]))
+    len = word_len(p);
+    if (kind == ARG_NONE) {
       return CMD_ERR_ARG;
-    if (*p < '0' || *p > '9')
-      return CMD_ERR_ARG;
-    while (*p >= '0' && *p <= '9') {
-      uint8_t d = (uint8_t)(*p++ - '0');
-      if (v > (0xFFFFFFFFul - d) / 10u)
-        return CMD_ERR_ARG; /* does not fit 32 bits */
-      v = v * 10u + d;
+    } else if (kind == ARG_MODE || kind == ARG_RANGE) {
+      uint8_t v = kind == ARG_MODE ? find_word(mode_words, 4, p, len)
+                                   : find_word(range_words, 4, p, len);
+      if (v == 4)
+        return CMD_ERR_ARG;
+      out->arg = v;
+    } else {
+      uint32_t v = 0;
+      uint8_t i;
+      for (i = 0; i < len; i++) {
+        uint8_t d = (uint8_t)(p[i] - '0');
+        if (d > 9)
+          return CMD_ERR_ARG;
+        if (v > (0xFFFFFFFFul - d) / 10u)
+          return CMD_ERR_ARG; /* does not fit 32 bits */
+        v = v * 10u + d;
+      }
+      out->arg = v;
     }
+    p += len;
     while (is_space(*p))
       p++;
     if (*p)
-      return CMD_ERR_ARG;
+      return CMD_ERR_ARG; /* one argument at most */
     out->has_arg = 1;
-    out->arg = v;
-  } else if (pgm_read_byte(&cmd_arg[id]) == 2) {
+  } else if (kind != ARG_NONE && kind != ARG_OPT_NUM) {
     return CMD_ERR_ARG;
   }
   out->id = (uint8_t)(CMD_REPORT + id);
@@ -80,4 +117,24 @@ uint8_t command_parse(const char *line, command_t *out)
 uint8_t command_rate_ok(uint32_t hz)
 {
   return hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000;
+}
+
+static const char *nth_word(const char *list, uint8_t n)
+{
+  while (n--) {
+    while (pgm_read_byte(list))
+      list++;
+    list++;
+  }
+  return list;
+}
+
+const char *command_mode_name(uint8_t mode)
+{
+  return nth_word(mode_words, mode);
+}
+
+const char *command_range_name(uint8_t range)
+{
+  return nth_word(range_words, range);
 }

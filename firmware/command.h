@@ -7,6 +7,8 @@
 
 #include <stdint.h>
 
+#include "config.h"
+
 /* Longest command line accepted, excluding its end of line. */
 #define COMMAND_LINE_MAX 16 /* "start 4294967295" */
 
@@ -18,8 +20,15 @@ enum {
   CMD_START,
   CMD_RATE,
   CMD_STATUS,
-  CMD_HELP
+  CMD_HELP,
+  CMD_INTERVAL,
+  CMD_MODE,     /* arg: MODE_* */
+  CMD_RANGE,    /* arg: RANGE_* (g-select code) */
+  CMD_SAVE,
+  CMD_LOAD,
+  CMD_DEFAULTS
 };
+
 
 /* Error codes of `error:<code>` replies. */
 #define CMD_OK          0
@@ -40,5 +49,9 @@ uint8_t command_parse(const char *line, command_t *out);
 
 /* The six supported sample rates; returns 1 when hz is one of them. */
 uint8_t command_rate_ok(uint32_t hz);
+
+/* Names for replies and headers (flash strings on the AVR). */
+const char *command_mode_name(uint8_t mode);
+const char *command_range_name(uint8_t range);
 
 #endif /* COMMAND_H */

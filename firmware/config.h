@@ -81,6 +81,57 @@
 #  error "ALLAN_ACC48_FROM must be 0..ALLAN_LEVELS-1 (the top level keeps 48 bits)"
 #endif
 
+/* Output modes (docs/protocol.md) and accelerometer ranges (the MMA7260Q's
+ * g-select code GS2 GS1: 1.5, 2, 4, 6 g). */
+#define MODE_ALLAN  0
+#define MODE_RAW    1
+#define MODE_BINARY 2
+#define MODE_BOTH   3
+#define RANGE_1G5 0
+#define RANGE_2G  1
+#define RANGE_4G  2
+#define RANGE_6G  3
+
+#ifndef MODE_DEFAULT
+#  define MODE_DEFAULT MODE_ALLAN
+#endif
+#ifndef RANGE_DEFAULT
+#  define RANGE_DEFAULT RANGE_1G5
+#endif
+#if MODE_DEFAULT < MODE_ALLAN || MODE_DEFAULT > MODE_BOTH
+#  error "MODE_DEFAULT must be MODE_ALLAN, MODE_RAW, MODE_BINARY or MODE_BOTH"
+#endif
+#if RANGE_DEFAULT < RANGE_1G5 || RANGE_DEFAULT > RANGE_6G
+#  error "RANGE_DEFAULT must be RANGE_1G5 .. RANGE_6G"
+#endif
+
+/* The default mode must keep up with the link at the default rate: the
+ * rules of link.c (throughput, and the longest line that can hold a
+ * sample's output back within two sample periods), at compile time. */
+#ifdef BAUD
+#  include "link.h"
+#  if MODE_DEFAULT == MODE_RAW || MODE_DEFAULT == MODE_BOTH
+#    define CONFIG_LINK_BYTES (FS_DEFAULT * LINK_RAW_ROW + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
+#    if MODE_DEFAULT == MODE_RAW
+#      define CONFIG_LINK_WAIT LINK_REPLY_MAX
+#    else
+#      define CONFIG_LINK_WAIT LINK_REPORT_MAX
+#    endif
+#  elif MODE_DEFAULT == MODE_BINARY
+#    define CONFIG_LINK_BYTES (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
+#    define CONFIG_LINK_WAIT (LINK_STEP_MAX + LINK_FRAME)
+#  else
+#    define CONFIG_LINK_BYTES 0
+#    define CONFIG_LINK_WAIT 0
+#  endif
+#  if CONFIG_LINK_BYTES * 100 > (BAUD / 10) * LINK_USE_PERCENT
+#    error "MODE_DEFAULT at FS_DEFAULT sends more than the link carries at BAUD"
+#  endif
+#  if CONFIG_LINK_WAIT * FS_DEFAULT > 2 * (BAUD / 10)
+#    error "MODE_DEFAULT at FS_DEFAULT: a long line would hold samples back beyond the ring's slack at BAUD"
+#  endif
+#endif
+
 /* Largest ADC code the engine accepts (10-bit converter). */
 #define ALLAN_CODE_MAX 1023u
 

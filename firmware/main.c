@@ -10,11 +10,14 @@
 #include <avr/wdt.h>
 
 #include "adc.h"
+#include "board.h"
 #include "command.h"
 #include "config.h"
+#include "link.h"
 #include "proto.h"
 #include "report.h"
 #include "sample.h"
+#include "settings.h"
 #include "uart.h"
 
 /* MCUSR must be read before anything clears it (avr-libc's recipe). */
@@ -36,9 +39,25 @@ static struct {
   uint8_t ready;
 } line;
 
+static const char reply_mode[4][12] PROGMEM = {"mode=allan", "mode=raw", "mode=binary", "mode=both"};
+static const char reply_range[4][10] PROGMEM = {"range=1.5", "range=2", "range=4", "range=6"};
+static const char reply_range_reset[4][16] PROGMEM = {"reset range=1.5", "reset range=2",
+                                                     "reset range=4", "reset range=6"};
+
 static void uart_sink(uint8_t c)
 {
   uart_write(c);
+}
+
+/* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
+static void apply_range(uint8_t range)
+{
+  uint8_t port = BOARD_GSEL_PORT & (uint8_t)~((1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT));
+  if (range & 1u)
+    port |= (1 << BOARD_GSEL1_BIT);
+  if (range & 2u)
+    port |= (1 << BOARD_GSEL2_BIT);
+  BOARD_GSEL_PORT = port;
 }
 
 static void stop_sampling(void)
@@ -47,16 +66,49 @@ static void stop_sampling(void)
   sample_pump();
 }
 
+/* A new run: the accumulators, counters and row count start again. */
+static void new_run(void)
+{
+  sample_reset();
+  sample_interval_restart();
+  report_restart_rows();
+}
+
+/* Put the settings in force; a different rate or range starts a new run
+ * (results from mixed settings would be meaningless).  Returns 1 if so. */
+static uint8_t apply_settings(uint16_t old_rate, uint8_t old_range)
+{
+  uint8_t changed = settings.rate_hz != old_rate || settings.range != old_range;
+  if (changed) {
+    uint8_t was_running = adc_running();
+    adc_stop();
+    adc_flush(); /* sets taken under the old settings go with the old run */
+    adc_set_rate(settings.rate_hz);
+    apply_range(settings.range);
+    new_run();
+    if (was_running)
+      adc_start(0, 0);
+  }
+  return changed;
+}
+
 static void execute(const command_t *cmd)
 {
+  uint16_t old_rate = settings.rate_hz;
+  uint8_t old_range = settings.range;
+
   switch (cmd->id) {
   case CMD_REPORT:
+    if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
+      report_error(CMD_ERR_STATE, PSTR("no reports in this mode"));
+      break;
+    }
     report_ok(0);
     report_start(); /* follows the reply */
     break;
   case CMD_RESET:
     sample_pump();
-    sample_reset();
+    new_run();
     report_ok(PSTR("reset"));
     break;
   case CMD_STOP:
@@ -81,18 +133,58 @@ static void execute(const command_t *cmd)
   case CMD_RATE:
     if (!command_rate_ok(cmd->arg)) {
       report_error(CMD_ERR_ARG, PSTR("unsupported rate"));
+    } else if (!link_fits(settings.mode, (uint16_t)cmd->arg, BAUD)) {
+      report_error(CMD_ERR_STATE, PSTR("link too slow"));
+    } else {
+      settings.rate_hz = (uint16_t)cmd->arg;
+      report_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), cmd->arg);
+    }
+    break;
+  case CMD_INTERVAL:
+    if (cmd->arg > 3600) {
+      report_error(CMD_ERR_ARG, PSTR("interval 0..3600"));
+    } else {
+      settings.interval_s = (uint16_t)cmd->arg;
+      report_ok_n(PSTR("interval="), cmd->arg);
+    }
+    break;
+  case CMD_MODE:
+    if (!link_fits((uint8_t)cmd->arg, settings.rate_hz, BAUD)) {
+      report_error(CMD_ERR_STATE, PSTR("link too slow"));
+    } else {
+      settings.mode = (uint8_t)cmd->arg;
+      report_restart_rows();
+      report_ok(reply_mode[cmd->arg]);
+    }
+    break;
+  case CMD_RANGE:
+    settings.range = (uint8_t)cmd->arg;
+    report_ok(apply_settings(old_rate, old_range) ? reply_range_reset[cmd->arg] : reply_range[cmd->arg]);
+    break;
+  case CMD_SAVE:
+    settings_save(); /* replied when the last byte is written */
+    break;
+  case CMD_LOAD: {
+    settings_t before = settings;
+    uint8_t source = settings_source;
+    if (settings_load() != CFG_SAVED) {
+      settings = before; /* nothing valid saved: keep what is in force */
+      settings_source = source;
+      report_error(CMD_ERR_STATE, PSTR("nothing saved"));
       break;
     }
-    {
-      uint8_t was_running = adc_running();
-      stop_sampling();
-      adc_set_rate((uint16_t)cmd->arg);
-      sample_reset(); /* results from two rates would be meaningless */
-      sample_interval_restart();
-      if (was_running)
-        adc_start(0, 0);
-    }
-    report_ok_n(PSTR("reset rate="), cmd->arg);
+    report_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
+    break;
+  }
+  case CMD_DEFAULTS:
+    settings_defaults();
+    report_ok(apply_settings(old_rate, old_range) ? PSTR("defaults reset") : PSTR("defaults"));
+    break;
+  case CMD_STATUS:
+    report_status();
+    break;
+  case CMD_HELP:
+    report_help();
     break;
   default:
     report_error(CMD_ERR_UNKNOWN, PSTR("unknown command"));
@@ -119,7 +211,8 @@ static __attribute__((noinline)) void run_line(void)
     execute(&cmd);
 }
 
-/* Assemble command lines from the RX ring; run each when output is idle. */
+/* Assemble command lines from the RX ring; run each when output is idle
+ * (and no EEPROM save is under way). */
 static __attribute__((noinline)) void poll_commands(void)
 {
   int16_t c;
@@ -134,8 +227,21 @@ static __attribute__((noinline)) void poll_commands(void)
       line.overflow = 1; /* discard the whole line at its end */
     }
   }
-  if (line.ready && !report_busy())
+  if (line.ready && !report_busy() && !settings_saving())
     run_line();
+}
+
+/* The watchdog resets the MCU if the loop stops for a second.  Its
+ * interrupt comes first and only wakes the loop from sleep; the loop re-arms
+ * it, a hung loop does not, and the next timeout resets. */
+ISR(WDT_vect)
+{
+}
+
+static void watchdog_kick(void)
+{
+  wdt_reset();
+  WDTCSR |= (1 << WDIE);
 }
 
 /* main never returns: OS_main spares it saving registers on the stack. */
@@ -146,25 +252,32 @@ int main(void)
   proto_init(uart_sink);
   uart_init();
   adc_init();
-  adc_set_rate(FS_DEFAULT);
-  sample_reset();
-  sample_interval_restart();
+  settings_load();
+  BOARD_GSEL_DDR |= (1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT);
+  apply_range(settings.range);
+  adc_set_rate(settings.rate_hz);
+  new_run();
   set_sleep_mode(SLEEP_MODE_IDLE);
+  wdt_enable(WDTO_1S);
+  watchdog_kick();
   sei();
 
   report_boot();
   adc_start(0, 0);
   for (;;) {
+    watchdog_kick();
     sample_pump();
     report_poll();
+    if (settings_poll())
+      report_ok(PSTR("saved"));
     poll_commands();
-#if REPORT > 0
-    if (!report_busy() && sample_stats.since_report >= (uint32_t)REPORT * adc_rate())
+    if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
+        !report_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
       report_start(); /* its header restarts the interval */
-#endif
     /* Sleep until the next interrupt unless there is work to do now. */
     cli();
-    if (!adc_pending() && !uart_rx_pending() && !(report_busy() && uart_tx_room() >= REPORT_STEP_MAX)) {
+    if (!adc_pending() && !uart_rx_pending() && !settings_saving() &&
+        !(report_busy() && uart_tx_room() >= REPORT_STEP_MAX)) {
       sleep_enable();
       sei();
       sleep_cpu();

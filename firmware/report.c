@@ -10,13 +10,17 @@
 
 #include "adc.h"
 #include "allan.h"
+#include "command.h"
 #include "config.h"
+#include "crc.h"
 #include "fmt.h"
+#include "link.h"
 #include "proto.h"
 #include "sample.h"
+#include "settings.h"
 #include "uart.h"
 
-enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT };
+enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_STATUS, JOB_HELP };
 /* Parts of a report, in order. */
 enum { PART_HEADER, PART_ROW, PART_SUM_HEAD, PART_SUM_ROW, PART_END };
 
@@ -26,6 +30,9 @@ static const char cause_names[] PROGMEM = "por\0ext\0bor\0wdt\0";
 static struct {
   uint8_t job, part, step;
   uint8_t report_next; /* a report waits for the current job to end */
+  uint8_t row_step;    /* raw row in progress: next step, 0 when none */
+  uint8_t row_done;    /* the oldest set's row or frame is written */
+  uint32_t rows;       /* rows or frames written since report_restart_rows() */
   uint8_t ch, level;
   uint16_t seq;
   uint8_t reset_cause;
@@ -46,7 +53,24 @@ void report_init(uint8_t cause)
 
 uint8_t report_busy(void)
 {
-  return out.job != JOB_NONE;
+  return out.job != JOB_NONE || out.row_step;
+}
+
+uint8_t report_holds_sample(void)
+{
+  return settings.mode != MODE_ALLAN && !out.row_done;
+}
+
+void report_sample_taken(void)
+{
+  out.row_done = 0;
+}
+
+void report_restart_rows(void)
+{
+  out.row_step = 0;
+  out.row_done = 0;
+  out.rows = 0;
 }
 
 static void start(uint8_t job)
@@ -80,6 +104,16 @@ static void reply(uint8_t code, const char *text_P, uint8_t has_n, uint32_t n)
   out.text_P = text_P;
   out.has_n = has_n;
   out.n = n;
+}
+
+void report_status(void)
+{
+  start(JOB_STATUS);
+}
+
+void report_help(void)
+{
+  start(JOB_HELP);
 }
 
 void report_ok(const char *text_P)
@@ -225,8 +259,16 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
     }
     sample_interval_restart(); /* the next report's interval starts here */
   } else if (step == temp + 2) {
-    proto_puts_P(adc_running() ? PSTR(",run=1,reset=") : PSTR(",run=0,reset="));
+    proto_puts_P(adc_running() ? PSTR(",run=1,mode=") : PSTR(",run=0,mode="));
+    proto_puts_P(command_mode_name(settings.mode));
   } else if (step == temp + 3) {
+    proto_puts_P(PSTR(",range="));
+    proto_puts_P(command_range_name(settings.range));
+    proto_puts_P(PSTR(",cfg="));
+  } else if (step == temp + 4) {
+    proto_puts_P(settings_source_name(settings_source));
+    proto_puts_P(PSTR(",reset="));
+  } else if (step == temp + 5) {
     put_causes();
   } else {
     proto_end();
@@ -338,6 +380,128 @@ static __attribute__((noinline)) uint8_t step_reply(uint8_t step)
   return 0;
 }
 
+/* `ok status run= fs= mode= range= interval= link= cfg=` */
+static __attribute__((noinline)) uint8_t step_status(uint8_t step)
+{
+  switch (step) {
+  case 0:
+    proto_begin();
+    proto_puts_P(adc_running() ? PSTR("ok status run=1") : PSTR("ok status run=0"));
+    break;
+  case 1:
+    put_key_u32(PSTR(" fs="), adc_rate());
+    proto_puts_P(PSTR(" mode="));
+    break;
+  case 2:
+    proto_puts_P(command_mode_name(settings.mode));
+    proto_puts_P(PSTR(" range="));
+    proto_puts_P(command_range_name(settings.range));
+    break;
+  case 3:
+    put_key_u32(PSTR(" interval="), settings.interval_s);
+    break;
+  case 4:
+    put_key_u32(PSTR(" link="), link_percent(settings.mode, adc_rate(), BAUD));
+    proto_puts_P(PSTR(" cfg="));
+    break;
+  case 5:
+    proto_puts_P(settings_source_name(settings_source));
+    break;
+  default:
+    proto_end();
+    return 1;
+  }
+  return 0;
+}
+
+static __attribute__((noinline)) uint8_t step_help(uint8_t step)
+{
+  switch (step) {
+  case 0:
+    proto_begin();
+    proto_puts_P(PSTR("ok help report reset"));
+    break;
+  case 1: proto_puts_P(PSTR(" stop start rate")); break;
+  case 2: proto_puts_P(PSTR(" interval mode range")); break;
+  case 3: proto_puts_P(PSTR(" save load defaults")); break;
+  case 4: proto_puts_P(PSTR(" status help")); break;
+  default:
+    proto_end();
+    return 1;
+  }
+  return 0;
+}
+
+/* `$C,<rows>,<drops>`: rows or frames written, and sets the device lost. */
+static void put_count_line(uint8_t step)
+{
+  if (step == 0) {
+    proto_begin();
+    put_key_u32(PSTR("C,"), out.rows);
+  } else {
+    put_key_u32(PSTR(","), adc_drops());
+    proto_end();
+  }
+}
+
+/* The raw row or count line in progress (out.row_step):
+ *   1: the second half of a raw row; 2, 3: the two halves of a count line. */
+static __attribute__((noinline)) void step_raw_row(void)
+{
+  uint16_t code[ADC_COLUMNS];
+  char buf[10];
+  uint8_t i, n, first, last;
+  if (out.row_step >= 2) {
+    put_count_line((uint8_t)(out.row_step - 2));
+    out.row_step = out.row_step == 2 ? 3 : 0;
+    return;
+  }
+  /* A raw thesis row of the oldest set, in two steps of at most 20
+   * characters: codes 0..3, then 4..6 and the line end. */
+  adc_peek(code);
+  first = out.row_step ? 4 : 0;
+  last = out.row_step ? ADC_COLUMNS : 4;
+  for (i = first; i < last; i++) {
+    uint8_t j;
+    n = fmt_u32(buf, code[i]);
+    for (j = 0; j < n; j++)
+      uart_write((uint8_t)buf[j]);
+    if (i + 1 < ADC_COLUMNS)
+      uart_write('\t');
+  }
+  if (!out.row_step) {
+    out.row_step = 1;
+    return;
+  }
+  uart_write('\r');
+  uart_write('\n');
+  out.row_done = 1;
+  out.rows++;
+  out.row_step = out.rows % LINK_COUNT_EVERY == 0 ? 2 : 0; /* count line due */
+}
+
+/* One 13-byte binary frame of the oldest set (docs/protocol.md).  Frames
+ * may cut into a text line: text never holds 0xA5. */
+static __attribute__((noinline)) void put_frame(void)
+{
+  uint8_t b[ADC_PACKED_BYTES], i;
+  uint8_t seq = (uint8_t)out.rows;
+  uint16_t crc = crc16_update(CRC16_INIT, seq);
+  adc_peek_packed(b);
+  uart_write(0xA5);
+  uart_write(seq);
+  for (i = 0; i < ADC_PACKED_BYTES; i++) {
+    crc = crc16_update(crc, b[i]);
+    uart_write(b[i]);
+  }
+  uart_write((uint8_t)(crc >> 8));
+  uart_write((uint8_t)crc);
+  out.row_done = 1;
+  out.rows++;
+  if (out.rows % LINK_COUNT_EVERY == 0)
+    out.row_step = 2; /* count line due, at the next line boundary */
+}
+
 /* Advance the report by one step; returns 1 when the report is complete. */
 static __attribute__((noinline)) uint8_t step_report(void)
 {
@@ -386,14 +550,45 @@ static __attribute__((noinline)) uint8_t step_report(void)
   return 0;
 }
 
+/* 1 when the current job stands between two lines, where a raw row may go. */
+static uint8_t at_line_boundary(void)
+{
+  return out.job == JOB_NONE || out.step == 0;
+}
+
 void report_poll(void)
 {
-  while (out.job != JOB_NONE && uart_tx_room() >= REPORT_STEP_MAX) {
+  while (uart_tx_room() >= REPORT_STEP_MAX) {
     uint8_t done;
+    /* Our own lines first: a raw row or count line once begun is finished,
+     * a count line begins between two lines of the current job. */
+    if (out.row_step == 1 || out.row_step == 3 || (out.row_step == 2 && at_line_boundary())) {
+      step_raw_row();
+      continue;
+    }
+    /* Then the samples: frames anywhere, raw rows between lines. */
+    if (settings.mode != MODE_ALLAN && !out.row_done && adc_pending()) {
+      if (settings.mode == MODE_BINARY) {
+        if (out.row_step != 3) { /* not inside a count line */
+          put_frame();
+          continue;
+        }
+      } else if (!out.row_step && at_line_boundary()) {
+        step_raw_row();
+        continue;
+      }
+    }
+    if (out.job == JOB_NONE)
+      break;
     if (out.job == JOB_REPORT) {
       done = step_report();
     } else {
-      done = out.job == JOB_BOOT ? step_boot(out.step) : step_reply(out.step);
+      switch (out.job) {
+      case JOB_BOOT: done = step_boot(out.step); break;
+      case JOB_STATUS: done = step_status(out.step); break;
+      case JOB_HELP: done = step_help(out.step); break;
+      default: done = step_reply(out.step); break;
+      }
       out.step++;
     }
     if (done) {

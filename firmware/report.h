@@ -26,8 +26,21 @@ void report_ok(const char *text_P);              /* `ok` or `ok <text>` */
 void report_ok_n(const char *text_P, uint32_t n); /* `ok <text><n>` */
 void report_error(uint8_t code, const char *text_P);
 
-/* 1 while a job is being written. */
+void report_status(void);                        /* `ok status ...` */
+void report_help(void);                          /* `ok help ...` */
+
+/* 1 while a job or a raw row is being written (commands wait). */
 uint8_t report_busy(void);
+
+/* Raw and binary modes: 1 while the oldest sampled set still has to be
+ * written, so the main loop must leave it in the ring for now. */
+uint8_t report_holds_sample(void);
+
+/* The main loop took the oldest set: the next one is due for output. */
+void report_sample_taken(void);
+
+/* Restart the count of rows or frames (mode entered, accumulators reset). */
+void report_restart_rows(void);
 
 /* Write as much of the current job as the TX ring takes now. */
 void report_poll(void);

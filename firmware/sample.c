@@ -3,31 +3,44 @@
 
 #include "board.h"
 #include "config.h"
+#include "report.h"
 
-#define COL_TEMP 6
 
 allan_t sample_engine;
 sample_stats_t sample_stats;
 
 void sample_pump(void)
 {
-  uint16_t code[ADC_COLUMNS];
-  while (adc_pop(code)) {
-    uint8_t i;
+  /* In raw and binary modes a set stays in the ring until its row or frame
+   * is written (report.c), so that output and engine see the same sets.
+   * Codes are read one at a time from the ring: no copy on the stack of
+   * the engine's deepest path. */
+  while (!report_holds_sample() && adc_pending()) {
+    uint8_t i, counted;
     BOARD_PROBE_SAMPLE_ON();
-    for (i = 0; i < ADC_COLUMNS; i++)
-      if ((code[i] == 0 || code[i] == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFu)
-        sample_stats.clips[i]++;
-    sample_stats.temp_sum += code[COL_TEMP];
-    if (code[COL_TEMP] < sample_stats.temp_min)
-      sample_stats.temp_min = code[COL_TEMP];
-    if (code[COL_TEMP] > sample_stats.temp_max)
-      sample_stats.temp_max = code[COL_TEMP];
-    sample_stats.since_report++;
-    /* Columns 0..5 are the sensors.  A set the engine refuses (its 32-bit
-     * count is full) is lost like a dropped one, and counted as such. */
-    if (allan_push(&sample_engine, code) != ALLAN_OK)
+    /* A set the engine refuses (its 32-bit count is full) is lost like a
+     * dropped one, and counted as such. */
+    counted = allan_begin(&sample_engine) == ALLAN_OK;
+    if (!counted)
       adc_count_drop();
+    for (i = 0; i < ADC_COLUMNS; i++) {
+      uint16_t code = adc_oldest(i);
+      if ((code == 0 || code == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFu)
+        sample_stats.clips[i]++;
+      if (i < ALLAN_CHANNELS) {
+        if (counted)
+          allan_channel(&sample_engine, i, code);
+      } else {
+        sample_stats.temp_sum += code;
+        if (code < sample_stats.temp_min)
+          sample_stats.temp_min = code;
+        if (code > sample_stats.temp_max)
+          sample_stats.temp_max = code;
+      }
+    }
+    sample_stats.since_report++;
+    adc_discard();
+    report_sample_taken();
     BOARD_PROBE_SAMPLE_OFF();
   }
 }

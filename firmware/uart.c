@@ -34,7 +34,7 @@
 #  error "BAUD cannot be generated from F_CPU within the USART's error limits (2.0% normal, 1.5% U2X)"
 #endif
 
-#define UART_TX_SIZE 24 /* above REPORT_STEP_MAX: one output step always fits */
+#define UART_TX_SIZE (REPORT_STEP_MAX + 1) /* one output step always fits */
 #define UART_RX_SIZE 8  /* a power of two */
 #if UART_TX_SIZE <= REPORT_STEP_MAX
 #  error "the TX ring must hold one whole output step"

@@ -1,0 +1,37 @@
+/*
+ * link.h - the serial link budget of each output mode (docs/protocol.md):
+ * can the mode's worst-case output at a sample rate keep up with BAUD?
+ * Pure: used at run time by `rate`/`mode` and by the unit tests; config.h
+ * applies the same rules to the defaults at compile time.
+ */
+#ifndef LINK_H
+#define LINK_H
+
+#include <stdint.h>
+
+/* Worst-case bytes of one raw row ("1023\t" x 6, "1023\r\n") and of the
+ * count line sent every LINK_COUNT_EVERY rows or frames
+ * ("$C,4294967295,4294967295*XXXX\r\n"). */
+#define LINK_RAW_ROW 36u
+#define LINK_COUNT_LINE 31u
+#define LINK_COUNT_EVERY 100u
+#define LINK_FRAME 13u      /* one binary frame */
+#define LINK_REPLY_MAX 92u  /* longest reply line (status, help) */
+#define LINK_REPORT_MAX 264u /* longest report line: the header with every count at its maximum */
+#define LINK_USE_PERCENT 90u /* of BAUD/10 bytes per second, at most */
+#define LINK_STEP_MAX 20u    /* one output step (report.h's REPORT_STEP_MAX) */
+
+/* Bytes per second the mode sends at rate fs, worst case, reports aside. */
+uint32_t link_bytes_per_s(uint8_t mode, uint16_t fs);
+
+/* Percent of the link (BAUD/10 bytes per second) the mode uses, rounded up. */
+uint16_t link_percent(uint8_t mode, uint16_t fs, uint32_t baud);
+
+/* 1 when the mode keeps up: throughput within LINK_USE_PERCENT, and the
+ * longest text that can hold a sample's output back goes out within two
+ * sample periods, the slack the sample ring gives.  Raw rows wait for a
+ * whole line (a reply, or in `both` a report line); binary frames may cut
+ * into a text line, so they wait one output step at most. */
+uint8_t link_fits(uint8_t mode, uint16_t fs, uint32_t baud);
+
+#endif /* LINK_H */

@@ -1,0 +1,123 @@
+/*
+ * settings.c - see settings.h.  EEPROM record at address 0:
+ *   byte 0      SETTINGS_VERSION
+ *   bytes 1..6  settings_t (rate, interval, mode, range)
+ *   bytes 7..8  CRC-16 (avr-libc _crc16_update, init 0xFFFF) of bytes 0..6
+ * A blank EEPROM reads 0xFF everywhere.
+ */
+#include "settings.h"
+
+#include <avr/eeprom.h>
+#include <avr/pgmspace.h>
+#include <util/crc16.h>
+
+#include "command.h"
+#include "config.h"
+
+#define SETTINGS_VERSION 1
+#define RECORD_BYTES (1u + sizeof(settings_t) + 2u)
+
+settings_t settings;
+uint8_t settings_source;
+
+static uint8_t save_pos = 0xFF; /* next record byte to write; 0xFF: idle */
+
+static const char source_names[] PROGMEM = "saved\0blank\0corrupt\0defaults\0";
+
+/* Byte i of the record for the current settings (crc: of bytes 0..6). */
+static uint8_t record_byte(uint8_t i, uint16_t crc)
+{
+  if (i == 0)
+    return SETTINGS_VERSION;
+  if (i <= sizeof(settings_t))
+    return ((const uint8_t *)&settings)[i - 1];
+  return i == sizeof(settings_t) + 1u ? (uint8_t)(crc >> 8) : (uint8_t)crc;
+}
+
+static uint16_t record_crc(void)
+{
+  uint16_t crc = 0xFFFF;
+  uint8_t i;
+  for (i = 0; i <= sizeof(settings_t); i++)
+    crc = _crc16_update(crc, record_byte(i, 0));
+  return crc;
+}
+
+static uint8_t valid(const settings_t *s)
+{
+  return command_rate_ok(s->rate_hz) && s->interval_s <= 3600 && s->mode <= MODE_BOTH &&
+         s->range <= RANGE_6G;
+}
+
+void settings_defaults(void)
+{
+  settings.rate_hz = FS_DEFAULT;
+  settings.interval_s = REPORT;
+  settings.mode = MODE_DEFAULT;
+  settings.range = RANGE_DEFAULT;
+  settings_source = CFG_DEFAULTS;
+}
+
+uint8_t settings_load(void)
+{
+  uint8_t rec[RECORD_BYTES], i, blank = 1;
+  uint16_t crc = 0xFFFF;
+  settings_t s;
+
+  eeprom_read_block(rec, (const void *)0, RECORD_BYTES);
+  for (i = 0; i < RECORD_BYTES; i++)
+    if (rec[i] != 0xFF)
+      blank = 0;
+  for (i = 0; i < RECORD_BYTES - 2u; i++)
+    crc = _crc16_update(crc, rec[i]);
+  for (i = 0; i < sizeof s; i++)
+    ((uint8_t *)&s)[i] = rec[1 + i];
+  settings_defaults();
+  if (blank) {
+    settings_source = CFG_BLANK;
+  } else if (rec[0] != SETTINGS_VERSION || rec[RECORD_BYTES - 2u] != (uint8_t)(crc >> 8) ||
+             rec[RECORD_BYTES - 1u] != (uint8_t)crc || !valid(&s)) {
+    settings_source = CFG_CORRUPT;
+  } else {
+    settings = s;
+    settings_source = CFG_SAVED;
+  }
+  return settings_source;
+}
+
+void settings_save(void)
+{
+  save_pos = 0;
+}
+
+uint8_t settings_saving(void)
+{
+  return save_pos != 0xFF;
+}
+
+uint8_t settings_poll(void)
+{
+  if (save_pos == 0xFF || !eeprom_is_ready())
+    return 0;
+  /* update: a byte already holding its value is not rewritten (wear). */
+  /* The CRC is worked out again for each byte rather than kept: RAM is
+   * scarcer than the few hundred cycles this costs. */
+  eeprom_update_byte((uint8_t *)(uintptr_t)save_pos,
+                     record_byte(save_pos, save_pos > sizeof(settings_t) ? record_crc() : 0));
+  if (++save_pos < RECORD_BYTES)
+    return 0;
+  save_pos = 0xFF;
+  settings_source = CFG_SAVED;
+  return 1;
+}
+
+const char *settings_source_name(uint8_t source)
+{
+  const char *p = source_names;
+  while (source--) {
+    while (pgm_read_byte(p))
+      p++;
+    p++;
+  }
+  return p;
+}

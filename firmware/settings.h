@@ -1,0 +1,45 @@
+/*
+ * settings.h - the user's settings (rate, report interval, output mode,
+ * accelerometer range) and their copy in EEPROM: a versioned record with a
+ * CRC-16, written only by `save`, one byte per main-loop pass so that
+ * sampling never waits on the EEPROM.
+ */
+#ifndef SETTINGS_H
+#define SETTINGS_H
+
+#include <stdint.h>
+
+typedef struct {
+  uint16_t rate_hz;
+  uint16_t interval_s; /* 0: reports only on request */
+  uint8_t mode;        /* MODE_* */
+  uint8_t range;       /* RANGE_* */
+} settings_t;
+
+/* Where the settings in force came from (`cfg=` in headers and status). */
+enum { CFG_SAVED, CFG_BLANK, CFG_CORRUPT, CFG_DEFAULTS };
+
+extern settings_t settings;
+extern uint8_t settings_source;
+
+/* The built-in settings (config.h); source becomes CFG_DEFAULTS. */
+void settings_defaults(void);
+
+/* Read the EEPROM record; a blank or invalid one gives the defaults.
+ * Returns (and records) CFG_SAVED, CFG_BLANK or CFG_CORRUPT. */
+uint8_t settings_load(void);
+
+/* Start writing the settings to EEPROM; settings_poll() finishes the job. */
+void settings_save(void);
+
+/* Write the next byte if the EEPROM is ready; returns 1 when a save has
+ * just completed. */
+uint8_t settings_poll(void);
+
+/* 1 while a save is in progress. */
+uint8_t settings_saving(void);
+
+/* "saved", "blank", "corrupt", "defaults" (flash). */
+const char *settings_source_name(uint8_t source);
+
+#endif /* SETTINGS_H */
