@@ -30,8 +30,8 @@ void main_get_mcusr(void)
   wdt_disable();
 }
 
-/* The command line being received; `ready` holds a complete one until no
- * output job is running, so a reply never cuts into a report. */
+/* The command line being received; `ready` holds a complete one until the
+ * output is between two lines, so a reply never cuts into another line. */
 static struct {
   char text[COMMAND_LINE_MAX + 1];
   uint8_t len;
@@ -66,9 +66,11 @@ static void stop_sampling(void)
   sample_pump();
 }
 
-/* A new run: the accumulators, counters and row count start again. */
+/* A new run: the accumulators, counters and row count start again.  A
+ * report being written would now mix two runs: it is cut off. */
 static void new_run(void)
 {
+  report_abort();
   sample_reset();
   sample_interval_restart();
   report_restart_rows();
@@ -152,6 +154,8 @@ static void execute(const command_t *cmd)
     if (!link_fits((uint8_t)cmd->arg, settings.rate_hz, BAUD)) {
       report_error(CMD_ERR_STATE, PSTR("link too slow"));
     } else {
+      if (cmd->arg == MODE_RAW || cmd->arg == MODE_BINARY)
+        report_abort(); /* no reports in these modes */
       settings.mode = (uint8_t)cmd->arg;
       report_restart_rows();
       report_ok(reply_mode[cmd->arg]);
@@ -211,8 +215,8 @@ static __attribute__((noinline)) void run_line(void)
     execute(&cmd);
 }
 
-/* Assemble command lines from the RX ring; run each when output is idle
- * (and no EEPROM save is under way). */
+/* Assemble command lines from the RX ring; run each when the output is
+ * between two lines (and no EEPROM save is under way). */
 static __attribute__((noinline)) void poll_commands(void)
 {
   int16_t c;
@@ -227,7 +231,7 @@ static __attribute__((noinline)) void poll_commands(void)
       line.overflow = 1; /* discard the whole line at its end */
     }
   }
-  if (line.ready && !report_busy() && !settings_saving())
+  if (line.ready && report_can_interject() && !settings_saving())
     run_line();
 }
 
@@ -268,7 +272,8 @@ int main(void)
     watchdog_kick();
     sample_pump();
     report_poll();
-    if (settings_poll())
+    /* EEPROM bytes go out only where the reply may follow at once. */
+    if (settings_saving() && report_can_interject() && settings_poll())
       report_ok(PSTR("saved"));
     poll_commands();
     if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&

@@ -30,6 +30,7 @@ static const char cause_names[] PROGMEM = "por\0ext\0bor\0wdt\0";
 static struct {
   uint8_t job, part, step;
   uint8_t report_next; /* a report waits for the current job to end */
+  uint8_t paused;      /* a report waits for the reply written between its lines */
   uint8_t row_step;    /* raw row in progress: next step, 0 when none */
   uint8_t row_done;    /* the oldest set's row or frame is written */
   uint32_t rows;       /* rows or frames written since report_restart_rows() */
@@ -73,13 +74,35 @@ void report_restart_rows(void)
   out.rows = 0;
 }
 
+/* A new job.  A reply may come between two lines of a report: the report
+ * pauses (its place is kept in part/ch/level) and resumes after it. */
 static void start(uint8_t job)
 {
+  if (out.job == JOB_REPORT && job != JOB_REPORT)
+    out.paused = 1;
   out.job = job;
-  out.part = 0;
   out.step = 0;
-  out.ch = 0;
-  out.level = 0;
+  if (job == JOB_REPORT) {
+    out.part = 0;
+    out.ch = 0;
+    out.level = 0;
+  }
+}
+
+void report_abort(void)
+{
+  if (out.job == JOB_REPORT)
+    out.job = JOB_NONE;
+  out.paused = 0;
+  out.report_next = 0;
+}
+
+uint8_t report_can_interject(void)
+{
+  /* Between two lines of a report (or with no job), and not inside a raw
+   * row or a count line of our own. */
+  return (out.job == JOB_NONE || (out.job == JOB_REPORT && out.step == 0)) &&
+         out.row_step != 1 && out.row_step != 3;
 }
 
 void report_boot(void)
@@ -89,7 +112,7 @@ void report_boot(void)
 
 void report_start(void)
 {
-  if (out.job != JOB_NONE) {
+  if (out.job != JOB_NONE || out.paused) {
     out.report_next = 1;
     return;
   }
@@ -593,7 +616,10 @@ void report_poll(void)
     }
     if (done) {
       out.job = JOB_NONE;
-      if (out.report_next) {
+      if (out.paused) {
+        out.paused = 0;
+        out.job = JOB_REPORT; /* resume at the line it had reached */
+      } else if (out.report_next) {
         out.report_next = 0;
         report_start();
       }

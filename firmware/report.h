@@ -19,7 +19,7 @@
 /* MCUSR bits captured at boot, for the `reset=` fields. */
 void report_init(uint8_t reset_cause);
 
-/* Queue jobs (only while !report_busy()). */
+/* Queue jobs (only when report_can_interject()). */
 void report_boot(void);
 void report_start(void);                         /* a whole report, after the current job */
 void report_ok(const char *text_P);              /* `ok` or `ok <text>` */
@@ -29,8 +29,16 @@ void report_error(uint8_t code, const char *text_P);
 void report_status(void);                        /* `ok status ...` */
 void report_help(void);                          /* `ok help ...` */
 
-/* 1 while a job or a raw row is being written (commands wait). */
+/* 1 while a job or a raw row is being written. */
 uint8_t report_busy(void);
+
+/* 1 when a command may run now and queue its reply: no job, or a report
+ * between two of its lines (the report resumes after the reply). */
+uint8_t report_can_interject(void);
+
+/* Cut off the report in progress (no end line: readers discard it), e.g.
+ * because the accumulators were just reset under it. */
+void report_abort(void);
 
 /* Raw and binary modes: 1 while the oldest sampled set still has to be
  * written, so the main loop must leave it in the ring for now. */
