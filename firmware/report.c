@@ -31,6 +31,7 @@ static struct {
   uint8_t job, part, step;
   uint8_t report_next; /* a report waits for the current job to end */
   uint8_t paused;      /* a report waits for the reply written between its lines */
+  uint8_t hold_rows;   /* a new run's rows wait for the reply that started it */
   uint8_t row_step;    /* raw row in progress: next step, 0 when none */
   uint8_t row_done;    /* the oldest set's row or frame is written */
   uint32_t rows;       /* rows or frames written since report_restart_rows() */
@@ -72,6 +73,7 @@ void report_restart_rows(void)
   out.row_step = 0;
   out.row_done = 0;
   out.rows = 0;
+  out.hold_rows = 1; /* released when the next reply is written */
 }
 
 /* A new job.  A reply may come between two lines of a report: the report
@@ -589,8 +591,9 @@ void report_poll(void)
       step_raw_row();
       continue;
     }
-    /* Then the samples: frames anywhere, raw rows between lines. */
-    if (settings.mode != MODE_ALLAN && !out.row_done && adc_pending()) {
+    /* Then the samples: frames anywhere, raw rows between lines; those of
+     * a new run only after the reply that started it. */
+    if (settings.mode != MODE_ALLAN && !out.row_done && !out.hold_rows && adc_pending()) {
       if (settings.mode == MODE_BINARY) {
         if (out.row_step != 3) { /* not inside a count line */
           put_frame();
@@ -615,6 +618,8 @@ void report_poll(void)
       out.step++;
     }
     if (done) {
+      if (out.job != JOB_REPORT)
+        out.hold_rows = 0;
       out.job = JOB_NONE;
       if (out.paused) {
         out.paused = 0;

@@ -50,6 +50,23 @@ def _count(text: str) -> int:
     return int(v)
 
 
+def _baud(text: str) -> int:
+    v = _positive_int(text)
+    if v == 0:
+        raise argparse.ArgumentTypeError("must be a positive number of baud")
+    return v
+
+
+def _seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds: {text!r}")
+    return v
+
+
 def _levels(text: str) -> int:
     v = _positive_int(text)
     if not 1 <= v <= 32:
@@ -92,6 +109,10 @@ def build_parser() -> argparse.ArgumentParser:
             "  imu-allan decode device.log                      # the device's Allan table\n"
             "  imu-allan reference imu.txt --fs 100             # the same, computed on the host\n"
             "  imu-allan check device.log imu.txt               # do they agree exactly?\n\n"
+            "with the board on a serial port:\n"
+            "  imu-allan monitor --port /dev/ttyUSB0            # live view, all logged to a file\n"
+            "  imu-allan cmd --port /dev/ttyUSB0 mode raw       # one command, prints its reply\n"
+            "  imu-allan rows capture.log -o imu.txt            # raw/binary capture -> rows file\n\n"
             "Units: Allan variance in ADC counts^2 (deviation in counts), tau in\n"
             "seconds. Run 'imu-allan COMMAND --help' for a command's options."),
     )
@@ -205,6 +226,76 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stats", nargs="?", const=True, metavar="SFILE",
                    help="ask the harness for run statistics (to SFILE if given)")
     p.add_argument("-o", "--output", required=True, metavar="LOG", help="device log to write")
+
+    p = sub.add_parser(
+        "rows", help="turn a raw or binary capture into a rows file",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Read a capture of the device in output mode raw, binary or both (any\n"
+            "bytes: e.g. the log of 'imu-allan monitor') and write the samples it\n"
+            "holds as a rows file (thesis format: 7 tab-separated codes per line,\n"
+            "ax ay az gx gy gz temp), as 'imu-allan reference' and\n"
+            "'imu-allan sim --adc' read it.\n\n"
+            "Raw rows must be whole lines of exactly 7 codes 0..1023; the first,\n"
+            "usually partial, line of a capture is never used. Binary frames are\n"
+            "used only when their CRC checks. Count lines ($C,<rows>, every 100\n"
+            "rows) tell how many rows were lost on the way; frame sequence\n"
+            "numbers tell how many frames were. Replies and reports in between are\n"
+            "skipped. A summary line goes to stderr: rows written, bad rows (whole\n"
+            "lines that are not valid rows), rows lost (per count lines), frames\n"
+            "lost (per sequence numbers) and bad frames (CRC failed). Damaged data\n"
+            "is never written: what cannot be checked is left out."),
+        epilog=EPILOG_EXIT.format(one="rows or frames were lost or bad, or none were found "
+                                      "(the file is still written)"))
+    p.add_argument("log", metavar="LOG", help="capture file, or - for stdin")
+    p.add_argument("-o", "--output", required=True, metavar="FILE",
+                   help="rows file to write (- for stdout)")
+
+    p = sub.add_parser(
+        "monitor", help="live view of a device on a serial port (and log everything)",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Open the serial port and show, refreshed in place, the latest complete\n"
+            "report: its header (fs, n, drops, clips, mode, range, ...) and the\n"
+            "Allan deviation table in ADC counts (one line per tau, one column per\n"
+            "channel; '!' marks a flagged value). Below it: the samples received\n"
+            "in raw and binary modes (rows/s, rows and frames lost), counts of bad\n"
+            "lines, and the last replies. When stdout is not a terminal, each new\n"
+            "report and reply is printed once instead.\n\n"
+            "Every byte received is appended, as is, to the log file, which\n"
+            "'imu-allan decode' and 'imu-allan rows' read back. When stdin is a\n"
+            "terminal, a line typed and ended with Enter is sent as a command\n"
+            "(e.g. status, mode raw, rate 250, report). Ctrl-C quits."),
+        epilog=("exit status: 0 on Ctrl-C (or, with --once, after a report), 1 the port "
+                "was lost, 2 usage error or the port cannot be opened"))
+    p.add_argument("--port", required=True, metavar="PORT", help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--baud", type=_baud, default=115200, metavar="B",
+                   help="baud rate (default 115200, the firmware's default BAUD)")
+    p.add_argument("--log", metavar="FILE",
+                   help="file to append everything received to "
+                        "(default imu-allan-YYYYmmdd-HHMMSS.log here)")
+    p.add_argument("--once", action="store_true",
+                   help="exit after the first complete report (for scripts)")
+
+    p = sub.add_parser(
+        "cmd", help="send one command to the device and print its reply",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Send WORDS, joined by spaces, as one command line to the device and\n"
+            "print its reply ('ok ...' or 'error:<code> <reason>'); whatever else\n"
+            "the device sends meanwhile (reports, raw rows, binary frames) is\n"
+            "ignored. Commands (docs/protocol.md): help, status, report, reset,\n"
+            "stop, start [count], rate <hz>, interval <s>, mode <allan|raw|binary|\n"
+            "both>, range <1.5|2|4|6>, save, load, defaults.\n\n"
+            "example: imu-allan cmd --port /dev/ttyUSB0 rate 250"),
+        epilog="exit status: 0 reply ok, 1 error reply or no reply in time, 2 usage error "
+               "or the port cannot be opened")
+    p.add_argument("--port", required=True, metavar="PORT", help="serial port, e.g. /dev/ttyUSB0")
+    p.add_argument("--baud", type=_baud, default=115200, metavar="B", help="baud rate (default 115200)")
+    p.add_argument("--timeout", type=_seconds, default=3.0, metavar="S",
+                   help="seconds to wait for the reply (default 3; a command waits while "
+                        "a report is being sent)")
+    p.add_argument("words", nargs="+", metavar="WORDS", help="the command and its argument")
     return parser
 
 
@@ -321,8 +412,86 @@ def cmd_sim(args: argparse.Namespace) -> int:
                            firmware=args.firmware, stats=args.stats))
 
 
+def _open_output(path: str) -> Any:
+    if path == "-":
+        return sys.stdout.buffer
+    try:
+        return open(path, "wb")
+    except OSError as exc:
+        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+
+
+def cmd_rows(args: argparse.Namespace) -> int:
+    from .rows import BLOCK_BYTES, format_rows, open_input
+    from .stream import LOSS_KEYS, StreamDecoder
+    name = "<stdin>" if args.log == "-" else args.log
+    src = open_input(args.log)
+    dec = StreamDecoder()
+    written = frames = 0
+    try:
+        dst = _open_output(args.output)
+        try:
+            dst.write(f"# imu-allan rows {name}\n"
+                      f"# columns: ax ay az gx gy gz temp (10-bit ADC codes)\n".encode())
+            while True:
+                try:
+                    block = src.read(BLOCK_BYTES)
+                except OSError as exc:
+                    raise InputError(f"cannot read '{name}': {exc.strerror or exc}") from None
+                chunk = dec.feed(block) if block else dec.finish()
+                if chunk.samples.shape[1]:
+                    dst.write(format_rows(chunk.samples))
+                    written += chunk.samples.shape[1]
+                    frames += int(chunk.from_frame.sum())
+                if not block:
+                    break
+        except OSError as exc:
+            raise InputError(f"cannot write '{args.output}': {exc.strerror or exc}") from None
+        finally:
+            if dst is not sys.stdout.buffer:
+                dst.close()
+    finally:
+        if src is not sys.stdin.buffer:
+            src.close()
+    c = dec.counts
+    if written == 0:
+        print(f"imu-allan rows: no raw rows or binary frames in '{name}' "
+              f"(bad rows {c['bad_rows']}, bad frames {c['bad_frames']})", file=sys.stderr)
+        return 1
+    print(f"imu-allan rows: {written} rows written to {args.output} ({written - frames} from raw "
+          f"rows, {frames} from binary frames); bad rows {c['bad_rows']}, rows lost "
+          f"{c['rows_lost']} (count lines), frames lost {c['frames_lost']}, "
+          f"bad frames {c['bad_frames']}", file=sys.stderr)
+    return 1 if any(c[k] for k in LOSS_KEYS) else 0
+
+
+def cmd_monitor(args: argparse.Namespace) -> int:
+    from .monitor import run_monitor
+    return run_monitor(args.port, args.baud, args.log, args.once)
+
+
+def cmd_cmd(args: argparse.Namespace) -> int:
+    from .monitor import PortError, command_line, open_port, send_command
+    line = command_line(args.words)
+    ser = open_port(args.port, args.baud)
+    try:
+        reply = send_command(ser, line, args.timeout)
+    except PortError as exc:
+        print(f"imu-allan cmd: {args.port}: connection lost ({exc})", file=sys.stderr)
+        return 1
+    finally:
+        ser.close()
+    if reply is None:
+        print(f"imu-allan cmd: no reply from {args.port} within {args.timeout:g} s",
+              file=sys.stderr)
+        return 1
+    print(reply)
+    return 0 if reply.startswith("ok") else 1
+
+
 COMMANDS = {"decode": cmd_decode, "reference": cmd_reference, "check": cmd_check,
-            "gen": cmd_gen, "sim": cmd_sim}
+            "gen": cmd_gen, "sim": cmd_sim, "rows": cmd_rows, "monitor": cmd_monitor,
+            "cmd": cmd_cmd}
 
 
 def main(argv: Optional[list[str]] = None) -> int:

@@ -1,8 +1,10 @@
-"""Records of the protocol (B, H, L, S, E, ok, error) and complete reports.
+"""Records of the protocol (B, H, L, S, E, C, ok, error) and complete reports.
 
 ``decode_bytes(data)`` turns a raw device log into the list of its complete
 reports (header + every L row + E, all intact) and the counts of everything
 that could not be used.  Nothing partial or unchecked is ever returned.
+``Assembler`` is the same record logic fed one CRC-checked body at a time
+(used by ``stream.py`` for live and mixed captures).
 """
 from __future__ import annotations
 
@@ -68,6 +70,8 @@ class DecodeResult:
     reports: list[Report]
     errors: dict[str, int]
     boots: list[dict[str, Any]] = field(default_factory=list)
+    replies: list[str] = field(default_factory=list)
+    """Bodies of the intact replies (``ok ...``, ``error:<code> ...``), in order."""
 
 
 def flag_names(flags: int) -> list[str]:
@@ -133,7 +137,7 @@ def parse_boot(fields: list[str]) -> dict[str, Any]:
 
 
 _HEADER_KEYS = {"proto", "fw", "mcu", "fcpu", "baud", "fs", "levels", "acc48", "n", "drops",
-                "clips", "temp", "run", "reset"}
+                "clips", "temp", "run", "mode", "range", "cfg", "reset"}
 
 
 def parse_header(seq: int, fields: list[str]) -> dict[str, Any]:
@@ -185,6 +189,9 @@ def parse_header(seq: int, fields: list[str]) -> dict[str, Any]:
         "clips": clips,
         "temp": temp,
         "running": running,
+        "mode": kv.get("mode"),
+        "range_g": kv.get("range"),
+        "cfg": kv.get("cfg"),
         "reset_cause": _reset(kv["reset"]) if "reset" in kv else None,
         "seq": seq,
         "extra": {k: v for k, v in kv.items() if k not in _HEADER_KEYS},
@@ -205,7 +212,116 @@ def parse_row(fields: list[str]) -> LRow:
     return LRow(ch, _uint(level, "level", 31), _uint(pairs, "pairs"), int(acc, 16), int(flags, 16))
 
 
+def parse_count(fields: list[str]) -> int:
+    """``C,<rows>[,...]`` (fields after ``C``) -> rows. Further fields are ignored."""
+    if not fields:
+        raise BodyError("C record without a count")
+    return _uint(fields[0], "rows")
+
+
+_ERROR_REPLY = re.compile(r"error:\d+( |$)")
+
+
+def is_reply(body: str) -> bool:
+    """``ok``, ``ok <text>`` or ``error:<code>[ <reason>]``."""
+    return body == "ok" or body.startswith("ok ") or _ERROR_REPLY.match(body) is not None
+
+
+_RESTART_WORDS = {"reset", "loaded", "defaults"}
+
+
+def restarts_output(body: str) -> bool:
+    """Does this record mark a restart of the raw row count and frame sequence?
+
+    A boot (``B``), and replies to commands that start a new run or enter a
+    mode: words ``reset``, ``loaded``, ``defaults`` or ``mode=...``.
+    """
+    if body.startswith("B,") or body == "B":
+        return True
+    if not body.startswith("ok "):
+        return False
+    words = body[3:].split()
+    return any(w in _RESTART_WORDS or w.startswith("mode=") for w in words)
+
+
 # ---- report assembly ----------------------------------------------------------
+
+
+class Assembler:
+    """Record logic, one CRC-checked body at a time.
+
+    Complete reports, boots and replies are appended to the lists of the same
+    names; record-level errors are counted into ``errors`` (the keys of
+    ``ERROR_KEYS`` after the framing ones).  Call ``finish()`` at the end of
+    the input: an open report then counts as incomplete.
+    """
+
+    def __init__(self, errors: Optional[dict[str, int]] = None) -> None:
+        self.errors = errors if errors is not None else dict.fromkeys(ERROR_KEYS, 0)
+        for key in ERROR_KEYS:
+            self.errors.setdefault(key, 0)
+        self.reports: list[Report] = []
+        self.boots: list[dict[str, Any]] = []
+        self.replies: list[str] = []
+        self._open: Optional[Report] = None
+
+    def _abandon(self) -> None:
+        if self._open is not None:
+            self.errors["incomplete_reports"] += 1
+        self._open = None
+
+    def finish(self) -> None:
+        self._abandon()
+
+    def add(self, body: str) -> None:
+        errors = self.errors
+        fields = body.split(",")
+        kind = fields[0]
+        try:
+            if kind == "B":
+                boot = parse_boot(fields[1:])
+                self._abandon()  # the device reset: an open report never ends
+                self.boots.append(boot)
+            elif kind in ("H", "L", "S", "E"):
+                if len(fields) < 2:
+                    raise BodyError(f"{kind} without seq")
+                seq = _uint(fields[1], "seq", _SEQ_MAX)
+                if kind == "H":
+                    header = parse_header(seq, fields[2:])
+                    self._abandon()
+                    self._open = Report(seq, header)
+                    return
+                if kind == "L":
+                    row = parse_row(fields[2:])
+                elif kind == "E":
+                    if len(fields) != 3:
+                        raise BodyError("E record needs exactly <seq>,<rows>")
+                    count = _uint(fields[2], "rows")
+                open_ = self._open
+                if open_ is None or seq != open_.seq:
+                    errors["orphan_lines"] += 1
+                    if kind == "E":
+                        errors["incomplete_reports"] += 1  # a report whose H was lost
+                    return
+                if kind == "L":
+                    open_.rows.append(row)
+                elif kind == "E":
+                    if _complete(open_, count):
+                        open_.rows.sort(key=lambda r: (CHANNELS.index(r.channel), r.level))
+                        self.reports.append(open_)
+                        self._open = None
+                    else:
+                        self._abandon()
+            elif kind == "C":
+                parse_count(fields[1:])  # raw row counts: checked by stream.py
+            elif kind == "ok" or kind.startswith("ok ") or kind.startswith("error:"):
+                if not is_reply(body):
+                    raise BodyError("bad error reply")
+                self.replies.append(body)
+            else:
+                errors["unknown_records"] += 1  # readers ignore record types they do not know
+        except (BodyError, KeyError, ValueError):
+            errors["unparsable"] += 1  # a lost L row then fails the report's E count
 
 
 def decode_bytes(data: bytes) -> DecodeResult:
@@ -213,62 +329,11 @@ def decode_bytes(data: bytes) -> DecodeResult:
     frames = split_frames(data)
     errors = dict.fromkeys(ERROR_KEYS, 0)
     errors.update(frames.errors)
-    reports: list[Report] = []
-    boots: list[dict[str, Any]] = []
-    open_: Optional[Report] = None
-
-    def abandon() -> None:
-        nonlocal open_
-        if open_ is not None:
-            errors["incomplete_reports"] += 1
-        open_ = None
-
+    asm = Assembler(errors)
     for body in frames.bodies:
-        fields = body.split(",")
-        kind = fields[0]
-        try:
-            if kind == "B":
-                boot = parse_boot(fields[1:])
-                abandon()  # the device reset: an open report never ends
-                boots.append(boot)
-            elif kind in ("H", "L", "S", "E"):
-                if len(fields) < 2:
-                    raise BodyError(f"{kind} without seq")
-                seq = _uint(fields[1], "seq", _SEQ_MAX)
-                if kind == "H":
-                    header = parse_header(seq, fields[2:])
-                    abandon()
-                    open_ = Report(seq, header)
-                    continue
-                if kind == "L":
-                    row = parse_row(fields[2:])
-                elif kind == "E":
-                    if len(fields) != 3:
-                        raise BodyError("E record needs exactly <seq>,<rows>")
-                    count = _uint(fields[2], "rows")
-                if open_ is None or seq != open_.seq:
-                    errors["orphan_lines"] += 1
-                    if kind == "E":
-                        errors["incomplete_reports"] += 1  # a report whose H was lost
-                    continue
-                if kind == "L":
-                    open_.rows.append(row)
-                elif kind == "E":
-                    if _complete(open_, count):
-                        open_.rows.sort(key=lambda r: (CHANNELS.index(r.channel), r.level))
-                        reports.append(open_)
-                        open_ = None
-                    else:
-                        abandon()
-            elif kind == "ok" or kind.startswith("ok ") or kind.startswith("error:"):
-                if kind.startswith("error:") and not re.match(r"error:\d+( |$)", body):
-                    raise BodyError("bad error reply")
-            else:
-                errors["unknown_records"] += 1  # readers ignore record types they do not know
-        except (BodyError, KeyError, ValueError):
-            errors["unparsable"] += 1  # a lost L row then fails the report's E count
-    abandon()
-    return DecodeResult(reports, errors, boots)
+        asm.add(body)
+    asm.finish()
+    return DecodeResult(asm.reports, errors, asm.boots, asm.replies)
 
 
 def _complete(rep: Report, count: int) -> bool:

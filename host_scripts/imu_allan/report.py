@@ -83,6 +83,9 @@ def device_header_text(h: dict[str, Any]) -> str:
         f"  fs {fs} Hz, levels {h['levels']}, n {h['n']} samples ({h['n'] / fs:.6g} s), "
         f"drops {_v(h['drops'])}, running {running}, reset {reset}",
     ]
+    if any(h.get(k) is not None for k in ("mode", "range_g", "cfg")):
+        lines.append(f"  mode {_v(h.get('mode'))}, range {_v(h.get('range_g'))} g, "
+                     f"settings {_v(h.get('cfg'))}")
     if h["clips"] is not None:
         lines.append("  clips (codes at 0 or 1023): "
                      + "  ".join(f"{k} {v}" for k, v in h["clips"].items()))
@@ -97,3 +100,40 @@ def device_header_text(h: dict[str, Any]) -> str:
 def errors_text(errors: dict[str, int]) -> str:
     bad = {k: v for k, v in errors.items() if v}
     return "not used: " + (", ".join(f"{k} {v}" for k, v in bad.items()) if bad else "nothing") + "\n"
+
+
+def sig3(v: float) -> str:
+    """3 significant digits as the device's summary prints them:
+    ``0.0100``, ``2.02``, ``164``, ``1.23e-4`` below 0.001."""
+    if v == 0:
+        return "0"
+    if v < 1e-3:
+        mant, exp = f"{v:.2e}".split("e")
+        return f"{mant}e{int(exp)}"
+    if v >= 999.5:
+        return f"{v:.0f}"
+    return f"{v:#.3g}".rstrip(".")
+
+
+def adev_table(rows: list[dict[str, Any]], channels: Iterable[str]) -> str:
+    """Allan deviation in counts, one line per tau (levels with pairs), one
+    column per channel; a flagged value ends in ``!``, a missing one is ``-``."""
+    chans = list(channels)
+    by_level: dict[int, dict[str, dict[str, Any]]] = {}
+    for r in rows:
+        by_level.setdefault(r["level"], {})[r["channel"]] = r
+    lines = [f"{'tau_s':>10}" + "".join(f"{c:>9}" for c in chans)]
+    for level in sorted(by_level):
+        cells = by_level[level]
+        if not any(r["pairs"] > 0 for r in cells.values()):
+            continue
+        tau = next(iter(cells.values()))["tau_s"]
+        out = []
+        for c in chans:
+            r = cells.get(c)
+            if r is None or r["adev"] is None:
+                out.append("-")
+            else:
+                out.append(sig3(r["adev"]) + ("!" if r["flags"] else ""))
+        lines.append(f"{sig3(tau):>10}" + "".join(f"{x:>9}" for x in out))
+    return "\n".join(lines) + "\n"

@@ -2,7 +2,10 @@
 
 Each data line holds 7 integer codes (0..1023) separated by tabs or spaces:
 ``ax ay az gx gy gz temp``. ``#`` starts a comment (to the end of the line);
-blank lines are ignored. ``-`` as a path means stdin/stdout.
+a line starting with ``$`` is a protocol line (count lines ``$C,...`` and
+replies inside a raw capture of the device) and is skipped whole, as
+imu-sim does; blank lines are ignored. ``-`` as a path means stdin/stdout.
+A capture with binary frames or damaged rows: ``imu-allan rows`` (stream.py).
 
 Reading is vectorized on blocks of a few MB (no per-line Python), so files of
 millions of rows read in seconds; writing is vectorized the same way.
@@ -24,6 +27,7 @@ BLOCK_BYTES = 1 << 23
 
 PathLike = Union[str, Path]
 _COMMENT = re.compile(rb"#[^\n]*")
+_PROTOCOL_LINE = re.compile(rb"^\$[^\n]*", re.MULTILINE)
 _POW10 = 10 ** np.arange(10, dtype=np.int64)
 
 
@@ -86,8 +90,10 @@ _CLASS[0x30:0x3A] = 2
 
 def parse_block(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarray:
     """Parse whole lines of text into a (ncol, rows) uint16 array."""
+    if b"$" in block:  # blocks start at a line start, so ^ is one
+        block = _PROTOCOL_LINE.sub(b"", block)  # keeps the newlines: line numbers hold
     if b"#" in block:
-        block = _COMMENT.sub(b"", block)  # keeps the newlines: line numbers hold
+        block = _COMMENT.sub(b"", block)
     b = np.frombuffer(block, dtype=np.uint8)
     if b.size == 0:
         return np.zeros((ncol, 0), dtype=np.uint16)

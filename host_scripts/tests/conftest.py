@@ -89,3 +89,31 @@ def run_cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str,
         out, err = capsys.readouterr()
         return rc, out, err
     return run
+
+
+# ---- raw rows and binary frames, encoded independently of imu_allan.stream ------
+
+def raw_row(codes: Sequence[int]) -> bytes:
+    """One raw row as the device sends it: 7 codes, tab-separated, CR LF."""
+    return "\t".join(str(int(v)) for v in codes).encode() + b"\r\n"
+
+
+def bin_frame(seq: int, codes: Sequence[int]) -> bytes:
+    """One 13-byte binary frame, from the table of docs/protocol.md."""
+    c = [int(v) for v in codes]
+    word = 0
+    for i, v in enumerate(c):
+        word |= (v >> 8) << (2 * i)
+    body = bytes([seq & 0xFF]) + bytes(v & 0xFF for v in c) + word.to_bytes(2, "little")
+    return b"\xa5" + body + crc(body).to_bytes(2, "big")
+
+
+def random_codes(n: int, seed: int) -> np.ndarray:
+    """(n, 7) codes 0..1023 with the extremes and codes whose low byte is
+    '$' (0x24), CR, LF or 0xA5 mixed in."""
+    rng = np.random.default_rng(seed)
+    out = rng.integers(0, 1024, (n, 7))
+    special = np.array([0, 1023, 0x24, 0x124, 0x0D, 0x20A, 0x0A, 0xA5, 0x3A5, 9])
+    mask = rng.random((n, 7)) < 0.2
+    out[mask] = rng.choice(special, int(mask.sum()))
+    return out

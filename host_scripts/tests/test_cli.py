@@ -10,7 +10,7 @@ import pytest
 
 from imu_allan import simrun
 
-COMMANDS = ("decode", "reference", "check", "gen", "sim")
+COMMANDS = ("decode", "reference", "check", "gen", "sim", "rows", "monitor", "cmd")
 
 
 def test_help(run_cli) -> None:
@@ -30,6 +30,7 @@ def test_no_command_is_a_usage_error(run_cli) -> None:
     ("decode", "/nonexistent/dev.log"),
     ("reference", "/nonexistent/rows.txt", "--fs", "100"),
     ("check", "/nonexistent/dev.log", "/nonexistent/rows.txt"),
+    ("rows", "/nonexistent/dev.log", "-o", "/nonexistent/rows.txt"),
 ])
 def test_missing_file_is_one_line(run_cli, argv) -> None:
     rc, out, err = run_cli(*argv)
@@ -46,6 +47,8 @@ def test_wrong_column_count_is_one_line(tmp_path: Path, run_cli) -> None:
 
 
 @pytest.mark.parametrize("argv", [("reference", "x.txt"), ("decode",), ("gen", "-n", "1"),
+                                  ("rows", "x.log"), ("cmd", "--port", "/dev/null"),
+                                  ("monitor",), ("cmd", "--port", "p", "--timeout", "0", "x"),
                                   ("reference", "x", "--fs", "-3"), ("decode", "x", "--json", "--csv")])
 def test_usage_errors_are_one_line(run_cli, argv) -> None:
     rc, out, err = run_cli(*argv)

@@ -39,6 +39,7 @@ def test_hand_written_report_json(tmp_path: Path, run_cli) -> None:
     assert h["clips"] == {"ax": 0, "ay": 1, "az": 2, "gx": 3, "gy": 4, "gz": 5, "temp": 6}
     assert h["temp"] == {"mean": 63.2, "min": 50, "max": 68}
     assert h["running"] is True and h["reset_cause"] == ["por", "ext"]
+    assert h["mode"] is None and h["range_g"] is None and h["cfg"] is None and h["extra"] == {}
     assert all(v == 0 for v in doc["errors"].values())
     rows = doc["rows"]
     assert [(r["channel"], r["level"]) for r in rows] == [(ch, k) for ch in CH for k in (0, 1)]
@@ -52,6 +53,20 @@ def test_hand_written_report_json(tmp_path: Path, run_cli) -> None:
     assert gy1["acc"] == 2**48 - 1 and gy1["avar"] == (2**48 - 1) / (2 * 4 * 499)
     gz1 = rows[11]
     assert gz1["pairs"] == 0 and gz1["avar"] is None and gz1["adev"] is None
+
+
+def test_settings_keys_and_replies(tmp_path: Path, run_cli) -> None:
+    rep = hand_report()
+    rep[0] = line(header_body(5, 2, 1000, fs=200, run=1, extra=",mode=both,range=1.5,cfg=saved,new=1"))
+    log = tmp_path / "dev.log"
+    log.write_bytes(line("ok mode=both") + line("C,100,0") + b"".join(rep) + line("error:4 link too slow"))
+    res = decode_bytes(log.read_bytes())
+    h = res.reports[0].header
+    assert (h["mode"], h["range_g"], h["cfg"], h["extra"]) == ("both", "1.5", "saved", {"new": "1"})
+    assert res.replies == ["ok mode=both", "error:4 link too slow"]
+    assert res.errors["unknown_records"] == 0  # count lines are known records
+    rc, out, _ = run_cli("decode", log)
+    assert rc == 0 and "mode both, range 1.5 g, settings saved" in out
 
 
 def test_text_and_csv(tmp_path: Path, run_cli) -> None:

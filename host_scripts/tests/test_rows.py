@@ -56,6 +56,24 @@ def test_error_line_numbers_across_blocks(tmp_path: Path) -> None:
             pass
 
 
+def test_protocol_lines_are_skipped(tmp_path: Path, run_cli) -> None:
+    """A raw capture (rows, count lines, replies) replays through the readers."""
+    rows = thesis_like(250, 4)
+    text = b"$B,proto=1,fw=0.2.0*ABCD\r\n$ok mode=raw # not a comment*1234\r\n"
+    for i, r in enumerate(rows):
+        text += "\t".join(map(str, r)).encode() + b"\r\n"
+        if (i + 1) % 100 == 0:
+            text += b"$C,%d*0000\r\n" % (i + 1)
+    p = tmp_path / "cap.txt"
+    p.write_bytes(text + b"$error:2 bad argument*1234")  # no final newline
+    assert np.array_equal(read_rows(p).T, rows)
+    got = np.concatenate(list(iter_blocks(p, block_bytes=100)), axis=1)
+    assert np.array_equal(got.T, rows)
+    p.write_bytes(b"1 2 3 4 5 6 7\n1 2 $C,1\n")  # '$' inside a row is an error
+    with pytest.raises(InputError, match="line 2: unexpected '\\$'"):
+        read_rows(p)
+
+
 def test_format_round_trip(tmp_path: Path) -> None:
     rows = np.random.default_rng(1).integers(0, 1024, (7, 5000)).astype(np.uint16)
     rows[:, :4] = [0, 9, 10, 1023]

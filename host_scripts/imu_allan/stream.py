@@ -1,0 +1,436 @@
+"""One pass over a captured byte stream that mixes every output mode.
+
+A capture of the device (docs/protocol.md) may interleave framed text lines
+(``$<body>*<CRC>\\r\\n``: reports, replies, boots, count lines ``$C,<rows>``),
+raw thesis rows (7 tab-separated codes and CR LF, no checksum) and 13-byte
+binary frames (``0xA5``, seq, 7 low bytes, 16-bit LE high-bits word,
+CRC-16/CCITT-FALSE of bytes 1-10, high byte first).  ``StreamDecoder`` takes
+the stream in pieces of any size (a file read in blocks, or a serial port)
+and returns, in stream order, the samples of intact rows and frames, the
+complete reports, replies and boots, and counts everything it had to throw
+away.  Nothing unchecked is returned: a damaged row or frame is counted and
+skipped.
+
+Resync rules, in the order they apply:
+
+1. Binary frames first.  A frame starts at a ``0xA5`` byte; it is intact when
+   the CRC of its bytes 1-10 equals bytes 11-12.  Frames are taken greedily
+   from the left: an intact frame's 13 bytes are cut out of the stream (any
+   byte may occur inside, ``$``, CR and LF included), a ``0xA5`` whose CRC
+   fails is counted (``bad_frames``) and the search moves on by one byte.
+   Text never contains ``0xA5``, so the bytes left form the text stream; a
+   frame that came in the middle of a text line (the firmware lets frames
+   cut into text) does not break that line.  A ``0xA5`` less than 13 bytes
+   from the end of the capture is a frame cut short (``truncated``).
+2. A ``$`` starts a framed text line, wherever it is; the line ends at LF.
+   A ``$`` before that LF restarts the line (``restarted``).  The line is
+   used only if ``<body>*<CRC>`` is well formed and the CRC matches
+   (``malformed``, ``bad_crc`` otherwise).  Bytes before the ``$`` on the
+   same line are ``garbage_bytes``.  A line still without its LF after
+   4096 bytes of text, or after 64 frames came into it, is given up
+   (``malformed``).
+3. A raw row is a whole line without ``$``: it must follow an LF (so the
+   first line of a capture, which usually starts mid-row, is never taken:
+   its bytes count as ``garbage_bytes``) and end with LF, CR before it
+   optional.  It must be exactly 7 codes of 1-4 decimal digits, 0..1023,
+   separated by one tab each, nothing else; any other non-empty line is a
+   ``bad_rows``.  Empty lines are ignored.  A row cut by a ``$`` is garbage
+   before that ``$``; a row cut by the end of the capture is ``truncated``.
+   Raw rows carry no checksum: a digit changed into another digit cannot be
+   seen, only lost and malformed rows.
+4. Count lines ``$C,<rows>`` check the samples received between two count
+   lines (raw rows and binary frames, both counted: the firmware also sends
+   count lines in binary mode) against the difference of their counts; the
+   shortfall is ``rows_lost``.  An interval cannot be checked
+   (``count_unchecked``) when the count restarted in it: a boot or a reply
+   saying ``reset``, ``loaded``, ``defaults`` or ``mode=...`` came between,
+   or the count went down, or more samples arrived than it went up.
+5. Frame sequence numbers: a gap between consecutive intact frames counts
+   ``(seq - previous - 1) mod 256`` lost frames (``frames_lost``; 256 or
+   more frames lost in a row are undercounted), except across a restart
+   marker as in 4 (the sequence restarts at 0 with the mode and a new run).
+
+Records (reports, replies, boots) go through ``decode.Assembler``, with the
+same error counts as ``decode_bytes``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+import numpy as np
+
+from . import CHANNELS
+from .decode import (ERROR_KEYS, Assembler, BodyError, Report, parse_count,
+                     restarts_output)
+from .protocol import _LINE, CRC_TABLE, crc16_many
+
+SYNC = 0xA5
+FRAME_BYTES = 13
+NCOL = len(CHANNELS) + 1  # ax ay az gx gy gz temp
+CODE_MAX = 1023
+MAX_CARRY = 4096
+"""Text without an LF kept waiting for its end; beyond it, it is garbage."""
+MAX_WAITING_FRAMES = 64
+"""Frames that may wait for the end of a text line they cut into (the
+firmware cuts a line into steps of at most 20 bytes); beyond, the line is
+given up as malformed."""
+
+STREAM_KEYS = ("rows", "bad_rows", "count_lines", "rows_lost", "count_unchecked",
+               "frames", "bad_frames", "frames_lost")
+"""Counters of raw rows and binary frames; ``counts`` also holds ``ERROR_KEYS``."""
+
+LOSS_KEYS = ("bad_rows", "rows_lost", "bad_frames", "frames_lost")
+"""Counters that mean samples were lost or damaged on the way."""
+
+_CRC_NP = np.array(CRC_TABLE, dtype=np.int64)
+_CLASS = np.zeros(256, dtype=np.uint8)  # 0 other, 1 digit, 2 tab, 3 LF, 4 CR
+_CLASS[0x30:0x3A] = 1
+_CLASS[0x09] = 2
+_CLASS[0x0A] = 3
+_CLASS[0x0D] = 4
+
+
+@dataclass
+class Chunk:
+    """What one ``feed`` (or ``finish``) decoded, in stream order."""
+
+    samples: np.ndarray = field(default_factory=lambda: np.zeros((NCOL, 0), dtype=np.uint16))
+    """(7, n) uint16 codes of intact raw rows and binary frames, in stream order."""
+    from_frame: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    """(n,) True where the sample came from a binary frame, False for a raw row."""
+    reports: list[Report] = field(default_factory=list)
+    replies: list[str] = field(default_factory=list)
+    boots: list[dict[str, Any]] = field(default_factory=list)
+    counts: list[int] = field(default_factory=list)
+    """Values of the intact count lines."""
+
+
+def encode_frame(seq: int, codes: Any) -> bytes:
+    """The 13-byte binary frame of one sample set (7 codes 0..1023)."""
+    c = [int(v) for v in codes]
+    if len(c) != NCOL or not all(0 <= v <= CODE_MAX for v in c) or not 0 <= seq <= 255:
+        raise ValueError("a frame holds seq 0..255 and 7 codes 0..1023")
+    hi = sum((v >> 8) << (2 * i) for i, v in enumerate(c))
+    body = bytes([seq] + [v & 0xFF for v in c] + [hi & 0xFF, hi >> 8])
+    crc = 0xFFFF
+    for byte in body:
+        crc = ((crc << 8) & 0xFFFF) ^ CRC_TABLE[(crc >> 8) ^ byte]
+    return bytes([SYNC]) + body + bytes([crc >> 8, crc & 0xFF])
+
+
+def _frames(b: np.ndarray, final: bool) -> tuple[np.ndarray, int, int]:
+    """Intact frame starts (greedy, left to right), count of failed 0xA5s
+    before the cut, and the cut: the first 0xA5 too near the end to decide
+    (the whole length when ``final`` or when there is none)."""
+    n = b.size
+    syncs = np.flatnonzero(b == SYNC)
+    ready = syncs[syncs <= n - FRAME_BYTES]
+    if ready.size:
+        g = b[ready[:, None] + np.arange(1, FRAME_BYTES)].astype(np.int64)  # (k, 12)
+        crc = np.full(ready.size, 0xFFFF, dtype=np.int64)
+        for j in range(10):  # over the 10 covered bytes, vectorized across candidates
+            crc = ((crc << 8) & 0xFFFF) ^ _CRC_NP[((crc >> 8) ^ g[:, j]) & 0xFF]
+        good = ready[crc == (g[:, 10] << 8) | g[:, 11]]
+    else:
+        good = ready
+    if good.size > 1 and np.any(np.diff(good) < FRAME_BYTES):  # rare: a false match inside
+        keep, end = [], -1
+        for p in good.tolist():
+            if p >= end:
+                keep.append(p)
+                end = p + FRAME_BYTES
+        good = np.array(keep, dtype=np.int64)
+    inside = np.zeros(syncs.size, dtype=bool)
+    if good.size:
+        k = np.searchsorted(good, syncs, side="right") - 1
+        inside = (k >= 0) & (syncs < good[np.maximum(k, 0)] + FRAME_BYTES)
+    loose = syncs[~inside]
+    late = loose[loose > n - FRAME_BYTES]
+    cut = int(late[0]) if late.size else n
+    bad = int(np.count_nonzero(loose < cut))
+    return good, bad, cut
+
+
+def _frame_codes(b: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    g = b[starts[:, None] + np.arange(1, 11)].astype(np.uint16)  # seq, 7 low, hi word
+    hi = g[:, 8] | (g[:, 9] << 8)
+    shifts = (2 * np.arange(NCOL)).astype(np.uint16)
+    codes = g[:, 1:8] | (((hi[:, None] >> shifts) & 3) << 8)
+    return g[:, 0].astype(np.int64), np.ascontiguousarray(codes.T)
+
+
+def _text(chunk: bytes) -> int:
+    return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
+
+
+def _rows(b: np.ndarray, ls: np.ndarray, le: np.ndarray, cand: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray, int]:
+    """Raw rows among whole lines [ls, le) (le: index of the LF) of ``b``.
+
+    ``cand``: the lines that may be rows (whole, without '$').  Returns the
+    indices of the valid lines, their codes (7, n) and the count of non-empty
+    candidates that are not valid rows.
+    """
+    nl = ls.size
+    if nl == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((NCOL, 0), dtype=np.uint16), 0
+    lo, hi = int(ls[0]), int(le[-1]) + 1
+    cls = _CLASS[b[lo:hi]]
+    ls0, le0 = ls - lo, le - lo
+    has_cr = (le0 > ls0) & (cls[np.maximum(le0 - 1, 0)] == 4)
+    ce = le0 - has_cr  # content end
+    blank = ce == ls0
+    other = np.flatnonzero((cls == 0) | (cls == 4))
+    line_of = np.searchsorted(le0, other)
+    final_cr = (cls[other] == 4) & (other == le0[line_of] - 1)
+    bad = np.zeros(nl, dtype=bool)
+    bad[line_of[~final_cr]] = True
+    tabs = np.bincount(np.searchsorted(le0, np.flatnonzero(cls == 2)), minlength=nl)
+    d = cls == 1
+    rs = np.flatnonzero(d[1:] & ~d[:-1]) + 1
+    if d[0]:
+        rs = np.concatenate(([0], rs))
+    re_ = np.flatnonzero(d[:-1] & ~d[1:]) + 1  # the region ends with LF: runs end inside
+    runs = np.bincount(np.searchsorted(le0, rs), minlength=nl)
+    first = np.cumsum(runs) - runs
+    shaped = cand & ~blank & ~bad & (tabs == NCOL - 1) & (runs == NCOL)
+    idx = np.flatnonzero(shaped)
+    r = first[idx][:, None] + np.arange(NCOL)  # the 7 digit runs of each shaped line
+    start, length = rs[r], re_[r] - rs[r]
+    value = np.zeros(r.shape, dtype=np.int64)
+    for p in range(4):
+        more = length > p
+        value[more] = value[more] * 10 + (b[lo + start[more] + p].astype(np.int64) - 0x30)
+    ok = (length <= 4).all(axis=1) & (value <= CODE_MAX).all(axis=1)
+    nonempty = int(np.count_nonzero(cand & ~blank))
+    good = idx[ok]
+    return good, np.ascontiguousarray(value[ok].T.astype(np.uint16)), nonempty - good.size
+
+
+class StreamDecoder:
+    """Incremental decoder of a mixed capture (see the module docstring).
+
+    ``feed(data)`` as bytes arrive, ``finish()`` at the end; each returns a
+    ``Chunk``.  ``counts`` holds the running totals of ``STREAM_KEYS`` and
+    ``ERROR_KEYS``.  ``line_start``: whether the capture starts at the start
+    of a line (a capture from a port opened mid-stream does not).
+    """
+
+    def __init__(self, line_start: bool = False) -> None:
+        self.counts: dict[str, int] = dict.fromkeys(STREAM_KEYS + ERROR_KEYS, 0)
+        self._asm = Assembler(self.counts)
+        self._pending = b""          # raw bytes from the first undecided 0xA5
+        self._carry = b""            # text after the last LF, waiting for its end
+        self._carry_line_start = line_start
+        self._dpos = np.zeros(0, dtype=np.int64)  # frames waiting behind the carry
+        self._dseq = np.zeros(0, dtype=np.int64)
+        self._dcodes = np.zeros((NCOL, 0), dtype=np.uint16)
+        self._samples = 0            # samples returned so far
+        self._count_base: Optional[tuple[int, int]] = None  # (count, samples then)
+        self._count_restart = False
+        self._last_seq: Optional[int] = None
+        self._frame_restart = False
+        self._done = False
+
+    @property
+    def samples(self) -> int:
+        return self._samples
+
+    def feed(self, data: bytes) -> Chunk:
+        if self._done:
+            raise ValueError("feed() after finish()")
+        return self._process(self._pending + bytes(data), final=False)
+
+    def finish(self) -> Chunk:
+        if self._done:
+            return Chunk()
+        chunk = self._process(self._pending, final=True)
+        self._asm.finish()
+        self._done = True
+        return chunk
+
+    # ---- one step ---------------------------------------------------------------
+
+    def _process(self, buf: bytes, final: bool) -> Chunk:
+        c = self.counts
+        b = np.frombuffer(buf, dtype=np.uint8)
+        starts, bad, cut = _frames(b, final)
+        c["bad_frames"] += bad
+        if final and cut < b.size:
+            c["truncated"] += 1  # a frame cut short by the end of the capture
+            drop_from = cut
+            cut = b.size
+        else:
+            drop_from = cut
+        self._pending = b"" if final else buf[cut:]
+        seq, codes = _frame_codes(b, starts)
+        c["frames"] += starts.size
+        if starts.size:
+            keep = np.ones(drop_from, dtype=bool)
+            keep[(starts[:, None] + np.arange(FRAME_BYTES)).ravel()] = False
+            text = b[:drop_from][keep].tobytes()
+        else:
+            text = buf[:drop_from]
+        carry_len = len(self._carry)
+        res = self._carry + text
+        fpos = carry_len + starts - FRAME_BYTES * np.arange(starts.size)  # spliced before this byte
+        fpos = np.concatenate((self._dpos, fpos))
+        fseq = np.concatenate((self._dseq, seq))
+        fcodes = np.concatenate((self._dcodes, codes), axis=1)
+
+        r = np.frombuffer(res, dtype=np.uint8)
+        lf = np.flatnonzero(r == 0x0A)
+        end = int(lf[-1]) + 1 if lf.size else 0  # whole lines end here
+        ls = np.concatenate(([0], lf[:-1] + 1)) if lf.size else np.zeros(0, dtype=np.int64)
+        dollars = np.flatnonzero(r[:end] == 0x24)
+        dline = np.unique(np.searchsorted(lf, dollars)) if dollars.size else dollars
+        cand = np.ones(lf.size, dtype=bool)
+        cand[dline] = False
+        if lf.size and not self._carry_line_start:
+            cand[0] = False
+            if 0 not in dline:
+                c["garbage_bytes"] += _text(res[: int(lf[0])])
+        rows_at, rows, bad_rows = _rows(r, ls, lf, cand)
+        c["bad_rows"] += bad_rows
+        c["rows"] += rows_at.size
+        rkey = 2 * lf[rows_at] + 1
+
+        # framed text lines: a loop over the lines holding a '$' (few)
+        found: list[tuple[int, bytes, int]] = []
+        for k in dline.tolist():
+            self._dollar_line(res[int(ls[k]): int(lf[k])], int(ls[k]), found)
+        carry = res[end:]
+        if final:
+            self._give_up(carry, ended=True)
+            carry, release = b"", len(res)
+        else:
+            if end:
+                self._carry_line_start = True
+            j = carry.find(b"$")
+            # frames wait only behind an unfinished '$' line (a count line or a
+            # restart marker decides how they count); a row cannot reorder them
+            release = len(res) if j < 0 else end + j
+            if len(carry) > MAX_CARRY or np.count_nonzero(fpos > release) > MAX_WAITING_FRAMES:
+                self._give_up(carry, ended=False)
+                carry, release = b"", len(res)
+                self._carry_line_start = False
+        self._carry = carry
+
+        now = fpos <= release
+        self._dpos, self._dseq = fpos[~now] - end, fseq[~now]
+        self._dcodes = fcodes[:, ~now]
+        fpos, fseq, fcodes = fpos[now], fseq[now], fcodes[:, now]
+
+        bodies: list[tuple[int, str]] = []
+        if found:
+            crcs = crc16_many([body for _, body, _ in found]).tolist()
+            bodies = [(key, body.decode("ascii")) for (key, body, sent), got in zip(found, crcs)
+                      if sent == got]
+            c["bad_crc"] += len(found) - len(bodies)
+
+        # samples in stream order
+        fkey = 2 * fpos
+        keys = np.concatenate((rkey, fkey))
+        order = np.argsort(keys, kind="stable")
+        out = Chunk(samples=np.concatenate((rows, fcodes), axis=1)[:, order],
+                    from_frame=np.concatenate((np.zeros(rows_at.size, dtype=bool),
+                                               np.ones(fpos.size, dtype=bool)))[order])
+        skeys = keys[order]
+        self._frame_gaps(fkey, fseq, [k for k, body in bodies if restarts_output(body)])
+        self._records(bodies, skeys, out)
+        self._samples += skeys.size
+        return out
+
+    def _give_up(self, carry: bytes, ended: bool) -> None:
+        """Text after the last LF that will not be completed: cut by the end of
+        the capture (``ended``), or too long / holding frames back too long."""
+        if not carry:
+            return
+        c = self.counts
+        parts = carry.split(b"$")
+        c["garbage_bytes"] += _text(parts[0]) if len(parts) > 1 or not ended else 0
+        c["restarted"] += max(len(parts) - 2, 0)
+        if ended and (len(parts) > 1 or _text(parts[0])):
+            c["truncated"] += 1
+        elif not ended and len(parts) > 1:
+            c["malformed"] += 1  # a line that never ended
+
+    def _dollar_line(self, line: bytes, at: int, found: list[tuple[int, bytes, int]]) -> None:
+        """A whole line (without its LF) that holds a '$'."""
+        c = self.counts
+        first = line.find(b"$")
+        c["garbage_bytes"] += _text(line[:first])
+        last = line.rfind(b"$")
+        c["restarted"] += line.count(b"$", first, last)
+        m = _LINE.fullmatch(line, last + 1)
+        if m is None:
+            c["malformed"] += 1
+        else:
+            found.append((2 * (at + last) + 1, m.group(1), int(m.group(2), 16)))
+
+    def _frame_gaps(self, fkey: np.ndarray, fseq: np.ndarray, marks: list[int]) -> None:
+        if fkey.size == 0:
+            self._frame_restart = self._frame_restart or bool(marks)
+            return
+        m = np.searchsorted(np.array(marks, dtype=np.int64), fkey)  # markers before each frame
+        prev = np.concatenate(([-1 if self._last_seq is None else self._last_seq], fseq[:-1]))
+        crossed = np.diff(m, prepend=0) > 0
+        crossed[0] |= self._frame_restart
+        valid = ~crossed & (prev >= 0)
+        self.counts["frames_lost"] += int(((fseq - prev - 1) % 256)[valid].sum())
+        self._last_seq = int(fseq[-1])
+        self._frame_restart = len(marks) > int(m[-1])
+
+    def _records(self, bodies: list[tuple[int, str]], skeys: np.ndarray, out: Chunk) -> None:
+        asm, c = self._asm, self.counts
+        n_rep, n_rpl, n_boot = len(asm.reports), len(asm.replies), len(asm.boots)
+        for key, body in bodies:
+            if body.startswith("C,") or body == "C":
+                try:
+                    value = parse_count(body.split(",")[1:])
+                except BodyError:
+                    c["unparsable"] += 1
+                    continue
+                c["count_lines"] += 1
+                out.counts.append(value)
+                here = self._samples + int(np.searchsorted(skeys, key))
+                if self._count_base is not None:
+                    got = here - self._count_base[1]
+                    sent = value - self._count_base[0]
+                    if self._count_restart or sent < 0 or got > sent:
+                        c["count_unchecked"] += 1
+                    else:
+                        c["rows_lost"] += sent - got
+                self._count_base = (value, here)
+                self._count_restart = False
+                continue
+            if restarts_output(body):
+                self._count_restart = True
+            asm.add(body)
+        out.reports = asm.reports[n_rep:]
+        out.replies = asm.replies[n_rpl:]
+        out.boots = asm.boots[n_boot:]
+
+
+@dataclass
+class StreamResult:
+    samples: np.ndarray
+    from_frame: np.ndarray
+    reports: list[Report]
+    replies: list[str]
+    boots: list[dict[str, Any]]
+    counts: dict[str, int]
+
+
+def decode_stream(data: bytes, line_start: bool = False) -> StreamResult:
+    """Decode a whole capture at once (see ``StreamDecoder``)."""
+    dec = StreamDecoder(line_start)
+    chunks = [dec.feed(data), dec.finish()]
+    return StreamResult(
+        samples=np.concatenate([ch.samples for ch in chunks], axis=1),
+        from_frame=np.concatenate([ch.from_frame for ch in chunks]),
+        reports=[r for ch in chunks for r in ch.reports],
+        replies=[r for ch in chunks for r in ch.replies],
+        boots=[bt for ch in chunks for bt in ch.boots],
+        counts=dict(dec.counts))
