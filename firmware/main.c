@@ -248,6 +248,16 @@ static void watchdog_kick(void)
   WDTCSR |= (1 << WDIE);
 }
 
+/* Work the loop can do right now; without any, it sleeps until an
+ * interrupt (a tick, a conversion, a byte in or out) brings some. */
+static uint8_t has_work(void)
+{
+  uint8_t can_write = uart_tx_room() >= REPORT_STEP_MAX;
+  if (adc_pending() && (!report_holds_sample() || can_write))
+    return 1; /* a set to feed to the engine, or its row or frame to write */
+  return uart_rx_pending() || settings_saving() || (report_busy() && can_write);
+}
+
 /* main never returns: OS_main spares it saving registers on the stack. */
 int main(void) __attribute__((OS_main));
 int main(void)
@@ -281,8 +291,7 @@ int main(void)
       report_start(); /* its header restarts the interval */
     /* Sleep until the next interrupt unless there is work to do now. */
     cli();
-    if (!adc_pending() && !uart_rx_pending() && !settings_saving() &&
-        !(report_busy() && uart_tx_room() >= REPORT_STEP_MAX)) {
+    if (!has_work()) {
       sleep_enable();
       sei();
       sleep_cpu();

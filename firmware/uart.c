@@ -53,13 +53,15 @@ static uint8_t tx_next(uint8_t i)
 
 void uart_init(void)
 {
-  UBRR0H = (uint8_t)(UART_UBRR >> 8);
-  UBRR0L = (uint8_t)UART_UBRR;
+  /* U2X before UBRR: the hardware does not mind, and simavr works out the
+   * bit time when UBRRL is written, from the U2X bit set at that moment. */
 #if UART_U2X
   UCSR0A = (1 << U2X0);
 #else
   UCSR0A = 0;
 #endif
+  UBRR0H = (uint8_t)(UART_UBRR >> 8);
+  UBRR0L = (uint8_t)UART_UBRR;
   UCSR0C = (1 << UCSZ01) | (1 << UCSZ00); /* 8N1 */
   UCSR0B = (1 << RXEN0) | (1 << TXEN0) | (1 << RXCIE0);
 }

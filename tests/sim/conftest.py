@@ -20,7 +20,7 @@ def cli(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     """Run this checkout's imu-allan command line as a user would."""
     env = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
     proc = subprocess.run([sys.executable, "-m", "imu_allan.cli", *args],
-                          capture_output=True, text=True, env=env)
+                          capture_output=True, text=True, errors="replace", env=env)
     if check and proc.returncode != 0:
         raise AssertionError(f"imu-allan {' '.join(args)} exited {proc.returncode}:\n"
                              f"{proc.stdout}\n{proc.stderr}")
