@@ -10,6 +10,7 @@
 
 #include "command.h"
 #include "crc.h"
+#include "link.h"
 #include "fmt.h"
 #include "proto.h"
 #include "unity.h"
@@ -228,6 +229,69 @@ static void test_command_words_and_arguments(void)
   TEST_ASSERT_TRUE(command_rate_ok(1000) && command_rate_ok(50) && !command_rate_ok(300) && !command_rate_ok(0));
 }
 
+static void test_command_settings_words(void)
+{
+  command_t c;
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("mode RAW", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_MODE, c.id);
+  TEST_ASSERT_EQUAL_UINT32(MODE_RAW, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("mode both", &c));
+  TEST_ASSERT_EQUAL_UINT32(MODE_BOTH, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("mode", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("mode ra", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("mode rawx", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("range 1.5", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_RANGE, c.id);
+  TEST_ASSERT_EQUAL_UINT32(RANGE_1G5, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("range 6", &c));
+  TEST_ASSERT_EQUAL_UINT32(RANGE_6G, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("range 3", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("range 1.", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("interval 3600", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_INTERVAL, c.id);
+  TEST_ASSERT_EQUAL_UINT32(3600, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("interval", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("SAVE", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_SAVE, c.id);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("defaults", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_DEFAULTS, c.id);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("load", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_LOAD, c.id);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("load now", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("help", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_HELP, c.id);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("status", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_STATUS, c.id);
+  TEST_ASSERT_EQUAL_STRING("binary", command_mode_name(MODE_BINARY));
+  TEST_ASSERT_EQUAL_STRING("1.5", command_range_name(RANGE_1G5));
+  TEST_ASSERT_EQUAL_STRING("6", command_range_name(RANGE_6G));
+}
+
+/* The link rules of docs/protocol.md, worked out by hand at 115200 baud
+ * (11520 bytes/s; 90 % = 10368; two periods of slack). */
+static void test_link_budget(void)
+{
+  const uint32_t b = 115200;
+  /* raw: 36 bytes a row + 31 per 100 rows; a 92-byte reply within 2/fs */
+  TEST_ASSERT_EQUAL_UINT32(250u * 36u + (250u * 31u + 99u) / 100u, link_bytes_per_s(MODE_RAW, 250));
+  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 250, b));   /* 9078 B/s; 92*250 = 23000 <= 23040 */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 500, b));  /* 18155 B/s */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 250, 57600)); /* the example: 250 Hz needs more than 57600 */
+  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, 57600));
+  /* binary: 13 bytes a frame; frames cut into lines: 33 bytes of wait */
+  TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 500, b));
+  TEST_ASSERT_FALSE(link_fits(MODE_BINARY, 1000, b)); /* 13310 B/s */
+  TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 1000, 250000));
+  /* both: a 264-byte header line within 2/fs */
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));
+  TEST_ASSERT_FALSE(link_fits(MODE_BOTH, 100, b));
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000));
+  /* allan: reports wait for the link */
+  TEST_ASSERT_TRUE(link_fits(MODE_ALLAN, 1000, 9600));
+  TEST_ASSERT_EQUAL_UINT16(0, link_percent(MODE_ALLAN, 1000, b));
+  TEST_ASSERT_EQUAL_UINT16(79, link_percent(MODE_RAW, 250, b)); /* 9078 / 11520 = 78.8 % */
+}
+
 int main(void)
 {
   UNITY_BEGIN();
@@ -238,5 +302,7 @@ int main(void)
   RUN_TEST(test_proto_frames_a_line_with_its_crc);
   RUN_TEST(test_proto_never_lets_framing_characters_into_a_body);
   RUN_TEST(test_command_words_and_arguments);
+  RUN_TEST(test_command_settings_words);
+  RUN_TEST(test_link_budget);
   return UNITY_END();
 }
