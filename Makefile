@@ -26,9 +26,13 @@ ELF      := $(FW_BUILD)/imu-allan.elf
 HEX      := $(FW_BUILD)/imu-allan.hex
 
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
-             -std=gnu99 -Os -Wall -Wextra -Werror \
+             -std=gnu99 -Os -flto -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP
-FW_LDFLAGS := -mmcu=$(MCU) -Wl,--gc-sections -Wl,--section-start=.mmcu=0x910000
+FW_LDFLAGS := -mmcu=$(MCU) -Os -flto -Wl,--gc-sections -Wl,--section-start=.mmcu=0x910000
+
+# Extra compiler flags for experiments (e.g. FW_EXTRA=-flto), both steps.
+FW_CFLAGS += $(FW_EXTRA)
+FW_LDFLAGS += $(FW_EXTRA)
 
 # simavr's .mmcu section header, when installed (the harness reads the MCU
 # and clock from it; the section is not flashed).

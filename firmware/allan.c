@@ -152,24 +152,44 @@ uint8_t allan_begin(allan_t *a)
   return ALLAN_OK;
 }
 
-void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
+/* Levels 1 .. depth-1 of one channel, v being the new level-1 cluster sum.
+ * Out of line: half the samples need none of it, and level 0 alone then
+ * runs with a small frame.  Levels below ALLAN_NARROW_LEVELS, where sums
+ * fit 16 bits, run a 16-bit loop: they take nearly all the visits. */
+static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_t v16)
 {
-  allan_cell_t *c = a->cell[ch];
-  allan_sum_t v = code; /* sum of the cluster just completed at this level */
-  uint8_t k;
+  allan_cell_t *c = &a->cell[ch][1];
+  uint8_t k = 1, depth = a->depth, first = a->first;
+  uint8_t narrow_end = depth < ALLAN_NARROW_LEVELS ? depth : ALLAN_NARROW_LEVELS;
+  allan_sum_t v;
+  uint8_t *hi;
 
-#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
-  if (code < a->min[ch])
-    a->min[ch] = code;
-  if (code > a->max[ch])
-    a->max[ch] = code;
-#endif
+  for (; k < narrow_end; k++, c++) {
+    uint16_t last = c->sum_lo;
+    if (k != first) {
+      uint16_t d = v16 >= last ? v16 - last : last - v16;
+      uint32_t sq = (uint32_t)d * d;
+      uint32_t lo = c->acc_lo + sq;
+      c->acc_lo = lo;
+      if (lo < sq)
+        cell_carry(a, ch, k, 1);
+    }
+    c->sum_lo = v16;
+    if (k + 1u == ALLAN_NARROW_LEVELS) {
+      v = (allan_sum_t)v16 + last; /* the first 24-bit sum */
+      k++;
+      c++;
+      goto wide;
+    }
+    v16 = (uint16_t)(v16 + last); /* below 1023 * 64: fits */
+  }
+  return;
 
-  for (k = 0; k < a->depth; k++, c++) {
-    allan_sum_t last = c->sum_lo;
-    if (k >= ALLAN_NARROW_LEVELS)
-      last |= (allan_sum_t)a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] << 16;
-    if (k != a->first) {
+wide:
+  hi = a->sum_hi[ch];
+  for (; k < depth; k++, c++, hi++) {
+    allan_sum_t last = c->sum_lo | ((allan_sum_t)*hi << 16);
+    if (k != first) {
       uint32_t d;
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
       if (k >= ALLAN_WIDE_LEVEL) {
@@ -191,11 +211,35 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
       cell_add_square(a, ch, k, c, d);
     }
     c->sum_lo = (uint16_t)v;
-    if (k >= ALLAN_NARROW_LEVELS)
-      a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] = (uint8_t)(v >> 16);
+    *hi = (uint8_t)(v >> 16);
     /* The next level's cluster is this one and the one before it. */
     v = (allan_sum_t)((v + last) & SUM_MASK);
   }
+}
+
+void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
+{
+  /* Level 0, every sample: the cluster is the code itself, |d| <= 1023. */
+  allan_cell_t *c = a->cell[ch];
+  uint16_t last = c->sum_lo;
+
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+  if (code < a->min[ch])
+    a->min[ch] = code;
+  if (code > a->max[ch])
+    a->max[ch] = code;
+#endif
+  c->sum_lo = code;
+  if (a->first) { /* level 0's first cluster is sample 1 */
+    uint16_t d = code >= last ? code - last : last - code;
+    uint32_t sq = (uint32_t)d * d;
+    uint32_t lo = c->acc_lo + sq;
+    c->acc_lo = lo;
+    if (lo < sq)
+      cell_carry(a, ch, 0, 1);
+  }
+  if (a->depth > 1)
+    cascade_up(a, ch, (uint16_t)(code + last));
 }
 
 uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
