@@ -44,10 +44,14 @@ endif
 HOST_CC ?= cc
 HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
 
-# The simulator harness imu-sim (defines IMU_SIM, used by rules below).
+# The simulator harness imu-sim (defines IMU_SIM, used by rules below), and
+# the fuzzers of the pure firmware modules (make fuzz, fuzz-smoke).
 include sim/sim.mk
+include tests/fuzz/fuzz.mk
+# make flash / make fuses through avrdude (boards.mk explains the values).
+include boards.mk
 
-.PHONY: all firmware other-mcus deps test unit pytest sim-test demo demo-native clean
+.PHONY: all firmware other-mcus deps test unit pytest sim-test term-test demo demo-native clean
 
 all: firmware
 
@@ -72,7 +76,7 @@ deps:
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh
 
 # ---- tests ---------------------------------------------------------------
-test: firmware other-mcus unit pytest sim-test
+test: firmware other-mcus unit pytest sim-test term-test fuzz-smoke
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus:
@@ -85,6 +89,10 @@ unit:
 
 pytest:
 	cd host_scripts && $(PYTHON) -m pytest -q
+
+# The simulated device on a pseudo-terminal, driven as a user would.
+term-test: firmware $(IMU_SIM)
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/term
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM)

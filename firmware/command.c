@@ -29,10 +29,11 @@ static uint8_t is_space(char c)
   return c == ' ' || c == '\t';
 }
 
-/* Length of the word at p (up to a space, a tab or the end). */
-static uint8_t word_len(const char *p)
+/* Length of the word at p (up to a space, a tab or the end).  16 bits:
+ * the parser takes any string, longer than the device's line buffer. */
+static uint16_t word_len(const char *p)
 {
-  uint8_t n = 0;
+  uint16_t n = 0;
   while (p[n] && !is_space(p[n]))
     n++;
   return n;
@@ -40,11 +41,11 @@ static uint8_t word_len(const char *p)
 
 /* Index of the word p[0..len) in a list of NUL-separated flash words
  * (ended by an empty word), ignoring case; `count` when absent. */
-static uint8_t find_word(const char *list, uint8_t count, const char *p, uint8_t len)
+static uint8_t find_word(const char *list, uint8_t count, const char *p, uint16_t len)
 {
   uint8_t i;
   for (i = 0; i < count; i++) {
-    uint8_t j = 0;
+    uint16_t j = 0;
     while (j < len && pgm_read_byte(list + j) && lower(p[j]) == (char)pgm_read_byte(list + j))
       j++;
     if (j == len && !pgm_read_byte(list + j))
@@ -59,7 +60,8 @@ static uint8_t find_word(const char *list, uint8_t count, const char *p, uint8_t
 uint8_t command_parse(const char *line, command_t *out)
 {
   const char *p = line;
-  uint8_t id, len, kind;
+  uint8_t id, kind;
+  uint16_t len;
 
   out->id = CMD_NONE;
   out->has_arg = 0;
@@ -90,7 +92,7 @@ uint8_t command_parse(const char *line, command_t *out)
       out->arg = v;
     } else {
       uint32_t v = 0;
-      uint8_t i;
+      uint16_t i;
       for (i = 0; i < len; i++) {
         uint8_t d = (uint8_t)(p[i] - '0');
         if (d > 9)

@@ -36,6 +36,7 @@ enum {
 #define CMD_ERR_ARG     2
 #define CMD_ERR_LONG    3
 #define CMD_ERR_STATE   4
+#define CMD_ERR_LOST    5 /* bytes of the line were lost on the way in */
 
 typedef struct {
   uint8_t id;      /* CMD_* */

@@ -35,9 +35,11 @@ void main_get_mcusr(void)
 static struct {
   char text[COMMAND_LINE_MAX + 1];
   uint8_t len;
-  uint8_t overflow;
+  uint8_t overflow; /* LINE_LONG, LINE_LOST: the line is thrown away at its end */
   uint8_t ready;
 } line;
+#define LINE_LONG 1
+#define LINE_LOST 2
 
 static const char reply_mode[4][12] PROGMEM = {"mode=allan", "mode=raw", "mode=binary", "mode=both"};
 static const char reply_range[4][10] PROGMEM = {"range=1.5", "range=2", "range=4", "range=6"};
@@ -202,8 +204,11 @@ static __attribute__((noinline)) void run_line(void)
   uint8_t err;
   line.ready = 0;
   if (line.overflow) {
+    if (line.overflow & LINE_LOST)
+      report_error(CMD_ERR_LOST, PSTR("input lost"));
+    else
+      report_error(CMD_ERR_LONG, PSTR("line too long"));
     line.overflow = 0;
-    report_error(CMD_ERR_LONG, PSTR("line too long"));
     return;
   }
   err = command_parse(line.text, &cmd);
@@ -221,6 +226,10 @@ static __attribute__((noinline)) void poll_commands(void)
 {
   int16_t c;
   while (!line.ready && (c = uart_read()) >= 0) {
+    if (c & UART_READ_GAP) {
+      line.overflow |= LINE_LOST; /* never run a line with bytes missing */
+      c &= 0xFF;
+    }
     if (c == '\r' || c == '\n') {
       line.text[line.len] = 0;
       line.ready = line.len || line.overflow; /* blank lines are ignored */
@@ -228,7 +237,7 @@ static __attribute__((noinline)) void poll_commands(void)
     } else if (line.len < COMMAND_LINE_MAX) {
       line.text[line.len++] = (char)c;
     } else {
-      line.overflow = 1; /* discard the whole line at its end */
+      line.overflow |= LINE_LONG; /* discard the whole line at its end */
     }
   }
   if (line.ready && report_can_interject() && !settings_saving())

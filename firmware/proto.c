@@ -53,6 +53,8 @@ void proto_hex(uint32_t v, uint8_t digits)
 {
   char buf[8];
   uint8_t i;
+  if (digits > 8)
+    digits = 8; /* a 32-bit value has 8 */
   fmt_hex(buf, v, digits);
   for (i = 0; i < digits; i++)
     proto_putc(buf[i]);
@@ -68,4 +70,18 @@ void proto_end(void)
     proto_sink((uint8_t)buf[i]);
   proto_sink('\r');
   proto_sink('\n');
+}
+
+void proto_frame(uint8_t out[PROTO_FRAME_BYTES], uint8_t seq, const uint8_t packed[PROTO_FRAME_PAYLOAD])
+{
+  uint16_t crc = crc16_update(CRC16_INIT, seq);
+  uint8_t i;
+  out[0] = PROTO_FRAME_SYNC;
+  out[1] = seq;
+  for (i = 0; i < PROTO_FRAME_PAYLOAD; i++) {
+    out[2 + i] = packed[i];
+    crc = crc16_update(crc, packed[i]);
+  }
+  out[PROTO_FRAME_BYTES - 2] = (uint8_t)(crc >> 8);
+  out[PROTO_FRAME_BYTES - 1] = (uint8_t)crc;
 }

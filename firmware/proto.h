@@ -19,7 +19,14 @@ void proto_putc(char c);                /* one body character */
 void proto_puts(const char *s);         /* body text from RAM */
 void proto_puts_P(const char *s);       /* body text from flash (PSTR) */
 void proto_u32(uint32_t v);             /* decimal */
-void proto_hex(uint32_t v, uint8_t digits);
+void proto_hex(uint32_t v, uint8_t digits); /* digits: 0..8 */
 void proto_end(void);                   /* '*', CRC, CR LF */
+
+/* Binary frame (docs/protocol.md): sync, sequence number, the 9 packed
+ * bytes of one sample set, CRC-16 of bytes 1..10, high byte first. */
+#define PROTO_FRAME_SYNC 0xA5
+#define PROTO_FRAME_PAYLOAD 9
+#define PROTO_FRAME_BYTES 13
+void proto_frame(uint8_t out[PROTO_FRAME_BYTES], uint8_t seq, const uint8_t packed[PROTO_FRAME_PAYLOAD]);
 
 #endif /* PROTO_H */

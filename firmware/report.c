@@ -509,18 +509,11 @@ static __attribute__((noinline)) void step_raw_row(void)
  * may cut into a text line: text never holds 0xA5. */
 static __attribute__((noinline)) void put_frame(void)
 {
-  uint8_t b[ADC_PACKED_BYTES], i;
-  uint8_t seq = (uint8_t)out.rows;
-  uint16_t crc = crc16_update(CRC16_INIT, seq);
-  adc_peek_packed(b);
-  uart_write(0xA5);
-  uart_write(seq);
-  for (i = 0; i < ADC_PACKED_BYTES; i++) {
-    crc = crc16_update(crc, b[i]);
+  uint8_t b[PROTO_FRAME_BYTES], i;
+  adc_peek_packed(b + 2); /* the payload lands where the frame wants it */
+  proto_frame(b, (uint8_t)out.rows, b + 2);
+  for (i = 0; i < PROTO_FRAME_BYTES; i++)
     uart_write(b[i]);
-  }
-  uart_write((uint8_t)(crc >> 8));
-  uart_write((uint8_t)crc);
   out.row_done = 1;
   out.rows++;
   if (out.rows % LINK_COUNT_EVERY == 0)
@@ -623,7 +616,8 @@ void report_poll(void)
       out.job = JOB_NONE;
       if (out.paused) {
         out.paused = 0;
-        out.job = JOB_REPORT; /* resume at the line it had reached */
+        out.job = JOB_REPORT; /* resume at the line it had reached, */
+        out.step = 0;         /* from its start */
       } else if (out.report_next) {
         out.report_next = 0;
         report_start();

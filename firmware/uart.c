@@ -45,6 +45,7 @@ static volatile uint8_t tx_head, tx_tail;
 static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
 static volatile uint8_t rx_lost;
+static volatile uint8_t rx_gap = 0xFF; /* ring index where bytes went missing; 0xFF: none */
 
 static uint8_t tx_next(uint8_t i)
 {
@@ -84,12 +85,17 @@ uint8_t uart_tx_room(void)
 
 int16_t uart_read(void)
 {
-  uint8_t c;
-  if (rx_head == rx_tail)
+  uint8_t c, t = rx_tail;
+  int16_t gap = 0;
+  if (rx_head == t)
     return -1;
-  c = rx_buf[rx_tail];
-  rx_tail = (uint8_t)((rx_tail + 1u) & (UART_RX_SIZE - 1u));
-  return c;
+  if (t == rx_gap) { /* bytes were lost just before this one */
+    rx_gap = 0xFF;
+    gap = UART_READ_GAP;
+  }
+  c = rx_buf[t];
+  rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
+  return (int16_t)(gap | c);
 }
 
 uint8_t uart_rx_pending(void)
@@ -119,6 +125,8 @@ ISR(USART_RX_vect)
   if (next == rx_tail) {
     if (rx_lost != 0xFF)
       rx_lost++;
+    if (rx_gap == 0xFF)
+      rx_gap = rx_head; /* the next byte stored there follows a gap */
     return;
   }
   rx_buf[rx_head] = c;

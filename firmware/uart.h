@@ -15,7 +15,10 @@ void uart_write(uint8_t c);
 /* Bytes the TX ring can take now. */
 uint8_t uart_tx_room(void);
 
-/* Next received byte, or -1 when none is waiting. */
+/* Next received byte, or -1 when none is waiting.  UART_READ_GAP is or-ed
+ * in when bytes were lost (RX ring full) just before this one, so that the
+ * line they belonged to is thrown away instead of run cut short. */
+#define UART_READ_GAP 0x100
 int16_t uart_read(void);
 
 /* 1 when a received byte waits in the RX ring. */

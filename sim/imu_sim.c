@@ -10,6 +10,8 @@
 #include <gelf.h>
 #include <getopt.h>
 #include <libelf.h>
+#include <poll.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,6 +28,7 @@
 #include "avr_uart.h"
 
 #include "sim_rows.h"
+#include "sim_term.h"
 
 /* the accessors of avr_uart.h's receive FIFO (avr_uart_t.input) */
 DEFINE_FIFO(uint16_t, uart_fifo);
@@ -39,14 +42,15 @@ DEFINE_FIFO(uint16_t, uart_fifo);
 
 enum { EXIT_OK = 0, EXIT_FAIL = 1, EXIT_INPUT = 2, EXIT_TIMEOUT = 3 };
 
-/* Harness states: each but RUN and DONE waits for one device line. */
+/* Harness states: each but RUN and DONE waits for one device line.
+ * TERM: terminal mode (--pty), where the user drives the device. */
 enum { ST_BOOT, ST_STOP, ST_RATE, ST_RESET, ST_START, ST_RUN,
-       ST_REPORT_OK, ST_REPORT_H, ST_REPORT_E, ST_DRAIN, ST_DONE };
+       ST_REPORT_H, ST_REPORT_E, ST_DRAIN, ST_DONE, ST_TERM };
 static const char *const st_wait[] = {
   "the boot line ($B)", "the reply to 'stop'", "the reply to 'rate'",
   "the reply to 'reset'", "the reply to 'start'", "a sample",
-  "the reply to 'report'", "the report header ($H)", "the report end ($E)",
-  "", "",
+  "the final report's header ($H with n = the rows)", "the report end ($E)",
+  "", "", "",
 };
 
 typedef struct {
@@ -65,6 +69,10 @@ static struct {
   unsigned fs;
   double timeout_s;
   int stats_text, verbose;
+  /* terminal mode */
+  int pty, synthetic, fast, realtime, no_wait, timeout_set;
+  const char *link_path;
+  uint64_t seed;
 
   avr_t *avr;
   avr_adc_t *adc;
@@ -79,7 +87,8 @@ static struct {
 
   /* ADC rows */
   rows_t rows;
-  uint64_t nrows, loaded;
+  synth_t synth;
+  uint64_t nrows, loaded, file_rows, file_loops;
   uint16_t win[ROW_WIN][ROW_COLUMNS];
   int armed, rows_done, order_warned, ref_warned, mux_warned;
   uint64_t conv[ROW_COLUMNS];
@@ -95,7 +104,6 @@ static struct {
   uart_in_t *uin;
   long nuin, uin_next;
   size_t user_line_len;
-  long pending_user_replies;
 
   /* device -> host bytes */
   FILE *out;
@@ -119,7 +127,8 @@ static struct {
   int log_shown;
   int log_quiet;
   uint64_t errors;
-} g = { .timeout_s = 5.0, .dev_n = -1, .dev_drops = -1, .sp_min = 0xFFFF };
+} g = { .timeout_s = 5.0, .dev_n = -1, .dev_drops = -1, .sp_min = 0xFFFF,
+        .seed = 1 };
 
 /* ---- messages -------------------------------------------------------- */
 
@@ -309,7 +318,6 @@ static void send_cmd(const char *fmt, ...)
   if (g.user_line_len) {
     tx_push((const uint8_t *)"\r", 1);
     g.user_line_len = 0;
-    g.pending_user_replies++;
   }
   va_start(ap, fmt);
   int n = vsnprintf(buf, sizeof buf - 1, fmt, ap);
@@ -318,18 +326,14 @@ static void send_cmd(const char *fmt, ...)
   tx_push((const uint8_t *)buf, (size_t)n);
 }
 
-/* User text: count the command lines it completes, each gets a reply
- * that is not the harness's. */
+/* User text: remember whether it left a line open (send_cmd closes it). */
 static void send_user(const uart_in_t *u)
 {
   for (size_t i = 0; i < u->len; i++) {
-    if (u->bytes[i] == '\r' || u->bytes[i] == '\n') {
-      if (g.user_line_len)
-        g.pending_user_replies++;
+    if (u->bytes[i] == '\r' || u->bytes[i] == '\n')
       g.user_line_len = 0;
-    } else {
+    else
       g.user_line_len++;
-    }
   }
   tx_push(u->bytes, u->len);
 }
@@ -356,7 +360,7 @@ static void finish_run(void)
 {
   release_uart_in();
   send_cmd("report");
-  set_state(ST_REPORT_OK);
+  set_state(ST_REPORT_H);
 }
 
 /* ---- ADC: row i to the i-th conversion of each channel --------------- */
@@ -364,6 +368,24 @@ static void finish_run(void)
 static void fatal_rows(const char *err)
 {
   fail(EXIT_INPUT, "%s", err);
+}
+
+/* The next input row: from the file, or (terminal mode) from the file
+ * again from its start once it ends, or from the synthetic IMU. */
+static int next_row(uint16_t code[ROW_COLUMNS], char *err, size_t errlen)
+{
+  if (g.synthetic) {
+    synth_next(&g.synth, code);
+    return 1;
+  }
+  int got = rows_next(&g.rows, code, err, errlen);
+  if (got == 0 && g.pty) {
+    if (rows_rewind(&g.rows, err, errlen))
+      return -1;
+    g.file_loops++;
+    got = rows_next(&g.rows, code, err, errlen);
+  }
+  return got;
 }
 
 static uint16_t serve(int ch)
@@ -401,7 +423,7 @@ static uint16_t serve(int ch)
       return NEUTRAL_CODE;
     }
     char err[256];
-    int got = rows_next(&g.rows, g.win[g.loaded % ROW_WIN], err, sizeof err);
+    int got = next_row(g.win[g.loaded % ROW_WIN], err, sizeof err);
     if (got <= 0) {
       fatal_rows(got < 0 ? err : "ADC file changed while running");
       return NEUTRAL_CODE;
@@ -512,6 +534,145 @@ static void adc_trigger(avr_irq_t *irq, uint32_t value, void *param)
     row_consumed();
 }
 
+/* ---- terminal mode (--pty): the device's serial port on a pty --------- */
+
+/* Set by SIGINT, SIGTERM, SIGHUP: the terminal loop ends. */
+static volatile sig_atomic_t stop_signal;
+
+static struct {
+  pty_t pty;
+  FILE *info;                 /* the real stdout: the device path */
+  int connected;              /* a terminal has the slave open */
+  uint8_t obuf[4096];         /* device bytes not yet written to the master */
+  size_t olen;
+  uint64_t unheard;           /* bytes sent while no terminal was open */
+  uint64_t dropped;           /* bytes the terminal did not read in time */
+  uint64_t from_term;         /* bytes read from the terminal */
+  uint64_t resyncs;           /* times the host fell behind real time */
+  avr_cycle_count_t slice, next_io, c0;
+  struct timespec t0;
+} t = { .pty = { .master = -1 } };
+
+static double since(const struct timespec *a)
+{
+  struct timespec now;
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  return (double)(now.tv_sec - a->tv_sec) + (now.tv_nsec - a->tv_nsec) * 1e-9;
+}
+
+static void sleep_s(double s)
+{
+  if (s <= 0)
+    return;
+  struct timespec ts = { (time_t)s, (long)((s - (double)(time_t)s) * 1e9) };
+  nanosleep(&ts, NULL);       /* a signal ends it early: fine */
+}
+
+/* Is a terminal there?  Reads what it typed while the harness has room
+ * for it: the rest waits in the pty, so a long paste blocks its writer
+ * instead of piling up here.  Bytes go to the device paced at the baud
+ * rate, honouring the receive FIFO's flow control (tx_push). */
+static void term_poll(void)
+{
+  int readable;
+  int now = pty_state(&t.pty, &readable);
+  if (now != t.connected) {
+    t.connected = now;
+    if (g.verbose)
+      fprintf(stderr, PROG ": t=%.3f s: terminal %s\n", sim_time(),
+              now ? "opened" : "closed");
+  }
+  while (t.connected && readable && g.txq_len < 64) {
+    uint8_t buf[64];
+    ssize_t n = read(t.pty.master, buf, sizeof buf - g.txq_len);
+    if (n > 0) {
+      t.from_term += (uint64_t)n;
+      tx_push(buf, (size_t)n);
+      continue;
+    }
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n < 0 && errno != EAGAIN)
+      t.connected = 0;        /* EIO: the terminal went away */
+    break;
+  }
+}
+
+/* Device bytes to the terminal.  With no terminal they are lost, as on a
+ * serial line with nothing attached.  A terminal that does not read:
+ * real time drops what does not fit (the device cannot wait); --fast
+ * waits for it, since simulated time can. */
+static void term_flush(void)
+{
+  size_t off = 0;
+  while (off < t.olen) {
+    if (!t.connected) {
+      t.unheard += t.olen - off;
+      break;
+    }
+    ssize_t n = write(t.pty.master, t.obuf + off, t.olen - off);
+    if (n > 0) {
+      off += (size_t)n;
+      continue;
+    }
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n < 0 && errno != EAGAIN) {
+      t.connected = 0;
+      continue;
+    }
+    if (!g.fast || stop_signal) {
+      if (!t.dropped)
+        warn("t=%.3f s: the terminal does not read: device output is lost",
+             sim_time());
+      t.dropped += t.olen - off;
+      break;
+    }
+    struct pollfd q = { .fd = t.pty.master, .events = POLLOUT };
+    if (poll(&q, 1, 100) > 0 && (q.revents & (POLLHUP | POLLERR)))
+      t.connected = 0;
+  }
+  t.olen = 0;
+}
+
+static void term_out(uint8_t c)
+{
+  t.obuf[t.olen++] = c;
+  if (t.olen == sizeof t.obuf)
+    term_flush();
+}
+
+/* Real time: hold the simulation until the wall clock catches up with
+ * it, serving the terminal meanwhile.  A host too slow for real time
+ * restarts the comparison rather than rushing to catch up. */
+static void term_pace(void)
+{
+  for (;;) {
+    double ahead = (double)(g.avr->cycle - t.c0) / g.avr->frequency - since(&t.t0);
+    if (ahead < -0.25) {
+      if (!t.resyncs++)
+        warn("t=%.3f s: the host cannot keep up with real time; "
+             "simulated time runs slower", sim_time());
+      clock_gettime(CLOCK_MONOTONIC, &t.t0);
+      t.c0 = g.avr->cycle;
+      return;
+    }
+    if (ahead <= 0 || stop_signal)
+      return;
+    if (t.connected && g.txq_len < 64) {
+      /* wake up early for typed bytes */
+      struct pollfd q = { .fd = t.pty.master, .events = POLLIN };
+      struct timespec ts = { 0, (long)(ahead * 1e9) };
+      if (ppoll(&q, 1, &ts, NULL) > 0)
+        term_poll();
+      if (!t.connected)
+        sleep_s(ahead);
+    } else {
+      sleep_s(ahead);
+    }
+  }
+}
+
 /* ---- device -> host: capture and protocol lines ----------------------- */
 
 static uint16_t crc16(const char *s, size_t n)
@@ -525,52 +686,70 @@ static uint16_t crc16(const char *s, size_t n)
   return c;
 }
 
+/* Replies: the harness's own commands are told apart by their replies'
+ * content, not by counting, since user input (--uart-in) may be noise whose
+ * lines get one reply, none (blank, or lost whole) or an error. */
+static int reply_is(const char *body, const char *prefix)
+{
+  return !strncmp(body, prefix, strlen(prefix));
+}
+
 static void on_reply(int ok, const char *body)
 {
   static const char *const cmd[] = {
     [ST_STOP] = "stop", [ST_RATE] = "rate", [ST_RESET] = "reset",
-    [ST_START] = "start", [ST_REPORT_OK] = "report",
+    [ST_START] = "start", [ST_REPORT_H] = "report",
   };
-  if (g.pending_user_replies > 0) {
-    g.pending_user_replies--;
-    return;
-  }
   switch (g.state) {
-  case ST_STOP: case ST_RATE: case ST_RESET: case ST_START: case ST_REPORT_OK:
+  case ST_STOP: case ST_RATE: case ST_RESET: case ST_START:
+    /* Set-up: no user input has been sent yet, so every reply is ours. */
+    if (!ok) {
+      fail(EXIT_FAIL, "the device answered '%s' with '%s'", cmd[g.state], body);
+      return;
+    }
     break;
+  case ST_REPORT_H:
+    if (!ok && reply_is(body, "error:4"))
+      fail(EXIT_FAIL, "the device answered 'report' with '%s'", body);
+    return;     /* 'ok' needs nothing: the report itself is awaited */
   default:
-    return;     /* not ours: nothing pending */
-  }
-  if (!ok) {
-    fail(EXIT_FAIL, "the device answered '%s' with '%s'", cmd[g.state], body);
-    return;
+    return;     /* a reply to user input */
   }
   switch (g.state) {
   case ST_STOP:
+    if (!reply_is(body, "ok stopped"))
+      return;
     g.armed = 1;   /* the next conversion of each channel gets row 0 */
     if (g.fs) {
       send_cmd("rate %u", g.fs);
       set_state(ST_RATE);
       break;
     }
-    /* fall through */
+    send_cmd("reset");
+    set_state(ST_RESET);
+    break;
   case ST_RATE:
+    if (!reply_is(body, "ok reset rate=") && !reply_is(body, "ok rate="))
+      return;
     send_cmd("reset");
     set_state(ST_RESET);
     break;
   case ST_RESET:
+    if (strcmp(body, "ok reset"))
+      return;
     send_cmd("start %llu", (unsigned long long)g.nrows);
     set_state(ST_START);
     break;
   case ST_START:
+    if (strcmp(body, "ok started"))
+      return;
     set_state(ST_RUN);
     if (g.rows_done)
       finish_run();
     else
       release_uart_in();
     break;
-  case ST_REPORT_OK:
-    set_state(ST_REPORT_H);
+  default:
     break;
   }
 }
@@ -583,7 +762,9 @@ static long long key_value(const char *body, const char *key)
 
 static void on_line(char *body, size_t len, int crc_ok)
 {
-  if (!crc_ok && g.bad_crc++ == 0)
+  /* In terminal mode lines are only watched for a reboot: bad lines are
+   * the user's business (and binary frames look like garbage). */
+  if (!crc_ok && g.bad_crc++ == 0 && !g.pty)
     warn("t=%.6f s: device line with a bad CRC (used anyway): $%.*s*...",
          sim_time(), (int)len, body);
   if (!strcmp(body, "ok") || !strncmp(body, "ok ", 3)) {
@@ -599,7 +780,9 @@ static void on_line(char *body, size_t len, int crc_ok)
       set_state(ST_STOP);
     }
   } else if (!strncmp(body, "H,", 2)) {
-    if (g.state == ST_REPORT_H) {
+    /* The final report: the one that covers every row (the device stopped
+     * there by itself), whoever asked for it. */
+    if (g.state == ST_REPORT_H && key_value(body, ",n=") == (long long)g.nrows) {
       g.report_seq = strtoul(body + 2, NULL, 10);
       g.dev_n = key_value(body, ",n=");
       g.dev_drops = key_value(body, ",drops=");
@@ -626,7 +809,7 @@ static void end_line(void)
       break;
     }
   if (!star || g.line + g.line_len - star != 5) {
-    if (g.bad_frame++ == 0)
+    if (g.bad_frame++ == 0 && !g.pty)
       warn("t=%.6f s: device line without a *CRC: $%s", sim_time(), g.line);
     return;
   }
@@ -642,8 +825,11 @@ static void uart_out(avr_irq_t *irq, uint32_t value, void *param)
 {
   uint8_t c = (uint8_t)value;
   (void)irq; (void)param;
-  putc(c, g.out);
+  if (g.out)
+    putc(c, g.out);
   g.bytes_out++;
+  if (g.pty)
+    term_out(c);
   if (g.state == ST_DRAIN) {
     if (c == '\n')
       g.state = ST_DONE;
@@ -660,7 +846,7 @@ static void uart_out(avr_irq_t *irq, uint32_t value, void *param)
     g.line[g.line_len++] = (char)c;
   } else {
     g.in_line = 0;
-    if (g.bad_frame++ == 0)
+    if (g.bad_frame++ == 0 && !g.pty)
       warn("t=%.6f s: device line longer than %d characters", sim_time(),
            LINE_MAX_LEN);
   }
@@ -827,7 +1013,10 @@ static void print_stats(int json)
   KV("mcu", "%s", avr->mmcu);
   kv[n - 1].text = 1;
   KV("f_cpu", "%u", avr->frequency);
-  KV("rows", "%llu", (unsigned long long)g.nrows);
+  if (g.pty && g.synthetic)
+    KV("rows", "null");
+  else
+    KV("rows", "%llu", (unsigned long long)(g.pty ? g.file_rows : g.nrows));
   KV("rows_consumed", "%llu", (unsigned long long)rows_consumed());
   KV("extra_scans", "%llu", (unsigned long long)g.extra_scans);
   KV("extra_conversions", "%llu", (unsigned long long)g.extra_conv);
@@ -876,11 +1065,14 @@ static void usage(FILE *f)
 {
   fputs(
 "Usage: imu-sim [options] --adc FILE ELF\n"
+"       imu-sim --pty [--link PATH] (--adc FILE | --synthetic) [--fast] ELF\n"
 "\n"
 "Run the imu-allan firmware ELF on a simulated AVR (simavr), feed its ADC\n"
-"the rows of FILE and capture what it sends on its serial port.\n"
+"the rows of FILE and capture what it sends on its serial port.  With\n"
+"--pty the serial port is a pseudo-terminal instead, for a person or a\n"
+"program to drive the device (see Terminal mode below).\n"
 "\n"
-"What happens:\n"
+"What happens (without --pty):\n"
 "  1. The firmware boots and samples at once; every conversion reads the\n"
 "     neutral code 512 until the harness is armed.\n"
 "  2. After the device's boot line ($B) the harness sends 'stop' and waits\n"
@@ -897,9 +1089,12 @@ static void usage(FILE *f)
 "runs as fast as the host can go; idle (sleep) time costs nothing.\n"
 "\n"
 "Options:\n"
-"  --adc FILE        ADC rows, '-' for stdin (required).  One row per line:\n"
-"                    7 integer codes 0..1023 separated by tabs or spaces;\n"
-"                    blank lines and '#' comments are skipped.  The whole\n"
+"  --adc FILE        ADC rows, '-' for stdin (required without --pty).  One\n"
+"                    row per line: 7 integer codes 0..1023 separated by\n"
+"                    tabs or spaces; blank lines, '#' comments (whole line\n"
+"                    or trailing) and lines starting with '$' (the count\n"
+"                    lines and replies in a capture of the device's 'mode\n"
+"                    raw' output, which replays as is) are skipped.  The whole\n"
 "                    file is checked before the simulation starts (stdin is\n"
 "                    copied to a temporary file for that); a bad row stops\n"
 "                    with 'imu-sim: FILE:LINE: reason' (LINE: line number\n"
@@ -929,6 +1124,45 @@ static void usage(FILE *f)
 "                    -vv adds simavr trace messages\n"
 "  -h, --help        this text\n"
 "\n"
+"Terminal mode:\n"
+"  --pty             the device's serial port on a new pseudo-terminal; its\n"
+"                    path goes to stdout ('imu-sim: device on /dev/pts/N').\n"
+"                    The harness sends no command of its own: the firmware\n"
+"                    boots, samples at its defaults and answers whoever\n"
+"                    writes to the terminal (picocom -b 115200 PATH,\n"
+"                    imu-allan monitor --port PATH, pyserial; the baud\n"
+"                    rate set on the terminal does not matter).  Every\n"
+"                    conversion reads the next input row, from the first.\n"
+"                    The device powers up when a terminal first opens the\n"
+"                    port (0.2 s later, so that it sees the boot line), and\n"
+"                    runs until SIGINT, SIGTERM or SIGHUP (exit 0); a\n"
+"                    terminal may close and open it again meanwhile.\n"
+"                    What the device sends while no terminal is open is\n"
+"                    lost, as on a serial line with nothing attached.\n"
+"                    Typed or pasted bytes reach the device one byte time\n"
+"                    apart at the firmware's baud rate, honouring simavr's\n"
+"                    receive FIFO flow control; a long paste waits in the\n"
+"                    pty, not in the device.\n"
+"  --link PATH       also make a symbolic link PATH -> the pty (replacing a\n"
+"                    symlink already there); removed at exit\n"
+"  --adc FILE        rows as above, served in order and again from the\n"
+"                    first row after the last\n"
+"  --synthetic       rows from a built-in IMU instead: seeded white noise,\n"
+"                    codes ax ay az gx gy gz temp around 498 494 791 520\n"
+"                    497 498 63, sigma 2.0 2.5 1.7 0.9 0.67 0.57 0.5 counts\n"
+"  --seed N          seed of --synthetic (default 1)\n"
+"  --realtime        simulated time follows the wall clock, idle time too:\n"
+"                    100 Hz is 100 samples a second, a 60 s report interval\n"
+"                    is a minute (default).  A host too slow for that\n"
+"                    gets a warning, and simulated time falls behind.\n"
+"  --fast            simulated time runs as fast as the host can go (some\n"
+"                    200 times real time while sampling); device output\n"
+"                    then waits for the terminal to read it, instead of\n"
+"                    being lost when it does not\n"
+"  --no-wait         power up at once, not when a terminal opens the port\n"
+"  -o FILE           also keep a copy of everything the device sends\n"
+"  --fs, --uart-in and --timeout do not apply.\n"
+"\n"
 "Figures (--stats):\n"
 "  sample_cycles_mean/max, sample_count  CPU cycles PB0 stays high (the\n"
 "                    firmware raises it while it handles one sample set)\n"
@@ -950,7 +1184,9 @@ static void usage(FILE *f)
 "\n"
 "Exit status: 0 done; 1 firmware crash or halt, device error reply, or\n"
 "another run failure; 2 bad command line or input file; 3 the device did\n"
-"not answer within --timeout simulated seconds.  Failures print one line.\n",
+"not answer within --timeout simulated seconds.  Failures print one line.\n"
+"With --pty: 0 after SIGINT, SIGTERM or SIGHUP; 1 firmware crash or halt,\n"
+"or no pty; 2 bad command line, input file or --link PATH.\n",
       f);
 }
 
@@ -967,7 +1203,8 @@ static unsigned long parse_ulong(const char *s, const char *opt)
 static void parse_args(int argc, char **argv)
 {
   enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
-         O_STATS_JSON };
+         O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
+         O_NO_WAIT };
   static const struct option opts[] = {
     { "adc", required_argument, NULL, O_ADC },
     { "fs", required_argument, NULL, O_FS },
@@ -978,6 +1215,13 @@ static void parse_args(int argc, char **argv)
     { "timeout", required_argument, NULL, O_TIMEOUT },
     { "stats", optional_argument, NULL, O_STATS },
     { "stats-json", required_argument, NULL, O_STATS_JSON },
+    { "pty", no_argument, NULL, O_PTY },
+    { "link", required_argument, NULL, O_LINK },
+    { "synthetic", no_argument, NULL, O_SYNTHETIC },
+    { "seed", required_argument, NULL, O_SEED },
+    { "realtime", no_argument, NULL, O_REALTIME },
+    { "fast", no_argument, NULL, O_FAST },
+    { "no-wait", no_argument, NULL, O_NO_WAIT },
     { "verbose", no_argument, NULL, 'v' },
     { "help", no_argument, NULL, 'h' },
     { NULL, 0, NULL, 0 },
@@ -995,6 +1239,7 @@ static void parse_args(int argc, char **argv)
     case O_TIMEOUT: {
       char *end;
       g.timeout_s = strtod(optarg, &end);
+      g.timeout_set = 1;
       if (*end || !(g.timeout_s > 0))
         die(EXIT_INPUT, "--timeout: '%s' is not a positive number of seconds",
             optarg);
@@ -1007,6 +1252,13 @@ static void parse_args(int argc, char **argv)
         g.stats_text = 1;
       break;
     case O_STATS_JSON: g.stats_json = optarg; break;
+    case O_PTY: g.pty = 1; break;
+    case O_LINK: g.link_path = optarg; break;
+    case O_SYNTHETIC: g.synthetic = 1; break;
+    case O_SEED: g.seed = parse_ulong(optarg, "--seed"); break;
+    case O_REALTIME: g.realtime = 1; break;
+    case O_FAST: g.fast = 1; break;
+    case O_NO_WAIT: g.no_wait = 1; break;
     case 'v': g.verbose++; break;
     case 'h': usage(stdout); exit(EXIT_OK);
     case ':': die(EXIT_INPUT, "%s needs an argument (see --help)", argv[optind - 1]);
@@ -1019,6 +1271,26 @@ static void parse_args(int argc, char **argv)
     die(EXIT_INPUT, "expected one ELF file, got %d arguments (see --help)",
         argc - optind);
   g.elf_path = argv[optind];
+  if (!g.pty) {
+    const char *only = g.link_path ? "--link" : g.synthetic ? "--synthetic" :
+      g.fast ? "--fast" : g.realtime ? "--realtime" : g.no_wait ? "--no-wait" :
+      g.seed != 1 ? "--seed" : NULL;
+    if (only)
+      die(EXIT_INPUT, "%s only applies with --pty (see --help)", only);
+  } else {
+    const char *not = g.fs ? "--fs" : g.uart_in_path ? "--uart-in" :
+      g.timeout_set ? "--timeout" : NULL;
+    if (not)
+      die(EXIT_INPUT, "%s does not apply with --pty: the terminal drives "
+          "the device (see --help)", not);
+    if (g.fast && g.realtime)
+      die(EXIT_INPUT, "--fast and --realtime exclude each other");
+    if (g.synthetic && g.adc_path)
+      die(EXIT_INPUT, "--adc and --synthetic exclude each other");
+    if (!g.synthetic && !g.adc_path)
+      die(EXIT_INPUT, "--pty needs --adc FILE or --synthetic (see --help)");
+    return;
+  }
   if (!g.adc_path)
     die(EXIT_INPUT, "--adc FILE is required (see --help)");
   if (g.fs && g.fs > 100000)
@@ -1036,6 +1308,97 @@ static avr_io_t *find_io(const char *kind, char name)
   return NULL;
 }
 
+/* The lowest stack pointer, checked after every instruction. */
+static inline void watch_sp(void)
+{
+  avr_t *avr = g.avr;
+  uint16_t sp = (uint16_t)(avr->data[R_SPL] | avr->data[R_SPH] << 8);
+  if (sp < g.sp_min) {
+    g.sp_min = sp;
+    g.sp_min_pc = avr->pc;
+  }
+}
+
+/* Real time: a timer every slice, so that a sleeping device never skips
+ * more than a slice of simulated time at once (simavr jumps a sleeping
+ * CPU to its next timer event, which for a stopped device can be far
+ * away), and a byte typed meanwhile reaches it within a slice. */
+static avr_cycle_count_t term_tick(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+  (void)avr; (void)param;
+  return when + t.slice;
+}
+
+static void term_cleanup(void)
+{
+  pty_close(&t.pty);
+}
+
+static void on_stop_signal(int sig)
+{
+  stop_signal = sig;
+}
+
+/* A terminal needs a moment after open() to set its line up and flush
+ * its input (pyserial, picocom do): the device powers up after that, so
+ * that the terminal sees the boot line. */
+#define OPEN_GRACE_S 0.2
+
+/* Terminal mode: the device runs until a signal (or a crash); the user
+ * drives it from the terminal.  Returns the last avr_run() state. */
+static int term_run(void)
+{
+  avr_t *avr = g.avr;
+  struct sigaction sa;
+  int readable, st = cpu_Running;
+
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_stop_signal;     /* no SA_RESTART: sleeps end early */
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
+  sigaction(SIGHUP, &sa, NULL);
+  signal(SIGPIPE, SIG_IGN);
+
+  fprintf(t.info, PROG ": device on %s\n", t.pty.slave);
+  if (t.pty.link)
+    fprintf(t.info, PROG ": linked as %s\n", t.pty.link);
+  fflush(t.info);
+  if (!g.no_wait) {
+    fprintf(stderr, PROG ": the device powers up when a terminal opens it "
+            "(%s%s, %s; Ctrl-C ends)\n",
+            g.synthetic ? "synthetic IMU" : "ADC rows from ",
+            g.synthetic ? "" : g.adc_path, g.fast ? "fast" : "real time");
+    while (!stop_signal && !pty_state(&t.pty, &readable))
+      sleep_s(0.01);
+    sleep_s(OPEN_GRACE_S);
+  }
+
+  t.slice = avr->frequency / (g.fast ? 200 : 1000);   /* 5 or 1 ms */
+  clock_gettime(CLOCK_MONOTONIC, &t.t0);
+  t.c0 = avr->cycle;
+  t.next_io = avr->cycle + t.slice;
+  if (!g.fast)
+    avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
+  term_poll();
+  while (!stop_signal && !g.fail) {
+    st = avr_run(avr);
+    if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
+      break;
+    watch_sp();
+    if (avr->cycle < t.next_io)
+      continue;
+    t.next_io = avr->cycle + t.slice;
+    term_flush();
+    term_poll();
+    if (!g.fast)
+      term_pace();
+  }
+  if (st != cpu_Done)
+    term_flush();
+  return st;
+}
+
 int main(int argc, char **argv)
 {
   char err[320];
@@ -1044,8 +1407,15 @@ int main(int argc, char **argv)
   parse_args(argc, argv);
 
   /* Inputs are checked before anything is simulated. */
-  if (rows_open(&g.rows, g.adc_path, &g.nrows, err, sizeof err))
+  if (g.adc_path && rows_open(&g.rows, g.adc_path, &g.nrows, err, sizeof err))
     die(EXIT_INPUT, "%s", err);
+  if (g.pty) {
+    /* rows go round and round: no end */
+    g.file_rows = g.nrows;
+    g.nrows = UINT64_MAX;
+    if (g.synthetic)
+      synth_init(&g.synth, g.seed);
+  }
   if (g.uart_in_path) {
     g.nuin = uart_in_load(g.uart_in_path, &g.uin, err, sizeof err);
     if (g.nuin < 0)
@@ -1055,10 +1425,23 @@ int main(int argc, char **argv)
     die(EXIT_INPUT, "%s: %s", g.elf_path, strerror(errno));
   if (!elf_is_avr(g.elf_path))
     die(EXIT_INPUT, "%s: not an AVR ELF file", g.elf_path);
+  if (g.pty) {
+    int fd = dup(STDOUT_FILENO);
+    t.info = fd < 0 ? NULL : fdopen(fd, "w");
+    if (!t.info)
+      die(EXIT_FAIL, "stdout: %s", strerror(errno));
+    int r = pty_open(&t.pty, g.link_path, err, sizeof err);
+    if (r)
+      die(r == -2 ? EXIT_INPUT : EXIT_FAIL, "%s", err);
+    atexit(term_cleanup);     /* the link goes, however imu-sim ends */
+  }
 
-  /* Serial output goes to the real stdout (or -o); simavr's own printf
-   * chatter on fd 1 goes to /dev/null (stderr with -v). */
-  if (g.out_path) {
+  /* Serial output goes to the real stdout (or -o; in terminal mode to the
+   * pty, and to -o if given); simavr's own printf chatter on fd 1 goes to
+   * /dev/null (stderr with -v). */
+  if (g.pty && !g.out_path) {
+    g.out = NULL;
+  } else if (g.out_path) {
     g.out = fopen(g.out_path, "wb");
     if (!g.out)
       die(EXIT_INPUT, "%s: %s", g.out_path, strerror(errno));
@@ -1068,7 +1451,8 @@ int main(int argc, char **argv)
     if (!g.out)
       die(EXIT_FAIL, "stdout: %s", strerror(errno));
   }
-  setvbuf(g.out, NULL, _IOFBF, 1 << 16);
+  if (g.out)
+    setvbuf(g.out, NULL, _IOFBF, 1 << 16);
   fflush(stdout);
   int chatter = g.verbose ? dup(STDERR_FILENO) : open("/dev/null", O_WRONLY);
   if (chatter >= 0) {
@@ -1135,15 +1519,18 @@ int main(int argc, char **argv)
   struct timespec t0, t1;
   clock_gettime(CLOCK_MONOTONIC, &t0);
   int st = cpu_Running;
-  while (g.state != ST_DONE && !g.fail) {
+  if (g.pty) {
+    /* The user drives the device: conversions read rows from the start. */
+    g.state = ST_TERM;
+    g.armed = 1;
+    st = term_run();
+    t0 = t.t0;    /* wall time from power-up, not from the wait */
+  }
+  while (!g.pty && g.state != ST_DONE && !g.fail) {
     st = avr_run(avr);
     if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
       break;
-    uint16_t sp = (uint16_t)(avr->data[R_SPL] | avr->data[R_SPH] << 8);
-    if (sp < g.sp_min) {
-      g.sp_min = sp;
-      g.sp_min_pc = avr->pc;
-    }
+    watch_sp();
     if (avr->cycle >= g.deadline) {
       if (g.state == ST_DRAIN)
         break;
@@ -1153,15 +1540,14 @@ int main(int argc, char **argv)
              (unsigned long long)rows_consumed(),
              (unsigned long long)g.nrows, sim_time());
       else
-        fail(EXIT_TIMEOUT, "timeout: waited %g simulated s for %s (t=%.3f s)%s",
-             g.timeout_s, st_wait[g.state], sim_time(),
-             g.pending_user_replies ? "; --uart-in commands still lack "
-             "replies: did the device drop command lines?" : "");
+        fail(EXIT_TIMEOUT, "timeout: waited %g simulated s for %s (t=%.3f s)",
+             g.timeout_s, st_wait[g.state], sim_time());
     }
   }
   clock_gettime(CLOCK_MONOTONIC, &t1);
   g.wall_s = (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9;
-  fflush(g.out);
+  if (g.out)
+    fflush(g.out);
 
   int code = EXIT_OK;
   if (st == cpu_Crashed || st == cpu_Stopped) {
@@ -1186,28 +1572,43 @@ int main(int argc, char **argv)
   if (g.bss_end && g.sp_min < g.bss_end)
     warn("stack overflow: the stack pointer went down to 0x%04x, below the "
          "end of .bss at 0x%04x", (unsigned)g.sp_min, (unsigned)g.bss_end);
-  if (g.stray_conv)
-    warn("%llu conversions took rows after 'stop' was acknowledged and "
-         "before 'start' reached the device", (unsigned long long)g.stray_conv);
-  if (g.extra_conv)
-    warn("the device converted %llu channels (%llu scans) after the last row "
-         "(it dropped samples?); they read the last row again",
-         (unsigned long long)g.extra_conv, (unsigned long long)g.extra_scans);
-  if (code == EXIT_OK && g.dev_drops > 0)
-    warn("the final report says drops=%lld", g.dev_drops);
-  if (code == EXIT_OK && g.dev_n >= 0 && (uint64_t)g.dev_n != g.nrows)
-    warn("the final report says n=%lld, %llu rows were fed", g.dev_n,
-         (unsigned long long)g.nrows);
-  if (g.bad_crc > 1)
-    warn("%llu device lines had a bad CRC", (unsigned long long)g.bad_crc);
-  if (g.bytes_lost)
-    warn("%llu host bytes were lost: the device's receiver was disabled",
-         (unsigned long long)g.bytes_lost);
-  if (code == EXIT_OK && g.uin_next < g.nuin)
-    warn("%ld --uart-in lines were never sent (first: line %lu, index %llu > "
-         "%llu rows)", g.nuin - g.uin_next, g.uin[g.uin_next].line,
-         (unsigned long long)g.uin[g.uin_next].index,
-         (unsigned long long)g.nrows);
+  if (g.pty) {
+    if (t.dropped)
+      warn("%llu device bytes were lost: the terminal did not read them",
+           (unsigned long long)t.dropped);
+    if (g.bytes_lost)
+      warn("%llu bytes from the terminal were lost: the device's receiver "
+           "was disabled", (unsigned long long)g.bytes_lost);
+    if (st != cpu_Crashed && st != cpu_Stopped && st != cpu_Done)
+      fprintf(stderr, PROG ": stopped at t=%.1f simulated s (%.1f s of wall "
+              "time); %llu bytes from the terminal, %llu to it\n",
+              sim_time(), g.wall_s, (unsigned long long)t.from_term,
+              (unsigned long long)(g.bytes_out - t.unheard - t.dropped));
+  } else {
+    /* about a run the harness drove */
+    if (g.stray_conv)
+      warn("%llu conversions took rows after 'stop' was acknowledged and "
+           "before 'start' reached the device", (unsigned long long)g.stray_conv);
+    if (g.extra_conv)
+      warn("the device converted %llu channels (%llu scans) after the last row "
+           "(it dropped samples?); they read the last row again",
+           (unsigned long long)g.extra_conv, (unsigned long long)g.extra_scans);
+    if (code == EXIT_OK && g.dev_drops > 0)
+      warn("the final report says drops=%lld", g.dev_drops);
+    if (code == EXIT_OK && g.dev_n >= 0 && (uint64_t)g.dev_n != g.nrows)
+      warn("the final report says n=%lld, %llu rows were fed", g.dev_n,
+           (unsigned long long)g.nrows);
+    if (g.bad_crc > 1)
+      warn("%llu device lines had a bad CRC", (unsigned long long)g.bad_crc);
+    if (g.bytes_lost)
+      warn("%llu host bytes were lost: the device's receiver was disabled",
+           (unsigned long long)g.bytes_lost);
+    if (code == EXIT_OK && g.uin_next < g.nuin)
+      warn("%ld --uart-in lines were never sent (first: line %lu, index %llu > "
+           "%llu rows)", g.nuin - g.uin_next, g.uin[g.uin_next].line,
+           (unsigned long long)g.uin[g.uin_next].index,
+           (unsigned long long)g.nrows);
+  }
 
   if (g.stats_text && st != cpu_Done)
     print_stats(0);
@@ -1215,7 +1616,8 @@ int main(int argc, char **argv)
     print_stats(1);
   if (code != EXIT_OK)
     fprintf(stderr, PROG ": %s\n", g.fail_msg);
-  if (fclose(g.out))
+  pty_close(&t.pty);
+  if (g.out && fclose(g.out))
     die(EXIT_FAIL, "%s: %s", g.out_path ? g.out_path : "stdout", strerror(errno));
   rows_close(&g.rows);
   uart_in_free(g.uin, g.nuin);

@@ -22,9 +22,13 @@ static void fail(char *err, size_t errlen, const char *fmt, ...)
 }
 
 /* Strip the line ending and a trailing comment; 1 if anything but blanks
- * is left. */
+ * is left.  A line starting with '$' is a protocol line (a raw capture of
+ * the device holds count lines "$C,<rows>,<drops>*CRC" and replies):
+ * skipped. */
 static int strip(char *s)
 {
+  if (s[0] == '$')
+    return 0;
   char *p = strchr(s, '#');
   if (p)
     *p = 0;
@@ -147,6 +151,17 @@ int rows_open(rows_t *r, const char *path, uint64_t *nrows,
   rewind(r->f);
   r->line = 0;
   *nrows = n;
+  return 0;
+}
+
+int rows_rewind(rows_t *r, char *err, size_t errlen)
+{
+  if (fseek(r->f, 0, SEEK_SET)) {
+    fail(err, errlen, "%s: cannot rewind: %s", r->name, strerror(errno));
+    return -1;
+  }
+  clearerr(r->f);
+  r->line = 0;
   return 0;
 }
 

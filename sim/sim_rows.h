@@ -14,8 +14,9 @@
 #define ROW_CODE_MAX 1023
 
 /* A stream of ADC rows: 7 integer codes 0..1023 per line, separated by
- * tabs or spaces; blank lines and '#' comments (whole line or trailing)
- * are skipped. */
+ * tabs or spaces; blank lines, '#' comments (whole line or trailing) and
+ * lines starting with '$' (protocol lines in a raw capture of the device:
+ * count lines, replies) are skipped. */
 typedef struct {
   const char *name;     /* for messages: the path, or "stdin" */
   FILE *f;
@@ -34,6 +35,10 @@ int rows_open(rows_t *r, const char *path, uint64_t *nrows,
 
 /* Next row into code[]: 1 row, 0 end of file, -1 error (message in err). */
 int rows_next(rows_t *r, uint16_t code[ROW_COLUMNS], char *err, size_t errlen);
+
+/* Back to the first row (after rows_open: the file is rewindable); 0, or
+ * -1 with err set. */
+int rows_rewind(rows_t *r, char *err, size_t errlen);
 
 void rows_close(rows_t *r);
 

@@ -11,7 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
-MAX_BODY = 200
+MAX_BODY = 256
 """Longest body a frame may carry (characters)."""
 
 

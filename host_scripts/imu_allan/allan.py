@@ -1,0 +1,412 @@
+"""Allan-family variances of rate samples, float64, vectorized.
+
+Definitions (x: n rate samples at fs, tau = m / fs; X: the n + 1 partial
+sums of x, X[0] = 0, i.e. the "phase" of NIST SP 1065 in sample units):
+
+    overlapping AVAR   sum_i (X[i+2m] - 2 X[i+m] + X[i])^2 / (2 m^2 (n - 2m + 1)),  i = 0 .. n-2m
+    non-overlapping    the same over i = 0, m, 2m, ...: floor(n/m) - 1 pairs (the device's statistic)
+    modified AVAR      sum_j (sum_{i=j}^{j+m-1} X[i+2m] - 2 X[i+m] + X[i])^2 / (2 m^4 (n - 3m + 2))
+    overlapping HVAR   sum_i (X[i+3m] - 3 X[i+2m] + 3 X[i+m] - X[i])^2 / (6 m^2 (n - 3m + 1))
+
+exactly as allantools' ``oadev``, ``adev``, ``mdev``, ``ohdev`` compute them
+from frequency data (checked to 1e-9 in the tests, and against the NBS
+test values of NIST SP 1065).
+
+Integer data (ADC codes) are handled in exact integer arithmetic up to the
+squares: partial sums and differences are exact, only the final sums of
+squares round. Float data have their first block's mean removed first.
+
+``OctaveEngine`` is the streaming path: overlapping and non-overlapping AVAR
+at m = 1, 2, 4, ... in one pass over blocks of any size, O(n) per level
+(a pipelined cascade of moving sums y_{2m}[i] = y_m[i] + y_m[i+m] kept in
+cache-sized blocks, with ring buffers for the levels longer than a block).
+Levels up to ``exact_max`` are exact; above it (only for streams longer
+than 2 * exact_max) the overlapping estimate uses the offsets that are
+multiples of D = exact_max / 1024 (stride D instead of 1: the same
+statistic with at least 2048 offsets per tau, its EDF computed for that
+stride), so memory stays bounded for files larger than memory.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Iterable, Optional
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+TAU_KINDS = ("octave", "decade", "log", "all")
+BLOCK = 1 << 15
+EXACT_MAX = 1 << 22
+STRIDE_OFFSETS = 1024
+"""Above exact_max the overlapping estimate keeps 2 * exact_max / D >= this many offsets."""
+
+Progress = Optional[Callable[[int], None]]
+
+
+# ---- tau grids -------------------------------------------------------------------
+
+
+def tau_grid(kind: str, max_m: int, per_decade: int = 10) -> np.ndarray:
+    """Cluster sizes m (int64, sorted, unique) up to ``max_m``.
+
+    octave 1, 2, 4, ...; decade 1, 2, 4, 10, 20, 40, ... (Stable32 and
+    allantools); log about ``per_decade`` per decade; all 1 .. max_m.
+    """
+    if max_m < 1:
+        return np.zeros(0, dtype=np.int64)
+    if kind == "octave":
+        return 1 << np.arange(int(math.log2(max_m)) + 1, dtype=np.int64)
+    if kind == "decade":
+        out = [b * 10**k for k in range(int(math.log10(max_m)) + 1) for b in (1, 2, 4)]
+        return np.array([m for m in out if m <= max_m], dtype=np.int64)
+    if kind == "log":
+        top = math.log10(max_m)
+        m = np.unique(np.round(np.logspace(0, top, max(int(per_decade * top) + 1, 2))).astype(np.int64))
+        return m[(m >= 1) & (m <= max_m)]
+    if kind == "all":
+        return np.arange(1, max_m + 1, dtype=np.int64)
+    raise ValueError(f"unknown tau kind {kind!r} (one of {', '.join(TAU_KINDS)})")
+
+
+def max_m(stat: str, n: int) -> int:
+    """Largest m with at least one term: AVAR n - 2m + 1 >= 1 (n/2), HVAR and MVAR n/3."""
+    return n // 2 if stat in ("oavar", "avar") else n // 3
+
+
+# ---- in-memory statistics ----------------------------------------------------------
+
+
+def _prepare(x: ArrayLike) -> np.ndarray:
+    """Rate samples -> partial sums X (n + 1), int64 when x is integer-valued."""
+    a = np.asarray(x)
+    if a.ndim != 1:
+        raise ValueError("one channel at a time: x must be 1-D")
+    if np.issubdtype(a.dtype, np.integer) or (a.dtype == np.float64 and a.size and _integral(a)):
+        v = a.astype(np.int64)
+        v = v - int(np.round(np.mean(v[: BLOCK]))) if v.size else v
+        X = np.empty(v.size + 1, dtype=np.int64)
+    else:
+        v = a.astype(np.float64)
+        v = v - (v[:BLOCK].mean() if v.size else 0.0)
+        X = np.empty(v.size + 1, dtype=np.float64)
+    X[0] = 0
+    np.cumsum(v, out=X[1:])
+    return X
+
+
+def _integral(a: np.ndarray) -> bool:
+    return bool(np.all(np.abs(a) < 2**31)) and bool(np.all(a == np.rint(a)))
+
+
+def _sumsq(d: np.ndarray) -> float:
+    f = d.astype(np.float64) if d.dtype != np.float64 else d
+    return float(np.dot(f, f))
+
+
+def _blocked(total: int, fn: Callable[[int, int], float], chunk: int = 1 << 18) -> float:
+    """sum of fn(a, b) over [0, total) in chunks (keeps temporaries in cache)."""
+    s = 0.0
+    for a in range(0, total, chunk):
+        s += fn(a, min(a + chunk, total))
+    return s
+
+
+def oavar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+    """Overlapping AVAR at each m; returns (avar, terms). nan where no term."""
+    X = _prepare(x)
+    return _second_diff(X, np.asarray(list(ms), dtype=np.int64), overlapping=True, progress=progress)
+
+
+def avar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+    """Non-overlapping AVAR (floor(n/m) - 1 pairs) at each m; returns (avar, pairs)."""
+    X = _prepare(x)
+    return _second_diff(X, np.asarray(list(ms), dtype=np.int64), overlapping=False, progress=progress)
+
+
+def _second_diff(X: np.ndarray, ms: np.ndarray, overlapping: bool,
+                 progress: Progress) -> tuple[np.ndarray, np.ndarray]:
+    n = X.size - 1
+    out = np.full(ms.size, np.nan)
+    count = np.zeros(ms.size, dtype=np.int64)
+    for j, m in enumerate(ms.tolist()):
+        if progress:
+            progress(j)
+        if overlapping:
+            c = n - 2 * m + 1
+            if c < 1:
+                continue
+            s = _blocked(c, lambda a, b: _sumsq(X[a + 2 * m:b + 2 * m] - 2 * X[a + m:b + m] + X[a:b]))
+        else:
+            c = n // m - 1
+            if c < 1:
+                continue
+            P = X[::m]
+            s = _sumsq(P[2:c + 2] - 2 * P[1:c + 1] + P[:c])
+        out[j] = s / (2.0 * m * m * c)
+        count[j] = c
+    return out, count
+
+
+def mvar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+    """Modified AVAR at each m (allantools' mdev algorithm); returns (mvar, terms)."""
+    X = _prepare(x)
+    n = X.size - 1
+    ms_a = np.asarray(list(ms), dtype=np.int64)
+    out = np.full(ms_a.size, np.nan)
+    count = np.zeros(ms_a.size, dtype=np.int64)
+    for j, m in enumerate(ms_a.tolist()):
+        if progress:
+            progress(j)
+        e = n + 1 - 3 * m  # third differences of X
+        if e < 0:
+            continue
+        v0 = (X[2 * m:3 * m] - 2 * X[m:2 * m] + X[0:m]).sum()
+        s = float(v0) * float(v0)
+        carry = v0
+        for a in range(0, e, 1 << 18):  # cumulative sums with a carry across chunks
+            b = min(a + (1 << 18), e)
+            w = X[a + 3 * m:b + 3 * m] - 3 * X[a + 2 * m:b + 2 * m] + 3 * X[a + m:b + m] - X[a:b]
+            v = np.cumsum(w)
+            v += carry
+            carry = v[-1]
+            s += _sumsq(v)
+        c = e + 1
+        out[j] = s / (2.0 * float(m) ** 4 * c)
+        count[j] = c
+    return out, count
+
+
+def ohvar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+    """Overlapping Hadamard variance at each m; returns (hvar, terms)."""
+    X = _prepare(x)
+    n = X.size - 1
+    ms_a = np.asarray(list(ms), dtype=np.int64)
+    out = np.full(ms_a.size, np.nan)
+    count = np.zeros(ms_a.size, dtype=np.int64)
+    for j, m in enumerate(ms_a.tolist()):
+        if progress:
+            progress(j)
+        c = n + 1 - 3 * m
+        if c < 1:
+            continue
+        s = _blocked(c, lambda a, b: _sumsq(X[a + 3 * m:b + 3 * m] - 3 * X[a + 2 * m:b + 2 * m]
+                                            + 3 * X[a + m:b + m] - X[a:b]))
+        out[j] = s / (6.0 * m * m * c)
+        count[j] = c
+    return out, count
+
+
+# ---- streaming octave engine -----------------------------------------------------------
+
+
+@dataclass
+class OctaveResult:
+    """Per level k (m = 2^k) and channel: overlapping and non-overlapping AVAR."""
+
+    n: int
+    ms: np.ndarray                 # (levels,)
+    oavar: np.ndarray              # (levels, channels); nan without terms
+    terms: np.ndarray              # (levels,) second differences behind oavar
+    stride: np.ndarray             # (levels,) 1 exact, D for the strided levels
+    avar: np.ndarray               # (levels, channels) non-overlapping; nan without pairs
+    pairs: np.ndarray              # (levels,) floor(n/m) - 1 (or fewer, strided levels)
+
+
+@dataclass
+class _Level:
+    m: int
+    buf: np.ndarray               # (channels, m + B): linear [tail m | block] or a ring
+    ring: bool
+    acc: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    acc_n: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+class OctaveEngine:
+    """Streaming overlapping + non-overlapping octave AVAR of several channels.
+
+    ``push(block)`` takes (channels, samples) of any length (any dtype; integer
+    codes stay exact); ``finish()`` returns an ``OctaveResult``. The result
+    does not depend on how the stream was cut.
+    """
+
+    def __init__(self, channels: int, exact_max: Optional[int] = EXACT_MAX, block: int = BLOCK,
+                 total: Optional[int] = None, _offset: Optional[np.ndarray] = None) -> None:
+        if channels < 1:
+            raise ValueError("channels must be positive")
+        self.C = channels
+        self.B = block
+        self.exact_max = exact_max
+        self.total = total
+        self.n = 0
+        self._pending: list[np.ndarray] = []
+        self._pending_n = 0
+        self._levels: list[_Level] = []
+        self._x0: Optional[np.ndarray] = _offset
+        self._tmp = np.empty((channels, block))
+        self._finished = False
+        self._coarse: Optional[OctaveEngine] = None
+        self._D = 0
+        if exact_max is not None:
+            self._D = max(1, (2 * exact_max) // (2 * STRIDE_OFFSETS))
+            self._dcarry = np.zeros((channels, 0))
+
+    # -- input --
+    def push(self, block: ArrayLike) -> None:
+        if self._finished:
+            raise RuntimeError("push after finish")
+        a = np.asarray(block)
+        if a.ndim != 2 or a.shape[0] != self.C:
+            raise ValueError(f"block must have shape ({self.C}, samples)")
+        if not a.shape[1]:
+            return
+        a = a.astype(np.float64)
+        if self._x0 is None:
+            mean = a.mean(axis=1)
+            self._x0 = np.where(np.all(a == np.rint(a), axis=1), np.rint(mean), mean)
+        a = a - self._x0[:, None]
+        if self.exact_max is not None:
+            self._decimate(a)
+        self._pending.append(a)
+        self._pending_n += a.shape[1]
+        if self._pending_n >= self.B:
+            buf = np.concatenate(self._pending, axis=1)
+            full = buf.shape[1] - buf.shape[1] % self.B
+            for s in range(0, full, self.B):
+                self._block(buf[:, s:s + self.B])
+            rest = buf[:, full:]
+            self._pending = [rest] if rest.shape[1] else []
+            self._pending_n = rest.shape[1]
+
+    def _decimate(self, a: np.ndarray) -> None:
+        """Non-overlapping sums of D samples, fed to the coarse engine (strided levels)."""
+        buf = np.concatenate((self._dcarry, a), axis=1) if self._dcarry.shape[1] else a
+        full = buf.shape[1] - buf.shape[1] % self._D
+        if full:
+            sums = buf[:, :full].reshape(self.C, -1, self._D).sum(axis=2)
+            if self._coarse is None:
+                self._coarse = OctaveEngine(self.C, exact_max=None, block=self.B,
+                                            _offset=np.zeros(self.C))
+            self._coarse.push(sums)
+        self._dcarry = buf[:, full:].copy()
+
+    def finish(self) -> OctaveResult:
+        if not self._finished:
+            if self._pending_n:
+                self._block(np.concatenate(self._pending, axis=1))
+            self._pending = []
+            self._finished = True
+            self._coarse_result = self._coarse.finish() if self._coarse is not None else None
+        return self._result()
+
+    # -- the cascade --
+    def _new_level(self, k: int) -> Optional[_Level]:
+        m = 1 << k
+        if self.exact_max is not None and m > self.exact_max:
+            return None
+        ring = m >= self.B
+        lv = _Level(m, np.zeros((self.C, m + self.B)), ring)
+        lv.acc = np.zeros(self.C)
+        lv.acc_n = np.zeros(self.C)
+        return lv
+
+    def _block(self, x: np.ndarray) -> None:
+        s, L, B = self.n, x.shape[1], self.B
+        self.n += L
+        if not self._levels:
+            self._levels.append(self._new_level(0))  # type: ignore[arg-type]
+        k = 0
+        incoming = x
+        while k < len(self._levels):
+            lv = self._levels[k]
+            m, W = lv.m, lv.buf
+            if lv.ring:
+                cap = m + B
+                newpos, apos = s % cap, (s - m) % cap
+            else:
+                newpos, apos = m, 0
+            if incoming is not None:
+                W[:, newpos:newpos + L] = incoming
+            a = W[:, apos:apos + L]
+            b = W[:, newpos:newpos + L]
+            # block column t holds y_k[j], j = s - m + 1 + t; pairs (j - m, j) need j - m >= 0
+            start = 2 * m - 1 - s
+            if start < L:
+                start = max(start, 0)
+                t0 = (2 * m - 1 - s) % m  # non-overlapping: j - m = i a multiple of m
+                if t0 < start:
+                    t0 += m * (-(-(start - t0) // m))
+                for c in range(self.C):  # over channels; 1-D contiguous rows are fastest
+                    z = np.subtract(b[c], a[c], out=self._tmp[c, :L])
+                    zz = z[start:]
+                    o = float(np.dot(zz, zz))
+                    lv.acc[c] += o
+                    if m == 1:
+                        lv.acc_n[c] += o
+                    elif t0 < L:
+                        zn = z[t0::m]
+                        lv.acc_n[c] += float(np.dot(zn, zn))
+                if k + 1 == len(self._levels) and (self.total is None or 2 * m <= self.total // 2):
+                    nxt = self._new_level(k + 1)
+                    if nxt is not None:
+                        self._levels.append(nxt)
+            if k + 1 < len(self._levels):
+                up = self._levels[k + 1]
+                pos = (s % (up.m + B)) if up.ring else up.m
+                for c in range(self.C):
+                    np.add(a[c], b[c], out=up.buf[c, pos:pos + L])
+            if not lv.ring:
+                for c in range(self.C):
+                    W[c, :m] = W[c, L:L + m]
+            incoming = None
+            k += 1
+
+    def _result(self) -> OctaveResult:
+        n = self.n
+        levels = max(int(math.log2(n // 2)) + 1, 0) if n >= 2 else 0
+        ms = 1 << np.arange(levels, dtype=np.int64)
+        ov = np.full((levels, self.C), np.nan)
+        nv = np.full((levels, self.C), np.nan)
+        terms = np.zeros(levels, dtype=np.int64)
+        pairs = np.zeros(levels, dtype=np.int64)
+        stride = np.ones(levels, dtype=np.int64)
+        coarse = getattr(self, "_coarse_result", None)
+        for k in range(levels):
+            m = int(ms[k])
+            if k < len(self._levels):
+                lv = self._levels[k]
+                terms[k] = n - 2 * m + 1
+                pairs[k] = n // m - 1
+                if terms[k] > 0:
+                    ov[k] = lv.acc / (2.0 * m * m * terms[k])
+                if pairs[k] > 0:
+                    nv[k] = lv.acc_n / (2.0 * m * m * pairs[k])
+            elif coarse is not None:
+                r = m // self._D
+                kc = int(math.log2(r))
+                if kc < coarse.ms.size:
+                    D2 = float(self._D) ** 2
+                    terms[k], stride[k] = coarse.terms[kc], self._D
+                    pairs[k] = coarse.pairs[kc]
+                    ov[k] = coarse.oavar[kc] / D2
+                    nv[k] = coarse.avar[kc] / D2
+        keep = terms > 0
+        return OctaveResult(n, ms[keep], ov[keep], terms[keep], stride[keep], nv[keep], pairs[keep])
+
+
+def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None) -> OctaveResult:
+    """One channel or (channels, n) in memory through the engine (exact at every level)."""
+    a = np.asarray(x)
+    a2 = a[None, :] if a.ndim == 1 else a
+    eng = OctaveEngine(a2.shape[0], exact_max=exact_max, total=a2.shape[1])
+    eng.push(a2)
+    return eng.finish()
+
+
+def oadev_octave(x: ArrayLike, fs: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """(taus, overlapping ADEV) at m = 1, 2, 4 ... n/2 of one channel: the fast path.
+
+    Same values as ``allantools.oadev(x, rate=fs, data_type="freq", taus="octave")``.
+    """
+    r = octave_oavar(np.asarray(x, dtype=np.float64))
+    return r.ms / float(fs), np.sqrt(r.oavar[:, 0])
