@@ -24,6 +24,7 @@
 #include "sim_io.h"
 #include "sim_regbit.h"
 #include "avr_adc.h"
+#include "avr_eeprom.h"
 #include "avr_ioport.h"
 #include "avr_uart.h"
 
@@ -64,6 +65,7 @@ typedef struct {
 static struct {
   /* options */
   const char *adc_path, *uart_in_path, *out_path, *stats_json, *elf_path;
+  const char *eeprom_path;
   const char *mcu;
   uint32_t freq;
   unsigned fs;
@@ -1160,6 +1162,8 @@ static void usage(FILE *f)
 "                    then waits for the terminal to read it, instead of\n"
 "                    being lost when it does not\n"
 "  --no-wait         power up at once, not when a terminal opens the port\n"
+"  --eeprom FILE     EEPROM contents at power-up, from address 0 (raw bytes;\n"
+"                    the rest reads 0xFF, as on a blank chip)\n"
 "  -o FILE           also keep a copy of everything the device sends\n"
 "  --fs, --uart-in and --timeout do not apply.\n"
 "\n"
@@ -1204,7 +1208,7 @@ static void parse_args(int argc, char **argv)
 {
   enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
          O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
-         O_NO_WAIT };
+         O_NO_WAIT, O_EEPROM };
   static const struct option opts[] = {
     { "adc", required_argument, NULL, O_ADC },
     { "fs", required_argument, NULL, O_FS },
@@ -1222,6 +1226,7 @@ static void parse_args(int argc, char **argv)
     { "realtime", no_argument, NULL, O_REALTIME },
     { "fast", no_argument, NULL, O_FAST },
     { "no-wait", no_argument, NULL, O_NO_WAIT },
+    { "eeprom", required_argument, NULL, O_EEPROM },
     { "verbose", no_argument, NULL, 'v' },
     { "help", no_argument, NULL, 'h' },
     { NULL, 0, NULL, 0 },
@@ -1259,6 +1264,7 @@ static void parse_args(int argc, char **argv)
     case O_REALTIME: g.realtime = 1; break;
     case O_FAST: g.fast = 1; break;
     case O_NO_WAIT: g.no_wait = 1; break;
+    case O_EEPROM: g.eeprom_path = optarg; break;
     case 'v': g.verbose++; break;
     case 'h': usage(stdout); exit(EXIT_OK);
     case ':': die(EXIT_INPUT, "%s needs an argument (see --help)", argv[optind - 1]);
@@ -1507,6 +1513,23 @@ int main(int argc, char **argv)
   avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
   flags &= ~(uint32_t)(AVR_UART_FLAG_STDIO | AVR_UART_FLAG_POLL_SLEEP);
   avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+
+  /* EEPROM contents at power-up (--eeprom): saved settings, blank or not. */
+  if (g.eeprom_path) {
+    uint8_t ee[4096];
+    FILE *f = fopen(g.eeprom_path, "rb");
+    if (!f)
+      die(EXIT_INPUT, "--eeprom: cannot read '%s': %s", g.eeprom_path, strerror(errno));
+    size_t n = fread(ee, 1, sizeof ee, f);
+    fclose(f);
+    if (n > avr->e2end + 1u)
+      die(EXIT_INPUT, "--eeprom: '%s' has %zu bytes, the %s's EEPROM %u",
+          g.eeprom_path, n, avr->mmcu, (unsigned)(avr->e2end + 1u));
+    if (n) {
+      avr_eeprom_desc_t d = { .ee = ee, .offset = 0, .size = (uint32_t)n };
+      avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &d);
+    }
+  }
 
   /* Paint SRAM for the stack high-water mark (the startup code then
    * writes .data and .bss over their part). */

@@ -99,9 +99,20 @@ def _integral(a: np.ndarray) -> bool:
     return bool(np.all(np.abs(a) < 2**31)) and bool(np.all(a == np.rint(a)))
 
 
+DOT_MAX = 8192
+"""Longest vector handed to one BLAS dot: OpenBLAS threads ddot above 10000
+elements, and on a busy machine the thread hand-off costs milliseconds."""
+
+
+def _ssq(v: np.ndarray) -> float:
+    """Sum of squares of a 1-D float64 vector (BLAS dot, single-threaded sizes)."""
+    if v.size <= DOT_MAX:
+        return float(np.dot(v, v))
+    return float(sum(np.dot(p, p) for p in (v[i:i + DOT_MAX] for i in range(0, v.size, DOT_MAX))))
+
+
 def _sumsq(d: np.ndarray) -> float:
-    f = d.astype(np.float64) if d.dtype != np.float64 else d
-    return float(np.dot(f, f))
+    return _ssq(d.astype(np.float64) if d.dtype != np.float64 else d)
 
 
 def _blocked(total: int, fn: Callable[[int, int], float], chunk: int = 1 << 18) -> float:
@@ -339,13 +350,13 @@ class OctaveEngine:
                 for c in range(self.C):  # over channels; 1-D contiguous rows are fastest
                     z = np.subtract(b[c], a[c], out=self._tmp[c, :L])
                     zz = z[start:]
-                    o = float(np.dot(zz, zz))
+                    o = _ssq(zz)
                     lv.acc[c] += o
                     if m == 1:
                         lv.acc_n[c] += o
                     elif t0 < L:
                         zn = z[t0::m]
-                        lv.acc_n[c] += float(np.dot(zn, zn))
+                        lv.acc_n[c] += _ssq(zn)
                 if k + 1 == len(self._levels) and (self.total is None or 2 * m <= self.total // 2):
                     nxt = self._new_level(k + 1)
                     if nxt is not None:

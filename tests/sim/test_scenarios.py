@@ -154,3 +154,44 @@ def test_output_modes_carry_every_sample(run, tmp_path: Path, mode: str, fs: int
     start = _contiguous_slice(rows, got)
     # Output began right after the switch and ran until the switch back.
     assert 100 <= start <= 110 and start + len(got) >= n - 210, (start, len(got))
+
+
+def _settings_record(rate: int, interval: int, mode: int, rng: int, good_crc: bool = True) -> bytes:
+    """The EEPROM record of firmware/settings.c, built here independently:
+    version 1, rate and interval little-endian, mode, range, then CRC-16
+    (avr-libc _crc16_update: reflected 0xA001, from 0xFFFF) high byte first."""
+    body = bytes([1]) + rate.to_bytes(2, "little") + interval.to_bytes(2, "little") + bytes([mode, rng])
+    crc = 0xFFFF
+    for b in body:
+        crc ^= b
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+    if not good_crc:
+        crc ^= 0x0100
+    return body + bytes([crc >> 8, crc & 0xFF])
+
+
+@pytest.mark.parametrize("case", ["saved", "corrupt", "blank"])
+def test_settings_come_from_eeprom_or_defaults(run, tmp_path: Path, case: str) -> None:
+    """A saved record sets rate 250 Hz and range 4 g at power-up; a corrupted
+    one (bad CRC) or none gives the defaults, and the header says which."""
+    import json
+    import subprocess
+
+    from conftest import ELF, SIM
+    r = run(f"eeprom-{case}")
+    n = 3000
+    cli("gen", "-n", str(n), "--seed", "5", "-o", str(r.rows))
+    args = [str(SIM), "--adc", str(r.rows), "-o", str(r.log), "--stats-json", str(r.stats_file)]
+    if case != "blank":
+        ee = tmp_path / "ee.bin"
+        ee.write_bytes(_settings_record(250, 5, 0, 2, good_crc=case == "saved"))
+        args += ["--eeprom", str(ee)]
+    proc = subprocess.run(args + [str(ELF)], capture_output=True, text=True, errors="replace")
+    assert proc.returncode == 0, proc.stderr
+    head = r.decode()["header"]
+    assert head["cfg"] == case
+    fs = 250 if case == "saved" else 100
+    assert head["fs_hz"] == fs and head["range_g"] == ("4" if case == "saved" else "1.5")
+    assert "OK" in r.check(fs=fs)
+    assert json.loads(r.stats_file.read_text())["device_drops"] == 0
