@@ -145,10 +145,13 @@ uint8_t allan_begin(allan_t *a)
    * i.e. unless n == 2^k: `first` names that level (none: 0xFF).  Both are
    * worked out once here, in 8 bits, for all channels. */
   depth = 1;
-  while (depth < ALLAN_LEVELS && !(n & (1ul << (depth - 1))))
+  while (depth < ALLAN_LEVELS && !(n & 1u)) { /* shift out trailing zeros */
+    n >>= 1;
     depth++;
+  }
   a->depth = depth;
-  a->first = n == (1ul << (depth - 1)) ? (uint8_t)(depth - 1) : 0xFFu;
+  /* What is left is 1 exactly when the count was 2^(depth-1). */
+  a->first = n == 1u ? (uint8_t)(depth - 1) : 0xFFu;
   return ALLAN_OK;
 }
 
@@ -175,14 +178,11 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
         cell_carry(a, ch, k, 1);
     }
     c->sum_lo = v16;
-    if (k + 1u == ALLAN_NARROW_LEVELS) {
-      v = (allan_sum_t)v16 + last; /* the first 24-bit sum */
-      k++;
-      c++;
-      goto wide;
-    }
-    v16 = (uint16_t)(v16 + last); /* below 1023 * 64: fits */
+    v = (allan_sum_t)v16 + last; /* 24 bits from level ALLAN_NARROW_LEVELS on */
+    v16 = (uint16_t)v;           /* below 1023 * 64 while k + 1 is narrow */
   }
+  if (k < depth)
+    goto wide;
   return;
 
 wide:

@@ -65,19 +65,24 @@
 #define BOARD_GSEL2_BIT PD7
 
 /* Probe outputs for timing measurements (simulator or oscilloscope):
- * PB0 is high while the main loop handles one sample set, PB1 while the
- * ADC interrupt runs.  Set BOARD_PROBES to 0 to leave the pins alone. */
+ * PB0 is high while the main loop handles one sample set, PB2 while the
+ * Allan engine works on it, PB1 while the ADC interrupt runs.  Set
+ * BOARD_PROBES to 0 to leave the pins alone. */
 #ifndef BOARD_PROBES
 #  define BOARD_PROBES 1
 #endif
 #if BOARD_PROBES
-#  define BOARD_PROBE_INIT() (DDRB |= (1 << PB0) | (1 << PB1))
+#  define BOARD_PROBE_INIT() (DDRB |= (1 << PB0) | (1 << PB1) | (1 << PB2))
+#  define BOARD_PROBE_ALLAN_ON() (PORTB |= (1 << PB2))
+#  define BOARD_PROBE_ALLAN_OFF() (PORTB &= (uint8_t)~(1 << PB2))
 #  define BOARD_PROBE_SAMPLE_ON() (PORTB |= (1 << PB0))
 #  define BOARD_PROBE_SAMPLE_OFF() (PORTB &= (uint8_t)~(1 << PB0))
 #  define BOARD_PROBE_ISR_ON() (PORTB |= (1 << PB1))
 #  define BOARD_PROBE_ISR_OFF() (PORTB &= (uint8_t)~(1 << PB1))
 #else
 #  define BOARD_PROBE_INIT() ((void)0)
+#  define BOARD_PROBE_ALLAN_ON() ((void)0)
+#  define BOARD_PROBE_ALLAN_OFF() ((void)0)
 #  define BOARD_PROBE_SAMPLE_ON() ((void)0)
 #  define BOARD_PROBE_SAMPLE_OFF() ((void)0)
 #  define BOARD_PROBE_ISR_ON() ((void)0)

@@ -20,7 +20,9 @@ void sample_pump(void)
     BOARD_PROBE_SAMPLE_ON();
     /* A set the engine refuses (its 32-bit count is full) is lost like a
      * dropped one, and counted as such. */
+    BOARD_PROBE_ALLAN_ON();
     counted = allan_begin(&sample_engine) == ALLAN_OK;
+    BOARD_PROBE_ALLAN_OFF();
     if (!counted)
       adc_count_drop();
     for (i = 0; i < ADC_COLUMNS; i++) {
@@ -28,8 +30,11 @@ void sample_pump(void)
       if ((code == 0 || code == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFu)
         sample_stats.clips[i]++;
       if (i < ALLAN_CHANNELS) {
-        if (counted)
+        if (counted) {
+          BOARD_PROBE_ALLAN_ON();
           allan_channel(&sample_engine, i, code);
+          BOARD_PROBE_ALLAN_OFF();
+        }
       } else {
         sample_stats.temp_sum += code;
         if (code < sample_stats.temp_min)

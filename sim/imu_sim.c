@@ -117,7 +117,7 @@ static struct {
   long long dev_n, dev_drops;
 
   /* measurements */
-  pulse_t pb0, pb1;
+  pulse_t pb0, pb1, pb2;
   avr_cycle_count_t slept;
   uint16_t bss_end;
   uint16_t sp_min;            /* lowest stack pointer seen */
@@ -886,6 +886,12 @@ static void pb1_notify(avr_irq_t *irq, uint32_t value, void *param)
   pulse(&g.pb1, value);
 }
 
+static void pb2_notify(avr_irq_t *irq, uint32_t value, void *param)
+{
+  (void)irq; (void)param;
+  pulse(&g.pb2, value);
+}
+
 /* Fast: never wait for the wall clock, just count the idle cycles. */
 static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
 {
@@ -981,10 +987,15 @@ static void print_stats(int json)
   char smean[32] = "null", imean[32] = "null", smax[32] = "null";
   char imax[32] = "null", dn[32] = "null", dd[32] = "null";
   char sused[32] = "null", sfree[32] = "null", bss[32] = "null";
+  char amean[32] = "null", amax[32] = "null";
 
   if (g.pb0.count) {
     snprintf(smean, sizeof smean, "%.1f", (double)g.pb0.sum / g.pb0.count);
     snprintf(smax, sizeof smax, "%llu", (unsigned long long)g.pb0.max);
+  }
+  if (g.pb2.count) {
+    snprintf(amean, sizeof amean, "%.1f", (double)g.pb2.sum / g.pb2.count);
+    snprintf(amax, sizeof amax, "%llu", (unsigned long long)g.pb2.max);
   }
   if (g.pb1.count) {
     snprintf(imean, sizeof imean, "%.1f", (double)g.pb1.sum / g.pb1.count);
@@ -1025,6 +1036,9 @@ static void print_stats(int json)
   KV("sample_count", "%llu", (unsigned long long)g.pb0.count);
   KV("sample_cycles_mean", "%s", smean);
   KV("sample_cycles_max", "%s", smax);
+  KV("allan_count", "%llu", (unsigned long long)g.pb2.count);
+  KV("allan_cycles_mean", "%s", amean);
+  KV("allan_cycles_max", "%s", amax);
   KV("isr_count", "%llu", (unsigned long long)g.pb1.count);
   KV("isr_cycles_mean", "%s", imean);
   KV("isr_cycles_max", "%s", imax);
@@ -1171,6 +1185,8 @@ static void usage(FILE *f)
 "  sample_cycles_mean/max, sample_count  CPU cycles PB0 stays high (the\n"
 "                    firmware raises it while it handles one sample set)\n"
 "  isr_cycles_mean/max, isr_count        the same for PB1 (ADC interrupt)\n"
+"  allan_cycles_mean/max, allan_count    the same for PB2 (high around each\n"
+"                                        call into the Allan engine)\n"
 "  cpu_busy_fraction 1 - slept cycles / total cycles\n"
 "  stack_used_bytes, stack_free_bytes    SRAM is filled with 0xA5 before the\n"
 "                    run; the lowest overwritten byte above the end of .bss\n"
@@ -1508,6 +1524,7 @@ int main(int argc, char **argv)
   if (pb) {
     avr_irq_register_notify(pb + IOPORT_IRQ_PIN0, pb0_notify, NULL);
     avr_irq_register_notify(pb + IOPORT_IRQ_PIN1, pb1_notify, NULL);
+    avr_irq_register_notify(pb + IOPORT_IRQ_PIN2, pb2_notify, NULL);
   }
   uint32_t flags = 0;
   avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);

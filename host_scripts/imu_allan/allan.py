@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 TAU_KINDS = ("octave", "decade", "log", "all")
-BLOCK = 1 << 15
+BLOCK = 1 << 16
 EXACT_MAX = 1 << 22
 STRIDE_OFFSETS = 1024
 """Above exact_max the overlapping estimate keeps 2 * exact_max / D >= this many offsets."""
@@ -106,9 +106,27 @@ elements, and on a busy machine the thread hand-off costs milliseconds."""
 
 def _ssq(v: np.ndarray) -> float:
     """Sum of squares of a 1-D float64 vector (BLAS dot, single-threaded sizes)."""
-    if v.size <= DOT_MAX:
+    n = v.size
+    if n <= DOT_MAX:
         return float(np.dot(v, v))
-    return float(sum(np.dot(p, p) for p in (v[i:i + DOT_MAX] for i in range(0, v.size, DOT_MAX))))
+    full = n - n % DOT_MAX
+    r = v[:full].reshape(-1, DOT_MAX) if v.flags.c_contiguous else None
+    if r is None:
+        return float(sum(np.dot(p, p) for p in (v[i:i + DOT_MAX] for i in range(0, n, DOT_MAX))))
+    s = float(_rowdots(r).sum())
+    if full < n:
+        t = v[full:]
+        s += float(np.dot(t, t))
+    return s
+
+
+def _rowdots(r: np.ndarray) -> np.ndarray:
+    if _VECDOT is not None:
+        return _VECDOT(r, r)
+    return np.einsum("ij,ij->i", r, r)
+
+
+_VECDOT = getattr(np, "vecdot", None)  # numpy >= 2: BLAS dot per row, single-threaded sizes
 
 
 def _sumsq(d: np.ndarray) -> float:
@@ -242,13 +260,15 @@ class OctaveEngine:
     """
 
     def __init__(self, channels: int, exact_max: Optional[int] = EXACT_MAX, block: int = BLOCK,
-                 total: Optional[int] = None, _offset: Optional[np.ndarray] = None) -> None:
+                 total: Optional[int] = None, nonoverlapping: bool = True,
+                 _offset: Optional[np.ndarray] = None) -> None:
         if channels < 1:
             raise ValueError("channels must be positive")
         self.C = channels
         self.B = block
         self.exact_max = exact_max
         self.total = total
+        self.nonoverlapping = nonoverlapping
         self.n = 0
         self._pending: list[np.ndarray] = []
         self._pending_n = 0
@@ -271,23 +291,28 @@ class OctaveEngine:
             raise ValueError(f"block must have shape ({self.C}, samples)")
         if not a.shape[1]:
             return
-        a = a.astype(np.float64)
-        if self._x0 is None:
-            mean = a.mean(axis=1)
-            self._x0 = np.where(np.all(a == np.rint(a), axis=1), np.rint(mean), mean)
-        a = a - self._x0[:, None]
-        if self.exact_max is not None:
-            self._decimate(a)
-        self._pending.append(a)
-        self._pending_n += a.shape[1]
-        if self._pending_n >= self.B:
-            buf = np.concatenate(self._pending, axis=1)
-            full = buf.shape[1] - buf.shape[1] % self.B
-            for s in range(0, full, self.B):
-                self._block(buf[:, s:s + self.B])
-            rest = buf[:, full:]
-            self._pending = [rest] if rest.shape[1] else []
-            self._pending_n = rest.shape[1]
+        if self._x0 is None:  # an offset keeps the sums small; integral data keep an integer one
+            head = a[:, :self.B].astype(np.float64)
+            mean = head.mean(axis=1)
+            self._x0 = np.where(np.all(head == np.rint(head), axis=1), np.rint(mean), mean)
+        if self._D and (self.total is None or self.total > 2 * self.exact_max):  # type: ignore[operator]
+            self._decimate(a.astype(np.float64) - self._x0[:, None])
+        i = 0
+        L = a.shape[1]
+        if self._pending_n:  # complete the pending block first
+            take = min(self.B - self._pending_n, L)
+            self._pending.append(a[:, :take])
+            self._pending_n += take
+            i = take
+            if self._pending_n == self.B:
+                self._block(np.concatenate(self._pending, axis=1))
+                self._pending, self._pending_n = [], 0
+        while L - i >= self.B:
+            self._block(a[:, i:i + self.B])
+            i += self.B
+        if i < L:
+            self._pending.append(a[:, i:].copy())
+            self._pending_n += L - i
 
     def _decimate(self, a: np.ndarray) -> None:
         """Non-overlapping sums of D samples, fed to the coarse engine (strided levels)."""
@@ -337,7 +362,8 @@ class OctaveEngine:
             else:
                 newpos, apos = m, 0
             if incoming is not None:
-                W[:, newpos:newpos + L] = incoming
+                for c in range(self.C):
+                    np.subtract(incoming[c], self._x0[c], out=W[c, newpos:newpos + L])  # type: ignore[index]
             a = W[:, apos:apos + L]
             b = W[:, newpos:newpos + L]
             # block column t holds y_k[j], j = s - m + 1 + t; pairs (j - m, j) need j - m >= 0
@@ -354,7 +380,7 @@ class OctaveEngine:
                     lv.acc[c] += o
                     if m == 1:
                         lv.acc_n[c] += o
-                    elif t0 < L:
+                    elif t0 < L and self.nonoverlapping:
                         zn = z[t0::m]
                         lv.acc_n[c] += _ssq(zn)
                 if k + 1 == len(self._levels) and (self.total is None or 2 * m <= self.total // 2):
@@ -405,11 +431,13 @@ class OctaveEngine:
         return OctaveResult(n, ms[keep], ov[keep], terms[keep], stride[keep], nv[keep], pairs[keep])
 
 
-def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None) -> OctaveResult:
+def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None,
+                 nonoverlapping: bool = True) -> OctaveResult:
     """One channel or (channels, n) in memory through the engine (exact at every level)."""
     a = np.asarray(x)
     a2 = a[None, :] if a.ndim == 1 else a
-    eng = OctaveEngine(a2.shape[0], exact_max=exact_max, total=a2.shape[1])
+    eng = OctaveEngine(a2.shape[0], exact_max=exact_max, total=a2.shape[1],
+                       nonoverlapping=nonoverlapping)
     eng.push(a2)
     return eng.finish()
 
@@ -419,5 +447,5 @@ def oadev_octave(x: ArrayLike, fs: float = 1.0) -> tuple[np.ndarray, np.ndarray]
 
     Same values as ``allantools.oadev(x, rate=fs, data_type="freq", taus="octave")``.
     """
-    r = octave_oavar(np.asarray(x, dtype=np.float64))
+    r = octave_oavar(np.asarray(x, dtype=np.float64), nonoverlapping=False)
     return r.ms / float(fs), np.sqrt(r.oavar[:, 0])
