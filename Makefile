@@ -51,7 +51,7 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all firmware other-mcus deps test unit pytest sim-test term-test demo demo-native clean
+.PHONY: all bench firmware other-mcus deps test unit pytest sim-test term-test demo demo-native clean
 
 all: firmware
 
@@ -97,6 +97,11 @@ term-test: firmware $(IMU_SIM)
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM)
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
+
+# ---- benchmark --------------------------------------------------------------
+# Device, simulator and host side by side; writes bench/results.json.
+bench: firmware $(IMU_SIM)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)
 
 # ---- demo ------------------------------------------------------------------
 # The main job: 10 minutes of a synthetic thesis-like IMU at 100 Hz through
