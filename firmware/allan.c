@@ -155,16 +155,34 @@ uint8_t allan_begin(allan_t *a)
   return ALLAN_OK;
 }
 
-/* Levels 1 .. depth-1 of one channel, v being the new level-1 cluster sum.
- * Out of line: half the samples need none of it, and level 0 alone then
- * runs with a small frame.  Levels below ALLAN_NARROW_LEVELS, where sums
- * fit 16 bits, run a 16-bit loop: they take nearly all the visits. */
+/* One narrow level k (sums below 2^16): pair the new cluster sum v with the
+ * previous one, store it, and return the next level's new sum. */
+static inline __attribute__((always_inline)) uint16_t narrow_step(allan_t *a, uint8_t ch, uint8_t k,
+                                                                   allan_cell_t *c, uint16_t v)
+{
+  uint16_t last = c->sum_lo;
+  if (k != a->first) {
+    uint16_t d = v >= last ? v - last : last - v;
+    uint32_t sq = (uint32_t)d * d;
+    uint32_t lo = c->acc_lo + sq;
+    c->acc_lo = lo;
+    if (lo < sq)
+      cell_carry(a, ch, k, 1);
+  }
+  c->sum_lo = v;
+  return (uint16_t)(v + last); /* exact while level k + 1 is narrow too */
+}
+
+/* Levels 2 .. depth-1 of one channel, v16 being the new level-2 cluster
+ * sum.  Out of line: three samples in four need none of it, and levels 0
+ * and 1 then run with a small frame.  Levels below ALLAN_NARROW_LEVELS run a
+ * 16-bit loop; the wide ones keep their sums' top byte in sum_hi[]. */
 static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_t v16)
 {
-  allan_cell_t *c = &a->cell[ch][1];
-  uint8_t k = 1, depth = a->depth, first = a->first;
+  allan_cell_t *c = &a->cell[ch][2];
+  uint8_t k = 2, depth = a->depth, first = a->first;
   uint8_t narrow_end = depth < ALLAN_NARROW_LEVELS ? depth : ALLAN_NARROW_LEVELS;
-  allan_sum_t v;
+  allan_sum_t v = (allan_sum_t)v16; /* level 2's sum, in 24 bits */
   uint8_t *hi;
 
   for (; k < narrow_end; k++, c++) {
@@ -181,11 +199,9 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
     v = (allan_sum_t)v16 + last; /* 24 bits from level ALLAN_NARROW_LEVELS on */
     v16 = (uint16_t)v;           /* below 1023 * 64 while k + 1 is narrow */
   }
-  if (k < depth)
-    goto wide;
-  return;
+  if (k >= depth)
+    return;
 
-wide:
   hi = a->sum_hi[ch];
   for (; k < depth; k++, c++, hi++) {
     allan_sum_t last = c->sum_lo | ((allan_sum_t)*hi << 16);
@@ -219,9 +235,10 @@ wide:
 
 void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
 {
-  /* Level 0, every sample: the cluster is the code itself, |d| <= 1023. */
+  /* Levels 0 and 1 here (every sample, every other sample), the rest out
+   * of line: the cluster at level 0 is the code itself. */
   allan_cell_t *c = a->cell[ch];
-  uint16_t last = c->sum_lo;
+  uint16_t v;
 
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
   if (code < a->min[ch])
@@ -229,17 +246,12 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
   if (code > a->max[ch])
     a->max[ch] = code;
 #endif
-  c->sum_lo = code;
-  if (a->first) { /* level 0's first cluster is sample 1 */
-    uint16_t d = code >= last ? code - last : last - code;
-    uint32_t sq = (uint32_t)d * d;
-    uint32_t lo = c->acc_lo + sq;
-    c->acc_lo = lo;
-    if (lo < sq)
-      cell_carry(a, ch, 0, 1);
+  v = narrow_step(a, ch, 0, c, code);
+  if (a->depth > 1) {
+    v = narrow_step(a, ch, 1, c + 1, v);
+    if (a->depth > 2)
+      cascade_up(a, ch, v);
   }
-  if (a->depth > 1)
-    cascade_up(a, ch, (uint16_t)(code + last));
 }
 
 uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
