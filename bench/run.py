@@ -199,7 +199,9 @@ def host(tmp: Path, quick: bool) -> dict:
     data = np.load(path, mmap_mode="r")
     for i in range(0, m, 1 << 22):
         engine.push(np.asarray(data[i:i + (1 << 22)])[None, :])
-    engine.finish()
+    out = engine.finish()
+    if out.n != m or not np.isfinite(out.oavar[0, 0]) or abs(out.oavar[0, 0] - 1.0) > 0.01:
+        raise SystemExit(f"bench: the streamed analysis saw {out.n} samples, oavar(1) {out.oavar[0, 0]}")
     r["host_stream_samples"] = m
     r["host_stream_1e8_s"] = round(time.perf_counter() - t, 2)
     return r
