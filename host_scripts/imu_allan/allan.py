@@ -110,9 +110,7 @@ def _ssq(v: np.ndarray) -> float:
     if n <= DOT_MAX:
         return float(np.dot(v, v))
     full = n - n % DOT_MAX
-    r = v[:full].reshape(-1, DOT_MAX) if v.flags.c_contiguous else None
-    if r is None:
-        return float(sum(np.dot(p, p) for p in (v[i:i + DOT_MAX] for i in range(0, n, DOT_MAX))))
+    r = v[:full].reshape(-1, DOT_MAX)  # a view, also for a strided 1-D vector
     s = float(_rowdots(r).sum())
     if full < n:
         t = v[full:]
@@ -249,6 +247,11 @@ class _Level:
     ring: bool
     acc: np.ndarray = field(default_factory=lambda: np.zeros(0))
     acc_n: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    views: dict = field(default_factory=dict)   # cached per-channel views of the steady state
+
+    @property
+    def cap(self) -> int:
+        return self.buf.shape[1]
 
 
 class OctaveEngine:
@@ -259,12 +262,14 @@ class OctaveEngine:
     does not depend on how the stream was cut.
     """
 
-    def __init__(self, channels: int, exact_max: Optional[int] = EXACT_MAX, block: int = BLOCK,
+    def __init__(self, channels: int, exact_max: Optional[int] = EXACT_MAX, block: Optional[int] = None,
                  total: Optional[int] = None, nonoverlapping: bool = True,
                  _offset: Optional[np.ndarray] = None) -> None:
         if channels < 1:
             raise ValueError("channels must be positive")
         self.C = channels
+        if block is None:  # short known streams: smaller blocks, less buffer memory
+            block = BLOCK if total is None else int(min(BLOCK, max(4096, 1 << int(math.log2(max(total, 1) / 32)))))
         self.B = block
         self.exact_max = exact_max
         self.total = total
@@ -347,56 +352,88 @@ class OctaveEngine:
         return lv
 
     def _block(self, x: np.ndarray) -> None:
-        s, L, B = self.n, x.shape[1], self.B
+        """One block of samples through every level (each vectorized over the block)."""
+        s, L = self.n, x.shape[1]
         self.n += L
         if not self._levels:
             self._levels.append(self._new_level(0))  # type: ignore[arg-type]
+        B, C, tmp = self.B, self.C, self._tmp
         k = 0
-        incoming = x
         while k < len(self._levels):
             lv = self._levels[k]
             m, W = lv.m, lv.buf
             if lv.ring:
-                cap = m + B
+                cap = lv.cap
                 newpos, apos = s % cap, (s - m) % cap
             else:
                 newpos, apos = m, 0
-            if incoming is not None:
-                for c in range(self.C):
-                    np.subtract(incoming[c], self._x0[c], out=W[c, newpos:newpos + L])  # type: ignore[index]
+            if k == 0:  # the samples, offset removed
+                for c in range(C):
+                    np.subtract(x[c], self._x0[c], out=W[c, newpos:newpos + L])  # type: ignore[index]
+            start = 2 * m - 1 - s
+            up = self._levels[k + 1] if k + 1 < len(self._levels) else None
+            uppos = ((s % up.cap) if up.ring else up.m) if up is not None else 0
+            if L == B and start < 0:  # steady state: cached views, fewest calls
+                key = (newpos, uppos, up is not None)
+                views = lv.views.get(key)
+                if views is None:
+                    views = lv.views[key] = self._views(lv, up, newpos, apos, uppos, tmp)
+                t0 = (2 * m - 1 - s) % m
+                for c, (a_c, b_c, z_c, z2_c, up_c) in enumerate(views):
+                    np.subtract(b_c, a_c, out=z_c)
+                    o = float(_rowdots(z2_c).sum())
+                    lv.acc[c] += o
+                    if m == 1:
+                        lv.acc_n[c] += o
+                    elif self.nonoverlapping and t0 < L:
+                        lv.acc_n[c] += _ssq(z_c[t0::m])
+                    if up_c is not None:
+                        np.add(a_c, b_c, out=up_c)
+                if not lv.ring:
+                    W[:, :m] = W[:, L:L + m]
+                k += 1
+                continue
             a = W[:, apos:apos + L]
             b = W[:, newpos:newpos + L]
             # block column t holds y_k[j], j = s - m + 1 + t; pairs (j - m, j) need j - m >= 0
-            start = 2 * m - 1 - s
             if start < L:
                 start = max(start, 0)
                 t0 = (2 * m - 1 - s) % m  # non-overlapping: j - m = i a multiple of m
                 if t0 < start:
                     t0 += m * (-(-(start - t0) // m))
-                for c in range(self.C):  # over channels; 1-D contiguous rows are fastest
-                    z = np.subtract(b[c], a[c], out=self._tmp[c, :L])
+                for c in range(C):  # over channels; 1-D contiguous rows are fastest
+                    z = np.subtract(b[c], a[c], out=tmp[c, :L])
                     zz = z[start:]
                     o = _ssq(zz)
                     lv.acc[c] += o
                     if m == 1:
                         lv.acc_n[c] += o
                     elif t0 < L and self.nonoverlapping:
-                        zn = z[t0::m]
-                        lv.acc_n[c] += _ssq(zn)
+                        lv.acc_n[c] += _ssq(z[t0::m])
                 if k + 1 == len(self._levels) and (self.total is None or 2 * m <= self.total // 2):
                     nxt = self._new_level(k + 1)
                     if nxt is not None:
                         self._levels.append(nxt)
-            if k + 1 < len(self._levels):
-                up = self._levels[k + 1]
-                pos = (s % (up.m + B)) if up.ring else up.m
-                for c in range(self.C):
-                    np.add(a[c], b[c], out=up.buf[c, pos:pos + L])
+                        up = nxt
+                        uppos = (s % up.cap) if up.ring else up.m
+            if up is not None:
+                for c in range(C):
+                    np.add(a[c], b[c], out=up.buf[c, uppos:uppos + L])
             if not lv.ring:
-                for c in range(self.C):
+                for c in range(C):
                     W[c, :m] = W[c, L:L + m]
-            incoming = None
             k += 1
+
+    def _views(self, lv: _Level, up: Optional[_Level], newpos: int, apos: int,
+               uppos: int, tmp: np.ndarray) -> list[tuple[np.ndarray, ...]]:
+        B = self.B
+        out = []
+        for c in range(self.C):
+            z = tmp[c]
+            z2 = z.reshape(-1, DOT_MAX) if B % DOT_MAX == 0 else z[None, :]
+            out.append((lv.buf[c, apos:apos + B], lv.buf[c, newpos:newpos + B], z, z2,
+                        up.buf[c, uppos:uppos + B] if up is not None else None))
+        return out
 
     def _result(self) -> OctaveResult:
         n = self.n

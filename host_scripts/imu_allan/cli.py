@@ -108,7 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
             "  imu-allan sim --adc imu.txt -o device.log        # run the firmware on them\n"
             "  imu-allan decode device.log                      # the device's Allan table\n"
             "  imu-allan reference imu.txt --fs 100             # the same, computed on the host\n"
-            "  imu-allan check device.log imu.txt               # do they agree exactly?\n\n"
+            "  imu-allan check device.log imu.txt               # do they agree exactly?\n"
+            "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
+            "                                                   # noise terms, intervals, plots\n\n"
             "with the board on a serial port:\n"
             "  imu-allan monitor --port /dev/ttyUSB0            # live view, all logged to a file\n"
             "  imu-allan cmd --port /dev/ttyUSB0 mode raw       # one command, prints its reply\n"
@@ -296,7 +298,92 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seconds to wait for the reply (default 3; a command waits while "
                         "a report is being sent)")
     p.add_argument("words", nargs="+", metavar="WORDS", help="the command and its argument")
+
+    _add_analyze(sub)
     return parser
+
+
+def _megabytes(text: str) -> int:
+    v = _positive_int(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError("must be at least 1 MB")
+    return v
+
+
+def _add_analyze(sub: Any) -> None:
+    from .allan import TAU_KINDS
+    from .profiles import PROFILES, RANGES
+    p = sub.add_parser(
+        "analyze", help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Characterize an IMU from a recording at rest. FILE is any of (found by content):\n"
+            "  - a device log (imu-allan sim / monitor): the on-device Allan results;\n"
+            "  - a raw capture or rows file (thesis rows: 7 ADC codes per line);\n"
+            "  - a CSV with a header naming the columns (t, ax, ..., gz; also acc_x,\n"
+            "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used).\n\n"
+            "It computes, in float64: the overlapping Allan deviation (and the\n"
+            "non-overlapping one the device computes, modified Allan and Hadamard\n"
+            "deviations) with 95 % confidence intervals (Greenhall's equivalent\n"
+            "degrees of freedom, NIST SP 1065); fits the IEEE 952 noise terms to the\n"
+            "whole curve, each with an interval and the tau range where it dominates,\n"
+            "saying plainly when a term is not identifiable from the data:\n"
+            "  N random walk (ARW / VRW)   B bias instability   K rate random walk\n"
+            "  Q quantization              R rate ramp\n"
+            "plus the PSD (Welch), and the thesis' noise model (Gauss-Markov bias +\n"
+            "rate random walk + white noise) simulated from the terms, with its FIT%.\n"
+            "Given a device log too (--device, or a capture in mode 'both'), the\n"
+            "device's points are checked against the host's curve.\n\n"
+            "Units: rates in m/s^2 (accelerometers) and deg/s (gyros). In --json, with u\n"
+            "the rate unit: Q in u*s, N in u*sqrt(s), B in u, K in u/sqrt(s), R in u/s;\n"
+            "the table also shows deg/sqrt(h), deg/h, m/s/sqrt(h), ug ... The thesis\n"
+            "profile converts ADC codes (MMA7260Q at --range, LISY300AL, Vref 3.3 V);\n"
+            "--scale gives your own sensor's scale per channel. Every conversion is\n"
+            "written out in docs/analysis.md."),
+        epilog=(
+            "examples:\n"
+            "  imu-allan analyze device.log                      # on-device results only\n"
+            "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
+            "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
+            "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
+            "exit status: 0 success, 2 usage or input error (one line on stderr)"))
+    p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
+    p.add_argument("--fs", type=_fs, metavar="HZ",
+                   help="sample rate, Hz: required for rows files and CSV without a time column "
+                        "(a device log's header gives it)")
+    p.add_argument("--profile", choices=PROFILES,
+                   help="unit conversion: thesis (the thesis board, default for ADC codes) or counts "
+                        "(no conversion)")
+    p.add_argument("--scale", action="append", default=[], metavar="CH=VALUE[UNIT]",
+                   help="your sensor's scale: rate units per count (or per CSV unit), e.g. gx=0.0175 "
+                        "(deg/s), gx=1rad/s, ax=0.0039g; repeat or separate with commas; channels "
+                        "without one stay in counts (or keep the --profile's scale)")
+    p.add_argument("--range", choices=RANGES, metavar="G",
+                   help="thesis accelerometer range in g (1.5, 2, 4, 6) when the device header does "
+                        "not say (default 1.5)")
+    p.add_argument("--device", metavar="LOG",
+                   help="device log of the same run: its on-device results are overlaid and checked")
+    p.add_argument("--taus", choices=TAU_KINDS, default="octave",
+                   help="tau grid of the host's curves: octave (default; m = 1, 2, 4 ...), decade "
+                        "(1, 2, 4, 10 ...), log (10 per decade) or all (every m; slow)")
+    p.add_argument("--channels", metavar="LIST", help="channels to analyze, e.g. gx,gy,gz (default all)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--json", action="store_true",
+                   help="print the analysis as JSON (a stable interface, see docs/analysis.md)")
+    g.add_argument("--csv", action="store_true", help="print the noise terms as CSV")
+    p.add_argument("--curves", metavar="FILE", help="write every curve (tau, deviation, interval, EDF) as CSV")
+    p.add_argument("--plot", metavar="DIR", help="write PNG figures (Allan deviation, PSD) to DIR")
+    p.add_argument("--kalibr", metavar="FILE",
+                   help="write a Kalibr imu.yaml (continuous-time noise densities and random walks)")
+    p.add_argument("--imu-utils", metavar="FILE",
+                   help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)")
+    p.add_argument("--no-model", action="store_true",
+                   help="skip the thesis model's simulation and FIT%% (faster)")
+    p.add_argument("--seed", type=_positive_int, default=1, metavar="S",
+                   help="random seed of the model simulation (default 1)")
+    p.add_argument("--memory", type=_megabytes, default=1024, metavar="MB",
+                   help="samples kept in memory for the non-octave statistics (default 1024 MB); "
+                        "larger files are streamed: octave Allan deviations and PSD only")
 
 
 # ---- commands -------------------------------------------------------------------
@@ -489,7 +576,83 @@ def cmd_cmd(args: argparse.Namespace) -> int:
     return 0 if reply.startswith("ok") else 1
 
 
-COMMANDS = {"decode": cmd_decode, "reference": cmd_reference, "check": cmd_check,
+def cmd_analyze(args: argparse.Namespace) -> int:
+    from . import render
+    from .analysis import Options, analyze, public
+    from .profiles import build_profile, normalize_range, parse_scales
+    from .sources import load
+    scales = parse_scales(args.scale)
+    src = load(args.file)
+    device = None
+    if args.device:
+        dsrc = load(args.device)
+        if dsrc.report is None:
+            raise InputError(f"--device '{args.device}': no complete device report in it")
+        device = dsrc.report
+    header = (device or src.report).header if (device or src.report) is not None else None
+    range_g = args.range
+    if header is not None and header.get("range_g") is not None:
+        hr = normalize_range(header["range_g"])
+        if range_g is not None and normalize_range(range_g) != hr:
+            raise InputError(f"--range {range_g} contradicts the device header (range={hr} g)")
+        range_g = hr
+    samples = src.samples
+    if samples is not None and args.profile is None and (samples.units or not samples.integer):
+        given = dict(scales)  # units named in a CSV header are used unless --scale says otherwise
+        for ch, unit in samples.units.items():
+            if ch not in given:
+                try:
+                    given.update(parse_scales([f"{ch}=1{unit}"]))
+                except InputError:
+                    raise InputError(f"'{src.name}': column {ch} has unit [{unit}], not a rate unit "
+                                     "this tool knows (m/s^2, g, mg, deg/s, rad/s ...)") from None
+        missing = [c for c in samples.channels if c not in given]
+        if missing and not samples.integer:
+            raise InputError(f"'{src.name}': the values are not 10-bit ADC codes, so the thesis scale "
+                             f"does not apply: give the unit of {', '.join(missing)} with --scale "
+                             f"(e.g. --scale {missing[0]}=1{'rad/s' if missing[0][0] == 'g' else 'm/s^2'}), "
+                             "or --profile counts")
+        scales = given
+    profile = build_profile(args.profile, scales, range_g)
+    chans = [c.strip() for c in args.channels.split(",")] if args.channels else None
+    if chans:
+        bad = [c for c in chans if c not in CHANNELS]
+        if bad:
+            raise InputError(f"--channels: unknown channel {bad[0]!r} (channels: {' '.join(CHANNELS)})")
+    opts = Options(fs=args.fs, taus=args.taus, channels=chans, model=not args.no_model,
+                   seed=args.seed, memory_budget=args.memory * 2**20)
+    doc = public(analyze(src, profile, opts, device=device))
+    written = []
+    if args.curves:
+        written.append(_write_text(args.curves, render.curves_csv(doc)))
+    if args.kalibr:
+        written.append(_write_text(args.kalibr, render.kalibr_yaml(doc)))
+    if args.imu_utils:
+        written.append(_write_text(args.imu_utils, render.imu_utils_yaml(doc)))
+    if args.plot:
+        from .plots import write_plots
+        written += write_plots(doc, args.plot)
+    if args.json:
+        sys.stdout.write(render.to_json(doc))
+    elif args.csv:
+        sys.stdout.write(render.terms_csv(doc))
+    else:
+        sys.stdout.write(render.text(doc))
+    for path in written:
+        print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
+    return 0
+
+
+def _write_text(path: str, text: str) -> str:
+    try:
+        with open(path, "w") as f:
+            f.write(text)
+    except OSError as exc:
+        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+    return path
+
+
+COMMANDS = {"analyze": cmd_analyze, "decode": cmd_decode, "reference": cmd_reference, "check": cmd_check,
             "gen": cmd_gen, "sim": cmd_sim, "rows": cmd_rows, "monitor": cmd_monitor,
             "cmd": cmd_cmd}
 

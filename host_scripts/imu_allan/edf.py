@@ -197,3 +197,59 @@ def alpha_from_slope(mu: float) -> int:
     if mu <= -1.5:
         return 2
     return int(min(max(round(-mu - 1), -2), 0))
+
+
+def edf_points(ms: np.ndarray, N: np.ndarray, stride: np.ndarray, d: int = 2,
+               modified: bool = False, alphas: tuple[int, ...] = (2, 0, -1, -2),
+               max_exact: int = 120) -> dict[int, np.ndarray]:
+    """EDF of each point (m, N phase points, stride) for each noise type ``alphas``.
+
+    Dense curves (more than ``max_exact`` points) get the EDF at ``max_exact``
+    log-spaced points and log-log interpolation in between (the EDF is smooth
+    in m)."""
+    ms = np.asarray(ms, dtype=np.int64)
+    N = np.broadcast_to(np.asarray(N, dtype=np.int64), ms.shape)
+    stride = np.broadcast_to(np.asarray(stride, dtype=np.int64), ms.shape)
+    if ms.size > max_exact:
+        pick = np.unique(np.round(np.linspace(0, ms.size - 1, max_exact)).astype(np.int64))
+    else:
+        pick = np.arange(ms.size)
+    out: dict[int, np.ndarray] = {}
+    for a in alphas:
+        vals = np.array([_safe_edf(a, d, int(ms[i]), int(N[i]), int(stride[i]), modified) for i in pick])
+        if pick.size == ms.size:
+            out[a] = vals
+        else:
+            ok = np.isfinite(vals) & (vals > 0)
+            out[a] = np.exp(np.interp(np.log(ms), np.log(ms[pick][ok]), np.log(vals[ok])))
+    return out
+
+
+def _safe_edf(alpha: int, d: int, m: int, N: int, stride: int, modified: bool) -> float:
+    """Greenhall's EDF; where it is undefined (too few points), the number of
+    (overlapping) differences divided by their length in strides, at least 1."""
+    try:
+        e = edf_greenhall(alpha, d, m, N, modified=modified, stride=stride)
+    except (ValueError, ZeroDivisionError, OverflowError, FloatingPointError):
+        e = math.nan
+    if not (math.isfinite(e) and e > 0):
+        terms = max((N - 1 - d * m) // stride + 1, 1)
+        e = max(terms * stride / (m * (d + 1)), 1.0)
+    return float(e)
+
+
+def edf_function(ms: np.ndarray, N: np.ndarray, stride: np.ndarray, d: int = 2,
+                 modified: bool = False):
+    """alphas per point -> EDF per point, for fit_terms (tables computed once)."""
+    table = edf_points(ms, N, stride, d, modified)
+
+    def fn(alphas: np.ndarray) -> np.ndarray:
+        a = np.asarray(alphas, dtype=np.int64)
+        out = np.empty(a.size)
+        for alpha, vals in table.items():
+            sel = a == alpha
+            out[sel] = vals[sel]
+        other = ~np.isin(a, list(table))
+        out[other] = table[0][other]
+        return out
+    return fn

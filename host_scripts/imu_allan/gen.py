@@ -2,18 +2,29 @@
 
 Per channel c and sample i (dt = 1/fs), in ADC counts:
 
-    x_i = offset + white_i + bias_i + walk_i + drift * i * dt
+    x_i = offset + white_i + bias_i + walk_i + flicker_i + drift * i * dt
     white_i  = white * N(0,1)                      (angle/velocity random walk)
     bias_i   = a * bias_{i-1} + gm_sigma * sqrt(1 - a^2) * N(0,1),
                a = exp(-dt / gm_tau)               (Gauss-Markov bias instability)
     walk_i   = walk_{i-1} + rrw * N(0,1)           (rate random walk)
+    flicker_i = sum of Gauss-Markov processes      (1/f bias instability, IEEE 952 B)
     code_i   = clip(round(x_i), 0, 1023)           (or reflected: kind "walk")
 
 Units: offset counts; white counts per sample (its Allan deviation at tau =
 1/fs, before quantization; N = white / sqrt(fs) counts*sqrt(s)); gm_sigma
 counts (stationary standard deviation; the bias starts stationary); gm_tau
 seconds; rrw counts per sample (standard deviation of each step;
-K = rrw * sqrt(fs) counts/sqrt(s)); drift counts per second.
+K = rrw * sqrt(fs) counts/sqrt(s)); drift counts per second; flicker
+counts: the IEEE 952 bias instability coefficient B, whose Allan deviation
+floor is 0.664 B. It is made of Gauss-Markov processes (the thesis' bias
+model) with correlation times T_k = 8^k / fs up to 4 times the record,
+each of variance B^2 ln 8 / pi, so that their PSDs add up to the flicker
+PSD B^2 / (pi f) (one-sided) and the Allan deviation stays within 1.5 % of
+0.664 B from 4/fs to a quarter of the record (7 % and 2 % high at 1/fs and 2/fs,
+where the fastest process, sampled rather than averaged, adds a little). The slow ones are drawn
+once every T_k fs / 32 samples and held (their share of the variance at
+shorter taus is negligible), so the cost is that of about two full-rate
+processes.
 
 Every (channel, noise source) draws from its own stream spawned from the seed,
 so a file depends only on the parameters, never on how it was cut in chunks.
@@ -34,15 +45,17 @@ from .rows import CODE_MAX, COLUMNS
 
 KINDS = ("noise", "walk", "drift", "clip", "square")
 PROFILES = ("thesis",)
-PARAMS = ("offset", "white", "gm_sigma", "gm_tau", "rrw", "drift")
+PARAMS = ("offset", "white", "gm_sigma", "gm_tau", "rrw", "drift", "flicker")
 UNITS = {"offset": "counts", "white": "counts per sample (sigma)", "gm_sigma": "counts (sigma)",
-         "gm_tau": "s", "rrw": "counts per sample (sigma of each step)", "drift": "counts/s"}
+         "gm_tau": "s", "rrw": "counts per sample (sigma of each step)", "drift": "counts/s",
+         "flicker": "counts (IEEE 952 bias instability B)"}
 HELP = {"offset": "mean code, counts",
         "white": "white noise sigma per sample, counts (N = white / sqrt(fs))",
         "gm_sigma": "Gauss-Markov bias instability sigma, counts",
         "gm_tau": "Gauss-Markov correlation time T, seconds",
         "rrw": "rate random walk: sigma of each step, counts (K = rrw * sqrt(fs))",
-        "drift": "linear drift, counts per second"}
+        "drift": "linear drift, counts per second",
+        "flicker": "flicker (1/f) bias instability B, counts (Allan deviation floor 0.664 B)"}
 CHUNK = 1 << 17
 
 # The thesis board at rest (order ax ay az gx gy gz temp), of the order the
@@ -54,6 +67,7 @@ THESIS = {
     "gm_tau": (10.0, 10.0, 10.0, 10.0, 10.0, 10.0, 600.0),
     "rrw": (0.0008, 0.0016, 0.0002, 0.0, 0.0, 0.0, 0.0),
     "drift": (0.0,) * 7,
+    "flicker": (0.0,) * 7,
 }
 SQUARE_HALF_PERIOD = (1, 2, 4, 8, 16, 32)
 """kind "square": samples per half period of ax..gz (0 and 1023 alternate); temp is constant."""
@@ -74,6 +88,7 @@ class GenParams:
     gm_tau: dict[str, float] = field(default_factory=dict)
     rrw: dict[str, float] = field(default_factory=dict)
     drift: dict[str, float] = field(default_factory=dict)
+    flicker: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> str:
         d = dataclasses.asdict(self)
@@ -88,7 +103,10 @@ class GenParams:
         parts = [f"-n {self.n}", f"--fs {self.fs_hz!r}", f"--seed {self.seed}",
                  f"--kind {self.kind}", f"--profile {self.profile}"]
         for p in PARAMS:
-            spec = ",".join(f"{c}={getattr(self, p)[c]!r}" for c in self.channels)
+            values = getattr(self, p)
+            if p == "flicker" and not any(values.get(c, 0.0) for c in self.channels):
+                continue  # a parameter added later: files without it keep their first line
+            spec = ",".join(f"{c}={values[c]!r}" for c in self.channels)
             parts.append(f"--{p.replace('_', '-')} {spec}")
         return "imu-allan gen " + " ".join(parts)
 
@@ -167,7 +185,9 @@ def generate(p: GenParams, chunk: int = CHUNK) -> Iterator[np.ndarray]:
     white_rng, gm_rng, rrw_rng = streams[:nch], streams[nch:2 * nch], streams[2 * nch:]
     dt = 1.0 / p.fs_hz
     get = lambda name: np.array([getattr(p, name)[c] for c in p.channels])  # noqa: E731
-    offset, white, gm_sigma, gm_tau, rrw, drift = (get(n) for n in PARAMS)
+    offset, white, gm_sigma, gm_tau, rrw, drift, flicker = (get(n) for n in PARAMS)
+    flick = [_Flicker(flicker[c], p.fs_hz, p.n, ss) if flicker[c] else None
+             for c, ss in enumerate(np.random.SeedSequence(p.seed).spawn(4 * nch)[3 * nch:])]
     a = np.exp(-dt / gm_tau)
     gm_b = gm_sigma * np.sqrt(-np.expm1(-2.0 * dt / gm_tau))  # sigma * sqrt(1 - a^2)
     gm_state = [a[c] * gm_sigma[c] * gm_rng[c].standard_normal() if gm_sigma[c] else 0.0
@@ -189,6 +209,9 @@ def generate(p: GenParams, chunk: int = CHUNK) -> Iterator[np.ndarray]:
                 steps = np.cumsum(rrw[c] * rrw_rng[c].standard_normal(c_len))
                 x[c] += walk[c] + steps
                 walk[c] += steps[-1]
+            fl = flick[c]
+            if fl is not None:
+                x[c] += fl.take(done, c_len)
         if drift.any():
             x += drift[:, None] * (np.arange(done, done + c_len) * dt)[None, :]
         if p.boundary == "reflect":
@@ -196,6 +219,47 @@ def generate(p: GenParams, chunk: int = CHUNK) -> Iterator[np.ndarray]:
             x = np.where(x > CODE_MAX, 2 * CODE_MAX - x, x)
         yield np.clip(np.rint(x), 0, CODE_MAX).astype(np.uint16)
         done += c_len
+
+
+FLICKER_SPACING = 8.0
+"""Ratio of consecutive correlation times of the flicker bank."""
+
+
+class _Flicker:
+    """Flicker rate noise of IEEE 952 coefficient B (counts), sample by sample,
+    independent of how the stream is cut: each Gauss-Markov process of the
+    bank has its own random stream, drawn once per coarse step."""
+
+    def __init__(self, b: float, fs: float, n: int, seed: np.random.SeedSequence) -> None:
+        r = FLICKER_SPACING
+        t_lo, t_hi = 1.0 / fs, max(4.0 * n / fs, 8.0 / fs)
+        count = int(math.ceil(math.log(t_hi / t_lo) / math.log(r))) + 1
+        sigma = b * math.sqrt(math.log(r) / math.pi)
+        self.procs = []
+        for k, ss in enumerate(seed.spawn(count)):
+            T = t_lo * r ** k
+            D = 1 << max(int(math.floor(math.log2(max(T * fs / 32.0, 1.0)))), 0)
+            a = math.exp(-D / (fs * T))
+            rng = np.random.default_rng(ss)
+            self.procs.append({"D": D, "a": a, "b": sigma * math.sqrt(1.0 - a * a), "rng": rng,
+                               "q": -1, "v": sigma * rng.standard_normal()})
+
+    def take(self, start: int, length: int) -> np.ndarray:
+        out = np.zeros(length)
+        for g in self.procs:  # over the bank (about ten processes), each vectorized
+            D, q_first, q_last = g["D"], start // g["D"], (start + length - 1) // g["D"]
+            new = q_last - g["q"]
+            if new > 0:
+                y, _ = lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new),
+                               zi=[g["a"] * g["v"]])
+                vals = np.concatenate(([g["v"]], y)) if q_first == g["q"] else y
+                g["q"], g["v"] = q_last, float(y[-1])
+            else:
+                vals = np.array([g["v"]])
+            held = np.repeat(vals, D) if D > 1 else vals
+            off = start - q_first * D
+            out += held[off:off + length]
+        return out
 
 
 def _square(p: GenParams, chunk: int) -> Iterator[np.ndarray]:

@@ -1,0 +1,465 @@
+"""``imu-allan analyze``: from a source (samples and/or a device report) to the
+analysis document (the ``--json`` contract; render.py prints it for people).
+
+One streaming pass over the samples feeds the octave engine (overlapping and
+non-overlapping AVAR, allan.py) and, for files too large to hold, the Welch
+PSD. When the samples fit in memory (``memory_budget``), they are also kept
+for the other tau grids, MDEV, HDEV, the PSD with pwelch's exact segments and
+the thesis' signal FIT%. Then, per channel: the IEEE 952 fit (terms.py) on
+the host's overlapping curve (or, for a device log alone, on the device's
+non-overlapping one), 95 % chi-squared intervals on every point (EDF from
+the dominant noise type, edf.py), the device's points and their agreement
+with the host's curve, the PSD with the terms' levels, and the thesis' noise
+model simulated from the terms with its FIT% (model.py).
+
+All statistics are float64 in the input's units (ADC counts for codes) and
+scaled to the channel's rate unit u at the end (variances times scale^2).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+import numpy as np
+
+from . import CHANNELS, __version__, allan, edf, model, psd, terms
+from .decode import Report, flag_names
+from .errors import InputError
+from .profiles import Profile, term_unit, to_si_rad
+from .progress import Progress
+from .sources import Source
+
+LEVEL = 0.95
+
+
+@dataclass
+class Options:
+    fs: Optional[float] = None
+    taus: str = "octave"
+    channels: Optional[list[str]] = None
+    model: bool = True
+    extra_curves: bool = True
+    """MDEV and HDEV beside the Allan deviations (needs the samples in memory)."""
+    seed: int = 1
+    memory_budget: int = 1 << 30
+    """Bytes of float64 samples kept in memory for the in-memory statistics."""
+    exact_max: int = 1 << 21
+    """Octave levels exact up to this m; above it (streams longer than 2^22
+    samples) strided (allan.py). Bounds the ring buffers to ~32 MB per channel."""
+
+
+@dataclass
+class _Curve:
+    """One statistic of one channel at its taus, in input units squared."""
+    ms: np.ndarray
+    var: np.ndarray
+    N: np.ndarray           # phase points behind each value (samples + 1)
+    stride: np.ndarray
+    flags: list[list[str]] = field(default_factory=list)
+
+
+def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Report] = None) -> dict[str, Any]:
+    """The analysis document of ``src`` (samples and/or its device report)."""
+    report = device if device is not None else src.report
+    fs = _sample_rate(src, report, opts)
+    notes: list[str] = list(src.notes) + list(profile.notes)
+    samples = src.samples
+    chans = _channels(samples.channels if samples is not None else list(CHANNELS), opts.channels)
+    doc: dict[str, Any] = {
+        "tool": f"imu-allan analyze {__version__}",
+        "source": {"file": src.name, "kind": samples.kind if samples is not None else "device-log",
+                   "fs_hz": fs, "n": None, "duration_s": None, "device_header": _jsonable(
+                       report.header) if report is not None else None},
+        "profile": {"name": profile.name,
+                    "channels": {c: {"unit": profile.scale(c).unit, "per_count": profile.scale(c).per_count,
+                                     "source": profile.scale(c).source} for c in chans}},
+        "options": {"taus": opts.taus, "level": LEVEL, "model": opts.model, "seed": opts.seed},
+        "channels": {},
+        "notes": notes,
+    }
+    host = None
+    if samples is not None:
+        host = _host_pass(samples, chans, fs, opts, notes)
+        doc["source"]["n"] = host["n"]
+        doc["source"]["duration_s"] = host["n"] / fs
+        notes.extend(samples.notes)
+    elif report is not None:
+        doc["source"]["n"] = report.header["n"]
+        doc["source"]["duration_s"] = report.header["n"] / fs
+    for c_i, ch in enumerate(chans):
+        doc["channels"][ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
+    if opts.model:
+        _model_all(doc, chans, profile, fs, host, report, opts)
+    return doc
+
+
+# ---- input checks -------------------------------------------------------------------
+
+
+def _sample_rate(src: Source, report: Optional[Report], opts: Options) -> float:
+    known = None
+    if report is not None:
+        known, where = float(report.header["fs_hz"]), "the device header"
+    elif src.samples is not None and src.samples.fs:
+        known, where = float(src.samples.fs), "the time column"
+    if opts.fs is not None:
+        if known is not None and report is not None and abs(known - opts.fs) > 1e-9 * known:
+            raise InputError(f"--fs {opts.fs:g} contradicts {where} (fs={known:g} Hz)")
+        return float(opts.fs)
+    if known is None:
+        raise InputError("the sample rate is unknown: give --fs HZ (a rows file does not carry it)")
+    return known
+
+
+def _channels(available: list[str], wanted: Optional[list[str]]) -> list[str]:
+    if not wanted:
+        return list(available)
+    missing = [c for c in wanted if c not in available]
+    if missing:
+        raise InputError(f"channel {missing[0]} is not in the input (it has {' '.join(available)})")
+    return [c for c in available if c in wanted]
+
+
+# ---- the pass over the samples ------------------------------------------------------------
+
+
+def _host_pass(samples: Any, chans: list[str], fs: float, opts: Options, notes: list[str]) -> dict[str, Any]:
+    sel = [samples.channels.index(c) for c in chans]
+    C = len(chans)
+    eng = allan.OctaveEngine(C, exact_max=opts.exact_max)
+    kept: Optional[list[np.ndarray]] = []
+    kept_bytes = 0
+    n = 0
+    hint = samples.n_hint
+    with Progress(f"reading {samples.name}", hint, unit=" samples") as bar:
+        for block in samples.open_blocks():
+            b = block[sel] if len(sel) != block.shape[0] else block
+            eng.push(b)
+            n += b.shape[1]
+            if kept is not None:
+                kept.append(b)
+                kept_bytes += b.shape[1] * C * 8
+                if kept_bytes > opts.memory_budget:
+                    kept = None
+                    notes.append(f"more samples than --memory allows ({opts.memory_budget / 2**20:.0f} MB): "
+                                 "octave overlapping and non-overlapping ADEV and the PSD only, streamed")
+            bar.update(n)
+    if n < 4:
+        raise InputError(f"'{samples.name}': {n} samples: too few for any statistic")
+    res = eng.finish()
+    data = np.concatenate(kept, axis=1) if kept is not None else None
+    welch = psd.Welch(C, fs, psd.segment_length(n))  # pwelch's segments need n: a second pass if streamed
+    if data is None:
+        with Progress("PSD", n, unit=" samples") as bar:
+            done = 0
+            for block in samples.open_blocks():
+                welch.push(block[sel] if len(sel) != block.shape[0] else block)
+                done += block.shape[1]
+                bar.update(done)
+    else:
+        welch.push(data)
+    f, p = welch.result()
+    host: dict[str, Any] = {"n": n, "octave": res, "data": data, "psd": (f, p)}
+    if opts.taus != "octave" and data is None:
+        notes.append(f"--taus {opts.taus} needs the samples in memory: octave taus used instead")
+    host["taus"] = opts.taus if data is not None else "octave"
+    return host
+
+
+def _host_curves(host: dict[str, Any], c_i: int, extra: bool = True) -> dict[str, _Curve]:
+    """The host's curves of channel c_i: oavar (fitted), avar, mvar, hvar (input units^2)."""
+    res: allan.OctaveResult = host["octave"]
+    n = host["n"]
+    out: dict[str, _Curve] = {}
+    data = host["data"]
+    if host["taus"] == "octave":
+        out["oavar"] = _Curve(res.ms, res.oavar[:, c_i], np.full(res.ms.size, n + 1), res.stride)
+        ok = res.pairs > 0
+        out["avar"] = _Curve(res.ms[ok], res.avar[ok, c_i], np.full(int(ok.sum()), n + 1), res.ms[ok])
+    if data is not None:
+        x = data[c_i]
+        if host["taus"] != "octave":
+            ms = allan.tau_grid(host["taus"], allan.max_m("oavar", n))
+            with Progress("overlapping AVAR", ms.size) as bar:
+                v, _ = allan.oavar(x, ms, progress=bar.update)
+            out["oavar"] = _Curve(ms, v, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
+            v, cnt = allan.avar(x, ms)
+            ok = cnt > 0
+            out["avar"] = _Curve(ms[ok], v[ok], np.full(int(ok.sum()), n + 1), ms[ok])
+        if not extra:
+            return out
+        ms3 = allan.tau_grid(host["taus"], allan.max_m("mvar", n))
+        with Progress("modified AVAR", ms3.size) as bar:
+            v, _ = allan.mvar(x, ms3, progress=bar.update)
+        out["mvar"] = _Curve(ms3, v, np.full(ms3.size, n + 1), np.ones(ms3.size, dtype=np.int64))
+        with Progress("Hadamard variance", ms3.size) as bar:
+            v, _ = allan.ohvar(x, ms3, progress=bar.update)
+        out["hvar"] = _Curve(ms3, v, np.full(ms3.size, n + 1), np.ones(ms3.size, dtype=np.int64))
+    return out
+
+
+def _device_curve(report: Report, ch: str) -> _Curve:
+    rows = sorted((r for r in report.rows if r.channel == ch and r.pairs > 0), key=lambda r: r.level)
+    ms = np.array([r.m for r in rows], dtype=np.int64)
+    return _Curve(ms, np.array([r.avar for r in rows]), np.array([r.covers + 1 for r in rows]),
+                  ms.copy(), [flag_names(r.flags) for r in rows])
+
+
+# ---- one channel ----------------------------------------------------------------------------
+
+
+def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict[str, Any]],
+             report: Optional[Report], opts: Options, notes: list[str]) -> dict[str, Any]:
+    sc = profile.scale(ch)
+    k2 = sc.per_count ** 2
+    curves = _host_curves(host, c_i, opts.extra_curves) if host is not None else {}
+    dev = _device_curve(report, ch) if report is not None else None
+    if host is not None:
+        main, overlapping, stat = curves["oavar"], True, "oadev"
+        mask = None
+    elif dev is not None:
+        main, overlapping, stat = dev, False, "adev (device)"
+        mask = np.array([not f for f in dev.flags], dtype=bool)
+    else:  # pragma: no cover - the source always has one
+        raise InputError("nothing to analyze")
+    tau = main.ms / fs
+    var = main.var * k2
+    efn = edf.edf_function(main.ms, main.N, main.stride)
+    fit = terms.fit_terms(tau, var, efn, mask=mask, overlapping=overlapping)
+    out: dict[str, Any] = {
+        "unit": sc.unit,
+        "kind": sc.kind,
+        "scale_per_count": sc.per_count,
+        "term_units": {k: term_unit(sc, k) for k in terms.TERMS},
+        "terms": {k: _term_json(t) for k, t in fit.terms.items()},
+        "term_notes": {k: t.note for k, t in fit.terms.items() if t.note},
+        "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
+        "b_classic": _b_classic(fit, var),
+        "fit": {"statistic": stat, "chi2_dof": _num(fit.chi2_red), "points": int(fit.used.sum()),
+                "notes": fit.notes},
+        "curve": _points(main, fs, k2, fit, d=2, modified=False, used=fit.used),
+    }
+    extra = {}
+    for name, d, mod in (("adev", 2, False), ("mdev", 2, True), ("hdev", 3, False)):
+        cv = curves.get({"adev": "avar", "mdev": "mvar", "hdev": "hvar"}[name])
+        if cv is not None and cv is not main:
+            extra[name] = _points(cv, fs, k2, fit, d=d, modified=mod)
+    if extra:
+        out["curves"] = extra
+    if dev is not None and host is not None:
+        out["device"] = _device_json(dev, fs, k2, fit, main)
+    if host is not None:
+        f, p = host["psd"]
+        fb, pb = psd.log_bins(f, p[c_i:c_i + 1] * k2)
+        lines = psd.term_psd(fb, fit.values(), fs)
+        out["psd"] = {"method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
+                      "unit": f"({sc.unit})^2/Hz", "f_hz": _list(fb), "psd": _list(pb[0]),
+                      "terms": {k: _list(v) for k, v in lines.items()}}
+    si = to_si_rad(sc)
+    out["si"] = {"unit": "rad/s" if sc.unit == "deg/s" else sc.unit,
+                 "terms": {k: (None if v is None else {kk: (vv * si if isinstance(vv, float) else vv)
+                                                       for kk, vv in v.items()})
+                           for k, v in out["terms"].items()}}
+    out["_fit"] = fit  # internal, removed before output
+    return out
+
+
+def _term_json(t: terms.Term) -> Optional[dict[str, Any]]:
+    if t.value is None:
+        return None
+    return {"value": t.value, "low": t.low, "high": t.high,
+            "tau_range_s": [t.tau_range[0], t.tau_range[1]] if t.tau_range else None}
+
+
+def _b_classic(fit: terms.FitResult, var: np.ndarray) -> Optional[dict[str, Any]]:
+    b = fit.b_classic
+    if b is None:
+        return None
+    return {"value": b["value"], "tau_s": b["tau_s"],
+            "rule": "min(ADEV) / 0.664 over the points with EDF >= 10 (the thesis' sigma_B)"}
+
+
+def _alphas(fit: terms.FitResult, tau: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Noise type (alpha) and dominant term at each tau, from the fitted model."""
+    A = terms.basis(tau) * fit.coef
+    if not fit.coef.any():
+        return np.zeros(tau.size, dtype=np.int64), ["N"] * tau.size
+    dom = [terms.TERMS[j] for j in np.argmax(A, axis=1)]
+    return np.array([terms.ALPHA[d] for d in dom], dtype=np.int64), dom
+
+
+def _points(cv: _Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modified: bool,
+            used: Optional[np.ndarray] = None) -> list[dict[str, Any]]:
+    tau = cv.ms / fs
+    alpha, dom = _alphas(fit, tau)
+    if d == 3:
+        alpha = np.maximum(alpha, -4)
+    e = _edf_for(cv, alpha, d, modified)
+    var = cv.var * k2
+    lo, hi = edf.chi2_interval(var, e, LEVEL)
+    out = []
+    for i in range(tau.size):
+        ok = bool(np.isfinite(var[i]) and var[i] > 0)
+        pt = {"tau_s": float(tau[i]), "m": int(cv.ms[i]),
+              "dev": _num(math.sqrt(var[i])) if ok else None,
+              "low": _num(math.sqrt(lo[i])) if ok else None,
+              "high": _num(math.sqrt(hi[i])) if ok else None,
+              "edf": _num(e[i]), "noise": dom[i]}
+        if int(cv.stride[i]) not in (1, int(cv.ms[i])):
+            pt["stride"] = int(cv.stride[i])
+        if used is not None:
+            pt["used"] = bool(used[i])
+        if cv.flags:
+            pt["flags"] = cv.flags[i]
+        out.append(pt)
+    return out
+
+
+def _edf_for(cv: _Curve, alpha: np.ndarray, d: int, modified: bool) -> np.ndarray:
+    table = edf.edf_points(cv.ms, cv.N, cv.stride, d=d, modified=modified,
+                           alphas=tuple(sorted(set(int(a) for a in alpha))))
+    out = np.empty(cv.ms.size)
+    for a, vals in table.items():
+        out[alpha == a] = vals[alpha == a]
+    return out
+
+
+def _device_json(dev: _Curve, fs: float, k2: float, fit: terms.FitResult, host: _Curve) -> dict[str, Any]:
+    pts = _points(dev, fs, k2, fit, d=2, modified=False)
+    host_var = {int(m): v * k2 for m, v in zip(host.ms, host.var)}
+    checked = within = 0
+    outside = []
+    for p in pts:
+        h = host_var.get(p["m"])
+        if p.get("flags") or p["dev"] is None or h is None or not math.isfinite(h):
+            continue
+        checked += 1
+        hv = math.sqrt(h)
+        p["host_dev"] = hv
+        if p["low"] <= hv <= p["high"]:
+            within += 1
+        else:
+            outside.append(p["tau_s"])
+    return {"curve": pts, "agreement": {"checked": checked, "within": within, "level": LEVEL,
+                                        "outside_tau_s": outside,
+                                        "rule": "host overlapping ADEV inside the 95 % interval of "
+                                                "the device's non-overlapping value (EDF from its pairs)"}}
+
+
+# ---- the thesis model ---------------------------------------------------------------------
+
+
+def _tau_b(fit: terms.FitResult, tau: np.ndarray, var: np.ndarray) -> Optional[float]:
+    b = fit.terms["B"]
+    if b.tau_range:
+        return math.sqrt(b.tau_range[0] * b.tau_range[1])
+    if fit.b_classic:
+        return fit.b_classic["tau_s"]
+    return None
+
+
+def _model_all(doc: dict[str, Any], chans: list[str], profile: Profile, fs: float,
+               host: Optional[dict[str, Any]], report: Optional[Report], opts: Options) -> None:
+    params = []
+    for ch in chans:
+        c = doc["channels"][ch]
+        fit: terms.FitResult = c["_fit"]
+        tau = np.array([p["tau_s"] for p in c["curve"]])
+        var = np.array([(p["dev"] or math.nan) ** 2 for p in c["curve"]])
+        vals = {k: (fit.terms[k].value if fit.terms[k].value is not None else None) for k in terms.TERMS}
+        params.append(model.from_terms(vals, fs, _tau_b(fit, tau, var)))
+    n = host["n"] if host is not None else (max((r.covers for r in report.rows if r.pairs), default=0)
+                                             if report is not None else 0)
+    if n < 4:
+        return
+    C = len(chans)
+    eng = allan.OctaveEngine(C, exact_max=opts.exact_max, total=n)
+    nseg = psd.segment_length(n)
+    welch = psd.Welch(C, fs, nseg) if host is not None else None
+    data = host["data"] if host is not None else None
+    sig_num = np.zeros(C)
+    sig_den = np.zeros(C)
+    gens = [model.simulate(p, n, seed=opts.seed * 1000 + i) for i, p in enumerate(params)]
+    done = 0
+    scale = np.array([profile.scale(ch).per_count for ch in chans])
+    means = data.mean(axis=1) * scale if data is not None else None
+    with Progress("simulating the thesis model", n, unit=" samples") as bar:
+        for blocks in zip(*gens):
+            b = np.stack(blocks)
+            eng.push(b)
+            if welch is not None:
+                welch.push(b)
+            if data is not None:
+                L = b.shape[1]
+                s = data[:, done:done + L] * scale[:, None] - means[:, None]  # type: ignore[index]
+                sig_num += np.sum((s - b) ** 2, axis=1)
+                sig_den += np.sum(s ** 2, axis=1)
+            done += b.shape[1]
+            bar.update(done)
+    res = eng.finish()
+    f, p = welch.result() if welch is not None else (None, None)
+    for i, ch in enumerate(chans):
+        c = doc["channels"][ch]
+        mp = params[i]
+        out: dict[str, Any] = {"params": mp.as_dict(), "fit_percent": {}}
+        # ADEV curves over the common taus
+        if host is not None:
+            sim = {int(m): v for m, v in zip(res.ms, res.oavar[:, i])}
+            pts = [pt for pt in c["curve"] if pt["dev"]]
+        else:
+            sim = {int(m): v for m, v in zip(res.ms, res.avar[:, i])}
+            pts = [pt for pt in c["curve"] if pt["dev"] and not pt.get("flags")]
+        pairs = [(pt["dev"], math.sqrt(sim[pt["m"]])) for pt in pts
+                 if pt["m"] in sim and math.isfinite(sim[pt["m"]]) and sim[pt["m"]] > 0]
+        out["curve"] = [{"tau_s": pt["tau_s"], "dev": math.sqrt(sim[pt["m"]])} for pt in pts
+                        if pt["m"] in sim and math.isfinite(sim[pt["m"]]) and sim[pt["m"]] > 0]
+        if pairs:
+            s_, m_ = np.log10([a for a, _ in pairs]), np.log10([b for _, b in pairs])
+            out["fit_percent"]["adev_log10"] = model.fit_percent(s_, m_)
+            out["fit_percent"]["adev_log10_nrmse"] = model.fit_nrmse(s_, m_)
+        if f is not None and "psd" in c and p.shape[1]:
+            fb, pb = psd.log_bins(f, p[i:i + 1])
+            sp = np.array(c["psd"]["psd"])
+            if sp.size == pb.shape[1] and sp.size:
+                ok = (sp > 0) & (pb[0] > 0)
+                out["fit_percent"]["psd_log10"] = model.fit_percent(np.log10(sp[ok]), np.log10(pb[0][ok]))
+                out["fit_percent"]["psd_log10_nrmse"] = model.fit_nrmse(np.log10(sp[ok]),
+                                                                        np.log10(pb[0][ok]))
+                out["psd"] = _list(pb[0])
+        if data is not None and sig_den[i] > 0:
+            out["fit_percent"]["signal"] = (1.0 - math.sqrt(sig_num[i] / sig_den[i])) * 100.0
+        c["model"] = out
+
+
+# ---- JSON helpers ---------------------------------------------------------------------------
+
+
+def _num(v: Any) -> Optional[float]:
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def _list(a: np.ndarray) -> list[Optional[float]]:
+    return [_num(v) for v in np.asarray(a).tolist()]
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, dict):
+        return {k: _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, float):
+        return _num(v)
+    return v
+
+
+def public(doc: dict[str, Any]) -> dict[str, Any]:
+    """The document without internal objects, every float finite or null."""
+    out = dict(doc)
+    out["channels"] = {ch: {k: v for k, v in c.items() if not k.startswith("_")}
+                       for ch, c in doc["channels"].items()}
+    return _jsonable(out)

@@ -1,0 +1,151 @@
+"""PNG figures of an analysis document: Allan deviation with 95 % intervals,
+fitted terms and their slopes, device points and the thesis model; and the
+PSD with the terms' levels. One figure per sensor (accelerometers, gyros),
+one panel per axis."""
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+from .profiles import LITERATURE
+from .render import NAMES
+from .terms import TERMS, basis
+
+COLORS = {"Q": "tab:purple", "N": "tab:blue", "B": "tab:green", "K": "tab:orange", "R": "tab:red"}
+SLOPE_LABEL = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}
+
+
+def _mpl() -> Any:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _groups(doc: dict[str, Any]) -> list[tuple[str, list[str]]]:
+    chans = list(doc["channels"])
+    out = []
+    for name, axes in (("accelerometer", ("ax", "ay", "az")), ("gyroscope", ("gx", "gy", "gz"))):
+        sel = [c for c in axes if c in chans]
+        if sel:
+            out.append((name, sel))
+    return out
+
+
+def _coef(c: dict[str, Any]) -> np.ndarray:
+    return np.array([(c["terms"][k]["value"] if c["terms"][k] else 0.0) ** 2 for k in TERMS])
+
+
+def write_plots(doc: dict[str, Any], directory: str) -> list[str]:
+    try:
+        os.makedirs(directory, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create '{directory}': {exc.strerror or exc}") from None
+    plt = _mpl()
+    files = []
+    for group, chans in _groups(doc):
+        files.append(_adev_figure(plt, doc, group, chans, directory))
+        if any("psd" in doc["channels"][c] for c in chans):
+            files.append(_psd_figure(plt, doc, group, chans, directory))
+    return files
+
+
+def _save(plt: Any, fig: Any, path: str) -> str:
+    try:
+        fig.savefig(path, dpi=130)
+    except OSError as exc:
+        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
+    return path
+
+
+def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], directory: str) -> str:
+    fig, axes = plt.subplots(1, len(chans), figsize=(5.2 * len(chans), 4.6), squeeze=False)
+    src = doc["source"]
+    stat = "device non-overlapping ADEV" if src["kind"] == "device-log" else "overlapping ADEV"
+    for ax, ch in zip(axes[0], chans):
+        c = doc["channels"][ch]
+        pts = [p for p in c["curve"] if p["dev"]]
+        tau = np.array([p["tau_s"] for p in pts])
+        dev = np.array([p["dev"] for p in pts])
+        lo = np.array([p["low"] for p in pts])
+        hi = np.array([p["high"] for p in pts])
+        flagged = np.array([bool(p.get("flags")) for p in pts])
+        ok = ~flagged
+        ax.fill_between(tau[ok], lo[ok], hi[ok], color="0.85", label="95 % interval")
+        ax.loglog(tau[ok], dev[ok], "o-", color="k", ms=3.5, lw=1, label=stat)
+        if flagged.any():
+            ax.loglog(tau[flagged], dev[flagged], "x", color="red", ms=7, label="flagged (not fitted)")
+        dv = c.get("device")
+        if dv:
+            dp = [p for p in dv["curve"] if p["dev"]]
+            dt = np.array([p["tau_s"] for p in dp])
+            dd = np.array([p["dev"] for p in dp])
+            err = np.array([[p["dev"] - p["low"] for p in dp], [p["high"] - p["dev"] for p in dp]])
+            ax.errorbar(dt, dd, yerr=err, fmt="s", mfc="none", color="tab:brown", ms=5, capsize=2,
+                        label="device (non-overlapping)")
+        grid = np.exp(np.linspace(math.log(tau.min()), math.log(tau.max()), 200)) if tau.size else tau
+        coef = _coef(c)
+        if tau.size and coef.any():
+            A = basis(grid)
+            total = A @ coef
+            ax.loglog(grid, np.sqrt(total), color="tab:cyan", lw=2, alpha=0.8, label="fitted model")
+            lu_all = LITERATURE[c["kind"]]
+            for j, k in enumerate(TERMS):
+                if coef[j] > 0:
+                    lu, lf = lu_all[k]
+                    v = c["terms"][k]["value"]
+                    line = np.sqrt(A[:, j] * coef[j])
+                    line[A[:, j] * coef[j] < total / 100.0] = np.nan  # only where it matters (> 1/10 in ADEV)
+                    ax.loglog(grid, line, "--", color=COLORS[k], lw=1.2,
+                              label=f"{k} {NAMES[k]} (slope {SLOPE_LABEL[k]}): {v * lf:.3g} {lu}")
+        m = c.get("model")
+        if m and m.get("curve"):
+            fp = m["fit_percent"].get("adev_log10")
+            ax.loglog([p["tau_s"] for p in m["curve"]], [p["dev"] for p in m["curve"]], ":",
+                      color="0.35", lw=1.5,
+                      label="thesis model, simulated" + (f" (FIT {fp:.1f} %)" if fp is not None else ""))
+        ax.set_xlabel("tau [s]")
+        ax.set_ylabel(f"Allan deviation [{c['unit']}]")
+        ax.set_title(f"{ch}")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=6.5, loc="best")
+    fig.suptitle(f"{group}: {os.path.basename(src['file'])}, {src['n']} samples at {src['fs_hz']:g} Hz")
+    fig.tight_layout()
+    return _save(plt, fig, os.path.join(directory, f"adev_{group}.png"))
+
+
+def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], directory: str) -> str:
+    fig, axes = plt.subplots(1, len(chans), figsize=(5.2 * len(chans), 4.4), squeeze=False)
+    for ax, ch in zip(axes[0], chans):
+        c = doc["channels"][ch]
+        p = c.get("psd")
+        if not p or not p["f_hz"]:
+            ax.set_visible(False)
+            continue
+        f = np.array(p["f_hz"])
+        ax.loglog(f, np.array(p["psd"], dtype=float), color="k", lw=1, label="Welch PSD")
+        m = c.get("model")
+        if m and m.get("psd"):
+            fp = m["fit_percent"].get("psd_log10")
+            ax.loglog(f, np.array(m["psd"], dtype=float), ":", color="0.35", lw=1.5,
+                      label="thesis model" + (f" (FIT {fp:.1f} %)" if fp is not None else ""))
+        data = np.array(p["psd"], dtype=float)
+        floor = np.nanmin(data[data > 0]) / 10.0 if np.any(data > 0) else 0.0
+        for k, vals in p["terms"].items():
+            v = np.array(vals, dtype=float)
+            v[v < floor] = np.nan
+            ax.loglog(f, v, "--", color=COLORS[k], lw=1.2, label=f"{k} level")
+        ax.set_xlabel("f [Hz]")
+        ax.set_ylabel(f"PSD [{p['unit']}]")
+        ax.set_title(ch)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    fig.suptitle(f"{group}: power spectral density (one-sided)")
+    fig.tight_layout()
+    return _save(plt, fig, os.path.join(directory, f"psd_{group}.png"))

@@ -1,0 +1,355 @@
+"""What ``imu-allan analyze`` reads, chosen by content.
+
+* a device capture: any bytes holding intact protocol records (``$...*CRC``
+  lines) or binary frames: the log of ``imu-allan sim`` or ``monitor``. Its
+  complete reports (the on-device octave results) and, in modes raw, binary
+  and both, its samples are decoded (stream.py; nothing unchecked is used).
+* a rows file (thesis format): 7 integer codes per line (rows.py).
+* a CSV with a header line naming the columns: ax ay az gx gy gz (also
+  acc_x, accel_x, gyro_x, gyr_x, wx, linear_acceleration_x, angular_velocity_x ...),
+  an optional time column (t, time, timestamp, time_s, *_ns, *_us, *_ms)
+  and units in brackets (``gx [rad/s]``, ``ax (g)``), separated by , ; tab
+  or spaces.
+Anything else is refused with one line saying what was found.
+
+Samples come as blocks (channels, samples): uint16 codes or float64 values,
+read in blocks of a few MB, never the whole file at once.
+"""
+from __future__ import annotations
+
+import io
+import math
+import os
+import re
+import sys
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterator, Optional
+
+import numpy as np
+
+from . import CHANNELS
+from .decode import Report
+from .errors import InputError
+from .rows import BLOCK_BYTES, iter_blocks, open_input
+from .protocol import split_frames
+from .stream import LOSS_KEYS, StreamDecoder
+
+SNIFF_BYTES = 1 << 16
+
+
+@dataclass
+class SampleSource:
+    kind: str                                  # "rows", "csv" or "capture"
+    name: str
+    channels: list[str]                        # subset of CHANNELS, in file order of CHANNELS
+    open_blocks: Callable[[], Iterator[np.ndarray]]
+    integer: bool                              # ADC codes
+    fs: Optional[float] = None                 # from a time column or a device header
+    n_hint: Optional[int] = None               # expected samples (progress bars), may be None
+    size_bytes: Optional[int] = None
+    units: dict[str, str] = field(default_factory=dict)   # from the CSV header
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Source:
+    name: str
+    samples: Optional[SampleSource]
+    report: Optional[Report]                   # last complete device report
+    complete_reports: int = 0
+    errors: dict[str, int] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def header(self) -> Optional[dict[str, Any]]:
+        return self.report.header if self.report is not None else None
+
+
+def load(path: str) -> Source:
+    """Look at ``path`` and return what it holds (InputError with one line otherwise)."""
+    name = "<stdin>" if path == "-" else path
+    if path == "-":
+        data = sys.stdin.buffer.read()
+        return _load_bytes(data, name)
+    try:
+        size = os.path.getsize(path)
+    except OSError as exc:
+        raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
+    f = open_input(path)
+    try:
+        head = f.read(SNIFF_BYTES)
+    finally:
+        f.close()
+    if not head:
+        raise InputError(f"'{name}' is empty")
+    if _is_capture(head):
+        return _capture(path, name, size)
+    return _text(path, name, head, size)
+
+
+def _load_bytes(data: bytes, name: str) -> Source:
+    """stdin: the same detection on bytes in memory."""
+    import tempfile
+    if not data:
+        raise InputError(f"'{name}' is empty")
+    import atexit
+    tmp = tempfile.NamedTemporaryFile(prefix="imu-allan-", suffix=".in", delete=False)
+    tmp.write(data)
+    tmp.close()
+    atexit.register(_unlink, tmp.name)  # read again lazily: removed when the program ends
+    src = load(tmp.name)
+    src.name = name
+    if src.samples is not None:
+        src.samples.name = name
+    return src
+
+
+def _unlink(path: str) -> None:
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
+
+
+# ---- device captures ---------------------------------------------------------------
+
+
+def _is_capture(head: bytes) -> bool:
+    """Intact protocol lines or binary frames in the first bytes."""
+    if split_frames(head).bodies:
+        return True
+    dec = StreamDecoder(line_start=True)
+    dec.feed(head)
+    return dec.counts["frames"] > 0
+
+
+def _decode_file(path: str, on_samples: Optional[Callable[[np.ndarray], None]] = None
+                 ) -> tuple[StreamDecoder, list[Report], int]:
+    dec = StreamDecoder(line_start=True)
+    reports: list[Report] = []
+    n = 0
+    f = open_input(path)
+    try:
+        while True:
+            try:
+                block = f.read(BLOCK_BYTES)
+            except OSError as exc:
+                raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
+            chunk = dec.feed(block) if block else dec.finish()
+            reports += chunk.reports
+            if chunk.samples.shape[1]:
+                n += chunk.samples.shape[1]
+                if on_samples is not None:
+                    on_samples(chunk.samples)
+            if not block:
+                break
+    finally:
+        f.close()
+    return dec, reports, n
+
+
+def _capture(path: str, name: str, size: int) -> Source:
+    dec, reports, n = _decode_file(path)
+    c = dict(dec.counts)
+    src = Source(name, None, reports[-1] if reports else None, len(reports), c)
+    lost = {k: c[k] for k in LOSS_KEYS if c.get(k)}
+    if n >= 2:
+        samples = SampleSource("capture", name, list(CHANNELS), lambda: _capture_blocks(path), True,
+                               n_hint=n, size_bytes=size)
+        if src.header is not None:
+            samples.fs = float(src.header["fs_hz"])
+        if lost:
+            samples.notes.append("samples were lost or damaged on the way ("
+                                 + ", ".join(f"{k} {v}" for k, v in lost.items())
+                                 + "): the series has gaps, which the host statistics ignore")
+        src.samples = samples
+    if src.report is None and src.samples is None:
+        bad = ", ".join(f"{k} {v}" for k, v in c.items() if v) or "nothing usable"
+        raise InputError(f"'{name}': a device capture without a complete report or samples ({bad})")
+    return src
+
+
+def _capture_blocks(path: str) -> Iterator[np.ndarray]:
+    dec = StreamDecoder(line_start=True)
+    f = open_input(path)
+    try:
+        while True:
+            block = f.read(BLOCK_BYTES)
+            chunk = dec.feed(block) if block else dec.finish()
+            if chunk.samples.shape[1]:
+                yield chunk.samples[:len(CHANNELS)]
+            if not block:
+                break
+    finally:
+        f.close()
+
+
+# ---- text: rows files and CSV ---------------------------------------------------------
+
+
+def _first_line(head: bytes) -> tuple[int, str]:
+    for i, raw in enumerate(head.split(b"\n")):
+        line = raw.split(b"#", 1)[0].strip()
+        if line:
+            try:
+                return i + 1, line.decode("utf-8")
+            except UnicodeDecodeError:
+                raise InputError("not text, not a device capture") from None
+    return 0, ""
+
+
+def _text(path: str, name: str, head: bytes, size: int) -> Source:
+    if b"\x00" in head:
+        raise InputError(f"'{name}' is binary data, neither a device capture (no intact "
+                         "records or frames) nor a rows or CSV file")
+    try:
+        lineno, line = _first_line(head)
+    except InputError:
+        raise InputError(f"'{name}' is neither a device capture (no intact records or frames) "
+                         "nor text") from None
+    if not line:
+        raise InputError(f"'{name}' holds no data (only comments or blank lines)")
+    if re.search(r"[A-Za-z_]", line):
+        return Source(name, _csv(path, name, line, lineno, head, size), None)
+    fields = line.replace(",", " ").replace(";", " ").split()
+    if len(fields) == 7 and all(re.fullmatch(r"\d+", f) for f in fields):
+        return Source(name, SampleSource(
+            "rows", name, list(CHANNELS), lambda: (b[:len(CHANNELS)] for b in iter_blocks(path)),
+            True, n_hint=max(size // 26, 1), size_bytes=size), None)
+    raise InputError(f"'{name}': line {lineno} has {len(fields)} numeric columns and no header: "
+                     "a rows file has 7 integer codes (ax ay az gx gy gz temp); for other data "
+                     "add a first line naming the columns, e.g. 't,ax,ay,az,gx,gy,gz'")
+
+
+_ALIASES = {
+    "ax": ("ax", "accx", "acc_x", "accel_x", "accelx", "a_x", "accelerometer_x", "linear_acceleration_x",
+           "acceleration_x", "xacc", "x_acc"),
+    "ay": ("ay", "accy", "acc_y", "accel_y", "accely", "a_y", "accelerometer_y", "linear_acceleration_y",
+           "acceleration_y", "yacc", "y_acc"),
+    "az": ("az", "accz", "acc_z", "accel_z", "accelz", "a_z", "accelerometer_z", "linear_acceleration_z",
+           "acceleration_z", "zacc", "z_acc"),
+    "gx": ("gx", "gyrx", "gyr_x", "gyro_x", "gyrox", "g_x", "wx", "w_x", "omega_x", "angular_velocity_x",
+           "rate_x", "xgyro", "x_gyro"),
+    "gy": ("gy", "gyry", "gyr_y", "gyro_y", "gyroy", "g_y", "wy", "w_y", "omega_y", "angular_velocity_y",
+           "rate_y", "ygyro", "y_gyro"),
+    "gz": ("gz", "gyrz", "gyr_z", "gyro_z", "gyroz", "g_z", "wz", "w_z", "omega_z", "angular_velocity_z",
+           "rate_z", "zgyro", "z_gyro"),
+}
+_TIME = {"t": 1.0, "time": 1.0, "timestamp": 1.0, "time_s": 1.0, "sec": 1.0, "secs": 1.0,
+         "seconds": 1.0, "stamp": 1.0, "ts": 1.0, "time_ns": 1e-9, "timestamp_ns": 1e-9,
+         "time_us": 1e-6, "timestamp_us": 1e-6, "time_ms": 1e-3, "timestamp_ms": 1e-3,
+         "field_header_stamp": 1e-9, "header_stamp": 1e-9, "rosbagtimestamp": 1e-9}
+_UNIT_IN_NAME = re.compile(r"[\[(]\s*([^\])]*?)\s*[\])]")
+
+
+def _normalize(col: str) -> tuple[str, Optional[str]]:
+    unit = None
+    m = _UNIT_IN_NAME.search(col)
+    if m:
+        unit = m.group(1).replace(" ", "").replace("²", "^2").replace("°", "deg")
+        col = _UNIT_IN_NAME.sub("", col)
+    key = re.sub(r"[^a-z0-9]+", "_", col.strip().lower()).strip("_")
+    key = re.sub(r"^(field_|imu_|data_)+", "", key)
+    return key, unit
+
+
+def _split(line: str) -> tuple[Optional[str], list[str]]:
+    for d in (",", ";", "\t"):
+        if d in line:
+            return d, [p.strip() for p in line.split(d)]
+    return None, line.split()
+
+
+def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int) -> SampleSource:
+    delim, cols = _split(header)
+    chan_col: dict[str, int] = {}
+    units: dict[str, str] = {}
+    time_col, time_factor = None, 1.0
+    for i, col in enumerate(cols):
+        key, unit = _normalize(col)
+        for ch, names in _ALIASES.items():
+            if key in names or any(key.endswith("_" + a) for a in names if len(a) > 2):
+                if ch not in chan_col:
+                    chan_col[ch] = i
+                    if unit:
+                        units[ch] = unit
+                break
+        else:
+            if key in _TIME and time_col is None:
+                time_col, time_factor = i, _TIME[key]
+                if unit in ("ns", "us", "ms", "s"):
+                    time_factor = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[unit]
+    if not chan_col:
+        raise InputError(f"'{name}': line {lineno}: no column named like a sensor channel in "
+                         f"{header!r} (expected ax ay az gx gy gz, acc_x, gyro_x, ...)")
+    chans = [ch for ch in CHANNELS if ch in chan_col]
+    use = [chan_col[ch] for ch in chans]
+    src = SampleSource("csv", name, chans, lambda: _csv_blocks(path, name, lineno, delim, use,
+                                                                 time_col, len(cols)),
+                       integer=False, n_hint=max(size // max(len(header), 8), 1), size_bytes=size,
+                       units=units)
+    # first rows: are the values integer codes? a time column gives fs
+    first = next(_csv_blocks(path, name, lineno, delim, use, time_col, len(cols), max_bytes=SNIFF_BYTES,
+                             with_time=True), None)
+    if first is not None:
+        vals, t = first
+        src.integer = bool(vals.size) and bool(np.all(vals == np.rint(vals))) and bool(
+            np.all((vals >= 0) & (vals <= 1023)))
+        if t is not None and t.size >= 3:
+            dt = np.diff(t) * time_factor
+            dt = dt[np.isfinite(dt)]
+            med = float(np.median(dt)) if dt.size else math.nan
+            if med > 0 and math.isfinite(med):
+                src.fs = 1.0 / med
+                jitter = float(np.max(np.abs(dt - med)) / med) if dt.size else 0.0
+                src.notes.append(f"sample rate {src.fs:.6g} Hz from the time column "
+                                 f"(median step {med:.6g} s"
+                                 + (f", steps vary by up to {jitter * 100:.0f} %" if jitter > 0.01 else "")
+                                 + ")")
+    return src
+
+
+def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], use: list[int],
+                time_col: Optional[int], ncols: int, max_bytes: Optional[int] = None,
+                with_time: bool = False) -> Iterator[Any]:
+    """Blocks of (channels, rows) float64 after the header line (with the time
+    column as a second item when ``with_time``); ``max_bytes`` reads only the start."""
+    cols = use + ([time_col] if with_time and time_col is not None else [])
+    f = open_input(path)
+    try:
+        for _ in range(header_line):
+            f.readline()
+        line, tail, total = header_line, b"", 0
+        while True:
+            chunk = f.read(BLOCK_BYTES if max_bytes is None else max_bytes)
+            total += len(chunk)
+            data = tail + chunk
+            cut = data.rfind(b"\n") + 1 if chunk else len(data)
+            body, tail = data[:cut], data[cut:]
+            if body.strip():
+                arr = _parse_csv(body, name, line, delim, cols)
+                if with_time:
+                    yield (arr[:len(use)], arr[len(use)] if time_col is not None else None)
+                else:
+                    yield arr
+            line += body.count(b"\n")
+            if not chunk or (max_bytes is not None and total >= max_bytes):
+                break
+    finally:
+        f.close()
+
+
+def _parse_csv(body: bytes, name: str, first_line: int, delim: Optional[str], cols: list[int]) -> np.ndarray:
+    try:
+        a = np.loadtxt(io.BytesIO(body), delimiter=delim, usecols=cols, comments="#", ndmin=2,
+                       dtype=np.float64)
+    except ValueError as exc:
+        msg = str(exc)
+        m = re.search(r"at row (\d+)", msg)
+        where = f"line {first_line + 1 + int(m.group(1))}" if m else f"after line {first_line}"
+        what = msg.split(" at row")[0].split("\n")[0]
+        raise InputError(f"'{name}': {where}: {what}") from None
+    if not np.all(np.isfinite(a)):
+        r = int(np.argmax(~np.all(np.isfinite(a), axis=1)))
+        raise InputError(f"'{name}': line {first_line + 1 + r}: a value is not a finite number")
+    return np.ascontiguousarray(a.T)

@@ -1,0 +1,384 @@
+"""IEEE Std 952 noise terms from an Allan variance curve, by weighted fit.
+
+The model (IEEE Std 952-1997 Annex C; u is the channel's rate unit, tau in s):
+
+    AVAR(tau) = 3 Q^2 / tau^2 + N^2 / tau + (2 ln 2 / pi) B^2 + K^2 tau / 3 + R^2 tau^2 / 2
+
+    Q quantization [u s]   N random walk [u sqrt(s)]   B bias instability [u]
+    K rate random walk [u / sqrt(s)]                   R rate ramp [u / s]
+
+is linear in the coefficients c = (Q^2, N^2, B^2, K^2, R^2) >= 0.
+
+Weights. Each point's AVAR estimate is chi-squared with ``edf`` degrees of
+freedom (Greenhall's EDF for the noise type of the term that dominates
+there, edf.py), so its standard deviation is model * sqrt(2 / edf): the
+model, not the noisy estimate, so low points pull no harder than high ones.
+Estimates at neighbouring taus come from the same samples and are
+correlated: between octaves about 0.5 for white rate noise, 0.7 for flicker
+and 0.86 for a random walk (overlapping estimator; measured by simulation,
+see tests/test_terms.py), falling off geometrically with the distance in
+octaves. The fit is a generalized least squares with that covariance,
+under c >= 0 (NNLS on the whitened system), iterated with the EDF and the
+noise types. Without the correlation the intervals would be 2 to 3 times
+too narrow.
+
+Terms. Stepwise selection first: a term whose removal raises the
+chi-squared by less than 3.84 (95 %, one degree of freedom; times the
+reduced chi-squared when that exceeds 1, an F test) is dropped as not
+supported by the data and the fit redone; a dropped term comes back when
+adding it lowers the chi-squared by that much (two collinear terms, say K
+and R on the last points, cannot push each other out). Each remaining term gets the
+standard deviation of its coefficient (GLS covariance, widened by
+sqrt(chi2/dof) when the model fits worse than the noise allows), a 95 %
+interval from the chi-squared distribution with the coefficient's own EDF
+(2 c^2 / var c; asymmetric, never below 0) and the tau range where it
+dominates (its share of the model >= 1/2). A term is *not identifiable*
+when its coefficient is 0 or dropped, when c < 1.96 sd, or when it
+dominates nowhere in the measured range; it then gets a 95 % upper bound
+instead of a value.
+
+The classic read-off of the bias instability, min(ADEV) / 0.664 (the
+thesis' sigma_B), is returned beside the fit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import linalg, optimize, stats
+
+TERMS = ("Q", "N", "B", "K", "R")
+B_FACTOR = 2.0 * math.log(2.0) / math.pi
+B_READOFF = math.sqrt(B_FACTOR)
+"""0.664: ADEV of flicker rate noise of coefficient B."""
+ALPHA = {"Q": 2, "N": 0, "B": -1, "K": -2, "R": -2}
+SLOPE = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}
+"""log-log slope of ADEV where each term dominates."""
+Z95 = 1.959963984540054
+CHI2_1_95 = 3.841458820694124
+"""A term must lower the weighted chi-squared by this much (95 %, 1 degree of freedom)."""
+
+EdfFn = Callable[[np.ndarray], np.ndarray]
+"""alphas per point -> EDF per point."""
+
+
+def basis(tau: np.ndarray) -> np.ndarray:
+    """(points, 5) matrix: AVAR per unit coefficient of Q^2, N^2, B^2, K^2, R^2."""
+    t = np.asarray(tau, dtype=np.float64)
+    return np.stack([3.0 / t ** 2, 1.0 / t, np.full_like(t, B_FACTOR), t / 3.0, t ** 2 / 2.0], axis=1)
+
+
+def model_avar(tau: np.ndarray, values: dict[str, Optional[float]]) -> np.ndarray:
+    """AVAR of the terms ``values`` (missing or None count as 0)."""
+    c = np.array([(values.get(k) or 0.0) ** 2 for k in TERMS])
+    return basis(np.asarray(tau, dtype=np.float64)) @ c
+
+
+@dataclass
+class Term:
+    name: str
+    value: Optional[float]          # None when not identifiable
+    low: Optional[float]
+    high: Optional[float]
+    tau_range: Optional[tuple[float, float]]   # where it dominates (share >= 1/2)
+    estimate: float                 # the fitted coefficient's square root (0 if none)
+    upper: float                    # 95 % upper bound (always available)
+    note: str = ""
+
+    @property
+    def identifiable(self) -> bool:
+        return self.value is not None
+
+
+@dataclass
+class FitResult:
+    terms: dict[str, Term]
+    coef: np.ndarray                # c = (Q^2, N^2, B^2, K^2, R^2)
+    cov: np.ndarray                 # 5 x 5 (zero rows for terms at 0)
+    chi2_red: float
+    used: np.ndarray                # bool per input point
+    alpha: np.ndarray               # noise type used for each point's EDF
+    edf: np.ndarray                 # EDF used for each point (nan if unused)
+    b_classic: Optional[dict] = None   # {"value", "tau_s", "low", "high"}
+    notes: list[str] = field(default_factory=list)
+
+    def model(self, tau: np.ndarray) -> np.ndarray:
+        return basis(np.asarray(tau, dtype=np.float64)) @ self.coef
+
+    def values(self) -> dict[str, Optional[float]]:
+        return {k: t.value for k, t in self.terms.items()}
+
+    def estimates(self) -> dict[str, float]:
+        return {k: t.estimate for k, t in self.terms.items()}
+
+
+def local_alpha(tau: np.ndarray, avar: np.ndarray) -> np.ndarray:
+    """Noise type from the local log-log slope of AVAR (neighbours on each side)."""
+    from .edf import alpha_from_slope
+    lt, la = np.log(tau), np.log(avar)
+    out = np.zeros(tau.size, dtype=np.int64)
+    for i in range(tau.size):  # over curve points (tens), not samples
+        a, b = max(i - 1, 0), min(i + 1, tau.size - 1)
+        mu = (la[b] - la[a]) / (lt[b] - lt[a]) if b > a else -1.0
+        out[i] = alpha_from_slope(mu)
+    return out
+
+
+RHO = {"overlapping": {2: 0.42, 1: 0.42, 0: 0.50, -1: 0.68, -2: 0.86},
+       "nonoverlapping": {2: 0.29, 1: 0.29, 0: 0.35, -1: 0.56, -2: 0.83}}
+"""Correlation of AVAR estimates one octave apart, per noise type (simulated)."""
+PER_OCTAVE = 8
+"""Denser curves are thinned to this many points per octave for the fit."""
+
+
+def _thin(t: np.ndarray) -> np.ndarray:
+    """Indices of at most PER_OCTAVE points per octave (sorted t)."""
+    if t.size < 3 or t.size <= PER_OCTAVE * (math.log2(t[-1] / t[0]) + 1):
+        return np.arange(t.size)
+    grid = np.exp2(np.arange(math.log2(t[0]), math.log2(t[-1]) + 1e-9, 1.0 / PER_OCTAVE))
+    idx = np.unique(np.clip(np.searchsorted(t, grid), 0, t.size - 1))
+    return np.unique(np.concatenate((idx, [t.size - 1])))
+
+
+class _Gls:
+    """Whitening by the Cholesky factor of the estimates' covariance."""
+
+    def __init__(self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray,
+                 kind: str) -> None:
+        sd = ref * np.sqrt(2.0 / e)
+        rho = RHO[kind]
+        lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
+        l2 = np.log2(t)
+        dist = np.abs(l2[:, None] - l2[None, :])
+        R = np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
+        S = R * np.outer(sd, sd)
+        self.L = _cholesky(S)
+
+    def white(self, v: np.ndarray) -> np.ndarray:
+        return linalg.solve_triangular(self.L, v, lower=True)
+
+
+def _cholesky(S: np.ndarray) -> np.ndarray:
+    d = np.sqrt(np.diag(S))
+    C = S / np.outer(d, d)
+    for jitter in (0.0, 1e-9, 1e-6, 1e-3, 1e-2):
+        try:
+            return np.linalg.cholesky(C + jitter * np.eye(C.shape[0])) * d[:, None]
+        except np.linalg.LinAlgError:
+            continue
+    w, V = np.linalg.eigh(C)  # last resort: clip the spectrum
+    C2 = (V * np.maximum(w, 1e-3)) @ V.T
+    return np.linalg.cholesky(C2) * d[:, None]
+
+
+def _nnls(Aw: np.ndarray, yw: np.ndarray) -> np.ndarray:
+    scale = np.linalg.norm(Aw, axis=0)
+    scale[scale == 0] = 1.0
+    c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
+    return c / scale
+
+
+def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None,
+              overlapping: bool = True, iterations: int = 5,
+              allowed: tuple[str, ...] = TERMS) -> FitResult:
+    """Fit the IEEE 952 terms to the points (tau, avar) not masked out.
+
+    ``edf_fn(alphas)`` gives each point's EDF for a noise type per point;
+    ``overlapping`` selects the correlation between neighbouring estimates.
+    """
+    tau = np.asarray(tau, dtype=np.float64)
+    avar = np.asarray(avar, dtype=np.float64)
+    used = np.isfinite(avar) & (avar > 0) & np.isfinite(tau) & (tau > 0)
+    if mask is not None:
+        used &= np.asarray(mask, dtype=bool)
+    nterm = len(TERMS)
+    coef = np.zeros(nterm)
+    cov = np.zeros((nterm, nterm))
+    alpha_all = np.zeros(tau.size, dtype=np.int64)
+    edf_all = np.full(tau.size, np.nan)
+    notes: list[str] = []
+    idx = np.flatnonzero(used)
+    idx = idx[np.argsort(tau[idx])]
+    idx = idx[_thin(tau[idx])]
+    fitted = np.zeros(tau.size, dtype=bool)
+    fitted[idx] = True
+    if idx.size < 2:
+        notes.append("fewer than 2 usable points: nothing to fit")
+        terms = {k: Term(k, None, None, None, None, 0.0, math.inf, "no data") for k in TERMS}
+        return FitResult(terms, coef, cov, math.nan, fitted, alpha_all, edf_all, None, notes)
+    t, y = tau[idx], avar[idx]
+    kind = "overlapping" if overlapping else "nonoverlapping"
+    A = basis(t)
+    cols = np.array([k in allowed for k in TERMS])
+
+    def edf_of(alpha: np.ndarray) -> np.ndarray:
+        full = np.zeros(tau.size, dtype=np.int64)
+        full[idx] = alpha
+        e = np.asarray(edf_fn(full), dtype=np.float64)[idx]
+        return np.where(np.isfinite(e) & (e > 0), e, 1.0)
+
+    alpha = local_alpha(t, y)
+    dropped: dict[str, float] = {}
+    seen: set[tuple[bool, ...]] = set()
+    for _ in range(4 * nterm):  # stepwise: drop what others can do without, re-admit what is missed
+        coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations)
+        yw, Aw = gls.white(y), gls.white(A)
+        key = tuple(cols.tolist())
+        if key in seen:
+            break
+        seen.add(key)
+        base = float(np.sum((yw - Aw @ coef) ** 2))
+        active = np.flatnonzero(coef > 0)
+        dof = max(t.size - active.size, 1)
+        worst, worst_gain = None, math.inf
+        if active.size > 1:
+            for j in active:
+                c2 = cols.copy()
+                c2[j] = False
+                gain = _chi2(Aw, yw, c2) - base
+                if gain < worst_gain:
+                    worst, worst_gain = int(j), gain
+        if worst is not None and worst_gain < CHI2_1_95 * max(1.0, base / dof):
+            cols[worst] = False
+            dropped[TERMS[worst]] = worst_gain
+            continue
+        best, best_gain = None, 0.0
+        for name in list(dropped):
+            j = TERMS.index(name)
+            c2 = cols.copy()
+            c2[j] = True
+            with_j = _chi2(Aw, yw, c2)
+            gain = base - with_j
+            if gain >= CHI2_1_95 * max(1.0, with_j / max(dof - 1, 1)) and gain > best_gain:
+                best, best_gain = j, gain
+        if best is None:
+            break
+        cols[best] = True
+        del dropped[TERMS[best]]
+    coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations)
+    yw, Aw = gls.white(y), gls.white(A)
+    e = edf_of(alpha)
+    active = coef > 0
+    dof = max(t.size - int(active.sum()), 1)
+    chi2_red = float(np.sum((yw - Aw @ coef) ** 2) / dof)
+    inflate = max(1.0, chi2_red)
+    if chi2_red > 2.0:
+        notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g}: intervals are "
+                     "widened accordingly (noise not of the IEEE 952 kinds, or drift?)")
+    if active.any():
+        cov_a = np.linalg.pinv(Aw[:, active].T @ Aw[:, active]) * inflate
+        ia = np.flatnonzero(active)
+        cov[np.ix_(ia, ia)] = cov_a
+    alpha_all[idx] = alpha
+    edf_all[idx] = e
+    grid = np.exp(np.linspace(math.log(t[0]), math.log(t[-1]), 400))
+    terms = {}
+    for j, k in enumerate(TERMS):
+        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate)
+        if k in dropped:
+            terms[k].note = (f"not identifiable: the other terms explain the curve as well "
+                             f"(chi2 gain {dropped[k]:.3g} < {CHI2_1_95:.2f}; at most {_fmt(terms[k].upper)})")
+    return FitResult(terms, coef, cov, chi2_red, fitted, alpha_all, edf_all,
+                     b_classic(tau, avar, used, edf_all), notes)
+
+
+def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray) -> float:
+    c = np.zeros(Aw.shape[1])
+    c[cols] = _nnls(Aw[:, cols], yw)
+    return float(np.sum((yw - Aw @ c) ** 2))
+
+
+def _irls(A: np.ndarray, y: np.ndarray, t: np.ndarray, cols: np.ndarray, alpha: np.ndarray,
+          edf_of: Callable[[np.ndarray], np.ndarray], kind: str,
+          iterations: int) -> tuple[np.ndarray, np.ndarray, _Gls]:
+    """Iterated GLS-NNLS: covariance from the model, EDF and correlation from the noise types."""
+    ref = y.copy()
+    coef = np.zeros(len(TERMS))
+    gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+    for _ in range(iterations):
+        gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+        coef = np.zeros(len(TERMS))
+        coef[cols] = _nnls(gls.white(A[:, cols]), gls.white(y))
+        mod = A @ coef
+        ref = np.where(mod > 0, mod, y)
+        if coef.any():
+            share = A * coef
+            alpha = np.array([ALPHA[TERMS[j]] for j in np.argmax(share, axis=1)])
+    gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+    return coef, alpha, gls
+
+
+def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw: np.ndarray,
+          grid: np.ndarray, active: np.ndarray, allowed: bool, inflate: float) -> Term:
+    if not allowed:
+        return Term(k, None, None, None, None, 0.0, 0.0, "left out of the fit")
+    c = float(coef[j])
+    sd = math.sqrt(max(cov[j, j], 0.0))
+    upper = _upper(j, Aw, yw, active, inflate)
+    if c <= 0:
+        return Term(k, None, None, None, None, 0.0, upper,
+                    f"not in the data (fitted coefficient 0; at most {_fmt(upper)})")
+    estimate = math.sqrt(c)
+    if sd > 0:
+        nu = 2.0 * (c / sd) ** 2  # the coefficient's own degrees of freedom
+        lo = math.sqrt(c * nu / stats.chi2.ppf(0.975, nu))
+        hi = math.sqrt(c * nu / stats.chi2.ppf(0.025, nu))
+    else:
+        lo = hi = estimate
+    upper = max(upper, hi)
+    Gb = basis(grid)
+    mod = Gb @ coef
+    dominant = Gb[:, j] * c >= 0.5 * mod
+    rng = (float(grid[dominant][0]), float(grid[dominant][-1])) if dominant.any() else None
+    if rng is None:  # could it dominate anywhere at the top of its interval?
+        c_hi = hi * hi
+        if np.any(Gb[:, j] * c_hi >= 0.5 * (mod + Gb[:, j] * (c_hi - c))):
+            sel = Gb[:, j] * c_hi >= 0.5 * (mod + Gb[:, j] * (c_hi - c))
+            rng = (float(grid[sel][0]), float(grid[sel][-1]))
+    if c < Z95 * sd:
+        return Term(k, None, None, None, rng, estimate, upper,
+                    f"not identifiable: its 95 % interval includes 0 (estimate {_fmt(estimate)}, "
+                    f"at most {_fmt(upper)})")
+    if rng is None:
+        return Term(k, None, None, None, None, estimate, upper,
+                    f"not identifiable: dominates nowhere in the measured range (estimate "
+                    f"{_fmt(estimate)}, at most {_fmt(upper)})")
+    return Term(k, estimate, lo, hi, rng, estimate, hi)
+
+
+def _upper(j: int, Aw: np.ndarray, yw: np.ndarray, active: np.ndarray, inflate: float) -> float:
+    """95 % upper bound of term j: least squares of the (whitened) data without
+    the sign constraint, on the active terms plus j: sqrt(max(c_j, 0) + 1.96 sd)."""
+    sel = active.copy()
+    sel[j] = True
+    X = Aw[:, sel]
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    inv = np.linalg.pinv(Xs.T @ Xs)
+    c = (inv @ (Xs.T @ yw)) / scale
+    cov = inv / np.outer(scale, scale) * inflate
+    pos = int(np.flatnonzero(np.flatnonzero(sel) == j)[0])
+    return math.sqrt(max(float(c[pos]), 0.0) + Z95 * math.sqrt(max(float(cov[pos, pos]), 0.0)))
+
+
+def b_classic(tau: np.ndarray, avar: np.ndarray, used: np.ndarray,
+              edf: Optional[np.ndarray] = None, min_edf: float = 10.0) -> Optional[dict]:
+    """The thesis' read-off: B = min(ADEV) / 0.664 and the tau of that minimum,
+    over the points with at least ``min_edf`` degrees of freedom (the last few
+    points of a curve scatter by a factor of 2 and more: their minimum says
+    little)."""
+    ok = used & np.isfinite(avar) & (avar > 0)
+    if edf is not None and np.any(ok & (np.nan_to_num(edf) >= min_edf)):
+        ok &= np.nan_to_num(edf) >= min_edf
+    if not ok.any():
+        return None
+    i = int(np.flatnonzero(ok)[np.argmin(avar[ok])])
+    return {"value": math.sqrt(avar[i]) / B_READOFF, "tau_s": float(tau[i]), "index": i}
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.3g}"

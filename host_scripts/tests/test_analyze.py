@@ -1,0 +1,268 @@
+"""`imu-allan analyze`: inputs chosen by content, units, the JSON contract,
+the exports (CSV, Kalibr, imu_utils, PNG) and one-line errors."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import line, raw_row, report_lines, thesis_like, write_rows
+from imu_allan.profiles import G0, thesis_profile
+
+CH = ("ax", "ay", "az", "gx", "gy", "gz")
+ACC_COUNT = thesis_profile().scale("ax").per_count     # m/s^2 per count at 1.5 g
+GYRO_COUNT = thesis_profile().scale("gx").per_count    # deg/s per count
+
+
+@pytest.fixture(scope="module")
+def rows() -> np.ndarray:
+    return thesis_like(8192, 3)
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory, rows: np.ndarray) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("an")
+    data = write_rows(d / "rows.txt", rows)
+    log = d / "dev.log"
+    log.write_bytes(b"noise before\r\n" + b"".join(report_lines(rows, 12, extra=",mode=allan,range=1.5")))
+    cap = bytearray(b"partial row\r\n")  # a capture in mode 'both': rows, count lines, a report
+    for i, r in enumerate(rows):
+        cap += raw_row(r)
+        if (i + 1) % 100 == 0:
+            cap += line(f"C,{i + 1},0")
+    cap += b"".join(report_lines(rows, 12, extra=",mode=both,range=1.5"))
+    (d / "both.log").write_bytes(bytes(cap))
+    return {"rows": data, "log": log, "both": d / "both.log", "dir": d}
+
+
+def _json(run_cli, *args) -> dict:
+    rc, out, err = run_cli("analyze", *args, "--json")
+    assert rc == 0, err
+    return json.loads(out)
+
+
+def _white_n(rows: np.ndarray, c: int, scale: float, fs: float = 100.0) -> float:
+    """N of white-dominated data: the lag-1 Allan deviation times sqrt(tau0)."""
+    x = rows[:, c].astype(float) * scale
+    return math.sqrt(np.mean(np.diff(x) ** 2) / 2) / math.sqrt(fs)
+
+
+def test_help_is_for_newcomers(run_cli) -> None:
+    rc, out, _ = run_cli("analyze", "--help")
+    assert rc == 0 and out.startswith("usage: imu-allan analyze")
+    for phrase in ("bias instability", "rate random walk", "--fs HZ", "--scale", "Kalibr", "examples:",
+                   "95 %", "docs/analysis.md", "exit status"):
+        assert phrase in out, phrase
+    rc, out, _ = run_cli("--help")
+    assert "analyze" in out
+
+
+def test_rows_json_contract(run_cli, files, rows) -> None:
+    doc = _json(run_cli, files["rows"], "--fs", "100", "--no-model")
+    assert set(doc["channels"]) == set(CH)
+    assert doc["source"]["kind"] == "rows" and doc["source"]["n"] == 8192 and doc["source"]["fs_hz"] == 100
+    for c in CH:
+        ch = doc["channels"][c]
+        assert ch["unit"] == ("m/s^2" if c[0] == "a" else "deg/s")
+        assert set(ch["terms"]) == {"N", "B", "K", "Q", "R"}
+        for k, t in ch["terms"].items():
+            assert t is None or (set(t) >= {"value", "low", "high"} and t["low"] <= t["value"] <= t["high"])
+        assert ch["term_units"]["N"] == f"{ch['unit']}*sqrt(s)" and ch["term_units"]["K"] == f"{ch['unit']}/sqrt(s)"
+        pts = ch["curve"]
+        assert [p["tau_s"] for p in pts][:3] == [0.01, 0.02, 0.04]
+        assert all(p["low"] <= p["dev"] <= p["high"] for p in pts)
+        assert {"adev", "mdev", "hdev"} <= set(ch["curves"])
+        assert ch["psd"]["f_hz"] and ch["psd"]["unit"] == f"({ch['unit']})^2/Hz"
+    # N against a direct estimate, in SI and in the gyro's rad/s
+    for c, scale in (("ax", ACC_COUNT), ("gx", GYRO_COUNT)):
+        n = doc["channels"][c]["terms"]["N"]["value"]
+        assert n == pytest.approx(_white_n(rows, CH.index(c), scale), rel=0.05)
+    gx = doc["channels"]["gx"]
+    assert gx["si"]["unit"] == "rad/s"
+    assert gx["si"]["terms"]["N"]["value"] == pytest.approx(gx["terms"]["N"]["value"] * math.pi / 180)
+
+
+def test_missing_fs_is_one_line(run_cli, files) -> None:
+    rc, out, err = run_cli("analyze", files["rows"])
+    assert rc == 2 and out == ""
+    assert err == "imu-allan analyze: the sample rate is unknown: give --fs HZ (a rows file does not carry it)\n"
+
+
+def test_device_log_alone(run_cli, files, rows) -> None:
+    doc = _json(run_cli, files["log"], "--no-model")
+    assert doc["source"]["kind"] == "device-log" and doc["source"]["fs_hz"] == 100
+    gx = doc["channels"]["gx"]
+    assert len(gx["curve"]) == 12 and gx["fit"]["statistic"] == "adev (device)"
+    assert gx["terms"]["N"]["value"] == pytest.approx(_white_n(rows, 3, GYRO_COUNT), rel=0.05)
+    rc, out, _ = run_cli("analyze", files["log"], "--no-model")
+    assert rc == 0 and "device log (on-device results only)" in out and "deg/sqrt(h)" in out
+
+
+def test_rows_with_device_log_agree(run_cli, files) -> None:
+    doc = _json(run_cli, files["rows"], "--fs", "100", "--device", files["log"], "--no-model")
+    for c in CH:
+        a = doc["channels"][c]["device"]["agreement"]
+        assert a["checked"] == 12 and a["within"] >= 11
+    rc, out, _ = run_cli("analyze", files["rows"], "--fs", "100", "--device", files["log"], "--no-model")
+    assert "device vs host: " in out
+
+
+def test_capture_in_mode_both(run_cli, files) -> None:
+    doc = _json(run_cli, files["both"], "--no-model")
+    assert doc["source"]["kind"] == "capture" and doc["source"]["n"] == 8192
+    assert doc["source"]["fs_hz"] == 100  # from the report's header
+    assert doc["channels"]["az"]["device"]["agreement"]["checked"] == 12
+
+
+def test_fs_and_range_must_match_the_header(run_cli, files) -> None:
+    rc, _, err = run_cli("analyze", files["log"], "--fs", "200")
+    assert rc == 2 and err == "imu-allan analyze: --fs 200 contradicts the device header (fs=100 Hz)\n"
+    rc, _, err = run_cli("analyze", files["log"], "--range", "4")
+    assert rc == 2 and "contradicts the device header (range=1.5 g)" in err
+
+
+def test_range_changes_the_accelerometer_scale(run_cli, files) -> None:
+    a = _json(run_cli, files["rows"], "--fs", "100", "--no-model", "--channels", "ax")
+    b = _json(run_cli, files["rows"], "--fs", "100", "--no-model", "--channels", "ax", "--range", "6")
+    assert list(a["channels"]) == ["ax"]
+    ratio = b["channels"]["ax"]["terms"]["N"]["value"] / a["channels"]["ax"]["terms"]["N"]["value"]
+    assert ratio == pytest.approx(0.8 / 0.2)
+
+
+def test_csv_with_time_and_units(run_cli, tmp_path: Path) -> None:
+    rng = np.random.default_rng(4)
+    n, fs = 6000, 200.0
+    g = rng.standard_normal((n, 3)) * 0.01      # rad/s, white: N = 0.01 / sqrt(200) rad/s*sqrt(s)
+    a = rng.standard_normal((n, 3)) * 0.002     # g
+    t = 1000.0 + np.arange(n) / fs
+    p = tmp_path / "imu.csv"
+    with open(p, "w") as f:
+        f.write("# exported\ntime,acc_x (g),acc_y (g),acc_z (g),gyro_x [rad/s],gyro_y [rad/s],gyro_z [rad/s],temp\n")
+        for i in range(n):
+            f.write(f"{t[i]:.6f}," + ",".join(f"{v:.8f}" for v in (*a[i], *g[i])) + ",25.0\n")
+    doc = _json(run_cli, p, "--no-model")
+    assert doc["source"]["kind"] == "csv" and doc["source"]["fs_hz"] == pytest.approx(fs)
+    gx = doc["channels"]["gx"]
+    assert gx["unit"] == "deg/s"
+    want = 0.01 / math.sqrt(fs) * 180 / math.pi
+    assert gx["terms"]["N"]["value"] == pytest.approx(want, rel=0.05)
+    assert doc["channels"]["ax"]["terms"]["N"]["value"] == pytest.approx(0.002 * G0 / math.sqrt(fs), rel=0.05)
+    assert any("time column" in s for s in doc["notes"])
+
+
+def test_csv_without_units_asks_for_a_scale(run_cli, tmp_path: Path) -> None:
+    p = tmp_path / "x.csv"
+    p.write_text("gx,gy\n" + "".join(f"{0.001 * i:.4f},{0.5 + 0.001 * i:.4f}\n" for i in range(200)))
+    rc, out, err = run_cli("analyze", p, "--fs", "50")
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert "not 10-bit ADC codes" in err and "--scale gx=1rad/s" in err
+    doc = _json(run_cli, p, "--fs", "50", "--scale", "gx=1rad/s,gy=0.5", "--no-model")
+    assert doc["channels"]["gx"]["scale_per_count"] == pytest.approx(180 / math.pi)
+    assert doc["channels"]["gy"]["scale_per_count"] == 0.5
+
+
+def test_generic_scale_on_codes(run_cli, files) -> None:
+    doc = _json(run_cli, files["rows"], "--fs", "100", "--scale", "gz=0.07", "--no-model")
+    assert doc["profile"]["name"] == "generic"
+    assert doc["channels"]["gz"]["unit"] == "deg/s" and doc["channels"]["gz"]["scale_per_count"] == 0.07
+    assert doc["channels"]["gx"]["unit"] == "count"
+
+
+@pytest.mark.parametrize("content,message", [
+    (b"", "is empty"),
+    (b"\x00\x01\x02\x03" * 100, "binary data"),
+    (b"1 2 3 4 5\n6 7 8 9 10\n", "5 numeric columns and no header"),
+    (b"# only a comment\n\n", "holds no data"),
+    (b"foo,bar\n1,2\n", "no column named like a sensor channel"),
+    (b"ax,ay\n1,2\n3,x\n", "line 3"),
+])
+def test_bad_inputs_are_one_line(run_cli, tmp_path: Path, content: bytes, message: str) -> None:
+    p = tmp_path / "in.dat"
+    p.write_bytes(content)
+    rc, out, err = run_cli("analyze", p, "--fs", "100", "--scale", "ax=1,ay=1")
+    assert rc == 2 and out == "" and err.count("\n") == 1 and message in err, err
+
+
+@pytest.mark.parametrize("argv,message", [
+    (("--channels", "gq"), "unknown channel 'gq'"),
+    (("--scale", "gx=abc"), "expected CH=VALUE[UNIT]"),
+    (("--scale", "gx=1m/s^2"), "not a gyro rate unit"),
+    (("--scale", "gx=-1"), "the scale must be a positive number"),
+])
+def test_bad_options_are_one_line(run_cli, files, argv, message) -> None:
+    rc, out, err = run_cli("analyze", files["rows"], "--fs", "100", *argv)
+    assert rc == 2 and out == "" and err.count("\n") == 1 and message in err, err
+
+
+def test_exports(run_cli, files) -> None:
+    d = files["dir"]
+    rc, out, err = run_cli("analyze", files["rows"], "--fs", "100", "--csv", "--curves", d / "c.csv",
+                           "--kalibr", d / "imu.yaml", "--imu-utils", d / "iu.yaml", "--plot", d / "figs")
+    assert rc == 0, err
+    head, *body = out.splitlines()
+    assert head.startswith("channel,unit,term,name,value,low,high") and len(body) == 30
+    curves = (d / "c.csv").read_text().splitlines()
+    assert curves[0].startswith("channel,unit,statistic,tau_s,dev") and len(curves) > 100
+    assert {"oadev", "adev", "mdev", "hdev", "model_oadev"} <= {r.split(",")[2] for r in curves[1:]}
+    for png in ("adev_accelerometer.png", "adev_gyroscope.png", "psd_accelerometer.png", "psd_gyroscope.png"):
+        data = (d / "figs" / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+    doc = _json(run_cli, files["rows"], "--fs", "100", "--no-model")
+    kal = (d / "imu.yaml").read_text()
+    vals = dict(l.split("#")[0].split(":") for l in kal.splitlines() if l and not l.startswith("#"))
+    n_gyro = max(doc["channels"][c]["terms"]["N"]["value"] for c in ("gx", "gy", "gz")) * math.pi / 180
+    assert float(vals["gyroscope_noise_density"]) == pytest.approx(n_gyro, rel=1e-5)
+    n_acc = max(doc["channels"][c]["terms"]["N"]["value"] for c in ("ax", "ay", "az"))
+    assert float(vals["accelerometer_noise_density"]) == pytest.approx(n_acc, rel=1e-5)
+    assert float(vals["update_rate"]) == 100 and "CONTINUOUS-TIME" in kal
+    assert "accelerometer_random_walk" in vals and "gyroscope_random_walk" in vals
+    iu = (d / "iu.yaml").read_text()
+    assert iu.startswith("%YAML:1.0\n---\n") and "gyr_n:" in iu and "acc_w:" in iu and "x-axis:" in iu
+
+
+def test_other_tau_grids_and_stdin(run_cli, files, monkeypatch) -> None:
+    doc = _json(run_cli, files["rows"], "--fs", "100", "--taus", "decade", "--no-model", "--channels", "gx")
+    assert [p["tau_s"] for p in doc["channels"]["gx"]["curve"]][:4] == [0.01, 0.02, 0.04, 0.1]
+    import io
+    import sys
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(files["log"].read_bytes())))
+    doc = _json(run_cli, "-", "--no-model", "--channels", "gy")
+    assert doc["source"]["file"] == "<stdin>" and doc["source"]["kind"] == "device-log"
+
+
+def test_model_fit_percent(run_cli, files) -> None:
+    doc = _json(run_cli, files["rows"], "--fs", "100", "--channels", "gx,az")
+    for c in ("gx", "az"):
+        m = doc["channels"][c]["model"]
+        fp = m["fit_percent"]
+        assert {"adev_log10", "adev_log10_nrmse", "psd_log10", "signal"} <= set(fp)
+        assert all(v < 100 for v in fp.values())
+        assert fp["signal"] < 0  # the time series of two independent noises never match
+        assert fp["adev_log10_nrmse"] < fp["adev_log10"]  # the thesis' form flatters
+        assert m["params"]["white_sigma"] > 0 and len(m["curve"]) == len(doc["channels"][c]["curve"])
+
+
+def test_files_larger_than_memory_are_streamed(run_cli, files) -> None:
+    """With --memory 1 (MB) 40000 x 6 samples (1.9 MB in float64) do not fit: then
+    octave ADEVs and PSD come from the streaming pass, equal to the in-memory ones."""
+    big = files["dir"] / "big.txt"
+    write_rows(big, thesis_like(40_000, 8))
+    a = _json(run_cli, big, "--fs", "100", "--no-model")
+    b = _json(run_cli, big, "--fs", "100", "--no-model", "--memory", "1")
+    assert any("streamed" in s for s in b["notes"]) and not any("streamed" in s for s in a["notes"])
+    assert "curves" in a["channels"]["gx"] and "mdev" not in b["channels"]["gx"].get("curves", {})
+    da = [p["dev"] for p in a["channels"]["gx"]["curve"]]
+    db = [p["dev"] for p in b["channels"]["gx"]["curve"]]
+    assert da == db
+    np.testing.assert_allclose(a["channels"]["gx"]["psd"]["psd"], b["channels"]["gx"]["psd"]["psd"], rtol=1e-9)
+    assert a["channels"]["gx"]["terms"] == b["channels"]["gx"]["terms"]
+
+
+def test_kalibr_needs_physical_units(run_cli, files) -> None:
+    rc, out, err = run_cli("analyze", files["rows"], "--fs", "100", "--profile", "counts", "--no-model",
+                           "--kalibr", files["dir"] / "k.yaml")
+    assert rc == 2 and err == ("imu-allan analyze: --kalibr needs channels in physical units: use the "
+                               "thesis profile or --scale\n")
