@@ -156,9 +156,10 @@ uint8_t allan_begin(allan_t *a)
 }
 
 /* One narrow level k (sums below 2^16): pair the new cluster sum v with the
- * previous one, store it, and return the next level's new sum. */
-static inline __attribute__((always_inline)) uint16_t narrow_step(allan_t *a, uint8_t ch, uint8_t k,
-                                                                   allan_cell_t *c, uint16_t v)
+ * previous one, store it, and return the next level's new sum (24 bits: it
+ * leaves 16 after the last narrow level). */
+static inline __attribute__((always_inline)) allan_sum_t narrow_step(allan_t *a, uint8_t ch, uint8_t k,
+                                                                      allan_cell_t *c, uint16_t v)
 {
   uint16_t last = c->sum_lo;
   if (k != a->first) {
@@ -170,7 +171,7 @@ static inline __attribute__((always_inline)) uint16_t narrow_step(allan_t *a, ui
       cell_carry(a, ch, k, 1);
   }
   c->sum_lo = v;
-  return (uint16_t)(v + last); /* exact while level k + 1 is narrow too */
+  return (allan_sum_t)v + last;
 }
 
 /* Levels 2 .. depth-1 of one channel, v16 being the new level-2 cluster
@@ -180,24 +181,15 @@ static inline __attribute__((always_inline)) uint16_t narrow_step(allan_t *a, ui
 static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_t v16)
 {
   allan_cell_t *c = &a->cell[ch][2];
-  uint8_t k = 2, depth = a->depth, first = a->first;
+  uint8_t k = 2, depth = a->depth;
+  uint8_t first = a->first;
   uint8_t narrow_end = depth < ALLAN_NARROW_LEVELS ? depth : ALLAN_NARROW_LEVELS;
   allan_sum_t v = (allan_sum_t)v16; /* level 2's sum, in 24 bits */
   uint8_t *hi;
 
   for (; k < narrow_end; k++, c++) {
-    uint16_t last = c->sum_lo;
-    if (k != first) {
-      uint16_t d = v16 >= last ? v16 - last : last - v16;
-      uint32_t sq = (uint32_t)d * d;
-      uint32_t lo = c->acc_lo + sq;
-      c->acc_lo = lo;
-      if (lo < sq)
-        cell_carry(a, ch, k, 1);
-    }
-    c->sum_lo = v16;
-    v = (allan_sum_t)v16 + last; /* 24 bits from level ALLAN_NARROW_LEVELS on */
-    v16 = (uint16_t)v;           /* below 1023 * 64 while k + 1 is narrow */
+    v = narrow_step(a, ch, k, c, v16);
+    v16 = (uint16_t)v; /* exact while level k + 1 is narrow */
   }
   if (k >= depth)
     return;
@@ -246,9 +238,9 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
   if (code > a->max[ch])
     a->max[ch] = code;
 #endif
-  v = narrow_step(a, ch, 0, c, code);
+  v = (uint16_t)narrow_step(a, ch, 0, c, code);
   if (a->depth > 1) {
-    v = narrow_step(a, ch, 1, c + 1, v);
+    v = (uint16_t)narrow_step(a, ch, 1, c + 1, v);
     if (a->depth > 2)
       cascade_up(a, ch, v);
   }
