@@ -103,17 +103,11 @@ uint8_t adc_pending(void)
 
 uint8_t adc_peek(uint16_t code[ADC_COLUMNS])
 {
-  uint8_t t = ring_tail, i;
-  uint16_t hi;
-  if (isr_drops)
-    fold_drops(); /* keep the 8-bit ISR count far from saturating */
-  if (t == ring_head)
+  uint8_t i;
+  if (ring_tail == ring_head)
     return 0;
-  hi = ring[t].hi;
-  for (i = 0; i < ADC_COLUMNS; i++) {
-    code[i] = (uint16_t)(ring[t].lo[i] | ((hi & 3u) << 8));
-    hi >>= 2;
-  }
+  for (i = 0; i < ADC_COLUMNS; i++)
+    code[i] = adc_oldest(i);
   return 1;
 }
 
@@ -137,6 +131,8 @@ uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES])
 
 void adc_discard(void)
 {
+  if (isr_drops)
+    fold_drops(); /* once per set: the ISRs' 8-bit count never saturates */
   if (ring_tail != ring_head)
     ring_tail = ring_next(ring_tail);
 }
