@@ -43,13 +43,11 @@ static uint8_t *acc_ext(allan_t *a, uint8_t ch, uint8_t level);
 /* A carry out of bit 31 ripples into bits 32..39, then 40..47 where the
  * level has them; past its width the accumulator saturates.  Out of line:
  * it runs once per 2^32 of accumulated squares at most. */
-static __attribute__((noinline)) void cell_carry(allan_t *a, uint8_t ch, uint8_t level, uint8_t carry)
+static __attribute__((noinline)) void cell_carry(allan_t *a, uint8_t ch, uint8_t level)
 {
   allan_cell_t *c = &a->cell[ch][level];
   uint8_t *ext = acc_ext(a, ch, level);
-  uint16_t mid = (uint16_t)(c->acc_mid + carry);
-  c->acc_mid = (uint8_t)mid;
-  if (mid >> 8) {
+  if (++c->acc_mid == 0) {
     if (!ext || *ext == 0xFF)
       cell_saturate(c, ext);
     else
@@ -89,20 +87,25 @@ static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ex
   c->acc_mid = (uint8_t)up;
 }
 
-/* acc += d^2, saturating at the accumulator's width.  The common case, every
- * level-0 pair and nearly all others, is one 16x16 multiply and a 32-bit
- * add. */
+/* acc += d^2 for d < 2^16, the common case (every level-0 pair and nearly
+ * all others): one 16x16 multiply and a 32-bit add. */
+static inline __attribute__((always_inline)) void cell_add_small(allan_t *a, uint8_t ch, uint8_t level,
+                                                                  allan_cell_t *c, uint16_t d)
+{
+  uint32_t sq = (uint32_t)d * d;
+  uint32_t lo = c->acc_lo + sq;
+  c->acc_lo = lo;
+  if (lo < sq)
+    cell_carry(a, ch, level);
+}
+
+/* acc += d^2, saturating at the accumulator's width. */
 static void cell_add_square(allan_t *a, uint8_t ch, uint8_t level, allan_cell_t *c, uint32_t d)
 {
-  if (d < 0x10000ul) {
-    uint32_t sq = (uint32_t)(uint16_t)d * (uint16_t)d;
-    uint32_t lo = c->acc_lo + sq;
-    c->acc_lo = lo;
-    if (lo < sq)
-      cell_carry(a, ch, level, 1);
-  } else {
+  if (d < 0x10000ul)
+    cell_add_small(a, ch, level, c, (uint16_t)d);
+  else
     cell_add_wide(c, acc_ext(a, ch, level), d);
-  }
 }
 
 static uint8_t *acc_ext(allan_t *a, uint8_t ch, uint8_t level)
@@ -162,14 +165,8 @@ static inline __attribute__((always_inline)) allan_sum_t narrow_step(allan_t *a,
                                                                       allan_cell_t *c, uint16_t v)
 {
   uint16_t last = c->sum_lo;
-  if (k != a->first) {
-    uint16_t d = v >= last ? v - last : last - v;
-    uint32_t sq = (uint32_t)d * d;
-    uint32_t lo = c->acc_lo + sq;
-    c->acc_lo = lo;
-    if (lo < sq)
-      cell_carry(a, ch, k, 1);
-  }
+  if (k != a->first)
+    cell_add_small(a, ch, k, c, v >= last ? v - last : last - v);
   c->sum_lo = v;
   return (allan_sum_t)v + last;
 }

@@ -44,7 +44,6 @@ static volatile uint8_t tx_buf[UART_TX_SIZE];
 static volatile uint8_t tx_head, tx_tail;
 static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
-static volatile uint8_t rx_lost;
 static volatile uint8_t rx_gap = 0xFF; /* ring index where bytes went missing; 0xFF: none */
 
 static uint8_t tx_next(uint8_t i)
@@ -103,11 +102,6 @@ uint8_t uart_rx_pending(void)
   return rx_head != rx_tail;
 }
 
-uint8_t uart_rx_overruns(void)
-{
-  return rx_lost;
-}
-
 ISR(USART_UDRE_vect)
 {
   uint8_t t = tx_tail;
@@ -123,8 +117,6 @@ ISR(USART_RX_vect)
   uint8_t c = UDR0;
   uint8_t next = (uint8_t)((rx_head + 1u) & (UART_RX_SIZE - 1u));
   if (next == rx_tail) {
-    if (rx_lost != 0xFF)
-      rx_lost++;
     if (rx_gap == 0xFF)
       rx_gap = rx_head; /* the next byte stored there follows a gap */
     return;

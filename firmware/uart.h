@@ -24,7 +24,4 @@ int16_t uart_read(void);
 /* 1 when a received byte waits in the RX ring. */
 uint8_t uart_rx_pending(void);
 
-/* Bytes lost because the RX ring was full (since boot, saturating). */
-uint8_t uart_rx_overruns(void);
-
 #endif /* UART_H */
