@@ -34,13 +34,6 @@ FW_LDFLAGS := -mmcu=$(MCU) -Os -flto -Wl,--gc-sections -Wl,--section-start=.mmcu
 FW_CFLAGS += $(FW_EXTRA)
 FW_LDFLAGS += $(FW_EXTRA)
 
-# simavr's .mmcu section header, when installed (the harness reads the MCU
-# and clock from it; the section is not flashed).
-ifneq ($(wildcard /usr/include/simavr/avr/avr_mcu_section.h),)
-FW_CFLAGS += -idirafter /usr/include/simavr -DHAVE_SIMAVR_SECTION
-FW_LDFLAGS += -Wl,--undefined=_mmcu
-endif
-
 HOST_CC ?= cc
 HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
 
@@ -129,9 +122,9 @@ demo: firmware $(IMU_SIM)
 # The engine alone, natively, on 2^20 synthetic samples.
 NATIVE_DEMO := $(BUILD)/host/allan-demo
 
-$(NATIVE_DEMO): sim/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)/config.h
+$(NATIVE_DEMO): tools/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)/config.h
 	mkdir -p $(dir $@)
-	$(HOST_CC) $(HOST_CFLAGS) sim/allan_demo.c $(FW_DIR)/allan.c -lm -o $@
+	$(HOST_CC) $(HOST_CFLAGS) tools/allan_demo.c $(FW_DIR)/allan.c -lm -o $@
 
 demo-native: $(NATIVE_DEMO)
 	$(NATIVE_DEMO)

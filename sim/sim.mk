@@ -1,6 +1,6 @@
 # sim/sim.mk - imu-sim, the simavr harness that runs the firmware ELF on
-# ADC rows (included by the top-level Makefile: BUILD, HOST_CC, ELF come
-# from it).
+# ADC rows, and the simavr section of the firmware ELF (included by the
+# top-level Makefile: BUILD, HOST_CC, ELF, FW_* and AVR_CC come from it).
 #   make sim          build $(BUILD)/host/imu-sim
 #   make sim-term     the simulated device on a pseudo-terminal, for a
 #                     serial terminal or the host tools (Ctrl-C ends it)
@@ -10,9 +10,25 @@
 # (`make` alone builds the firmware): remember it, restored at the end.
 SIM_MK_DEFAULT_GOAL := $(.DEFAULT_GOAL)
 
+# simavr's .mmcu section (sim/simavr_section.c), linked into the firmware
+# ELF when simavr's header is installed: the harness reads the MCU and
+# clock from it; the section is not flashed.
+ifneq ($(wildcard /usr/include/simavr/avr/avr_mcu_section.h),)
+FW_CFLAGS += -idirafter /usr/include/simavr -DHAVE_SIMAVR_SECTION
+FW_LDFLAGS += -Wl,--undefined=_mmcu
+endif
+FW_OBJ += $(FW_BUILD)/simavr_section.o
+
+$(FW_BUILD)/simavr_section.o: sim/simavr_section.c | $(FW_BUILD)
+	$(AVR_CC) $(FW_CFLAGS) -I$(FW_DIR) -c $< -o $@
+
 IMU_SIM := $(BUILD)/host/imu-sim
-IMU_SIM_SRC := sim/imu_sim.c sim/sim_rows.c sim/sim_term.c
-IMU_SIM_HDR := sim/sim_rows.h sim/sim_term.h
+# The harness's rooms (harness.h lists them), and the firmware's own CRC.
+IMU_SIM_SRC := $(addprefix sim/,imu_sim.c sim_cli.c sim_msg.c sim_serial.c \
+               sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_rows.c \
+               sim_term.c sim_err.c) $(FW_DIR)/crc.c
+IMU_SIM_HDR := $(addprefix sim/,harness.h sim_rows.h sim_term.h sim_err.h) \
+               $(FW_DIR)/crc.h
 
 # simavr's headers include each other as "sim_avr.h", so their directory
 # goes on the include path; as -isystem, so that -Werror spares them.
@@ -22,7 +38,7 @@ SIMAVR_CFLAGS := -isystem /usr/include/simavr
 endif
 # libsimavr itself only needs libelf; imu-sim reads the ELF's symbols with
 # libelf too, and the synthetic IMU needs libm.
-IMU_SIM_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror $(SIMAVR_CFLAGS)
+IMU_SIM_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR) $(SIMAVR_CFLAGS)
 IMU_SIM_LIBS := -lsimavr -lelf -lm
 
 # sim-term: where the terminal link goes, and extra imu-sim options

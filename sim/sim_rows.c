@@ -3,23 +3,13 @@
  */
 #define _GNU_SOURCE
 #include "sim_rows.h"
+#include "sim_err.h"
 
 #include <ctype.h>
 #include <errno.h>
-#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-
-static void fail(char *err, size_t errlen, const char *fmt, ...)
-  __attribute__((format(printf, 3, 4)));
-static void fail(char *err, size_t errlen, const char *fmt, ...)
-{
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(err, errlen, fmt, ap);
-  va_end(ap);
-}
 
 /* Strip the line ending and a trailing comment; 1 if anything but blanks
  * is left.  A line starting with '$' is a protocol line (a raw capture of
@@ -52,7 +42,7 @@ static int parse_row(rows_t *r, char *s, uint16_t code[ROW_COLUMNS],
     n++;
   }
   if (n != ROW_COLUMNS) {
-    fail(err, errlen, "%s:%lu: expected %d columns, got %d",
+    err_set(err, errlen, "%s:%lu: expected %d columns, got %d",
          r->name, r->line, ROW_COLUMNS, n);
     return -1;
   }
@@ -61,12 +51,12 @@ static int parse_row(rows_t *r, char *s, uint16_t code[ROW_COLUMNS],
     errno = 0;
     long v = strtol(tok[i], &end, 10);
     if (*end || end == tok[i] || errno) {
-      fail(err, errlen, "%s:%lu: column %d: '%.20s' is not an integer",
+      err_set(err, errlen, "%s:%lu: column %d: '%.20s' is not an integer",
            r->name, r->line, i + 1, tok[i]);
       return -1;
     }
     if (v < 0 || v > ROW_CODE_MAX) {
-      fail(err, errlen, "%s:%lu: column %d: %ld is outside 0..%d",
+      err_set(err, errlen, "%s:%lu: column %d: %ld is outside 0..%d",
            r->name, r->line, i + 1, v, ROW_CODE_MAX);
       return -1;
     }
@@ -81,7 +71,7 @@ int rows_next(rows_t *r, uint16_t code[ROW_COLUMNS], char *err, size_t errlen)
     ssize_t len = getline(&r->buf, &r->cap, r->f);
     if (len < 0) {
       if (ferror(r->f)) {
-        fail(err, errlen, "%s: read error: %s", r->name, strerror(errno));
+        err_set(err, errlen, "%s: read error: %s", r->name, strerror(errno));
         return -1;
       }
       return 0;
@@ -105,7 +95,7 @@ int rows_open(rows_t *r, const char *path, uint64_t *nrows,
     r->name = path;
     r->f = fopen(path, "r");
     if (!r->f) {
-      fail(err, errlen, "%s: %s", path, strerror(errno));
+      err_set(err, errlen, "%s: %s", path, strerror(errno));
       return -1;
     }
   }
@@ -115,19 +105,19 @@ int rows_open(rows_t *r, const char *path, uint64_t *nrows,
     char chunk[65536];
     size_t n;
     if (!tmp) {
-      fail(err, errlen, "%s: cannot create a temporary file: %s",
+      err_set(err, errlen, "%s: cannot create a temporary file: %s",
            r->name, strerror(errno));
       return -1;
     }
     while ((n = fread(chunk, 1, sizeof chunk, r->f)) > 0)
       if (fwrite(chunk, 1, n, tmp) != n) {
-        fail(err, errlen, "%s: cannot spool to a temporary file: %s",
+        err_set(err, errlen, "%s: cannot spool to a temporary file: %s",
              r->name, strerror(errno));
         fclose(tmp);
         return -1;
       }
     if (ferror(r->f)) {
-      fail(err, errlen, "%s: read error: %s", r->name, strerror(errno));
+      err_set(err, errlen, "%s: read error: %s", r->name, strerror(errno));
       fclose(tmp);
       return -1;
     }
@@ -145,7 +135,7 @@ int rows_open(rows_t *r, const char *path, uint64_t *nrows,
   if (got < 0)
     return -1;
   if (!n) {
-    fail(err, errlen, "%s: no data rows", r->name);
+    err_set(err, errlen, "%s: no data rows", r->name);
     return -1;
   }
   rewind(r->f);
@@ -157,7 +147,7 @@ int rows_open(rows_t *r, const char *path, uint64_t *nrows,
 int rows_rewind(rows_t *r, char *err, size_t errlen)
 {
   if (fseek(r->f, 0, SEEK_SET)) {
-    fail(err, errlen, "%s: cannot rewind: %s", r->name, strerror(errno));
+    err_set(err, errlen, "%s: cannot rewind: %s", r->name, strerror(errno));
     return -1;
   }
   clearerr(r->f);
@@ -181,6 +171,59 @@ static int hexval(int c)
   return -1;
 }
 
+/* The text of a timed-input line with its escapes decoded, into a new
+ * buffer (length in *len); NULL with err set on a bad escape. */
+static uint8_t *unescape(const char *p, size_t *len, const char *name,
+                         unsigned long line, char *err, size_t errlen)
+{
+  uint8_t *b = malloc(strlen(p) + 1);
+  size_t k = 0;
+  if (!b) {
+    err_set(err, errlen, "%s: out of memory", name);
+    return NULL;
+  }
+  while (*p) {
+    if (*p != '\\') {
+      b[k++] = (uint8_t)*p++;
+      continue;
+    }
+    p++;
+    switch (*p) {
+    case 'r': b[k++] = '\r'; p++; break;
+    case 'n': b[k++] = '\n'; p++; break;
+    case 't': b[k++] = '\t'; p++; break;
+    case '0': b[k++] = 0; p++; break;
+    case '\\': case '"': case '\'': b[k++] = (uint8_t)*p++; break;
+    case 'x': {
+      int h1 = hexval(p[1]), h2 = h1 < 0 ? -1 : hexval(p[2]);
+      if (h1 < 0) {
+        free(b);
+        err_set(err, errlen, "%s:%lu: \\x needs hex digits", name, line);
+        return NULL;
+      }
+      if (h2 < 0) {
+        b[k++] = (uint8_t)h1;
+        p += 2;
+      } else {
+        b[k++] = (uint8_t)(h1 * 16 + h2);
+        p += 3;
+      }
+      break;
+    }
+    default:
+      free(b);
+      if (*p)
+        err_set(err, errlen, "%s:%lu: unknown escape '\\%c' (use \\r \\n "
+                "\\t \\\\ \\xNN)", name, line, *p);
+      else
+        err_set(err, errlen, "%s:%lu: line ends with a lone '\\'", name, line);
+      return NULL;
+    }
+  }
+  *len = k;
+  return b;
+}
+
 long uart_in_load(const char *path, uart_in_t **out, char *err, size_t errlen)
 {
   FILE *f = strcmp(path, "-") ? fopen(path, "r") : stdin;
@@ -193,7 +236,7 @@ long uart_in_load(const char *path, uart_in_t **out, char *err, size_t errlen)
   unsigned long line = 0;
 
   if (!f) {
-    fail(err, errlen, "%s: %s", path, strerror(errno));
+    err_set(err, errlen, "%s: %s", path, strerror(errno));
     return -1;
   }
   while ((len = getline(&buf, &bcap, f)) >= 0) {
@@ -214,7 +257,7 @@ long uart_in_load(const char *path, uart_in_t **out, char *err, size_t errlen)
     if (*p++ != '\t')
       goto bad_format;
     if (n && idx < v[n - 1].index) {
-      fail(err, errlen, "%s:%lu: sample index %llu is below the previous "
+      err_set(err, errlen, "%s:%lu: sample index %llu is below the previous "
            "line's %llu (lines must be in time order)", name, line,
            (unsigned long long)idx, (unsigned long long)v[n - 1].index);
       goto error;
@@ -223,54 +266,14 @@ long uart_in_load(const char *path, uart_in_t **out, char *err, size_t errlen)
       cap = cap ? 2 * cap : 16;
       v = realloc(v, (size_t)cap * sizeof *v);
       if (!v) {
-        fail(err, errlen, "%s: out of memory", name);
+        err_set(err, errlen, "%s: out of memory", name);
         goto error;
       }
     }
-    uint8_t *b = malloc(strlen(p) + 1);
-    size_t k = 0;
-    if (!b) {
-      fail(err, errlen, "%s: out of memory", name);
+    size_t k;
+    uint8_t *b = unescape(p, &k, name, line, err, errlen);
+    if (!b)
       goto error;
-    }
-    while (*p) {
-      if (*p != '\\') {
-        b[k++] = (uint8_t)*p++;
-        continue;
-      }
-      p++;
-      switch (*p) {
-      case 'r': b[k++] = '\r'; p++; break;
-      case 'n': b[k++] = '\n'; p++; break;
-      case 't': b[k++] = '\t'; p++; break;
-      case '0': b[k++] = 0; p++; break;
-      case '\\': case '"': case '\'': b[k++] = (uint8_t)*p++; break;
-      case 'x': {
-        int h1 = hexval(p[1]), h2 = h1 < 0 ? -1 : hexval(p[2]);
-        if (h1 < 0) {
-          free(b);
-          fail(err, errlen, "%s:%lu: \\x needs hex digits", name, line);
-          goto error;
-        }
-        if (h2 < 0) {
-          b[k++] = (uint8_t)h1;
-          p += 2;
-        } else {
-          b[k++] = (uint8_t)(h1 * 16 + h2);
-          p += 3;
-        }
-        break;
-      }
-      default:
-        free(b);
-        if (*p)
-          fail(err, errlen, "%s:%lu: unknown escape '\\%c' (use \\r \\n "
-               "\\t \\\\ \\xNN)", name, line, *p);
-        else
-          fail(err, errlen, "%s:%lu: line ends with a lone '\\'", name, line);
-        goto error;
-      }
-    }
     v[n].index = idx;
     v[n].bytes = b;
     v[n].len = k;
@@ -278,11 +281,11 @@ long uart_in_load(const char *path, uart_in_t **out, char *err, size_t errlen)
     n++;
     continue;
   bad_format:
-    fail(err, errlen, "%s:%lu: expected <sample_index><TAB><text>", name, line);
+    err_set(err, errlen, "%s:%lu: expected <sample_index><TAB><text>", name, line);
     goto error;
   }
   if (ferror(f)) {
-    fail(err, errlen, "%s: read error: %s", name, strerror(errno));
+    err_set(err, errlen, "%s: read error: %s", name, strerror(errno));
     goto error;
   }
   if (f != stdin)

@@ -3,28 +3,18 @@
  */
 #define _GNU_SOURCE
 #include "sim_term.h"
+#include "sim_err.h"
 
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
 #include <poll.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
-
-static void fail(char *err, size_t errlen, const char *fmt, ...)
-  __attribute__((format(printf, 3, 4)));
-static void fail(char *err, size_t errlen, const char *fmt, ...)
-{
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(err, errlen, fmt, ap);
-  va_end(ap);
-}
 
 /* ---- pseudo-terminal -------------------------------------------------- */
 
@@ -34,12 +24,12 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen)
   memset(p, 0, sizeof *p);
   p->master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
   if (p->master < 0) {
-    fail(err, errlen, "cannot create a pseudo-terminal: %s", strerror(errno));
+    err_set(err, errlen, "cannot create a pseudo-terminal: %s", strerror(errno));
     return -1;
   }
   if (grantpt(p->master) || unlockpt(p->master) ||
       ptsname_r(p->master, p->slave, sizeof p->slave)) {
-    fail(err, errlen, "cannot set up the pseudo-terminal: %s", strerror(errno));
+    err_set(err, errlen, "cannot set up the pseudo-terminal: %s", strerror(errno));
     goto error;
   }
   /* Raw mode on the slave: echo there would send the device's own output
@@ -48,7 +38,7 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen)
    * how pty_state() tells whether one is there. */
   int s = open(p->slave, O_RDWR | O_NOCTTY);
   if (s < 0) {
-    fail(err, errlen, "%s: %s", p->slave, strerror(errno));
+    err_set(err, errlen, "%s: %s", p->slave, strerror(errno));
     goto error;
   }
   if (tcgetattr(s, &t) == 0) {
@@ -63,7 +53,7 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen)
     struct stat st;
     char tmp[4096];
     if (lstat(link, &st) == 0 && !S_ISLNK(st.st_mode)) {
-      fail(err, errlen, "--link %s: exists and is not a symbolic link", link);
+      err_set(err, errlen, "--link %s: exists and is not a symbolic link", link);
       close(p->master);
       p->master = -1;
       return -2;
@@ -71,7 +61,7 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen)
     snprintf(tmp, sizeof tmp, "%s.%ld.tmp", link, (long)getpid());
     unlink(tmp);
     if (symlink(p->slave, tmp) || rename(tmp, link)) {
-      fail(err, errlen, "--link %s: %s", link, strerror(errno));
+      err_set(err, errlen, "--link %s: %s", link, strerror(errno));
       unlink(tmp);
       close(p->master);
       p->master = -1;

@@ -1,0 +1,182 @@
+/*
+ * harness.h - imu-sim's shared state and the calls between its rooms:
+ *   imu_sim.c       main: set-up, the run, the outcome
+ *   sim_cli.c       the command line (--help, options)
+ *   sim_msg.c       messages: warnings, fatal errors, run failures, simavr's log
+ *   sim_serial.c    the UART: host bytes paced at the baud rate, device bytes
+ *                   captured and framed into checked protocol lines
+ *   sim_drive.c     the batch run: stop, rate, reset, start, report
+ *   sim_adc.c       ADC conversions served from input rows
+ *   sim_measure.c   cycles of marked code, stack depth, the figures (--stats)
+ *   sim_termrun.c   terminal mode (--pty): the port on a pty, real-time pacing
+ * and the helpers sim_rows.c (input files), sim_term.c (pty, synthetic IMU),
+ * sim_err.c (error-buffer formatting).
+ */
+#ifndef HARNESS_H
+#define HARNESS_H
+
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <time.h>
+
+#include "sim_avr.h"
+#include "avr_adc.h"
+#include "avr_uart.h"
+
+#include "sim_rows.h"
+#include "sim_term.h"
+
+#define PROG "imu-sim"
+#define NEUTRAL_CODE 512
+#define ROW_WIN 64          /* rows kept for channels that lag behind */
+#define LINE_MAX_LEN 256    /* protocol bodies are at most 200 chars */
+#define PAINT 0xA5          /* SRAM fill for the stack high-water mark */
+#define LOG_CAP 20          /* simavr messages shown without -v */
+
+enum { EXIT_OK = 0, EXIT_FAIL = 1, EXIT_INPUT = 2, EXIT_TIMEOUT = 3 };
+
+/* Harness states: each but RUN and DONE waits for one device line.
+ * TERM: terminal mode (--pty), where the user drives the device. */
+enum { ST_BOOT, ST_STOP, ST_RATE, ST_RESET, ST_START, ST_RUN,
+       ST_REPORT_H, ST_REPORT_E, ST_DRAIN, ST_DONE, ST_TERM };
+
+typedef struct {
+  int level;
+  avr_cycle_count_t rise;
+  int seen_rise;
+  uint64_t count;
+  uint64_t sum, max;
+} pulse_t;
+
+typedef struct {
+  /* options */
+  const char *adc_path, *uart_in_path, *out_path, *stats_json, *elf_path;
+  const char *eeprom_path;
+  const char *mcu;
+  uint32_t freq;
+  unsigned fs;
+  double timeout_s;
+  int stats_text, verbose;
+  /* terminal mode */
+  int pty, synthetic, fast, realtime, no_wait, timeout_set;
+  const char *link_path;
+  uint64_t seed;
+
+  avr_t *avr;
+  avr_adc_t *adc;
+  avr_uart_t *uart;
+  avr_irq_t *adc_irq, *uart_irq;
+
+  /* protocol state */
+  int state;
+  avr_cycle_count_t deadline, timeout_cycles;
+  int fail;                   /* exit code of a failure found in a callback */
+  char fail_msg[320];
+
+  /* ADC rows */
+  rows_t rows;
+  synth_t synth;
+  uint64_t nrows, loaded, file_rows, file_loops;
+  uint16_t win[ROW_WIN][ROW_COLUMNS];
+  int armed, rows_done, order_warned, ref_warned, mux_warned;
+  uint64_t conv[ROW_COLUMNS];
+  uint64_t extra_conv, extra_scans, stray_conv, other_conv, neutral_conv;
+  uint16_t last_code;
+
+  /* host -> device bytes */
+  uint8_t *txq;
+  size_t txq_head, txq_len, txq_cap;
+  int tx_busy, xoff;
+  avr_cycle_count_t tx_free_at;
+  uint64_t bytes_in, bytes_lost, xoffs;
+  uart_in_t *uin;
+  long nuin, uin_next;
+  size_t user_line_len;
+
+  /* device -> host bytes */
+  FILE *out;
+  uint64_t bytes_out;
+  char line[LINE_MAX_LEN];
+  int line_len, in_line;
+  uint64_t bad_crc, bad_frame, boots;
+  unsigned long report_seq;
+  long long dev_n, dev_drops;
+
+  /* measurements */
+  pulse_t pb0, pb1, pb2;
+  avr_cycle_count_t slept;
+  uint16_t bss_end;
+  uint16_t sp_min;            /* lowest stack pointer seen */
+  uint32_t sp_min_pc;         /* program counter (bytes) when it was seen */
+  double wall_s;
+
+  /* simavr log */
+  char last_error[200];
+  int log_shown;
+  int log_quiet;
+  uint64_t errors;
+} harness_t;
+
+/* The one harness state (defined in imu_sim.c). */
+extern harness_t g;
+
+/* ---- sim_msg.c ---------------------------------------------------------- */
+void warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void die(int code, const char *fmt, ...)
+  __attribute__((format(printf, 2, 3), noreturn));
+/* A failure found inside a simavr callback: the run loop stops on it. */
+void fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+double sim_time(void);
+void logger(avr_t *avr, const int level, const char *fmt, va_list ap);
+
+/* ---- sim_cli.c ---------------------------------------------------------- */
+void parse_args(int argc, char **argv);
+
+/* ---- sim_serial.c ------------------------------------------------------- */
+avr_cycle_count_t byte_cycles(void);
+void tx_push(const uint8_t *b, size_t n);
+void send_cmd(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void send_user(const uart_in_t *u);
+void serial_connect(void);     /* hooks the UART's IRQs */
+
+/* ---- sim_drive.c -------------------------------------------------------- */
+uint64_t rows_consumed(void);
+void release_uart_in(void);
+void set_state(int st);
+void finish_run(void);
+void on_line(char *body, size_t len, int crc_ok);
+int drive_run(void);           /* the batch run; returns avr_run()'s state */
+void drive_summary(int code);  /* warnings about the run, at its end */
+
+/* ---- sim_adc.c ---------------------------------------------------------- */
+void adc_connect(void);        /* hooks the ADC's trigger */
+
+/* ---- sim_measure.c ------------------------------------------------------ */
+void measure_connect(void);    /* hooks PB0..PB2 and the sleep callback */
+int elf_is_avr(const char *path);
+uint16_t elf_bss_end(const char *path);
+void print_stats(int json);
+
+/* The lowest stack pointer, checked after every instruction (inline: it
+ * runs once per simulated instruction). */
+static inline void watch_sp(void)
+{
+  avr_t *avr = g.avr;
+  uint16_t sp = (uint16_t)(avr->data[R_SPL] | avr->data[R_SPH] << 8);
+  if (sp < g.sp_min) {
+    g.sp_min = sp;
+    g.sp_min_pc = avr->pc;
+  }
+}
+
+/* ---- sim_termrun.c ------------------------------------------------------ */
+void term_open(void);          /* the pty, its link and the info stream */
+void term_out(uint8_t c);
+int term_run(void);
+void term_started(struct timespec *t0);  /* when the device powered up */
+void term_summary(int st);
+void term_close(void);
+
+#endif /* HARNESS_H */

@@ -1,0 +1,271 @@
+/*
+ * sim_cli.c - imu-sim's command line: --help and the options into g.
+ */
+#include "harness.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* --help: the batch run and its options, terminal mode, the figures. */
+static const char usage_run[] =
+"Usage: imu-sim [options] --adc FILE ELF\n"
+"       imu-sim --pty [--link PATH] (--adc FILE | --synthetic) [--fast] ELF\n"
+"\n"
+"Run the imu-allan firmware ELF on a simulated AVR (simavr), feed its ADC\n"
+"the rows of FILE and capture what it sends on its serial port.  With\n"
+"--pty the serial port is a pseudo-terminal instead, for a person or a\n"
+"program to drive the device (see Terminal mode below).\n"
+"\n"
+"What happens (without --pty):\n"
+"  1. The firmware boots and samples at once; every conversion reads the\n"
+"     neutral code 512 until the harness is armed.\n"
+"  2. After the device's boot line ($B) the harness sends 'stop' and waits\n"
+"     for its '$ok'; from then on the i-th conversion of ADC mux channel j\n"
+"     reads column j of row i, exactly (j = 0..6: ax ay az gx gy gz temp).\n"
+"  3. It sends 'rate HZ' (with --fs), 'reset' and 'start R', R being the\n"
+"     number of rows, each after the previous one's '$ok'.\n"
+"  4. Once mux 6 of the last row was converted, it sends 'report', waits\n"
+"     for the end line ($E) of the report that follows the reply and\n"
+"     exits 0.  Conversions after the last row read the last row again and\n"
+"     are reported as a warning (the device dropped samples).\n"
+"Host bytes go to the device at the firmware's baud rate (one byte time\n"
+"each), honouring simavr's receive FIFO flow control.  Simulated time\n"
+"runs as fast as the host can go; idle (sleep) time costs nothing.\n"
+"\n"
+"Options:\n"
+"  --adc FILE        ADC rows, '-' for stdin (required without --pty).  One\n"
+"                    row per line: 7 integer codes 0..1023 separated by\n"
+"                    tabs or spaces; blank lines, '#' comments (whole line\n"
+"                    or trailing) and lines starting with '$' (the count\n"
+"                    lines and replies in a capture of the device's 'mode\n"
+"                    raw' output, which replays as is) are skipped.  The whole\n"
+"                    file is checked before the simulation starts (stdin is\n"
+"                    copied to a temporary file for that); a bad row stops\n"
+"                    with 'imu-sim: FILE:LINE: reason' (LINE: line number\n"
+"                    in the file) and exit status 2.  Codes of mux channels\n"
+"                    other than 0..6 read 0 (with a warning).\n"
+"  --fs HZ           send 'rate HZ' before 'reset' (default: firmware's rate)\n"
+"  --uart-in FILE    timed host input ('-' for stdin).  Lines\n"
+"                    '<N><TAB><text>': text is sent once N rows have been\n"
+"                    consumed, i.e. mux 6 of row N-1 was converted (N=0:\n"
+"                    right after 'start' was acknowledged); N must not\n"
+"                    decrease from line to line.\n"
+"                    Text is sent as is, with escapes \\r \\n \\t \\\\ \\xNN;\n"
+"                    end a command with \\r yourself (e.g. '500<TAB>report\\r').\n"
+"                    '#' lines and blank lines are skipped.  Replies to these\n"
+"                    commands are only captured, never acted upon.\n"
+"  -o, --output FILE everything the device sends, bytes as they are\n"
+"                    (default: stdout)\n"
+"  --mcu NAME        MCU (default: from the ELF's .mmcu section, else\n"
+"                    atmega168)\n"
+"  --freq HZ         CPU clock (default: from .mmcu, else 10000000)\n"
+"  --timeout SEC     simulated seconds to wait for each expected line, and\n"
+"                    for each row while sampling (default 5)\n"
+"  --stats           print measured figures on stderr, one 'key value' a line\n"
+"  --stats-json FILE the same figures as a JSON object in FILE\n"
+"                    (--stats=FILE is the same as --stats-json FILE)\n"
+"  -v, --verbose     show simavr's own output and all its warnings;\n"
+"                    -vv adds simavr trace messages\n"
+"  -h, --help        this text\n"
+"\n"
+;
+
+static const char usage_term[] =
+"Terminal mode:\n"
+"  --pty             the device's serial port on a new pseudo-terminal; its\n"
+"                    path goes to stdout ('imu-sim: device on /dev/pts/N').\n"
+"                    The harness sends no command of its own: the firmware\n"
+"                    boots, samples at its defaults and answers whoever\n"
+"                    writes to the terminal (picocom -b 115200 PATH,\n"
+"                    imu-allan monitor --port PATH, pyserial; the baud\n"
+"                    rate set on the terminal does not matter).  Every\n"
+"                    conversion reads the next input row, from the first.\n"
+"                    The device powers up when a terminal first opens the\n"
+"                    port (0.2 s later, so that it sees the boot line), and\n"
+"                    runs until SIGINT, SIGTERM or SIGHUP (exit 0); a\n"
+"                    terminal may close and open it again meanwhile.\n"
+"                    What the device sends while no terminal is open is\n"
+"                    lost, as on a serial line with nothing attached.\n"
+"                    Typed or pasted bytes reach the device one byte time\n"
+"                    apart at the firmware's baud rate, honouring simavr's\n"
+"                    receive FIFO flow control; a long paste waits in the\n"
+"                    pty, not in the device.\n"
+"  --link PATH       also make a symbolic link PATH -> the pty (replacing a\n"
+"                    symlink already there); removed at exit\n"
+"  --adc FILE        rows as above, served in order and again from the\n"
+"                    first row after the last\n"
+"  --synthetic       rows from a built-in IMU instead: seeded white noise,\n"
+"                    codes ax ay az gx gy gz temp around 498 494 791 520\n"
+"                    497 498 63, sigma 2.0 2.5 1.7 0.9 0.67 0.57 0.5 counts\n"
+"  --seed N          seed of --synthetic (default 1)\n"
+"  --realtime        simulated time follows the wall clock, idle time too:\n"
+"                    100 Hz is 100 samples a second, a 60 s report interval\n"
+"                    is a minute (default).  A host too slow for that\n"
+"                    gets a warning, and simulated time falls behind.\n"
+"  --fast            simulated time runs as fast as the host can go (some\n"
+"                    200 times real time while sampling); device output\n"
+"                    then waits for the terminal to read it, instead of\n"
+"                    being lost when it does not\n"
+"  --no-wait         power up at once, not when a terminal opens the port\n"
+"  --eeprom FILE     EEPROM contents at power-up, from address 0 (raw bytes;\n"
+"                    the rest reads 0xFF, as on a blank chip)\n"
+"  -o FILE           also keep a copy of everything the device sends\n"
+"  --fs, --uart-in and --timeout do not apply.\n"
+
+"\n"
+;
+
+static const char usage_figures[] =
+"Figures (--stats):\n"
+"  sample_cycles_mean/max, sample_count  CPU cycles PB0 stays high (the\n"
+"                    firmware raises it while it handles one sample set)\n"
+"  isr_cycles_mean/max, isr_count        the same for PB1 (ADC interrupt)\n"
+"  allan_cycles_mean/max, allan_count    the same for PB2 (high around each\n"
+"                                        call into the Allan engine)\n"
+"  cpu_busy_fraction 1 - slept cycles / total cycles\n"
+"  stack_used_bytes, stack_free_bytes    SRAM is filled with 0xA5 before the\n"
+"                    run; the lowest overwritten byte above the end of .bss\n"
+"                    (__heap_start, else _end) marks the deepest stack;\n"
+"                    free = bytes between the end of .bss and that byte\n"
+"  stack_sp_min, stack_sp_depth_bytes    lowest stack pointer seen (checked\n"
+"                    after every instruction) and RAMEND minus it: counts\n"
+"                    reserved but unwritten frames too; below .bss = overflow\n"
+"  sim_seconds, wall_seconds, sim_speed_x  simulated and host time of the\n"
+"                    simulation, and their ratio\n"
+"  rows_consumed, extra_scans, device_n, device_drops (from the final $H),\n"
+"  uart_bytes_in/out, uart_xoff_events (simavr's receive FIFO was full),\n"
+"  bad_crc_lines, cycles_total, cycles_slept\n"
+"  Unmeasured figures are null.\n"
+"\n"
+"Exit status: 0 done; 1 firmware crash or halt, device error reply, or\n"
+"another run failure; 2 bad command line or input file; 3 the device did\n"
+"not answer within --timeout simulated seconds.  Failures print one line.\n"
+"With --pty: 0 after SIGINT, SIGTERM or SIGHUP; 1 firmware crash or halt,\n"
+"or no pty; 2 bad command line, input file or --link PATH.\n";
+
+static void usage(FILE *f)
+{
+  fputs(usage_run, f);
+  fputs(usage_term, f);
+  fputs(usage_figures, f);
+}
+
+static unsigned long parse_ulong(const char *s, const char *opt)
+{
+  char *end;
+  errno = 0;
+  unsigned long v = strtoul(s, &end, 0);
+  if (!*s || *end || errno || *s == '-')
+    die(EXIT_INPUT, "%s: '%s' is not a positive integer (see --help)", opt, s);
+  return v;
+}
+
+/* Options that exclude each other or need another. */
+static void check_args(void)
+{
+  if (!g.pty) {
+    const char *only = g.link_path ? "--link" : g.synthetic ? "--synthetic" :
+      g.fast ? "--fast" : g.realtime ? "--realtime" : g.no_wait ? "--no-wait" :
+      g.seed != 1 ? "--seed" : NULL;
+    if (only)
+      die(EXIT_INPUT, "%s only applies with --pty (see --help)", only);
+  } else {
+    const char *not = g.fs ? "--fs" : g.uart_in_path ? "--uart-in" :
+      g.timeout_set ? "--timeout" : NULL;
+    if (not)
+      die(EXIT_INPUT, "%s does not apply with --pty: the terminal drives "
+          "the device (see --help)", not);
+    if (g.fast && g.realtime)
+      die(EXIT_INPUT, "--fast and --realtime exclude each other");
+    if (g.synthetic && g.adc_path)
+      die(EXIT_INPUT, "--adc and --synthetic exclude each other");
+    if (!g.synthetic && !g.adc_path)
+      die(EXIT_INPUT, "--pty needs --adc FILE or --synthetic (see --help)");
+    return;
+  }
+  if (!g.adc_path)
+    die(EXIT_INPUT, "--adc FILE is required (see --help)");
+  if (g.fs && g.fs > 100000)
+    die(EXIT_INPUT, "--fs: %u Hz is not a sample rate", g.fs);
+  if (g.uart_in_path && !strcmp(g.uart_in_path, "-") && !strcmp(g.adc_path, "-"))
+    die(EXIT_INPUT, "--adc and --uart-in cannot both read stdin");
+}
+
+void parse_args(int argc, char **argv)
+{
+  enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
+         O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
+         O_NO_WAIT, O_EEPROM };
+  static const struct option opts[] = {
+    { "adc", required_argument, NULL, O_ADC },
+    { "fs", required_argument, NULL, O_FS },
+    { "uart-in", required_argument, NULL, O_UART_IN },
+    { "output", required_argument, NULL, 'o' },
+    { "mcu", required_argument, NULL, O_MCU },
+    { "freq", required_argument, NULL, O_FREQ },
+    { "timeout", required_argument, NULL, O_TIMEOUT },
+    { "stats", optional_argument, NULL, O_STATS },
+    { "stats-json", required_argument, NULL, O_STATS_JSON },
+    { "pty", no_argument, NULL, O_PTY },
+    { "link", required_argument, NULL, O_LINK },
+    { "synthetic", no_argument, NULL, O_SYNTHETIC },
+    { "seed", required_argument, NULL, O_SEED },
+    { "realtime", no_argument, NULL, O_REALTIME },
+    { "fast", no_argument, NULL, O_FAST },
+    { "no-wait", no_argument, NULL, O_NO_WAIT },
+    { "eeprom", required_argument, NULL, O_EEPROM },
+    { "verbose", no_argument, NULL, 'v' },
+    { "help", no_argument, NULL, 'h' },
+    { NULL, 0, NULL, 0 },
+  };
+  int c;
+  opterr = 0;
+  while ((c = getopt_long(argc, argv, ":o:vh", opts, NULL)) != -1) {
+    switch (c) {
+    case O_ADC: g.adc_path = optarg; break;
+    case O_FS: g.fs = (unsigned)parse_ulong(optarg, "--fs"); break;
+    case O_UART_IN: g.uart_in_path = optarg; break;
+    case 'o': g.out_path = optarg; break;
+    case O_MCU: g.mcu = optarg; break;
+    case O_FREQ: g.freq = (uint32_t)parse_ulong(optarg, "--freq"); break;
+    case O_TIMEOUT: {
+      char *end;
+      g.timeout_s = strtod(optarg, &end);
+      g.timeout_set = 1;
+      if (*end || !(g.timeout_s > 0))
+        die(EXIT_INPUT, "--timeout: '%s' is not a positive number of seconds",
+            optarg);
+      break;
+    }
+    case O_STATS:
+      if (optarg)
+        g.stats_json = optarg;
+      else
+        g.stats_text = 1;
+      break;
+    case O_STATS_JSON: g.stats_json = optarg; break;
+    case O_PTY: g.pty = 1; break;
+    case O_LINK: g.link_path = optarg; break;
+    case O_SYNTHETIC: g.synthetic = 1; break;
+    case O_SEED: g.seed = parse_ulong(optarg, "--seed"); break;
+    case O_REALTIME: g.realtime = 1; break;
+    case O_FAST: g.fast = 1; break;
+    case O_NO_WAIT: g.no_wait = 1; break;
+    case O_EEPROM: g.eeprom_path = optarg; break;
+    case 'v': g.verbose++; break;
+    case 'h': usage(stdout); exit(EXIT_OK);
+    case ':': die(EXIT_INPUT, "%s needs an argument (see --help)", argv[optind - 1]);
+    default: die(EXIT_INPUT, "unknown option '%s' (see --help)", argv[optind - 1]);
+    }
+  }
+  if (optind == argc)
+    die(EXIT_INPUT, "missing the firmware ELF file (see --help)");
+
+  if (optind != argc - 1)
+    die(EXIT_INPUT, "expected one ELF file, got %d arguments (see --help)",
+        argc - optind);
+  g.elf_path = argv[optind];
+  check_args();
+}

@@ -1,0 +1,93 @@
+/*
+ * sim_msg.c - imu-sim's messages: warnings, fatal errors, failures found
+ * inside simavr callbacks (the run loop stops on them), simavr's own log.
+ */
+#include "harness.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void warn(const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  fputs(PROG ": warning: ", stderr);
+  vfprintf(stderr, fmt, ap);
+  fputc('\n', stderr);
+  va_end(ap);
+}
+
+void die(int code, const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  fputs(PROG ": ", stderr);
+  vfprintf(stderr, fmt, ap);
+  fputc('\n', stderr);
+  va_end(ap);
+  exit(code);
+}
+
+void fail(int code, const char *fmt, ...)
+{
+  va_list ap;
+  if (g.fail)
+    return;
+  va_start(ap, fmt);
+  vsnprintf(g.fail_msg, sizeof g.fail_msg, fmt, ap);
+  va_end(ap);
+  g.fail = code;
+}
+
+double sim_time(void)
+{
+  return g.avr ? (double)g.avr->cycle / g.avr->frequency : 0.0;
+}
+
+void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
+{
+  int show = g.verbose >= 2 ? LOG_TRACE : LOG_WARNING;
+  char msg[240], *w = msg;
+  (void)avr;
+  if (g.log_quiet || (level > show && level != LOG_ERROR))
+    return;
+  vsnprintf(msg, sizeof msg, fmt, ap);
+  /* drop simavr's colour escapes and line ends */
+  for (const char *r = msg; *r; r++) {
+    if (*r == '\033') {
+      while (r[1] && !(r[1] >= '@' && r[1] <= '~' && r[1] != '['))
+        r++;
+      if (r[1])
+        r++;
+    } else if (*r != '\n' && *r != '\r') {
+      *w++ = *r;
+    }
+  }
+  *w = 0;
+  /* Errors usually announce a crash: they go into its one-line message
+   * (or into a warning at the end), shown at once only with -v. */
+  if (level == LOG_ERROR) {
+    if (!strncmp(msg, "avr_sadly_crashed", 17))
+      return;
+    snprintf(g.last_error, sizeof g.last_error, "%.199s", msg);
+    g.errors++;
+    if (!g.verbose)
+      return;
+  }
+  /* simavr 1.6 warns about any OCRnx write while the timer's clock is
+   * stopped; the value is applied when the clock starts: noise. */
+  if (!g.verbose && strstr(msg, "avr_timer_write_ocr") &&
+      strstr(msg, "mode 0 UNSUPPORTED"))
+    return;
+  if (level > show)
+    return;
+  if (!g.verbose && g.log_shown >= LOG_CAP) {
+    if (g.log_shown++ == LOG_CAP)
+      fputs(PROG ": simavr: further messages suppressed (use -v)\n", stderr);
+    return;
+  }
+  g.log_shown++;
+  fprintf(stderr, PROG ": simavr: %s\n", msg);
+}
