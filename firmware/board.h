@@ -13,7 +13,7 @@
 #endif
 
 /* ADC multiplexer channel of each column of a thesis row, in row order:
- * accel X Y Z, gyro X Y Z, temperature. */
+ * accel X Y Z, gyro X Y Z, temperature (adc.h's ADC_COLUMNS of them). */
 #define BOARD_ADC_ACC_X 0
 #define BOARD_ADC_ACC_Y 1
 #define BOARD_ADC_ACC_Z 2
@@ -21,14 +21,13 @@
 #define BOARD_ADC_GYR_Y 4
 #define BOARD_ADC_GYR_Z 5
 #define BOARD_ADC_TEMP  6
-#define BOARD_ADC_COLUMNS 7
 #define BOARD_ADC_MUX_LIST { BOARD_ADC_ACC_X, BOARD_ADC_ACC_Y, BOARD_ADC_ACC_Z, \
                              BOARD_ADC_GYR_X, BOARD_ADC_GYR_Y, BOARD_ADC_GYR_Z, \
                              BOARD_ADC_TEMP }
 
-/* Reference: AVCC, the board's regulated 3.3 V (the thesis' Vref). */
+/* Reference: AVCC, the board's regulated 3.3 V (the thesis' Vref; the
+ * host converts codes to volts, the firmware never needs the value). */
 #define BOARD_ADMUX_REF (1 << REFS0)
-#define BOARD_VREF_MV 3300
 
 /* ADC clock must be 50..200 kHz for full 10-bit accuracy: pick the
  * smallest prescaler that brings F_CPU under 200 kHz. */

@@ -2,6 +2,7 @@
 #include "command.h"
 
 #include "pgm.h"
+#include "vocab.h"
 
 /* Kinds of argument a command takes. */
 enum { ARG_NONE, ARG_OPT_NUM, ARG_NUM, ARG_MODE, ARG_RANGE };
@@ -14,15 +15,6 @@ static const uint8_t cmd_arg[] PROGMEM = {ARG_NONE, ARG_NONE, ARG_NONE, ARG_OPT_
                                           ARG_NONE, ARG_NONE, ARG_NUM, ARG_MODE, ARG_RANGE,
                                           ARG_NONE, ARG_NONE, ARG_NONE};
 #define CMD_COUNT 13
-
-/* Argument words, each list in the order of its MODE_* / RANGE_* values. */
-static const char mode_words[] PROGMEM = "allan\0raw\0binary\0both\0";
-static const char range_words[] PROGMEM = "1.5\0" "2\0" "4\0" "6\0";
-
-static char lower(char c)
-{
-  return (c >= 'A' && c <= 'Z') ? (char)(c - 'A' + 'a') : c;
-}
 
 static uint8_t is_space(char c)
 {
@@ -37,24 +29,6 @@ static uint16_t word_len(const char *p)
   while (p[n] && !is_space(p[n]))
     n++;
   return n;
-}
-
-/* Index of the word p[0..len) in a list of NUL-separated flash words
- * (ended by an empty word), ignoring case; `count` when absent. */
-static uint8_t find_word(const char *list, uint8_t count, const char *p, uint16_t len)
-{
-  uint8_t i;
-  for (i = 0; i < count; i++) {
-    uint16_t j = 0;
-    while (j < len && pgm_read_byte(list + j) && lower(p[j]) == (char)pgm_read_byte(list + j))
-      j++;
-    if (j == len && !pgm_read_byte(list + j))
-      return i;
-    while (pgm_read_byte(list))
-      list++;
-    list++;
-  }
-  return count;
 }
 
 uint8_t command_parse(const char *line, command_t *out)
@@ -72,7 +46,7 @@ uint8_t command_parse(const char *line, command_t *out)
     return CMD_OK;
 
   len = word_len(p);
-  id = find_word(cmd_words, CMD_COUNT, p, len);
+  id = vocab_find(cmd_words, CMD_COUNT, p, len);
   if (id == CMD_COUNT)
     return CMD_ERR_UNKNOWN;
   kind = pgm_read_byte(&cmd_arg[id]);
@@ -85,9 +59,9 @@ uint8_t command_parse(const char *line, command_t *out)
     if (kind == ARG_NONE) {
       return CMD_ERR_ARG;
     } else if (kind == ARG_MODE || kind == ARG_RANGE) {
-      uint8_t v = kind == ARG_MODE ? find_word(mode_words, 4, p, len)
-                                   : find_word(range_words, 4, p, len);
-      if (v == 4)
+      uint8_t count = kind == ARG_MODE ? VOCAB_MODES : VOCAB_RANGES;
+      uint8_t v = vocab_find(kind == ARG_MODE ? vocab_modes : vocab_ranges, count, p, len);
+      if (v == count)
         return CMD_ERR_ARG;
       out->arg = v;
     } else {
@@ -114,29 +88,4 @@ uint8_t command_parse(const char *line, command_t *out)
   }
   out->id = (uint8_t)(CMD_REPORT + id);
   return CMD_OK;
-}
-
-uint8_t command_rate_ok(uint32_t hz)
-{
-  return hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000;
-}
-
-static const char *nth_word(const char *list, uint8_t n)
-{
-  while (n--) {
-    while (pgm_read_byte(list))
-      list++;
-    list++;
-  }
-  return list;
-}
-
-const char *command_mode_name(uint8_t mode)
-{
-  return nth_word(mode_words, mode);
-}
-
-const char *command_range_name(uint8_t range)
-{
-  return nth_word(range_words, range);
 }

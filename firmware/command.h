@@ -1,13 +1,13 @@
 /*
  * command.h - parsing of command lines from the host (docs/protocol.md).
- * Pure: turns a line into a command and its argument; main.c acts on it.
+ * Pure: turns a line into a command and its argument; control.c acts on it.
  */
 #ifndef COMMAND_H
 #define COMMAND_H
 
 #include <stdint.h>
 
-#include "config.h"
+#include "vocab.h"
 
 /* Longest command line accepted, excluding its end of line. */
 #define COMMAND_LINE_MAX 16 /* "start 4294967295" */
@@ -47,12 +47,5 @@ typedef struct {
 /* Parse one line (NUL-terminated, no end of line). Returns CMD_OK or a
  * CMD_ERR_* code; on CMD_OK *out holds the command (CMD_NONE for blank). */
 uint8_t command_parse(const char *line, command_t *out);
-
-/* The six supported sample rates; returns 1 when hz is one of them. */
-uint8_t command_rate_ok(uint32_t hz);
-
-/* Names for replies and headers (flash strings on the AVR). */
-const char *command_mode_name(uint8_t mode);
-const char *command_range_name(uint8_t range);
 
 #endif /* COMMAND_H */

@@ -8,6 +8,8 @@
 #ifndef CONFIG_H
 #define CONFIG_H
 
+#include "vocab.h"
+
 /* Sensor channels the Allan engine follows: accel X Y Z, gyro X Y Z.
  * Temperature is sampled too but only summarised (mean/min/max). */
 #define ALLAN_CHANNELS 6
@@ -49,8 +51,7 @@
 #ifndef FS_DEFAULT
 #  define FS_DEFAULT 100
 #endif
-#if FS_DEFAULT != 50 && FS_DEFAULT != 100 && FS_DEFAULT != 200 && \
-    FS_DEFAULT != 250 && FS_DEFAULT != 500 && FS_DEFAULT != 1000
+#if !VOCAB_RATE_OK(FS_DEFAULT)
 #  error "FS_DEFAULT must be one of 50, 100, 200, 250, 500, 1000"
 #endif
 
@@ -58,8 +59,8 @@
 #ifndef REPORT
 #  define REPORT 60
 #endif
-#if REPORT < 0 || REPORT > 3600
-#  error "REPORT must be 0..3600 seconds"
+#if REPORT < 0 || REPORT > VOCAB_INTERVAL_MAX_S
+#  error "REPORT must be 0..VOCAB_INTERVAL_MAX_S (3600) seconds"
 #endif
 
 /* Accumulator width.  Levels from ALLAN_ACC48_FROM up get 48 bits, those
@@ -81,17 +82,8 @@
 #  error "ALLAN_ACC48_FROM must be 0..ALLAN_LEVELS-1 (the top level keeps 48 bits)"
 #endif
 
-/* Output modes (docs/protocol.md) and accelerometer ranges (the MMA7260Q's
- * g-select code GS2 GS1: 1.5, 2, 4, 6 g). */
-#define MODE_ALLAN  0
-#define MODE_RAW    1
-#define MODE_BINARY 2
-#define MODE_BOTH   3
-#define RANGE_1G5 0
-#define RANGE_2G  1
-#define RANGE_4G  2
-#define RANGE_6G  3
-
+/* Output mode and accelerometer range at power-up (vocab.h's MODE_*,
+ * RANGE_*), unless the EEPROM holds saved settings. */
 #ifndef MODE_DEFAULT
 #  define MODE_DEFAULT MODE_ALLAN
 #endif
@@ -119,7 +111,7 @@
 #    endif
 #  elif MODE_DEFAULT == MODE_BINARY
 #    define CONFIG_LINK_BYTES (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
-#    define CONFIG_LINK_WAIT (LINK_STEP_MAX + LINK_FRAME)
+#    define CONFIG_LINK_WAIT (UART_STEP_MAX + LINK_FRAME)
 #  else
 #    define CONFIG_LINK_BYTES 0
 #    define CONFIG_LINK_WAIT 0

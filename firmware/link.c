@@ -1,7 +1,6 @@
 /* link.c - see link.h. */
 #include "link.h"
 
-#include "command.h"
 
 uint32_t link_bytes_per_s(uint8_t mode, uint16_t fs)
 {
@@ -26,7 +25,7 @@ uint8_t link_fits(uint8_t mode, uint16_t fs, uint32_t baud)
 {
   uint32_t cap = baud / 10u;
   uint32_t longest = mode == MODE_BOTH ? LINK_REPORT_MAX
-                    : mode == MODE_RAW ? LINK_REPLY_MAX : LINK_STEP_MAX + LINK_FRAME;
+                    : mode == MODE_RAW ? LINK_REPLY_MAX : UART_STEP_MAX + LINK_FRAME;
   if (mode == MODE_ALLAN)
     return 1;
   if (link_bytes_per_s(mode, fs) * 100u > cap * LINK_USE_PERCENT)

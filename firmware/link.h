@@ -9,6 +9,9 @@
 
 #include <stdint.h>
 
+#include "uart.h"  /* UART_STEP_MAX */
+#include "vocab.h" /* MODE_* */
+
 /* Worst-case bytes of one raw row ("1023\t" x 6, "1023\r\n") and of the
  * count line sent every LINK_COUNT_EVERY rows or frames
  * ("$C,4294967295,4294967295*XXXX\r\n"). */
@@ -19,7 +22,6 @@
 #define LINK_REPLY_MAX 92u  /* longest reply line (status, help) */
 #define LINK_REPORT_MAX 264u /* longest report line: the header with every count at its maximum */
 #define LINK_USE_PERCENT 90u /* of BAUD/10 bytes per second, at most */
-#define LINK_STEP_MAX 20u    /* one output step (report.h's REPORT_STEP_MAX) */
 
 /* Bytes per second the mode sends at rate fs, worst case, reports aside. */
 uint32_t link_bytes_per_s(uint8_t mode, uint16_t fs);

@@ -60,6 +60,11 @@ void proto_hex(uint32_t v, uint8_t digits)
     proto_putc(buf[i]);
 }
 
+void proto_raw(uint8_t c)
+{
+  proto_sink(c);
+}
+
 void proto_end(void)
 {
   char buf[4];

@@ -9,8 +9,6 @@
 
 #include <stdint.h>
 
-#define PROTO_VERSION 1
-
 typedef void (*proto_sink_t)(uint8_t c);
 
 void proto_init(proto_sink_t sink);
@@ -21,6 +19,10 @@ void proto_puts_P(const char *s);       /* body text from flash (PSTR) */
 void proto_u32(uint32_t v);             /* decimal */
 void proto_hex(uint32_t v, uint8_t digits); /* digits: 0..8 */
 void proto_end(void);                   /* '*', CRC, CR LF */
+
+/* One byte outside any line (raw rows, binary frames), straight to the
+ * sink: no escaping, no CRC. */
+void proto_raw(uint8_t c);
 
 /* Binary frame (docs/protocol.md): sync, sequence number, the 9 packed
  * bytes of one sample set, CRC-16 of bytes 1..10, high byte first. */

@@ -3,19 +3,18 @@
 
 #include "board.h"
 #include "config.h"
-#include "report.h"
-
+#include "stream.h"
 
 allan_t sample_engine;
 sample_stats_t sample_stats;
 
-void sample_pump(void)
+void sample_feed(void)
 {
   /* In raw and binary modes a set stays in the ring until its row or frame
-   * is written (report.c), so that output and engine see the same sets.
+   * is written (stream.c), so that output and engine see the same sets.
    * Codes are read one at a time from the ring: no copy on the stack of
    * the engine's deepest path. */
-  while (!report_holds_sample() && adc_pending()) {
+  while (adc_pending() && !stream_holds_oldest()) {
     uint8_t i, counted;
     BOARD_PROBE_SAMPLE_ON();
     /* A set the engine refuses (its 32-bit count is full) is lost like a
@@ -45,7 +44,7 @@ void sample_pump(void)
     }
     sample_stats.since_report++;
     adc_discard();
-    report_sample_taken();
+    stream_taken();
     BOARD_PROBE_SAMPLE_OFF();
   }
 }

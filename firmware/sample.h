@@ -20,8 +20,11 @@ typedef struct {
 extern allan_t sample_engine;
 extern sample_stats_t sample_stats;
 
-/* Feed every finished scan to the engine. Cheap when there is none. */
-void sample_pump(void);
+/* Feed every finished scan the stream no longer holds to the engine and
+ * the statistics.  Called by the main loop, and by commands that must see
+ * every set taken so far; never by the output code.  Cheap when there is
+ * none. */
+void sample_feed(void);
 
 /* Clear the engine, clips and drops (a new run). */
 void sample_reset(void);

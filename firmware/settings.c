@@ -8,11 +8,10 @@
 #include "settings.h"
 
 #include <avr/eeprom.h>
-#include <avr/pgmspace.h>
 #include <util/crc16.h>
 
-#include "command.h"
 #include "config.h"
+#include "vocab.h"
 
 #define SETTINGS_VERSION 1
 #define RECORD_BYTES (1u + sizeof(settings_t) + 2u)
@@ -21,8 +20,6 @@ settings_t settings;
 uint8_t settings_source;
 
 static uint8_t save_pos = 0xFF; /* next record byte to write; 0xFF: idle */
-
-static const char source_names[] PROGMEM = "saved\0blank\0corrupt\0defaults\0";
 
 /* Byte i of the record for the current settings (crc: of bytes 0..6). */
 static uint8_t record_byte(uint8_t i, uint16_t crc)
@@ -45,8 +42,8 @@ static uint16_t record_crc(void)
 
 static uint8_t valid(const settings_t *s)
 {
-  return command_rate_ok(s->rate_hz) && s->interval_s <= 3600 && s->mode <= MODE_BOTH &&
-         s->range <= RANGE_6G;
+  return vocab_rate_ok(s->rate_hz) && s->interval_s <= VOCAB_INTERVAL_MAX_S && s->mode < VOCAB_MODES &&
+         s->range < VOCAB_RANGES;
 }
 
 void settings_defaults(void)
@@ -109,15 +106,4 @@ uint8_t settings_poll(void)
   save_pos = 0xFF;
   settings_source = CFG_SAVED;
   return 1;
-}
-
-const char *settings_source_name(uint8_t source)
-{
-  const char *p = source_names;
-  while (source--) {
-    while (pgm_read_byte(p))
-      p++;
-    p++;
-  }
-  return p;
 }

@@ -9,6 +9,8 @@
 
 #include <stdint.h>
 
+#include "vocab.h" /* MODE_*, RANGE_*, CFG_* */
+
 typedef struct {
   uint16_t rate_hz;
   uint16_t interval_s; /* 0: reports only on request */
@@ -16,11 +18,8 @@ typedef struct {
   uint8_t range;       /* RANGE_* */
 } settings_t;
 
-/* Where the settings in force came from (`cfg=` in headers and status). */
-enum { CFG_SAVED, CFG_BLANK, CFG_CORRUPT, CFG_DEFAULTS };
-
 extern settings_t settings;
-extern uint8_t settings_source;
+extern uint8_t settings_source; /* CFG_*: where they came from (`cfg=`) */
 
 /* The built-in settings (config.h); source becomes CFG_DEFAULTS. */
 void settings_defaults(void);
@@ -38,8 +37,5 @@ uint8_t settings_poll(void);
 
 /* 1 while a save is in progress. */
 uint8_t settings_saving(void);
-
-/* "saved", "blank", "corrupt", "defaults" (flash). */
-const char *settings_source_name(uint8_t source);
 
 #endif /* SETTINGS_H */

@@ -7,8 +7,6 @@
 #include <avr/io.h>
 #include <util/atomic.h>
 
-#include "config.h"
-#include "report.h"
 
 #ifndef BAUD
 #  error "BAUD must be given (the Makefile passes 115200 by default)"
@@ -34,9 +32,9 @@
 #  error "BAUD cannot be generated from F_CPU within the USART's error limits (2.0% normal, 1.5% U2X)"
 #endif
 
-#define UART_TX_SIZE (REPORT_STEP_MAX + 1) /* one output step always fits */
+#define UART_TX_SIZE (UART_STEP_MAX + 1) /* one output step always fits */
 #define UART_RX_SIZE 8  /* a power of two */
-#if UART_TX_SIZE <= REPORT_STEP_MAX
+#if UART_TX_SIZE <= UART_STEP_MAX
 #  error "the TX ring must hold one whole output step"
 #endif
 

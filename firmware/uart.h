@@ -6,6 +6,10 @@
 
 #include <stdint.h>
 
+/* Output is written in steps of at most this many bytes, each only once
+ * uart_tx_room() says it fits: the TX ring holds one whole step. */
+#define UART_STEP_MAX 20
+
 void uart_init(void);
 
 /* Queue one byte; waits while the TX ring is full, so callers first check

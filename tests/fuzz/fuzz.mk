@@ -53,7 +53,7 @@ FUZZ_DEPS := $(wildcard $(FW_DIR)/*.h) $(FUZZ_DIR)/fuzz_util.h $(FUZZ_DIR)/fuzz.
 FUZZ_TARGETS := fuzz_command fuzz_proto fuzz_fmt fuzz_allan fuzz_allan20
 
 # Per target: firmware sources, extra flags, seed directory, input size.
-FUZZ_SRC_fuzz_command := command.c
+FUZZ_SRC_fuzz_command := command.c vocab.c
 FUZZ_SRC_fuzz_proto := proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_fmt := fmt.c
 FUZZ_SRC_fuzz_allan := allan.c

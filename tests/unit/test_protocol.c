@@ -255,7 +255,7 @@ static void test_command_words_and_arguments(void)
     memcpy(big, "rate ", 5);
     TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse(big, &c));
   }
-  TEST_ASSERT_TRUE(command_rate_ok(1000) && command_rate_ok(50) && !command_rate_ok(300) && !command_rate_ok(0));
+  TEST_ASSERT_TRUE(vocab_rate_ok(1000) && vocab_rate_ok(50) && !vocab_rate_ok(300) && !vocab_rate_ok(0));
 }
 
 static void test_command_settings_words(void)
@@ -291,9 +291,9 @@ static void test_command_settings_words(void)
   TEST_ASSERT_EQUAL_UINT8(CMD_HELP, c.id);
   TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("status", &c));
   TEST_ASSERT_EQUAL_UINT8(CMD_STATUS, c.id);
-  TEST_ASSERT_EQUAL_STRING("binary", command_mode_name(MODE_BINARY));
-  TEST_ASSERT_EQUAL_STRING("1.5", command_range_name(RANGE_1G5));
-  TEST_ASSERT_EQUAL_STRING("6", command_range_name(RANGE_6G));
+  TEST_ASSERT_EQUAL_STRING("binary", vocab_word(vocab_modes, MODE_BINARY));
+  TEST_ASSERT_EQUAL_STRING("1.5", vocab_word(vocab_ranges, RANGE_1G5));
+  TEST_ASSERT_EQUAL_STRING("6", vocab_word(vocab_ranges, RANGE_6G));
 }
 
 /* The link rules of docs/protocol.md, worked out by hand at 115200 baud

@@ -1,0 +1,260 @@
+/*
+ * control.c - see control.h.  Commands run only where their reply may be
+ * written at once (tx_can_interject), so a reply never cuts into a line.
+ */
+#include "control.h"
+
+#include "adc.h"
+#include "board.h"
+#include "command.h"
+#include "config.h"
+#include "link.h"
+#include "pgm.h"
+#include "sample.h"
+#include "settings.h"
+#include "tx.h"
+#include "uart.h"
+#include "vocab.h"
+
+/* The command line being received; `ready` holds a complete one until the
+ * output is between two lines. */
+static struct {
+  char text[COMMAND_LINE_MAX + 1];
+  uint8_t len;
+  uint8_t overflow; /* LINE_LONG, LINE_LOST: the line is thrown away at its end */
+  uint8_t ready;
+} line;
+#define LINE_LONG 1
+#define LINE_LOST 2
+
+/* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
+static void range_pins(uint8_t range)
+{
+  uint8_t port = BOARD_GSEL_PORT & (uint8_t)~((1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT));
+  if (range & 1u)
+    port |= (1 << BOARD_GSEL1_BIT);
+  if (range & 2u)
+    port |= (1 << BOARD_GSEL2_BIT);
+  BOARD_GSEL_PORT = port;
+}
+
+/* A new run: the accumulators, counters and row count start again.  A
+ * report being written would now mix two runs: it is cut off. */
+static void new_run(void)
+{
+  tx_abort_report();
+  sample_reset();
+  sample_interval_restart();
+  tx_restart_rows();
+}
+
+/* Put the settings in force; a different rate or range starts a new run
+ * (results from mixed settings would be meaningless).  Returns 1 if so. */
+static uint8_t apply_settings(uint16_t old_rate, uint8_t old_range)
+{
+  uint8_t changed = settings.rate_hz != old_rate || settings.range != old_range;
+  if (changed) {
+    uint8_t was_running = adc_running();
+    adc_stop();
+    adc_flush(); /* sets taken under the old settings go with the old run */
+    adc_set_rate(settings.rate_hz);
+    range_pins(settings.range);
+    new_run();
+    if (was_running)
+      adc_start(0, 0);
+  }
+  return changed;
+}
+
+void control_init(void)
+{
+  settings_load();
+  BOARD_GSEL_DDR |= (1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT);
+  range_pins(settings.range);
+  adc_set_rate(settings.rate_hz);
+  new_run();
+}
+
+/* `start [count]`: with a count, stop by itself when the engine holds
+ * count sets. */
+static void run_start(const command_t *cmd)
+{
+  sample_feed();
+  if (cmd->has_arg) {
+    uint32_t have = sample_engine.n + adc_pending();
+    if (cmd->arg < have) {
+      tx_error(CMD_ERR_ARG, PSTR("count too small"));
+      return;
+    }
+    adc_start(1, cmd->arg - have);
+  } else {
+    adc_start(0, 0);
+  }
+  tx_ok(PSTR("started"));
+}
+
+/* `rate`, `mode`: refused when the link cannot carry the mode's output. */
+static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
+{
+  if (!vocab_rate_ok(hz)) {
+    tx_error(CMD_ERR_ARG, PSTR("unsupported rate"));
+  } else if (!link_fits(settings.mode, (uint16_t)hz, BAUD)) {
+    tx_error(CMD_ERR_STATE, PSTR("link too slow"));
+  } else {
+    settings.rate_hz = (uint16_t)hz;
+    tx_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), hz);
+  }
+}
+
+static void run_mode(uint8_t mode)
+{
+  if (!link_fits(mode, settings.rate_hz, BAUD)) {
+    tx_error(CMD_ERR_STATE, PSTR("link too slow"));
+    return;
+  }
+  if (mode == MODE_RAW || mode == MODE_BINARY)
+    tx_abort_report(); /* no reports in these modes */
+  settings.mode = mode;
+  tx_restart_rows();
+  tx_ok_word(PSTR("mode="), vocab_word(vocab_modes, mode));
+}
+
+static void run_load(uint16_t old_rate, uint8_t old_range)
+{
+  settings_t before = settings;
+  uint8_t source = settings_source;
+  if (settings_load() != CFG_SAVED) {
+    settings = before; /* nothing valid saved: keep what is in force */
+    settings_source = source;
+    tx_error(CMD_ERR_STATE, PSTR("nothing saved"));
+    return;
+  }
+  tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
+}
+
+static void execute(const command_t *cmd)
+{
+  uint16_t old_rate = settings.rate_hz;
+  uint8_t old_range = settings.range;
+
+  switch (cmd->id) {
+  case CMD_REPORT:
+    if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
+      tx_error(CMD_ERR_STATE, PSTR("no reports in this mode"));
+      break;
+    }
+    tx_ok(0);
+    tx_report(); /* follows the reply */
+    break;
+  case CMD_RESET:
+    sample_feed(); /* sets taken so far belong to the old run */
+    new_run();
+    tx_ok(PSTR("reset"));
+    break;
+  case CMD_STOP:
+    adc_stop();
+    sample_feed();
+    tx_ok_n(PSTR("stopped n="), sample_engine.n);
+    break;
+  case CMD_START:
+    run_start(cmd);
+    break;
+  case CMD_RATE:
+    run_rate(cmd->arg, old_rate, old_range);
+    break;
+  case CMD_INTERVAL:
+    if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
+      tx_error(CMD_ERR_ARG, PSTR("interval 0..3600"));
+    } else {
+      settings.interval_s = (uint16_t)cmd->arg;
+      tx_ok_n(PSTR("interval="), cmd->arg);
+    }
+    break;
+  case CMD_MODE:
+    run_mode((uint8_t)cmd->arg);
+    break;
+  case CMD_RANGE:
+    settings.range = (uint8_t)cmd->arg;
+    tx_ok_word(apply_settings(old_rate, old_range) ? PSTR("reset range=") : PSTR("range="),
+               vocab_word(vocab_ranges, settings.range));
+    break;
+  case CMD_SAVE:
+    settings_save(); /* replied when the last byte is written */
+    break;
+  case CMD_LOAD:
+    run_load(old_rate, old_range);
+    break;
+  case CMD_DEFAULTS:
+    settings_defaults();
+    tx_ok(apply_settings(old_rate, old_range) ? PSTR("defaults reset") : PSTR("defaults"));
+    break;
+  case CMD_STATUS:
+    tx_status();
+    break;
+  default: /* CMD_HELP */
+    tx_help();
+    break;
+  }
+}
+
+static __attribute__((noinline)) void run_line(void)
+{
+  command_t cmd;
+  uint8_t err;
+  line.ready = 0;
+  if (line.overflow) {
+    if (line.overflow & LINE_LOST)
+      tx_error(CMD_ERR_LOST, PSTR("input lost"));
+    else
+      tx_error(CMD_ERR_LONG, PSTR("line too long"));
+    line.overflow = 0;
+    return;
+  }
+  err = command_parse(line.text, &cmd);
+  if (err == CMD_ERR_UNKNOWN)
+    tx_error(err, PSTR("unknown command"));
+  else if (err)
+    tx_error(err, PSTR("bad argument"));
+  else if (cmd.id != CMD_NONE)
+    execute(&cmd);
+}
+
+/* Assemble command lines from the RX ring; run each when the output is
+ * between two lines (and no EEPROM save is under way). */
+static __attribute__((noinline)) void poll_commands(void)
+{
+  int16_t c;
+  while (!line.ready && (c = uart_read()) >= 0) {
+    if (c & UART_READ_GAP) {
+      line.overflow |= LINE_LOST; /* never run a line with bytes missing */
+      c &= 0xFF;
+    }
+    if (c == '\r' || c == '\n') {
+      line.text[line.len] = 0;
+      line.ready = line.len || line.overflow; /* blank lines are ignored */
+      line.len = 0;
+    } else if (line.len < COMMAND_LINE_MAX) {
+      line.text[line.len++] = (char)c;
+    } else {
+      line.overflow |= LINE_LONG; /* discard the whole line at its end */
+    }
+  }
+  if (line.ready && tx_can_interject() && !settings_saving())
+    run_line();
+}
+
+void control_poll(void)
+{
+  /* EEPROM bytes go out only where the reply may follow at once. */
+  if (settings_saving() && tx_can_interject() && settings_poll())
+    tx_ok(PSTR("saved"));
+  poll_commands();
+  if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
+      !tx_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
+    tx_report(); /* its header restarts the interval */
+}
+
+uint8_t control_has_work(void)
+{
+  return uart_rx_pending() || settings_saving();
+}

@@ -1,0 +1,32 @@
+/*
+ * reply.h - the replies to command lines (docs/protocol.md): `ok ...`,
+ * `error:<code> <text>`, `ok status ...` and `ok help ...`.  A producer:
+ * the output scheduler (tx.c) sets the reply up and writes it one step of
+ * at most UART_STEP_MAX characters at a time.
+ */
+#ifndef REPLY_H
+#define REPLY_H
+
+#include <stdint.h>
+
+/* Codes of a reply: 0 is `ok`, 1..127 the `error:<code>` of command.h,
+ * and the two multi-field replies. */
+#define REPLY_OK     0
+#define REPLY_STATUS 0xFE
+#define REPLY_HELP   0xFF
+
+/* What follows the reply's text: nothing, a decimal number, or a word
+ * from flash (a vocab.h name). */
+enum { REPLY_TAIL_NONE, REPLY_TAIL_NUM, REPLY_TAIL_WORD };
+
+/* The next reply (texts and words in flash; text may be 0 for a bare
+ * `ok`): `ok <text>` or `error:<code> <text>`, also REPLY_STATUS and
+ * REPLY_HELP; `ok <text><n>`; `ok <text><word>`. */
+void reply_set_plain(uint8_t code, const char *text_P);
+void reply_set(uint8_t code, const char *text_P, uint32_t n);
+void reply_set_word(const char *text_P, const char *word_P);
+
+/* One step of the reply; returns 1 when its line is written. */
+uint8_t reply_step(uint8_t step);
+
+#endif /* REPLY_H */

@@ -1,0 +1,141 @@
+/* stream.c - see stream.h. */
+#include "stream.h"
+
+#include "adc.h"
+#include "fmt.h"
+#include "link.h"
+#include "pgm.h"
+#include "proto.h"
+#include "settings.h"
+#include "vocab.h"
+
+/* Where the stream's own line stands. */
+enum {
+  LINE_NONE,        /* between lines */
+  LINE_ROW_HALF,    /* a raw row's first half is written */
+  LINE_COUNT_DUE,   /* a count line waits for a line boundary */
+  LINE_COUNT_HALF   /* a count line's first half is written */
+};
+
+static struct {
+  uint8_t line;     /* LINE_* */
+  uint8_t set_done; /* the oldest set's row or frame is written */
+  uint32_t rows;    /* rows or frames written since stream_restart() */
+} st;
+
+void stream_restart(void)
+{
+  st.line = LINE_NONE;
+  st.set_done = 0;
+  st.rows = 0;
+}
+
+uint8_t stream_holds_oldest(void)
+{
+  return settings.mode != MODE_ALLAN && !st.set_done;
+}
+
+void stream_taken(void)
+{
+  st.set_done = 0;
+}
+
+uint8_t stream_line_open(void)
+{
+  return st.line == LINE_ROW_HALF || st.line == LINE_COUNT_HALF;
+}
+
+uint8_t stream_busy(void)
+{
+  return st.line != LINE_NONE;
+}
+
+/* A row or frame is out: count it, and a count line is due every
+ * LINK_COUNT_EVERY of them. */
+static void set_written(void)
+{
+  st.set_done = 1;
+  st.rows++;
+  st.line = st.rows % LINK_COUNT_EVERY == 0 ? LINE_COUNT_DUE : LINE_NONE;
+}
+
+/* `$C,<rows>,<drops>` in two steps. */
+static __attribute__((noinline)) void step_count_line(void)
+{
+  if (st.line == LINE_COUNT_DUE) {
+    proto_begin();
+    proto_puts_P(PSTR("C,"));
+    proto_u32(st.rows);
+    st.line = LINE_COUNT_HALF;
+  } else {
+    proto_putc(',');
+    proto_u32(adc_drops());
+    proto_end();
+    st.line = LINE_NONE;
+  }
+}
+
+/* A raw thesis row of the oldest set, in two steps of at most 20
+ * characters: codes 0..3, then 4..6 and the line end. */
+static __attribute__((noinline)) void step_raw_row(void)
+{
+  uint16_t code[ADC_COLUMNS];
+  char buf[10];
+  uint8_t i, n, second = st.line == LINE_ROW_HALF;
+  adc_peek(code);
+  for (i = second ? 4 : 0; i < (second ? ADC_COLUMNS : 4); i++) {
+    uint8_t j;
+    n = fmt_u32(buf, code[i]);
+    for (j = 0; j < n; j++)
+      proto_raw((uint8_t)buf[j]);
+    if (i + 1 < ADC_COLUMNS)
+      proto_raw('\t');
+  }
+  if (!second) {
+    st.line = LINE_ROW_HALF;
+    return;
+  }
+  proto_raw('\r');
+  proto_raw('\n');
+  set_written();
+}
+
+/* One 13-byte binary frame of the oldest set; its sequence number is the
+ * low byte of the frame count. */
+static __attribute__((noinline)) void step_frame(void)
+{
+  uint8_t b[PROTO_FRAME_BYTES], i;
+  adc_peek_packed(b + 2); /* the payload lands where the frame wants it */
+  proto_frame(b, (uint8_t)st.rows, b + 2);
+  for (i = 0; i < PROTO_FRAME_BYTES; i++)
+    proto_raw(b[i]);
+  if (st.line == LINE_COUNT_DUE) { /* a frame may come before a due count line */
+    st.set_done = 1;
+    st.rows++;
+    return;
+  }
+  set_written();
+}
+
+uint8_t stream_step(uint8_t at_boundary, uint8_t held)
+{
+  if (st.line == LINE_ROW_HALF) {
+    step_raw_row();
+    return 1;
+  }
+  if (st.line == LINE_COUNT_HALF || (st.line == LINE_COUNT_DUE && at_boundary)) {
+    step_count_line();
+    return 1;
+  }
+  if (settings.mode == MODE_ALLAN || st.set_done || held || !adc_pending())
+    return 0;
+  if (settings.mode == MODE_BINARY) {
+    step_frame();
+    return 1;
+  }
+  if (st.line == LINE_NONE && at_boundary) {
+    step_raw_row();
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,53 @@
+/*
+ * tx.h - the output scheduler, the one owner of the UART's transmit side.
+ * Every line leaves the device through it: the boot line and reports
+ * (report.c), command replies (reply.c) and the sample stream (stream.c),
+ * all written through the proto sink.
+ *
+ * Output never blocks the main loop.  One job (a reply, or a whole report)
+ * runs at a time, interleaved with the stream; tx_poll() advances them in
+ * steps of at most UART_STEP_MAX characters, each taken only when the TX
+ * ring has room for it, so sampling goes on while a report drains and the
+ * stack never holds a report and the Allan engine at once.
+ */
+#ifndef TX_H
+#define TX_H
+
+#include <stdint.h>
+
+/* The proto sink becomes the UART; MCUSR bits for the `reset=` fields. */
+void tx_init(uint8_t reset_cause);
+
+/* Queue jobs (replies only when tx_can_interject()). */
+void tx_boot(void);
+void tx_report(void);                                  /* a whole report, after the current job */
+void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */
+void tx_ok_n(const char *text_P, uint32_t n);          /* `ok <text><n>` */
+void tx_ok_word(const char *text_P, const char *word_P); /* `ok <text><word>` */
+void tx_error(uint8_t code, const char *text_P);       /* `error:<code> <text>` */
+void tx_status(void);                                  /* `ok status ...` */
+void tx_help(void);                                    /* `ok help ...` */
+
+/* 1 while a job or a stream line is being written. */
+uint8_t tx_busy(void);
+
+/* 1 when a command may run now and queue its reply: no job, or a report
+ * between two of its lines (the report resumes after the reply), and no
+ * stream line half written. */
+uint8_t tx_can_interject(void);
+
+/* Cut off the report in progress (no end line: readers discard it), e.g.
+ * because the accumulators were just reset under it. */
+void tx_abort_report(void);
+
+/* The stream's rows count from 0 again, and a new run's rows wait for the
+ * reply of the command that started it. */
+void tx_restart_rows(void);
+
+/* 1 when the TX ring takes a whole step now. */
+uint8_t tx_can_write(void);
+
+/* Write as much as the TX ring takes now. */
+void tx_poll(void);
+
+#endif /* TX_H */

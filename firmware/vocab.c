@@ -1,0 +1,43 @@
+/* vocab.c - see vocab.h. */
+#include "vocab.h"
+
+#include "pgm.h"
+
+const char vocab_modes[] PROGMEM = "allan\0raw\0binary\0both";
+const char vocab_ranges[] PROGMEM = "1.5\0" "2\0" "4\0" "6";
+const char vocab_sources[] PROGMEM = "saved\0blank\0corrupt\0defaults";
+const char vocab_causes[] PROGMEM = "por\0ext\0bor\0wdt";
+const char vocab_channels[] PROGMEM = "axayazgxgygz";
+
+static char lower(char c)
+{
+  return (c >= 'A' && c <= 'Z') ? (char)(c - 'A' + 'a') : c;
+}
+
+const char *vocab_word(const char *list, uint8_t n)
+{
+  while (n--) {
+    while (pgm_read_byte(list))
+      list++;
+    list++;
+  }
+  return list;
+}
+
+uint8_t vocab_find(const char *list, uint8_t count, const char *p, uint16_t len)
+{
+  uint8_t i;
+  for (i = 0; i < count; i++, list = vocab_word(list, 1)) {
+    uint16_t j = 0;
+    while (j < len && pgm_read_byte(list + j) && lower(p[j]) == (char)pgm_read_byte(list + j))
+      j++;
+    if (j == len && !pgm_read_byte(list + j))
+      return i;
+  }
+  return count;
+}
+
+uint8_t vocab_rate_ok(uint32_t hz)
+{
+  return VOCAB_RATE_OK(hz);
+}

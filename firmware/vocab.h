@@ -1,0 +1,61 @@
+/*
+ * vocab.h - the protocol's vocabulary (docs/protocol.md), one home for each
+ * word and limit the device and its host share: version, output modes,
+ * accelerometer ranges, sample rates, the report interval's limit, and the
+ * name tables printed in headers, replies and status lines.  Pure: builds
+ * on the AVR (tables in flash) and natively (tests, fuzzers).
+ */
+#ifndef VOCAB_H
+#define VOCAB_H
+
+#include <stdint.h>
+
+/* `proto=` of the boot line and every report header. */
+#define PROTO_VERSION 1
+
+/* Output modes; the names are vocab_modes, in this order. */
+#define MODE_ALLAN  0
+#define MODE_RAW    1
+#define MODE_BINARY 2
+#define MODE_BOTH   3
+#define VOCAB_MODES 4
+
+/* Accelerometer ranges: the MMA7260Q's g-select code GS2 GS1 (1.5, 2, 4,
+ * 6 g); the names are vocab_ranges, in this order. */
+#define RANGE_1G5 0
+#define RANGE_2G  1
+#define RANGE_4G  2
+#define RANGE_6G  3
+#define VOCAB_RANGES 4
+
+/* The supported sample rates in Hz.  A macro so config.h can check its
+ * default with the preprocessor; vocab_rate_ok() is the run-time test. */
+#define VOCAB_RATE_OK(hz) ((hz) == 50 || (hz) == 100 || (hz) == 200 || \
+                           (hz) == 250 || (hz) == 500 || (hz) == 1000)
+
+/* Longest report interval in seconds (`interval`, REPORT, the EEPROM). */
+#define VOCAB_INTERVAL_MAX_S 3600
+
+/* Where the settings in force came from (`cfg=`): vocab_sources. */
+enum { CFG_SAVED, CFG_BLANK, CFG_CORRUPT, CFG_DEFAULTS };
+
+/* Name tables: NUL-separated words in flash, in the order of the values
+ * above.  vocab_causes follows the MCUSR bits PORF EXTRF BORF WDRF. */
+extern const char vocab_modes[];
+extern const char vocab_ranges[];
+extern const char vocab_sources[];
+extern const char vocab_causes[];
+/* Channel names, two letters each, no separator: "axayazgxgygz". */
+extern const char vocab_channels[];
+
+/* The n-th word of a word list (flash pointer). */
+const char *vocab_word(const char *list, uint8_t n);
+
+/* Index of the word p[0..len) among the first `count` words of a list,
+ * ignoring ASCII case; `count` when absent. */
+uint8_t vocab_find(const char *list, uint8_t count, const char *p, uint16_t len);
+
+/* 1 when hz is a supported sample rate. */
+uint8_t vocab_rate_ok(uint32_t hz);
+
+#endif /* VOCAB_H */

@@ -1,0 +1,303 @@
+/*
+ * fake_device.c - the fakes behind fixture.h: uart.h, adc.h, the EEPROM,
+ * the I/O registers, and the clock that drives them.  Only the hardware is
+ * fake; every firmware module linked beside this file is the real one.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "adc.h"
+#include "control.h"
+#include "fixture.h"
+#include "sample.h"
+#include "tx.h"
+#include "uart.h"
+#include <avr/eeprom.h>
+
+volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd;
+uint8_t fake_eeprom[E2END + 1];
+
+char fx_out[1 << 20];
+size_t fx_out_len;
+uint32_t fx_sets_made;
+
+static uint64_t now_ns;
+#define BYTE_NS (10ull * 1000000000ull / BAUD)
+
+/* ---- UART: TX ring of UART_STEP_MAX + 1 slots (one always empty), RX
+ * ring of 8 with the device's gap marking ---- */
+#define TX_ROOM UART_STEP_MAX
+static unsigned tx_fill;
+static uint64_t tx_next_ns;
+#define RX_SIZE 8
+static uint8_t rx_buf[RX_SIZE];
+static unsigned rx_head, rx_tail;
+static int rx_gap = -1;
+static char *rx_queue;
+static size_t rx_queue_len, rx_queue_pos;
+static uint64_t rx_next_ns;
+
+void uart_init(void) {}
+
+void uart_write(uint8_t c)
+{
+  if (tx_fill >= TX_ROOM) {
+    fprintf(stderr, "firmware wrote into a full TX ring\n");
+    abort();
+  }
+  if (fx_out_len + 1 >= sizeof fx_out) {
+    fprintf(stderr, "output capture full\n");
+    abort();
+  }
+  if (tx_fill == 0 && tx_next_ns < now_ns)
+    tx_next_ns = now_ns + BYTE_NS;
+  tx_fill++;
+  fx_out[fx_out_len++] = (char)c;
+  fx_out[fx_out_len] = 0;
+}
+
+uint8_t uart_tx_room(void)
+{
+  return (uint8_t)(TX_ROOM - tx_fill);
+}
+
+int16_t uart_read(void)
+{
+  int16_t gap = 0;
+  uint8_t c;
+  if (rx_head == rx_tail)
+    return -1;
+  if ((int)rx_tail == rx_gap) {
+    rx_gap = -1;
+    gap = UART_READ_GAP;
+  }
+  c = rx_buf[rx_tail];
+  rx_tail = (rx_tail + 1) % RX_SIZE;
+  return (int16_t)(gap | c);
+}
+
+uint8_t uart_rx_pending(void)
+{
+  return rx_head != rx_tail;
+}
+
+static void rx_byte(uint8_t c)
+{
+  unsigned next = (rx_head + 1) % RX_SIZE;
+  if (next == rx_tail) {
+    if (rx_gap < 0)
+      rx_gap = (int)rx_head;
+    return;
+  }
+  rx_buf[rx_head] = c;
+  rx_head = next;
+}
+
+void fx_send(const char *bytes, size_t n)
+{
+  rx_queue = realloc(rx_queue, rx_queue_len + n);
+  memcpy(rx_queue + rx_queue_len, bytes, n);
+  rx_queue_len += n;
+  if (rx_next_ns < now_ns)
+    rx_next_ns = now_ns + BYTE_NS;
+}
+
+void fx_send_str(const char *s)
+{
+  fx_send(s, strlen(s));
+}
+
+/* ---- ADC: ticks at the rate; a set lands in a ring of three slots, two
+ * of which may wait for the main loop ---- */
+#define ADC_SLOTS 3
+static uint16_t ring[ADC_SLOTS][ADC_COLUMNS];
+static unsigned ring_head, ring_tail;
+static uint16_t rate_hz = 100;
+static int running, limited;
+static uint32_t budget, drops;
+static uint64_t next_tick_ns;
+
+uint16_t fx_code(uint32_t i, uint8_t col)
+{
+  /* A deterministic pattern that uses all 10 bits and differs by column. */
+  uint32_t x = i * 2654435761u + col * 40503u;
+  return (uint16_t)((x >> 7) % 1024u);
+}
+
+void adc_init(void) {}
+void adc_set_rate(uint16_t hz) { rate_hz = hz; }
+uint16_t adc_rate(void) { return rate_hz; }
+
+void adc_start(uint8_t lim, uint32_t count)
+{
+  limited = lim;
+  budget = count;
+  running = 1;
+  next_tick_ns = now_ns + 1000000000ull / rate_hz;
+}
+
+void adc_stop(void) { running = 0; }
+uint8_t adc_running(void) { return (uint8_t)running; }
+
+uint8_t adc_pending(void)
+{
+  return (uint8_t)((ring_head + ADC_SLOTS - ring_tail) % ADC_SLOTS);
+}
+
+uint16_t adc_oldest(uint8_t col)
+{
+  return ring[ring_tail][col];
+}
+
+uint8_t adc_peek(uint16_t code[ADC_COLUMNS])
+{
+  if (!adc_pending())
+    return 0;
+  memcpy(code, ring[ring_tail], sizeof ring[0]);
+  return 1;
+}
+
+uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES])
+{
+  uint16_t hi = 0;
+  uint8_t i;
+  if (!adc_pending())
+    return 0;
+  for (i = 0; i < ADC_COLUMNS; i++) {
+    out[i] = (uint8_t)ring[ring_tail][i];
+    hi |= (uint16_t)((ring[ring_tail][i] >> 8) << (2 * i));
+  }
+  out[ADC_COLUMNS] = (uint8_t)hi;
+  out[ADC_COLUMNS + 1] = (uint8_t)(hi >> 8);
+  return 1;
+}
+
+void adc_discard(void)
+{
+  if (adc_pending())
+    ring_tail = (ring_tail + 1) % ADC_SLOTS;
+}
+
+void adc_flush(void) { ring_tail = ring_head; }
+uint32_t adc_drops(void) { return drops; }
+void adc_clear_drops(void) { drops = 0; }
+void adc_count_drop(void) { drops++; }
+
+static void adc_tick(void)
+{
+  unsigned next = (ring_head + 1) % ADC_SLOTS;
+  uint8_t col;
+  if (limited) {
+    if (budget == 0) {
+      running = 0;
+      return;
+    }
+    budget--;
+  }
+  for (col = 0; col < ADC_COLUMNS; col++)
+    ring[ring_head][col] = fx_code(fx_sets_made, col);
+  fx_sets_made++;
+  if (next == ring_tail)
+    drops++; /* the main loop is behind: the set is lost, and counted */
+  else
+    ring_head = next;
+}
+
+/* ---- EEPROM: blank at power-up unless a test wrote it first ---- */
+void eeprom_read_block(void *dst, const void *src, size_t n)
+{
+  memcpy(dst, fake_eeprom + (uintptr_t)src, n);
+}
+
+void eeprom_update_byte(uint8_t *addr, uint8_t value)
+{
+  fake_eeprom[(uintptr_t)addr] = value;
+}
+
+int eeprom_is_ready(void) { return 1; }
+
+/* ---- clock and loop ---- */
+uint64_t fx_now_us(void) { return now_ns / 1000u; }
+
+static void advance_to(uint64_t t)
+{
+  now_ns = t;
+  while (tx_fill && tx_next_ns <= now_ns) {
+    tx_fill--;
+    tx_next_ns += BYTE_NS;
+  }
+  while (rx_queue_pos < rx_queue_len && rx_next_ns <= now_ns) {
+    rx_byte((uint8_t)rx_queue[rx_queue_pos++]);
+    rx_next_ns += BYTE_NS;
+  }
+  while (running && next_tick_ns <= now_ns) {
+    adc_tick();
+    next_tick_ns += 1000000000ull / rate_hz;
+  }
+}
+
+void fx_boot(uint8_t mcusr)
+{
+  static int erased;
+  if (!erased) {
+    /* blank unless the test filled it before booting */
+    size_t i;
+    int any = 0;
+    for (i = 0; i <= E2END; i++)
+      any |= fake_eeprom[i];
+    if (!any)
+      memset(fake_eeprom, 0xFF, sizeof fake_eeprom);
+    erased = 1;
+  }
+  /* main.c's start-up, in its order */
+  tx_init(mcusr);
+  uart_init();
+  adc_init();
+  control_init();
+  tx_boot();
+  adc_start(0, 0);
+}
+
+void fx_run_us(uint64_t us)
+{
+  uint64_t end = now_ns + us * 1000u;
+  while (now_ns < end) {
+    advance_to(now_ns + 20000u); /* one loop pass: 20 us */
+    /* main.c's loop body */
+    sample_feed();
+    tx_poll();
+    control_poll();
+  }
+}
+
+long fx_find_line(const char *prefix, unsigned n, char *body, size_t body_size, unsigned *crc)
+{
+  size_t plen = strlen(prefix);
+  const char *p = fx_out;
+  while ((p = strchr(p, '$')) != NULL) {
+    const char *star = strchr(p, '*');
+    const char *nl = strchr(p, '\n');
+    if (star && nl && star < nl && strncmp(p + 1, prefix, plen) == 0 && n-- == 0) {
+      size_t len = (size_t)(star - p - 1);
+      if (len >= body_size)
+        len = body_size - 1;
+      memcpy(body, p + 1, len);
+      body[len] = 0;
+      if (crc)
+        *crc = (unsigned)strtoul(star + 1, NULL, 16);
+      return p - fx_out;
+    }
+    p++;
+  }
+  return -1;
+}
+
+unsigned fx_count_lines(const char *prefix)
+{
+  unsigned n = 0;
+  char body[512];
+  while (fx_find_line(prefix, n, body, sizeof body, NULL) >= 0)
+    n++;
+  return n;
+}

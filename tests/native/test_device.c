@@ -1,0 +1,373 @@
+/*
+ * Native tests of the firmware's control and output path: the real output
+ * scheduler, producers, command execution and settings, run by the main
+ * loop's body against the fakes of fixture.h.  Each test is a power-up in
+ * its own process (ctest runs `test_device <name>`).  Values are checked
+ * against independent computations written here: the CRCs bit by bit, the
+ * codes from the fake ADC's pattern, the fields from the commands sent.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fixture.h"
+#include "unity.h"
+#include <avr/eeprom.h>
+#include <avr/io.h>
+
+void setUp(void) {}
+void tearDown(void) {}
+
+/* CRC-16/CCITT-FALSE, bit by bit (docs/protocol.md's line check). */
+static unsigned ref_crc16(const char *s, size_t n)
+{
+  unsigned reg = 0xFFFF;
+  for (size_t i = 0; i < n; i++)
+    for (int b = 7; b >= 0; b--) {
+      unsigned in = ((unsigned char)s[i] >> b) & 1u, top = (reg >> 15) & 1u;
+      reg = (reg << 1) & 0xFFFF;
+      if (top ^ in)
+        reg ^= 0x1021;
+    }
+  return reg;
+}
+
+/* The n-th line starting with prefix, its CRC verified; fails if absent. */
+static void line(const char *prefix, unsigned n, char *body, size_t size)
+{
+  unsigned crc;
+  char msg[96];
+  snprintf(msg, sizeof msg, "no line #%u starting '$%s'", n, prefix);
+  TEST_ASSERT_TRUE_MESSAGE(fx_find_line(prefix, n, body, size, &crc) >= 0, msg);
+  TEST_ASSERT_EQUAL_HEX16_MESSAGE(ref_crc16(body, strlen(body)), crc, body);
+}
+
+/* Every framed line in the output is whole: `$`, printable body, `*`, four
+ * upper-case hex digits, CR LF, with its CRC right. */
+static void assert_all_lines_whole(void)
+{
+  const char *p = fx_out;
+  unsigned lines = 0;
+  while ((p = strchr(p, '$')) != NULL) {
+    const char *q = p + 1;
+    while (*q >= 0x20 && *q <= 0x7E && *q != '*' && *q != '$')
+      q++;
+    TEST_ASSERT_EQUAL_CHAR_MESSAGE('*', *q, p);
+    TEST_ASSERT_EQUAL_UINT(ref_crc16(p + 1, (size_t)(q - p - 1)), (unsigned)strtoul(q + 1, NULL, 16));
+    for (int i = 1; i <= 4; i++)
+      TEST_ASSERT_TRUE(strchr("0123456789ABCDEF", q[i]) != NULL);
+    TEST_ASSERT_EQUAL_CHAR('\r', q[5]);
+    TEST_ASSERT_EQUAL_CHAR('\n', q[6]);
+    p = q + 7;
+    lines++;
+  }
+  TEST_ASSERT_TRUE(lines > 0);
+}
+
+/* The value of key in a `k=v,k=v` or `k=v k=v` body, as a string. */
+static const char *field(const char *body, const char *key)
+{
+  static char v[64];
+  size_t klen = strlen(key);
+  const char *p = body;
+  while ((p = strstr(p, key)) != NULL) {
+    if (p[klen] == '=' && (p == body || p[-1] == ',' || p[-1] == ' ')) {
+      size_t n = strcspn(p + klen + 1, ", ");
+      memcpy(v, p + klen + 1, n);
+      v[n] = 0;
+      return v;
+    }
+    p++;
+  }
+  return "(absent)";
+}
+
+/* One command line, then time for its reply (commands sent back to back
+ * while output is busy are the RX test's business, not these tests'). */
+static void command(const char *text)
+{
+  fx_send_str(text);
+  fx_send_str("\r");
+  fx_run_us(60000);
+}
+
+static void test_boot_line_names_protocol_version_and_reset_cause(void)
+{
+  char b[256];
+  fx_boot(0x02 | 0x08); /* EXTRF | WDRF */
+  fx_run_us(20000);
+  line("B,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("1", field(b, "proto"));
+  TEST_ASSERT_EQUAL_STRING("ext+wdt", field(b, "reset"));
+}
+
+static void test_status_reply_is_framed_and_checksummed(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(50000);
+  fx_send_str("status\r");
+  fx_run_us(50000);
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank", b);
+  assert_all_lines_whole();
+}
+
+static void test_unknown_command_gets_error_and_sampling_goes_on(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_send_str("bogus 12\r");
+  fx_run_us(100000);
+  line("error:", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:1 unknown command", b);
+  fx_send_str("stop\r");
+  fx_run_us(50000);
+  line("ok stopped", 0, b, sizeof b);
+  /* every set made so far went to the engine */
+  char want[64];
+  snprintf(want, sizeof want, "ok stopped n=%u", (unsigned)fx_sets_made);
+  TEST_ASSERT_EQUAL_STRING(want, b);
+  TEST_ASSERT_TRUE(fx_sets_made >= 9);
+}
+
+static void test_reply_between_report_lines_pauses_report(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(3000000); /* 300 sets */
+  fx_send_str("report\r");
+  fx_run_us(60000);
+  TEST_ASSERT_TRUE(fx_count_lines("L,") > 0); /* the report is under way */
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("E,"));
+  fx_send_str("status\r");
+  fx_run_us(300000);
+  long st = fx_find_line("ok status", 0, b, sizeof b, NULL);
+  long h = fx_find_line("H,0,", 0, b, sizeof b, NULL);
+  long e = fx_find_line("E,0,", 0, b, sizeof b, NULL);
+  TEST_ASSERT_TRUE(h >= 0 && st > h && e > st); /* the reply came inside the report */
+  line("E,0,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("E,0,90", b);
+  TEST_ASSERT_EQUAL_UINT(90, fx_count_lines("L,0,"));
+  /* rows in order: channel by channel, level by level, none repeated or lost */
+  for (unsigned i = 0; i < 90; i++) {
+    char want[16];
+    static const char *ch[] = {"ax", "ay", "az", "gx", "gy", "gz"};
+    line("L,0,", i, b, sizeof b);
+    snprintf(want, sizeof want, "L,0,%s,%u,", ch[i / 15], i % 15);
+    TEST_ASSERT_EQUAL_STRING_LEN(want, b, strlen(want));
+  }
+  assert_all_lines_whole();
+}
+
+static void test_rate_change_resets_run(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(1000000);
+  fx_send_str("rate 200\r");
+  fx_run_us(50000);
+  line("ok", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok reset rate=200", b);
+  uint32_t before = fx_sets_made;
+  fx_send_str("rate 200\r"); /* the same rate: no new run */
+  fx_run_us(50000);
+  line("ok", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok rate=200", b);
+  fx_send_str("stop\r");
+  fx_run_us(50000);
+  line("ok stopped", 0, b, sizeof b);
+  unsigned n = (unsigned)strtoul(b + strlen("ok stopped n="), NULL, 10);
+  /* only the sets since the change, at 200 Hz: about 0.1 s of them */
+  TEST_ASSERT_TRUE(n <= fx_sets_made - (before - 10));
+  TEST_ASSERT_TRUE(n >= 15 && n <= 30);
+  fx_send_str("report\r");
+  fx_run_us(400000);
+  line("H,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("200", field(b, "fs"));
+  char want[16];
+  snprintf(want, sizeof want, "%u", n);
+  TEST_ASSERT_EQUAL_STRING(want, field(b, "n"));
+}
+
+static void test_range_command_drives_gselect_pins(void)
+{
+  static const struct { const char *word; unsigned pd6, pd7; } cases[] = {
+    {"4", 0, 1}, {"2", 1, 0}, {"6", 1, 1}, {"1.5", 0, 0}};
+  char cmd[32], b[256], want[64];
+  fx_boot(1);
+  TEST_ASSERT_EQUAL_HEX8(0xC0, fake_ddrd & 0xC0); /* both pins are outputs */
+  for (unsigned i = 0; i < 4; i++) {
+    snprintf(cmd, sizeof cmd, "range %s\r", cases[i].word);
+    fx_send_str(cmd);
+    fx_run_us(60000);
+    line("ok", i, b, sizeof b);
+    snprintf(want, sizeof want, "ok reset range=%s", cases[i].word);
+    TEST_ASSERT_EQUAL_STRING(want, b);
+    TEST_ASSERT_EQUAL_UINT(cases[i].pd6, (fake_portd >> 6) & 1u);
+    TEST_ASSERT_EQUAL_UINT(cases[i].pd7, (fake_portd >> 7) & 1u);
+  }
+}
+
+static void test_raw_mode_writes_every_set_in_order_with_count_lines(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_send_str("mode raw\r");
+  fx_run_us(1500000);
+  line("ok mode=raw", 0, b, sizeof b);
+  /* after the reply: rows of the new run, each the fake ADC's codes */
+  const char *p = strstr(fx_out, "ok mode=raw");
+  p = strchr(p, '\n') + 1;
+  unsigned rows = 0;
+  long first = -1;
+  while (*p && *p != '$') {
+    unsigned c[7];
+    TEST_ASSERT_EQUAL_INT(7, sscanf(p, "%u\t%u\t%u\t%u\t%u\t%u\t%u", &c[0], &c[1], &c[2], &c[3], &c[4], &c[5], &c[6]));
+    if (first < 0) { /* which set the run starts at: find it */
+      for (uint32_t i = 0; i < fx_sets_made && first < 0; i++)
+        if (fx_code(i, 0) == c[0] && fx_code(i, 6) == c[6])
+          first = (long)i;
+      TEST_ASSERT_TRUE(first >= 0);
+    }
+    for (int k = 0; k < 7; k++)
+      TEST_ASSERT_EQUAL_UINT(fx_code((uint32_t)first + rows, (uint8_t)k), c[k]);
+    rows++;
+    p = strchr(p, '\n') + 1;
+  }
+  TEST_ASSERT_EQUAL_UINT(100, rows); /* then the count line */
+  line("C,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("C,100,0", b);
+  assert_all_lines_whole();
+}
+
+static unsigned ref_crc16_modbus(const uint8_t *p, size_t n)
+{
+  /* CRC-16/MODBUS (avr-libc's _crc16_update from 0xFFFF), MSB-first on
+   * bit-reversed data: an independent formulation of the same code. */
+  unsigned reg = 0xFFFF, out = 0;
+  for (size_t i = 0; i < n; i++)
+    for (int b = 0; b < 8; b++) {
+      unsigned in = (p[i] >> b) & 1u, low = reg & 1u;
+      reg >>= 1;
+      if (low ^ in)
+        reg ^= 0xA001;
+    }
+  out = reg;
+  return out;
+}
+
+static void test_save_writes_a_checked_record_and_load_restores_it(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("rate 50");
+  command("interval 7");
+  command("mode both");
+  command("range 4");
+  command("save");
+  line("ok saved", 0, b, sizeof b);
+  /* the record: version 1, rate LE, interval LE, mode, range, CRC big-endian */
+  static const uint8_t want[7] = {1, 50, 0, 7, 0, 3, 2};
+  TEST_ASSERT_EQUAL_HEX8_ARRAY(want, fake_eeprom, 7);
+  unsigned crc = ref_crc16_modbus(fake_eeprom, 7);
+  TEST_ASSERT_EQUAL_HEX8(crc >> 8, fake_eeprom[7]);
+  TEST_ASSERT_EQUAL_HEX8(crc & 0xFF, fake_eeprom[8]);
+  fx_send_str("defaults\r");
+  fx_run_us(100000);
+  line("ok defaults", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok defaults reset", b);
+  command("load");
+  command("status");
+  line("ok loaded", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok loaded reset", b);
+  line("ok status", 0, b, sizeof b);
+  /* link: 50 rows of 36 bytes and half a 31-byte count line a second, of
+   * 11520 bytes/s: 1816 / 11520 = 15.8 %, rounded up */
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved", b);
+}
+
+static void test_saved_settings_are_in_force_at_power_up(void)
+{
+  char b[256];
+  static const uint8_t rec[7] = {1, 0xF4, 1, 5, 0, 0, 3}; /* 500 Hz, 5 s, allan, 6 g */
+  memcpy(fake_eeprom, rec, 7);
+  unsigned crc = ref_crc16_modbus(rec, 7);
+  fake_eeprom[7] = (uint8_t)(crc >> 8);
+  fake_eeprom[8] = (uint8_t)crc;
+  memset(fake_eeprom + 9, 0xFF, sizeof fake_eeprom - 9);
+  fx_boot(1);
+  fx_send_str("status\r");
+  fx_run_us(100000);
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved", b);
+  TEST_ASSERT_EQUAL_UINT(3, (fake_portd >> 6) & 3u);
+}
+
+static void test_periodic_report_follows_the_interval(void)
+{
+  char b[512];
+  fx_boot(1);
+  fx_send_str("interval 1\r");
+  fx_run_us(3500000);
+  TEST_ASSERT_EQUAL_UINT(3, fx_count_lines("E,"));
+  for (unsigned i = 0; i < 3; i++) {
+    char h[8];
+    snprintf(h, sizeof h, "H,%u,", i);
+    line(h, 0, b, sizeof b);
+    unsigned n = (unsigned)strtoul(field(b, "n"), NULL, 10);
+    /* each header comes when a second of sets (100) is in */
+    TEST_ASSERT_TRUE(n >= 100 * (i + 1) && n <= 100 * (i + 1) + 10);
+    TEST_ASSERT_EQUAL_STRING("0", field(b, "drops"));
+  }
+  assert_all_lines_whole();
+}
+
+static void test_link_budget_refuses_raw_at_1000_hz(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("rate 1000");
+  command("mode raw");
+  line("error:", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
+}
+
+static const struct { const char *name; void (*fn)(void); } tests[] = {
+#define T(f) {#f, f}
+  T(test_boot_line_names_protocol_version_and_reset_cause),
+  T(test_status_reply_is_framed_and_checksummed),
+  T(test_unknown_command_gets_error_and_sampling_goes_on),
+  T(test_reply_between_report_lines_pauses_report),
+  T(test_rate_change_resets_run),
+  T(test_range_command_drives_gselect_pins),
+  T(test_raw_mode_writes_every_set_in_order_with_count_lines),
+  T(test_save_writes_a_checked_record_and_load_restores_it),
+  T(test_saved_settings_are_in_force_at_power_up),
+  T(test_periodic_report_follows_the_interval),
+  T(test_link_budget_refuses_raw_at_1000_hz),
+#undef T
+};
+
+static void dump(void)
+{
+  fwrite(fx_out, 1, fx_out_len, stderr);
+}
+
+int main(int argc, char **argv)
+{
+  size_t i;
+  if (argc < 2) { /* the list, for CMake */
+    for (i = 0; i < sizeof tests / sizeof tests[0]; i++)
+      printf("%s\n", tests[i].name);
+    return 0;
+  }
+  if (getenv("FX_DUMP")) atexit(dump);
+  UNITY_BEGIN();
+  for (i = 0; i < sizeof tests / sizeof tests[0]; i++)
+    if (strcmp(argv[1], tests[i].name) == 0)
+      UnityDefaultTestRun(tests[i].fn, tests[i].name, __LINE__);
+  return UNITY_END();
+}
