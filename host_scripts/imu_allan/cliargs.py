@@ -18,13 +18,18 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
-def _fs(text: str) -> float | int:
+def _positive_float(text: str, unit: str) -> float:
     try:
         v = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive number of Hz: {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a positive number of {unit}: {text!r}")
+    return v
+
+
+def _fs(text: str) -> float | int:
+    v = _positive_float(text, "Hz")
     return int(v) if v.is_integer() else v
 
 
@@ -57,13 +62,7 @@ def _baud(text: str) -> int:
 
 
 def _seconds(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive number of seconds: {text!r}")
-    return v
+    return _positive_float(text, "seconds")
 
 
 def _levels(text: str) -> int:
