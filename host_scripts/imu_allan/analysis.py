@@ -23,12 +23,14 @@ from typing import Any, Optional
 
 import numpy as np
 
-from . import CHANNELS, __version__, allan, edf, model, psd, terms
-from .decode import Report, flag_names
+from . import __version__
+from .channels import CHANNELS
+from .stats import allan, edf, model, psd, terms
+from .device.records import DeviceReport, flag_names
 from .errors import InputError
 from .profiles import Profile, term_unit, to_si_rad
 from .progress import Progress
-from .sources import Source
+from .sources import SampleSource, Source
 
 LEVEL = 0.95
 
@@ -50,6 +52,27 @@ class Options:
 
 
 @dataclass
+class HostPass:
+    """What one pass over the samples gave: the octave engine's result, the
+    samples themselves when they fit in memory, and the Welch PSD."""
+    n: int
+    octave: allan.OctaveResult
+    data: Optional[np.ndarray]
+    """(channels, n) float64 samples in input units, or None when streamed."""
+    psd: tuple[np.ndarray, np.ndarray]
+    taus: str
+    """The tau grid of the curves: the one asked, or octave when streamed."""
+
+
+@dataclass
+class Analysis:
+    """The result of ``analyze``: the ``--json`` document (every float finite
+    or None, ready for render.py) and each channel's fit of the noise terms."""
+    doc: dict[str, Any]
+    fits: dict[str, terms.FitResult]
+
+
+@dataclass
 class _Curve:
     """One statistic of one channel at its taus, in input units squared."""
     ms: np.ndarray
@@ -59,8 +82,8 @@ class _Curve:
     flags: list[list[str]] = field(default_factory=list)
 
 
-def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Report] = None) -> dict[str, Any]:
-    """The analysis document of ``src`` (samples and/or its device report)."""
+def analyze(src: Source, profile: Profile, opts: Options, device: Optional[DeviceReport] = None) -> Analysis:
+    """The analysis of ``src`` (samples and/or its device report)."""
     report = device if device is not None else src.report
     fs = _sample_rate(src, report, opts)
     notes: list[str] = list(src.notes) + list(profile.notes)
@@ -70,7 +93,7 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Repor
         "tool": f"imu-allan analyze {__version__}",
         "source": {"file": src.name, "kind": samples.kind if samples is not None else "device-log",
                    "fs_hz": fs, "n": None, "duration_s": None, "device_header": _jsonable(
-                       report.header) if report is not None else None},
+                       report.header.as_dict()) if report is not None else None},
         "profile": {"name": profile.name,
                     "channels": {c: {"unit": profile.scale(c).unit, "per_count": profile.scale(c).per_count,
                                      "source": profile.scale(c).source} for c in chans}},
@@ -81,26 +104,27 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Repor
     host = None
     if samples is not None:
         host = _host_pass(samples, chans, fs, opts, notes)
-        doc["source"]["n"] = host["n"]
-        doc["source"]["duration_s"] = host["n"] / fs
+        doc["source"]["n"] = host.n
+        doc["source"]["duration_s"] = host.n / fs
         notes.extend(samples.notes)
     elif report is not None:
-        doc["source"]["n"] = report.header["n"]
-        doc["source"]["duration_s"] = report.header["n"] / fs
+        doc["source"]["n"] = report.header.n
+        doc["source"]["duration_s"] = report.header.n / fs
+    fits: dict[str, terms.FitResult] = {}
     for c_i, ch in enumerate(chans):
-        doc["channels"][ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
+        doc["channels"][ch], fits[ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
     if opts.model:
-        _model_all(doc, chans, profile, fs, host, report, opts)
-    return doc
+        _model_all(doc, fits, chans, profile, fs, host, report, opts)
+    return Analysis(_jsonable(doc), fits)
 
 
 # ---- input checks -------------------------------------------------------------------
 
 
-def _sample_rate(src: Source, report: Optional[Report], opts: Options) -> float:
+def _sample_rate(src: Source, report: Optional[DeviceReport], opts: Options) -> float:
     known = None
     if report is not None:
-        known, where = float(report.header["fs_hz"]), "the device header"
+        known, where = float(report.header.fs_hz), "the device header"
     elif src.samples is not None and src.samples.fs:
         known, where = float(src.samples.fs), "the time column"
     if opts.fs is not None:
@@ -124,7 +148,7 @@ def _channels(available: list[str], wanted: Optional[list[str]]) -> list[str]:
 # ---- the pass over the samples ------------------------------------------------------------
 
 
-def _host_pass(samples: Any, chans: list[str], fs: float, opts: Options, notes: list[str]) -> dict[str, Any]:
+def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options, notes: list[str]) -> HostPass:
     sel = [samples.channels.index(c) for c in chans]
     C = len(chans)
     eng = allan.OctaveEngine(C, exact_max=opts.exact_max)
@@ -159,28 +183,25 @@ def _host_pass(samples: Any, chans: list[str], fs: float, opts: Options, notes: 
                 bar.update(done)
     else:
         welch.push(data)
-    f, p = welch.result()
-    host: dict[str, Any] = {"n": n, "octave": res, "data": data, "psd": (f, p)}
     if opts.taus != "octave" and data is None:
         notes.append(f"--taus {opts.taus} needs the samples in memory: octave taus used instead")
-    host["taus"] = opts.taus if data is not None else "octave"
-    return host
+    return HostPass(n, res, data, welch.result(), opts.taus if data is not None else "octave")
 
 
-def _host_curves(host: dict[str, Any], c_i: int, extra: bool = True) -> dict[str, _Curve]:
+def _host_curves(host: HostPass, c_i: int, extra: bool = True) -> dict[str, _Curve]:
     """The host's curves of channel c_i: oavar (fitted), avar, mvar, hvar (input units^2)."""
-    res: allan.OctaveResult = host["octave"]
-    n = host["n"]
+    res = host.octave
+    n = host.n
     out: dict[str, _Curve] = {}
-    data = host["data"]
-    if host["taus"] == "octave":
+    data = host.data
+    if host.taus == "octave":
         out["oavar"] = _Curve(res.ms, res.oavar[:, c_i], np.full(res.ms.size, n + 1), res.stride)
         ok = res.pairs > 0
         out["avar"] = _Curve(res.ms[ok], res.avar[ok, c_i], np.full(int(ok.sum()), n + 1), res.ms[ok])
     if data is not None:
         x = data[c_i]
-        if host["taus"] != "octave":
-            ms = allan.tau_grid(host["taus"], allan.max_m("oavar", n))
+        if host.taus != "octave":
+            ms = allan.tau_grid(host.taus, allan.max_m("oavar", n))
             with Progress("overlapping AVAR", ms.size) as bar:
                 v, _ = allan.oavar(x, ms, progress=bar.update)
             out["oavar"] = _Curve(ms, v, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
@@ -189,7 +210,7 @@ def _host_curves(host: dict[str, Any], c_i: int, extra: bool = True) -> dict[str
             out["avar"] = _Curve(ms[ok], v[ok], np.full(int(ok.sum()), n + 1), ms[ok])
         if not extra:
             return out
-        ms3 = allan.tau_grid(host["taus"], allan.max_m("mvar", n))
+        ms3 = allan.tau_grid(host.taus, allan.max_m("mvar", n))
         with Progress("modified AVAR", ms3.size) as bar:
             v, _ = allan.mvar(x, ms3, progress=bar.update)
         out["mvar"] = _Curve(ms3, v, np.full(ms3.size, n + 1), np.ones(ms3.size, dtype=np.int64))
@@ -199,7 +220,7 @@ def _host_curves(host: dict[str, Any], c_i: int, extra: bool = True) -> dict[str
     return out
 
 
-def _device_curve(report: Report, ch: str) -> _Curve:
+def _device_curve(report: DeviceReport, ch: str) -> _Curve:
     rows = sorted((r for r in report.rows if r.channel == ch and r.pairs > 0), key=lambda r: r.level)
     ms = np.array([r.m for r in rows], dtype=np.int64)
     return _Curve(ms, np.array([r.avar for r in rows]), np.array([r.covers + 1 for r in rows]),
@@ -209,8 +230,10 @@ def _device_curve(report: Report, ch: str) -> _Curve:
 # ---- one channel ----------------------------------------------------------------------------
 
 
-def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict[str, Any]],
-             report: Optional[Report], opts: Options, notes: list[str]) -> dict[str, Any]:
+def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[HostPass],
+             report: Optional[DeviceReport], opts: Options, notes: list[str]
+             ) -> tuple[dict[str, Any], terms.FitResult]:
+    """One channel's JSON object and its fit of the noise terms."""
     sc = profile.scale(ch)
     k2 = sc.per_count ** 2
     curves = _host_curves(host, c_i, opts.extra_curves) if host is not None else {}
@@ -235,7 +258,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict
         "terms": {k: _term_json(t) for k, t in fit.terms.items()},
         "term_notes": {k: t.note for k, t in fit.terms.items() if t.note},
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
-        "b_classic": _b_classic(fit, var),
+        "b_classic": _b_classic(fit),
         "fit": {"statistic": stat, "chi2_dof": _num(fit.chi2_red), "points": int(fit.used.sum()),
                 "notes": fit.notes},
         "curve": _points(main, fs, k2, fit, d=2, modified=False, used=fit.used),
@@ -250,7 +273,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict
     if dev is not None and host is not None:
         out["device"] = _device_json(dev, fs, k2, fit, main)
     if host is not None:
-        f, p = host["psd"]
+        f, p = host.psd
         fb, pb = psd.log_bins(f, p[c_i:c_i + 1] * k2)
         lines = psd.term_psd(fb, fit.values(), fs)
         out["psd"] = {"method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
@@ -261,8 +284,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict
                  "terms": {k: (None if v is None else {kk: (vv * si if isinstance(vv, float) else vv)
                                                        for kk, vv in v.items()})
                            for k, v in out["terms"].items()}}
-    out["_fit"] = fit  # internal, removed before output
-    return out
+    return out, fit
 
 
 def _term_json(t: terms.Term) -> Optional[dict[str, Any]]:
@@ -272,7 +294,7 @@ def _term_json(t: terms.Term) -> Optional[dict[str, Any]]:
             "tau_range_s": [t.tau_range[0], t.tau_range[1]] if t.tau_range else None}
 
 
-def _b_classic(fit: terms.FitResult, var: np.ndarray) -> Optional[dict[str, Any]]:
+def _b_classic(fit: terms.FitResult) -> Optional[dict[str, Any]]:
     b = fit.b_classic
     if b is None:
         return None
@@ -350,7 +372,7 @@ def _device_json(dev: _Curve, fs: float, k2: float, fit: terms.FitResult, host: 
 # ---- the thesis model ---------------------------------------------------------------------
 
 
-def _tau_b(fit: terms.FitResult, tau: np.ndarray, var: np.ndarray) -> Optional[float]:
+def _tau_b(fit: terms.FitResult) -> Optional[float]:
     b = fit.terms["B"]
     if b.tau_range:
         return math.sqrt(b.tau_range[0] * b.tau_range[1])
@@ -359,17 +381,15 @@ def _tau_b(fit: terms.FitResult, tau: np.ndarray, var: np.ndarray) -> Optional[f
     return None
 
 
-def _model_all(doc: dict[str, Any], chans: list[str], profile: Profile, fs: float,
-               host: Optional[dict[str, Any]], report: Optional[Report], opts: Options) -> None:
+def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult], chans: list[str],
+               profile: Profile, fs: float, host: Optional[HostPass], report: Optional[DeviceReport],
+               opts: Options) -> None:
     params = []
     for ch in chans:
-        c = doc["channels"][ch]
-        fit: terms.FitResult = c["_fit"]
-        tau = np.array([p["tau_s"] for p in c["curve"]])
-        var = np.array([(p["dev"] or math.nan) ** 2 for p in c["curve"]])
+        fit = fits[ch]
         vals = {k: (fit.terms[k].value if fit.terms[k].value is not None else None) for k in terms.TERMS}
-        params.append(model.from_terms(vals, fs, _tau_b(fit, tau, var)))
-    n = host["n"] if host is not None else (max((r.covers for r in report.rows if r.pairs), default=0)
+        params.append(model.from_terms(vals, fs, _tau_b(fit)))
+    n = host.n if host is not None else (max((r.covers for r in report.rows if r.pairs), default=0)
                                              if report is not None else 0)
     if n < 4:
         return
@@ -377,7 +397,7 @@ def _model_all(doc: dict[str, Any], chans: list[str], profile: Profile, fs: floa
     eng = allan.OctaveEngine(C, exact_max=opts.exact_max, total=n)
     nseg = psd.segment_length(n)
     welch = psd.Welch(C, fs, nseg) if host is not None else None
-    data = host["data"] if host is not None else None
+    data = host.data if host is not None else None
     sig_num = np.zeros(C)
     sig_den = np.zeros(C)
     gens = [model.simulate(p, n, seed=opts.seed * 1000 + i) for i, p in enumerate(params)]
@@ -455,11 +475,3 @@ def _jsonable(v: Any) -> Any:
     if isinstance(v, float):
         return _num(v)
     return v
-
-
-def public(doc: dict[str, Any]) -> dict[str, Any]:
-    """The document without internal objects, every float finite or null."""
-    out = dict(doc)
-    out["channels"] = {ch: {k: v for k, v in c.items() if not k.startswith("_")}
-                       for ch, c in doc["channels"].items()}
-    return _jsonable(out)

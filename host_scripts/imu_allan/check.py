@@ -18,10 +18,11 @@ from typing import Optional
 
 import numpy as np
 
-from . import CHANNELS
-from .decode import ACC_MAX, FLAG_RANGE, FLAG_SAT, Report, flag_names
-from .reference import OctaveCascade
-from .rows import PathLike, iter_blocks
+from .channels import CHANNELS
+from .device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
+from .stats.reference import OctaveCascade
+from .device.files import PathLike
+from .device.rows import iter_blocks
 
 REL_TOL = 1e-12
 SAT_VALUES = ((1 << 40) - 1, ACC_MAX)
@@ -42,9 +43,9 @@ class CheckResult:
         return not self.mismatches
 
 
-def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = None) -> CheckResult:
+def check_report(report: DeviceReport, rows_path: PathLike, fs_hz: Optional[float] = None) -> CheckResult:
     h = report.header
-    levels = h["levels"]
+    levels = h.levels
     res = CheckResult(rows=len(report.rows))
     bad = res.mismatches.append
 
@@ -63,24 +64,16 @@ def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = N
     ref = cascade.avar()
     got_pairs = cascade.pairs()
 
-    if fs_hz is not None and float(h["fs_hz"]) != float(fs_hz):
-        bad(f"header: fs={h['fs_hz']} Hz, expected {fs_hz:g} Hz")
-    if h["drops"] is None:
-        bad("header: no drops count (cannot tell whether rows line up with the file)")
-    elif h["drops"]:
-        bad(f"header: drops={h['drops']}: the device lost sample sets, its rows no longer "
-            "line up with the file")
-    if h["n"] > res.file_rows:
-        bad(f"header: n={h['n']} samples but the file has only {res.file_rows} rows")
+    _check_header(h, fs_hz, res)
 
     for r in report.rows:
         c, k, m = CHANNELS.index(r.channel), r.level, r.m
         where = f"{r.channel} level {k}"
-        least = max(h["n"] // m - 1, 0)
+        least = max(h.n // m - 1, 0)
         if r.pairs < least:
             bad(f"{where}: pairs {r.pairs} < floor(n/m) - 1 = {least}")
-        elif h["running"] is False and r.pairs != least:
-            bad(f"{where}: pairs {r.pairs}, but a stopped run of n={h['n']} has {least}")
+        elif h.running is False and r.pairs != least:
+            bad(f"{where}: pairs {r.pairs}, but a stopped run of n={h.n} has {least}")
         if r.pairs and r.covers > res.file_rows:
             bad(f"{where}: covers {r.covers} rows, the file has only {res.file_rows}")
             continue
@@ -88,7 +81,7 @@ def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = N
             bad(f"{where}: pairs {r.pairs}, the file gives {got_pairs[k, c]}")
             continue
         true = exact[k][c]
-        acc48 = h.get("acc48_from")
+        acc48 = h.acc48_from
         width_max = ACC_MAX if acc48 is None or k >= acc48 else (1 << 40) - 1
         if r.flags & ~(FLAG_SAT | FLAG_RANGE):
             bad(f"{where}: unknown flags 0x{r.flags:02x}")
@@ -128,12 +121,26 @@ def check_report(report: Report, rows_path: PathLike, fs_hz: Optional[float] = N
     return res
 
 
-def summary(res: CheckResult, report: Report, log_name: str, rows_name: str,
+def _check_header(h: DeviceHeader, fs_hz: Optional[float], res: CheckResult) -> None:
+    """The header's claims that the rows file must bear out."""
+    bad = res.mismatches.append
+    if fs_hz is not None and float(h.fs_hz) != float(fs_hz):
+        bad(f"header: fs={h.fs_hz} Hz, expected {fs_hz:g} Hz")
+    if h.drops is None:
+        bad("header: no drops count (cannot tell whether rows line up with the file)")
+    elif h.drops:
+        bad(f"header: drops={h.drops}: the device lost sample sets, its rows no longer "
+            "line up with the file")
+    if h.n > res.file_rows:
+        bad(f"header: n={h.n} samples but the file has only {res.file_rows} rows")
+
+
+def summary(res: CheckResult, report: DeviceReport, log_name: str, rows_name: str,
             max_listed: int = 10) -> str:
     h = report.header
     lines = [
-        f"check: report seq {report.seq} of {log_name} (n {h['n']}, levels {h['levels']}, "
-        f"fs {h['fs_hz']} Hz) against {rows_name} ({res.file_rows} rows)",
+        f"check: report seq {report.seq} of {log_name} (n {h.n}, levels {h.levels}, "
+        f"fs {h.fs_hz} Hz) against {rows_name} ({res.file_rows} rows)",
         f"rows: {res.rows}; compared exactly {res.compared}, exact {res.exact}; "
         f"flagged (not compared) {len(res.flagged)}",
         f"max relative difference of avar vs float64 reference: {res.max_rel:.3g} "

@@ -13,7 +13,7 @@ import numpy as np
 from .errors import InputError
 from .profiles import LITERATURE
 from .render import NAMES
-from .terms import TERMS, basis
+from .stats.terms import TERMS, basis
 
 COLORS = {"Q": "tab:purple", "N": "tab:blue", "B": "tab:green", "K": "tab:orange", "R": "tab:red"}
 SLOPE_LABEL = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}

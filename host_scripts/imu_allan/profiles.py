@@ -23,7 +23,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Optional
 
-from . import CHANNELS
+from .channels import CHANNELS
 from .errors import InputError
 
 G0 = 9.80665
@@ -163,6 +163,39 @@ def build_profile(name: Optional[str], scales: dict[str, tuple[float, str]],
         base.channels[ch] = ChannelScale(ch, RATE_UNIT[KIND[ch]], v * unit_factor(ch, unit), 0.0,
                                          f"--scale {ch}={v:g}{unit}")
     return base
+
+
+def resolve_range(given: Optional[str], header_range: Optional[str]) -> Optional[str]:
+    """The accelerometer range: the device header's when it says one (a
+    ``--range`` that contradicts it is an error), else the one given."""
+    if header_range is None:
+        return given
+    hr = normalize_range(header_range)
+    if given is not None and normalize_range(given) != hr:
+        raise InputError(f"--range {given} contradicts the device header (range={hr} g)")
+    return hr
+
+
+def scales_for_input(name: str, channels: list[str], integer: bool, units: dict[str, str],
+                     scales: dict[str, tuple[float, str]]) -> dict[str, tuple[float, str]]:
+    """The scales of an input that is not plain ADC codes (a CSV): the units
+    its header names, unless ``--scale`` says otherwise; values that are not
+    10-bit codes need a unit for every channel."""
+    given = dict(scales)
+    for ch, unit in units.items():
+        if ch not in given:
+            try:
+                given.update(parse_scales([f"{ch}=1{unit}"]))
+            except InputError:
+                raise InputError(f"'{name}': column {ch} has unit [{unit}], not a rate unit "
+                                 "this tool knows (m/s^2, g, mg, deg/s, rad/s ...)") from None
+    missing = [c for c in channels if c not in given]
+    if missing and not integer:
+        raise InputError(f"'{name}': the values are not 10-bit ADC codes, so the thesis scale "
+                         f"does not apply: give the unit of {', '.join(missing)} with --scale "
+                         f"(e.g. --scale {missing[0]}=1{'rad/s' if missing[0][0] == 'g' else 'm/s^2'}), "
+                         "or --profile counts")
+    return given
 
 
 # ---- units the literature uses ---------------------------------------------------------

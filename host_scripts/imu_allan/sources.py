@@ -3,7 +3,8 @@
 * a device capture: any bytes holding intact protocol records (``$...*CRC``
   lines) or binary frames: the log of ``imu-allan sim`` or ``monitor``. Its
   complete reports (the on-device octave results) and, in modes raw, binary
-  and both, its samples are decoded (stream.py; nothing unchecked is used).
+  and both, its samples are decoded in one pass (device/capture.py; nothing
+  unchecked is used).
 * a rows file (thesis format): 7 integer codes per line (rows.py).
 * a CSV with a header line naming the columns: ax ay az gx gy gz (also
   acc_x, accel_x, gyro_x, gyr_x, wx, linear_acceleration_x, angular_velocity_x ...),
@@ -21,18 +22,19 @@ import io
 import math
 import os
 import re
-import sys
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-from . import CHANNELS
-from .decode import Report
+from .channels import CHANNELS
+from .device.capture import Capture, read_capture
+from .device.files import BLOCK_BYTES, input_name, read_blocks
+from .device.framing import split_frames
+from .device.records import DeviceHeader, DeviceReport
+from .device.rows import iter_blocks
+from .device.stream import LOSS_KEYS, StreamDecoder
 from .errors import InputError
-from .rows import BLOCK_BYTES, iter_blocks, open_input
-from .protocol import split_frames
-from .stream import LOSS_KEYS, StreamDecoder
 
 SNIFF_BYTES = 1 << 16
 
@@ -55,53 +57,59 @@ class SampleSource:
 class Source:
     name: str
     samples: Optional[SampleSource]
-    report: Optional[Report]                   # last complete device report
+    report: Optional[DeviceReport]             # last complete device report
     complete_reports: int = 0
     errors: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
     @property
-    def header(self) -> Optional[dict[str, Any]]:
+    def header(self) -> Optional[DeviceHeader]:
         return self.report.header if self.report is not None else None
 
 
 def load(path: str) -> Source:
-    """Look at ``path`` and return what it holds (InputError with one line otherwise)."""
-    name = "<stdin>" if path == "-" else path
-    if path == "-":
-        data = sys.stdin.buffer.read()
-        return _load_bytes(data, name)
-    try:
-        size = os.path.getsize(path)
-    except OSError as exc:
-        raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
-    f = open_input(path)
-    try:
-        head = f.read(SNIFF_BYTES)
-    finally:
-        f.close()
-    if not head:
+    """Look at ``path`` and return what it holds (InputError with one line otherwise).
+
+    A device capture is decoded in the same pass as the look at its first
+    block and kept in memory; rows files and CSV are read lazily, block by
+    block, when the statistics ask (stdin's text is kept in a temporary file).
+    """
+    name = input_name(path)
+    blocks = read_blocks(path)
+    first = next(blocks, b"")
+    if not first:
         raise InputError(f"'{name}' is empty")
+    head = first[:SNIFF_BYTES]
     if _is_capture(head):
-        return _capture(path, name, size)
+        return _capture(name, read_capture(path, first, blocks))
+    if path == "-":
+        path = _spool(first, blocks)
+        size = os.path.getsize(path)
+    else:
+        blocks.close()
+        size = os.path.getsize(path)
     return _text(path, name, head, size)
 
 
-def _load_bytes(data: bytes, name: str) -> Source:
-    """stdin: the same detection on bytes in memory."""
-    import tempfile
-    if not data:
-        raise InputError(f"'{name}' is empty")
+def load_device_report(path: str) -> DeviceReport:
+    """The last complete device report of ``path`` (``analyze --device``)."""
+    src = load(path)
+    if src.report is None:
+        raise InputError(f"--device '{path}': no complete device report in it")
+    return src.report
+
+
+def _spool(first: bytes, rest: Iterator[bytes]) -> str:
+    """Text from stdin into a temporary file (read again lazily; removed at exit)."""
     import atexit
+    import tempfile
     tmp = tempfile.NamedTemporaryFile(prefix="imu-allan-", suffix=".in", delete=False)
-    tmp.write(data)
-    tmp.close()
-    atexit.register(_unlink, tmp.name)  # read again lazily: removed when the program ends
-    src = load(tmp.name)
-    src.name = name
-    if src.samples is not None:
-        src.samples.name = name
-    return src
+    with tmp:
+        tmp.write(first)
+        for block in rest:
+            tmp.write(block)
+    atexit.register(_unlink, tmp.name)
+    return tmp.name
 
 
 def _unlink(path: str) -> None:
@@ -113,6 +121,9 @@ def _unlink(path: str) -> None:
 
 # ---- device captures ---------------------------------------------------------------
 
+CAPTURE_BLOCK = 1 << 20
+"""Samples handed to the statistics at a time from a capture in memory."""
+
 
 def _is_capture(head: bytes) -> bool:
     """Intact protocol lines or binary frames in the first bytes."""
@@ -123,41 +134,19 @@ def _is_capture(head: bytes) -> bool:
     return dec.counts["frames"] > 0
 
 
-def _decode_file(path: str, on_samples: Optional[Callable[[np.ndarray], None]] = None
-                 ) -> tuple[StreamDecoder, list[Report], int]:
-    dec = StreamDecoder(line_start=True)
-    reports: list[Report] = []
-    n = 0
-    f = open_input(path)
-    try:
-        while True:
-            try:
-                block = f.read(BLOCK_BYTES)
-            except OSError as exc:
-                raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
-            chunk = dec.feed(block) if block else dec.finish()
-            reports += chunk.reports
-            if chunk.samples.shape[1]:
-                n += chunk.samples.shape[1]
-                if on_samples is not None:
-                    on_samples(chunk.samples)
-            if not block:
-                break
-    finally:
-        f.close()
-    return dec, reports, n
-
-
-def _capture(path: str, name: str, size: int) -> Source:
-    dec, reports, n = _decode_file(path)
-    c = dict(dec.counts)
+def _capture(name: str, cap: Capture) -> Source:
+    c = dict(cap.counts)
+    reports = cap.reports
     src = Source(name, None, reports[-1] if reports else None, len(reports), c)
     lost = {k: c[k] for k in LOSS_KEYS if c.get(k)}
+    n = cap.samples.shape[1]
     if n >= 2:
-        samples = SampleSource("capture", name, list(CHANNELS), lambda: _capture_blocks(path), True,
-                               n_hint=n, size_bytes=size)
+        codes = cap.samples[:len(CHANNELS)]
+        samples = SampleSource("capture", name, list(CHANNELS),
+                               lambda: (codes[:, a:a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK)),
+                               True, n_hint=n, size_bytes=None)
         if src.header is not None:
-            samples.fs = float(src.header["fs_hz"])
+            samples.fs = float(src.header.fs_hz)
         if lost:
             samples.notes.append("samples were lost or damaged on the way ("
                                  + ", ".join(f"{k} {v}" for k, v in lost.items())
@@ -167,21 +156,6 @@ def _capture(path: str, name: str, size: int) -> Source:
         bad = ", ".join(f"{k} {v}" for k, v in c.items() if v) or "nothing usable"
         raise InputError(f"'{name}': a device capture without a complete report or samples ({bad})")
     return src
-
-
-def _capture_blocks(path: str) -> Iterator[np.ndarray]:
-    dec = StreamDecoder(line_start=True)
-    f = open_input(path)
-    try:
-        while True:
-            block = f.read(BLOCK_BYTES)
-            chunk = dec.feed(block) if block else dec.finish()
-            if chunk.samples.shape[1]:
-                yield chunk.samples[:len(CHANNELS)]
-            if not block:
-                break
-    finally:
-        f.close()
 
 
 # ---- text: rows files and CSV ---------------------------------------------------------
@@ -315,15 +289,20 @@ def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], us
     """Blocks of (channels, rows) float64 after the header line (with the time
     column as a second item when ``with_time``); ``max_bytes`` reads only the start."""
     cols = use + ([time_col] if with_time and time_col is not None else [])
-    f = open_input(path)
+    line, tail, total, skip = header_line, b"", 0, header_line
+    blocks = read_blocks(path, BLOCK_BYTES if max_bytes is None else max_bytes)
     try:
-        for _ in range(header_line):
-            f.readline()
-        line, tail, total = header_line, b"", 0
-        while True:
-            chunk = f.read(BLOCK_BYTES if max_bytes is None else max_bytes)
+        for chunk in _then_end(blocks):
             total += len(chunk)
             data = tail + chunk
+            while skip and data:  # the lines up to the header's
+                nl = data.find(b"\n")
+                if nl < 0:
+                    break
+                data, skip = data[nl + 1:], skip - 1
+            if skip and chunk:
+                tail = data
+                continue
             cut = data.rfind(b"\n") + 1 if chunk else len(data)
             body, tail = data[:cut], data[cut:]
             if body.strip():
@@ -336,7 +315,13 @@ def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], us
             if not chunk or (max_bytes is not None and total >= max_bytes):
                 break
     finally:
-        f.close()
+        blocks.close()
+
+
+def _then_end(blocks: Iterator[bytes]) -> Iterator[bytes]:
+    """The blocks, then b"" for the end."""
+    yield from blocks
+    yield b""
 
 
 def _parse_csv(body: bytes, name: str, first_line: int, delim: Optional[str], cols: list[int]) -> np.ndarray:

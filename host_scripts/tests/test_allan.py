@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 allantools = pytest.importorskip("allantools")
 
-from imu_allan import allan  # noqa: E402
-from imu_allan.reference import OctaveCascade  # noqa: E402
+from imu_allan.stats import allan  # noqa: E402
+from imu_allan.stats.reference import OctaveCascade  # noqa: E402
 
 REL = 1e-9
 

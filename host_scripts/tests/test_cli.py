@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from imu_allan import simrun
+from imu_allan.device import simrun
 
 COMMANDS = ("decode", "reference", "check", "gen", "sim", "rows", "monitor", "cmd")
 
@@ -105,7 +105,7 @@ def test_sim_hints(tmp_path: Path, run_cli, monkeypatch) -> None:
 
 
 def test_default_paths_point_into_the_checkout() -> None:
-    assert (simrun.REPO / "host_scripts" / "imu_allan" / "simrun.py").is_file()
+    assert (simrun.REPO / "host_scripts" / "imu_allan" / "device" / "simrun.py").is_file()
     assert simrun.DEFAULT_SIM == simrun.REPO / "build" / "host" / "imu-sim"
     assert simrun.DEFAULT_ELF == simrun.REPO / "build" / "avr-atmega168" / "imu-allan.elf"
     assert os.path.basename(simrun.DEFAULT_ELF) == "imu-allan.elf"

@@ -8,7 +8,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import CH, header_body, line, report_lines, thesis_like
-from imu_allan.decode import decode_bytes
+from imu_allan.device.records import decode_bytes
 
 ROW_KEYS = {"channel", "level", "m", "tau_s", "pairs", "covers", "acc", "avar", "adev", "flags"}
 
@@ -62,7 +62,7 @@ def test_settings_keys_and_replies(tmp_path: Path, run_cli) -> None:
     log.write_bytes(line("ok mode=both") + line("C,100,0") + b"".join(rep) + line("error:4 link too slow"))
     res = decode_bytes(log.read_bytes())
     h = res.reports[0].header
-    assert (h["mode"], h["range_g"], h["cfg"], h["extra"]) == ("both", "1.5", "saved", {"new": "1"})
+    assert (h.mode, h.range_g, h.cfg, h.extra) == ("both", "1.5", "saved", {"new": "1"})
     assert res.replies == ["ok mode=both", "error:4 link too slow"]
     assert res.errors["unknown_records"] == 0  # count lines are known records
     rc, out, _ = run_cli("decode", log)

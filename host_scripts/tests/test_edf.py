@@ -12,7 +12,7 @@ import pytest
 allantools = pytest.importorskip("allantools")
 from allantools import ci  # noqa: E402
 
-from imu_allan import allan, edf  # noqa: E402
+from imu_allan.stats import allan, edf  # noqa: E402
 
 
 def _ref(*args, **kw):

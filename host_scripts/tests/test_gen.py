@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan.gen import THESIS, generate, make_params
-from imu_allan.rows import read_rows
+from imu_allan.stats.gen import THESIS, generate, make_params
+from imu_allan.device.rows import read_rows
 
 
 def _gen(run_cli, path: Path, *args) -> np.ndarray:

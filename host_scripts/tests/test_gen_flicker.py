@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from imu_allan import allan, gen
+from imu_allan.stats import allan, gen, noise
 from imu_allan.progress import Progress
 
 
 def test_flicker_floor_is_0664_b() -> None:
-    fl = gen._Flicker(1.0, 100.0, 1 << 20, np.random.SeedSequence(5))
+    fl = noise.Flicker(1.0, 100.0, 1 << 20, np.random.SeedSequence(5))
     x = np.concatenate([fl.take(s, 50_000) for s in range(0, 1 << 20, 50_000)])[: 1 << 20]
     r = allan.octave_oavar(x)
     adev = np.sqrt(r.oavar[:, 0]) / 0.6643

@@ -225,7 +225,7 @@ class _Tty(io.StringIO):
 
 
 def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
-    from imu_allan.monitor import run_monitor
+    from imu_allan.device.monitor import run_monitor
     data, _ = _monitor_stream()
     dev = device(first=data)
     out, err = _Tty(), io.StringIO()
@@ -237,7 +237,7 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
 
 
 def test_monitor_view_rate_and_losses() -> None:
-    from imu_allan.monitor import Monitor
+    from imu_allan.device.monitor import Monitor
     codes = random_codes(1000, 7)
     mon = Monitor("/dev/x", 115200, "x.log")
     data = _raw(codes).replace(raw_row(codes[450]), b"")  # one row lost

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings, strategies as st
 
 from conftest import crc, line
-from imu_allan.protocol import crc16, crc16_many, frame, split_frames
+from imu_allan.device.framing import crc16, crc16_many, frame, split_frames
 
 
 def test_crc_check_value() -> None:

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from imu_allan import allan, model, psd
-from imu_allan.gen import _Flicker
+from imu_allan.stats import allan, model, psd
+from imu_allan.stats.noise import Flicker
 
 
 def test_welch_streams_like_scipy() -> None:
@@ -32,7 +32,7 @@ def test_term_levels_match_simulated_noise() -> None:
     N, K, B = 0.05, 0.01, 0.03
     cases = {"N": N * math.sqrt(fs) * rng.standard_normal(n),
              "K": np.cumsum(K / math.sqrt(fs) * rng.standard_normal(n)),
-             "B": _Flicker(B, fs, n, np.random.SeedSequence(2)).take(0, n)}
+             "B": Flicker(B, fs, n, np.random.SeedSequence(2)).take(0, n)}
     for k, x in cases.items():
         w = psd.Welch(1, fs, 1 << 14)
         w.push(x[None, :])

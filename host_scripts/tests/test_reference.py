@@ -3,7 +3,7 @@ import allantools
 import numpy as np
 import pytest
 
-from imu_allan.reference import octave_avar
+from imu_allan.stats.reference import octave_avar
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -34,7 +34,7 @@ import json  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from conftest import CH, exact_acc, thesis_like, write_rows  # noqa: E402
-from imu_allan.reference import OctaveCascade  # noqa: E402
+from imu_allan.stats.reference import OctaveCascade  # noqa: E402
 
 
 def test_cascade_is_independent_of_block_cuts_and_exact() -> None:

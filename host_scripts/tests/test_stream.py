@@ -7,8 +7,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import bin_frame, line, random_codes, raw_row, report_lines, thesis_like
-from imu_allan.decode import decode_bytes
-from imu_allan.stream import StreamDecoder, decode_stream, encode_frame
+from imu_allan.device.records import decode_bytes
+from imu_allan.device.capture import decode_stream
+from imu_allan.device.framing import encode_frame
+from imu_allan.device.stream import StreamDecoder
 
 BOOT = line("B,proto=1,fw=0.2.0,mcu=atmega168,reset=por")
 

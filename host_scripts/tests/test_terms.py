@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from imu_allan import allan, edf, terms
-from imu_allan.gen import _Flicker
+from imu_allan.stats import allan, edf, terms
+from imu_allan.stats.noise import Flicker
 
 FS = 100.0
 
@@ -31,7 +31,7 @@ def _stream(n: int, seed: int, Q=0.0, N=0.0, B=0.0, K=0.0, R=0.0, fs: float = FS
     if R:
         x += R * np.arange(n) / fs
     if B:
-        x += _Flicker(B, fs, n, np.random.SeedSequence(seed + 1)).take(0, n)
+        x += Flicker(B, fs, n, np.random.SeedSequence(seed + 1)).take(0, n)
     return x
 
 

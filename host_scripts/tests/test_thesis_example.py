@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from conftest import line
-from imu_allan import analysis, gen, profiles, sources, thesis
+from imu_allan import analysis, profiles, sources, thesis
+from imu_allan.stats import gen
 
 CH = ("ax", "ay", "az", "gx", "gy", "gz")
 
@@ -75,7 +76,7 @@ def codes() -> np.ndarray:
 
 def test_recovered_from_the_raw_rows(codes: np.ndarray) -> None:
     doc = analysis.analyze(_in_memory(codes), profiles.thesis_profile(), analysis.Options(fs=100.0, model=False,
-                                                                                  extra_curves=False))
+                                                                                  extra_curves=False)).doc
     # az's K (7.5e-6 g/sqrt(s)) only rises above its B beyond ~400 s: checked by its interval only
     errors = _check(doc, 0.10, {"N": CH, "B": CH, "K": ("ax", "ay")})
     assert max(abs(e["N"]) for e in errors.values()) < 0.02
@@ -97,7 +98,7 @@ def test_device_and_rows_agree(codes: np.ndarray, tmp_path: Path, run_cli) -> No
     short = codes[:, : 1 << 17]
     rows = tmp_path / "imu.txt"
     with open(rows, "wb") as f:
-        from imu_allan.rows import format_rows
+        from imu_allan.device.rows import format_rows
         f.write(b"# thesis parameters\n" + format_rows(short))
     log = _device_log(short, tmp_path / "device.log", levels=15)
     rc, out, err = run_cli("analyze", rows, "--fs", "100", "--device", log, "--json", "--no-model")

@@ -1,15 +1,23 @@
-"""Framing of the serial protocol (docs/protocol.md): ``$<body>*<CRC>\\r\\n``.
+"""Framing of the serial protocol (docs/protocol.md): the one home of the
+CRC-16 and of both frame formats.
 
-This module only knows lines, not records: it cuts a byte stream into the
-bodies of intact frames and counts everything it had to throw away.
+* text lines ``$<body>*<CRC>\\r\\n`` (reports, replies, boots, count lines);
+* 13-byte binary sample frames: ``0xA5``, seq, 7 low bytes, 16-bit LE word of
+  the high bits, CRC-16 of bytes 1-10 (high byte first).
+
+This module only knows bytes and lines, not records: it cuts a byte stream
+into the bodies of intact lines and counts everything it had to throw away
+(records.py parses the bodies, stream.py mixes lines, raw rows and frames).
 """
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Any, Optional, Sequence
 
 import numpy as np
+
+from ..channels import CODE_MAX, COLUMNS
 
 MAX_BODY = 256
 """Longest body a frame may carry (characters)."""
@@ -34,10 +42,7 @@ def crc16(data: bytes) -> int:
 
     ``crc16(b"123456789") == 0x29B1``.
     """
-    crc = 0xFFFF
-    for byte in data:
-        crc = ((crc << 8) & 0xFFFF) ^ CRC_TABLE[(crc >> 8) ^ byte]
-    return crc
+    return int(crc16_many([bytes(data)])[0])
 
 
 def crc16_many(bodies: Sequence[bytes]) -> np.ndarray:
@@ -47,16 +52,25 @@ def crc16_many(bodies: Sequence[bytes]) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     lens = np.fromiter((len(b) for b in bodies), dtype=np.int64, count=n)
     width = int(lens.max())
-    crc = np.full(n, 0xFFFF, dtype=np.int64)
     if width == 0:
-        return crc
+        return np.full(n, 0xFFFF, dtype=np.int64)
     flat = np.frombuffer(b"".join(bodies), dtype=np.uint8)
     starts = np.cumsum(lens) - lens
     grid = np.zeros((n, width), dtype=np.int64)
     grid[np.repeat(np.arange(n), lens), np.arange(flat.size) - np.repeat(starts, lens)] = flat
-    for j in range(width):  # over byte positions (<= MAX_BODY), not over lines
-        nxt = ((crc << 8) & 0xFFFF) ^ _CRC_TABLE_NP[((crc >> 8) ^ grid[:, j]) & 0xFF]
-        crc = np.where(lens > j, nxt, crc)
+    return crc16_columns(grid, lens)
+
+
+def crc16_columns(grid: np.ndarray, lens: Optional[np.ndarray] = None) -> np.ndarray:
+    """The CRC-16 of each row of ``grid`` (k, width) of byte values: the one
+    implementation of the table-driven CRC loop, run over byte positions
+    (<= MAX_BODY), vectorized across rows.  ``lens``: bytes used per row
+    (all when None)."""
+    g = np.asarray(grid, dtype=np.int64)
+    crc = np.full(g.shape[0], 0xFFFF, dtype=np.int64)
+    for j in range(g.shape[1]):
+        nxt = ((crc << 8) & 0xFFFF) ^ _CRC_TABLE_NP[((crc >> 8) ^ g[:, j]) & 0xFF]
+        crc = nxt if lens is None else np.where(lens > j, nxt, crc)
     return crc
 
 
@@ -69,7 +83,8 @@ def frame(body: str) -> bytes:
 
 
 _BODY = re.compile(rb"[\x20-\x23\x25-\x29\x2B-\x7E]*")
-_LINE = re.compile(rb"([\x20-\x23\x25-\x29\x2B-\x7E]{0,%d})\*([0-9A-Fa-f]{4})\r?" % MAX_BODY)
+LINE = re.compile(rb"([\x20-\x23\x25-\x29\x2B-\x7E]{0,%d})\*([0-9A-Fa-f]{4})\r?" % MAX_BODY)
+"""What follows the ``$`` of an intact-looking line, up to its LF: the body and the CRC."""
 
 LINE_ERRORS = ("bad_crc", "malformed", "restarted", "truncated", "garbage_bytes")
 """Counters of :func:`split_frames`, in the order reports list them."""
@@ -108,7 +123,7 @@ def split_frames(data: bytes) -> Frames:
             err["truncated" if i == last else "restarted"] += 1
             continue
         err["garbage_bytes"] += _garbage(seg[nl + 1:])
-        m = _LINE.fullmatch(seg, 0, nl)
+        m = LINE.fullmatch(seg, 0, nl)
         if m is None:
             err["malformed"] += 1
             continue
@@ -125,3 +140,38 @@ def split_frames(data: bytes) -> Frames:
 
 def _garbage(chunk: bytes) -> int:
     return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
+
+
+# ---- binary sample frames -------------------------------------------------------------
+
+SYNC = 0xA5
+FRAME_BYTES = 13
+FRAME_CODES = len(COLUMNS)
+"""Codes per frame: ax ay az gx gy gz temp."""
+
+
+def encode_frame(seq: int, codes: Any) -> bytes:
+    """The 13-byte binary frame of one sample set (7 codes 0..1023)."""
+    c = [int(v) for v in codes]
+    if len(c) != FRAME_CODES or not all(0 <= v <= CODE_MAX for v in c) or not 0 <= seq <= 255:
+        raise ValueError("a frame holds seq 0..255 and 7 codes 0..1023")
+    hi = sum((v >> 8) << (2 * i) for i, v in enumerate(c))
+    body = bytes([seq] + [v & 0xFF for v in c] + [hi & 0xFF, hi >> 8])
+    crc = crc16(body)
+    return bytes([SYNC]) + body + bytes([crc >> 8, crc & 0xFF])
+
+
+def frame_crc_ok(b: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """For each candidate start (index of a 0xA5 at least 13 bytes from the
+    end of ``b``): does the CRC of bytes 1-10 equal bytes 11-12?"""
+    g = b[starts[:, None] + np.arange(1, FRAME_BYTES)].astype(np.int64)  # (k, 12)
+    return crc16_columns(g[:, :10]) == (g[:, 10] << 8) | g[:, 11]
+
+
+def frame_codes(b: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sequence numbers (k,) and codes (7, k) of the intact frames at ``starts``."""
+    g = b[starts[:, None] + np.arange(1, 11)].astype(np.uint16)  # seq, 7 low, hi word
+    hi = g[:, 8] | (g[:, 9] << 8)
+    shifts = (2 * np.arange(FRAME_CODES)).astype(np.uint16)
+    codes = g[:, 1:8] | (((hi[:, None] >> shifts) & 3) << 8)
+    return g[:, 0].astype(np.int64), np.ascontiguousarray(codes.T)

@@ -16,15 +16,7 @@ counts (stationary standard deviation; the bias starts stationary); gm_tau
 seconds; rrw counts per sample (standard deviation of each step;
 K = rrw * sqrt(fs) counts/sqrt(s)); drift counts per second; flicker
 counts: the IEEE 952 bias instability coefficient B, whose Allan deviation
-floor is 0.664 B. It is made of Gauss-Markov processes (the thesis' bias
-model) with correlation times T_k = 8^k / fs up to 4 times the record,
-each of variance B^2 ln 8 / pi, so that their PSDs add up to the flicker
-PSD B^2 / (pi f) (one-sided) and the Allan deviation stays within 1.5 % of
-0.664 B from 4/fs to a quarter of the record (7 % and 2 % high at 1/fs and 2/fs,
-where the fastest process, sampled rather than averaged, adds a little). The slow ones are drawn
-once every T_k fs / 32 samples and held (their share of the variance at
-shorter taus is negligible), so the cost is that of about two full-rate
-processes.
+floor is 0.664 B. The processes are those of the one simulator, noise.py.
 
 Every (channel, noise source) draws from its own stream spawned from the seed,
 so a file depends only on the parameters, never on how it was cut in chunks.
@@ -38,10 +30,10 @@ from dataclasses import dataclass, field
 from typing import Iterator, Optional
 
 import numpy as np
-from scipy.signal import lfilter
 
-from .errors import InputError
-from .rows import CODE_MAX, COLUMNS
+from ..errors import InputError
+from .noise import NoiseParams, NoiseProcess
+from ..channels import CODE_MAX, COLUMNS
 
 KINDS = ("noise", "walk", "drift", "clip", "square")
 PROFILES = ("thesis",)
@@ -182,84 +174,24 @@ def generate(p: GenParams, chunk: int = CHUNK) -> Iterator[np.ndarray]:
         return
     nch = len(p.channels)
     streams = [np.random.default_rng(s) for s in np.random.SeedSequence(p.seed).spawn(3 * nch)]
-    white_rng, gm_rng, rrw_rng = streams[:nch], streams[nch:2 * nch], streams[2 * nch:]
-    dt = 1.0 / p.fs_hz
-    get = lambda name: np.array([getattr(p, name)[c] for c in p.channels])  # noqa: E731
-    offset, white, gm_sigma, gm_tau, rrw, drift, flicker = (get(n) for n in PARAMS)
-    flick = [_Flicker(flicker[c], p.fs_hz, p.n, ss) if flicker[c] else None
-             for c, ss in enumerate(np.random.SeedSequence(p.seed).spawn(4 * nch)[3 * nch:])]
-    a = np.exp(-dt / gm_tau)
-    gm_b = gm_sigma * np.sqrt(-np.expm1(-2.0 * dt / gm_tau))  # sigma * sqrt(1 - a^2)
-    gm_state = [a[c] * gm_sigma[c] * gm_rng[c].standard_normal() if gm_sigma[c] else 0.0
-                for c in range(nch)]  # lfilter's zi: a * (a stationary bias before sample 0)
-    walk = np.zeros(nch)
+    flicker_seeds = np.random.SeedSequence(p.seed).spawn(4 * nch)[3 * nch:]
+    offset = np.array([p.offset[c] for c in p.channels])
+    procs = [NoiseProcess(NoiseParams(white=p.white[ch], gm_sigma=p.gm_sigma[ch], gm_tau=p.gm_tau[ch],
+                                      rrw=p.rrw[ch], flicker=p.flicker[ch], ramp=p.drift[ch]),
+                          p.fs_hz, p.n, white_rng=streams[c], gm_rng=streams[nch + c],
+                          rrw_rng=streams[2 * nch + c], flicker_seed=flicker_seeds[c])
+             for c, ch in enumerate(p.channels)]
     done = 0
     while done < p.n:
         c_len = min(chunk, p.n - done)
         x = np.repeat(offset[:, None], c_len, axis=1)
-        for c in range(nch):  # over channels; each one vectorized over its samples
-            if white[c]:
-                x[c] += white[c] * white_rng[c].standard_normal(c_len)
-            if gm_sigma[c]:
-                y, zf = lfilter([gm_b[c]], [1.0, -a[c]], gm_rng[c].standard_normal(c_len),
-                                zi=[gm_state[c]])
-                gm_state[c] = zf[0]
-                x[c] += y
-            if rrw[c]:
-                steps = np.cumsum(rrw[c] * rrw_rng[c].standard_normal(c_len))
-                x[c] += walk[c] + steps
-                walk[c] += steps[-1]
-            fl = flick[c]
-            if fl is not None:
-                x[c] += fl.take(done, c_len)
-        if drift.any():
-            x += drift[:, None] * (np.arange(done, done + c_len) * dt)[None, :]
+        for c, proc in enumerate(procs):  # over channels; each one vectorized over its samples
+            proc.add_to(x[c], done)
         if p.boundary == "reflect":
             x = np.mod(x, 2 * CODE_MAX)
             x = np.where(x > CODE_MAX, 2 * CODE_MAX - x, x)
         yield np.clip(np.rint(x), 0, CODE_MAX).astype(np.uint16)
         done += c_len
-
-
-FLICKER_SPACING = 8.0
-"""Ratio of consecutive correlation times of the flicker bank."""
-
-
-class _Flicker:
-    """Flicker rate noise of IEEE 952 coefficient B (counts), sample by sample,
-    independent of how the stream is cut: each Gauss-Markov process of the
-    bank has its own random stream, drawn once per coarse step."""
-
-    def __init__(self, b: float, fs: float, n: int, seed: np.random.SeedSequence) -> None:
-        r = FLICKER_SPACING
-        t_lo, t_hi = 1.0 / fs, max(4.0 * n / fs, 8.0 / fs)
-        count = int(math.ceil(math.log(t_hi / t_lo) / math.log(r))) + 1
-        sigma = b * math.sqrt(math.log(r) / math.pi)
-        self.procs = []
-        for k, ss in enumerate(seed.spawn(count)):
-            T = t_lo * r ** k
-            D = 1 << max(int(math.floor(math.log2(max(T * fs / 32.0, 1.0)))), 0)
-            a = math.exp(-D / (fs * T))
-            rng = np.random.default_rng(ss)
-            self.procs.append({"D": D, "a": a, "b": sigma * math.sqrt(1.0 - a * a), "rng": rng,
-                               "q": -1, "v": sigma * rng.standard_normal()})
-
-    def take(self, start: int, length: int) -> np.ndarray:
-        out = np.zeros(length)
-        for g in self.procs:  # over the bank (about ten processes), each vectorized
-            D, q_first, q_last = g["D"], start // g["D"], (start + length - 1) // g["D"]
-            new = q_last - g["q"]
-            if new > 0:
-                y, _ = lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new),
-                               zi=[g["a"] * g["v"]])
-                vals = np.concatenate(([g["v"]], y)) if q_first == g["q"] else y
-                g["q"], g["v"] = q_last, float(y[-1])
-            else:
-                vals = np.array([g["v"]])
-            held = np.repeat(vals, D) if D > 1 else vals
-            off = start - q_first * D
-            out += held[off:off + length]
-        return out
 
 
 def _square(p: GenParams, chunk: int) -> Iterator[np.ndarray]:

@@ -43,7 +43,8 @@ from typing import Iterator, Optional
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.signal import lfilter
+
+from .noise import NoiseParams, NoiseProcess
 
 GM_PEAK_X = 1.8926176
 """tau / T at the maximum of a Gauss-Markov process's Allan deviation."""
@@ -91,35 +92,18 @@ def from_terms(values: dict[str, Optional[float]], fs: float,
 
 
 def simulate(p: ModelParams, n: int, seed: int = 0, chunk: int = CHUNK) -> Iterator[np.ndarray]:
-    """The model's samples, in blocks (1-D float64), independent of the chunking."""
-    ss = np.random.SeedSequence(seed).spawn(4)
-    rw, rg, rk, rq = (np.random.default_rng(s) for s in ss)
-    dt = 1.0 / p.fs
-    a = math.exp(-dt / p.gm_tau) if p.gm_sigma else 0.0
-    b = p.gm_sigma * math.sqrt(-math.expm1(-2.0 * dt / p.gm_tau)) if p.gm_sigma else 0.0
-    gm_state = a * p.gm_sigma * rg.standard_normal() if p.gm_sigma else 0.0
-    walk = 0.0
-    q_prev = rq.standard_normal() if p.quant else 0.0
+    """The model's samples, in blocks (1-D float64), independent of the chunking
+    (the one simulator of noise.py, one random stream per process)."""
+    rw, rg, rk, rq = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
+    proc = NoiseProcess(NoiseParams(white=p.white, gm_sigma=p.gm_sigma, gm_tau=p.gm_tau, rrw=p.rrw,
+                                    quant=p.quant, ramp=p.ramp),
+                        p.fs, n, white_rng=rw, gm_rng=rg, rrw_rng=rk, quant_rng=rq)
     done = 0
     while done < n:
-        L = min(chunk, n - done)
-        x = p.white * rw.standard_normal(L) if p.white else np.zeros(L)
-        if p.gm_sigma:
-            y, zf = lfilter([b], [1.0, -a], rg.standard_normal(L), zi=[gm_state])
-            gm_state = float(zf[0])
-            x += y
-        if p.rrw:
-            steps = np.cumsum(p.rrw * rk.standard_normal(L))
-            x += walk + steps
-            walk += float(steps[-1])
-        if p.quant:
-            e = rq.standard_normal(L)
-            x += p.quant * p.fs * np.diff(np.concatenate(([q_prev], e)))
-            q_prev = float(e[-1])
-        if p.ramp:
-            x += p.ramp * (np.arange(done, done + L) * dt)
+        x = np.zeros(min(chunk, n - done))
+        proc.add_to(x, done)
         yield x
-        done += L
+        done += x.size
 
 
 def fit_percent(sensor: ArrayLike, model: ArrayLike) -> Optional[float]:

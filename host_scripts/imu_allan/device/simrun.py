@@ -13,9 +13,9 @@ import subprocess
 from pathlib import Path
 from typing import Optional, Union
 
-from .errors import InputError
+from ..errors import InputError
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 """The imu-allan checkout this package lives in (host_scripts/imu_allan/..)."""
 
 DEFAULT_SIM = REPO / "build" / "host" / "imu-sim"

@@ -35,13 +35,16 @@ from typing import Callable, Iterable, Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .kernels import DOT_MAX, blocked as _blocked, offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq
+
 TAU_KINDS = ("octave", "decade", "log", "all")
 BLOCK = 1 << 16
 EXACT_MAX = 1 << 22
 STRIDE_OFFSETS = 1024
 """Above exact_max the overlapping estimate keeps 2 * exact_max / D >= this many offsets."""
 
-Progress = Optional[Callable[[int], None]]
+ProgressFn = Optional[Callable[[int], None]]
+"""Called with the work done so far (progress.Progress.update fits)."""
 
 
 # ---- tau grids -------------------------------------------------------------------
@@ -84,11 +87,11 @@ def _prepare(x: ArrayLike) -> np.ndarray:
         raise ValueError("one channel at a time: x must be 1-D")
     if np.issubdtype(a.dtype, np.integer) or (a.dtype == np.float64 and a.size and _integral(a)):
         v = a.astype(np.int64)
-        v = v - int(np.round(np.mean(v[: BLOCK]))) if v.size else v
+        v = v - int(offset(v[:BLOCK])) if v.size else v
         X = np.empty(v.size + 1, dtype=np.int64)
     else:
         v = a.astype(np.float64)
-        v = v - (v[:BLOCK].mean() if v.size else 0.0)
+        v = v - (float(offset(v[:BLOCK])) if v.size else 0.0)
         X = np.empty(v.size + 1, dtype=np.float64)
     X[0] = 0
     np.cumsum(v, out=X[1:])
@@ -99,60 +102,20 @@ def _integral(a: np.ndarray) -> bool:
     return bool(np.all(np.abs(a) < 2**31)) and bool(np.all(a == np.rint(a)))
 
 
-DOT_MAX = 8192
-"""Longest vector handed to one BLAS dot: OpenBLAS threads ddot above 10000
-elements, and on a busy machine the thread hand-off costs milliseconds."""
-
-
-def _ssq(v: np.ndarray) -> float:
-    """Sum of squares of a 1-D float64 vector (BLAS dot, single-threaded sizes)."""
-    n = v.size
-    if n <= DOT_MAX:
-        return float(np.dot(v, v))
-    full = n - n % DOT_MAX
-    r = v[:full].reshape(-1, DOT_MAX)  # a view, also for a strided 1-D vector
-    s = float(_rowdots(r).sum())
-    if full < n:
-        t = v[full:]
-        s += float(np.dot(t, t))
-    return s
-
-
-def _rowdots(r: np.ndarray) -> np.ndarray:
-    if _VECDOT is not None:
-        return _VECDOT(r, r)
-    return np.einsum("ij,ij->i", r, r)
-
-
-_VECDOT = getattr(np, "vecdot", None)  # numpy >= 2: BLAS dot per row, single-threaded sizes
-
-
-def _sumsq(d: np.ndarray) -> float:
-    return _ssq(d.astype(np.float64) if d.dtype != np.float64 else d)
-
-
-def _blocked(total: int, fn: Callable[[int, int], float], chunk: int = 1 << 18) -> float:
-    """sum of fn(a, b) over [0, total) in chunks (keeps temporaries in cache)."""
-    s = 0.0
-    for a in range(0, total, chunk):
-        s += fn(a, min(a + chunk, total))
-    return s
-
-
-def oavar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+def oavar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
     """Overlapping AVAR at each m; returns (avar, terms). nan where no term."""
     X = _prepare(x)
     return _second_diff(X, np.asarray(list(ms), dtype=np.int64), overlapping=True, progress=progress)
 
 
-def avar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+def avar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
     """Non-overlapping AVAR (floor(n/m) - 1 pairs) at each m; returns (avar, pairs)."""
     X = _prepare(x)
     return _second_diff(X, np.asarray(list(ms), dtype=np.int64), overlapping=False, progress=progress)
 
 
 def _second_diff(X: np.ndarray, ms: np.ndarray, overlapping: bool,
-                 progress: Progress) -> tuple[np.ndarray, np.ndarray]:
+                 progress: ProgressFn) -> tuple[np.ndarray, np.ndarray]:
     n = X.size - 1
     out = np.full(ms.size, np.nan)
     count = np.zeros(ms.size, dtype=np.int64)
@@ -175,7 +138,7 @@ def _second_diff(X: np.ndarray, ms: np.ndarray, overlapping: bool,
     return out, count
 
 
-def mvar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+def mvar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
     """Modified AVAR at each m (allantools' mdev algorithm); returns (mvar, terms)."""
     X = _prepare(x)
     n = X.size - 1
@@ -204,7 +167,7 @@ def mvar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np
     return out, count
 
 
-def ohvar(x: ArrayLike, ms: Iterable[int], progress: Progress = None) -> tuple[np.ndarray, np.ndarray]:
+def ohvar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
     """Overlapping Hadamard variance at each m; returns (hvar, terms)."""
     X = _prepare(x)
     n = X.size - 1
@@ -297,9 +260,7 @@ class OctaveEngine:
         if not a.shape[1]:
             return
         if self._x0 is None:  # an offset keeps the sums small; integral data keep an integer one
-            head = a[:, :self.B].astype(np.float64)
-            mean = head.mean(axis=1)
-            self._x0 = np.where(np.all(head == np.rint(head), axis=1), np.rint(mean), mean)
+            self._x0 = offset(a[:, :self.B])
         if self._D and (self.total is None or self.total > 2 * self.exact_max):  # type: ignore[operator]
             self._decimate(a.astype(np.float64) - self._x0[:, None])
         i = 0
@@ -381,7 +342,7 @@ class OctaveEngine:
                 t0 = (2 * m - 1 - s) % m
                 for c, (a_c, b_c, z_c, z2_c, up_c) in enumerate(views):
                     np.subtract(b_c, a_c, out=z_c)
-                    o = float(_rowdots(z2_c).sum())
+                    o = float(rowdots(z2_c).sum())
                     lv.acc[c] += o
                     if m == 1:
                         lv.acc_n[c] += o

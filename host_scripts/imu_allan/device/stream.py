@@ -60,15 +60,12 @@ from typing import Any, Optional
 
 import numpy as np
 
-from . import CHANNELS
-from .decode import (ERROR_KEYS, Assembler, BodyError, Report, parse_count,
-                     restarts_output)
-from .protocol import _LINE, CRC_TABLE, crc16_many
+from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, SYNC, crc16_many,
+                      frame_codes, frame_crc_ok)
+from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
+                      restarts_output)
 
-SYNC = 0xA5
-FRAME_BYTES = 13
-NCOL = len(CHANNELS) + 1  # ax ay az gx gy gz temp
-CODE_MAX = 1023
+NCOL = FRAME_CODES  # ax ay az gx gy gz temp
 MAX_CARRY = 4096
 """Text without an LF kept waiting for its end; beyond it, it is garbage."""
 MAX_WAITING_FRAMES = 64
@@ -83,7 +80,6 @@ STREAM_KEYS = ("rows", "bad_rows", "count_lines", "rows_lost", "count_unchecked"
 LOSS_KEYS = ("bad_rows", "rows_lost", "bad_frames", "frames_lost")
 """Counters that mean samples were lost or damaged on the way."""
 
-_CRC_NP = np.array(CRC_TABLE, dtype=np.int64)
 _CLASS = np.zeros(256, dtype=np.uint8)  # 0 other, 1 digit, 2 tab, 3 LF, 4 CR
 _CLASS[0x30:0x3A] = 1
 _CLASS[0x09] = 2
@@ -99,24 +95,11 @@ class Chunk:
     """(7, n) uint16 codes of intact raw rows and binary frames, in stream order."""
     from_frame: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     """(n,) True where the sample came from a binary frame, False for a raw row."""
-    reports: list[Report] = field(default_factory=list)
+    reports: list[DeviceReport] = field(default_factory=list)
     replies: list[str] = field(default_factory=list)
-    boots: list[dict[str, Any]] = field(default_factory=list)
+    boots: list[Boot] = field(default_factory=list)
     counts: list[int] = field(default_factory=list)
     """Values of the intact count lines."""
-
-
-def encode_frame(seq: int, codes: Any) -> bytes:
-    """The 13-byte binary frame of one sample set (7 codes 0..1023)."""
-    c = [int(v) for v in codes]
-    if len(c) != NCOL or not all(0 <= v <= CODE_MAX for v in c) or not 0 <= seq <= 255:
-        raise ValueError("a frame holds seq 0..255 and 7 codes 0..1023")
-    hi = sum((v >> 8) << (2 * i) for i, v in enumerate(c))
-    body = bytes([seq] + [v & 0xFF for v in c] + [hi & 0xFF, hi >> 8])
-    crc = 0xFFFF
-    for byte in body:
-        crc = ((crc << 8) & 0xFFFF) ^ CRC_TABLE[(crc >> 8) ^ byte]
-    return bytes([SYNC]) + body + bytes([crc >> 8, crc & 0xFF])
 
 
 def _frames(b: np.ndarray, final: bool) -> tuple[np.ndarray, int, int]:
@@ -127,11 +110,7 @@ def _frames(b: np.ndarray, final: bool) -> tuple[np.ndarray, int, int]:
     syncs = np.flatnonzero(b == SYNC)
     ready = syncs[syncs <= n - FRAME_BYTES]
     if ready.size:
-        g = b[ready[:, None] + np.arange(1, FRAME_BYTES)].astype(np.int64)  # (k, 12)
-        crc = np.full(ready.size, 0xFFFF, dtype=np.int64)
-        for j in range(10):  # over the 10 covered bytes, vectorized across candidates
-            crc = ((crc << 8) & 0xFFFF) ^ _CRC_NP[((crc >> 8) ^ g[:, j]) & 0xFF]
-        good = ready[crc == (g[:, 10] << 8) | g[:, 11]]
+        good = ready[frame_crc_ok(b, ready)]
     else:
         good = ready
     if good.size > 1 and np.any(np.diff(good) < FRAME_BYTES):  # rare: a false match inside
@@ -150,14 +129,6 @@ def _frames(b: np.ndarray, final: bool) -> tuple[np.ndarray, int, int]:
     cut = int(late[0]) if late.size else n
     bad = int(np.count_nonzero(loose < cut))
     return good, bad, cut
-
-
-def _frame_codes(b: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    g = b[starts[:, None] + np.arange(1, 11)].astype(np.uint16)  # seq, 7 low, hi word
-    hi = g[:, 8] | (g[:, 9] << 8)
-    shifts = (2 * np.arange(NCOL)).astype(np.uint16)
-    codes = g[:, 1:8] | (((hi[:, None] >> shifts) & 3) << 8)
-    return g[:, 0].astype(np.int64), np.ascontiguousarray(codes.T)
 
 
 def _text(chunk: bytes) -> int:
@@ -254,30 +225,7 @@ class StreamDecoder:
 
     def _process(self, buf: bytes, final: bool) -> Chunk:
         c = self.counts
-        b = np.frombuffer(buf, dtype=np.uint8)
-        starts, bad, cut = _frames(b, final)
-        c["bad_frames"] += bad
-        if final and cut < b.size:
-            c["truncated"] += 1  # a frame cut short by the end of the capture
-            drop_from = cut
-            cut = b.size
-        else:
-            drop_from = cut
-        self._pending = b"" if final else buf[cut:]
-        seq, codes = _frame_codes(b, starts)
-        c["frames"] += starts.size
-        if starts.size:
-            keep = np.ones(drop_from, dtype=bool)
-            keep[(starts[:, None] + np.arange(FRAME_BYTES)).ravel()] = False
-            text = b[:drop_from][keep].tobytes()
-        else:
-            text = buf[:drop_from]
-        carry_len = len(self._carry)
-        res = self._carry + text
-        fpos = carry_len + starts - FRAME_BYTES * np.arange(starts.size)  # spliced before this byte
-        fpos = np.concatenate((self._dpos, fpos))
-        fseq = np.concatenate((self._dseq, seq))
-        fcodes = np.concatenate((self._dcodes, codes), axis=1)
+        res, fpos, fseq, fcodes = self._cut_frames(buf, final)
 
         r = np.frombuffer(res, dtype=np.uint8)
         lf = np.flatnonzero(r == 0x0A)
@@ -342,6 +290,38 @@ class StreamDecoder:
         self._samples += skeys.size
         return out
 
+    def _cut_frames(self, buf: bytes, final: bool
+                    ) -> tuple[bytes, np.ndarray, np.ndarray, np.ndarray]:
+        """Take the intact binary frames out of ``buf`` (rule 1): the text left
+        (behind the carried text), and the frames (those waiting from the last
+        step first): their positions in that text, sequence numbers and codes."""
+        c = self.counts
+        b = np.frombuffer(buf, dtype=np.uint8)
+        starts, bad, cut = _frames(b, final)
+        c["bad_frames"] += bad
+        if final and cut < b.size:
+            c["truncated"] += 1  # a frame cut short by the end of the capture
+            drop_from = cut
+            cut = b.size
+        else:
+            drop_from = cut
+        self._pending = b"" if final else buf[cut:]
+        seq, codes = frame_codes(b, starts)
+        c["frames"] += starts.size
+        if starts.size:
+            keep = np.ones(drop_from, dtype=bool)
+            keep[(starts[:, None] + np.arange(FRAME_BYTES)).ravel()] = False
+            text = b[:drop_from][keep].tobytes()
+        else:
+            text = buf[:drop_from]
+        carry_len = len(self._carry)
+        res = self._carry + text
+        fpos = carry_len + starts - FRAME_BYTES * np.arange(starts.size)  # spliced before this byte
+        fpos = np.concatenate((self._dpos, fpos))
+        fseq = np.concatenate((self._dseq, seq))
+        fcodes = np.concatenate((self._dcodes, codes), axis=1)
+        return res, fpos, fseq, fcodes
+
     def _give_up(self, carry: bytes, ended: bool) -> None:
         """Text after the last LF that will not be completed: cut by the end of
         the capture (``ended``), or too long / holding frames back too long."""
@@ -363,7 +343,7 @@ class StreamDecoder:
         c["garbage_bytes"] += _text(line[:first])
         last = line.rfind(b"$")
         c["restarted"] += line.count(b"$", first, last)
-        m = _LINE.fullmatch(line, last + 1)
+        m = LINE.fullmatch(line, last + 1)
         if m is None:
             c["malformed"] += 1
         else:
@@ -411,26 +391,3 @@ class StreamDecoder:
         out.reports = asm.reports[n_rep:]
         out.replies = asm.replies[n_rpl:]
         out.boots = asm.boots[n_boot:]
-
-
-@dataclass
-class StreamResult:
-    samples: np.ndarray
-    from_frame: np.ndarray
-    reports: list[Report]
-    replies: list[str]
-    boots: list[dict[str, Any]]
-    counts: dict[str, int]
-
-
-def decode_stream(data: bytes, line_start: bool = False) -> StreamResult:
-    """Decode a whole capture at once (see ``StreamDecoder``)."""
-    dec = StreamDecoder(line_start)
-    chunks = [dec.feed(data), dec.finish()]
-    return StreamResult(
-        samples=np.concatenate([ch.samples for ch in chunks], axis=1),
-        from_frame=np.concatenate([ch.from_frame for ch in chunks]),
-        reports=[r for ch in chunks for r in ch.reports],
-        replies=[r for ch in chunks for r in ch.replies],
-        boots=[bt for ch in chunks for bt in ch.boots],
-        counts=dict(dec.counts))

@@ -13,32 +13,16 @@ millions of rows read in seconds; writing is vectorized the same way.
 from __future__ import annotations
 
 import re
-import sys
-from pathlib import Path
-from typing import BinaryIO, Iterator, Union
+from typing import Iterator
 
 import numpy as np
 
-from .errors import InputError
-
-COLUMNS = ("ax", "ay", "az", "gx", "gy", "gz", "temp")
-CODE_MAX = 1023
-BLOCK_BYTES = 1 << 23
-
-PathLike = Union[str, Path]
+from ..errors import InputError
+from .files import BLOCK_BYTES, PathLike, input_name, read_blocks
+from ..channels import CODE_MAX, COLUMNS
 _COMMENT = re.compile(rb"#[^\n]*")
 _PROTOCOL_LINE = re.compile(rb"^\$[^\n]*", re.MULTILINE)
 _POW10 = 10 ** np.arange(10, dtype=np.int64)
-
-
-def open_input(path: PathLike) -> BinaryIO:
-    """Open ``path`` for binary reading (``-`` is stdin); InputError if it cannot."""
-    if str(path) == "-":
-        return sys.stdin.buffer
-    try:
-        return open(path, "rb")
-    except OSError as exc:
-        raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
 
 
 def iter_blocks(path: PathLike, block_bytes: int = BLOCK_BYTES,
@@ -48,31 +32,20 @@ def iter_blocks(path: PathLike, block_bytes: int = BLOCK_BYTES,
     Channel-major blocks (each channel contiguous). Raises InputError naming
     the file and line on the first malformed line.
     """
-    name = "<stdin>" if str(path) == "-" else str(path)
-    f = open_input(path)
-    try:
-        tail = b""
-        line = 1  # file line number of the first line of the next block
-        while True:
-            try:
-                chunk = f.read(block_bytes)
-            except OSError as exc:
-                raise InputError(f"cannot read '{name}': {exc.strerror or exc}") from None
-            if not chunk:
-                break
-            chunk = tail + chunk
-            cut = chunk.rfind(b"\n") + 1
-            if cut == 0:
-                tail = chunk
-                continue
-            tail = chunk[cut:]
-            yield parse_block(chunk[:cut], name, line, ncol)
-            line += chunk.count(b"\n", 0, cut)
-        if tail:
-            yield parse_block(tail, name, line, ncol)
-    finally:
-        if f is not sys.stdin.buffer:
-            f.close()
+    name = input_name(path)
+    tail = b""
+    line = 1  # file line number of the first line of the next block
+    for chunk in read_blocks(path, block_bytes):
+        chunk = tail + chunk
+        cut = chunk.rfind(b"\n") + 1
+        if cut == 0:
+            tail = chunk
+            continue
+        tail = chunk[cut:]
+        yield parse_block(chunk[:cut], name, line, ncol)
+        line += chunk.count(b"\n", 0, cut)
+    if tail:
+        yield parse_block(tail, name, line, ncol)
 
 
 def read_rows(path: PathLike, ncol: int = len(COLUMNS)) -> np.ndarray:

@@ -1,19 +1,23 @@
-"""Records of the protocol (B, H, L, S, E, C, ok, error) and complete reports.
+"""Records of the protocol (B, H, L, S, E, C, ok, error) and complete device reports.
 
 ``decode_bytes(data)`` turns a raw device log into the list of its complete
 reports (header + every L row + E, all intact) and the counts of everything
 that could not be used.  Nothing partial or unchecked is ever returned.
 ``Assembler`` is the same record logic fed one CRC-checked body at a time
 (used by ``stream.py`` for live and mixed captures).
+
+Records are typed: ``DeviceHeader`` (an H record), ``Boot`` (a B record),
+``LRow`` (an L row) and ``DeviceReport`` (one whole report: header and rows).
+``DeviceHeader.as_dict()`` is the ``header`` object of ``decode --json``.
 """
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Optional
 
-from . import CHANNELS
-from .protocol import LINE_ERRORS, split_frames
+from ..channels import CHANNELS
+from .framing import LINE_ERRORS, split_frames
 
 PROTO = 1
 FLAG_SAT = 0x01
@@ -58,18 +62,57 @@ class LRow:
         return self.acc / (2 * self.m * self.m * self.pairs)
 
 
-@dataclass
-class Report:
+@dataclass(frozen=True)
+class Boot:
+    """A B record: the device (re)started."""
+    version: Optional[int]
+    fw: Optional[str]
+    mcu: Optional[str]
+    reset_cause: Optional[list[str]]
+
+
+@dataclass(frozen=True)
+class DeviceHeader:
+    """An H record. Field names and order are the keys of ``decode --json``'s
+    ``header`` (docs/protocol.md); None where the device did not send the key."""
+    version: int
+    fw: Optional[str]
+    mcu: Optional[str]
+    fcpu_hz: Optional[int]
+    baud: Optional[int]
+    fs_hz: int | float
+    levels: int
+    acc48_from: Optional[int]
+    n: int
+    drops: Optional[int]
+    clips: Optional[dict[str, int]]
+    temp: Optional[dict[str, Any]]
+    running: Optional[bool]
+    mode: Optional[str]
+    range_g: Optional[str]
+    cfg: Optional[str]
+    reset_cause: Optional[list[str]]
     seq: int
-    header: dict[str, Any]
+    extra: dict[str, str]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass
+class DeviceReport:
+    """One whole report of the device: its header and every L row, in channel
+    then level order."""
+    seq: int
+    header: DeviceHeader
     rows: list[LRow] = field(default_factory=list)
 
 
 @dataclass
 class DecodeResult:
-    reports: list[Report]
+    reports: list[DeviceReport]
     errors: dict[str, int]
-    boots: list[dict[str, Any]] = field(default_factory=list)
+    boots: list[Boot] = field(default_factory=list)
     replies: list[str] = field(default_factory=list)
     """Bodies of the intact replies (``ok ...``, ``error:<code> ...``), in order."""
 
@@ -126,23 +169,20 @@ def _reset(text: str) -> list[str]:
     return parts
 
 
-def parse_boot(fields: list[str]) -> dict[str, Any]:
-    kv = _pairs(fields)
-    return {
-        "version": _uint(kv["proto"], "proto") if "proto" in kv else None,
-        "fw": kv.get("fw"),
-        "mcu": kv.get("mcu"),
-        "reset_cause": _reset(kv["reset"]) if "reset" in kv else None,
-    }
+def parse_boot(items: list[str]) -> Boot:
+    kv = _pairs(items)
+    return Boot(version=_uint(kv["proto"], "proto") if "proto" in kv else None,
+                fw=kv.get("fw"), mcu=kv.get("mcu"),
+                reset_cause=_reset(kv["reset"]) if "reset" in kv else None)
 
 
 _HEADER_KEYS = {"proto", "fw", "mcu", "fcpu", "baud", "fs", "levels", "acc48", "n", "drops",
                 "clips", "temp", "run", "mode", "range", "cfg", "reset"}
 
 
-def parse_header(seq: int, fields: list[str]) -> dict[str, Any]:
-    """The ``key=value`` fields of an H record -> the JSON header dict."""
-    kv = _pairs(fields)
+def parse_header(seq: int, items: list[str]) -> DeviceHeader:
+    """The ``key=value`` fields of an H record."""
+    kv = _pairs(items)
     for need in ("proto", "fs", "levels", "n"):
         if need not in kv:
             raise BodyError(f"header without {need}")
@@ -175,27 +215,13 @@ def parse_header(seq: int, fields: list[str]) -> dict[str, Any]:
         if kv["run"] not in ("0", "1"):
             raise BodyError(f"run: {kv['run']!r}")
         running = kv["run"] == "1"
-    return {
-        "version": version,
-        "fw": kv.get("fw"),
-        "mcu": kv.get("mcu"),
-        "fcpu_hz": opt_uint("fcpu"),
-        "baud": opt_uint("baud"),
-        "fs_hz": fs,
-        "levels": levels,
-        "acc48_from": opt_uint("acc48"),
-        "n": _uint(kv["n"], "n"),
-        "drops": opt_uint("drops"),
-        "clips": clips,
-        "temp": temp,
-        "running": running,
-        "mode": kv.get("mode"),
-        "range_g": kv.get("range"),
-        "cfg": kv.get("cfg"),
-        "reset_cause": _reset(kv["reset"]) if "reset" in kv else None,
-        "seq": seq,
-        "extra": {k: v for k, v in kv.items() if k not in _HEADER_KEYS},
-    }
+    return DeviceHeader(
+        version=version, fw=kv.get("fw"), mcu=kv.get("mcu"), fcpu_hz=opt_uint("fcpu"),
+        baud=opt_uint("baud"), fs_hz=fs, levels=levels, acc48_from=opt_uint("acc48"),
+        n=_uint(kv["n"], "n"), drops=opt_uint("drops"), clips=clips, temp=temp, running=running,
+        mode=kv.get("mode"), range_g=kv.get("range"), cfg=kv.get("cfg"),
+        reset_cause=_reset(kv["reset"]) if "reset" in kv else None, seq=seq,
+        extra={k: v for k, v in kv.items() if k not in _HEADER_KEYS})
 
 
 def parse_row(fields: list[str]) -> LRow:
@@ -260,10 +286,10 @@ class Assembler:
         self.errors = errors if errors is not None else dict.fromkeys(ERROR_KEYS, 0)
         for key in ERROR_KEYS:
             self.errors.setdefault(key, 0)
-        self.reports: list[Report] = []
-        self.boots: list[dict[str, Any]] = []
+        self.reports: list[DeviceReport] = []
+        self.boots: list[Boot] = []
         self.replies: list[str] = []
-        self._open: Optional[Report] = None
+        self._open: Optional[DeviceReport] = None
 
     def _abandon(self) -> None:
         if self._open is not None:
@@ -289,7 +315,7 @@ class Assembler:
                 if kind == "H":
                     header = parse_header(seq, fields[2:])
                     self._abandon()
-                    self._open = Report(seq, header)
+                    self._open = DeviceReport(seq, header)
                     return
                 if kind == "L":
                     row = parse_row(fields[2:])
@@ -336,8 +362,8 @@ def decode_bytes(data: bytes) -> DecodeResult:
     return DecodeResult(asm.reports, errors, asm.boots, asm.replies)
 
 
-def _complete(rep: Report, count: int) -> bool:
-    levels = rep.header["levels"]
+def _complete(rep: DeviceReport, count: int) -> bool:
+    levels = rep.header.levels
     keys = {(r.channel, r.level) for r in rep.rows}
     return (count == len(rep.rows) == len(keys) == len(CHANNELS) * levels
             and all(r.level < levels for r in rep.rows))

@@ -16,8 +16,8 @@ import threading
 import time
 from typing import IO, Any, Optional
 
-from . import CHANNELS
-from .errors import InputError
+from ..channels import CHANNELS
+from ..errors import InputError
 from .stream import StreamDecoder
 
 READ_TIMEOUT = 0.1
@@ -134,16 +134,15 @@ class Monitor:
         return "not used: " + (", ".join(bad) if bad else "nothing")
 
     def report_text(self) -> str:
-        from . import report as out
-        from .cli import _report_doc
+        from .. import render
         if self.report is None:
             return "no complete report yet\n"
-        doc = _report_doc(self.report)
+        doc = render.report_doc(self.report)
         return (f"report seq {self.report.seq} (received {self.report_time}; "
                 f"{self.reports} complete so far)\n"
-                + out.device_header_text(doc["header"])
+                + render.device_header_text(doc["header"])
                 + "Allan deviation, ADC counts (! flagged: saturated or range):\n"
-                + out.adev_table(doc["rows"], CHANNELS))
+                + render.device_adev_table(doc["rows"], CHANNELS))
 
     def render(self) -> str:
         lines = [f"imu-allan monitor: {self.port} at {self.baud} baud, log {self.log_path}, "

@@ -22,6 +22,8 @@ from typing import Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .kernels import HEAD, exact_sumsq, offset, sumsq
+
 
 @dataclass(frozen=True)
 class OctaveRow:
@@ -44,10 +46,7 @@ def octave_avar(x: ArrayLike, levels: int) -> list[OctaveRow]:
     sums = np.asarray(x, dtype=np.float64).ravel()
     n = sums.size
     if n:
-        head = sums[:1 << 16]
-        mean = float(head.mean())
-        off = round(mean) if bool(np.all(head == np.rint(head))) else mean
-        sums = sums - off
+        sums = sums - float(offset(sums[:HEAD]))
     diff = np.empty(min(max(n - 1, 0), _CHUNK))
     pingpong = (np.empty(n // 2), np.empty(n // 4 + 1))
     rows: list[OctaveRow] = []
@@ -58,7 +57,7 @@ def octave_avar(x: ArrayLike, levels: int) -> list[OctaveRow]:
             total = 0.0
             for a in range(0, pairs, _CHUNK):  # differences in a cache-sized buffer
                 b = min(a + _CHUNK, pairs)
-                total += _sumsq(np.subtract(sums[a + 1:b + 1], sums[a:b], out=diff[:b - a]))
+                total += sumsq(np.subtract(sums[a + 1:b + 1], sums[a:b], out=diff[:b - a]))
             avar = total / (2.0 * float(m) * float(m) * pairs)
         else:
             avar = float("nan")
@@ -69,19 +68,6 @@ def octave_avar(x: ArrayLike, levels: int) -> list[OctaveRow]:
     return rows
 
 
-def _sumsq(v: np.ndarray) -> float:
-    """Sum of squares by BLAS dots of at most 8192 values (OpenBLAS threads
-    longer ones, which costs more than it saves on a busy machine)."""
-    full = v.size - v.size % 8192
-    s = 0.0
-    if full:
-        r = v[:full].reshape(-1, 8192)
-        s = float(np.einsum("ij,ij->", r, r)) if _VECDOT is None else float(_VECDOT(r, r).sum())
-    t = v[full:]
-    return s + float(np.dot(t, t))
-
-
-_VECDOT = getattr(np, "vecdot", None)
 _CHUNK = 1 << 16
 
 
@@ -145,7 +131,7 @@ class OctaveCascade:
         mean = d.astype(np.float64) / (1 << k)
         self._partials[k].append(np.square(mean).sum(axis=1))
         acc = self._acc[k]
-        for c, total in enumerate(_exact_sumsq(d)):
+        for c, total in enumerate(exact_sumsq(d)):
             acc[c] += total
 
     def pairs(self) -> np.ndarray:
@@ -172,15 +158,3 @@ class OctaveCascade:
                     total = math.fsum(float(p[c]) for p in self._partials[k])
                     out[k, c] = total / (2.0 * float(pairs[k, c]))
         return out
-
-
-def _exact_sumsq(d: np.ndarray) -> list[int]:
-    """Exact sum over axis 1 of d**2 for int64 d, as Python ints per row."""
-    if d.size == 0:
-        return [0] * d.shape[0]
-    if int(np.abs(d).max()) < (1 << 31):
-        sq = (d * d).view(np.uint64)  # < 2^62, exact
-        lo = (sq & np.uint64(0xFFFFFFFF)).sum(axis=1, dtype=np.uint64)  # < 2^32 per term
-        hi = (sq >> np.uint64(32)).sum(axis=1, dtype=np.uint64)
-        return [(int(h) << 32) + int(l) for h, l in zip(hi, lo)]
-    return [sum(int(v) * int(v) for v in row) for row in d.tolist()]

@@ -1,0 +1,10 @@
+"""The board's sample set: one home for its channel names and code range."""
+
+CHANNELS = ("ax", "ay", "az", "gx", "gy", "gz")
+"""Sensor channels, in the order of every row, report and table."""
+
+COLUMNS = CHANNELS + ("temp",)
+"""Columns of a sample set (rows files, raw rows, binary frames): the sensors and the temperature."""
+
+CODE_MAX = 1023
+"""Largest 10-bit ADC code."""
