@@ -104,6 +104,8 @@ class FitResult:
     edf: np.ndarray                 # EDF used for each point (nan if unused)
     b_classic: Optional[dict] = None   # {"value", "tau_s", "low", "high"}
     notes: list[str] = field(default_factory=list)
+    unexplained: list[dict] = field(default_factory=list)
+    """tau ranges the terms do not explain (identify.py): {"tau_s", "kind", "ratio", "text"}."""
 
     def model(self, tau: np.ndarray) -> np.ndarray:
         return basis(np.asarray(tau, dtype=np.float64)) @ self.coef
@@ -147,8 +149,8 @@ class _Gls:
     """Whitening by the Cholesky factor of the estimates' covariance."""
 
     def __init__(self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray,
-                 kind: str) -> None:
-        sd = ref * np.sqrt(2.0 / e)
+                 kind: str, floor: float = 0.0) -> None:
+        sd = ref * np.sqrt(2.0 / e + floor * floor)
         rho = RHO[kind]
         lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
         l2 = np.log2(t)
@@ -174,21 +176,32 @@ def _cholesky(S: np.ndarray) -> np.ndarray:
     return np.linalg.cholesky(C2) * d[:, None]
 
 
-def _nnls(Aw: np.ndarray, yw: np.ndarray) -> np.ndarray:
+def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np.ndarray:
+    """min |Aw c - yw| with 0 <= c (<= ub, the caps that keep each term's line under the curve)."""
     scale = np.linalg.norm(Aw, axis=0)
     scale[scale == 0] = 1.0
-    c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
-    return c / scale
+    if ub is None or not np.any(np.isfinite(ub)):
+        c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
+        return c / scale
+    hi = np.where(np.isfinite(ub), ub * scale, np.inf)
+    r = optimize.lsq_linear(Aw / scale, yw, bounds=(np.zeros(hi.size), np.maximum(hi, 1e-300)),
+                            method="bvls")
+    return np.clip(r.x, 0.0, hi) / scale
 
 
 def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None,
               overlapping: bool = True, iterations: int = 5,
-              allowed: tuple[str, ...] = TERMS) -> FitResult:
+              allowed: tuple[str, ...] = TERMS, floor: float = 0.0,
+              caps: Optional[np.ndarray] = None) -> FitResult:
     """Fit the IEEE 952 terms to the points (tau, avar) not masked out.
 
     ``edf_fn(alphas)`` gives each point's EDF for a noise type per point;
     ``overlapping`` selects the correlation between neighbouring estimates.
+    ``floor``: relative standard deviation of the model's own error, added
+    in quadrature to each point's statistical one (identify.py). ``caps``:
+    upper limits of the coefficients c (Q^2 .. R^2), inf where free.
     """
+    ub = None if caps is None else np.asarray(caps, dtype=np.float64)
     tau = np.asarray(tau, dtype=np.float64)
     avar = np.asarray(avar, dtype=np.float64)
     used = np.isfinite(avar) & (avar > 0) & np.isfinite(tau) & (tau > 0)
@@ -224,7 +237,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     dropped: dict[str, float] = {}
     seen: set[tuple[bool, ...]] = set()
     for _ in range(4 * nterm):  # stepwise: drop what others can do without, re-admit what is missed
-        coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations)
+        coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
         yw, Aw = gls.white(y), gls.white(A)
         key = tuple(cols.tolist())
         if key in seen:
@@ -238,7 +251,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
             for j in active:
                 c2 = cols.copy()
                 c2[j] = False
-                gain = _chi2(Aw, yw, c2) - base
+                gain = _chi2(Aw, yw, c2, ub) - base
                 if gain < worst_gain:
                     worst, worst_gain = int(j), gain
         if worst is not None and worst_gain < CHI2_1_95 * max(1.0, base / dof):
@@ -250,7 +263,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
             j = TERMS.index(name)
             c2 = cols.copy()
             c2[j] = True
-            with_j = _chi2(Aw, yw, c2)
+            with_j = _chi2(Aw, yw, c2, ub)
             gain = base - with_j
             if gain >= CHI2_1_95 * max(1.0, with_j / max(dof - 1, 1)) and gain > best_gain:
                 best, best_gain = j, gain
@@ -258,7 +271,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
             break
         cols[best] = True
         del dropped[TERMS[best]]
-    coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations)
+    coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
     yw, Aw = gls.white(y), gls.white(A)
     e = edf_of(alpha)
     active = coef > 0
@@ -277,7 +290,8 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     grid = np.exp(np.linspace(math.log(t[0]), math.log(t[-1]), 400))
     terms = {}
     for j, k in enumerate(TERMS):
-        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate)
+        cap = math.sqrt(ub[j]) if ub is not None and math.isfinite(ub[j]) else math.inf
+        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate, cap)
         if k in dropped:
             terms[k].note = (f"not identifiable: the other terms explain the curve as well "
                              f"(chi2 gain {dropped[k]:.3g} < {CHI2_1_95:.2f}; at most {_fmt(terms[k].upper)})")
@@ -285,39 +299,47 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
                      b_classic(tau, avar, used, edf_all), notes)
 
 
-def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray) -> float:
+def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray, ub: Optional[np.ndarray] = None) -> float:
     c = np.zeros(Aw.shape[1])
-    c[cols] = _nnls(Aw[:, cols], yw)
+    c[cols] = _nnls(Aw[:, cols], yw, None if ub is None else ub[cols])
     return float(np.sum((yw - Aw @ c) ** 2))
 
 
 def _irls(A: np.ndarray, y: np.ndarray, t: np.ndarray, cols: np.ndarray, alpha: np.ndarray,
           edf_of: Callable[[np.ndarray], np.ndarray], kind: str,
-          iterations: int) -> tuple[np.ndarray, np.ndarray, _Gls]:
+          iterations: int, floor: float = 0.0,
+          ub: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray, _Gls]:
     """Iterated GLS-NNLS: covariance from the model, EDF and correlation from the noise types."""
     ref = y.copy()
     coef = np.zeros(len(TERMS))
-    gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+    gls = _Gls(t, ref, edf_of(alpha), alpha, kind, floor)
     for _ in range(iterations):
-        gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+        gls = _Gls(t, ref, edf_of(alpha), alpha, kind, floor)
         coef = np.zeros(len(TERMS))
-        coef[cols] = _nnls(gls.white(A[:, cols]), gls.white(y))
+        coef[cols] = _nnls(gls.white(A[:, cols]), gls.white(y), None if ub is None else ub[cols])
         mod = A @ coef
         ref = np.where(mod > 0, mod, y)
         if coef.any():
             share = A * coef
             alpha = np.array([ALPHA[TERMS[j]] for j in np.argmax(share, axis=1)])
-    gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+    gls = _Gls(t, ref, edf_of(alpha), alpha, kind, floor)
     return coef, alpha, gls
 
 
 def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw: np.ndarray,
-          grid: np.ndarray, active: np.ndarray, allowed: bool, inflate: float) -> Term:
+          grid: np.ndarray, active: np.ndarray, allowed: bool, inflate: float,
+          cap: float = math.inf) -> Term:
+    """One term's value, interval, range and bound; ``cap`` (term units) is the
+    largest value whose line stays under the curve's 95 % interval: no
+    interval or bound goes above it."""
     if not allowed:
         return Term(k, None, None, None, None, 0.0, 0.0, "left out of the fit")
     c = float(coef[j])
     sd = math.sqrt(max(cov[j, j], 0.0))
-    upper = _upper(j, Aw, yw, active, inflate)
+    upper = min(_upper(j, Aw, yw, active, inflate), cap)
+    if not math.isfinite(upper):
+        return Term(k, None, None, None, None, math.sqrt(max(c, 0.0)), math.inf,
+                    "cannot be bounded by these data (no point constrains it)")
     if c <= 0:
         return Term(k, None, None, None, None, 0.0, upper,
                     f"not in the data (fitted coefficient 0; at most {_fmt(upper)})")
@@ -328,6 +350,7 @@ def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw:
         hi = math.sqrt(c * nu / stats.chi2.ppf(0.025, nu))
     else:
         lo = hi = estimate
+    hi = min(hi, cap)
     upper = max(upper, hi)
     Gb = basis(grid)
     mod = Gb @ coef
