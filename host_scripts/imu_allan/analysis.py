@@ -23,7 +23,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from . import CHANNELS, __version__, allan, edf, model, psd, terms
+from . import CHANNELS, __version__, allan, edf, identify, model, psd, terms
 from .decode import Report, flag_names
 from .errors import InputError
 from .profiles import Profile, term_unit, to_si_rad
@@ -217,16 +217,19 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict
     dev = _device_curve(report, ch) if report is not None else None
     if host is not None:
         main, overlapping, stat = curves["oavar"], True, "oadev"
+        res: allan.OctaveResult = host["octave"]  # the fit's grid, whatever --taus shows
+        fitc = _Curve(res.ms, res.oavar[:, c_i], np.full(res.ms.size, host["n"] + 1), res.stride)
         mask = None
     elif dev is not None:
         main, overlapping, stat = dev, False, "adev (device)"
+        fitc = dev
         mask = np.array([not f for f in dev.flags], dtype=bool)
     else:  # pragma: no cover - the source always has one
         raise InputError("nothing to analyze")
-    tau = main.ms / fs
     var = main.var * k2
-    efn = edf.edf_function(main.ms, main.N, main.stride)
-    fit = terms.fit_terms(tau, var, efn, mask=mask, overlapping=overlapping)
+    efn = edf.edf_function(fitc.ms, fitc.N, fitc.stride)
+    fit = identify.identify(fitc.ms / fs, fitc.var * k2, efn, mask=mask, overlapping=overlapping)
+    used = np.isin(main.ms, fitc.ms[fit.used])
     out: dict[str, Any] = {
         "unit": sc.unit,
         "kind": sc.kind,
@@ -236,9 +239,11 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict
         "term_notes": {k: t.note for k, t in fit.terms.items() if t.note},
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
         "b_classic": _b_classic(fit, var),
-        "fit": {"statistic": stat, "chi2_dof": _num(fit.chi2_red), "points": int(fit.used.sum()),
-                "notes": fit.notes},
-        "curve": _points(main, fs, k2, fit, d=2, modified=False, used=fit.used),
+        "fit": {"statistic": stat, "grid": "octave", "chi2_dof": _num(fit.chi2_red),
+                "points": int(fit.used.sum()), "notes": fit.notes,
+                "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]}
+                                for r in fit.unexplained]},
+        "curve": _points(main, fs, k2, fit, d=2, modified=False, used=used),
     }
     extra = {}
     for name, d, mod in (("adev", 2, False), ("mdev", 2, True), ("hdev", 3, False)):
@@ -262,6 +267,9 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict
                                                        for kk, vv in v.items()})
                            for k, v in out["terms"].items()}}
     out["_fit"] = fit  # internal, removed before output
+    fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
+    out["_fit_curve"] = [(int(m), float(math.sqrt(v * k2))) for m, v, f in zip(fitc.ms, fitc.var, fl)
+                         if math.isfinite(v) and v > 0 and not f]  # FIT%'s grid
     return out
 
 
@@ -404,16 +412,12 @@ def _model_all(doc: dict[str, Any], chans: list[str], profile: Profile, fs: floa
         mp = params[i]
         out: dict[str, Any] = {"params": mp.as_dict(), "fit_percent": {}}
         # ADEV curves over the common taus
-        if host is not None:
-            sim = {int(m): v for m, v in zip(res.ms, res.oavar[:, i])}
-            pts = [pt for pt in c["curve"] if pt["dev"]]
-        else:
-            sim = {int(m): v for m, v in zip(res.ms, res.avar[:, i])}
-            pts = [pt for pt in c["curve"] if pt["dev"] and not pt.get("flags")]
-        pairs = [(pt["dev"], math.sqrt(sim[pt["m"]])) for pt in pts
-                 if pt["m"] in sim and math.isfinite(sim[pt["m"]]) and sim[pt["m"]] > 0]
-        out["curve"] = [{"tau_s": pt["tau_s"], "dev": math.sqrt(sim[pt["m"]])} for pt in pts
-                        if pt["m"] in sim and math.isfinite(sim[pt["m"]]) and sim[pt["m"]] > 0]
+        # on the fit's octave grid whatever --taus shows, so FIT% does not depend on it
+        sim = {int(m): v for m, v in zip(res.ms, res.oavar[:, i] if host is not None else res.avar[:, i])}
+        pts = [(m, d) for m, d in c["_fit_curve"]
+               if m in sim and math.isfinite(sim[m]) and sim[m] > 0]
+        pairs = [(d, math.sqrt(sim[m])) for m, d in pts]
+        out["curve"] = [{"tau_s": m / fs, "dev": math.sqrt(sim[m])} for m, _ in pts]
         if pairs:
             s_, m_ = np.log10([a for a, _ in pairs]), np.log10([b for _, b in pairs])
             out["fit_percent"]["adev_log10"] = model.fit_percent(s_, m_)

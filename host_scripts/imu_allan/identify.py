@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .edf import chi2_interval
-from .terms import TERMS, EdfFn, FitResult, basis, fit_terms, local_alpha
+from .terms import TERMS, EdfFn, FitResult, b_classic, basis, fit_terms, local_alpha
 
 MODEL_ERR = 0.05
 """Relative standard deviation of ADEV granted to the five-term model (0.10 in AVAR)."""
@@ -102,7 +102,9 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
             tj = float(t[~deficit][np.argmin(hi[~deficit] / A[~deficit, j])])
             term.note = (f"its 95 % interval stops where its line meets the curve's upper 95 % limit "
                          f"(at {tj:.3g} s)")
-    fit.b_classic = fit.b_classic  # computed by fit_terms over the kept points' EDF
+    e_full = np.full(tau.size, np.nan)
+    e_full[idx] = e
+    fit.b_classic = b_classic(tau, avar, usable, e_full)  # over the whole curve, not the kept points
     return fit
 
 
