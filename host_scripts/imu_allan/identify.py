@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .edf import chi2_interval
-from .terms import TERMS, EdfFn, FitResult, b_classic, basis, fit_terms, local_alpha
+from .terms import ALPHA, TERMS, EdfFn, FitResult, b_classic, basis, fit_terms, local_alpha
 
 MODEL_ERR = 0.05
 """Relative standard deviation of ADEV granted to the five-term model (0.10 in AVAR)."""
@@ -76,22 +76,41 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
     keep = np.ones(t.size, dtype=bool)
     m = _quick(A, y, e, keep)
     while keep.sum() > MIN_KEEP:
-        bad = np.maximum(np.log(m / band_hi), np.log(band_lo / m))
-        bad[~keep] = 0.0
+        # excess first: other processes only add variance, so a point above the terms
+        # is more likely theirs than a point below (only a filter takes variance away)
+        excess = np.where(keep, np.log(band_lo / m), 0.0)
+        deficit = np.where(keep, np.log(m / band_hi), 0.0)
+        bad = excess if excess.max() > 0.0 else deficit
         worst = int(np.argmax(bad))
         if bad[worst] <= 0.0:
             break
         keep[worst] = False
         m = _quick(A, y, e, keep)
     deficit = ~keep & (y < m)
-    caps = np.full(len(TERMS), np.inf)
-    for j in range(len(TERMS)):
-        ok = ~deficit
-        caps[j] = float(np.min(hi[ok] / A[ok, j]))
+    ok = ~deficit
     full_mask = np.zeros(tau.size, dtype=bool)
     full_mask[idx[keep]] = True
+
+    def upper_of(model_terms: np.ndarray) -> np.ndarray:
+        # the curve's 95 % upper limit with the EDF of the noise type the model says dominates
+        # (as the document's intervals are drawn)
+        a = np.zeros(tau.size, dtype=np.int64)
+        a[idx] = [ALPHA[TERMS[j]] for j in np.argmax(model_terms, axis=1)]
+        ee = np.asarray(edf_fn(a), dtype=np.float64)[idx]
+        return chi2_interval(y, np.where(np.isfinite(ee) & (ee > 0), ee, 1.0))[1]
+
+    hi_m = upper_of(A * _quick(A, y, e, keep, coef=True))
+    caps = np.min(hi_m[ok, None] / A[ok], axis=0)
     fit = fit_terms(tau, avar, edf_fn, mask=full_mask, overlapping=overlapping,
                     floor=2.0 * MODEL_ERR, caps=caps)
+    if fit.coef.any():  # the final model may call other noise types dominant: hold its intervals too
+        hi_m = upper_of(A * fit.coef)
+        caps2 = np.minimum(caps, np.min(hi_m[ok, None] / A[ok], axis=0))
+        if np.any(caps2 < caps * (1 - 1e-9)):
+            caps = caps2
+            fit = fit_terms(tau, avar, edf_fn, mask=full_mask, overlapping=overlapping,
+                            floor=2.0 * MODEL_ERR, caps=caps)
+    hi = hi_m
     model = fit.model(t)
     fit.unexplained = _regions(t, y, model, keep)
     for r in fit.unexplained:
@@ -108,7 +127,7 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
     return fit
 
 
-def _quick(A: np.ndarray, y: np.ndarray, e: np.ndarray, keep: np.ndarray) -> np.ndarray:
+def _quick(A: np.ndarray, y: np.ndarray, e: np.ndarray, keep: np.ndarray, coef: bool = False) -> np.ndarray:
     """Model AVAR at every point from a diagonal-weight NNLS on the kept points
     (model-based weights, three rounds): fast enough to redo per point set aside."""
     from .terms import _nnls
@@ -120,7 +139,7 @@ def _quick(A: np.ndarray, y: np.ndarray, e: np.ndarray, keep: np.ndarray) -> np.
         c = _nnls(A[keep] * w[:, None], y[keep] * w)
         mod = A @ c
         ref = np.where(mod > 0, mod, y)
-    return A @ c
+    return c if coef else A @ c
 
 
 def _regions(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) -> list[dict]:
@@ -159,11 +178,14 @@ def _regions(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) 
                 text = (f"{where}: the curve rises above the terms at long tau (up to {ratio:.2f} times "
                         "them): drift, temperature, or a slow Gauss-Markov process")
             else:
-                fall = 0.5 * math.log(y[p + 1] / y[p]) / math.log(t[p + 1] / t[p])
+                # how the excess over the terms falls after its peak (ADEV slope)
+                ex0, ex1 = y[p] - model[p], y[p + 1] - model[p + 1]
+                fall = (0.5 * math.log(ex1 / ex0) / math.log(t[p + 1] / t[p]) if ex1 > 0
+                        else -math.inf)
                 if fall <= -0.75:
                     kind = "oscillation"
-                    text = (f"{where}: a hump up to {ratio:.2f} times the terms, peaking at {t[p]:.3g} s "
-                            f"and falling as tau^{fall:.2g}: an oscillation of period about "
+                    text = (f"{where}: a hump up to {ratio:.2f} times the terms, peaking at {t[p]:.3g} s, "
+                            f"its excess falling {_slope(fall)}: an oscillation of period about "
                             f"{t[p] / SINE_PEAK:.3g} s (a sinusoid's ADEV peaks at 0.371 T)")
                 else:
                     kind = "hump"
@@ -174,3 +196,7 @@ def _regions(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) 
                     "text": f"not explained by the terms, left out of the fit: {text}"})
         i = j + 1
     return out
+
+
+def _slope(mu: float) -> str:
+    return "to nothing at the next point" if not math.isfinite(mu) else f"as tau^{mu:.2g}"
