@@ -240,6 +240,8 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[dict
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
         "b_classic": _b_classic(fit, var),
         "fit": {"statistic": stat, "grid": "octave", "chi2_dof": _num(fit.chi2_red),
+                "tau_window_s": ([float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)]
+                                 if fit.used.any() else None),
                 "points": int(fit.used.sum()), "notes": fit.notes,
                 "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]}
                                 for r in fit.unexplained]},

@@ -43,6 +43,9 @@ MODEL_ERR = 0.05
 TOL = 0.10
 """A point is unexplained when the model lies outside its 95 % interval widened by this (deviation)."""
 MIN_KEEP = 4
+FLAT_SLOPE = 0.25
+FLAT_OCTAVES = 2.0
+"""A flat region: ADEV slopes within +-0.25 between neighbouring points over 2 octaves or more."""
 SINE_PEAK = 0.371
 """ADEV of a sinusoid of frequency f0 peaks at tau = 0.371 / f0 (El-Sheimy et al. 2008)."""
 GM_PEAK = 1.89
@@ -101,15 +104,24 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
 
     hi_m = upper_of(A * _quick(A, y, e, keep, coef=True))
     caps = np.min(hi_m[ok, None] / A[ok], axis=0)
-    fit = fit_terms(tau, avar, edf_fn, mask=full_mask, overlapping=overlapping,
-                    floor=2.0 * MODEL_ERR, caps=caps)
+
+    flat = _flat(t, y, e)
+    sig = {"B": flat} if flat else None
+
+    def fit_at(floor: float) -> FitResult:
+        return fit_terms(tau, avar, edf_fn, mask=full_mask, overlapping=overlapping, floor=floor, caps=caps,
+                         signature=sig)
+
+    floor = _floor(fit_at)
+    fit = fit_at(floor)
     if fit.coef.any():  # the final model may call other noise types dominant: hold its intervals too
         hi_m = upper_of(A * fit.coef)
         caps2 = np.minimum(caps, np.min(hi_m[ok, None] / A[ok], axis=0))
         if np.any(caps2 < caps * (1 - 1e-9)):
             caps = caps2
-            fit = fit_terms(tau, avar, edf_fn, mask=full_mask, overlapping=overlapping,
-                            floor=2.0 * MODEL_ERR, caps=caps)
+            fit = fit_at(floor)
+    fit.notes.insert(0, f"model error granted to the terms: {floor / 2 * 100:.2g} % of the deviation "
+                        f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)")
     hi = hi_m
     model = fit.model(t)
     fit.unexplained = _regions(t, y, model, keep)
@@ -117,7 +129,8 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
         fit.notes.append(r["text"])
     for k, term in fit.terms.items():
         j = TERMS.index(k)
-        if term.value is not None and term.high is not None and term.high >= math.sqrt(caps[j]) * (1 - 1e-9):
+        if (term.value is not None and term.high is not None and not term.note
+                and term.high >= math.sqrt(caps[j]) * (1 - 1e-9)):
             tj = float(t[~deficit][np.argmin(hi[~deficit] / A[~deficit, j])])
             term.note = (f"its 95 % interval stops where its line meets the curve's upper 95 % limit "
                          f"(at {tj:.3g} s)")
@@ -125,6 +138,43 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
     e_full[idx] = e
     fit.b_classic = b_classic(tau, avar, usable, e_full)  # over the whole curve, not the kept points
     return fit
+
+
+def _flat(t: np.ndarray, y: np.ndarray, e: np.ndarray) -> Optional[tuple[float, float]]:
+    """The curve's flat region: from its lowest point (of EDF >= 10), the neighbours
+    reached with ADEV slopes within +-FLAT_SLOPE, if they span FLAT_OCTAVES or more."""
+    ok = np.flatnonzero(e >= 10.0)
+    if ok.size == 0:
+        return None
+    i0 = int(ok[np.argmin(y[ok])])
+    slope = 0.5 * np.diff(np.log(y)) / np.diff(np.log(t))
+    a = b = i0
+    while a > 0 and abs(slope[a - 1]) <= FLAT_SLOPE:
+        a -= 1
+    while b < t.size - 1 and abs(slope[b]) <= FLAT_SLOPE:
+        b += 1
+    if math.log2(t[b] / t[a]) < FLAT_OCTAVES - 1e-9:
+        return None
+    return float(t[a]), float(t[b])
+
+
+def _floor(fit_at) -> float:
+    """The model error (relative, in AVAR) that makes chi2/dof = 1: 0 when the terms
+    already fit within the statistical scatter, at most 2 MODEL_ERR (beyond that the
+    intervals are widened by chi2/dof, terms.py)."""
+    top = 2.0 * MODEL_ERR
+    if fit_at(top).chi2_red >= 1.0:
+        return top
+    if fit_at(0.0).chi2_red <= 1.0:
+        return 0.0
+    lo, hi = 0.0, top
+    for _ in range(6):  # to 1/64 of MODEL_ERR
+        mid = 0.5 * (lo + hi)
+        if fit_at(mid).chi2_red > 1.0:
+            lo = mid
+        else:
+            hi = mid
+    return hi
 
 
 def _quick(A: np.ndarray, y: np.ndarray, e: np.ndarray, keep: np.ndarray, coef: bool = False) -> np.ndarray:

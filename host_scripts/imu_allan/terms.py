@@ -48,7 +48,7 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import linalg, optimize, stats
+from scipy import optimize, stats
 
 TERMS = ("Q", "N", "B", "K", "R")
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
@@ -158,9 +158,11 @@ class _Gls:
         R = np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
         S = R * np.outer(sd, sd)
         self.L = _cholesky(S)
+        # the inverse once (tens of points): scipy's solve_triangular per call costs milliseconds
+        self.Li = np.linalg.inv(self.L)
 
     def white(self, v: np.ndarray) -> np.ndarray:
-        return linalg.solve_triangular(self.L, v, lower=True)
+        return self.Li @ v
 
 
 def _cholesky(S: np.ndarray) -> np.ndarray:
@@ -192,7 +194,8 @@ def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np
 def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None,
               overlapping: bool = True, iterations: int = 5,
               allowed: tuple[str, ...] = TERMS, floor: float = 0.0,
-              caps: Optional[np.ndarray] = None) -> FitResult:
+              caps: Optional[np.ndarray] = None,
+              signature: Optional[dict[str, tuple[float, float]]] = None) -> FitResult:
     """Fit the IEEE 952 terms to the points (tau, avar) not masked out.
 
     ``edf_fn(alphas)`` gives each point's EDF for a noise type per point;
@@ -200,6 +203,9 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     ``floor``: relative standard deviation of the model's own error, added
     in quadrature to each point's statistical one (identify.py). ``caps``:
     upper limits of the coefficients c (Q^2 .. R^2), inf where free.
+    ``signature``: tau ranges where the curve shows a term's own slope (the
+    flat floor of B): a significant term that is nowhere half of the model is
+    still reported there.
     """
     ub = None if caps is None else np.asarray(caps, dtype=np.float64)
     tau = np.asarray(tau, dtype=np.float64)
@@ -291,7 +297,8 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     terms = {}
     for j, k in enumerate(TERMS):
         cap = math.sqrt(ub[j]) if ub is not None and math.isfinite(ub[j]) else math.inf
-        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate, cap)
+        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate, cap,
+                         (signature or {}).get(k))
         if k in dropped:
             terms[k].note = (f"not identifiable: the other terms explain the curve as well "
                              f"(chi2 gain {dropped[k]:.3g} < {CHI2_1_95:.2f}; at most {_fmt(terms[k].upper)})")
@@ -328,7 +335,7 @@ def _irls(A: np.ndarray, y: np.ndarray, t: np.ndarray, cols: np.ndarray, alpha: 
 
 def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw: np.ndarray,
           grid: np.ndarray, active: np.ndarray, allowed: bool, inflate: float,
-          cap: float = math.inf) -> Term:
+          cap: float = math.inf, signature: Optional[tuple[float, float]] = None) -> Term:
     """One term's value, interval, range and bound; ``cap`` (term units) is the
     largest value whose line stays under the curve's 95 % interval: no
     interval or bound goes above it."""
@@ -347,7 +354,8 @@ def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw:
     if sd > 0:
         nu = 2.0 * (c / sd) ** 2  # the coefficient's own degrees of freedom
         lo = math.sqrt(c * nu / stats.chi2.ppf(0.975, nu))
-        hi = math.sqrt(c * nu / stats.chi2.ppf(0.025, nu))
+        q = float(stats.chi2.ppf(0.025, nu))
+        hi = math.sqrt(c * nu / q) if q > 0 else math.inf  # capped below where a cap exists
     else:
         lo = hi = estimate
     hi = min(hi, cap)
@@ -365,6 +373,10 @@ def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw:
         return Term(k, None, None, None, rng, estimate, upper,
                     f"not identifiable: its 95 % interval includes 0 (estimate {_fmt(estimate)}, "
                     f"at most {_fmt(upper)})")
+    if rng is None and signature is not None:
+        return Term(k, estimate, lo, hi, signature, estimate, hi,
+                    f"from the curve's flat region {_fmt(signature[0])} .. {_fmt(signature[1])} s, "
+                    "where it shares the floor with the neighbouring terms (nowhere half of the model)")
     if rng is None:
         return Term(k, None, None, None, None, estimate, upper,
                     f"not identifiable: dominates nowhere in the measured range (estimate "
