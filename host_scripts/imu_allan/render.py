@@ -47,7 +47,7 @@ def text(doc: dict[str, Any]) -> str:
     lines += [f"  {n}" for n in doc["notes"]]
     stat = ("the device's non-overlapping Allan deviation" if src["kind"] == "device-log"
             else "the overlapping Allan deviation")
-    lines.append(f"Noise terms (IEEE 952) fitted to {stat} at {doc['options']['taus']} taus; "
+    lines.append(f"Noise terms (IEEE 952) fitted to {stat} at octave taus (whatever --taus shows); "
                  "95 % intervals; 'dominates': the tau range where the term is at least half "
                  "the Allan variance.")
     for ch, c in doc["channels"].items():

@@ -353,7 +353,8 @@ def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw:
     estimate = math.sqrt(c)
     if sd > 0:
         nu = 2.0 * (c / sd) ** 2  # the coefficient's own degrees of freedom
-        lo = math.sqrt(c * nu / stats.chi2.ppf(0.975, nu))
+        q = float(stats.chi2.ppf(0.975, nu))
+        lo = math.sqrt(c * nu / q) if q > 0 else 0.0
         q = float(stats.chi2.ppf(0.025, nu))
         hi = math.sqrt(c * nu / q) if q > 0 else math.inf  # capped below where a cap exists
     else:
