@@ -91,3 +91,28 @@ def test_each_term_stays_under_the_curve(codes: np.ndarray) -> None:
         t = f.terms[k]
         for bound in (t.upper, t.high or 0.0):
             assert np.all(bound ** 2 * A[:, j] <= hi * 1.000001), k
+
+
+def test_analyze_terms_and_fit_percent_do_not_depend_on_taus(tmp_path, run_cli) -> None:
+    """Through the command line: --taus octave, decade and log show different curves but
+    the same terms, intervals and thesis-model FIT% (all from the octave points)."""
+    import json
+    from conftest import write_rows
+    p = gen.make_params(n=1 << 15, seed=11, white=1.5, flicker=0.4, rrw=0.01, gm_sigma=0)
+    rows = write_rows(tmp_path / "imu.txt", np.concatenate(list(gen.generate(p)), axis=1).T)
+    docs = {}
+    for grid in ("octave", "decade", "log"):
+        rc, out, err = run_cli("analyze", rows, "--fs", 100, "--channels", "gx,ay", "--taus", grid, "--json")
+        assert rc == 0, err
+        docs[grid] = json.loads(out)
+    sizes = {g: len(d["channels"]["gx"]["curve"]) for g, d in docs.items()}
+    assert sizes["log"] > sizes["octave"] != sizes["decade"]
+    ref = docs["octave"]["channels"]
+    for grid in ("decade", "log"):
+        for ch, c in docs[grid]["channels"].items():
+            assert c["terms"] == ref[ch]["terms"], (grid, ch)
+            assert c["upper_bounds"] == ref[ch]["upper_bounds"], (grid, ch)
+            fp, fp0 = c["model"]["fit_percent"], ref[ch]["model"]["fit_percent"]
+            assert fp["adev_log10"] == pytest.approx(fp0["adev_log10"], abs=1e-9), (grid, ch)
+            assert c["fit"]["grid"] == "octave"
+    assert ref["gx"]["terms"]["N"] is not None and ref["gx"]["terms"]["B"] is not None
