@@ -68,6 +68,8 @@ def text(doc: dict[str, Any]) -> str:
             lines.append(f"{head}{g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['term_units'][k]}"
                          f"  = {g(t['value'] * lf)} [{g(t['low'] * lf)}, {g(t['high'] * lf)}] {lu}"
                          + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else ""))
+            if c["term_notes"].get(k):  # how it was bounded or where it was read
+                lines.append(f"{'':21}{c['term_notes'][k]}")
         bc = c.get("b_classic")
         if bc:
             lu, lf = _lit(c, "B")
