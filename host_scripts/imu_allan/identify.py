@@ -243,7 +243,8 @@ def _regions(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) 
                             f"a Gauss-Markov process of correlation time about {t[p] / GM_PEAK:.3g} s "
                             "(its ADEV peaks at 1.89 T)")
         out.append({"tau_s": [span[0], span[1]], "kind": kind, "ratio": ratio,
-                    "text": f"not explained by the terms, left out of the fit: {text}"})
+                    "text": f"not explained by the terms (outside the points' 95 % intervals widened by "
+                            f"{TOL * 100:g} %), left out of the fit: {text}"})
         i = j + 1
     return out
 

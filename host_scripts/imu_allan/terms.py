@@ -240,7 +240,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
         return np.where(np.isfinite(e) & (e > 0), e, 1.0)
 
     alpha = local_alpha(t, y)
-    dropped: dict[str, float] = {}
+    dropped: dict[str, tuple[float, float]] = {}  # name -> (chi2 gain, the threshold it missed)
     seen: set[tuple[bool, ...]] = set()
     for _ in range(4 * nterm):  # stepwise: drop what others can do without, re-admit what is missed
         coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
@@ -262,7 +262,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
                     worst, worst_gain = int(j), gain
         if worst is not None and worst_gain < CHI2_1_95 * max(1.0, base / dof):
             cols[worst] = False
-            dropped[TERMS[worst]] = worst_gain
+            dropped[TERMS[worst]] = (worst_gain, CHI2_1_95 * max(1.0, base / dof))
             continue
         best, best_gain = None, 0.0
         for name in list(dropped):
@@ -285,7 +285,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     chi2_red = float(np.sum((yw - Aw @ coef) ** 2) / dof)
     inflate = max(1.0, chi2_red)
     if chi2_red > 2.0:
-        notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g}: intervals are "
+        notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
                      "widened accordingly (noise not of the IEEE 952 kinds, or drift?)")
     if active.any():
         cov_a = np.linalg.pinv(Aw[:, active].T @ Aw[:, active]) * inflate
@@ -301,7 +301,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
                          (signature or {}).get(k))
         if k in dropped:
             terms[k].note = (f"not identifiable: the other terms explain the curve as well "
-                             f"(chi2 gain {dropped[k]:.3g} < {CHI2_1_95:.2f}; at most {_fmt(terms[k].upper)})")
+                             f"(chi2 gain {dropped[k][0]:.3g} < {dropped[k][1]:.3g}; at most {_fmt(terms[k].upper)})")
     return FitResult(terms, coef, cov, chi2_red, fitted, alpha_all, edf_all,
                      b_classic(tau, avar, used, edf_all), notes)
 
