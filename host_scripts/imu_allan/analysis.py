@@ -25,7 +25,7 @@ import numpy as np
 
 from . import __version__
 from .channels import CHANNELS
-from .stats import allan, edf, model, psd, terms
+from .stats import allan, edf, identify, model, psd, terms
 from .device.records import DeviceReport, flag_names
 from .errors import InputError
 from .profiles import Profile, term_unit, to_si_rad
@@ -111,10 +111,12 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
         doc["source"]["n"] = report.header.n
         doc["source"]["duration_s"] = report.header.n / fs
     fits: dict[str, terms.FitResult] = {}
+    fit_curves: dict[str, list[tuple[int, float]]] = {}
     for c_i, ch in enumerate(chans):
-        doc["channels"][ch], fits[ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
+        doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report,
+                                                                 opts, notes)
     if opts.model:
-        _model_all(doc, fits, chans, profile, fs, host, report, opts)
+        _model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
     return Analysis(_jsonable(doc), fits)
 
 
@@ -232,24 +234,27 @@ def _device_curve(report: DeviceReport, ch: str) -> _Curve:
 
 def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[HostPass],
              report: Optional[DeviceReport], opts: Options, notes: list[str]
-             ) -> tuple[dict[str, Any], terms.FitResult]:
-    """One channel's JSON object and its fit of the noise terms."""
+             ) -> tuple[dict[str, Any], terms.FitResult, list[tuple[int, float]]]:
+    """One channel's JSON object, its fit of the noise terms, and the (m, deviation)
+    points of the fit's octave grid (FIT% is computed on them whatever --taus shows)."""
     sc = profile.scale(ch)
     k2 = sc.per_count ** 2
     curves = _host_curves(host, c_i, opts.extra_curves) if host is not None else {}
     dev = _device_curve(report, ch) if report is not None else None
     if host is not None:
         main, overlapping, stat = curves["oavar"], True, "oadev"
+        res: allan.OctaveResult = host.octave  # the fit's grid, whatever --taus shows
+        fitc = _Curve(res.ms, res.oavar[:, c_i], np.full(res.ms.size, host.n + 1), res.stride)
         mask = None
     elif dev is not None:
         main, overlapping, stat = dev, False, "adev (device)"
+        fitc = dev
         mask = np.array([not f for f in dev.flags], dtype=bool)
     else:  # pragma: no cover - the source always has one
         raise InputError("nothing to analyze")
-    tau = main.ms / fs
-    var = main.var * k2
-    efn = edf.edf_function(main.ms, main.N, main.stride)
-    fit = terms.fit_terms(tau, var, efn, mask=mask, overlapping=overlapping)
+    efn = edf.edf_function(fitc.ms, fitc.N, fitc.stride)
+    fit = identify.identify(fitc.ms / fs, fitc.var * k2, efn, mask=mask, overlapping=overlapping)
+    used = np.isin(main.ms, fitc.ms[fit.used])
     out: dict[str, Any] = {
         "unit": sc.unit,
         "kind": sc.kind,
@@ -259,9 +264,13 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         "term_notes": {k: t.note for k, t in fit.terms.items() if t.note},
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
         "b_classic": _b_classic(fit),
-        "fit": {"statistic": stat, "chi2_dof": _num(fit.chi2_red), "points": int(fit.used.sum()),
-                "notes": fit.notes},
-        "curve": _points(main, fs, k2, fit, d=2, modified=False, used=fit.used),
+        "fit": {"statistic": stat, "grid": "octave", "chi2_dof": _num(fit.chi2_red),
+                "tau_window_s": ([float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)]
+                                 if fit.used.any() else None),
+                "points": int(fit.used.sum()), "notes": fit.notes,
+                "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]}
+                                for r in fit.unexplained]},
+        "curve": _points(main, fs, k2, fit, d=2, modified=False, used=used),
     }
     extra = {}
     for name, d, mod in (("adev", 2, False), ("mdev", 2, True), ("hdev", 3, False)):
@@ -284,7 +293,10 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
                  "terms": {k: (None if v is None else {kk: (vv * si if isinstance(vv, float) else vv)
                                                        for kk, vv in v.items()})
                            for k, v in out["terms"].items()}}
-    return out, fit
+    fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
+    fit_curve = [(int(m), float(math.sqrt(v * k2))) for m, v, f in zip(fitc.ms, fitc.var, fl)
+                 if math.isfinite(v) and v > 0 and not f]  # FIT%'s grid
+    return out, fit, fit_curve
 
 
 def _term_json(t: terms.Term) -> Optional[dict[str, Any]]:
@@ -381,7 +393,8 @@ def _tau_b(fit: terms.FitResult) -> Optional[float]:
     return None
 
 
-def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult], chans: list[str],
+def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult],
+               fit_curves: dict[str, list[tuple[int, float]]], chans: list[str],
                profile: Profile, fs: float, host: Optional[HostPass], report: Optional[DeviceReport],
                opts: Options) -> None:
     params = []
@@ -423,17 +436,12 @@ def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult], chans: lis
         c = doc["channels"][ch]
         mp = params[i]
         out: dict[str, Any] = {"params": mp.as_dict(), "fit_percent": {}}
-        # ADEV curves over the common taus
-        if host is not None:
-            sim = {int(m): v for m, v in zip(res.ms, res.oavar[:, i])}
-            pts = [pt for pt in c["curve"] if pt["dev"]]
-        else:
-            sim = {int(m): v for m, v in zip(res.ms, res.avar[:, i])}
-            pts = [pt for pt in c["curve"] if pt["dev"] and not pt.get("flags")]
-        pairs = [(pt["dev"], math.sqrt(sim[pt["m"]])) for pt in pts
-                 if pt["m"] in sim and math.isfinite(sim[pt["m"]]) and sim[pt["m"]] > 0]
-        out["curve"] = [{"tau_s": pt["tau_s"], "dev": math.sqrt(sim[pt["m"]])} for pt in pts
-                        if pt["m"] in sim and math.isfinite(sim[pt["m"]]) and sim[pt["m"]] > 0]
+        # ADEV curves on the fit's octave grid whatever --taus shows, so FIT% does not depend on it
+        sim = {int(m): v for m, v in zip(res.ms, res.oavar[:, i] if host is not None else res.avar[:, i])}
+        pts = [(m, d) for m, d in fit_curves[ch]
+               if m in sim and math.isfinite(sim[m]) and sim[m] > 0]
+        pairs = [(d, math.sqrt(sim[m])) for m, d in pts]
+        out["curve"] = [{"tau_s": m / fs, "dev": math.sqrt(sim[m])} for m, _ in pts]
         if pairs:
             s_, m_ = np.log10([a for a, _ in pairs]), np.log10([b for _, b in pairs])
             out["fit_percent"]["adev_log10"] = model.fit_percent(s_, m_)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from typing import Any
 
 import numpy as np
@@ -13,10 +14,15 @@ import numpy as np
 from .errors import InputError
 from .profiles import LITERATURE
 from .render import NAMES
-from .stats.terms import TERMS, basis
+from .stats.terms import B_READOFF, TERMS, basis
 
 COLORS = {"Q": "tab:purple", "N": "tab:blue", "B": "tab:green", "K": "tab:orange", "R": "tab:red"}
 SLOPE_LABEL = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}
+MIN_EDF_BAND = 3.0
+"""Points with fewer degrees of freedom are drawn without their interval (on a log grid
+the last points reach EDF 1, whose 95 % interval spans a factor of 30 in deviation)."""
+PSD_LEVEL = {"Q": "8 Q^2 fs sin^2(pi f/fs)", "N": "2 N^2", "B": "B^2/(pi f)", "K": "K^2/(2 pi^2 f^2)",
+             "R": "R^2/(4 pi^3 f^3)"}
 
 
 def _mpl() -> Any:
@@ -51,6 +57,10 @@ def write_plots(doc: dict[str, Any], directory: str) -> list[str]:
         files.append(_adev_figure(plt, doc, group, chans, directory))
         if any("psd" in doc["channels"][c] for c in chans):
             files.append(_psd_figure(plt, doc, group, chans, directory))
+        else:
+            why = ("a device log carries results, not samples" if doc["source"]["kind"] == "device-log"
+                   else "no PSD was computed")
+            print(f"imu-allan analyze: {group} PSD plot skipped: {why}", file=sys.stderr)
     return files
 
 
@@ -77,8 +87,23 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
         hi = np.array([p["high"] for p in pts])
         flagged = np.array([bool(p.get("flags")) for p in pts])
         ok = ~flagged
-        ax.fill_between(tau[ok], lo[ok], hi[ok], color="0.85", label="95 % interval")
+        edf = np.array([p["edf"] if p.get("edf") is not None else 0.0 for p in pts])
+        band = ok & (edf >= MIN_EDF_BAND)
+        for r in c["fit"].get("unexplained", []):
+            a, b = r["tau_s"]
+            ax.axvspan(a / 1.19, b * 1.19, color="tab:red", alpha=0.12, lw=0,
+                       label="not explained by the terms (left out of the fit)"
+                       if r is c["fit"]["unexplained"][0] else None)
+        ax.fill_between(tau[band], lo[band], hi[band], color="0.85", label="95 % interval")
         ax.loglog(tau[ok], dev[ok], "o-", color="k", ms=3.5, lw=1, label=stat)
+        few = ok & ~band
+        if few.any():
+            ax.loglog(tau[few], dev[few], "o", mfc="white", color="k", ms=3.5,
+                      label=f"EDF < {MIN_EDF_BAND:g} (interval not drawn)")
+        if band.any():  # limits from the drawn intervals, not stretched by EDF-1 points
+            top = max(float(np.max(hi[band])), float(np.max(dev[ok])))
+            bottom = min(float(np.min(lo[band])), float(np.min(dev[ok])))
+            ax.set_ylim(bottom / 1.5, top * 1.5)
         if flagged.any():
             ax.loglog(tau[flagged], dev[flagged], "x", color="red", ms=7, label="flagged (not fitted)")
         dv = c.get("device")
@@ -89,7 +114,9 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
             err = np.array([[p["dev"] - p["low"] for p in dp], [p["high"] - p["dev"] for p in dp]])
             ax.errorbar(dt, dd, yerr=err, fmt="s", mfc="none", color="tab:brown", ms=5, capsize=2,
                         label="device (non-overlapping)")
-        grid = np.exp(np.linspace(math.log(tau.min()), math.log(tau.max()), 200)) if tau.size else tau
+        # the terms over the taus they were fitted on (not extrapolated, not over the ranges left out)
+        win = c["fit"].get("tau_window_s") or ([float(tau.min()), float(tau.max())] if tau.size else None)
+        grid = np.exp(np.linspace(math.log(win[0]), math.log(win[1]), 200)) if win else tau
         coef = _coef(c)
         if tau.size and coef.any():
             A = basis(grid)
@@ -102,8 +129,11 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
                     v = c["terms"][k]["value"]
                     line = np.sqrt(A[:, j] * coef[j])
                     line[A[:, j] * coef[j] < total / 100.0] = np.nan  # only where it matters (> 1/10 in ADEV)
-                    ax.loglog(grid, line, "--", color=COLORS[k], lw=1.2,
-                              label=f"{k} {NAMES[k]} (slope {SLOPE_LABEL[k]}): {v * lf:.3g} {lu}")
+                    label = f"{k} {NAMES[k]} (slope {SLOPE_LABEL[k]}): {v * lf:.3g} {lu}"
+                    if k == "B":  # the flat line is the deviation B makes, not B
+                        label = (f"B {NAMES[k]}: {v * lf:.3g} {lu}; line at {B_READOFF:.3f} B = "
+                                 f"{v * B_READOFF:.3g} {c['unit']}")
+                    ax.loglog(grid, line, "--", color=COLORS[k], lw=1.2, label=label)
         m = c.get("model")
         if m and m.get("curve"):
             fp = m["fit_percent"].get("adev_log10")
@@ -140,12 +170,18 @@ def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], dir
         for k, vals in p["terms"].items():
             v = np.array(vals, dtype=float)
             v[v < floor] = np.nan
-            ax.loglog(f, v, "--", color=COLORS[k], lw=1.2, label=f"{k} level")
+            t = c["terms"].get(k)
+            what = f"{k} level {PSD_LEVEL[k]}" + (f", {k} = {t['value']:.3g} {c['term_units'][k]}" if t else "")
+            if k == "N" and t:
+                what += f": {2 * t['value'] ** 2:.3g} {p['unit']}"
+            ax.loglog(f, v, "--", color=COLORS[k], lw=1.2, label=what)
         ax.set_xlabel("f [Hz]")
         ax.set_ylabel(f"PSD [{p['unit']}]")
         ax.set_title(ch)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="best")
-    fig.suptitle(f"{group}: power spectral density (one-sided)")
+    src = doc["source"]
+    fig.suptitle(f"{group}: {os.path.basename(src['file'])}, power spectral density (one-sided, Welch), "
+                 f"{src['n']} samples at {src['fs_hz']:g} Hz")
     fig.tight_layout()
     return _save(plt, fig, os.path.join(directory, f"psd_{group}.png"))

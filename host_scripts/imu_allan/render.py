@@ -225,7 +225,7 @@ def text(doc: dict[str, Any]) -> str:
     lines += [f"  {n}" for n in doc["notes"]]
     stat = ("the device's non-overlapping Allan deviation" if src["kind"] == "device-log"
             else "the overlapping Allan deviation")
-    lines.append(f"Noise terms (IEEE 952) fitted to {stat} at {doc['options']['taus']} taus; "
+    lines.append(f"Noise terms (IEEE 952) fitted to {stat} at octave taus (whatever --taus shows); "
                  "95 % intervals; 'dominates': the tau range where the term is at least half "
                  "the Allan variance.")
     for ch, c in doc["channels"].items():
@@ -246,6 +246,8 @@ def text(doc: dict[str, Any]) -> str:
             lines.append(f"{head}{g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['term_units'][k]}"
                          f"  = {g(t['value'] * lf)} [{g(t['low'] * lf)}, {g(t['high'] * lf)}] {lu}"
                          + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else ""))
+            if c["term_notes"].get(k):  # how it was bounded or where it was read
+                lines.append(f"{'':21}{c['term_notes'][k]}")
         bc = c.get("b_classic")
         if bc:
             lu, lf = _lit(c, "B")

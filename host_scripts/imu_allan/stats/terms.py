@@ -48,7 +48,7 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import linalg, optimize, stats
+from scipy import optimize, stats
 
 TERMS = ("Q", "N", "B", "K", "R")
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
@@ -104,6 +104,8 @@ class FitResult:
     edf: np.ndarray                 # EDF used for each point (nan if unused)
     b_classic: Optional[dict] = None   # {"value", "tau_s", "low", "high"}
     notes: list[str] = field(default_factory=list)
+    unexplained: list[dict] = field(default_factory=list)
+    """tau ranges the terms do not explain (identify.py): {"tau_s", "kind", "ratio", "text"}."""
 
     def model(self, tau: np.ndarray) -> np.ndarray:
         return basis(np.asarray(tau, dtype=np.float64)) @ self.coef
@@ -147,8 +149,8 @@ class _Gls:
     """Whitening by the Cholesky factor of the estimates' covariance."""
 
     def __init__(self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray,
-                 kind: str) -> None:
-        sd = ref * np.sqrt(2.0 / e)
+                 kind: str, floor: float = 0.0) -> None:
+        sd = ref * np.sqrt(2.0 / e + floor * floor)
         rho = RHO[kind]
         lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
         l2 = np.log2(t)
@@ -156,9 +158,11 @@ class _Gls:
         R = np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
         S = R * np.outer(sd, sd)
         self.L = _cholesky(S)
+        # the inverse once (tens of points): scipy's solve_triangular per call costs milliseconds
+        self.Li = np.linalg.inv(self.L)
 
     def white(self, v: np.ndarray) -> np.ndarray:
-        return linalg.solve_triangular(self.L, v, lower=True)
+        return self.Li @ v
 
 
 def _cholesky(S: np.ndarray) -> np.ndarray:
@@ -174,21 +178,36 @@ def _cholesky(S: np.ndarray) -> np.ndarray:
     return np.linalg.cholesky(C2) * d[:, None]
 
 
-def _nnls(Aw: np.ndarray, yw: np.ndarray) -> np.ndarray:
+def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np.ndarray:
+    """min |Aw c - yw| with 0 <= c (<= ub, the caps that keep each term's line under the curve)."""
     scale = np.linalg.norm(Aw, axis=0)
     scale[scale == 0] = 1.0
-    c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
-    return c / scale
+    if ub is None or not np.any(np.isfinite(ub)):
+        c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
+        return c / scale
+    hi = np.where(np.isfinite(ub), ub * scale, np.inf)
+    r = optimize.lsq_linear(Aw / scale, yw, bounds=(np.zeros(hi.size), np.maximum(hi, 1e-300)),
+                            method="bvls")
+    return np.clip(r.x, 0.0, hi) / scale
 
 
 def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None,
               overlapping: bool = True, iterations: int = 5,
-              allowed: tuple[str, ...] = TERMS) -> FitResult:
+              allowed: tuple[str, ...] = TERMS, floor: float = 0.0,
+              caps: Optional[np.ndarray] = None,
+              signature: Optional[dict[str, tuple[float, float]]] = None) -> FitResult:
     """Fit the IEEE 952 terms to the points (tau, avar) not masked out.
 
     ``edf_fn(alphas)`` gives each point's EDF for a noise type per point;
     ``overlapping`` selects the correlation between neighbouring estimates.
+    ``floor``: relative standard deviation of the model's own error, added
+    in quadrature to each point's statistical one (identify.py). ``caps``:
+    upper limits of the coefficients c (Q^2 .. R^2), inf where free.
+    ``signature``: tau ranges where the curve shows a term's own slope (the
+    flat floor of B): a significant term that is nowhere half of the model is
+    still reported there.
     """
+    ub = None if caps is None else np.asarray(caps, dtype=np.float64)
     tau = np.asarray(tau, dtype=np.float64)
     avar = np.asarray(avar, dtype=np.float64)
     used = np.isfinite(avar) & (avar > 0) & np.isfinite(tau) & (tau > 0)
@@ -221,10 +240,10 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
         return np.where(np.isfinite(e) & (e > 0), e, 1.0)
 
     alpha = local_alpha(t, y)
-    dropped: dict[str, float] = {}
+    dropped: dict[str, tuple[float, float]] = {}  # name -> (chi2 gain, the threshold it missed)
     seen: set[tuple[bool, ...]] = set()
     for _ in range(4 * nterm):  # stepwise: drop what others can do without, re-admit what is missed
-        coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations)
+        coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
         yw, Aw = gls.white(y), gls.white(A)
         key = tuple(cols.tolist())
         if key in seen:
@@ -238,19 +257,19 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
             for j in active:
                 c2 = cols.copy()
                 c2[j] = False
-                gain = _chi2(Aw, yw, c2) - base
+                gain = _chi2(Aw, yw, c2, ub) - base
                 if gain < worst_gain:
                     worst, worst_gain = int(j), gain
         if worst is not None and worst_gain < CHI2_1_95 * max(1.0, base / dof):
             cols[worst] = False
-            dropped[TERMS[worst]] = worst_gain
+            dropped[TERMS[worst]] = (worst_gain, CHI2_1_95 * max(1.0, base / dof))
             continue
         best, best_gain = None, 0.0
         for name in list(dropped):
             j = TERMS.index(name)
             c2 = cols.copy()
             c2[j] = True
-            with_j = _chi2(Aw, yw, c2)
+            with_j = _chi2(Aw, yw, c2, ub)
             gain = base - with_j
             if gain >= CHI2_1_95 * max(1.0, with_j / max(dof - 1, 1)) and gain > best_gain:
                 best, best_gain = j, gain
@@ -258,7 +277,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
             break
         cols[best] = True
         del dropped[TERMS[best]]
-    coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations)
+    coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
     yw, Aw = gls.white(y), gls.white(A)
     e = edf_of(alpha)
     active = coef > 0
@@ -266,7 +285,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     chi2_red = float(np.sum((yw - Aw @ coef) ** 2) / dof)
     inflate = max(1.0, chi2_red)
     if chi2_red > 2.0:
-        notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g}: intervals are "
+        notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
                      "widened accordingly (noise not of the IEEE 952 kinds, or drift?)")
     if active.any():
         cov_a = np.linalg.pinv(Aw[:, active].T @ Aw[:, active]) * inflate
@@ -277,57 +296,70 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     grid = np.exp(np.linspace(math.log(t[0]), math.log(t[-1]), 400))
     terms = {}
     for j, k in enumerate(TERMS):
-        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate)
+        cap = math.sqrt(ub[j]) if ub is not None and math.isfinite(ub[j]) else math.inf
+        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate, cap,
+                         (signature or {}).get(k))
         if k in dropped:
             terms[k].note = (f"not identifiable: the other terms explain the curve as well "
-                             f"(chi2 gain {dropped[k]:.3g} < {CHI2_1_95:.2f}; at most {_fmt(terms[k].upper)})")
+                             f"(chi2 gain {dropped[k][0]:.3g} < {dropped[k][1]:.3g}; at most {_fmt(terms[k].upper)})")
     return FitResult(terms, coef, cov, chi2_red, fitted, alpha_all, edf_all,
                      b_classic(tau, avar, used, edf_all), notes)
 
 
-def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray) -> float:
+def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray, ub: Optional[np.ndarray] = None) -> float:
     c = np.zeros(Aw.shape[1])
-    c[cols] = _nnls(Aw[:, cols], yw)
+    c[cols] = _nnls(Aw[:, cols], yw, None if ub is None else ub[cols])
     return float(np.sum((yw - Aw @ c) ** 2))
 
 
 def _irls(A: np.ndarray, y: np.ndarray, t: np.ndarray, cols: np.ndarray, alpha: np.ndarray,
           edf_of: Callable[[np.ndarray], np.ndarray], kind: str,
-          iterations: int) -> tuple[np.ndarray, np.ndarray, _Gls]:
+          iterations: int, floor: float = 0.0,
+          ub: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray, _Gls]:
     """Iterated GLS-NNLS: covariance from the model, EDF and correlation from the noise types."""
     ref = y.copy()
     coef = np.zeros(len(TERMS))
-    gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+    gls = _Gls(t, ref, edf_of(alpha), alpha, kind, floor)
     for _ in range(iterations):
-        gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+        gls = _Gls(t, ref, edf_of(alpha), alpha, kind, floor)
         coef = np.zeros(len(TERMS))
-        coef[cols] = _nnls(gls.white(A[:, cols]), gls.white(y))
+        coef[cols] = _nnls(gls.white(A[:, cols]), gls.white(y), None if ub is None else ub[cols])
         mod = A @ coef
         ref = np.where(mod > 0, mod, y)
         if coef.any():
             share = A * coef
             alpha = np.array([ALPHA[TERMS[j]] for j in np.argmax(share, axis=1)])
-    gls = _Gls(t, ref, edf_of(alpha), alpha, kind)
+    gls = _Gls(t, ref, edf_of(alpha), alpha, kind, floor)
     return coef, alpha, gls
 
 
 def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw: np.ndarray,
-          grid: np.ndarray, active: np.ndarray, allowed: bool, inflate: float) -> Term:
+          grid: np.ndarray, active: np.ndarray, allowed: bool, inflate: float,
+          cap: float = math.inf, signature: Optional[tuple[float, float]] = None) -> Term:
+    """One term's value, interval, range and bound; ``cap`` (term units) is the
+    largest value whose line stays under the curve's 95 % interval: no
+    interval or bound goes above it."""
     if not allowed:
         return Term(k, None, None, None, None, 0.0, 0.0, "left out of the fit")
     c = float(coef[j])
     sd = math.sqrt(max(cov[j, j], 0.0))
-    upper = _upper(j, Aw, yw, active, inflate)
+    upper = min(_upper(j, Aw, yw, active, inflate), cap)
+    if not math.isfinite(upper):
+        return Term(k, None, None, None, None, math.sqrt(max(c, 0.0)), math.inf,
+                    "cannot be bounded by these data (no point constrains it)")
     if c <= 0:
         return Term(k, None, None, None, None, 0.0, upper,
                     f"not in the data (fitted coefficient 0; at most {_fmt(upper)})")
     estimate = math.sqrt(c)
     if sd > 0:
         nu = 2.0 * (c / sd) ** 2  # the coefficient's own degrees of freedom
-        lo = math.sqrt(c * nu / stats.chi2.ppf(0.975, nu))
-        hi = math.sqrt(c * nu / stats.chi2.ppf(0.025, nu))
+        q = float(stats.chi2.ppf(0.975, nu))
+        lo = math.sqrt(c * nu / q) if q > 0 else 0.0
+        q = float(stats.chi2.ppf(0.025, nu))
+        hi = math.sqrt(c * nu / q) if q > 0 else math.inf  # capped below where a cap exists
     else:
         lo = hi = estimate
+    hi = min(hi, cap)
     upper = max(upper, hi)
     Gb = basis(grid)
     mod = Gb @ coef
@@ -342,6 +374,10 @@ def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw:
         return Term(k, None, None, None, rng, estimate, upper,
                     f"not identifiable: its 95 % interval includes 0 (estimate {_fmt(estimate)}, "
                     f"at most {_fmt(upper)})")
+    if rng is None and signature is not None:
+        return Term(k, estimate, lo, hi, signature, estimate, hi,
+                    f"from the curve's flat region {_fmt(signature[0])} .. {_fmt(signature[1])} s, "
+                    "where it shares the floor with the neighbouring terms (nowhere half of the model)")
     if rng is None:
         return Term(k, None, None, None, None, estimate, upper,
                     f"not identifiable: dominates nowhere in the measured range (estimate "
