@@ -120,6 +120,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"imu-allan {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    from .cli_thesis import add_subcommands  # sweep, thermal (issue 15)
+    COMMANDS.update(add_subcommands(sub))
 
     p = sub.add_parser(
         "decode", help="print the Allan table of a device log",
