@@ -20,6 +20,14 @@ def _rates(text: str) -> list[float]:
     return sorted(set(out))
 
 
+def _terms(text: str) -> tuple[str, ...]:
+    names = tuple(t.strip().upper() for t in text.split(",") if t.strip())
+    bad = [t for t in names if t not in ("Q", "N", "B", "K", "R")]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"terms are among Q,N,B,K,R: {text!r}")
+    return tuple(t for t in ("Q", "N", "B", "K", "R") if t in names)
+
+
 def _temp_scale(text: str) -> tuple[float, float]:
     try:
         a, _, b = text.partition(",")
@@ -72,6 +80,8 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     p.add_argument("--fit-from", type=_seconds, metavar="TAU",
                    help="fit the terms only at tau >= TAU seconds (e.g. above the sensors' low-pass "
                         "time constants; default: the whole curve, as 'analyze')")
+    p.add_argument("--terms", type=_terms, metavar="LIST",
+                   help="terms allowed in the fit, e.g. N,B,K (the thesis' model; default Q,N,B,K,R)")
     p.add_argument("--json", action="store_true", help="print JSON: {rates, dependence, ...}")
     p.add_argument("--plot", metavar="DIR", help="write terms-vs-fs.png to DIR")
 
@@ -112,7 +122,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         model = load_model(args.model).doc
     cfg = sweep.SweepConfig(source="sim" if args.sim else f"port:{args.port}", rates=args.rates,
                             seconds=args.seconds, profile=args.profile, model=model, seed=args.seed,
-                            average=args.average, fit_from=args.fit_from)
+                            average=args.average, fit_from=args.fit_from, terms=args.terms)
     sw = sweep.open_sweep(cfg, args.dir, restart=args.restart)
     measure = (sweep.sim_measure(sw, args.firmware, args.keep_rows) if args.sim
                else sweep.port_measure(sw, args.port, args.baud))

@@ -63,11 +63,13 @@ class SweepConfig:
     seed: int = 1
     average: int = 1
     fit_from: Optional[float] = None   # s: fit the terms only at tau >= fit_from
+    terms: Optional[tuple[str, ...]] = None   # the terms allowed in the fit (default all five)
 
     def key(self) -> dict[str, Any]:
         """What must match for a saved rate to be reused."""
         return {"source": self.source, "seconds": self.seconds, "profile": self.profile,
-                "model": self.model, "seed": self.seed, "average": self.average, "fit_from": self.fit_from}
+                "model": self.model, "seed": self.seed, "average": self.average, "fit_from": self.fit_from,
+                "terms": list(self.terms) if self.terms else None}
 
 
 @dataclass
@@ -128,7 +130,7 @@ def run(sw: Sweep, measure: Measure, say: Callable[[str], None]) -> None:
         say(f"rate {rate_key(fs)} Hz ({i + 1} of {len(todo)}): {sw.config.seconds:g} s of samples")
         log = os.path.join(sw.directory, f"rate-{rate_key(fs)}.log")
         extra = measure(fs, log)
-        res = analyze_log(log, fs, sw.config.profile, sw.config.seed, sw.config.fit_from)
+        res = analyze_log(log, fs, sw.config.profile, sw.config.seed, sw.config.fit_from, sw.config.terms)
         res.update(extra)
         sw.results[rate_key(fs)] = res
         save(sw)
@@ -138,7 +140,7 @@ def run(sw: Sweep, measure: Measure, say: Callable[[str], None]) -> None:
 
 
 def analyze_log(log: str, fs: float, profile_name: str, seed: int,
-                fit_from: Optional[float] = None) -> dict[str, Any]:
+                fit_from: Optional[float] = None, allowed: Optional[tuple[str, ...]] = None) -> dict[str, Any]:
     """Terms and the thesis' figures from the last complete report of ``log``;
     with ``fit_from`` (s), the terms are fitted only to the points at tau >= fit_from."""
     from .analysis import Options, analyze, public
@@ -165,27 +167,29 @@ def analyze_log(log: str, fs: float, profile_name: str, seed: int,
                      "term_units": c["term_units"], "b_classic": c["b_classic"],
                      "fit_percent": (c.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
                      "chi2_dof": c["fit"]["chi2_dof"], "fit_notes": c["fit"]["notes"]}
-        if fit_from:
-            refit(chans[ch], rep, ch, fs, profile.scale(ch).per_count ** 2, fit_from)
+        if fit_from or allowed:
+            refit(chans[ch], rep, ch, fs, profile.scale(ch).per_count ** 2, fit_from or 0.0, allowed)
         chans[ch]["derived"] = derived({**c, "terms": chans[ch]["terms"]}, fs)
     return {"fs_hz": fs, "n": hdr.get("n"), "drops": hdr.get("drops"), "clips": hdr.get("clips"),
             "temp": hdr.get("temp"), "log": os.path.basename(log), "channels": chans, "notes": notes}
 
 
-def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from: float) -> None:
-    """The IEEE 952 fit of the device curve restricted to tau >= fit_from (replaces the terms)."""
+def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from: float,
+          allowed: Optional[tuple[str, ...]] = None) -> None:
+    """The IEEE 952 fit of the device curve restricted to tau >= fit_from and to the
+    ``allowed`` terms (replaces the terms)."""
     from . import edf, terms
     from .analysis import _device_curve, _term_json
     cv = _device_curve(rep, ch)
     tau = cv.ms / fs
     mask = np.array([not f for f in cv.flags], dtype=bool) & (tau >= fit_from * (1 - 1e-9))
     fit = terms.fit_terms(tau, cv.var * k2, edf.edf_function(cv.ms, cv.N, cv.stride), mask=mask,
-                          overlapping=False)
+                          overlapping=False, allowed=tuple(allowed or terms.TERMS))
     out["terms"] = {k: _term_json(t) for k, t in fit.terms.items()}
     out["upper_bounds"] = {k: (t.upper if math.isfinite(t.upper) else None) for k, t in fit.terms.items()}
     out["chi2_dof"] = fit.chi2_red if math.isfinite(fit.chi2_red) else None
-    out["fit_notes"] = fit.notes + [f"terms fitted at tau >= {fit_from:g} s only "
-                                    "(FIT% is of the fit over the whole curve)"]
+    out["fit_notes"] = fit.notes + [f"terms {','.join(allowed or terms.TERMS)} fitted at tau >= "
+                                    f"{fit_from:g} s (FIT% is of the fit of all terms over the whole curve)"]
 
 
 def _scaled(term: Optional[dict[str, Any]], f: float) -> Optional[dict[str, Any]]:
