@@ -36,6 +36,7 @@ from typing import Any, Optional
 
 import numpy as np
 from scipy import stats
+from scipy.linalg import solve_triangular
 
 from . import CHANNELS
 from .errors import InputError
@@ -101,10 +102,10 @@ def block_covariance(centres: np.ndarray, D: float, terms: dict[str, Optional[fl
     return S
 
 
-def _gls(X: np.ndarray, y: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, int]:
-    L = np.linalg.cholesky(S + np.eye(S.shape[0]) * 1e-12 * np.trace(S) / S.shape[0])
-    Xw = np.linalg.solve(L, X)
-    yw = np.linalg.solve(L, y)
+def _gls(X: np.ndarray, y: np.ndarray, L: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """GLS with the Cholesky factor L of the covariance: coefficients, their covariance, chi2, dof."""
+    Xw = solve_triangular(L, X, lower=True)
+    yw = solve_triangular(L, y, lower=True)
     beta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
     chi2 = float(np.sum((yw - Xw @ beta) ** 2))
     dof = max(y.size - X.shape[1], 1)
@@ -121,8 +122,9 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
         S = np.eye(bias.size) * max(float(np.var(bias)), 1e-30)
     X1 = np.stack([np.ones_like(dt), dt], axis=1)
     X2 = np.stack([np.ones_like(dt), dt, dt * dt], axis=1)
-    b1, cov1, chi1, dof1 = _gls(X1, bias, S)
-    b2, cov2, chi2, dof2 = _gls(X2, bias, S)
+    L = np.linalg.cholesky(S + np.eye(S.shape[0]) * 1e-12 * np.trace(S) / S.shape[0])
+    b1, cov1, chi1, dof1 = _gls(X1, bias, L)
+    b2, cov2, chi2, dof2 = _gls(X2, bias, L)
 
     def iv(b: np.ndarray, cov: np.ndarray, j: int) -> dict[str, float]:
         half = Z95 * math.sqrt(max(float(cov[j, j]), 0.0))
@@ -195,7 +197,10 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
                                         n_hint=n), None)
         doc = public(analyze(src, build_profile("counts", {}, None),
                              Options(fs=fs, extra_curves=False, model=False)))
-        return {ch: {k: (v or {}).get("value") for k, v in c["terms"].items()}
+        # a term the data cannot pin down still moves the bias: its 95 % upper bound
+        # stands for it (conservative intervals rather than too narrow ones)
+        return {ch: {k: (v or {}).get("value") or c["upper_bounds"].get(k) for k, v in c["terms"].items()
+                     if k in ("N", "B", "K")}
                 for ch, c in doc["channels"].items()}
 
     # 1) ordinary least squares; 2) the noise terms of what is left give the blocks'
