@@ -210,6 +210,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, text in HELP.items():
         p.add_argument(f"--{name.replace('_', '-')}", metavar="SPEC", help=text)
     p.add_argument("--json-params", metavar="PFILE", help="also write the exact parameters used, as JSON")
+    p.add_argument("--model", metavar="MFILE", help="rows of the continuous sensor model (JSON, docs/thesis-questions.md) at the ADC's instants")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="rows file to write (- for stdout)")
 
     p = sub.add_parser(
@@ -222,7 +223,9 @@ def build_parser() -> argparse.ArgumentParser:
             "harness. The harness is $IMU_SIM, else build/host/imu-sim of this\n"
             "checkout, else imu-sim on PATH. Its exit status is returned."),
         epilog="then: imu-allan decode LOG, imu-allan check LOG FILE")
-    p.add_argument("--adc", required=True, metavar="FILE", help="rows file the ADC reads")
+    p.add_argument("--adc", metavar="FILE", help="rows file the ADC reads (or --model)")
+    p.add_argument("--model", metavar="MFILE", help="feed the ADC from the sensor model instead: --seconds S of it at --fs")
+    p.add_argument("--seconds", type=_seconds, default=60.0, metavar="S", help="with --model (default 60)")
     p.add_argument("--fs", metavar="HZ", help="sample rate to set on the device, Hz")
     p.add_argument("--uart-in", metavar="FILE", help="commands to send to the device")
     p.add_argument("--firmware", metavar="ELF",
@@ -469,6 +472,9 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_gen(args: argparse.Namespace) -> int:
+    if args.model:
+        from .cli_thesis import gen_from_model
+        return gen_from_model(args)
     from .gen import PARAMS, generate, make_params
     from .rows import format_rows
     params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
@@ -496,6 +502,9 @@ def cmd_gen(args: argparse.Namespace) -> int:
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
+    if args.model or not args.adc:
+        from .cli_thesis import sim_from_model
+        return sim_from_model(args)
     from .simrun import run, sim_command
     return run(sim_command(args.adc, args.output, fs=args.fs, uart_in=args.uart_in,
                            firmware=args.firmware, stats=args.stats))

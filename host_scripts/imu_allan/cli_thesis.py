@@ -143,3 +143,33 @@ def cmd_thermal(args: argparse.Namespace) -> int:
         print(f"imu-allan thermal: wrote {path}", file=sys.stderr)
     sys.stdout.write(json.dumps(doc, indent=1) + "\n" if args.json else thermal.text(doc))
     return 0
+
+
+def gen_from_model(args: argparse.Namespace) -> int:
+    """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
+    from .sensor import load_model, write_rows
+    write_rows(args.output, load_model(args.model), float(args.fs), args.n, seed=args.seed)
+    return 0
+
+
+def sim_from_model(args: argparse.Namespace) -> int:
+    """``imu-allan sim --model FILE``: the firmware in imu-sim, its ADC fed by the sensor model
+    sampled at the instants the device samples at --fs (default 100 Hz)."""
+    import os
+    import tempfile
+    from .errors import InputError
+    from .sensor import load_model, write_rows
+    from .simrun import run, sim_command
+    if args.adc and args.model:
+        raise InputError("--adc and --model: give one")
+    if not args.model:
+        raise InputError("the ADC needs --adc FILE or --model MFILE")
+    fs = float(args.fs or 100)
+    fd, rows = tempfile.mkstemp(prefix="imu-allan-model-", suffix=".tsv")
+    os.close(fd)
+    try:
+        write_rows(rows, load_model(args.model), fs, int(round(args.seconds * fs)))
+        return run(sim_command(rows, args.output, fs=f"{fs:g}", uart_in=args.uart_in,
+                               firmware=args.firmware, stats=args.stats))
+    finally:
+        os.unlink(rows)

@@ -348,9 +348,10 @@ class Board:
 def write_rows(path: str, model: SensorModel, fs: float, n: int, seed: int = 1, average: int = 1) -> None:
     """A rows file (thesis format) of the board sampled at fs."""
     from .rows import format_rows
+    import sys
     board = Board(model, fs, n, seed=seed, average=average)
     try:
-        with open(path, "wb") as f:
+        with (open(path, "wb") if path != "-" else open(sys.stdout.fileno(), "wb", closefd=False)) as f:
             f.write(f"# imu-allan sensor model, fs {fs:g} Hz, {n} rows, seed {seed}"
                     f"{f', average {average}' if average > 1 else ''}\n"
                     f"# columns: {' '.join(COLUMNS)} (10-bit ADC codes)\n".encode())

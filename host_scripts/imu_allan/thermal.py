@@ -294,7 +294,7 @@ def text(doc: dict[str, Any]) -> str:
     lines = [f"{doc['file']}: {doc['n']} samples at {doc['fs_hz']:g} Hz ({doc['n'] / doc['fs_hz']:.0f} s); "
              f"temperature {t['min']:.4g} .. {t['max']:.4g} {t['unit']} (block means)", ""]
     head = ("ch", "tempco [95 %]", "unit", "model", "N before", "N after", "B before", "B after",
-            "K before", "K after", "FIT% raw", "FIT% +thermal")
+            "K before", "K after", "R before", "R after", "FIT% raw", "FIT% +thermal")
     rows = [head]
     for ch, c in doc["channels"].items():
         fp = c["fit_percent"]
@@ -303,6 +303,7 @@ def text(doc: dict[str, Any]) -> str:
                      _iv(c["terms_before"].get("N")), _iv(c["terms_after"].get("N")),
                      _iv(c["terms_before"].get("B")), _iv(c["terms_after"].get("B")),
                      _iv(c["terms_before"].get("K")), _iv(c["terms_after"].get("K")),
+                     _iv(c["terms_before"].get("R")), _iv(c["terms_after"].get("R")),
                      f(fp["noise_model_on_raw"]), f(fp["noise_plus_thermal_on_raw"])))
     widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
     lines += ["  ".join(s.rjust(w) for s, w in zip(r, widths)) for r in rows]
@@ -311,6 +312,10 @@ def text(doc: dict[str, Any]) -> str:
             q = c["quadratic"]
             lines.append(f"{ch}: quadratic supported (F-test p = {c['quadratic_test']['p_value']:.2g}): "
                          f"c1 {_iv(q['c1'])}, c2 {_iv(q['c2'])} {q['unit_c2']} around {q['t_ref']:.4g}")
+    u = next(iter(doc["channels"].values()))["term_units"]
+    lines.append(f"units: N {u['N']}, B {u['B']}, K {u['K']}, R {u['R']}; FIT%: the thesis' formula on "
+                 "log10 ADEV of the raw series, for the noise model of its own terms (raw) and for the "
+                 "noise model of the corrected series plus the thermal term (+thermal)")
     lines += [f"note: {n}" for n in doc["notes"]]
     return "\n".join(lines) + "\n"
 
