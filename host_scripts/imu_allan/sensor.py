@@ -194,10 +194,16 @@ def aliased_density(S0: float, fc: float, fs: float) -> float:
     return S0 * x / math.tanh(x)
 
 
-def aliased_n(N: float, fc: float, fs: float, quantization: bool = True) -> float:
+def aliased_n(N: float, fc: float, fs: float, quantization: bool = True, average: int = 1) -> float:
     """The N (counts*sqrt(s)) read from the samples at long tau: the aliasing law,
-    plus the ADC's rounding (1/12 count^2 of white noise per sample) if asked."""
-    v = aliased_density(N * N, fc, fs) + (1.0 / (12.0 * fs) if quantization else 0.0)
+    plus the ADC's rounding (1/12 count^2 of white noise per sample) if asked.
+
+    With ``average`` M (the mean of M scans spread evenly over each sample period, a
+    boxcar whose zeros sit on the multiples of fs), only the aliases at multiples of
+    M fs remain: the law at M fs; the rounding is 1/(12 M) count^2 for the M codes
+    plus 1/12 for rounding their mean."""
+    q = (1.0 + (1.0 / average if average > 1 else 0.0)) / (12.0 * fs) if average > 1 else 1.0 / (12.0 * fs)
+    v = aliased_density(N * N, fc, fs * average) + (q if quantization else 0.0)
     return math.sqrt(v)
 
 

@@ -380,8 +380,8 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
         mean = s1 / n
         std = np.sqrt(np.maximum(s2 / n - mean * mean, 0.0))
         from .sensor import aliased_n, SENSORS
-        law = {ch: aliased_n(model.channel(ch)["N"], model.channel(ch)["bandwidth_hz"], fs)
-               for ch in SENSORS}
+        law = {ch: aliased_n(model.channel(ch)["N"], model.channel(ch)["bandwidth_hz"], fs,
+                             average=cfg.average) for ch in SENSORS}
         return {"sim": {"series_std": dict(zip(CHANNELS, std[:6].tolist())), "N_law": law,
                         "seconds_wall": time.monotonic() - t0}}
     return measure
