@@ -272,7 +272,8 @@ def document(sw: Sweep) -> dict[str, Any]:
              if float(k) in [float(r) for r in sw.config.rates]}
     chans = [c for c in CHANNELS if any(c in r["channels"] for r in rates.values())]
     return {"tool": "imu-allan sweep", "source": sw.config.source, "seconds": sw.config.seconds,
-            "profile": sw.config.profile, "average": sw.config.average, "rates": rates,
+            "profile": sw.config.profile, "average": sw.config.average, "fit_from": sw.config.fit_from,
+            "terms": list(sw.config.terms) if sw.config.terms else None, "rates": rates,
             "dependence": dependence(rates, chans),
             "definitions": {
                 "sigma_sensor": "ADEV at tau0 = 1/Fs (device level 0)",
@@ -310,6 +311,10 @@ def text(doc: dict[str, Any]) -> str:
         widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
         lines += ["  " + "  ".join(s.rjust(w) for s, w in zip(r, widths)) for r in rows]
         lines += [f"  note: {n}" for n in res.get("notes", [])]
+        law = (res.get("sim") or {}).get("N_law")
+        if law:
+            lines.append("  the model's N by the aliasing law: "
+                         + "  ".join(f"{ch} {v:.3g}" for ch, v in law.items()))
         lines.append("")
     units = next(iter(doc["rates"].values()))["channels"] if doc["rates"] else {}
     if units:
@@ -327,6 +332,11 @@ def text(doc: dict[str, Any]) -> str:
                 s += ", not one power law"
             parts.append(s + ")")
         lines.append(f"  {ch}: " + "; ".join(parts) if parts else f"  {ch}: fewer than 2 rates")
+    if not doc.get("fit_from") and any((qs.get("B") or {}).get("verdict") == "grows with Fs"
+                                       for qs in doc["dependence"].values()):
+        lines.append("note: a B that grows with Fs is usually the sensor's analog low-pass, whose "
+                     "correlation near tau0 the IEEE 952 terms take for bias instability: fit above it "
+                     "with --terms N,B,K --fit-from 0.2 (docs/thesis-questions.md)")
     return "\n".join(lines) + "\n"
 
 

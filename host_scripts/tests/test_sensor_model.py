@@ -139,3 +139,25 @@ def test_model_file_errors_name_the_file_and_key(tmp_path):
     p.write_text(json.dumps({"channels": {"gx": {"bandwidth_hz": 0}}}))
     with pytest.raises(InputError, match="bandwidth_hz must be positive"):
         sensor.load_model(str(p))
+
+
+def test_gen_model_writes_the_model_rows(tmp_path):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+    repo = Path(__file__).resolve().parents[2]
+    mf = tmp_path / "m.json"
+    mf.write_text(json.dumps({"temperature": {"ramp_c_per_s": 0.01}}))
+    out = tmp_path / "g.tsv"
+    env = dict(os.environ, PYTHONPATH=str(repo / "host_scripts"))
+    p = subprocess.run([sys.executable, "-m", "imu_allan.cli", "gen", "--model", str(mf), "--fs", "250",
+                        "-n", "3000", "--seed", "4", "-o", str(out)], capture_output=True, text=True, env=env)
+    assert p.returncode == 0, p.stderr
+    from imu_allan.rows import read_rows
+    got = read_rows(str(out))
+    want = sensor.Board(sensor.load_model(str(mf)), 250.0, 3000, seed=4).codes(0, 3000)
+    assert np.array_equal(got, want)
+    p = subprocess.run([sys.executable, "-m", "imu_allan.cli", "gen", "--model", str(tmp_path / "none.json"),
+                        "-o", str(out)], capture_output=True, text=True, env=env)
+    assert p.returncode == 2 and "none.json" in p.stderr and len(p.stderr.splitlines()) == 1
