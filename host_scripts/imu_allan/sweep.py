@@ -156,9 +156,12 @@ def analyze_log(log: str, fs: float, profile_name: str, seed: int,
     notes = []
     if hdr.get("drops"):
         notes.append(f"the device dropped {hdr['drops']} sample sets at {fs:g} Hz")
-    clips = hdr.get("clips")
-    if clips and any(clips[:6] if isinstance(clips, (list, tuple)) else []):
-        notes.append(f"clipped codes at {fs:g} Hz: {clips}")
+    clips = hdr.get("clips") or {}
+    clipped = {ch: v for ch, v in clips.items() if ch in CHANNELS and v}
+    if clipped:
+        notes.append(f"codes at 0 or 1023 at {fs:g} Hz: "
+                     + ", ".join(f"{ch} {v}" for ch, v in clipped.items())
+                     + " (the clipped channels' terms are biased low)")
     profile = build_profile(profile_name, {}, None)
     doc = public(analyze(src, profile, Options(fs=fs, seed=seed)))
     chans = {}
