@@ -103,7 +103,7 @@ def open_sweep(config: SweepConfig, directory: str, restart: bool = False) -> Sw
                              "remove it or give --restart") from None
         if doc.get("version") != STATE_VERSION or doc.get("config") != config.key():
             raise InputError(f"'{sw.state_path}' holds a sweep with other settings "
-                             "(source, seconds, model, seed or average): use another --dir, "
+                             "(source, seconds, model, seed, average, profile, --fit-from or --terms): use another --dir, "
                              "or --restart to discard it")
         sw.results = {k: v for k, v in doc.get("rates", {}).items()}
     return sw
@@ -410,6 +410,7 @@ def port_measure(sw: Sweep, port: str, baud: int) -> Measure:
         try:
             with open(log, "wb") as f:
                 link = _Link(ser, f)
+                link.settle()
                 for words in ("mode allan", "interval 0", f"rate {fs:g}", "reset"):
                     reply = link.command(words)
                     if not reply.startswith("ok"):
@@ -432,25 +433,50 @@ class _Link:
         self.ser, self.log, self.dec = ser, log, StreamDecoder()
         self.replies: list[str] = []
         self.reports: list[Any] = []
+        self.boots: list[Any] = []
+        self.received = 0
 
     def _pump(self) -> None:
         data = self.ser.read(4096)
         if data:
+            self.received += len(data)
             self.log.write(data)
             ch = self.dec.feed(data)
             self.replies += ch.replies
             self.reports += ch.reports
+            self.boots += ch.boots
 
-    def command(self, words: str, timeout: float = 3.0) -> str:
-        self.replies.clear()
-        self.ser.write(words.encode("ascii") + b"\r")
-        self.ser.flush()
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
+    def settle(self, quiet: float = 0.5, limit: float = 3.0) -> None:
+        """Opening a port may reset the board (DTR): wait for its boot line, or for
+        ``quiet`` seconds of silence, before the first command (bytes sent while the
+        device boots are lost)."""
+        t0 = last = time.monotonic()
+        while time.monotonic() - t0 < limit:
+            n = len(self.boots)
+            data_before = self.received
             self._pump()
-            if self.replies:
-                return self.replies.pop(0)
-        raise InputError(f"no reply to '{words}' within {timeout:g} s")
+            now = time.monotonic()
+            if len(self.boots) > n:
+                self._pump()  # what the device sends right after booting
+                return
+            if self.received != data_before:
+                last = now
+            elif now - last >= quiet:
+                return
+
+    def command(self, words: str, timeout: float = 1.5, tries: int = 3) -> str:
+        """The device's reply to ``words``; sent again when no reply came (a line lost
+        while the device booted, or on the radio), at most ``tries`` times."""
+        for _ in range(tries):
+            self.replies.clear()
+            self.ser.write(words.encode("ascii") + b"\r")
+            self.ser.flush()
+            end = time.monotonic() + timeout
+            while time.monotonic() < end:
+                self._pump()
+                if self.replies:
+                    return self.replies.pop(0)
+        raise InputError(f"no reply to '{words}' ({tries} tries, {timeout:g} s each)")
 
     def wait(self, seconds: float, label: str) -> None:
         t0 = time.monotonic()

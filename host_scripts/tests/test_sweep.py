@@ -108,3 +108,35 @@ def test_sweep_usage_errors(tmp_path):
     p = _cli("sweep", "--port", "/dev/null-x", "--model", "m.json", "--rates", "100", "--seconds", "1",
              "--dir", str(tmp_path))
     assert p.returncode == 2 and "go with --sim" in p.stderr
+
+
+def test_port_sweep_drives_the_device_on_a_pty(tmp_path):
+    """--port: the simulated board on a pseudo-terminal (imu-sim --pty, real time),
+    driven through pyserial exactly as a board on a serial port."""
+    _built()
+    pytest.importorskip("serial")
+    link = tmp_path / "tty"
+    proc = subprocess.Popen([str(SIM), "--pty", "--link", str(link), "--synthetic", str(ELF)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        import time
+        deadline = time.monotonic() + 10
+        while not link.is_symlink():
+            assert proc.poll() is None and time.monotonic() < deadline, "imu-sim --pty did not start"
+            time.sleep(0.05)
+        d = tmp_path / "sweep"
+        p = _cli("sweep", "--port", str(link), "--rates", "100,250", "--seconds", "3", "--dir", str(d),
+                 "--json")
+        assert p.returncode == 0, p.stderr
+        doc = json.loads(p.stdout)
+        for k, fs in (("100", 100), ("250", 250)):
+            r = doc["rates"][k]
+            assert r["fs_hz"] == fs and r["n"] >= 0.99 * 3 * fs and r["drops"] == 0
+            assert set(r["channels"]) == {"ax", "ay", "az", "gx", "gy", "gz"}
+            log = (d / f"rate-{k}.log").read_bytes()
+            assert f"ok reset rate={fs}".encode() in log or f"rate={fs}".encode() in log
+        assert doc["source"] == f"port:{link}"
+        assert "N" in doc["dependence"]["gx"]
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
