@@ -147,7 +147,14 @@ def cmd_thermal(args: argparse.Namespace) -> int:
 
 def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
+    from .errors import InputError
+    from .gen import PARAMS
     from .sensor import load_model, write_rows
+    given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
+    if args.kind != "noise" or args.json_params:
+        given.append("--kind" if args.kind != "noise" else "--json-params")
+    if given:
+        raise InputError(f"--model sets every parameter (in its file): {', '.join(given)} not allowed with it")
     write_rows(args.output, load_model(args.model), float(args.fs), args.n, seed=args.seed)
     return 0
 
