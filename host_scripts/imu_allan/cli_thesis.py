@@ -106,6 +106,8 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
                    help="temperature channel scale (default: codes)")
     p.add_argument("--profile", choices=("counts", "thesis"), default="counts",
                    help="units: counts (default) or thesis (m/s^2, deg/s)")
+    p.add_argument("--segments", type=_positive_int, default=3, metavar="K",
+                   help="N and B in K consecutive segments against their temperature (default 3; 1: off)")
     p.add_argument("--json", action="store_true", help="print JSON: {channels: {gx: {tempco, ...}}}")
     p.add_argument("--plot", metavar="DIR", help="write thermal.png to DIR")
     return {"sweep": cmd_sweep, "thermal": cmd_thermal}
@@ -137,7 +139,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_thermal(args: argparse.Namespace) -> int:
     from . import thermal
-    doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile)
+    doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile,
+                        segments=max(args.segments, 1))
     if args.plot:
         path = thermal.write_plot(doc, args.plot)
         print(f"imu-allan thermal: wrote {path}", file=sys.stderr)

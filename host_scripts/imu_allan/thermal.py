@@ -23,6 +23,11 @@ is not injected), minus its value at the mean temperature, is subtracted;
 the Allan deviation and the IEEE 952 terms are computed before and after
 (analysis.py: overlapping octave ADEV, GLS fit, 95 % intervals).
 
+Terms against temperature: N and B of the corrected series in ``SEGMENTS``
+consecutive segments, each at its mean temperature, and the slope of each
+against temperature (weighted least squares, 95 % interval): the thesis'
+third task, whether the Allan parameters themselves depend on temperature.
+
 The thesis' noise model (white + Gauss-Markov + rate random walk, model.py)
 of the corrected series, plus the thermal term, is the thermal noise
 model; its FIT% on log10 ADEV is given for the raw series with and without
@@ -43,6 +48,8 @@ from .errors import InputError
 
 Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
+SEGMENTS = 3
+"""Consecutive segments in which N and B are measured against their mean temperature."""
 BLOCKS = 400
 """Blocks for the regression: enough points, each averaging a lot of white noise."""
 
@@ -145,7 +152,7 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
 
 
 def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[float, float]] = None,
-          profile: str = "counts") -> dict[str, Any]:
+          profile: str = "counts", segments: int = SEGMENTS) -> dict[str, Any]:
     from .analysis import Options, analyze, public
     from .profiles import build_profile
     from .sources import SampleSource, Source
@@ -247,11 +254,61 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
             "noise_model_on_raw": (b.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
             "noise_model_on_corrected": (a.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
             "noise_plus_thermal_on_raw": _with_thermal(a, b, chans[ch], T_smooth, fs, prof.scale(ch).per_count)}
+    if segments > 1:
+        _terms_by_temperature(chans, corrected, T, fs, segments, path, kind, prof, t_unit)
     return {"tool": "imu-allan thermal", "file": path, "fs_hz": fs, "n": n,
             "temperature": {"unit": t_unit, "min": float(Tb.min()), "max": float(Tb.max()),
                             "mean": float(T.mean()), "one_way": mono,
                             "scale": {"c_per_count": scale, "offset_c": off} if temp_scale else None},
             "profile": profile, "channels": chans, "notes": notes}
+
+
+def _terms_by_temperature(chans: dict[str, Any], data: np.ndarray, T: np.ndarray, fs: float, segments: int,
+                          path: str, kind: str, prof: Any, t_unit: str) -> None:
+    """N and B of the thermally corrected series in consecutive segments (each at its own
+    mean temperature), and the slope of each against temperature with its 95 % interval."""
+    from .analysis import Options, analyze, public
+    from .sources import SampleSource, Source
+    n = data.shape[1]
+    L = n // segments
+    temps, docs = [], []
+    for i in range(segments):
+        seg = data[:, i * L:(i + 1) * L]
+        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda d=seg: iter([d]), False, fs=fs,
+                                        n_hint=L), None)
+        docs.append(public(analyze(src, prof, Options(fs=fs, extra_curves=False, model=False))))
+        temps.append(float(T[i * L:(i + 1) * L].mean()))
+    for ch in CHANNELS:
+        out: dict[str, Any] = {"temperature": temps, "unit": t_unit, "segment_s": L / fs}
+        for q in ("N", "B"):
+            vals = [d["channels"][ch]["terms"].get(q) for d in docs]
+            out[q] = vals
+            out[f"{q}_slope"] = linear_slope(temps, vals)
+        chans[ch]["terms_by_temperature"] = out
+
+
+def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Optional[dict[str, Any]]:
+    """Weighted least-squares slope of value against x (weights from the 95 % intervals),
+    its 95 % interval (Student t, widened by the scatter) and a verdict."""
+    pts = [(xi, v) for xi, v in zip(x, vals) if v and v.get("value") is not None
+           and v.get("low") is not None and v.get("high") is not None and v["high"] > v["low"]]
+    if len(pts) < 2 or np.ptp([p[0] for p in pts]) == 0:
+        return None
+    xs = np.array([p[0] for p in pts])
+    y = np.array([p[1]["value"] for p in pts])
+    w = 1.0 / np.square([(p[1]["high"] - p[1]["low"]) / (2 * Z95) for p in pts])
+    X = np.stack([np.ones_like(xs), xs - xs.mean()], axis=1)
+    cov = np.linalg.inv(X.T @ (X * w[:, None]))
+    beta = cov @ (X.T @ (w * y))
+    dof = len(pts) - 2
+    red = float(np.sum(w * (y - X @ beta) ** 2)) / dof if dof > 0 else 0.0
+    q = stats.t.ppf(0.975, dof) if dof > 0 and red > 1 else Z95
+    half = float(q * math.sqrt(cov[1, 1] * max(red, 1.0)))
+    b = float(beta[1])
+    rel = b / float(np.average(y, weights=w))
+    return {"value": b, "low": b - half, "high": b + half, "relative_per_unit": rel,
+            "verdict": "independent of temperature" if b - half <= 0 <= b + half else
+                       ("grows with temperature" if b > 0 else "falls with temperature")}
 
 
 def _fit(s: np.ndarray, m: np.ndarray) -> Optional[float]:
@@ -316,6 +373,18 @@ def text(doc: dict[str, Any]) -> str:
     lines.append(f"units: N {u['N']}, B {u['B']}, K {u['K']}, R {u['R']}; FIT%: the thesis' formula on "
                  "log10 ADEV of the raw series, for the noise model of its own terms (raw) and for the "
                  "noise model of the corrected series plus the thermal term (+thermal)")
+    for ch, c in doc["channels"].items():
+        bt = c.get("terms_by_temperature")
+        if not bt:
+            continue
+        parts = []
+        for q in ("N", "B"):
+            vals = ", ".join(f"{v['value']:.3g}" if v else "-" for v in bt[q])
+            sl = bt[f"{q}_slope"]
+            parts.append(f"{q} {vals}" + (f" ({sl['verdict']}: slope {sl['value']:.2g} "
+                                         f"[{sl['low']:.2g}, {sl['high']:.2g}] per {bt['unit']})" if sl else ""))
+        lines.append(f"{ch} at {', '.join(f'{t:.4g}' for t in bt['temperature'])} {bt['unit']}: "
+                     + "; ".join(parts))
     lines += [f"note: {n}" for n in doc["notes"]]
     return "\n".join(lines) + "\n"
 

@@ -72,6 +72,26 @@ def test_removing_the_thermal_bias_lowers_the_long_tau_deviation(doc):
     assert doc["temperature"]["unit"] == "degC" and not doc["temperature"]["one_way"]
 
 
+def test_noise_terms_against_temperature_hold_the_model_constant(doc):
+    """The model's N does not change with temperature: every channel's N slope holds 0,
+    and the segments' N agree with the whole record's."""
+    for ch in TEMPCO:
+        bt = doc["channels"][ch]["terms_by_temperature"]
+        assert len(bt["temperature"]) == 3 and len(bt["N"]) == 3
+        sl = bt["N_slope"]
+        assert sl["low"] <= 0 <= sl["high"], (ch, sl)
+        n_all = doc["channels"][ch]["terms_after"]["N"]["value"]
+        assert all(abs(v["value"] / n_all - 1) < 0.05 for v in bt["N"])
+
+
+def test_linear_slope_finds_a_known_slope():
+    x = [10.0, 20.0, 30.0, 40.0]
+    vals = [{"value": 1.0 + 0.01 * t, "low": 1.0 + 0.01 * t - 0.02, "high": 1.0 + 0.01 * t + 0.02} for t in x]
+    sl = thermal.linear_slope(x, vals)
+    assert sl["low"] < 0.01 < sl["high"] and sl["verdict"] == "grows with temperature"
+    assert sl["value"] == pytest.approx(0.01)
+
+
 def test_block_covariance_of_a_random_walk_matches_simulation():
     K, D, nb = 0.2, 2.0, 6
     centres = (np.arange(nb) + 0.5) * D
