@@ -9,6 +9,7 @@ import sys
 from typing import Any, BinaryIO, Optional
 
 from .channels import CHANNELS
+from .cli_thesis import add_subcommands
 from .cliargs import build_parser
 from .errors import InputError
 
@@ -71,6 +72,9 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_gen(args: argparse.Namespace) -> int:
+    if args.model:
+        from .cli_thesis import gen_from_model
+        return gen_from_model(args)
     from .device.rows import format_rows
     from .stats.gen import PARAMS, generate, make_params
     params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
@@ -91,6 +95,9 @@ def cmd_gen(args: argparse.Namespace) -> int:
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
+    if args.model or not args.adc:
+        from .cli_thesis import sim_from_model
+        return sim_from_model(args)
     from .device.simrun import run, sim_command
     return run(sim_command(args.adc, args.output, fs=args.fs, uart_in=args.uart_in,
                            firmware=args.firmware, stats=args.stats))
@@ -221,13 +228,14 @@ COMMANDS = {"analyze": cmd_analyze, "decode": cmd_decode, "reference": cmd_refer
 
 
 def main(argv: Optional[list[str]] = None) -> int:
-    parser = build_parser()
+    handlers = dict(COMMANDS)
+    parser = build_parser(lambda sub: handlers.update(add_subcommands(sub)))  # sweep, thermal
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
     try:
-        return COMMANDS[args.command](args)
+        return handlers[args.command](args)
     except InputError as exc:
         print(f"imu-allan {args.command}: {exc}", file=sys.stderr)
         return 2

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any, NoReturn
+from typing import Any, Callable, NoReturn, Optional
 
 from . import __version__
 from .channels import CHANNELS
@@ -79,7 +79,9 @@ def _add_format(p: argparse.ArgumentParser) -> None:
     g.add_argument("--csv", action="store_true", help="print CSV, one line per row, with a header line")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.ArgumentParser:
+    """The whole command line; ``more(subparsers)`` may add subcommands (cli.py adds
+    sweep and thermal from cli_thesis.py)."""
     parser = _Parser(
         prog="imu-allan",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -108,6 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"imu-allan {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    if more is not None:
+        more(sub)
     _add_decode(sub)
     _add_reference(sub)
     _add_check(sub)
@@ -214,6 +218,8 @@ def _add_gen(sub: Any) -> None:
     for name, text in HELP.items():
         p.add_argument(f"--{name.replace('_', '-')}", metavar="SPEC", help=text)
     p.add_argument("--json-params", metavar="PFILE", help="also write the exact parameters used, as JSON")
+    p.add_argument("--model", metavar="MFILE",
+                   help="rows of the continuous sensor model (JSON, docs/thesis-questions.md) at the ADC's instants")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="rows file to write (- for stdout)")
 
 
@@ -228,7 +234,10 @@ def _add_sim(sub: Any) -> None:
             "harness. The harness is $IMU_SIM, else build/host/imu-sim of this\n"
             "checkout, else imu-sim on PATH. Its exit status is returned."),
         epilog="then: imu-allan decode LOG, imu-allan check LOG FILE")
-    p.add_argument("--adc", required=True, metavar="FILE", help="rows file the ADC reads")
+    p.add_argument("--adc", metavar="FILE", help="rows file the ADC reads (or --model)")
+    p.add_argument("--model", metavar="MFILE",
+                   help="feed the ADC from the sensor model instead: --seconds S of it at --fs")
+    p.add_argument("--seconds", type=_seconds, default=60.0, metavar="S", help="with --model (default 60)")
     p.add_argument("--fs", metavar="HZ", help="sample rate to set on the device, Hz")
     p.add_argument("--uart-in", metavar="FILE", help="commands to send to the device")
     p.add_argument("--firmware", metavar="ELF",

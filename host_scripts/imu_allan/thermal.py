@@ -1,0 +1,429 @@
+"""``imu-allan thermal``: the bias of each channel against temperature, and the
+noise terms before and after removing it (the thesis' section 9: "thermal
+modelling of the error models").
+
+Regression. The samples are cut into about ``BLOCKS`` consecutive blocks;
+each block's mean bias is regressed on its mean temperature, by ordinary
+least squares, linear (b = c0 + c1 T) and quadratic (+ c2 T^2). The noise
+left after the fit is correlated from block to block (bias instability,
+random walks), which would make textbook intervals too narrow: the
+residuals' lag-1 autocorrelation rho gives the effective number of
+independent blocks n_eff = n (1 - rho) / (1 + rho) (the AR(1) correction,
+e.g. Bretherton et al. 1999, J. Climate 12, 1990), and the intervals are
+Student-t with n_eff - p degrees of freedom. The quadratic term is kept
+when an F-test (95 %) on the same n_eff supports it.
+
+A temperature that only ever rises cannot tell a thermal bias from a drift
+that happens at the same time (a rate random walk, say); a cycle up and
+down can. The result says which kind of profile it saw.
+
+Removal. The fitted bias, evaluated on the block-mean temperature
+interpolated to every sample (so that the temperature channel's own noise
+is not injected), minus its value at the mean temperature, is subtracted;
+the Allan deviation and the IEEE 952 terms are computed before and after
+(analysis.py: overlapping octave ADEV, GLS fit, 95 % intervals).
+
+Terms against temperature: N and B of the corrected series in ``SEGMENTS``
+consecutive segments, each at its mean temperature, and the slope of each
+against temperature (weighted least squares, 95 % interval): the thesis'
+third task, whether the Allan parameters themselves depend on temperature.
+
+The thesis' noise model (white + Gauss-Markov + rate random walk, model.py)
+of the corrected series, plus the thermal term, is the thermal noise
+model; its FIT% on log10 ADEV is given for the raw series with and without
+the thermal term, and the thermal term's FIT% on the block means.
+"""
+from __future__ import annotations
+
+import math
+import os
+from typing import Any, Optional
+
+import numpy as np
+from scipy import stats
+from scipy.linalg import solve_triangular
+
+from .channels import CHANNELS
+from .errors import InputError
+
+Z95 = 1.959963984540054
+CHI2_1_95 = 3.841458820694124
+SEGMENTS = 3
+"""Consecutive segments in which N and B are measured against their mean temperature."""
+BLOCKS = 400
+"""Blocks for the regression: enough points, each averaging a lot of white noise."""
+
+
+def read_with_temperature(path: str) -> tuple[np.ndarray, Optional[float], str]:
+    """(7, n) codes of a rows file or a raw/both capture, its fs if a header says, its kind."""
+    from .device.capture import read_capture
+    from .device.files import open_input
+    from .device.rows import read_rows
+    from .sources import _is_capture
+    try:
+        f = open_input(path)
+    except OSError as exc:
+        raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
+    try:
+        head = f.read(1 << 16)
+    finally:
+        f.close()
+    if not head:
+        raise InputError(f"'{path}' is empty")
+    if _is_capture(head):
+        cap = read_capture(path)
+        if not cap.samples.shape[1]:
+            raise InputError(f"'{path}': a device capture without raw rows or binary frames "
+                             "(the thermal study needs the samples: mode raw or both)")
+        fs = float(cap.reports[-1].header.fs_hz) if cap.reports else None
+        return cap.samples, fs, "capture"
+    return read_rows(path), None, "rows"
+
+
+FLICKER_T_MIN, FLICKER_RATIO = 1e-3, 8.0
+
+
+def block_covariance(centres: np.ndarray, D: float, terms: dict[str, Optional[float]]) -> np.ndarray:
+    """Covariance of block means (duration D s, centres in s) of a noise with IEEE 952
+    terms N (white), B (flicker, as a bank of OU processes spaced by 8, each of variance
+    B^2 ln 8 / pi) and K (rate random walk), in the terms' units squared."""
+    N, B, K = (terms.get(k) or 0.0 for k in ("N", "B", "K"))
+    n = centres.size
+    S = np.eye(n) * (N * N / D)
+    if B:
+        lag = np.abs(centres[:, None] - centres[None, :])
+        v = B * B * math.log(FLICKER_RATIO) / math.pi
+        T = FLICKER_T_MIN
+        t_hi = 4.0 * (centres[-1] + D)
+        while T < t_hi:
+            x = D / T
+            same = 2.0 / (x * x) * (x - 1.0 + math.exp(-x))          # block mean of OU, variance factor
+            apart = (math.sinh(x / 2) / (x / 2)) ** 2 if x < 50 else math.inf
+            with np.errstate(over="ignore", invalid="ignore"):
+                off = np.where(lag > 0, np.exp(-lag / T) * apart, 0.0)
+            off = np.nan_to_num(off, nan=0.0, posinf=0.0)
+            S += v * (off + np.eye(n) * same)
+            T *= FLICKER_RATIO
+    if K:
+        lo = np.minimum(centres[:, None], centres[None, :])
+        S += K * K * (lo - np.eye(n) * D / 6.0)
+    return S
+
+
+def _gls(X: np.ndarray, y: np.ndarray, L: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """GLS with the Cholesky factor L of the covariance: coefficients, their covariance, chi2, dof."""
+    Xw = solve_triangular(L, X, lower=True)
+    yw = solve_triangular(L, y, lower=True)
+    beta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
+    chi2 = float(np.sum((yw - Xw @ beta) ** 2))
+    dof = max(y.size - X.shape[1], 1)
+    cov = np.linalg.pinv(Xw.T @ Xw) * max(1.0, chi2 / dof)
+    return beta, cov, chi2, dof
+
+
+def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) -> dict[str, Any]:
+    """Linear and quadratic fits of block-mean bias on block-mean temperature, by GLS with the
+    blocks' noise covariance S (identity: ordinary least squares); 95 % intervals."""
+    t0 = float(temp.mean())
+    dt = temp - t0
+    if S is None:
+        S = np.eye(bias.size) * max(float(np.var(bias)), 1e-30)
+    X1 = np.stack([np.ones_like(dt), dt], axis=1)
+    X2 = np.stack([np.ones_like(dt), dt, dt * dt], axis=1)
+    L = np.linalg.cholesky(S + np.eye(S.shape[0]) * 1e-12 * np.trace(S) / S.shape[0])
+    b1, cov1, chi1, dof1 = _gls(X1, bias, L)
+    b2, cov2, chi2, dof2 = _gls(X2, bias, L)
+
+    def iv(b: np.ndarray, cov: np.ndarray, j: int) -> dict[str, float]:
+        half = Z95 * math.sqrt(max(float(cov[j, j]), 0.0))
+        return {"value": float(b[j]), "low": float(b[j] - half), "high": float(b[j] + half)}
+
+    out: dict[str, Any] = {"blocks": int(bias.size), "t_ref": t0, "chi2_dof": chi1 / dof1,
+                           "linear": iv(b1, cov1, 1)}
+    gain = chi1 - chi2
+    need = CHI2_1_95 * max(1.0, chi2 / dof2)
+    out["quadratic_test"] = {"chi2_gain": gain, "needed": need,
+                             "p_value": float(stats.chi2.sf(gain / max(1.0, chi2 / dof2), 1))}
+    if gain >= need:
+        out["quadratic"] = {"c1": iv(b2, cov2, 1), "c2": iv(b2, cov2, 2)}
+        out["coef"] = [float(b2[0]), float(b2[1]), float(b2[2])]
+    else:
+        out["coef"] = [float(b1[0]), float(b1[1]), 0.0]
+    return out
+
+
+def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[float, float]] = None,
+          profile: str = "counts", segments: int = SEGMENTS) -> dict[str, Any]:
+    from .analysis import Options, analyze
+    from .profiles import build_profile
+    from .sources import SampleSource, Source
+    codes, fs_file, kind = read_with_temperature(path)
+    if fs is None:
+        fs = fs_file
+    if fs is None:
+        raise InputError("the sample rate is unknown: give --fs HZ (a rows file does not carry it)")
+    n = codes.shape[1]
+    if n < 4 * BLOCKS // 10:
+        raise InputError(f"'{path}': {n} samples: too few for a thermal study")
+    if codes.shape[0] < 7:
+        raise InputError(f"'{path}': no temperature column")
+    scale, off = temp_scale if temp_scale else (1.0, 0.0)
+    t_unit = "degC" if temp_scale else "code"
+    T = codes[6].astype(np.float64) * scale + off
+    L = max(n // BLOCKS, 1)
+    nb = n // L
+    Tb = T[:nb * L].reshape(nb, L).mean(axis=1)
+    centres = (np.arange(nb) + 0.5) * L
+    T_smooth = np.interp(np.arange(n), centres, Tb)
+    span = float(Tb.max() - Tb.min())
+    notes = []
+    if span < 3 * scale:
+        notes.append(f"the temperature moved only {span:.3g} {t_unit}: no tempco can be told apart "
+                     "from the noise")
+    d = np.diff(Tb)
+    mono = bool(np.all(d >= -3 * scale / math.sqrt(L)) or np.all(d <= 3 * scale / math.sqrt(L)))
+    if mono:
+        notes.append("the temperature went one way only (a ramp): a drift of the bias at the same time "
+                     "(e.g. rate random walk) is indistinguishable from a thermal bias; a cycle up and "
+                     "down separates them")
+    prof = build_profile(profile, {}, None)
+    x = codes[:6].astype(np.float64)
+    xb = x[:, :nb * L].reshape(6, nb, L).mean(axis=2)
+    t_s = centres / fs
+    D = L / fs
+
+    def remove(regs: list[dict[str, Any]]) -> np.ndarray:
+        out = np.empty_like(x)
+        for c, reg in enumerate(regs):
+            _, c1, c2 = reg["coef"]
+            dT = T_smooth - reg["t_ref"]
+            out[c] = x[c] - (c1 * dT + c2 * dT * dT)
+        return out
+
+    def counts_terms(data: np.ndarray) -> dict[str, Any]:
+        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda: iter([data]), False, fs=fs,
+                                        n_hint=n), None)
+        doc = analyze(src, build_profile("counts", {}, None),
+                             Options(fs=fs, extra_curves=False, model=False)).doc
+        # a term the data cannot pin down still moves the bias: its 95 % upper bound
+        # stands for it (conservative intervals rather than too narrow ones)
+        return {ch: {k: (v or {}).get("value") or c["upper_bounds"].get(k) for k, v in c["terms"].items()
+                     if k in ("N", "B", "K")}
+                for ch, c in doc["channels"].items()}
+
+    # 1) ordinary least squares; 2) the noise terms of what is left give the blocks'
+    # covariance; 3) generalized least squares with it (estimate and intervals)
+    regs = [regress(Tb, xb[c]) for c in range(6)]
+    noise = counts_terms(remove(regs))
+    regs = [regress(Tb, xb[c], block_covariance(t_s, D, noise[ch])) for c, ch in enumerate(CHANNELS)]
+    corrected = remove(regs)
+    chans = {ch: _channel_doc(regs[c], ch, prof, t_unit, Tb, xb[c], D, noise[ch])
+             for c, ch in enumerate(CHANNELS)}
+    _before_after(chans, path, kind, x, corrected, T_smooth, fs, prof)
+    if segments > 1:
+        _terms_by_temperature(chans, corrected, T, fs, segments, path, kind, prof, t_unit)
+    return {"tool": "imu-allan thermal", "file": path, "fs_hz": fs, "n": n,
+            "temperature": {"unit": t_unit, "min": float(Tb.min()), "max": float(Tb.max()),
+                            "mean": float(T.mean()), "one_way": mono,
+                            "scale": {"c_per_count": scale, "offset_c": off} if temp_scale else None},
+            "profile": profile, "channels": chans, "notes": notes}
+
+
+
+
+def _before_after(chans: dict[str, Any], path: str, kind: str, x: np.ndarray, corrected: np.ndarray,
+                  T_smooth: np.ndarray, fs: float, prof: Any) -> None:
+    """The Allan deviation, terms and FIT% of each channel before and after removing
+    its thermal bias, into ``chans``."""
+    from .analysis import Options, analyze
+    from .sources import SampleSource, Source
+    n = x.shape[1]
+    docs = {}
+    for name, data in (("before", x), ("after", corrected)):
+        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda d=data: iter([d]), False, fs=fs,
+                                        n_hint=n), None)
+        docs[name] = analyze(src, prof, Options(fs=fs, extra_curves=False, seed=1)).doc
+    for ch in CHANNELS:
+        b, a = docs["before"]["channels"][ch], docs["after"]["channels"][ch]
+        chans[ch]["terms_before"] = b["terms"]
+        chans[ch]["terms_after"] = a["terms"]
+        chans[ch]["term_units"] = b["term_units"]
+        chans[ch]["adev_before"] = [{"tau_s": p["tau_s"], "dev": p["dev"], "low": p["low"], "high": p["high"]}
+                                    for p in b["curve"]]
+        chans[ch]["adev_after"] = [{"tau_s": p["tau_s"], "dev": p["dev"], "low": p["low"], "high": p["high"]}
+                                   for p in a["curve"]]
+        chans[ch]["fit_percent"] = {
+            "noise_model_on_raw": (b.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
+            "noise_model_on_corrected": (a.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
+            "noise_plus_thermal_on_raw": _with_thermal(a, b, chans[ch], T_smooth, fs, prof.scale(ch).per_count)}
+
+def _channel_doc(reg: dict[str, Any], ch: str, prof: Any, t_unit: str, Tb: np.ndarray, xb_c: np.ndarray,
+                 D: float, noise_ch: dict[str, Any]) -> dict[str, Any]:
+    """One channel's thermal regression in the channel's units."""
+    k = prof.scale(ch).per_count
+    unit = f"{prof.scale(ch).unit}/{t_unit}".replace("count/", "counts/")
+    thermal_b = np.array([reg["coef"][1] * (t - reg["t_ref"]) + reg["coef"][2] * (t - reg["t_ref"]) ** 2
+                          for t in Tb])
+    return {"tempco": {**{kk: v * k for kk, v in reg["linear"].items()}, "unit": unit},
+            "model": "quadratic" if "quadratic" in reg else "linear",
+            "quadratic": None if "quadratic" not in reg else {
+                "c1": {kk: v * k for kk, v in reg["quadratic"]["c1"].items()},
+                "c2": {kk: v * k for kk, v in reg["quadratic"]["c2"].items()},
+                "unit_c2": f"{prof.scale(ch).unit}/{t_unit}^2".replace("count/", "counts/"),
+                "t_ref": reg["t_ref"]},
+            "quadratic_test": reg["quadratic_test"],
+            "regression": {"method": "GLS on block means, covariance from the noise terms "
+                                     "(counts) of the series with the OLS thermal bias removed",
+                           "blocks": reg["blocks"], "block_s": D, "chi2_dof": reg["chi2_dof"],
+                           "noise_terms_counts": noise_ch},
+            "thermal_fit_percent_block_means": _fit(xb_c - xb_c.mean(), thermal_b - thermal_b.mean())}
+
+def _terms_by_temperature(chans: dict[str, Any], data: np.ndarray, T: np.ndarray, fs: float, segments: int,
+                          path: str, kind: str, prof: Any, t_unit: str) -> None:
+    """N and B of the thermally corrected series in consecutive segments (each at its own
+    mean temperature), and the slope of each against temperature with its 95 % interval."""
+    from .analysis import Options, analyze
+    from .sources import SampleSource, Source
+    n = data.shape[1]
+    L = n // segments
+    temps, docs = [], []
+    for i in range(segments):
+        seg = data[:, i * L:(i + 1) * L]
+        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda d=seg: iter([d]), False, fs=fs,
+                                        n_hint=L), None)
+        docs.append(analyze(src, prof, Options(fs=fs, extra_curves=False, model=False)).doc)
+        temps.append(float(T[i * L:(i + 1) * L].mean()))
+    for ch in CHANNELS:
+        out: dict[str, Any] = {"temperature": temps, "unit": t_unit, "segment_s": L / fs}
+        for q in ("N", "B"):
+            vals = [d["channels"][ch]["terms"].get(q) for d in docs]
+            out[q] = vals
+            out[f"{q}_slope"] = linear_slope(temps, vals)
+        chans[ch]["terms_by_temperature"] = out
+
+
+def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Optional[dict[str, Any]]:
+    """Weighted least-squares slope of value against x (weights from the 95 % intervals),
+    its 95 % interval (Student t, widened by the scatter) and a verdict."""
+    pts = [(xi, v) for xi, v in zip(x, vals) if v and v.get("value") is not None
+           and v.get("low") is not None and v.get("high") is not None and v["high"] > v["low"]]
+    if len(pts) < 2 or np.ptp([p[0] for p in pts]) == 0:
+        return None
+    xs = np.array([p[0] for p in pts])
+    y = np.array([p[1]["value"] for p in pts])
+    w = 1.0 / np.square([(p[1]["high"] - p[1]["low"]) / (2 * Z95) for p in pts])
+    X = np.stack([np.ones_like(xs), xs - xs.mean()], axis=1)
+    cov = np.linalg.inv(X.T @ (X * w[:, None]))
+    beta = cov @ (X.T @ (w * y))
+    dof = len(pts) - 2
+    red = float(np.sum(w * (y - X @ beta) ** 2)) / dof if dof > 0 else 0.0
+    q = stats.t.ppf(0.975, dof) if dof > 0 and red > 1 else Z95
+    half = float(q * math.sqrt(cov[1, 1] * max(red, 1.0)))
+    b = float(beta[1])
+    rel = b / float(np.average(y, weights=w))
+    return {"value": b, "low": b - half, "high": b + half, "relative_per_unit": rel,
+            "verdict": "independent of temperature" if b - half <= 0 <= b + half else
+                       ("grows with temperature" if b > 0 else "falls with temperature")}
+
+
+def _fit(s: np.ndarray, m: np.ndarray) -> Optional[float]:
+    from .stats.model import fit_percent
+    return fit_percent(s, m)
+
+
+def _with_thermal(after: dict[str, Any], before: dict[str, Any], ch: dict[str, Any], T: np.ndarray,
+                  fs: float, k: float) -> Optional[float]:
+    """FIT% (log10 ADEV) of noise model + thermal term against the raw series' curve."""
+    from .stats import model
+    from .stats.allan import oadev_octave
+    mp = (after.get("model") or {}).get("params")
+    if not mp:
+        return None
+    p = model.ModelParams(fs=fs, white=mp["white_sigma"], gm_sigma=mp["gm_sigma"], gm_tau=mp["gm_tau_s"],
+                          rrw=mp["rrw_sigma"], quant=mp["Q"], ramp=mp["R"])
+    sim = np.concatenate(list(model.simulate(p, T.size, seed=7)))
+    q = ch["quadratic"]
+    c1 = (q["c1"]["value"] if q else ch["tempco"]["value"])
+    c2 = q["c2"]["value"] if q else 0.0
+    dT = T - (q["t_ref"] if q else T.mean())
+    sim += c1 * dT + c2 * dT * dT
+    tau, dev = oadev_octave(sim, fs)
+    ref = {round(pt["tau_s"], 12): pt["dev"] for pt in before["curve"] if pt["dev"]}
+    pairs = [(ref[round(t, 12)], v) for t, v in zip(tau, dev) if round(t, 12) in ref and v > 0]
+    if not pairs:
+        return None
+    return model.fit_percent(np.log10([a for a, _ in pairs]), np.log10([b for _, b in pairs]))
+
+
+def _iv(v: Optional[dict[str, Any]]) -> str:
+    if not v:
+        return "-"
+    return f"{v['value']:.3g} [{v['low']:.3g}, {v['high']:.3g}]"
+
+
+def text(doc: dict[str, Any]) -> str:
+    t = doc["temperature"]
+    lines = [f"{doc['file']}: {doc['n']} samples at {doc['fs_hz']:g} Hz ({doc['n'] / doc['fs_hz']:.0f} s); "
+             f"temperature {t['min']:.4g} .. {t['max']:.4g} {t['unit']} (block means)", ""]
+    head = ("ch", "tempco [95 %]", "unit", "model", "N before", "N after", "B before", "B after",
+            "K before", "K after", "R before", "R after", "FIT% raw", "FIT% +thermal")
+    rows = [head]
+    for ch, c in doc["channels"].items():
+        fp = c["fit_percent"]
+        f = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
+        rows.append((ch, _iv(c["tempco"]), c["tempco"]["unit"], c["model"],
+                     _iv(c["terms_before"].get("N")), _iv(c["terms_after"].get("N")),
+                     _iv(c["terms_before"].get("B")), _iv(c["terms_after"].get("B")),
+                     _iv(c["terms_before"].get("K")), _iv(c["terms_after"].get("K")),
+                     _iv(c["terms_before"].get("R")), _iv(c["terms_after"].get("R")),
+                     f(fp["noise_model_on_raw"]), f(fp["noise_plus_thermal_on_raw"])))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
+    lines += ["  ".join(s.rjust(w) for s, w in zip(r, widths)) for r in rows]
+    for ch, c in doc["channels"].items():
+        if c["quadratic"]:
+            q = c["quadratic"]
+            lines.append(f"{ch}: quadratic supported (F-test p = {c['quadratic_test']['p_value']:.2g}): "
+                         f"c1 {_iv(q['c1'])}, c2 {_iv(q['c2'])} {q['unit_c2']} around {q['t_ref']:.4g}")
+    u = next(iter(doc["channels"].values()))["term_units"]
+    lines.append(f"units: N {u['N']}, B {u['B']}, K {u['K']}, R {u['R']}; FIT%: the thesis' formula on "
+                 "log10 ADEV of the raw series, for the noise model of its own terms (raw) and for the "
+                 "noise model of the corrected series plus the thermal term (+thermal)")
+    for ch, c in doc["channels"].items():
+        bt = c.get("terms_by_temperature")
+        if not bt:
+            continue
+        parts = []
+        for q in ("N", "B"):
+            vals = ", ".join(f"{v['value']:.3g}" if v else "-" for v in bt[q])
+            sl = bt[f"{q}_slope"]
+            parts.append(f"{q} {vals}" + (f" ({sl['verdict']}: slope {sl['value']:.2g} "
+                                         f"[{sl['low']:.2g}, {sl['high']:.2g}] per {bt['unit']})" if sl else ""))
+        lines.append(f"{ch} at {', '.join(f'{t:.4g}' for t in bt['temperature'])} {bt['unit']}: "
+                     + "; ".join(parts))
+    lines += [f"note: {n}" for n in doc["notes"]]
+    return "\n".join(lines) + "\n"
+
+
+def write_plot(doc: dict[str, Any], directory: str) -> str:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    try:
+        os.makedirs(directory, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create '{directory}': {exc.strerror or exc}") from None
+    fig, axes = plt.subplots(2, 3, figsize=(14, 8))
+    for ax, (ch, c) in zip(axes.flat, doc["channels"].items()):
+        for key, label in (("adev_before", "raw"), ("adev_after", "thermal bias removed")):
+            pts = [p for p in c[key] if p["dev"]]
+            ax.loglog([p["tau_s"] for p in pts], [p["dev"] for p in pts], "o-", ms=3, label=label)
+        ax.set_title(f"{ch}: tempco {c['tempco']['value']:.3g} {c['tempco']['unit']}")
+        ax.set_xlabel("tau, s")
+        ax.grid(True, which="both", alpha=0.3)
+    axes.flat[0].legend(fontsize=8)
+    fig.suptitle(f"imu-allan thermal: {os.path.basename(doc['file'])}")
+    fig.tight_layout()
+    path = os.path.join(directory, "thermal.png")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

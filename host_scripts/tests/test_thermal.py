@@ -1,0 +1,136 @@
+"""imu-allan thermal: a known temperature coefficient (and a quadratic one) recovered
+within the tool's 95 % interval from the sensor model's rows; the block covariance
+against simulation; the JSON shape; bad input."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from imu_allan import sensor, thermal
+
+REPO = Path(__file__).resolve().parents[2]
+TEMPCO = {"ax": 0.3, "ay": -0.2, "az": 0.0, "gx": 0.15, "gy": 0.05, "gz": -0.1}
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory) -> tuple[Path, sensor.SensorModel]:
+    d = tmp_path_factory.mktemp("thermal")
+    spec = {"temperature": {"start_c": 25.0, "ramp_c_per_s": 0.0, "sine_c": 8.0, "period_s": 1200.0},
+            "channels": {ch: {"tempco": v} for ch, v in TEMPCO.items()}}
+    spec["channels"]["gz"]["tempco2"] = 0.02
+    mf = d / "model.json"
+    mf.write_text(json.dumps(spec))
+    model = sensor.load_model(str(mf))
+    rows = d / "cycle.tsv"
+    sensor.write_rows(str(rows), model, 50.0, 50 * 2400, seed=11)
+    return rows, model
+
+
+@pytest.fixture(scope="module")
+def doc(capture) -> dict:
+    rows, model = capture
+    tp = model.doc["temperature"]
+    return thermal.study(str(rows), fs=50.0, temp_scale=(tp["c_per_count"], tp["offset_c"]))
+
+
+def test_known_tempcos_are_within_their_intervals(doc):
+    for ch, want in TEMPCO.items():
+        tc = doc["channels"][ch]["tempco"]
+        assert tc["unit"] == "counts/degC"
+        if ch == "gz":
+            continue  # quadratic: checked below
+        assert tc["low"] <= want <= tc["high"], (ch, tc)
+        assert tc["high"] - tc["low"] < 0.1  # and the interval says something
+
+
+def test_a_quadratic_bias_is_found_and_its_coefficients_recovered(doc):
+    gz = doc["channels"]["gz"]
+    assert gz["model"] == "quadratic"
+    q = gz["quadratic"]
+    assert q["c2"]["low"] <= 0.02 <= q["c2"]["high"]
+    # the linear coefficient around t_ref: d/dT of -0.1 dT0 + 0.02 dT0^2 at t_ref (dT0 from 25 degC)
+    want_c1 = -0.1 + 2 * 0.02 * (q["t_ref"] - 25.0)
+    assert q["c1"]["low"] <= want_c1 <= q["c1"]["high"]
+    assert doc["channels"]["ax"]["model"] == "linear"
+
+
+def test_removing_the_thermal_bias_lowers_the_long_tau_deviation(doc):
+    gx = doc["channels"]["gx"]
+    # at tau ~ 300-600 s the 8 degC cycle times 0.15 counts/degC dominates the raw curve
+    before = {round(p["tau_s"], 6): p["dev"] for p in gx["adev_before"] if p["dev"]}
+    after = {round(p["tau_s"], 6): p["dev"] for p in gx["adev_after"] if p["dev"]}
+    tau = max(t for t in before if t <= 600 and t in after)
+    assert after[tau] < 0.5 * before[tau]
+    assert set(gx) >= {"tempco", "terms_before", "terms_after", "fit_percent"}
+    assert doc["temperature"]["unit"] == "degC" and not doc["temperature"]["one_way"]
+
+
+def test_noise_terms_against_temperature_hold_the_model_constant(doc):
+    """The model's N does not change with temperature: every channel's N slope holds 0,
+    and the segments' N agree with the whole record's."""
+    for ch in TEMPCO:
+        bt = doc["channels"][ch]["terms_by_temperature"]
+        assert len(bt["temperature"]) == 3 and len(bt["N"]) == 3
+        sl = bt["N_slope"]
+        assert sl["low"] <= 0 <= sl["high"], (ch, sl)
+        n_all = doc["channels"][ch]["terms_after"]["N"]["value"]
+        assert all(abs(v["value"] / n_all - 1) < 0.05 for v in bt["N"])
+
+
+def test_linear_slope_finds_a_known_slope():
+    x = [10.0, 20.0, 30.0, 40.0]
+    vals = [{"value": 1.0 + 0.01 * t, "low": 1.0 + 0.01 * t - 0.02, "high": 1.0 + 0.01 * t + 0.02} for t in x]
+    sl = thermal.linear_slope(x, vals)
+    assert sl["low"] < 0.01 < sl["high"] and sl["verdict"] == "grows with temperature"
+    assert sl["value"] == pytest.approx(0.01)
+
+
+def test_block_covariance_of_a_random_walk_matches_simulation():
+    K, D, nb = 0.2, 2.0, 6
+    centres = (np.arange(nb) + 0.5) * D
+    S = thermal.block_covariance(centres, D, {"K": K})
+    rng = np.random.default_rng(0)
+    L = 200
+    steps = rng.standard_normal((4000, nb * L)) * K * math.sqrt(D / L)
+    w = np.cumsum(steps, axis=1)
+    means = w.reshape(4000, nb, L).mean(axis=2)
+    emp = np.cov(means.T)
+    assert np.allclose(emp, S, rtol=0.12, atol=0.02 * S.max())
+
+
+def test_block_covariance_of_white_noise_is_diagonal():
+    S = thermal.block_covariance(np.arange(3) * 5.0 + 2.5, 5.0, {"N": 0.4})
+    assert np.allclose(S, np.eye(3) * 0.16 / 5.0)
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
+    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True,
+                          text=True, env=env)
+
+
+def test_cli_json_shape_and_errors(capture, tmp_path):
+    _, model = capture
+    rows = tmp_path / "short-cycle.tsv"
+    sensor.write_rows(str(rows), model, 50.0, 20_000, seed=2)
+    p = _cli("thermal", str(rows), "--fs", "50", "--json")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    gx = d["channels"]["gx"]
+    assert set(gx["tempco"]) == {"value", "low", "high", "unit"} and gx["tempco"]["unit"] == "counts/code"
+    assert "N" in gx["terms_before"] and "N" in gx["terms_after"]
+    p = _cli("thermal", str(rows))
+    assert p.returncode == 2 and "--fs" in p.stderr and len(p.stderr.splitlines()) == 1
+    short = tmp_path / "short.tsv"
+    short.write_text("500\t500\t500\t500\t500\t500\t63\n" * 10)
+    p = _cli("thermal", str(short), "--fs", "50")
+    assert p.returncode == 2 and "too few" in p.stderr
+    p = _cli("thermal", str(rows), "--fs", "50", "--temp-scale", "abc")
+    assert p.returncode == 2 and "C_PER_COUNT" in p.stderr
