@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any, NoReturn
 
-from . import __version__
+from ._version import __version__
 from .channels import CHANNELS
 
 EPILOG_EXIT = "exit status: 0 success, 1 {one}, 2 usage or input error (one line on stderr)"
@@ -183,7 +183,7 @@ def _add_check(sub: Any) -> None:
 
 
 def _add_gen(sub: Any) -> None:
-    from .stats.gen import HELP, KINDS, PROFILES, UNITS
+    from .stats.options import HELP, KINDS, PROFILES, UNITS
     p = sub.add_parser(
         "gen", help="write a synthetic IMU rows file (thesis noise model)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -331,7 +331,7 @@ def _megabytes(text: str) -> int:
 
 
 def _add_analyze(sub: Any) -> None:
-    from .stats.allan import TAU_KINDS
+    from .stats.options import TAU_KINDS
     from .profiles import PROFILES, RANGES
     p = sub.add_parser(
         "analyze", help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",
