@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from conftest import line, report_lines, thesis_like
+from test_live import device  # noqa: F401  (the fake device on a pseudo-terminal)
 from imu_allan.device.monitor import Monitor
 from imu_allan.terminal import LineEditor
 
@@ -81,3 +82,20 @@ def test_a_long_command_line_shows_its_end() -> None:
     mon = _with_report(4)
     lines, cursor, _ = mon.screen(20, 10, typed="interval 3600 and more words")
     assert lines[-1] == "> interval 3600 and more words"[-19:] and cursor == (9, 19)
+
+
+def test_a_port_held_by_another_program_is_busy_in_one_line(device, run_cli, tmp_path) -> None:
+    import serial
+    dev = device(hold=5.0)
+    holder = serial.Serial(dev.path, 115200, exclusive=True)  # as picocom or a monitor holds it
+    try:
+        for argv in (("cmd", "--port", dev.path, "status"),
+                     ("monitor", "--port", dev.path, "--once", "--log", tmp_path / "m.log")):
+            rc, out, err = run_cli(*argv)
+            assert rc == 2 and out == "" and err.count("\n") == 1
+            assert f"port busy: '{dev.path}' is open in another program" in err
+        assert not (tmp_path / "m.log").exists()
+    finally:
+        holder.close()
+    rc, out, err = run_cli("cmd", "--port", dev.path, "--timeout", "0.5", "status")
+    assert "port busy" not in err  # free again once closed
