@@ -99,9 +99,20 @@ class Tmux:
 
 
 def _monitor_command(link: Path, log: Path) -> str:
+    """The monitor between two snapshots of the terminal's modes (stty -g)."""
     env = f"PYTHONPATH={HOST}"
-    return (f"{env} {sys.executable} -m imu_allan.cli monitor --port {link} --log {log}; "
-            "echo EXIT=$?")
+    return (f"stty -g > {log}.stty-before; "
+            f"{env} {sys.executable} -m imu_allan.cli monitor --port {link} --log {log}; "
+            f"echo EXIT=$?; stty -g > {log}.stty-after")
+
+
+def _modes_restored(tmp_path: Path) -> None:
+    before, after = (tmp_path / "mon.log.stty-before"), (tmp_path / "mon.log.stty-after")
+    deadline = time.monotonic() + 5
+    while not after.exists() or not after.read_text():
+        assert time.monotonic() < deadline, "no stty -g after the monitor"
+        time.sleep(0.05)
+    assert before.read_text() == after.read_text()  # echo and canonical mode back
 
 
 @pytest.fixture
@@ -126,7 +137,8 @@ def _long_report(t: Tmux) -> list[str]:
                                 for x in s), "a report at 1000 Hz")
 
 
-def test_fits_80x24_shows_what_is_typed_and_leaves_no_copies(monitor: Tmux) -> None:
+def test_fits_80x24_shows_what_is_typed_and_leaves_no_copies(monitor: Tmux,
+                                                             tmp_path: Path) -> None:
     monitor.keys("stat")
     lines = monitor.wait(lambda s: s[-1] == "> stat", "the typed text on the last line")
     assert len(lines) == 24 and lines[0].startswith(TITLE)
@@ -150,6 +162,35 @@ def test_fits_80x24_shows_what_is_typed_and_leaves_no_copies(monitor: Tmux) -> N
     everything = monitor.everything()
     assert TITLE + "1 complete reports" in everything.replace("\n", "")
     assert "replies:" not in everything and "PgUp/PgDn" not in everything  # no frame left
+    _modes_restored(tmp_path)
+
+
+def test_the_device_going_away_ends_the_monitor_cleanly(tmp_path: Path) -> None:
+    """imu-sim ends while the monitor shows it: one line saying so, exit 1,
+    and the terminal as it was (an exception path, not Ctrl-C)."""
+    path = tmp_path / "tty"
+    sim = subprocess.Popen([str(SIM), "--pty", "--link", str(path), "--synthetic", str(ELF)],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t = Tmux(tmp_path, _monitor_command(path, tmp_path / "mon.log"))
+    try:
+        deadline = time.monotonic() + 10
+        while not path.is_symlink():
+            assert time.monotonic() < deadline and sim.poll() is None
+            time.sleep(0.02)
+        t.wait(lambda s: s[0].startswith(TITLE) and s[-1].startswith(">"), "the monitor's view")
+        t.keys("sta")
+        sim.send_signal(signal.SIGTERM)
+        sim.wait(timeout=10)
+        t.wait(lambda s: any(x.startswith("EXIT=") for x in s), "the monitor ended")
+        text = t.everything().replace("\n", "")  # the terminal wraps long lines
+        assert "EXIT=1" in text and f"imu-allan monitor: {path}: connection lost" in text
+        assert t.value("alternate_on") == "0"
+        _modes_restored(tmp_path)
+    finally:
+        t.kill()
+        if sim.poll() is None:
+            sim.kill()
+            sim.wait()
 
 
 def test_the_view_follows_the_terminal_size(monitor: Tmux) -> None:
