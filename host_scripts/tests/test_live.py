@@ -235,8 +235,9 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
     out, err = _Tty(), io.StringIO()
     rc = run_monitor(dev.path, 115200, str(tmp_path / "m.log"), True, out=out, err=err)
     screen = out.getvalue()
-    assert rc == 0 and screen.startswith("\x1b[?1049h") and screen.endswith("\x1b[?1049l")
-    assert "\n" not in screen
+    assert rc == 0 and screen.startswith("\x1b[?1049h")
+    screen, after = screen.split("\x1b[?1049l")  # --once: the view left on the normal screen
+    assert "\n" not in screen and "report seq 9" in after
     last = screen.split("\x1b[1;1H")[-1]
     rows = re.findall(r"\x1b\[(\d+);1H\x1b\[2K([^\x1b]*)", "\x1b[1;1H" + last)
     assert [int(r) for r, _ in rows] == list(range(1, 25))

@@ -274,8 +274,10 @@ def _run_terminal(ser: Any, mon: Monitor, log: IO[bytes], out: IO[str], once: bo
                 reports = []
                 mon.tick(now)
             if keys is not None and (keys.fd in ready or editor.pending):
-                lines, pressed = editor.feed(keys.read() if keys.fd in ready else b"",
-                                             final=keys.fd not in ready)
+                typed = keys.read() if keys.fd in ready else b""
+                if keys.fd in ready and not typed:  # end of input: watch only
+                    fds.remove(keys.fd)
+                lines, pressed = editor.feed(typed, final=not typed)
                 for text in lines:
                     ser.write(text.encode("ascii") + b"\r")
                     mon.sent = text
@@ -343,6 +345,8 @@ def run_monitor(port: str, baud: int, log_path: Optional[str], once: bool,
     status = 0
     try:
         (_run_terminal if tty else _run_plain)(ser, mon, log, out, once)
+        if tty and once:  # the full screen is gone: leave what --once waited for
+            out.write(mon.render())
     except PortError as exc:
         why = str(exc)
         print(f"imu-allan monitor: {port}: " + (why if why.startswith("cannot write")
