@@ -30,6 +30,12 @@ FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -ffunction-sections -fdata-sections -MMD -MP
 FW_LDFLAGS := -mmcu=$(MCU) -Os -flto -Wl,--gc-sections -Wl,--section-start=.mmcu=0x910000
 
+# One version for firmware and host: the VERSION file. The firmware gets it
+# as FW_VERSION (boot line and report headers); `make version` writes the
+# host package's copy (host_scripts/imu_allan/_version.py, checked by its tests).
+VERSION := $(shell cat VERSION)
+FW_CFLAGS += -DFW_VERSION='"$(VERSION)"'
+
 # Extra compiler flags for experiments (e.g. FW_EXTRA=-flto), both steps.
 FW_CFLAGS += $(FW_EXTRA)
 FW_LDFLAGS += $(FW_EXTRA)
@@ -44,13 +50,13 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all bench firmware other-mcus deps test unit pytest sim-test term-test demo demo-native clean
+.PHONY: all bench firmware other-mcus deps test unit pytest sim-test term-test demo demo-native clean version
 
 all: firmware
 
 firmware: $(HEX)
 
-$(FW_BUILD)/%.o: $(FW_DIR)/%.c | $(FW_BUILD)
+$(FW_BUILD)/%.o: $(FW_DIR)/%.c VERSION | $(FW_BUILD)
 	$(AVR_CC) $(FW_CFLAGS) -c $< -o $@
 
 $(ELF): $(FW_OBJ)
@@ -64,6 +70,12 @@ $(FW_BUILD):
 	mkdir -p $@
 
 -include $(FW_OBJ:.o=.d)
+
+version:
+	printf '%s\n' '# Generated from the repository'"'"'s VERSION file by `make version` (the Makefile' \
+	  '# also passes it to the firmware as FW_VERSION); tests/test_version.py checks' \
+	  '# that the two agree. Edit VERSION, not this file.' \
+	  '__version__ = "$(VERSION)"' > host_scripts/imu_allan/_version.py
 
 deps:
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh

@@ -36,7 +36,11 @@
 #  error "ALLAN_LEVELS above 23 cannot be exact with 24-bit cluster sums"
 #endif
 
-#define FW_VERSION "0.2.0"
+/* The release version: the VERSION file at the repository root, passed by
+ * the Makefile as -DFW_VERSION; native test builds without it say "dev". */
+#ifndef FW_VERSION
+#  define FW_VERSION "dev"
+#endif
 
 /* MCU name for the reports, from the compiler's device macro. */
 #define CONFIG_STR2(x) #x

@@ -19,7 +19,7 @@ die() { printf 'deps: error: %s\n' "$*" >&2; exit 1; }
 
 # ---- Debian packages ------------------------------------------------------
 APT_PKGS=(gcc-avr avr-libc binutils-avr avrdude simavr libsimavr-dev libelf-dev
-          cmake make gcc pkg-config xz-utils clang libclang-rt-14-dev)
+          cmake make gcc pkg-config xz-utils clang libclang-rt-14-dev tmux)
 APT_UPDATED=0
 apt_update() {
   if [ "$APT_UPDATED" = 0 ]; then

@@ -5,20 +5,32 @@ reference, analyze IMU noise.  The public Python API (api.py):
     dev = imu_allan.oadev(x, rate=100.0)          # also adev, mdev, hdev
     fit = imu_allan.noise_terms(x, rate=100.0)    # IEEE 952 Q N B K R
     cap = imu_allan.read_capture("device.log")    # samples and reports, checked
+
+The API's names are loaded on first use (PEP 562), so that ``imu-allan
+--help`` and the serial commands start without importing numpy and scipy.
 """
+from __future__ import annotations
 
-__version__ = "0.1.0"
+from typing import Any
 
-from .channels import CHANNELS  # noqa: E402
-from .api import (Capture, Deviation, DeviceReport, adev, device_reports, hdev, mdev,  # noqa: E402
-                  noise_terms, oadev, read_capture, read_rows)
-from .stats import allan  # noqa: E402,F401  (bench/run.py: ``from imu_allan import allan``)
+from ._version import __version__
+from .channels import CHANNELS
 
-# bench/run.py still imports ``imu_allan.reference`` (now stats/reference.py):
-# that old path stays importable until the bench moves to the new one.
-import sys as _sys  # noqa: E402
-from .stats import reference as _reference  # noqa: E402
-_sys.modules.setdefault(__name__ + ".reference", _reference)
+_API = ("Capture", "Deviation", "DeviceReport", "adev", "device_reports", "hdev", "mdev",
+        "noise_terms", "oadev", "read_capture", "read_rows")
 
-__all__ = ["CHANNELS", "Capture", "Deviation", "DeviceReport", "adev", "device_reports", "hdev",
-           "mdev", "noise_terms", "oadev", "read_capture", "read_rows", "__version__"]
+__all__ = ["CHANNELS", *_API, "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _API:
+        from . import api
+        return getattr(api, name)
+    if name == "allan":  # bench/run.py: ``from imu_allan import allan``
+        from .stats import allan
+        return allan
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_API))

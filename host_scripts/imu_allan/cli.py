@@ -100,7 +100,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
         return sim_from_model(args)
     from .device.simrun import run, sim_command
     return run(sim_command(args.adc, args.output, fs=args.fs, uart_in=args.uart_in,
-                           firmware=args.firmware, stats=args.stats))
+                           firmware=args.firmware, stats=args.stats), adc=args.adc,
+               fs=args.fs)
 
 
 def cmd_rows(args: argparse.Namespace) -> int:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any, Callable, NoReturn, Optional
 
-from . import __version__
+from ._version import __version__
 from .channels import CHANNELS
 
 EPILOG_EXIT = "exit status: 0 success, 1 {one}, 2 usage or input error (one line on stderr)"
@@ -187,7 +187,7 @@ def _add_check(sub: Any) -> None:
 
 
 def _add_gen(sub: Any) -> None:
-    from .stats.gen import HELP, KINDS, PROFILES, UNITS
+    from .stats.options import HELP, KINDS, PROFILES, UNITS
     p = sub.add_parser(
         "gen", help="write a synthetic IMU rows file (thesis noise model)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -278,8 +278,9 @@ def _add_monitor(sub: Any) -> None:
         "monitor", help="live view of a device on a serial port (and log everything)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
-            "Open the serial port and show, refreshed in place, the latest complete\n"
-            "report: its header (fs, n, drops, clips, mode, range, ...) and the\n"
+            "Open the serial port and show, on a full screen that fits the terminal\n"
+            "(PgUp/PgDn scroll what does not fit), the latest complete report: its\n"
+            "header (fs, n, drops, clips, mode, range, ...) and the\n"
             "Allan deviation table in ADC counts (one line per tau, one column per\n"
             "channel; '!' marks a flagged value). Below it: the samples received\n"
             "in raw and binary modes (rows/s, rows and frames lost), counts of bad\n"
@@ -288,9 +289,12 @@ def _add_monitor(sub: Any) -> None:
             "Every byte received is appended, as is, to the log file, which\n"
             "'imu-allan decode' and 'imu-allan rows' read back. When stdin is a\n"
             "terminal, a line typed and ended with Enter is sent as a command\n"
-            "(e.g. status, mode raw, rate 250, report). Ctrl-C quits."),
+            "(e.g. status, mode raw, rate 250, report); Backspace edits, Esc\n"
+            "drops the line, Up/Down recall earlier ones. Ctrl-C quits.\n\n"
+            "The port is locked while the monitor runs: another program opening\n"
+            "it (imu-allan cmd, picocom) is told it is busy."),
         epilog=("exit status: 0 on Ctrl-C (or, with --once, after a report), 1 the port "
-                "was lost, 2 usage error or the port cannot be opened"))
+                "was lost, 2 usage error or the port cannot be opened (or is busy)"))
     p.add_argument("--port", required=True, metavar="PORT", help="serial port, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=_baud, default=115200, metavar="B",
                    help="baud rate (default 115200, the firmware's default BAUD)")
@@ -340,7 +344,7 @@ def _megabytes(text: str) -> int:
 
 
 def _add_analyze(sub: Any) -> None:
-    from .stats.allan import TAU_KINDS
+    from .stats.options import TAU_KINDS
     from .profiles import PROFILES, RANGES
     p = sub.add_parser(
         "analyze", help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",

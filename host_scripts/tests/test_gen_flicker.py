@@ -72,3 +72,35 @@ def test_progress_bar_only_on_a_terminal_and_only_when_long() -> None:
     with Progress("x", 10, stream=fast, delay=60.0) as p:
         p.update(5)
     assert fast.getvalue() == ""
+
+
+def test_progress_erases_exactly_the_columns_it_wrote() -> None:
+    """An 82-column line erased only to 72 left 10 columns behind: the erase
+    now covers the longest line drawn since, and lines are cut to the
+    terminal so that they never wrap (a wrapped line cannot be erased by CR)."""
+    tty = _Tty()
+    with Progress("x" * 70, None, stream=tty, delay=0.0) as p:
+        p.last = -1.0
+        p.show("y" * 5)          # 76 columns: "x" * 70, a space, "yyyyy"
+        drawn = tty.getvalue()
+    assert drawn.startswith("\r" + "x" * 70 + " yyyyy")
+    assert tty.getvalue()[len(drawn):] == "\r" + " " * 76 + "\r"
+    long = _Tty()  # StringIO has no terminal: 80 columns, so at most 79 drawn
+    with Progress("z" * 100, None, stream=long, delay=0.0) as p:
+        p.last = -1.0
+        p.show("!")
+        line = long.getvalue()
+    assert line == "\r" + "z" * 79
+    assert long.getvalue()[len(line):] == "\r" + " " * 79 + "\r"
+
+
+def test_progress_shorter_line_blanks_what_the_longer_left() -> None:
+    tty = _Tty()
+    p = Progress("a", None, stream=tty, delay=0.0)
+    p.last = -1.0
+    p.show("b" * 20)
+    p.last = -1.0
+    p.show("c")
+    assert tty.getvalue().endswith("\ra c" + " " * 19 + "\b" * 19)
+    p.close()
+    assert tty.getvalue().endswith("\r" + " " * 3 + "\r")

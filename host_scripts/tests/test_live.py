@@ -4,6 +4,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import select
 import threading
 import time
@@ -225,15 +226,25 @@ class _Tty(io.StringIO):
 
 
 def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
+    """On a terminal: the alternate screen, every line put at its own row
+    (no newline, so nothing scrolls), cut to the width (80x24 when the size
+    cannot be asked), and the normal screen back at the end."""
     from imu_allan.device.monitor import run_monitor
     data, _ = _monitor_stream()
     dev = device(first=data)
     out, err = _Tty(), io.StringIO()
     rc = run_monitor(dev.path, 115200, str(tmp_path / "m.log"), True, out=out, err=err)
     screen = out.getvalue()
-    assert rc == 0 and screen.count("\x1b[H\x1b[2J") >= 1
-    last = screen.split("\x1b[H\x1b[2J")[-1]
-    assert "report seq 9" in last and "replies: ok mode=both" in last and "Ctrl-C" in last
+    assert rc == 0 and screen.startswith("\x1b[?1049h")
+    screen, after = screen.split("\x1b[?1049l")  # --once: the view left on the normal screen
+    assert "\n" not in screen and "report seq 9" in after
+    last = screen.split("\x1b[1;1H")[-1]
+    rows = re.findall(r"\x1b\[(\d+);1H\x1b\[2K([^\x1b]*)", "\x1b[1;1H" + last)
+    assert [int(r) for r, _ in rows] == list(range(1, 25))
+    text = [t for _, t in rows]
+    assert text[0].startswith("imu-allan monitor:") and "Ctrl-C" in text[0]
+    assert text[1].startswith("report seq 9") and all(len(t) <= 80 for t in text)
+    assert text[-1] == "replies: ok mode=both | ok" and "1 complete reports" in err.getvalue()
 
 
 def test_monitor_view_rate_and_losses() -> None:

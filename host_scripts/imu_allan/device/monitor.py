@@ -10,9 +10,10 @@ all be in flight at once.  pyserial is imported only here.
 from __future__ import annotations
 
 import collections
+import errno as _errno
 import os
+import select
 import sys
-import threading
 import time
 from typing import IO, Any, Optional
 
@@ -23,7 +24,6 @@ from .stream import StreamDecoder
 READ_TIMEOUT = 0.1
 """Seconds one read of the port waits (the view's refresh granularity)."""
 
-_CLEAR = "\x1b[H\x1b[2J"
 _REPLIES_SHOWN = 5
 _RATE_WINDOW = 2.0
 _NON_TTY_STATS = 10.0
@@ -36,15 +36,21 @@ class PortError(Exception):
 
 
 def open_port(port: str, baud: int, timeout: float = READ_TIMEOUT) -> Any:
-    """A pyserial port, 8N1; InputError (one line) if it cannot be opened."""
+    """A pyserial port, 8N1, locked for this process alone (flock, which
+    pyserial, picocom and minicom honour): a second imu-allan on the same
+    port gets InputError "port busy" and the first one keeps it.  InputError
+    (one line) if it cannot be opened."""
     try:
         import serial  # type: ignore[import-untyped]
     except ImportError:
         raise InputError("pyserial is not installed (pip install pyserial)") from None
     try:
-        return serial.Serial(port, baud, timeout=timeout)
+        return serial.Serial(port, baud, timeout=timeout, exclusive=True)
     except (serial.SerialException, OSError, ValueError) as exc:
         errno = getattr(exc, "errno", None)
+        if errno in (_errno.EAGAIN, _errno.EWOULDBLOCK, _errno.EBUSY):
+            raise InputError(f"port busy: '{port}' is open in another program "
+                             "(imu-allan monitor, a terminal?); close it first") from None
         why = os.strerror(errno) if isinstance(errno, int) else str(exc)
         raise InputError(f"cannot open port '{port}': {why}") from None
 
@@ -144,41 +150,185 @@ class Monitor:
                 + "Allan deviation, ADC counts (! flagged: saturated or range):\n"
                 + render.device_adev_table(doc["rows"], CHANNELS))
 
+    def title(self) -> str:
+        return (f"imu-allan monitor: {self.port} at {self.baud} baud, {self.bytes} bytes "
+                f"(Ctrl-C quits), log {self.log_path}")
+
+    def replies_line(self, columns: int = 0) -> str:
+        """The last replies, oldest first; with ``columns``, as many of the
+        newest as fit."""
+        shown = list(self.replies)
+        while columns and len(shown) > 1 and len("replies: " + " | ".join(shown)) > columns:
+            shown.pop(0)
+        return "replies: " + (" | ".join(shown) if shown else "none")
+
     def render(self) -> str:
-        lines = [f"imu-allan monitor: {self.port} at {self.baud} baud, log {self.log_path}, "
-                 f"{self.bytes} bytes (Ctrl-C quits)", ""]
-        text = self.report_text()
-        lines.append(text.rstrip("\n"))
-        lines.append("")
-        lines.append(self.stream_line())
-        lines.append(self.errors_line())
-        lines.append("replies: " + (" | ".join(self.replies) if self.replies else "none"))
+        """The whole view as text (a pipe, or a test)."""
+        lines = [self.title(), "", self.report_text().rstrip("\n"), "", self.stream_line(),
+                 self.errors_line(), self.replies_line()]
         if self.commands:
             lines.append("type a command and Enter to send it (help, status, mode raw, ...)"
                          + (f"; sent: {self.sent}" if self.sent else ""))
         return "\n".join(lines) + "\n"
+
+    def screen(self, columns: int, rows: int, typed: Optional[str] = None,
+               scroll: int = 0) -> tuple[list[str], tuple[int, int], int]:
+        """The view cut to a ``columns`` x ``rows`` terminal: the title first,
+        the stream, losses, replies and the command line (``typed``, None for
+        none) at the bottom, and as much of the report as fits between them,
+        from line ``scroll`` on.  (lines, cursor (row, column), scroll used)."""
+        foot = [self.stream_line(), self.errors_line(), self.replies_line(columns)]
+        if typed is not None:
+            prompt = "> " + typed
+            foot.append(prompt[-(columns - 1):] if len(prompt) >= columns else prompt)
+        body = self.report_text().rstrip("\n").split("\n")
+        room = max(rows - 1 - len(foot), 0)
+        if len(body) > room:  # the last line of the room says what is hidden
+            shown = max(room - 1, 0)
+            scroll = min(max(scroll, 0), max(len(body) - shown, 0))
+            more = (f"-- lines {scroll + 1}-{scroll + shown} of {len(body)}; "
+                    "PgUp/PgDn scroll --") if room else ""
+            body = body[scroll:scroll + shown] + ([more] if room else [])
+        else:
+            scroll = 0
+            body = body + [""] * (room - len(body))
+        lines = [self.title()] + body + foot
+        lines = [ln[:columns] for ln in lines][: max(rows, 1)]
+        cursor = (len(lines) - 1, len(lines[-1])) if typed is not None else (len(lines) - 1, 0)
+        return lines, cursor, scroll
 
 
 def default_log_name() -> str:
     return time.strftime("imu-allan-%Y%m%d-%H%M%S.log")
 
 
-def _stdin_commands(ser: Any, mon: Monitor) -> None:
-    for text in sys.stdin:
-        text = text.strip()
-        if not text:
-            continue
+class _PortReader:
+    """Reads what the port has, without waiting.  Tells a lost port (the
+    device unplugged, the simulator ended) from a read that another program
+    on the same port won, which must not end the monitor."""
+
+    LOST_EMPTY_READS = 200
+    LOST_AFTER_S = 2.0
+
+    def __init__(self, ser: Any, port: str) -> None:
+        self.ser, self.port = ser, port
+        self.fd = ser.fileno()
+        self._empty = 0
+        self._empty_since = 0.0
+
+    def read(self) -> bytes:
+        """The bytes waiting (maybe none); PortError when the port is gone."""
         try:
-            ser.write(text.encode("ascii", "replace") + b"\r")
-        except Exception:  # the port went away: the main loop says so
+            data = os.read(self.fd, 65536)
+        except BlockingIOError:  # another reader took them between select and read
+            return b""
+        except OSError as exc:
+            raise PortError(os.strerror(exc.errno) if exc.errno else str(exc)) from None
+        if data:
+            self._empty = 0
+            return data
+        # Readable but nothing read: a hang-up, or a race with another reader.
+        now = time.monotonic()
+        if self._empty == 0:
+            self._empty_since = now
+        self._empty += 1
+        if not os.path.exists(self.port) or (self._empty >= self.LOST_EMPTY_READS
+                                              and now - self._empty_since >= self.LOST_AFTER_S):
+            raise PortError("the device hung up")
+        if self._empty > 20:
+            time.sleep(0.01)  # a hang-up makes select return at once: do not spin
+        return b""
+
+
+def _log_write(log: IO[bytes], data: bytes, log_path: str) -> None:
+    try:
+        log.write(data)
+        log.flush()
+    except OSError as exc:
+        raise PortError(f"cannot write '{log_path}': {exc.strerror or exc}") from None
+
+
+def _run_terminal(ser: Any, mon: Monitor, log: IO[bytes], out: IO[str], once: bool) -> None:
+    """The full-screen view: the report, counters and the command line typed
+    (when stdin is a terminal too); returns on Ctrl-C (KeyboardInterrupt
+    propagates), --once, or raises PortError."""
+    from contextlib import nullcontext
+
+    from ..terminal import Keys, LineEditor, Screen
+    reader = _PortReader(ser, mon.port)
+    editor = LineEditor()
+    scroll = 0
+    with Screen(out) as scr, (Keys(sys.stdin) if mon.commands else nullcontext()) as keys:
+        fds = [reader.fd] + ([keys.fd] if keys is not None else [])
+        drawn = 0.0
+        while True:
+            ready = select.select(fds, [], [], READ_TIMEOUT)[0]
+            now = time.monotonic()
+            data = reader.read() if reader.fd in ready else b""
+            dirty = scr.resized()
+            if data:
+                _log_write(log, data, mon.log_path)
+                reports, replies = mon.feed(data, now)
+                dirty = dirty or bool(reports or replies)
+            else:
+                reports = []
+                mon.tick(now)
+            if keys is not None and (keys.fd in ready or editor.pending):
+                typed = keys.read() if keys.fd in ready else b""
+                if keys.fd in ready and not typed:  # end of input: watch only
+                    fds.remove(keys.fd)
+                lines, pressed = editor.feed(typed, final=not typed)
+                for text in lines:
+                    ser.write(text.encode("ascii") + b"\r")
+                    mon.sent = text
+                page = max(scr.lines - 6, 1)
+                scroll += sum(page if k == "page_down" else -page if k == "page_up" else 0
+                              for k in pressed)
+                dirty = True
+            if dirty or now - drawn >= 0.5 or (data and now - drawn >= 0.25):
+                lines_, cursor, scroll = mon.screen(scr.columns, scr.lines,
+                                                    editor.text if keys is not None else None,
+                                                    scroll)
+                scr.draw(lines_, cursor)
+                drawn = now
+            if once and reports:
+                return
+
+
+def _run_plain(ser: Any, mon: Monitor, log: IO[bytes], out: IO[str], once: bool) -> None:
+    """Not a terminal: each report and reply printed once, stream counts every
+    10 s; returns on --once or raises PortError / KeyboardInterrupt."""
+    reader = _PortReader(ser, mon.port)
+    stats_at = time.monotonic()
+    while True:
+        ready = select.select([reader.fd], [], [], READ_TIMEOUT)[0]
+        now = time.monotonic()
+        data = reader.read() if ready else b""
+        reports: list[Any] = []
+        if data:
+            _log_write(log, data, mon.log_path)
+            reports, replies = mon.feed(data, now)
+            for body in replies:
+                out.write(f"reply: {body}\n")
+        else:
+            mon.tick(now)
+        if reports:
+            out.write(mon.report_text() + mon.stream_line() + "\n" + mon.errors_line() + "\n\n")
+        if mon.decoder.samples and now - stats_at >= _NON_TTY_STATS:
+            out.write(mon.stream_line() + "\n")
+            stats_at = now
+        out.flush()
+        if once and reports:
             return
-        mon.sent = text
 
 
 def run_monitor(port: str, baud: int, log_path: Optional[str], once: bool,
                 out: Optional[IO[str]] = None, err: Optional[IO[str]] = None) -> int:
-    """The monitor loop; returns the exit status (stdout and stderr by default)."""
-    import serial  # type: ignore[import-untyped]
+    """The monitor: a full-screen view when ``out`` (stdout by default) is a
+    terminal, taking commands typed on stdin when that is a terminal too;
+    plain lines otherwise.  Returns the exit status (0, or 1 when the port
+    or the log fails)."""
+    from ..terminal import stdin_is_terminal
     out = out or sys.stdout
     err = err or sys.stderr
     log_path = log_path or default_log_name()
@@ -189,61 +339,24 @@ def run_monitor(port: str, baud: int, log_path: Optional[str], once: bool,
         ser.close()
         raise InputError(f"cannot write '{log_path}': {exc.strerror or exc}") from None
     tty = out.isatty()
-    commands = sys.stdin is not None and sys.stdin.isatty()
-    mon = Monitor(port, baud, log_path, commands)
-    if commands:
-        threading.Thread(target=_stdin_commands, args=(ser, mon), daemon=True).start()
+    mon = Monitor(port, baud, log_path, commands=tty and stdin_is_terminal())
     if not tty:
         print(f"imu-allan monitor: {port} at {baud} baud, logging to {log_path}", file=err)
-    drawn = 0.0
-    stats_at = time.monotonic()
     status = 0
     try:
-        while True:
-            try:
-                data = ser.read(65536)
-            except serial.SerialException as exc:
-                print(f"imu-allan monitor: {port}: connection lost ({exc})", file=err)
-                status = 1
-                break
-            now = time.monotonic()
-            if data:
-                try:
-                    log.write(data)
-                    log.flush()
-                except OSError as exc:
-                    print(f"imu-allan monitor: cannot write '{log_path}': {exc.strerror or exc}",
-                          file=err)
-                    status = 1
-                    break
-                reports, replies = mon.feed(data, now)
-            else:
-                reports, replies = [], []
-                mon.tick(now)
-            if tty:
-                if reports or replies or now - drawn >= 0.5 or (data and now - drawn >= 0.25):
-                    out.write(_CLEAR + mon.render())
-                    out.flush()
-                    drawn = now
-            else:
-                for body in replies:
-                    out.write(f"reply: {body}\n")
-                if reports:
-                    out.write(mon.report_text() + mon.stream_line() + "\n"
-                              + mon.errors_line() + "\n\n")
-                if mon.decoder.samples and now - stats_at >= _NON_TTY_STATS:
-                    out.write(mon.stream_line() + "\n")
-                    stats_at = now
-                out.flush()
-            if once and reports:
-                break
+        (_run_terminal if tty else _run_plain)(ser, mon, log, out, once)
+        if tty and once:  # the full screen is gone: leave what --once waited for
+            out.write(mon.render())
+    except PortError as exc:
+        why = str(exc)
+        print(f"imu-allan monitor: {port}: " + (why if why.startswith("cannot write")
+                                                 else f"connection lost ({why})"), file=err)
+        status = 1
     except KeyboardInterrupt:
         pass
     finally:
         ser.close()
         log.close()
-    if tty:
-        out.write("\n")
     print(f"imu-allan monitor: {mon.reports} complete reports, {mon.stream_line()}; "
           f"log {log_path}", file=err)
     return status

@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike
 
 from .kernels import DOT_MAX, blocked as _blocked, offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq
 
-TAU_KINDS = ("octave", "decade", "log", "all")
+from .options import TAU_KINDS  # noqa: F401  (its home: options.py)
 BLOCK = 1 << 16
 EXACT_MAX = 1 << 22
 STRIDE_OFFSETS = 1024

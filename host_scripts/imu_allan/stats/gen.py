@@ -35,19 +35,7 @@ from ..errors import InputError
 from .noise import NoiseParams, NoiseProcess
 from ..channels import CODE_MAX, COLUMNS
 
-KINDS = ("noise", "walk", "drift", "clip", "square")
-PROFILES = ("thesis",)
-PARAMS = ("offset", "white", "gm_sigma", "gm_tau", "rrw", "drift", "flicker")
-UNITS = {"offset": "counts", "white": "counts per sample (sigma)", "gm_sigma": "counts (sigma)",
-         "gm_tau": "s", "rrw": "counts per sample (sigma of each step)", "drift": "counts/s",
-         "flicker": "counts (IEEE 952 bias instability B)"}
-HELP = {"offset": "mean code, counts",
-        "white": "white noise sigma per sample, counts (N = white / sqrt(fs))",
-        "gm_sigma": "Gauss-Markov bias instability sigma, counts",
-        "gm_tau": "Gauss-Markov correlation time T, seconds",
-        "rrw": "rate random walk: sigma of each step, counts (K = rrw * sqrt(fs))",
-        "drift": "linear drift, counts per second",
-        "flicker": "flicker (1/f) bias instability B, counts (Allan deviation floor 0.664 B)"}
+from .options import HELP, KINDS, PARAMS, PROFILES, UNITS  # noqa: F401  (their home: options.py)
 CHUNK = 1 << 17
 
 # The thesis board at rest (order ax ay az gx gy gz temp), of the order the
