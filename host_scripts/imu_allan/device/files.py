@@ -2,6 +2,7 @@
 read error turned into one line naming the file."""
 from __future__ import annotations
 
+import gzip
 import sys
 from pathlib import Path
 from typing import BinaryIO, Iterator, Union
@@ -19,12 +20,21 @@ def input_name(path: PathLike) -> str:
     return "<stdin>" if str(path) == "-" else str(path)
 
 
+GZIP_MAGIC = b"\x1f\x8b"
+
+
 def open_input(path: PathLike) -> BinaryIO:
-    """Open ``path`` for binary reading (``-`` is stdin); InputError if it cannot."""
+    """Open ``path`` for binary reading (``-`` is stdin); InputError if it cannot.
+    A gzip file (told by its magic bytes, whatever its name) is read decompressed,
+    as recordings are often shipped (``imu-allan analyze rec.tsv.gz``)."""
     if str(path) == "-":
         return sys.stdin.buffer
     try:
-        return open(path, "rb")
+        f = open(path, "rb")
+        if f.peek(2)[:2] != GZIP_MAGIC:
+            return f
+        f.close()
+        return gzip.open(path, "rb")  # type: ignore[return-value]
     except OSError as exc:
         raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
 
@@ -41,8 +51,8 @@ def _blocks(f: BinaryIO, name: str, block_bytes: int) -> Iterator[bytes]:
         while True:
             try:
                 block = f.read(block_bytes)
-            except OSError as exc:
-                raise InputError(f"cannot read '{name}': {exc.strerror or exc}") from None
+            except (OSError, EOFError) as exc:  # EOFError: a gzip file cut short
+                raise InputError(f"cannot read '{name}': {getattr(exc, 'strerror', None) or exc}") from None
             if not block:
                 return
             yield block
