@@ -7,7 +7,6 @@
 #include <avr/io.h>
 #include <avr/pgmspace.h>
 #include <avr/sleep.h>
-#include <avr/wdt.h>
 
 #include "adc.h"
 #include "board.h"
@@ -16,19 +15,10 @@
 #include "link.h"
 #include "proto.h"
 #include "report.h"
+#include "reset.h"
 #include "sample.h"
 #include "settings.h"
 #include "uart.h"
-
-/* MCUSR must be read before anything clears it (avr-libc's recipe). */
-static uint8_t main_mcusr __attribute__((section(".noinit")));
-void main_get_mcusr(void) __attribute__((naked, used, section(".init3")));
-void main_get_mcusr(void)
-{
-  main_mcusr = MCUSR;
-  MCUSR = 0;
-  wdt_disable();
-}
 
 /* The command line being received; `ready` holds a complete one until the
  * output is between two lines, so a reply never cuts into another line. */
@@ -244,19 +234,6 @@ static __attribute__((noinline)) void poll_commands(void)
     run_line();
 }
 
-/* The watchdog resets the MCU if the loop stops for a second.  Its
- * interrupt comes first and only wakes the loop from sleep; the loop re-arms
- * it, a hung loop does not, and the next timeout resets. */
-ISR(WDT_vect)
-{
-}
-
-static void watchdog_kick(void)
-{
-  wdt_reset();
-  WDTCSR |= (1 << WDIE);
-}
-
 /* Work the loop can do right now; without any, it sleeps until an
  * interrupt (a tick, a conversion, a byte in or out) brings some. */
 static uint8_t has_work(void)
@@ -271,7 +248,7 @@ static uint8_t has_work(void)
 int main(void) __attribute__((OS_main));
 int main(void)
 {
-  report_init(main_mcusr);
+  report_init(reset_cause());
   proto_init(uart_sink);
   uart_init();
   adc_init();
@@ -281,14 +258,13 @@ int main(void)
   adc_set_rate(settings.rate_hz);
   new_run();
   set_sleep_mode(SLEEP_MODE_IDLE);
-  wdt_enable(WDTO_1S);
-  watchdog_kick();
+  reset_watchdog_start();
   sei();
 
   report_boot();
   adc_start(0, 0);
   for (;;) {
-    watchdog_kick();
+    reset_watchdog_kick();
     sample_pump();
     report_poll();
     /* EEPROM bytes go out only where the reply may follow at once. */
