@@ -25,7 +25,7 @@ $(FW_BUILD)/simavr_section.o: sim/simavr_section.c | $(FW_BUILD)
 IMU_SIM := $(BUILD)/host/imu-sim
 # The harness's rooms (harness.h lists them), and the firmware's own CRC.
 IMU_SIM_SRC := $(addprefix sim/,imu_sim.c sim_cli.c sim_msg.c sim_serial.c \
-               sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_rows.c \
+               sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_board.c sim_rows.c \
                sim_term.c sim_err.c) $(FW_DIR)/crc.c
 IMU_SIM_HDR := $(addprefix sim/,harness.h sim_rows.h sim_term.h sim_err.h) \
                $(FW_DIR)/crc.h

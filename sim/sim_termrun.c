@@ -59,6 +59,8 @@ static void term_poll(void)
     if (g.verbose)
       fprintf(stderr, PROG ": t=%.3f s: terminal %s\n", sim_time(),
               now ? "opened" : "closed");
+    if (now && g.board)
+      board_external_reset();     /* DTR auto-reset */
   }
   while (t.connected && readable && g.txq_len < 64) {
     uint8_t buf[64];
@@ -178,6 +180,44 @@ static void on_stop_signal(int sig)
 
 /* Terminal mode: the device runs until a signal (or a crash); the user
  * drives it from the terminal.  Returns the last avr_run() state. */
+/* After any reset simavr has dropped the cycle timers and restarted the
+ * cycle count from 0: the harness re-arms its timers and re-bases the
+ * real-time comparison. */
+static void term_after_reset(void)
+{
+  avr_t *avr = g.avr;
+  g.reset_seen = 0;
+  g.tx_busy = 0;
+  g.tx_free_at = 0;
+  g.xoff = 0;
+  clock_gettime(CLOCK_MONOTONIC, &t.t0);
+  t.c0 = avr->cycle;
+  t.next_io = avr->cycle + t.slice;
+  if (!g.fast)
+    avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
+  tx_kick();
+}
+
+/* Board mode: a chip does not stop on an opcode simavr cannot run (a
+ * half-written firmware, say); it goes astray until it is reset.  The board
+ * waits for a reset (the port opened) and runs on. */
+static int term_stuck(void)
+{
+  avr_t *avr = g.avr;
+  warn("t=%.3f s: the firmware crashed (PC 0x%04x)%s%s; the board is stuck "
+       "until it is reset (open the port)", sim_time(), (unsigned)avr->pc,
+       g.last_error[0] ? ": " : "", g.last_error);
+  while (!stop_signal && avr->state != cpu_Running) {
+    sleep_s(0.001);
+    term_flush();
+    term_poll();
+    board_poll();
+  }
+  if (g.reset_seen)
+    term_after_reset();
+  return avr->state;
+}
+
 int term_run(void)
 {
   avr_t *avr = g.avr;
@@ -212,17 +252,29 @@ int term_run(void)
   t.next_io = avr->cycle + t.slice;
   if (!g.fast)
     avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
+  g.reset_seen = 0;
   term_poll();
+  if (g.reset_seen)
+    term_after_reset();
+  unsigned slices = 0;
   while (!stop_signal && !g.fail) {
     st = avr_run(avr);
+    if (g.board && (st == cpu_Crashed || st == cpu_Stopped))
+      st = term_stuck();
     if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
       break;
     watch_sp();
+    if (g.reset_seen)
+      term_after_reset();
     if (avr->cycle < t.next_io)
       continue;
     t.next_io = avr->cycle + t.slice;
     term_flush();
     term_poll();
+    if (g.reset_seen)
+      term_after_reset();
+    if (g.board && ++slices % 50 == 0)
+      board_poll();           /* every 50 ms (250 ms with --fast) */
     if (!g.fast)
       term_pace();
   }
