@@ -85,6 +85,8 @@ static void term_poll(void)
 static void term_flush(void)
 {
   size_t off = 0;
+  if (g.out && t.olen)
+    fflush(g.out);    /* -o: a copy others may read while the device runs */
   while (off < t.olen) {
     if (!t.connected) {
       t.unheard += t.olen - off;
