@@ -13,8 +13,9 @@
  *    the firmware): a canary in .noinit SRAM, which a power-on leaves as
  *    noise and any other reset keeps, tells power-on from a warm reset;
  *    a marker set when the watchdog's last warning went unanswered tells
- *    the firmware's own watchdog reset; a warm reset without it is
- *    "unknown" (the RESET pin, DTR, the bootloader's own watchdog ...).
+ *    the firmware's own watchdog reset (not a hang with interrupts off,
+ *    where the warning cannot run); a warm reset without it is "unknown"
+ *    (the RESET pin, DTR, the bootloader's own watchdog ...).
  *    A firmware just written through the bootloader finds the canary
  *    gone too; optiboot's page buffer (SRAM from RAMSTART), still equal
  *    to the firmware's last flash page, tells it: "unknown", not power-on.

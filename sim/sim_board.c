@@ -16,8 +16,8 @@
  *   of an Arduino-style board does; the watchdog's own resets are simavr's.
  *   Each reset leaves SRAM as it was, as on the chip.
  * - SIGUSR1 hangs the firmware as a stuck main loop would (for the
- *   watchdog tests): it jumps to the first `rjmp .` of the application,
- *   interrupts left as they were.
+ *   watchdog tests): outside interrupts, it jumps to the first `rjmp .` of
+ *   the application, interrupts left on.
  */
 #include "harness.h"
 
@@ -181,7 +181,9 @@ void board_poll(void)
     save_file(b.eeprom_path, b.eeprom_saved, ee_len);
     b.eeprom_writes++;
   }
-  if (hang_request) {
+  /* A loop that hangs with interrupts on (not inside an interrupt, which
+   * would leave them off and the watchdog's warning unanswerable). */
+  if (hang_request && avr->sreg[S_I]) {
     hang_request = 0;
     uint32_t end = b.boot_start ? b.boot_start : flash_len;
     for (uint32_t a = 0; a + 1 < end; a += 2)
