@@ -182,9 +182,10 @@ static void on_stop_signal(int sig)
 
 /* Terminal mode: the device runs until a signal (or a crash); the user
  * drives it from the terminal.  Returns the last avr_run() state. */
-/* After any reset simavr has dropped the cycle timers and restarted the
- * cycle count from 0: the harness re-arms its timers and re-bases the
- * real-time comparison. */
+/* After any reset simavr has dropped the cycle timers (and newer simavr
+ * versions restart the cycle count from 0; 1.6 goes on counting): the
+ * harness re-arms its timers, and re-bases the real-time comparison if
+ * the count went back. */
 static void term_after_reset(void)
 {
   avr_t *avr = g.avr;
@@ -192,8 +193,10 @@ static void term_after_reset(void)
   g.tx_busy = 0;
   g.tx_free_at = 0;
   g.xoff = 0;
-  clock_gettime(CLOCK_MONOTONIC, &t.t0);
-  t.c0 = avr->cycle;
+  if (avr->cycle < t.c0) {
+    clock_gettime(CLOCK_MONOTONIC, &t.t0);
+    t.c0 = avr->cycle;
+  }
   t.next_io = avr->cycle + t.slice;
   if (!g.fast)
     avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
