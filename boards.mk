@@ -274,7 +274,7 @@ SIM_BOARD_OPTS ?= --synthetic
 sim-board: $(IMU_SIM) $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX),firmware)
 	@echo "sim-board: the simulated $(MCU) with $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX),no bootloader) is on $(SIM_BOARD_LINK) (Ctrl-C here ends it);"
 	@echo "its flash and EEPROM are kept in $(SIM_BOARD).flash and .eeprom. In another shell:"
-	@echo "    make flash PORT=$(SIM_BOARD_LINK)"
+	@echo "    $(if $(BOOTLOADER_HEX),make flash PORT=$(SIM_BOARD_LINK),(no bootloader: the firmware was written as by ISP; make flash needs one))"
 	@echo "    picocom -b $(BAUD) $(SIM_BOARD_LINK)"
 	$(IMU_SIM) --pty --board $(SIM_BOARD) --mcu $(MCU) --freq $(F_CPU) \
 	  --bootloader $(or $(BOOTLOADER_HEX),none)$(if $(BOOTLOADER_HEX),, --flash $(HEX)) \
