@@ -219,36 +219,38 @@ static void check_args(void)
     die(EXIT_INPUT, "--adc and --uart-in cannot both read stdin");
 }
 
+/* imu-sim's long options (getopt_long). */
+enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
+       O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
+       O_NO_WAIT, O_EEPROM, O_BOARD, O_BOOTLOADER, O_FLASH };
+static const struct option opts[] = {
+  { "adc", required_argument, NULL, O_ADC },
+  { "fs", required_argument, NULL, O_FS },
+  { "uart-in", required_argument, NULL, O_UART_IN },
+  { "output", required_argument, NULL, 'o' },
+  { "mcu", required_argument, NULL, O_MCU },
+  { "freq", required_argument, NULL, O_FREQ },
+  { "timeout", required_argument, NULL, O_TIMEOUT },
+  { "stats", optional_argument, NULL, O_STATS },
+  { "stats-json", required_argument, NULL, O_STATS_JSON },
+  { "pty", no_argument, NULL, O_PTY },
+  { "link", required_argument, NULL, O_LINK },
+  { "synthetic", no_argument, NULL, O_SYNTHETIC },
+  { "seed", required_argument, NULL, O_SEED },
+  { "realtime", no_argument, NULL, O_REALTIME },
+  { "fast", no_argument, NULL, O_FAST },
+  { "no-wait", no_argument, NULL, O_NO_WAIT },
+  { "eeprom", required_argument, NULL, O_EEPROM },
+  { "board", required_argument, NULL, O_BOARD },
+  { "bootloader", required_argument, NULL, O_BOOTLOADER },
+  { "flash", required_argument, NULL, O_FLASH },
+  { "verbose", no_argument, NULL, 'v' },
+  { "help", no_argument, NULL, 'h' },
+  { NULL, 0, NULL, 0 },
+};
+
 void parse_args(int argc, char **argv)
 {
-  enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
-         O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
-         O_NO_WAIT, O_EEPROM, O_BOARD, O_BOOTLOADER, O_FLASH };
-  static const struct option opts[] = {
-    { "adc", required_argument, NULL, O_ADC },
-    { "fs", required_argument, NULL, O_FS },
-    { "uart-in", required_argument, NULL, O_UART_IN },
-    { "output", required_argument, NULL, 'o' },
-    { "mcu", required_argument, NULL, O_MCU },
-    { "freq", required_argument, NULL, O_FREQ },
-    { "timeout", required_argument, NULL, O_TIMEOUT },
-    { "stats", optional_argument, NULL, O_STATS },
-    { "stats-json", required_argument, NULL, O_STATS_JSON },
-    { "pty", no_argument, NULL, O_PTY },
-    { "link", required_argument, NULL, O_LINK },
-    { "synthetic", no_argument, NULL, O_SYNTHETIC },
-    { "seed", required_argument, NULL, O_SEED },
-    { "realtime", no_argument, NULL, O_REALTIME },
-    { "fast", no_argument, NULL, O_FAST },
-    { "no-wait", no_argument, NULL, O_NO_WAIT },
-    { "eeprom", required_argument, NULL, O_EEPROM },
-    { "board", required_argument, NULL, O_BOARD },
-    { "bootloader", required_argument, NULL, O_BOOTLOADER },
-    { "flash", required_argument, NULL, O_FLASH },
-    { "verbose", no_argument, NULL, 'v' },
-    { "help", no_argument, NULL, 'h' },
-    { NULL, 0, NULL, 0 },
-  };
   int c;
   opterr = 0;
   while ((c = getopt_long(argc, argv, ":o:vh", opts, NULL)) != -1) {
