@@ -95,8 +95,8 @@ endif
 # optiboot, from the sources Debian's arduino-core-avr ships (make deps
 # installs it).  Built with its own Makefile's flags, except
 # LED_START_FLASHES=0: Debian's avr-gcc 5.4 makes the LED-flashing build
-# 532 bytes, more than the 512-byte boot section, and this board has no LED
-# on PB5 to flash.  Its UART: U2X, UBRR = (F_CPU + 4 BAUD)/(8 BAUD) - 1 = 10
+# 532 bytes, more than the 512-byte boot section, and board.h names no LED
+# (optiboot's is on PB5, the ISP clock).  Its UART: U2X, UBRR = (F_CPU + 4 BAUD)/(8 BAUD) - 1 = 10
 # at 10 MHz, 113,636 baud for 115,200: -1.4 %, as the firmware's own
 # setting (uart.c) and within the 2 % a UART tolerates.  The hex files
 # Debian ships are built for 16 MHz: at 10 MHz they would talk at 71 kbaud.
