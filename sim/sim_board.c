@@ -15,6 +15,7 @@
  *   the MCU through its RESET pin (EXTRF), as the DTR auto-reset capacitor
  *   of an Arduino-style board does; the watchdog's own resets are simavr's.
  *   Each reset leaves SRAM as it was, as on the chip.
+ * - SPM works only from the boot loader section, as on the chip.
  * - SIGUSR1 hangs the firmware as a stuck main loop would (for the
  *   watchdog tests): outside interrupts, it jumps to the first `rjmp .` of
  *   the application, interrupts left on.
@@ -27,20 +28,41 @@
 #include <string.h>
 
 #include "sim_hex.h"
+#include "sim_io.h"
 #include "sim_regbit.h"
 #include "avr_eeprom.h"
+#include "avr_flash.h"
 
 static struct {
   char flash_path[4096], eeprom_path[4096];
   uint8_t *flash_saved;           /* what the flash file holds */
   uint8_t eeprom_saved[4096];
   uint32_t boot_start;            /* byte address; 0: no bootloader */
-  uint32_t flash_writes, eeprom_writes;
+  uint32_t flash_writes, eeprom_writes, spm_dropped;
   void (*mcu_reset)(avr_t *avr);  /* the core's own reset hook */
   int resets;
 } b;
 
 static volatile sig_atomic_t hang_request;
+
+/* The chip carries out SPM only from its boot loader section; simavr from
+ * anywhere, so a firmware gone astray (half written, say) could rewrite the
+ * bootloader.  This module sees the SPM ioctl before simavr's flash module
+ * (simavr asks its modules newest first) and drops an SPM from elsewhere. */
+static int spm_guard_ioctl(avr_io_t *io, uint32_t ctl, void *param)
+{
+  (void)param;
+  if (ctl != AVR_IOCTL_FLASH_SPM)
+    return -1;
+  uint32_t flash_len = io->avr->flashend + 1u;
+  uint32_t bls_start = b.boot_start ? b.boot_start : flash_len - flash_len / 8u;
+  if (io->avr->pc >= bls_start)
+    return -1;      /* the flash module's */
+  b.spm_dropped++;
+  return 0;
+}
+
+static avr_io_t spm_guard = { .kind = "spm-guard", .ioctl = spm_guard_ioctl };
 
 static void on_hang_signal(int sig)
 {
@@ -145,10 +167,12 @@ void board_open(void)
   avr->pc = b.boot_start;
   b.mcu_reset = avr->reset;
   avr->reset = board_reset_hook;
+  avr_register_io(avr, &spm_guard);
 
   struct sigaction sa;
   memset(&sa, 0, sizeof sa);
   sa.sa_handler = on_hang_signal;
+  sa.sa_flags = SA_RESTART;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGUSR1, &sa, NULL);
 }
@@ -202,6 +226,9 @@ void board_close(void)
   if (!b.flash_saved)
     return;
   board_poll();
+  if (b.spm_dropped)
+    warn("%u SPM instructions outside the boot loader section were ignored, "
+         "as the chip ignores them", (unsigned)b.spm_dropped);
   if (g.verbose)
     fprintf(stderr, PROG ": %d resets, flash saved %u times, EEPROM %u times\n",
             b.resets, (unsigned)b.flash_writes, (unsigned)b.eeprom_writes);

@@ -27,6 +27,7 @@ static struct {
   uint64_t dropped;           /* bytes the terminal did not read in time */
   uint64_t from_term;         /* bytes read from the terminal */
   uint64_t resyncs;           /* times the host fell behind real time */
+  uint64_t flushed;           /* host bytes lost to a closed line or a reset */
   avr_cycle_count_t slice, next_io, c0;
   struct timespec t0;
 } t = { .pty = { .master = -1 } };
@@ -50,17 +51,44 @@ static void sleep_s(double s)
  * for it: the rest waits in the pty, so a long paste blocks its writer
  * instead of piling up here.  Bytes go to the device paced at the baud
  * rate, honouring the receive FIFO's flow control (tx_push). */
+/* Bytes from a terminal that closed, or sent to an MCU that was reset
+ * meanwhile, never arrive (its UART restarts empty): a next session must
+ * not receive the end of the last one (say, half a page of an upload that
+ * was cut off, which would throw the bootloader out of step). */
+static void drop_host_bytes(void)
+{
+  uint8_t buf[256];
+  t.flushed += g.txq_len;
+  g.txq_len = 0;
+  g.txq_head = 0;
+  g.user_line_len = 0;
+  for (;;) {      /* what the closed terminal left in the pty */
+    ssize_t n = read(t.pty.master, buf, sizeof buf);
+    if (n <= 0 && !(n < 0 && errno == EINTR))
+      break;
+    if (n > 0)
+      t.flushed += (uint64_t)n;
+  }
+}
+
 static void term_poll(void)
 {
   int readable;
   int now = pty_state(&t.pty, &readable);
-  if (now != t.connected) {
-    t.connected = now;
+  int opened = g.board ? pty_opened(&t.pty) : 0;
+  if (now != t.connected || opened > 0) {
     if (g.verbose)
       fprintf(stderr, PROG ": t=%.3f s: terminal %s\n", sim_time(),
               now ? "opened" : "closed");
-    if (now && g.board)
-      board_external_reset();     /* DTR auto-reset */
+    if (!now || opened > 0)
+      drop_host_bytes();          /* they went with the last line */
+    /* DTR auto-reset: every open, even a close and open between two
+     * looks (inotify counts them); without inotify, a change seen */
+    if (g.board && (opened > 0 || (opened < 0 && now && !t.connected))) {
+      board_external_reset();
+      now = pty_state(&t.pty, &readable);
+    }
+    t.connected = now;
   }
   while (t.connected && readable && g.txq_len < 64) {
     uint8_t buf[64];
@@ -193,6 +221,10 @@ static void term_after_reset(void)
   g.tx_busy = 0;
   g.tx_free_at = 0;
   g.xoff = 0;
+  t.flushed += g.txq_len;     /* bytes on the wire during the reset */
+  g.txq_len = 0;
+  g.txq_head = 0;
+  g.user_line_len = 0;
   if (avr->cycle < t.c0) {
     clock_gettime(CLOCK_MONOTONIC, &t.t0);
     t.c0 = avr->cycle;
@@ -299,6 +331,9 @@ void term_open(void)
   if (r)
     die(r == -2 ? EXIT_INPUT : EXIT_FAIL, "%s", err);
   atexit(term_cleanup);     /* the link goes, however imu-sim ends */
+  if (g.board && pty_opened(&t.pty) < 0)     /* start counting opens */
+    warn("no inotify on %s: a close and open faster than a millisecond "
+         "may not reset the board", t.pty.slave);
 }
 
 void term_started(struct timespec *t0)
@@ -308,6 +343,9 @@ void term_started(struct timespec *t0)
 
 void term_summary(int st)
 {
+  if (g.verbose && t.flushed)
+    fprintf(stderr, PROG ": %llu bytes from the terminal were lost to a reset "
+            "or a closed line\n", (unsigned long long)t.flushed);
   if (t.dropped)
     warn("%llu device bytes were lost: the terminal did not read them",
          (unsigned long long)t.dropped);

@@ -95,11 +95,11 @@ class Board:
         if via_make:   # exactly what a user runs
             cmd = ["make", "-s", "--no-print-directory", "-C", str(REPO), "sim-board",
                    f"BUILD={BUILD}", f"SIM_BOARD={self.prefix}", f"SIM_BOARD_LINK={self.link}",
-                   f"SIM_BOARD_OPTS=--synthetic -o {self.log}", f"BOOTLOADER={bootloader}"]
+                   f"SIM_BOARD_OPTS=--synthetic -v -o {self.log}", f"BOOTLOADER={bootloader}"]
         else:
             boot = str(BOOTLOADER) if bootloader == "optiboot" else "none"
             cmd = [str(SIM), "--pty", "--board", str(self.prefix), "--bootloader", boot,
-                   "--link", str(self.link), "--synthetic", "-o", str(self.log)]
+                   "--link", str(self.link), "--synthetic", "-v", "-o", str(self.log)]
             if isp is not None:
                 cmd += ["--flash", str(isp)]
         self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=open(self.err, "wb"),
@@ -113,7 +113,10 @@ class Board:
             time.sleep(0.02)
 
     def errors(self) -> str:
-        return self.err.read_text(errors="replace") if self.err.exists() else ""
+        """What the simulator said (-v: opens, resets, hangs), without
+        simavr's timer noise."""
+        text = self.err.read_text(errors="replace") if self.err.exists() else ""
+        return "\n".join(l for l in text.splitlines() if "avr_timer_write_ocr" not in l)[-3000:]
 
     def output(self) -> bytes:
         return self.log.read_bytes() if self.log.exists() else b""

@@ -33,9 +33,9 @@ def app() -> dict[int, int]:
     return read_ihex(HEX)
 
 
-def verified(result: subprocess.CompletedProcess, nbytes: int) -> None:
+def verified(result: subprocess.CompletedProcess, nbytes: int, board: Board | None = None) -> None:
     out = result.stdout + result.stderr
-    assert result.returncode == 0, out[-2000:]
+    assert result.returncode == 0, out[-2000:] + ("\n-- the board:\n" + board.errors() if board else "")
     assert f"{nbytes} bytes of flash written" in out, out[-2000:]
     assert f"{nbytes} bytes of flash verified" in out, out[-2000:]
 
@@ -51,7 +51,7 @@ def test_blank_board_runs_only_the_bootloader(board: Board) -> None:
 
 def test_make_flash_writes_and_verifies(board: Board, app: dict[int, int]) -> None:
     assert sorted(app) == list(range(len(app)))     # one block from 0
-    verified(make_flash(board.link), len(app))
+    verified(make_flash(board.link), len(app), board)
     # the first start of a firmware just written through the bootloader
     assert board.wait_boots(1, 5) == ["unknown"]
 
@@ -75,7 +75,7 @@ def test_opening_the_port_resets_and_the_firmware_answers(board: Board) -> None:
 def test_second_flash_over_the_running_firmware_keeps_the_settings(board: Board,
                                                                    app: dict[int, int]) -> None:
     before = len(boots(board.output()))
-    verified(make_flash(board.link), len(app))
+    verified(make_flash(board.link), len(app), board)
     assert board.wait_boots(before + 1, 5)[before:] == ["unknown"]
     board.open()
     board.wait_boots(before + 2, 5)
@@ -122,7 +122,7 @@ def test_interrupted_upload_is_recovered_by_the_next(board: Board, app: dict[int
         app.get(a, 0xFF) for a in range((npages - 2) * PAGE, (npages - 1) * PAGE))
     time.sleep(1.5)            # optiboot gives up, the half-written firmware runs astray
     before = len(boots(board.output()))
-    verified(make_flash(board.link), len(app))
+    verified(make_flash(board.link), len(app), board)
     assert board.wait_boots(before + 1, 5)[before:][-1] == "unknown"
     assert board.flash() == image([app, read_ihex(BOOTLOADER)])
     board.open()

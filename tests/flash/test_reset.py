@@ -30,7 +30,7 @@ def board(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFacto
 
 
 def test_power_on(board: Board) -> None:
-    assert board.wait_boots(1, 5) == [EXPECTED[board.kind][0]]
+    assert board.wait_boots(1, 5) == [EXPECTED[board.kind][0]], board.errors()
 
 
 def test_reset_pin(board: Board) -> None:
@@ -38,7 +38,7 @@ def test_reset_pin(board: Board) -> None:
     board.open()
     got = board.wait_boots(2, 5)
     board.close()
-    assert got[1:] == [EXPECTED[board.kind][1]]
+    assert got[1:] == [EXPECTED[board.kind][1]], board.errors()
 
 
 def test_watchdog_once_and_no_loop(board: Board) -> None:
@@ -49,9 +49,9 @@ def test_watchdog_once_and_no_loop(board: Board) -> None:
     assert board.ask("status").startswith("ok status run=1")
     os.kill(board.proc.pid, signal.SIGUSR1)    # the firmware's loop hangs
     got = board.wait_boots(before + 2, 10)    # 2 s, more on a busy host
-    assert got[before + 1:] == [EXPECTED[board.kind][2]]
+    assert got[before + 1:] == [EXPECTED[board.kind][2]], board.errors()
     time.sleep(3.0)                            # three watchdog periods more
-    assert len(boots(board.output())) == before + 2, boots(board.output())
+    assert len(boots(board.output())) == before + 2, board.errors()
     board.ser.reset_input_buffer()
     assert board.ask("status").startswith("ok status run=1")
     board.close()
