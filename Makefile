@@ -50,7 +50,7 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all bench firmware other-mcus deps test unit pytest sim-test term-test demo demo-native clean version
+.PHONY: all bench firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
 
 all: firmware
 
@@ -81,7 +81,7 @@ deps:
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh
 
 # ---- tests ---------------------------------------------------------------
-test: firmware other-mcus unit pytest sim-test term-test fuzz-smoke
+test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus:
@@ -98,6 +98,11 @@ pytest:
 # The simulated device on a pseudo-terminal, driven as a user would.
 term-test: firmware $(IMU_SIM)
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/term
+
+# make flash with the real avrdude against the real optiboot on the simulated
+# board (make sim-board), and the reset causes with and without it.
+flash-test: firmware $(IMU_SIM) bootloader
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/flash
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM)

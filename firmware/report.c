@@ -77,8 +77,8 @@ static void put_causes(void)
       any = 1;
     }
   }
-  if (!any)
-    proto_puts_P(PSTR("none"));
+  if (!any) /* a warm reset nothing recorded (reset.h) */
+    proto_puts_P(PSTR("unknown"));
 }
 
 /* One right-aligned 9-character column of the summary table. */

@@ -2,6 +2,8 @@
 # make deps: install everything imu-allan needs on a Debian machine.
 # Idempotent, and quick when everything is already present.
 #   - the AVR toolchain, simavr and build tools from Debian's packages;
+#   - optiboot's source (Debian's arduino-core-avr: make bootloader builds
+#     it for the board into build/optiboot; nothing of it is committed);
 #   - Unity 2.5 from Debian's ntpsec source package (or UNITY_DIR=);
 #   - the host Python package (host_scripts/) with its test extras.
 set -euo pipefail
@@ -19,7 +21,8 @@ die() { printf 'deps: error: %s\n' "$*" >&2; exit 1; }
 
 # ---- Debian packages ------------------------------------------------------
 APT_PKGS=(gcc-avr avr-libc binutils-avr avrdude simavr libsimavr-dev libelf-dev
-          cmake make gcc pkg-config xz-utils clang libclang-rt-14-dev tmux)
+          cmake make gcc pkg-config xz-utils clang libclang-rt-14-dev tmux
+          arduino-core-avr)
 APT_UPDATED=0
 apt_update() {
   if [ "$APT_UPDATED" = 0 ]; then

@@ -9,6 +9,8 @@
  *   sim_adc.c       ADC conversions served from input rows
  *   sim_measure.c   cycles of marked code, stack depth, the figures (--stats)
  *   sim_termrun.c   terminal mode (--pty): the port on a pty, real-time pacing
+ *   sim_board.c     board mode (--board): flash and EEPROM kept in files, a
+ *                   bootloader, the reset on opening the port
  * and the helpers sim_rows.c (input files), sim_term.c (pty, synthetic IMU),
  * sim_err.c (error-buffer formatting).
  */
@@ -63,6 +65,9 @@ typedef struct {
   int pty, synthetic, fast, realtime, no_wait, timeout_set;
   const char *link_path;
   uint64_t seed;
+  /* board mode (sim_board.c) */
+  const char *board, *bootloader, *isp_hex;
+  volatile int reset_seen;    /* the MCU was reset since the last look */
 
   avr_t *avr;
   avr_adc_t *adc;
@@ -137,6 +142,7 @@ void parse_args(int argc, char **argv);
 /* ---- sim_serial.c ------------------------------------------------------- */
 avr_cycle_count_t byte_cycles(void);
 void tx_push(const uint8_t *b, size_t n);
+void tx_kick(void);             /* (re)start sending what is queued */
 void send_cmd(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void send_user(const uart_in_t *u);
 void serial_connect(void);     /* hooks the UART's IRQs */
@@ -170,6 +176,12 @@ static inline void watch_sp(void)
     g.sp_min_pc = avr->pc;
   }
 }
+
+/* ---- sim_board.c -------------------------------------------------------- */
+void board_open(void);         /* flash, EEPROM, bootloader, reset vector */
+void board_external_reset(void);
+void board_poll(void);         /* persist what changed; SIGUSR1 hang */
+void board_close(void);
 
 /* ---- sim_termrun.c ------------------------------------------------------ */
 void term_open(void);          /* the pty, its link and the info stream */

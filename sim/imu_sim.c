@@ -40,6 +40,10 @@ static void open_inputs(void)
     if (g.nuin < 0)
       die(EXIT_INPUT, "%s", err);
   }
+  if (g.board) {
+    g.no_wait = 1;    /* the board is powered from the start */
+    return;
+  }
   if (access(g.elf_path, R_OK))
     die(EXIT_INPUT, "%s: %s", g.elf_path, strerror(errno));
   if (!elf_is_avr(g.elf_path))
@@ -89,7 +93,9 @@ static void make_avr(elf_firmware_t *fw)
 {
   avr_global_logger_set(logger);
   memset(fw, 0, sizeof *fw);
-  if (elf_read_firmware(g.elf_path, fw) || !fw->flashsize)
+  if (g.board)
+    ;   /* no ELF: the flash comes from the board's file (board_open) */
+  else if (elf_read_firmware(g.elf_path, fw) || !fw->flashsize)
     die(EXIT_INPUT, "%s: no firmware could be loaded from this ELF", g.elf_path);
   if (g.mcu)
     snprintf(fw->mmcu, sizeof fw->mmcu, "%s", g.mcu);
@@ -108,7 +114,12 @@ static void make_avr(elf_firmware_t *fw)
     die(EXIT_INPUT, "unknown MCU '%s'", fw->mmcu);
   avr_t *avr = g.avr;
   avr_init(avr);
-  avr_load_firmware(avr, fw);
+  if (g.board) {
+    avr->frequency = fw->frequency;
+    board_open();
+  } else {
+    avr_load_firmware(avr, fw);
+  }
   avr->avcc = avr->aref = 1023;
   avr->log = g.verbose >= 2 ? LOG_TRACE : LOG_WARNING;
   g.timeout_cycles = (avr_cycle_count_t)(g.timeout_s * avr->frequency);
@@ -188,7 +199,8 @@ int main(int argc, char **argv)
   make_avr(&fw);
   if (g.eeprom_path)
     load_eeprom();
-  paint_sram(&fw);
+  if (!g.board)
+    paint_sram(&fw);    /* a board's firmware has no ELF to tell .bss */
 
   struct timespec t0, t1;
   clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -225,6 +237,8 @@ int main(int argc, char **argv)
     print_stats(1);
   if (code != EXIT_OK)
     fprintf(stderr, PROG ": %s\n", g.fail_msg);
+  if (g.board)
+    board_close();
   term_close();
   if (g.out && fclose(g.out))
     die(EXIT_FAIL, "%s: %s", g.out_path ? g.out_path : "stdout", strerror(errno));

@@ -19,13 +19,16 @@ FW_LDFLAGS += -Wl,--undefined=_mmcu
 endif
 FW_OBJ += $(FW_BUILD)/simavr_section.o
 
-$(FW_BUILD)/simavr_section.o: sim/simavr_section.c | $(FW_BUILD)
-	$(AVR_CC) $(FW_CFLAGS) -I$(FW_DIR) -c $< -o $@
+# Without LTO: its link-time optimizer drops the name and clock records,
+# which nothing references, and simavr would find only the end tag (and
+# take any ELF for an ATmega168 at its default clock).
+$(FW_BUILD)/simavr_section.o: sim/simavr_section.c sim/sim.mk | $(FW_BUILD)
+	$(AVR_CC) $(FW_CFLAGS) -fno-lto -I$(FW_DIR) -c $< -o $@
 
 IMU_SIM := $(BUILD)/host/imu-sim
 # The harness's rooms (harness.h lists them), and the firmware's own CRC.
 IMU_SIM_SRC := $(addprefix sim/,imu_sim.c sim_cli.c sim_msg.c sim_serial.c \
-               sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_rows.c \
+               sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_board.c sim_rows.c \
                sim_term.c sim_err.c) $(FW_DIR)/crc.c
 IMU_SIM_HDR := $(addprefix sim/,harness.h sim_rows.h sim_term.h sim_err.h) \
                $(FW_DIR)/crc.h

@@ -113,7 +113,25 @@ static const char usage_term[] =
 "                    the rest reads 0xFF, as on a blank chip)\n"
 "  -o FILE           also keep a copy of everything the device sends\n"
 "  --fs, --uart-in and --timeout do not apply.\n"
-
+"\n"
+"Board mode (make sim-board):\n"
+"  imu-sim --pty --board PREFIX [--bootloader HEX|none] [--flash HEX]\n"
+"          [--mcu NAME] [--freq HZ] [--link PATH] (--adc FILE | --synthetic)\n"
+"  --board PREFIX    the board as it leaves the factory: no ELF; the flash\n"
+"                    is PREFIX.flash and the EEPROM PREFIX.eeprom (raw bytes,\n"
+"                    blank when missing), both written back as the firmware\n"
+"                    changes them, so they persist as on a chip.  It powers\n"
+"                    up at once (--no-wait); opening the port resets the MCU\n"
+"                    through its RESET pin, as the DTR auto-reset circuit of\n"
+"                    an Arduino-style board does, so a serial bootloader\n"
+"                    (avrdude -c arduino) needs no manual reset.  SIGUSR1\n"
+"                    hangs the firmware in its first 'rjmp .' (a stuck loop,\n"
+"                    for watchdog tests).\n"
+"  --bootloader HEX  put HEX in the boot section and reset into it (the\n"
+"                    fuses BOOTRST = 0, BOOTSZ = its size); 'none' (the\n"
+"                    default): reset at address 0\n"
+"  --flash HEX       before power-up, erase the application flash and write\n"
+"                    HEX, as an ISP programmer would\n"
 "\n"
 ;
 
@@ -165,6 +183,14 @@ static unsigned long parse_ulong(const char *s, const char *opt)
 /* Options that exclude each other or need another. */
 static void check_args(void)
 {
+  if ((g.bootloader || g.isp_hex) && !g.board)
+    die(EXIT_INPUT, "%s only applies with --board (see --help)",
+        g.bootloader ? "--bootloader" : "--flash");
+  if (g.board && !g.pty)
+    die(EXIT_INPUT, "--board needs --pty: the board's port is a pseudo-terminal");
+  if (g.board && g.eeprom_path)
+    die(EXIT_INPUT, "--eeprom does not apply with --board: its EEPROM is "
+        "kept in PREFIX.eeprom");
   if (!g.pty) {
     const char *only = g.link_path ? "--link" : g.synthetic ? "--synthetic" :
       g.fast ? "--fast" : g.realtime ? "--realtime" : g.no_wait ? "--no-wait" :
@@ -193,33 +219,38 @@ static void check_args(void)
     die(EXIT_INPUT, "--adc and --uart-in cannot both read stdin");
 }
 
+/* imu-sim's long options (getopt_long). */
+enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
+       O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
+       O_NO_WAIT, O_EEPROM, O_BOARD, O_BOOTLOADER, O_FLASH };
+static const struct option opts[] = {
+  { "adc", required_argument, NULL, O_ADC },
+  { "fs", required_argument, NULL, O_FS },
+  { "uart-in", required_argument, NULL, O_UART_IN },
+  { "output", required_argument, NULL, 'o' },
+  { "mcu", required_argument, NULL, O_MCU },
+  { "freq", required_argument, NULL, O_FREQ },
+  { "timeout", required_argument, NULL, O_TIMEOUT },
+  { "stats", optional_argument, NULL, O_STATS },
+  { "stats-json", required_argument, NULL, O_STATS_JSON },
+  { "pty", no_argument, NULL, O_PTY },
+  { "link", required_argument, NULL, O_LINK },
+  { "synthetic", no_argument, NULL, O_SYNTHETIC },
+  { "seed", required_argument, NULL, O_SEED },
+  { "realtime", no_argument, NULL, O_REALTIME },
+  { "fast", no_argument, NULL, O_FAST },
+  { "no-wait", no_argument, NULL, O_NO_WAIT },
+  { "eeprom", required_argument, NULL, O_EEPROM },
+  { "board", required_argument, NULL, O_BOARD },
+  { "bootloader", required_argument, NULL, O_BOOTLOADER },
+  { "flash", required_argument, NULL, O_FLASH },
+  { "verbose", no_argument, NULL, 'v' },
+  { "help", no_argument, NULL, 'h' },
+  { NULL, 0, NULL, 0 },
+};
+
 void parse_args(int argc, char **argv)
 {
-  enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
-         O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
-         O_NO_WAIT, O_EEPROM };
-  static const struct option opts[] = {
-    { "adc", required_argument, NULL, O_ADC },
-    { "fs", required_argument, NULL, O_FS },
-    { "uart-in", required_argument, NULL, O_UART_IN },
-    { "output", required_argument, NULL, 'o' },
-    { "mcu", required_argument, NULL, O_MCU },
-    { "freq", required_argument, NULL, O_FREQ },
-    { "timeout", required_argument, NULL, O_TIMEOUT },
-    { "stats", optional_argument, NULL, O_STATS },
-    { "stats-json", required_argument, NULL, O_STATS_JSON },
-    { "pty", no_argument, NULL, O_PTY },
-    { "link", required_argument, NULL, O_LINK },
-    { "synthetic", no_argument, NULL, O_SYNTHETIC },
-    { "seed", required_argument, NULL, O_SEED },
-    { "realtime", no_argument, NULL, O_REALTIME },
-    { "fast", no_argument, NULL, O_FAST },
-    { "no-wait", no_argument, NULL, O_NO_WAIT },
-    { "eeprom", required_argument, NULL, O_EEPROM },
-    { "verbose", no_argument, NULL, 'v' },
-    { "help", no_argument, NULL, 'h' },
-    { NULL, 0, NULL, 0 },
-  };
   int c;
   opterr = 0;
   while ((c = getopt_long(argc, argv, ":o:vh", opts, NULL)) != -1) {
@@ -254,15 +285,24 @@ void parse_args(int argc, char **argv)
     case O_FAST: g.fast = 1; break;
     case O_NO_WAIT: g.no_wait = 1; break;
     case O_EEPROM: g.eeprom_path = optarg; break;
+    case O_BOARD: g.board = optarg; break;
+    case O_BOOTLOADER: g.bootloader = optarg; break;
+    case O_FLASH: g.isp_hex = optarg; break;
     case 'v': g.verbose++; break;
     case 'h': usage(stdout); exit(EXIT_OK);
     case ':': die(EXIT_INPUT, "%s needs an argument (see --help)", argv[optind - 1]);
     default: die(EXIT_INPUT, "unknown option '%s' (see --help)", argv[optind - 1]);
     }
   }
+  if (g.board && optind == argc) {
+    check_args();     /* board mode: the firmware is in the board's flash */
+    return;
+  }
   if (optind == argc)
     die(EXIT_INPUT, "missing the firmware ELF file (see --help)");
-
+  if (g.board)
+    die(EXIT_INPUT, "--board takes no ELF: the firmware is what the board's "
+        "flash holds (--flash HEX to program one)");
   if (optind != argc - 1)
     die(EXIT_INPUT, "expected one ELF file, got %d arguments (see --help)",
         argc - optind);

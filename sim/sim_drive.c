@@ -131,8 +131,9 @@ void on_line(char *body, size_t len, int crc_ok)
     on_reply(0, body);
   } else if (!strncmp(body, "B,", 2)) {
     if (g.boots++) {
-      warn("t=%.6f s: the device rebooted (boot line #%llu)", sim_time(),
-           (unsigned long long)g.boots);
+      if (!g.board)     /* a board resets whenever its port is opened */
+        warn("t=%.6f s: the device rebooted (boot line #%llu)", sim_time(),
+             (unsigned long long)g.boots);
     } else if (g.state == ST_BOOT) {
       send_cmd("stop");
       set_state(ST_STOP);

@@ -81,6 +81,11 @@ void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
   if (!g.verbose && strstr(msg, "avr_timer_write_ocr") &&
       strstr(msg, "mode 0 UNSUPPORTED"))
     return;
+  /* simavr's self-programming module warns when SPMCSR's SELFPRGEN times
+   * out after an SPM it has already carried out (optiboot's page writes
+   * land and verify): noise too. */
+  if (!g.verbose && strstr(msg, "SPM not received"))
+    return;
   if (level > show)
     return;
   if (!g.verbose && g.log_shown >= LOG_CAP) {

@@ -63,7 +63,7 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
   return g.tx_free_at;
 }
 
-static void tx_kick(void)
+void tx_kick(void)
 {
   if (g.tx_busy || !g.txq_len)
     return;

@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/inotify.h>
 #include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
@@ -22,6 +23,7 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen)
 {
   struct termios t;
   memset(p, 0, sizeof *p);
+  p->opens = -1;
   p->master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
   if (p->master < 0) {
     err_set(err, errlen, "cannot create a pseudo-terminal: %s", strerror(errno));
@@ -88,6 +90,33 @@ int pty_state(const pty_t *p, int *readable)
   return 1;
 }
 
+int pty_opened(pty_t *p)
+{
+  if (p->opens < 0) {
+    p->opens = inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+    if (p->opens < 0)
+      return -1;
+    if (inotify_add_watch(p->opens, p->slave, IN_OPEN) < 0) {
+      close(p->opens);
+      p->opens = -1;
+      return -1;
+    }
+    return 0;
+  }
+  int n = 0;
+  char buf[4096] __attribute__((aligned(__alignof__(struct inotify_event))));
+  for (;;) {
+    ssize_t len = read(p->opens, buf, sizeof buf);
+    if (len <= 0)
+      break;
+    for (char *e = buf; e < buf + len;
+         e += sizeof(struct inotify_event) + ((struct inotify_event *)e)->len)
+      if (((struct inotify_event *)e)->mask & IN_OPEN)
+        n++;
+  }
+  return n;
+}
+
 void pty_close(pty_t *p)
 {
   if (p->link) {
@@ -104,6 +133,9 @@ void pty_close(pty_t *p)
   if (p->master >= 0)
     close(p->master);
   p->master = -1;
+  if (p->opens >= 0)
+    close(p->opens);
+  p->opens = -1;
 }
 
 /* ---- synthetic IMU ---------------------------------------------------- */

@@ -13,6 +13,7 @@
 
 typedef struct {
   int master;            /* non-blocking; the device's side */
+  int opens;             /* inotify on the slave (pty_opened), or -1 */
   char slave[128];       /* what a terminal opens, e.g. /dev/pts/7 */
   char *link;            /* symlink to slave we made, or NULL */
 } pty_t;
@@ -26,6 +27,11 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen);
 /* Poll the master without waiting: 1 if a terminal has the slave open,
  * 0 if none; *readable set when bytes from the terminal wait. */
 int pty_state(const pty_t *p, int *readable);
+
+/* How many times a terminal opened the slave since the last call (the
+ * first call starts counting; -1 if the system cannot tell).  Unlike
+ * pty_state() it misses no close-and-open between two looks. */
+int pty_opened(pty_t *p);
 
 /* Close the master and remove the symlink if it still points to our slave. */
 void pty_close(pty_t *p);

@@ -27,6 +27,7 @@ static struct {
   uint64_t dropped;           /* bytes the terminal did not read in time */
   uint64_t from_term;         /* bytes read from the terminal */
   uint64_t resyncs;           /* times the host fell behind real time */
+  uint64_t flushed;           /* host bytes lost to a closed line or a reset */
   avr_cycle_count_t slice, next_io, c0;
   struct timespec t0;
 } t = { .pty = { .master = -1 } };
@@ -50,15 +51,44 @@ static void sleep_s(double s)
  * for it: the rest waits in the pty, so a long paste blocks its writer
  * instead of piling up here.  Bytes go to the device paced at the baud
  * rate, honouring the receive FIFO's flow control (tx_push). */
+/* Bytes from a terminal that closed, or sent to an MCU that was reset
+ * meanwhile, never arrive (its UART restarts empty): a next session must
+ * not receive the end of the last one (say, half a page of an upload that
+ * was cut off, which would throw the bootloader out of step). */
+static void drop_host_bytes(void)
+{
+  uint8_t buf[256];
+  t.flushed += g.txq_len;
+  g.txq_len = 0;
+  g.txq_head = 0;
+  g.user_line_len = 0;
+  for (;;) {      /* what the closed terminal left in the pty */
+    ssize_t n = read(t.pty.master, buf, sizeof buf);
+    if (n <= 0 && !(n < 0 && errno == EINTR))
+      break;
+    if (n > 0)
+      t.flushed += (uint64_t)n;
+  }
+}
+
 static void term_poll(void)
 {
   int readable;
   int now = pty_state(&t.pty, &readable);
-  if (now != t.connected) {
-    t.connected = now;
+  int opened = g.board ? pty_opened(&t.pty) : 0;
+  if (now != t.connected || opened > 0) {
     if (g.verbose)
       fprintf(stderr, PROG ": t=%.3f s: terminal %s\n", sim_time(),
               now ? "opened" : "closed");
+    if (!now || opened > 0)
+      drop_host_bytes();          /* they went with the last line */
+    /* DTR auto-reset: every open, even a close and open between two
+     * looks (inotify counts them); without inotify, a change seen */
+    if (g.board && (opened > 0 || (opened < 0 && now && !t.connected))) {
+      board_external_reset();
+      now = pty_state(&t.pty, &readable);
+    }
+    t.connected = now;
   }
   while (t.connected && readable && g.txq_len < 64) {
     uint8_t buf[64];
@@ -83,6 +113,8 @@ static void term_poll(void)
 static void term_flush(void)
 {
   size_t off = 0;
+  if (g.out && t.olen)
+    fflush(g.out);    /* -o: a copy others may read while the device runs */
   while (off < t.olen) {
     if (!t.connected) {
       t.unheard += t.olen - off;
@@ -178,6 +210,51 @@ static void on_stop_signal(int sig)
 
 /* Terminal mode: the device runs until a signal (or a crash); the user
  * drives it from the terminal.  Returns the last avr_run() state. */
+/* After any reset simavr has dropped the cycle timers (and newer simavr
+ * versions restart the cycle count from 0; 1.6 goes on counting): the
+ * harness re-arms its timers, and re-bases the real-time comparison if
+ * the count went back. */
+static void term_after_reset(void)
+{
+  avr_t *avr = g.avr;
+  g.reset_seen = 0;
+  g.tx_busy = 0;
+  g.tx_free_at = 0;
+  g.xoff = 0;
+  t.flushed += g.txq_len;     /* bytes on the wire during the reset */
+  g.txq_len = 0;
+  g.txq_head = 0;
+  g.user_line_len = 0;
+  if (avr->cycle < t.c0) {
+    clock_gettime(CLOCK_MONOTONIC, &t.t0);
+    t.c0 = avr->cycle;
+  }
+  t.next_io = avr->cycle + t.slice;
+  if (!g.fast)
+    avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
+  tx_kick();
+}
+
+/* Board mode: a chip does not stop on an opcode simavr cannot run (a
+ * half-written firmware, say); it goes astray until it is reset.  The board
+ * waits for a reset (the port opened) and runs on. */
+static int term_stuck(void)
+{
+  avr_t *avr = g.avr;
+  warn("t=%.3f s: the firmware crashed (PC 0x%04x)%s%s; the board is stuck "
+       "until it is reset (open the port)", sim_time(), (unsigned)avr->pc,
+       g.last_error[0] ? ": " : "", g.last_error);
+  while (!stop_signal && avr->state != cpu_Running) {
+    sleep_s(0.001);
+    term_flush();
+    term_poll();
+    board_poll();
+  }
+  if (g.reset_seen)
+    term_after_reset();
+  return avr->state;
+}
+
 int term_run(void)
 {
   avr_t *avr = g.avr;
@@ -212,17 +289,29 @@ int term_run(void)
   t.next_io = avr->cycle + t.slice;
   if (!g.fast)
     avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
+  g.reset_seen = 0;
   term_poll();
+  if (g.reset_seen)
+    term_after_reset();
+  unsigned slices = 0;
   while (!stop_signal && !g.fail) {
     st = avr_run(avr);
+    if (g.board && (st == cpu_Crashed || st == cpu_Stopped))
+      st = term_stuck();
     if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
       break;
     watch_sp();
+    if (g.reset_seen)
+      term_after_reset();
     if (avr->cycle < t.next_io)
       continue;
     t.next_io = avr->cycle + t.slice;
     term_flush();
     term_poll();
+    if (g.reset_seen)
+      term_after_reset();
+    if (g.board && ++slices % 50 == 0)
+      board_poll();           /* every 50 ms (250 ms with --fast) */
     if (!g.fast)
       term_pace();
   }
@@ -242,6 +331,9 @@ void term_open(void)
   if (r)
     die(r == -2 ? EXIT_INPUT : EXIT_FAIL, "%s", err);
   atexit(term_cleanup);     /* the link goes, however imu-sim ends */
+  if (g.board && pty_opened(&t.pty) < 0)     /* start counting opens */
+    warn("no inotify on %s: a close and open faster than a millisecond "
+         "may not reset the board", t.pty.slave);
 }
 
 void term_started(struct timespec *t0)
@@ -251,6 +343,9 @@ void term_started(struct timespec *t0)
 
 void term_summary(int st)
 {
+  if (g.verbose && t.flushed)
+    fprintf(stderr, PROG ": %llu bytes from the terminal were lost to a reset "
+            "or a closed line\n", (unsigned long long)t.flushed);
   if (t.dropped)
     warn("%llu device bytes were lost: the terminal did not read them",
          (unsigned long long)t.dropped);
