@@ -4,12 +4,14 @@ No domain logic lives here; the parser and every --help text are in cliargs.py."
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import os
 import sys
-from typing import Any, BinaryIO, Optional
+from typing import BinaryIO, Iterator, Optional
 
 from .channels import CHANNELS
-from .cliargs import build_parser
+from .cliargs import EXIT_LOST, build_parser
 from .errors import InputError
 
 
@@ -77,14 +79,10 @@ def cmd_gen(args: argparse.Namespace) -> int:
                          profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
     head = (f"# {params.command()}\n"
             f"# columns: {' '.join(params.channels)} (10-bit ADC codes), {params.fs_hz:g} Hz\n")
-    f = _open_output(args.output)
-    try:
+    with _output(args.output) as f:
         f.write(head.encode())
         for block in generate(params):
             f.write(format_rows(block))
-    finally:
-        if f is not sys.stdout.buffer:
-            f.close()
     if args.json_params:
         _write_text(args.json_params, params.to_json())
     return 0
@@ -105,8 +103,7 @@ def cmd_rows(args: argparse.Namespace) -> int:
     dec = StreamDecoder()
     written = frames = 0
     blocks = read_blocks(args.log)
-    dst = _open_output(args.output)
-    try:
+    with _output(args.output) as dst:
         dst.write(f"# imu-allan rows {name}\n"
                   f"# columns: ax ay az gx gy gz temp (10-bit ADC codes)\n".encode())
         for chunk in decode_chunks(blocks, dec):
@@ -114,11 +111,6 @@ def cmd_rows(args: argparse.Namespace) -> int:
                 dst.write(format_rows(chunk.samples))
                 written += chunk.samples.shape[1]
                 frames += int(chunk.from_frame.sum())
-    except OSError as exc:
-        raise InputError(f"cannot write '{args.output}': {exc.strerror or exc}") from None
-    finally:
-        if dst is not sys.stdout.buffer:
-            dst.close()
     c = dec.counts
     if written == 0:
         print(f"imu-allan rows: no raw rows or binary frames in '{name}' "
@@ -128,7 +120,7 @@ def cmd_rows(args: argparse.Namespace) -> int:
           f"rows, {frames} from binary frames); bad rows {c['bad_rows']}, rows lost "
           f"{c['rows_lost']} (count lines), frames lost {c['frames_lost']}, "
           f"bad frames {c['bad_frames']}", file=sys.stderr)
-    return 1 if any(c[k] for k in LOSS_KEYS) else 0
+    return EXIT_LOST if any(c[k] for k in LOSS_KEYS) else 0
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
@@ -197,13 +189,23 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 # ---- output files ----------------------------------------------------------------------
 
 
-def _open_output(path: str) -> BinaryIO:
-    if path == "-":
-        return sys.stdout.buffer
+@contextlib.contextmanager
+def _output(path: str) -> Iterator[BinaryIO]:
+    """A binary output file (``-``: stdout); any error writing or closing it
+    is one line naming it (exit 2)."""
+    where = "stdout" if path == "-" else f"'{path}'"
     try:
-        return open(path, "wb")
+        f = sys.stdout.buffer if path == "-" else open(path, "wb")
     except OSError as exc:
-        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+        raise InputError(f"cannot write {where}: {exc.strerror or exc}") from None
+    try:
+        with contextlib.ExitStack() as stack:
+            if f is not sys.stdout.buffer:
+                stack.enter_context(f)
+            yield f
+            f.flush()
+    except OSError as exc:
+        raise InputError(f"cannot write {where}: {exc.strerror or exc}") from None
 
 
 def _write_text(path: str, text: str) -> str:
@@ -220,23 +222,57 @@ COMMANDS = {"analyze": cmd_analyze, "decode": cmd_decode, "reference": cmd_refer
             "cmd": cmd_cmd}
 
 
+class _ClosedStream:
+    """Stands for a stdout the caller closed (``>&-``): writing to it fails
+    like writing to a closed descriptor, so the error path is the same."""
+
+    def __getattr__(self, name: str) -> object:
+        if name in ("write", "flush", "writelines"):
+            raise OSError(errno.EBADF, "stdout is closed")
+        if name == "buffer":
+            return self
+        raise AttributeError(name)
+
+
 def main(argv: Optional[list[str]] = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
+    if sys.stdout is None:
+        sys.stdout = _ClosedStream()  # type: ignore[assignment]
     try:
-        return COMMANDS[args.command](args)
+        rc = COMMANDS[args.command](args)
+        sys.stdout.flush()
+        return rc
     except InputError as exc:
+        if isinstance(sys.stdout, _ClosedStream):
+            sys.stdout = None  # type: ignore[assignment]  # nothing left for the final flush
         print(f"imu-allan {args.command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130
-    except BrokenPipeError:
+    except OSError as exc:  # stdout full, closed, or its reader gone: one line, exit 2
+        if not isinstance(exc, BrokenPipeError) and exc.errno not in (errno.EPIPE, errno.EBADF,
+                                                                       errno.ENOSPC, errno.EIO):
+            raise
+        _quiet_stdout()
+        print(f"imu-allan {args.command}: cannot write stdout: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+
+
+def _quiet_stdout() -> None:
+    """Point a failed stdout at /dev/null so that the interpreter's own final
+    flush does not print a second error."""
+    if isinstance(sys.stdout, _ClosedStream):
+        sys.stdout = None  # type: ignore[assignment]
+        return
+    try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-        return 1
+    except (OSError, AttributeError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

@@ -8,7 +8,10 @@ from typing import Any, NoReturn
 from . import __version__
 from .channels import CHANNELS
 
-EPILOG_EXIT = "exit status: 0 success, 1 {one}, 2 usage or input error (one line on stderr)"
+EXIT_LOST = 3
+"""Exit status of a command that did its work but found data lost on the way."""
+EPILOG_EXIT = ("exit status: 0 success, 1 {one}, 2 usage, input or output error (one line on "
+               "stderr)")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -153,7 +156,7 @@ def _add_reference(sub: Any) -> None:
             "Rows file (thesis format): one sample set per line, 7 integer codes\n"
             "0..1023 separated by tabs or spaces: ax ay az gx gy gz temp.\n"
             "'#' starts a comment; blank lines are ignored."),
-        epilog="exit status: 0 success, 2 usage or input error (one line on stderr)")
+        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)")
     p.add_argument("file", metavar="FILE", help="rows file, or - for stdin")
     p.add_argument("--fs", type=_fs, required=True, metavar="HZ", help="sample rate of the rows, Hz")
     p.add_argument("--levels", type=_levels, default=15, metavar="L",
@@ -205,7 +208,7 @@ def _add_gen(sub: Any) -> None:
             "  clip    mid-scale with white noise of 400 counts: hits 0 and 1023 often\n"
             "  square  full-scale square waves 0/1023, half period 1, 2, 4 .. 32\n"
             "          samples for ax .. gz (noise parameters unused)"),
-        epilog="exit status: 0 success, 2 usage or input error")
+        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)")
     p.add_argument("-n", type=_count, default=100_000, metavar="N", help="rows (default 100000)")
     p.add_argument("--fs", type=_fs, default=100, metavar="HZ", help="sample rate, Hz (default 100)")
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S", help="random seed (default 1)")
@@ -257,8 +260,9 @@ def _add_rows(sub: Any) -> None:
             "lines that are not valid rows), rows lost (per count lines), frames\n"
             "lost (per sequence numbers) and bad frames (CRC failed). Damaged data\n"
             "is never written: what cannot be checked is left out."),
-        epilog=EPILOG_EXIT.format(one="rows or frames were lost or bad, or none were found "
-                                      "(the file is still written)"))
+        epilog=EPILOG_EXIT.format(one="no rows or frames were found")
+        + f", {EXIT_LOST} written, but rows or frames were lost or bad on the way (the summary "
+          "line says how many)")
     p.add_argument("log", metavar="LOG", help="capture file, or - for stdin")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="rows file to write (- for stdout)")
@@ -366,7 +370,7 @@ def _add_analyze(sub: Any) -> None:
             "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
             "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
             "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
-            "exit status: 0 success, 2 usage or input error (one line on stderr)"))
+            "exit status: 0 success, 2 usage, input or output error (one line on stderr)"))
     p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
     p.add_argument("--fs", type=_fs, metavar="HZ",
                    help="sample rate, Hz: required for rows files and CSV without a time column "
