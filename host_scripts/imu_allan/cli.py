@@ -22,8 +22,8 @@ def cmd_decode(args: argparse.Namespace) -> int:
     res = decode_bytes(read_all(args.log))
     if not res.reports:
         lost = ", ".join(f"{k} {v}" for k, v in res.errors.items() if v) or "the log is empty"
-        print(f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})",
-              file=sys.stderr)
+        print(f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})"
+              + _refused(res.refused), file=sys.stderr)
         return 1
     docs = [render.report_doc(r) for r in (res.reports if args.all else res.reports[-1:])]
     if args.json:
@@ -37,6 +37,10 @@ def cmd_decode(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(render.decode_text(docs, len(res.reports), args.log, args.all, res.errors))
     return 0
+
+
+def _refused(reasons: list[str]) -> str:
+    return f"; refused: {reasons[-1]}" if reasons else ""
 
 
 def cmd_reference(args: argparse.Namespace) -> int:
@@ -64,7 +68,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         raise InputError("LOG and FILE cannot both be stdin")
     res = decode_bytes(read_all(args.log))
     if not res.reports:
-        print(f"imu-allan check: no complete report in '{args.log}'", file=sys.stderr)
+        print(f"imu-allan check: no complete report in '{args.log}'" + _refused(res.refused),
+              file=sys.stderr)
         return 1
     rep = res.reports[-1]
     result = check_report(rep, args.file, args.fs)

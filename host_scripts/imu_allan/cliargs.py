@@ -7,6 +7,7 @@ from typing import Any, NoReturn
 
 from . import __version__
 from .channels import CHANNELS
+from .device.records import RATES_HZ
 
 EXIT_LOST = 3
 """Exit status of a command that did its work but found data lost on the way."""
@@ -34,6 +35,16 @@ def _positive_float(text: str, unit: str) -> float:
 def _fs(text: str) -> float | int:
     v = _positive_float(text, "Hz")
     return int(v) if v.is_integer() else v
+
+
+def _device_rate(text: str) -> int:
+    """A rate the device accepts, written in decimal (``0250`` is 250, not octal)."""
+    t = text.strip()
+    v = int(t) if t.isdigit() and t.isascii() else None
+    if v not in RATES_HZ:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a rate of the device "
+                                         f"({', '.join(map(str, RATES_HZ))} Hz)")
+    return v
 
 
 def _positive_int(text: str) -> int:
@@ -232,7 +243,8 @@ def _add_sim(sub: Any) -> None:
             "checkout, else imu-sim on PATH. Its exit status is returned."),
         epilog="then: imu-allan decode LOG, imu-allan check LOG FILE")
     p.add_argument("--adc", required=True, metavar="FILE", help="rows file the ADC reads")
-    p.add_argument("--fs", metavar="HZ", help="sample rate to set on the device, Hz")
+    p.add_argument("--fs", type=_device_rate, metavar="HZ",
+                   help=f"sample rate to set on the device, Hz: one of {', '.join(map(str, RATES_HZ))}")
     p.add_argument("--uart-in", metavar="FILE", help="commands to send to the device")
     p.add_argument("--firmware", metavar="ELF",
                    help="firmware ELF (default build/avr-atmega168/imu-allan.elf)")

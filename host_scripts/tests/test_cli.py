@@ -174,3 +174,17 @@ def test_rows_tells_lost_from_failed(tmp_path: Path, run_cli) -> None:
     (tmp_path / "none.log").write_bytes(b"nothing here\n")
     rc, _, err = run_cli("rows", tmp_path / "none.log", "-o", tmp_path / "r.txt")
     assert rc == 1 and "no raw rows or binary frames" in err
+
+
+@pytest.mark.parametrize("text,want", [("250", 250), ("0250", 250), ("1000", 1000), ("50", 50)])
+def test_sim_rate_is_one_of_the_device_rates(text: str, want: int) -> None:
+    from imu_allan.cliargs import build_parser
+    args = build_parser().parse_args(["sim", "--adc", "x.txt", "--fs", text, "-o", "y.log"])
+    assert args.fs == want  # decimal, never octal
+
+
+@pytest.mark.parametrize("text", ["0", "4294967396", "4294967346", "99", "1e2", "-100", "250.0", "abc"])
+def test_sim_refuses_other_rates(text: str, run_cli) -> None:
+    rc, out, err = run_cli("sim", "--adc", "x.txt", "--fs", text, "-o", "y.log")
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert f"{text!r} is not a rate of the device (50, 100, 200, 250, 500, 1000 Hz)" in err
