@@ -248,6 +248,9 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         raise InputError("nothing to analyze")
     tau = main.ms / fs
     var = main.var * k2
+    if host is not None and not np.any(main.var > 0):
+        notes.append(f"{ch} is constant (the same code in every sample): Allan deviation 0 at every "
+                     "tau, no noise term to fit (a stuck or disconnected sensor?)")
     efn = edf.edf_function(main.ms, main.N, main.stride)
     fit = terms.fit_terms(tau, var, efn, mask=mask, overlapping=overlapping)
     out: dict[str, Any] = {

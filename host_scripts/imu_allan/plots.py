@@ -75,8 +75,11 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
         dev = np.array([p["dev"] for p in pts])
         lo = np.array([p["low"] for p in pts])
         hi = np.array([p["high"] for p in pts])
-        flagged = np.array([bool(p.get("flags")) for p in pts])
+        flagged = np.array([bool(p.get("flags")) for p in pts], dtype=bool)
         ok = ~flagged
+        if not pts:  # a constant (stuck) channel: nothing to draw on log axes
+            _empty(ax, ch, "constant channel:\nAllan deviation 0 at every tau")
+            continue
         ax.fill_between(tau[ok], lo[ok], hi[ok], color="0.85", label="95 % interval")
         ax.loglog(tau[ok], dev[ok], "o-", color="k", ms=3.5, lw=1, label=stat)
         if flagged.any():
@@ -118,6 +121,13 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
     fig.suptitle(f"{group}: {os.path.basename(src['file'])}, {src['n']} samples at {src['fs_hz']:g} Hz")
     fig.tight_layout()
     return _save(plt, fig, os.path.join(directory, f"adev_{group}.png"))
+
+
+def _empty(ax: Any, ch: str, why: str) -> None:
+    ax.text(0.5, 0.5, why, ha="center", va="center", transform=ax.transAxes)
+    ax.set_title(ch)
+    ax.set_xticks([])
+    ax.set_yticks([])
 
 
 def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], directory: str) -> str:

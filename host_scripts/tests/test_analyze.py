@@ -266,3 +266,21 @@ def test_kalibr_needs_physical_units(run_cli, files) -> None:
                            "--kalibr", files["dir"] / "k.yaml")
     assert rc == 2 and err == ("imu-allan analyze: --kalibr needs channels in physical units: use the "
                                "thesis profile or --scale\n")
+
+
+def test_a_constant_channel_is_analyzed_and_plotted_with_a_note(tmp_path: Path, run_cli) -> None:
+    """A stuck gyro (issue 10: TypeError in the plot): the others are analyzed,
+    the figure is written, and a note says why gx has no terms."""
+    rng = np.random.default_rng(1)
+    codes = np.clip(np.rint(rng.normal(500, 2, (20000, 7))), 0, 1023).astype(int)
+    codes[:, 3] = 512
+    rows = tmp_path / "stuck.txt"
+    np.savetxt(rows, codes, fmt="%d", delimiter="\t")
+    rc, out, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--json", "--plot", tmp_path / "figs")
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert any(n.startswith("gx is constant") for n in doc["notes"])
+    assert all(p["dev"] is None for p in doc["channels"]["gx"]["curve"])
+    assert doc["channels"]["gy"]["terms"]["N"] is not None
+    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
+        "adev_accelerometer.png", "adev_gyroscope.png", "psd_accelerometer.png", "psd_gyroscope.png"]
