@@ -50,6 +50,8 @@ def cmd_reference(args: argparse.Namespace) -> int:
     cascade = OctaveCascade(args.levels, len(CHANNELS))
     for block in iter_blocks(args.file):
         cascade.push(block[: len(CHANNELS)])
+    if cascade.n == 0:
+        raise InputError(f"'{args.file}' holds no rows (a rows file has 7 integer codes per line)")
     doc = render.reference_doc(cascade, args.file, args.fs)
     if args.json:
         sys.stdout.write(render.to_json({**doc, "errors": {}}))

@@ -188,8 +188,12 @@ def _text(path: str, name: str, head: bytes, size: int) -> Source:
     fields = line.replace(",", " ").replace(";", " ").split()
     if len(fields) == 7 and all(re.fullmatch(r"\d+", f) for f in fields):
         return Source(name, SampleSource(
-            "rows", name, list(CHANNELS), lambda: (b[:len(CHANNELS)] for b in iter_blocks(path)),
+            "rows", name, list(CHANNELS), lambda: (b[:len(CHANNELS)] for b in iter_blocks(path, name=name)),
             True, n_hint=max(size // 26, 1), size_bytes=size), None)
+    if len(fields) == 7 and all(re.fullmatch(r"[-+]?\d+(\.\d*)?", f) for f in fields):
+        bad = next(f for f in fields if not re.fullmatch(r"\d+", f))
+        raise InputError(f"'{name}': line {lineno}: {bad!r} is not a 10-bit ADC code (a rows file "
+                         "has 7 integer codes 0..1023: ax ay az gx gy gz temp)")
     raise InputError(f"'{name}': line {lineno} has {len(fields)} numeric columns and no header: "
                      "a rows file has 7 integer codes (ax ay az gx gy gz temp); for other data "
                      "add a first line naming the columns, e.g. 't,ax,ay,az,gx,gy,gz'")
@@ -265,6 +269,8 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
     # first rows: are the values integer codes? a time column gives fs
     first = next(_csv_blocks(path, name, lineno, delim, use, time_col, len(cols), max_bytes=SNIFF_BYTES,
                              with_time=True), None)
+    if first is None or not first[0].size:
+        raise InputError(f"'{name}': line {lineno} is a header, and no data row follows it")
     if first is not None:
         vals, t = first
         src.integer = bool(vals.size) and bool(np.all(vals == np.rint(vals))) and bool(

@@ -188,3 +188,26 @@ def test_sim_refuses_other_rates(text: str, run_cli) -> None:
     rc, out, err = run_cli("sim", "--adc", "x.txt", "--fs", text, "-o", "y.log")
     assert rc == 2 and out == "" and err.count("\n") == 1
     assert f"{text!r} is not a rate of the device (50, 100, 200, 250, 500, 1000 Hz)" in err
+
+
+@pytest.mark.parametrize("content,argv,message", [
+    (b"", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
+    (b"# only a comment\n", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
+    (b"t,ax,ay,az,gx,gy,gz\n", ("analyze", "{f}"), "'{f}': line 1 is a header, and no data row follows it"),
+    (b"-1\t2\t3\t4\t5\t6\t7\n1\t2\t3\t4\t5\t6\t7\n", ("analyze", "{f}", "--fs", "100"),
+     "'{f}': line 1: '-1' is not a 10-bit ADC code"),
+])
+def test_messages_name_the_real_cause(content: bytes, argv: tuple, message: str, tmp_path: Path,
+                                      run_cli) -> None:
+    f = tmp_path / "in.txt"
+    f.write_bytes(content)
+    rc, out, err = run_cli(*(a.format(f=f) for a in argv))
+    assert rc == 2 and out == "" and err.count("\n") == 1 and message.format(f=f) in err, err
+
+
+def test_stdin_is_named_stdin(monkeypatch, run_cli) -> None:
+    import io
+    data = b"1\t2\t3\t4\t5\t6\t7\n" * 10 + b"1\t2\t3\t4\t5\t6\n"
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
+    rc, _, err = run_cli("analyze", "-", "--fs", "100")
+    assert rc == 2 and err == "imu-allan analyze: <stdin>: line 11: 6 columns, expected 7 (ax ay az gx gy gz temp)\n"
