@@ -126,7 +126,8 @@ def cmd_rows(args: argparse.Namespace) -> int:
     print(f"imu-allan rows: {written} rows written to {args.output} ({written - frames} from raw "
           f"rows, {frames} from binary frames); bad rows {c['bad_rows']}, rows lost "
           f"{c['rows_lost']} (count lines), frames lost {c['frames_lost']}, "
-          f"bad frames {c['bad_frames']}", file=sys.stderr)
+          f"bad frames {c['bad_frames']}, device drops {c['device_drops']} (sample sets the "
+          "device itself lost, per its count lines)", file=sys.stderr)
     return EXIT_LOST if any(c[k] for k in LOSS_KEYS) else 0
 
 

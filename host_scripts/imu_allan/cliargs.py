@@ -270,7 +270,8 @@ def _add_rows(sub: Any) -> None:
             "numbers tell how many frames were. Replies and reports in between are\n"
             "skipped. A summary line goes to stderr: rows written, bad rows (whole\n"
             "lines that are not valid rows), rows lost (per count lines), frames\n"
-            "lost (per sequence numbers) and bad frames (CRC failed). Damaged data\n"
+            "lost (per sequence numbers), bad frames (CRC failed) and the sample\n"
+            "sets the device itself lost (drops, per its count lines). Damaged data\n"
             "is never written: what cannot be checked is left out."),
         epilog=EPILOG_EXIT.format(one="no rows or frames were found")
         + f", {EXIT_LOST} written, but rows or frames were lost or bad on the way (the summary "

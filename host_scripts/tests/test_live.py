@@ -254,3 +254,17 @@ def test_cmd_port_lost(device, run_cli) -> None:
     dev = device(hold=0.3)  # never answers, then goes away
     rc, out, err = run_cli("cmd", "--port", dev.path, "--timeout", "5", "status")
     assert rc == 1 and out == "" and err.count("\n") == 1 and "connection lost" in err
+
+
+def test_rows_says_the_drops_of_the_count_lines(tmp_path: Path, run_cli) -> None:
+    """issue 9: count lines said drops=5 while rows printed 'rows lost 0'."""
+    rows = [b"%d\t1\t2\t3\t4\t5\t6\r\n" % i for i in range(300)]
+    cap = tmp_path / "cap.log"
+    cap.write_bytes(line("ok mode=raw") + b"".join(rows[:100]) + line("C,100,2")
+                    + b"".join(rows[100:200]) + line("C,200,5") + line("ok reset")
+                    + b"".join(rows[200:300]) + line("C,100,1"))
+    rc, _, err = run_cli("rows", cap, "-o", tmp_path / "r.txt")
+    assert rc == 3 and "rows lost 0" in err and "device drops 6" in err, err  # 5 in the first run, 1 after
+    rc, out, err = run_cli("analyze", cap, "--fs", "100", "--no-model", "--json")
+    assert rc == 0, err
+    assert any("device_drops 6" in n for n in json.loads(out)["notes"])

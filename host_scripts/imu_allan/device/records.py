@@ -244,11 +244,18 @@ def parse_row(fields: list[str]) -> LRow:
     return LRow(ch, _uint(level, "level", 31), _uint(pairs, "pairs"), int(acc, 16), int(flags, 16))
 
 
-def parse_count(fields: list[str]) -> int:
-    """``C,<rows>[,...]`` (fields after ``C``) -> rows. Further fields are ignored."""
+def parse_count(fields: list[str]) -> tuple[int, Optional[int]]:
+    """``C,<rows>[,<drops>[,...]]`` (fields after ``C``) -> (rows, drops or None).
+    Further fields are ignored."""
     if not fields:
         raise BodyError("C record without a count")
-    return _uint(fields[0], "rows")
+    drops = _uint(fields[1], "drops") if len(fields) > 1 and fields[1] else None
+    return _uint(fields[0], "rows"), drops
+
+
+def resets_run(body: str) -> bool:
+    """A boot or a reply whose word ``reset`` says a new run began (drops count from 0)."""
+    return body.startswith("B,") or body == "B" or (body.startswith("ok ") and "reset" in body[3:].split())
 
 
 _ERROR_REPLY = re.compile(r"error:\d+( |$)")
