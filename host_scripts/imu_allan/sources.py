@@ -125,6 +125,33 @@ CAPTURE_BLOCK = 1 << 20
 """Samples handed to the statistics at a time from a capture in memory."""
 
 
+def _one_setting(name: str, cap: Capture) -> None:
+    """Samples taken at two rates or ranges are not one series: refuse them
+    (the headers, and replies such as ``ok reset rate=250`` or ``ok status
+    ... fs=100 range=1.5``, say what the device was set to, in order)."""
+    rates: list[float] = []
+    ranges: list[str] = []
+    said = [("H", r.header.fs_hz, r.header.range_g) for r in cap.reports]
+    for body in cap.replies:
+        words = dict(w.split("=", 1) for w in body.split()[1:] if "=" in w)
+        said.append(("ok", words.get("rate", words.get("fs")), words.get("range")))
+    for _, rate, rng in said:
+        try:
+            if rate is not None and float(rate) not in rates:
+                rates.append(float(rate))
+        except ValueError:
+            pass
+        if rng is not None and rng not in ranges:
+            ranges.append(rng)
+    if len(rates) > 1:
+        raise InputError(f"'{name}': the sample rate changes midway ({', then '.join(f'{r:g}' for r in rates)}"
+                         " Hz): its samples are not one series; cut the capture at the change and "
+                         "analyze each part at its own rate")
+    if len(ranges) > 1:
+        raise InputError(f"'{name}': the accelerometer range changes midway ({', then '.join(ranges)} g): "
+                         "cut the capture at the change and analyze each part")
+
+
 def _is_capture(head: bytes) -> bool:
     """Intact protocol lines or binary frames in the first bytes."""
     if split_frames(head).bodies:
@@ -141,6 +168,7 @@ def _capture(name: str, cap: Capture) -> Source:
     lost = {k: c[k] for k in LOSS_KEYS if c.get(k)}
     n = cap.samples.shape[1]
     if n >= 2:
+        _one_setting(name, cap)
         codes = cap.samples[:len(CHANNELS)]
         samples = SampleSource("capture", name, list(CHANNELS),
                                lambda: (codes[:, a:a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK)),

@@ -284,3 +284,22 @@ def test_a_constant_channel_is_analyzed_and_plotted_with_a_note(tmp_path: Path, 
     assert doc["channels"]["gy"]["terms"]["N"] is not None
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
         "adev_accelerometer.png", "adev_gyroscope.png", "psd_accelerometer.png", "psd_gyroscope.png"]
+
+
+@pytest.mark.parametrize("change,message", [
+    (line("ok reset rate=250"), "the sample rate changes midway (100, then 250 Hz)"),
+    (line("ok reset range=4"), "the accelerometer range changes midway (1.5, then 4 g)"),
+])
+def test_a_capture_whose_rate_or_range_changes_is_refused(change: bytes, message: str, tmp_path: Path,
+                                                          run_cli) -> None:
+    rows = [raw_row([500 + i % 7, 1, 2, 3, 4, 5, 6]) for i in range(400)]
+    cap = tmp_path / "cap.log"
+    cap.write_bytes(line("ok status run=1 fs=100 mode=raw range=1.5") + b"".join(rows[:200]) + change
+                    + b"".join(rows[200:]))
+    rc, out, err = run_cli("analyze", cap, "--fs", "100")
+    assert rc == 2 and out == "" and err.count("\n") == 1 and message in err, err
+    same = tmp_path / "same.log"  # a reply that restates the same rate is no change
+    same.write_bytes(line("ok status run=1 fs=100 mode=raw range=1.5") + b"".join(rows[:200])
+                     + line("ok rate=100") + b"".join(rows[200:]))
+    rc, _, err = run_cli("analyze", same, "--fs", "100", "--no-model")
+    assert rc == 0, err
