@@ -241,10 +241,34 @@ _ALIASES = {
     "gz": ("gz", "gyrz", "gyr_z", "gyro_z", "gyroz", "g_z", "wz", "w_z", "omega_z", "angular_velocity_z",
            "rate_z", "zgyro", "z_gyro"),
 }
-_TIME = {"t": 1.0, "time": 1.0, "timestamp": 1.0, "time_s": 1.0, "sec": 1.0, "secs": 1.0,
-         "seconds": 1.0, "stamp": 1.0, "ts": 1.0, "time_ns": 1e-9, "timestamp_ns": 1e-9,
-         "time_us": 1e-6, "timestamp_us": 1e-6, "time_ms": 1e-3, "timestamp_ms": 1e-3,
-         "field_header_stamp": 1e-9, "header_stamp": 1e-9, "rosbagtimestamp": 1e-9}
+_TIME: dict[str, Optional[float]] = {
+    "t": None, "time": None, "timestamp": None, "stamp": None, "ts": None,  # unit from magnitude
+    "time_s": 1.0, "sec": 1.0, "secs": 1.0, "seconds": 1.0,
+    "time_ns": 1e-9, "timestamp_ns": 1e-9, "time_us": 1e-6, "timestamp_us": 1e-6,
+    "time_ms": 1e-3, "timestamp_ms": 1e-3,
+    "field_header_stamp": 1e-9, "header_stamp": 1e-9, "rosbagtimestamp": 1e-9}  # ROS: integer ns
+"""Time columns by name, and the factor to seconds (None: read from the values)."""
+FS_RANGE = (0.1, 100e3)
+"""Sample rates a time column may give, Hz; outside, its unit was misread."""
+_UNITS = {"ns": 1e-9, "us": 1e-6, "µs": 1e-6, "ms": 1e-3, "s": 1.0}
+
+
+def time_unit(t: np.ndarray, step: float) -> float:
+    """Seconds per unit of a time column named without a unit (``%time`` of
+    ``rostopic echo -p`` is integer ns): epoch values tell by their size
+    (~1.7e18 ns, 1.7e15 us, 1.7e12 ms, 1.7e9 s); times from 0 by the step,
+    the first unit in s, ms, us, ns that gives 1 Hz .. 10 kHz."""
+    t0 = float(abs(t[0])) if t.size else 0.0
+    for size, factor in ((1e17, 1e-9), (1e14, 1e-6), (1e11, 1e-3)):
+        if t0 >= size:
+            return factor
+    if t0 < 1e8 and step > 0:
+        for factor in (1.0, 1e-3, 1e-6, 1e-9):
+            if 1.0 <= 1.0 / (step * factor) <= 1e4:
+                return factor
+    return 1.0
+
+
 _UNIT_IN_NAME = re.compile(r"[\[(]\s*([^\])]*?)\s*[\])]")
 
 
@@ -270,7 +294,7 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
     delim, cols = _split(header)
     chan_col: dict[str, int] = {}
     units: dict[str, str] = {}
-    time_col, time_factor = None, 1.0
+    time_col, time_factor = None, None
     for i, col in enumerate(cols):
         key, unit = _normalize(col)
         for ch, names in _ALIASES.items():
@@ -283,8 +307,8 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
         else:
             if key in _TIME and time_col is None:
                 time_col, time_factor = i, _TIME[key]
-                if unit in ("ns", "us", "ms", "s"):
-                    time_factor = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[unit]
+                if unit in _UNITS:
+                    time_factor = _UNITS[unit]
     if not chan_col:
         raise InputError(f"'{name}': line {lineno}: no column named like a sensor channel in "
                          f"{header!r} (expected ax ay az gx gy gz, acc_x, gyro_x, ...)")
@@ -304,17 +328,34 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
         src.integer = bool(vals.size) and bool(np.all(vals == np.rint(vals))) and bool(
             np.all((vals >= 0) & (vals <= 1023)))
         if t is not None and t.size >= 3:
-            dt = np.diff(t) * time_factor
-            dt = dt[np.isfinite(dt)]
-            med = float(np.median(dt)) if dt.size else math.nan
-            if med > 0 and math.isfinite(med):
-                src.fs = 1.0 / med
-                jitter = float(np.max(np.abs(dt - med)) / med) if dt.size else 0.0
-                src.notes.append(f"sample rate {src.fs:.6g} Hz from the time column "
-                                 f"(median step {med:.6g} s"
-                                 + (f", steps vary by up to {jitter * 100:.0f} %" if jitter > 0.01 else "")
-                                 + ")")
+            _rate_from_time(src, name, t, time_factor)
     return src
+
+
+def _rate_from_time(src: SampleSource, name: str, t: np.ndarray, factor: Optional[float]) -> None:
+    steps = np.diff(t)
+    steps = steps[np.isfinite(steps)]
+    raw = float(np.median(steps)) if steps.size else math.nan
+    if not (raw > 0 and math.isfinite(raw)):
+        return
+    how = "named" if factor is not None else "read from the values"
+    factor = time_unit(t, raw) if factor is None else factor
+    med = raw * factor
+    fs = 1.0 / med
+    span = float(t[-1] - t[0]) * factor
+    if span > 0 and np.all(np.abs(steps * factor - med) <= 0.01 * med):
+        fs = (t.size - 1) / span  # regular steps: the span, not one step, sets the rate
+        # (epoch ns in float64 are quantized to 256 ns: one step is that coarse, the span is not)
+    if not FS_RANGE[0] <= fs <= FS_RANGE[1]:
+        raise InputError(f"'{name}': the time column gives {fs:.6g} Hz (median step {med:.6g} s, unit "
+                         f"{how}), outside {FS_RANGE[0]:g} Hz .. {FS_RANGE[1]:g} Hz: give its unit in the "
+                         "header (e.g. 'time [ns]') or --fs")
+    src.fs = fs
+    jitter = float(np.max(np.abs(steps * factor - med)) / med)
+    unit = {1e-9: "ns", 1e-6: "us", 1e-3: "ms", 1.0: "s"}.get(factor, f"{factor:g} s")
+    src.notes.append(f"sample rate {fs:.6g} Hz from the time column (in {unit}, {how}; median step "
+                     f"{med:.6g} s" + (f", steps vary by up to {jitter * 100:.0f} %, more than 1 %"
+                                       if jitter > 0.01 else "") + ")")
 
 
 def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], use: list[int],

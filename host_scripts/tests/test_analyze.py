@@ -303,3 +303,39 @@ def test_a_capture_whose_rate_or_range_changes_is_refused(change: bytes, message
                      + line("ok rate=100") + b"".join(rows[200:]))
     rc, _, err = run_cli("analyze", same, "--fs", "100", "--no-model")
     assert rc == 0, err
+
+
+def _csv_with_time(path: Path, head: str, t: np.ndarray) -> Path:
+    x = np.random.default_rng(3).normal(0.0, 0.01, (t.size, 3))
+    with open(path, "w") as f:
+        f.write(head + ",gx [rad/s],gy [rad/s],gz [rad/s]\n")
+        for ti, row in zip(t, x):
+            f.write(f"{ti}," + ",".join(f"{v:.6f}" for v in row) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("head,t", [
+    ("%time", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),          # rostopic echo -p: ns
+    ("field.header.stamp", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),
+    ("time", 5_000_000 * np.arange(3000)),                                         # ns from 0
+    ("timestamp", 5000 * np.arange(3000)),                                         # us from 0
+    ("t", 5 * np.arange(3000)),                                                    # ms from 0
+    ("time", 1_700_000_000.0 + 0.005 * np.arange(3000)),                          # epoch seconds
+    ("time [us]", 5000 * np.arange(3000)),
+    ("time_ms", 5 * np.arange(3000)),
+])
+def test_csv_time_column_in_any_unit(head: str, t: np.ndarray, tmp_path: Path, run_cli) -> None:
+    """issue 9: integer ns, us, ms or s, from the name or the magnitude: 200 Hz every time."""
+    path = _csv_with_time(tmp_path / "imu.csv", head, t)
+    rc, out, err = run_cli("analyze", path, "--no-model", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert doc["source"]["fs_hz"] == pytest.approx(200.0, rel=1e-6)
+    assert any(n.startswith("sample rate 200 Hz from the time column") for n in doc["notes"])
+
+
+def test_csv_time_column_giving_an_absurd_rate_is_refused(tmp_path: Path, run_cli) -> None:
+    path = _csv_with_time(tmp_path / "imu.csv", "time [s]", 1e-7 * np.arange(3000))  # 10 MHz
+    rc, out, err = run_cli("analyze", path, "--no-model")
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert "the time column gives 1e+07 Hz" in err and "outside 0.1 Hz .. 100000 Hz" in err
