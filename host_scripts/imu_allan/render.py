@@ -233,7 +233,8 @@ def text(doc: dict[str, Any]) -> str:
             rng = t["tau_range_s"]
             lines.append(f"{head}{g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['term_units'][k]}"
                          f"  = {g(t['value'] * lf)} [{g(t['low'] * lf)}, {g(t['high'] * lf)}] {lu}"
-                         + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else ""))
+                         + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else "")
+                         + (f"  ({c['term_notes'][k]})" if k in c["term_notes"] else ""))
         bc = c.get("b_classic")
         if bc:
             lu, lf = _lit(c, "B")
@@ -318,7 +319,8 @@ def terms_csv(doc: dict[str, Any]) -> str:
                 rng = t["tau_range_s"] or [None, None]
                 w.writerow([ch, c["unit"], k, NAMES[k], _r(t["value"]), _r(t["low"]), _r(t["high"]),
                             c["term_units"][k], _r(rng[0]), _r(rng[1]), "yes", _r(ub),
-                            _r(t["value"] * lf), _r(t["low"] * lf), _r(t["high"] * lf), lu, ""])
+                            _r(t["value"] * lf), _r(t["low"] * lf), _r(t["high"] * lf), lu,
+                            c["term_notes"].get(k, "")])
     return buf.getvalue()
 
 

@@ -339,3 +339,23 @@ def test_csv_time_column_giving_an_absurd_rate_is_refused(tmp_path: Path, run_cl
     rc, out, err = run_cli("analyze", path, "--no-model")
     assert rc == 2 and out == "" and err.count("\n") == 1
     assert "the time column gives 1e+07 Hz" in err and "outside 0.1 Hz .. 100000 Hz" in err
+
+
+def test_clipped_codes_are_counted_and_the_terms_say_so(tmp_path: Path, run_cli) -> None:
+    """issue 9: codes at 0 or 1023 counted per channel and warned about."""
+    rng = np.random.default_rng(5)
+    codes = np.clip(np.rint(rng.normal(500, 3, (20000, 7))), 0, 1023).astype(int)
+    hits = rng.choice(20000, 37, replace=False)
+    codes[hits, 4] = 1023  # gy clips 37 times
+    codes[hits[:5], 0] = 0  # ax 5 times
+    rows = tmp_path / "clip.txt"
+    np.savetxt(rows, codes, fmt="%d", delimiter="\t")
+    rc, out, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    notes = [n for n in doc["notes"] if " clipped: " in n]
+    assert [n.split(" clipped")[0] for n in notes] == ["ax", "gy"]
+    assert "37 samples at code 0 or 1023 (0.185 % of 20000" in notes[1]
+    gy = doc["channels"]["gy"]
+    assert all("clipped channel (37 samples" in gy["term_notes"][k] for k, t in gy["terms"].items() if t)
+    assert not any("clipped" in v for v in doc["channels"]["gx"]["term_notes"].values())
