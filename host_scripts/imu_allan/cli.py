@@ -141,7 +141,10 @@ def cmd_cmd(args: argparse.Namespace) -> int:
     line = command_line(args.words)
     ser = open_port(args.port, args.baud)
     try:
-        reply = send_command(ser, line, args.timeout)
+        for _ in range(CMD_TRIES):  # error:5: the device lost bytes of the line, it ran nothing
+            reply = send_command(ser, line, args.timeout)
+            if reply is None or not reply.startswith("error:5"):
+                break
     except PortError as exc:
         print(f"imu-allan cmd: {args.port}: connection lost ({exc})", file=sys.stderr)
         return 1
@@ -153,6 +156,10 @@ def cmd_cmd(args: argparse.Namespace) -> int:
         return 1
     print(reply)
     return 0 if reply.startswith("ok") else 1
+
+
+CMD_TRIES = 3
+"""Times ``cmd`` sends a line the device answered ``error:5 input lost``."""
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:

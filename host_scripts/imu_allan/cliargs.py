@@ -321,7 +321,9 @@ def _add_cmd(sub: Any) -> None:
             "stop, start [count], rate <hz>, interval <s>, mode <allan|raw|binary|\n"
             "both>, range <1.5|2|4|6>, save, load, defaults.\n\n"
             "example: imu-allan cmd --port /dev/ttyUSB0 rate 250"),
-        epilog="exit status: 0 reply ok, 1 error reply or no reply in time, 2 usage error "
+        epilog="a line answered 'error:5 input lost' (the device lost some of its bytes and ran "
+               "nothing) is sent again, 3 times in all.\n"
+               "exit status: 0 reply ok, 1 error reply or no reply in time, 2 usage error "
                "or the port cannot be opened")
     p.add_argument("--port", required=True, metavar="PORT", help="serial port, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=_baud, default=115200, metavar="B", help="baud rate (default 115200)")

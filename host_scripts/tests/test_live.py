@@ -268,3 +268,15 @@ def test_rows_says_the_drops_of_the_count_lines(tmp_path: Path, run_cli) -> None
     rc, out, err = run_cli("analyze", cap, "--fs", "100", "--no-model", "--json")
     assert rc == 0, err
     assert any("device_drops 6" in n for n in json.loads(out)["notes"])
+
+
+def test_cmd_sends_again_a_line_whose_bytes_were_lost(device, run_cli) -> None:
+    """issue 10: 'error:5 input lost' means nothing ran: cmd tries again (3 times in all)."""
+    answers = iter([line("error:5 input lost"), line("ok interval=3600")])
+    dev = device(lambda c: next(answers))
+    rc, out, err = run_cli("cmd", "--port", dev.path, "--timeout", "2", "interval", "3600")
+    assert rc == 0 and out == "ok interval=3600\n", err
+    assert dev.commands == ["interval 3600", "interval 3600"]
+    dev2 = device(lambda c: line("error:5 input lost"))
+    rc, out, _ = run_cli("cmd", "--port", dev2.path, "--timeout", "2", "status")
+    assert rc == 1 and out == "error:5 input lost\n" and dev2.commands == ["status"] * 3
