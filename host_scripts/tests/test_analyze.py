@@ -359,3 +359,23 @@ def test_clipped_codes_are_counted_and_the_terms_say_so(tmp_path: Path, run_cli)
     gy = doc["channels"]["gy"]
     assert all("clipped channel (37 samples" in gy["term_notes"][k] for k, t in gy["terms"].items() if t)
     assert not any("clipped" in v for v in doc["channels"]["gx"]["term_notes"].values())
+
+
+def test_a_capture_is_read_once(tmp_path: Path, run_cli, monkeypatch) -> None:
+    """issue 11: a capture was opened to peek, decoded to count, decoded again and
+    read a third time for the PSD; now its bytes are read in one pass."""
+    import builtins
+    rows = [raw_row([500 + (i * 7) % 13, 1, 2, 3 + i % 5, 4, 5, 6]) for i in range(3000)]
+    cap = tmp_path / "cap.log"
+    cap.write_bytes(line("ok mode=raw") + b"".join(rows))
+    opened: list[str] = []
+    real_open = builtins.open
+
+    def counting_open(file, *a, **k):
+        if str(file) == str(cap):
+            opened.append(str(file))
+        return real_open(file, *a, **k)
+    monkeypatch.setattr(builtins, "open", counting_open)
+    rc, out, err = run_cli("analyze", cap, "--fs", "100", "--json", "--memory", "1")
+    assert rc == 0, err
+    assert json.loads(out)["source"]["n"] == 3000 and opened == [str(cap)]
