@@ -139,6 +139,9 @@ def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], dir
             ax.set_visible(False)
             continue
         f = np.array(p["f_hz"])
+        if not np.any(np.array(p["psd"], dtype=float) > 0):  # a constant channel
+            _empty(ax, ch, "constant channel:\nPSD 0 at every frequency")
+            continue
         ax.loglog(f, np.array(p["psd"], dtype=float), color="k", lw=1, label="Welch PSD")
         m = c.get("model")
         if m and m.get("psd"):

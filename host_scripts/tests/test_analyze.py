@@ -268,6 +268,7 @@ def test_kalibr_needs_physical_units(run_cli, files) -> None:
                                "thesis profile or --scale\n")
 
 
+@pytest.mark.filterwarnings("error::UserWarning")  # matplotlib's "cannot be log-scaled" included
 def test_a_constant_channel_is_analyzed_and_plotted_with_a_note(tmp_path: Path, run_cli) -> None:
     """A stuck gyro (issue 10: TypeError in the plot): the others are analyzed,
     the figure is written, and a note says why gx has no terms."""
