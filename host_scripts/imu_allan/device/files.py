@@ -2,6 +2,7 @@
 read error turned into one line naming the file."""
 from __future__ import annotations
 
+import gzip
 import sys
 from pathlib import Path
 from typing import BinaryIO, Iterator, Union
@@ -12,6 +13,7 @@ BLOCK_BYTES = 1 << 23
 """Bytes read at a time: large enough for vectorized decoding, small enough for memory."""
 
 PathLike = Union[str, Path]
+GZIP_MAGIC = b"\x1f\x8b"
 
 
 def input_name(path: PathLike) -> str:
@@ -20,11 +22,17 @@ def input_name(path: PathLike) -> str:
 
 
 def open_input(path: PathLike) -> BinaryIO:
-    """Open ``path`` for binary reading (``-`` is stdin); InputError if it cannot."""
+    """Open ``path`` for binary reading (``-`` is stdin); InputError if it
+    cannot.  A gzip file (by its magic bytes) is read decompressed."""
     if str(path) == "-":
         return sys.stdin.buffer
     try:
-        return open(path, "rb")
+        f = open(path, "rb")
+        if f.read(2) == GZIP_MAGIC:
+            f.seek(0)
+            return gzip.GzipFile(fileobj=f, mode="rb")  # type: ignore[return-value]
+        f.seek(0)
+        return f
     except OSError as exc:
         raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
 
@@ -41,14 +49,17 @@ def _blocks(f: BinaryIO, name: str, block_bytes: int) -> Iterator[bytes]:
         while True:
             try:
                 block = f.read(block_bytes)
-            except OSError as exc:
-                raise InputError(f"cannot read '{name}': {exc.strerror or exc}") from None
+            except (OSError, EOFError) as exc:  # gzip: a damaged or cut archive
+                raise InputError(f"cannot read '{name}': {getattr(exc, 'strerror', None) or exc}") from None
             if not block:
                 return
             yield block
     finally:
         if f is not sys.stdin.buffer:
+            inner = f.fileobj if isinstance(f, gzip.GzipFile) else None  # GzipFile leaves it open
             f.close()
+            if inner is not None:
+                inner.close()
 
 
 def read_all(path: PathLike) -> bytes:
