@@ -24,7 +24,7 @@ from typing import Any, Optional
 import numpy as np
 
 from . import __version__
-from .channels import CHANNELS
+from .channels import CHANNELS, CODE_MAX
 from .stats import allan, edf, identify, model, psd, terms
 from .device.records import DeviceReport, flag_names
 from .errors import InputError
@@ -62,6 +62,8 @@ class HostPass:
     psd: tuple[np.ndarray, np.ndarray]
     taus: str
     """The tau grid of the curves: the one asked, or octave when streamed."""
+    clipped: Optional[np.ndarray] = None
+    """Samples at code 0 or 1023 per channel (ADC codes only)."""
 
 
 @dataclass
@@ -157,12 +159,15 @@ def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options
     kept: Optional[list[np.ndarray]] = []
     kept_bytes = 0
     n = 0
+    clipped = np.zeros(C, dtype=np.int64)
     hint = samples.n_hint
     with Progress(f"reading {samples.name}", hint, unit=" samples") as bar:
         for block in samples.open_blocks():
             b = block[sel] if len(sel) != block.shape[0] else block
             eng.push(b)
             n += b.shape[1]
+            if samples.integer:
+                clipped += np.count_nonzero((b == 0) | (b == CODE_MAX), axis=1)
             if kept is not None:
                 kept.append(b)
                 kept_bytes += b.shape[1] * C * 8
@@ -187,7 +192,8 @@ def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options
         welch.push(data)
     if opts.taus != "octave" and data is None:
         notes.append(f"--taus {opts.taus} needs the samples in memory: octave taus used instead")
-    return HostPass(n, res, data, welch.result(), opts.taus if data is not None else "octave")
+    return HostPass(n, res, data, welch.result(), opts.taus if data is not None else "octave",
+                    clipped if samples.integer else None)
 
 
 def _host_curves(host: HostPass, c_i: int, extra: bool = True) -> dict[str, _Curve]:
@@ -252,6 +258,9 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         mask = np.array([not f for f in dev.flags], dtype=bool)
     else:  # pragma: no cover - the source always has one
         raise InputError("nothing to analyze")
+    if host is not None and not np.any(main.var > 0):
+        notes.append(f"{ch} is constant (the same code in every sample): Allan deviation 0 at every "
+                     "tau, no noise term to fit (a stuck or disconnected sensor?)")
     efn = edf.edf_function(fitc.ms, fitc.N, fitc.stride)
     fit = identify.identify(fitc.ms / fs, fitc.var * k2, efn, mask=mask, overlapping=overlapping)
     used = np.isin(main.ms, fitc.ms[fit.used])
@@ -261,7 +270,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         "scale_per_count": sc.per_count,
         "term_units": {k: term_unit(sc, k) for k in terms.TERMS},
         "terms": {k: _term_json(t) for k, t in fit.terms.items()},
-        "term_notes": {k: t.note for k, t in fit.terms.items() if t.note},
+        "term_notes": _term_notes(fit, _clipping(ch, c_i, host, report, notes)),
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
         "b_classic": _b_classic(fit),
         "fit": {"statistic": stat, "grid": "octave", "chi2_dof": _num(fit.chi2_red),
@@ -297,6 +306,33 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
     fit_curve = [(int(m), float(math.sqrt(v * k2))) for m, v, f in zip(fitc.ms, fitc.var, fl)
                  if math.isfinite(v) and v > 0 and not f]  # FIT%'s grid
     return out, fit, fit_curve
+
+
+def _clipping(ch: str, c_i: int, host: Optional[HostPass], report: Optional[DeviceReport],
+              notes: list[str]) -> Optional[str]:
+    """Samples of ``ch`` at code 0 or 1023 (from the samples, else the device
+    header): a note for the document, and the one its terms carry."""
+    if host is not None and host.clipped is not None:
+        k, n = int(host.clipped[c_i]), host.n
+    elif host is None and report is not None and report.header.clips is not None:
+        k, n = int(report.header.clips[ch]), report.header.n
+    else:
+        return None
+    if k == 0:
+        return None
+    text = (f"{ch} clipped: {k} samples at code 0 or {CODE_MAX} ({100.0 * k / max(n, 1):.3g} % of {n}; "
+            "any clipped sample is reported)")
+    notes.append(text + ": its deviations and terms are biased")
+    return f"clipped channel ({k} samples at code 0 or {CODE_MAX}): biased"
+
+
+def _term_notes(fit: terms.FitResult, clipped: Optional[str]) -> dict[str, str]:
+    out = {k: t.note for k, t in fit.terms.items() if t.note}
+    if clipped:
+        for k, t in fit.terms.items():
+            if t.value is not None:
+                out[k] = f"{out[k]}; {clipped}" if k in out else clipped
+    return out
 
 
 def _term_json(t: terms.Term) -> Optional[dict[str, Any]]:

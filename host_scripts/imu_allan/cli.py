@@ -4,13 +4,15 @@ No domain logic lives here; the parser and every --help text are in cliargs.py."
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import os
 import sys
-from typing import Any, BinaryIO, Optional
+from typing import BinaryIO, Iterator, Optional
 
 from .channels import CHANNELS
 from .cli_thesis import add_subcommands
-from .cliargs import build_parser
+from .cliargs import EXIT_LOST, build_parser
 from .errors import InputError
 
 
@@ -21,8 +23,8 @@ def cmd_decode(args: argparse.Namespace) -> int:
     res = decode_bytes(read_all(args.log))
     if not res.reports:
         lost = ", ".join(f"{k} {v}" for k, v in res.errors.items() if v) or "the log is empty"
-        print(f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})",
-              file=sys.stderr)
+        print(f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})"
+              + _refused(res.refused), file=sys.stderr)
         return 1
     docs = [render.report_doc(r) for r in (res.reports if args.all else res.reports[-1:])]
     if args.json:
@@ -38,6 +40,10 @@ def cmd_decode(args: argparse.Namespace) -> int:
     return 0
 
 
+def _refused(reasons: list[str]) -> str:
+    return f"; refused: {reasons[-1]}" if reasons else ""
+
+
 def cmd_reference(args: argparse.Namespace) -> int:
     from . import render
     from .device.rows import iter_blocks
@@ -45,6 +51,8 @@ def cmd_reference(args: argparse.Namespace) -> int:
     cascade = OctaveCascade(args.levels, len(CHANNELS))
     for block in iter_blocks(args.file):
         cascade.push(block[: len(CHANNELS)])
+    if cascade.n == 0:
+        raise InputError(f"'{args.file}' holds no rows (a rows file has 7 integer codes per line)")
     doc = render.reference_doc(cascade, args.file, args.fs)
     if args.json:
         sys.stdout.write(render.to_json({**doc, "errors": {}}))
@@ -63,7 +71,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         raise InputError("LOG and FILE cannot both be stdin")
     res = decode_bytes(read_all(args.log))
     if not res.reports:
-        print(f"imu-allan check: no complete report in '{args.log}'", file=sys.stderr)
+        print(f"imu-allan check: no complete report in '{args.log}'" + _refused(res.refused),
+              file=sys.stderr)
         return 1
     rep = res.reports[-1]
     result = check_report(rep, args.file, args.fs)
@@ -81,14 +90,10 @@ def cmd_gen(args: argparse.Namespace) -> int:
                          profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
     head = (f"# {params.command()}\n"
             f"# columns: {' '.join(params.channels)} (10-bit ADC codes), {params.fs_hz:g} Hz\n")
-    f = _open_output(args.output)
-    try:
+    with _output(args.output) as f:
         f.write(head.encode())
         for block in generate(params):
             f.write(format_rows(block))
-    finally:
-        if f is not sys.stdout.buffer:
-            f.close()
     if args.json_params:
         _write_text(args.json_params, params.to_json())
     return 0
@@ -113,8 +118,7 @@ def cmd_rows(args: argparse.Namespace) -> int:
     dec = StreamDecoder()
     written = frames = 0
     blocks = read_blocks(args.log)
-    dst = _open_output(args.output)
-    try:
+    with _output(args.output) as dst:
         dst.write(f"# imu-allan rows {name}\n"
                   f"# columns: ax ay az gx gy gz temp (10-bit ADC codes)\n".encode())
         for chunk in decode_chunks(blocks, dec):
@@ -122,11 +126,6 @@ def cmd_rows(args: argparse.Namespace) -> int:
                 dst.write(format_rows(chunk.samples))
                 written += chunk.samples.shape[1]
                 frames += int(chunk.from_frame.sum())
-    except OSError as exc:
-        raise InputError(f"cannot write '{args.output}': {exc.strerror or exc}") from None
-    finally:
-        if dst is not sys.stdout.buffer:
-            dst.close()
     c = dec.counts
     if written == 0:
         print(f"imu-allan rows: no raw rows or binary frames in '{name}' "
@@ -135,8 +134,9 @@ def cmd_rows(args: argparse.Namespace) -> int:
     print(f"imu-allan rows: {written} rows written to {args.output} ({written - frames} from raw "
           f"rows, {frames} from binary frames); bad rows {c['bad_rows']}, rows lost "
           f"{c['rows_lost']} (count lines), frames lost {c['frames_lost']}, "
-          f"bad frames {c['bad_frames']}", file=sys.stderr)
-    return 1 if any(c[k] for k in LOSS_KEYS) else 0
+          f"bad frames {c['bad_frames']}, device drops {c['device_drops']} (sample sets the "
+          "device itself lost, per its count lines)", file=sys.stderr)
+    return EXIT_LOST if any(c[k] for k in LOSS_KEYS) else 0
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
@@ -149,7 +149,10 @@ def cmd_cmd(args: argparse.Namespace) -> int:
     line = command_line(args.words)
     ser = open_port(args.port, args.baud)
     try:
-        reply = send_command(ser, line, args.timeout)
+        for _ in range(CMD_TRIES):  # error:5: the device lost bytes of the line, it ran nothing
+            reply = send_command(ser, line, args.timeout)
+            if reply is None or not reply.startswith("error:5"):
+                break
     except PortError as exc:
         print(f"imu-allan cmd: {args.port}: connection lost ({exc})", file=sys.stderr)
         return 1
@@ -161,6 +164,10 @@ def cmd_cmd(args: argparse.Namespace) -> int:
         return 1
     print(reply)
     return 0 if reply.startswith("ok") else 1
+
+
+CMD_TRIES = 3
+"""Times ``cmd`` sends a line the device answered ``error:5 input lost``."""
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
@@ -205,13 +212,23 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 # ---- output files ----------------------------------------------------------------------
 
 
-def _open_output(path: str) -> BinaryIO:
-    if path == "-":
-        return sys.stdout.buffer
+@contextlib.contextmanager
+def _output(path: str) -> Iterator[BinaryIO]:
+    """A binary output file (``-``: stdout); any error writing or closing it
+    is one line naming it (exit 2)."""
+    where = "stdout" if path == "-" else f"'{path}'"
     try:
-        return open(path, "wb")
+        f = sys.stdout.buffer if path == "-" else open(path, "wb")
     except OSError as exc:
-        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+        raise InputError(f"cannot write {where}: {exc.strerror or exc}") from None
+    try:
+        with contextlib.ExitStack() as stack:
+            if f is not sys.stdout.buffer:
+                stack.enter_context(f)
+            yield f
+            f.flush()
+    except OSError as exc:
+        raise InputError(f"cannot write {where}: {exc.strerror or exc}") from None
 
 
 def _write_text(path: str, text: str) -> str:
@@ -228,6 +245,18 @@ COMMANDS = {"analyze": cmd_analyze, "decode": cmd_decode, "reference": cmd_refer
             "cmd": cmd_cmd}
 
 
+class _ClosedStream:
+    """Stands for a stdout the caller closed (``>&-``): writing to it fails
+    like writing to a closed descriptor, so the error path is the same."""
+
+    def __getattr__(self, name: str) -> object:
+        if name in ("write", "flush", "writelines"):
+            raise OSError(errno.EBADF, "stdout is closed")
+        if name == "buffer":
+            return self
+        raise AttributeError(name)
+
+
 def main(argv: Optional[list[str]] = None) -> int:
     handlers = dict(COMMANDS)
     parser = build_parser(lambda sub: handlers.update(add_subcommands(sub)))  # sweep, thermal
@@ -235,17 +264,39 @@ def main(argv: Optional[list[str]] = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
+    if sys.stdout is None:
+        sys.stdout = _ClosedStream()  # type: ignore[assignment]
     try:
-        return handlers[args.command](args)
+        rc = handlers[args.command](args)
+        sys.stdout.flush()
+        return rc
     except InputError as exc:
+        if isinstance(sys.stdout, _ClosedStream):
+            sys.stdout = None  # type: ignore[assignment]  # nothing left for the final flush
         print(f"imu-allan {args.command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 130
-    except BrokenPipeError:
+    except OSError as exc:  # stdout full, closed, or its reader gone: one line, exit 2
+        if not isinstance(exc, BrokenPipeError) and exc.errno not in (errno.EPIPE, errno.EBADF,
+                                                                       errno.ENOSPC, errno.EIO):
+            raise
+        _quiet_stdout()
+        print(f"imu-allan {args.command}: cannot write stdout: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+
+
+def _quiet_stdout() -> None:
+    """Point a failed stdout at /dev/null so that the interpreter's own final
+    flush does not print a second error."""
+    if isinstance(sys.stdout, _ClosedStream):
+        sys.stdout = None  # type: ignore[assignment]
+        return
+    try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-        return 1
+    except (OSError, AttributeError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

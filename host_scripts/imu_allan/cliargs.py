@@ -7,8 +7,12 @@ from typing import Any, Callable, NoReturn, Optional
 
 from ._version import __version__
 from .channels import CHANNELS
+from .device.records import RATES_HZ
 
-EPILOG_EXIT = "exit status: 0 success, 1 {one}, 2 usage or input error (one line on stderr)"
+EXIT_LOST = 3
+"""Exit status of a command that did its work but found data lost on the way."""
+EPILOG_EXIT = ("exit status: 0 success, 1 {one}, 2 usage, input or output error (one line on "
+               "stderr)")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -31,6 +35,16 @@ def _positive_float(text: str, unit: str) -> float:
 def _fs(text: str) -> float | int:
     v = _positive_float(text, "Hz")
     return int(v) if v.is_integer() else v
+
+
+def _device_rate(text: str) -> int:
+    """A rate the device accepts, written in decimal (``0250`` is 250, not octal)."""
+    t = text.strip()
+    v = int(t) if t.isdigit() and t.isascii() else None
+    if v not in RATES_HZ:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a rate of the device "
+                                         f"({', '.join(map(str, RATES_HZ))} Hz)")
+    return v
 
 
 def _positive_int(text: str) -> int:
@@ -157,7 +171,7 @@ def _add_reference(sub: Any) -> None:
             "Rows file (thesis format): one sample set per line, 7 integer codes\n"
             "0..1023 separated by tabs or spaces: ax ay az gx gy gz temp.\n"
             "'#' starts a comment; blank lines are ignored."),
-        epilog="exit status: 0 success, 2 usage or input error (one line on stderr)")
+        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)")
     p.add_argument("file", metavar="FILE", help="rows file, or - for stdin")
     p.add_argument("--fs", type=_fs, required=True, metavar="HZ", help="sample rate of the rows, Hz")
     p.add_argument("--levels", type=_levels, default=15, metavar="L",
@@ -209,7 +223,7 @@ def _add_gen(sub: Any) -> None:
             "  clip    mid-scale with white noise of 400 counts: hits 0 and 1023 often\n"
             "  square  full-scale square waves 0/1023, half period 1, 2, 4 .. 32\n"
             "          samples for ax .. gz (noise parameters unused)"),
-        epilog="exit status: 0 success, 2 usage or input error")
+        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)")
     p.add_argument("-n", type=_count, default=100_000, metavar="N", help="rows (default 100000)")
     p.add_argument("--fs", type=_fs, default=100, metavar="HZ", help="sample rate, Hz (default 100)")
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S", help="random seed (default 1)")
@@ -238,7 +252,8 @@ def _add_sim(sub: Any) -> None:
     p.add_argument("--model", metavar="MFILE",
                    help="feed the ADC from the sensor model instead: --seconds S of it at --fs")
     p.add_argument("--seconds", type=_seconds, default=60.0, metavar="S", help="with --model (default 60)")
-    p.add_argument("--fs", metavar="HZ", help="sample rate to set on the device, Hz")
+    p.add_argument("--fs", type=_device_rate, metavar="HZ",
+                   help=f"sample rate to set on the device, Hz: one of {', '.join(map(str, RATES_HZ))}")
     p.add_argument("--uart-in", metavar="FILE", help="commands to send to the device")
     p.add_argument("--firmware", metavar="ELF",
                    help="firmware ELF (default build/avr-atmega168/imu-allan.elf)")
@@ -264,10 +279,12 @@ def _add_rows(sub: Any) -> None:
             "numbers tell how many frames were. Replies and reports in between are\n"
             "skipped. A summary line goes to stderr: rows written, bad rows (whole\n"
             "lines that are not valid rows), rows lost (per count lines), frames\n"
-            "lost (per sequence numbers) and bad frames (CRC failed). Damaged data\n"
+            "lost (per sequence numbers), bad frames (CRC failed) and the sample\n"
+            "sets the device itself lost (drops, per its count lines). Damaged data\n"
             "is never written: what cannot be checked is left out."),
-        epilog=EPILOG_EXIT.format(one="rows or frames were lost or bad, or none were found "
-                                      "(the file is still written)"))
+        epilog=EPILOG_EXIT.format(one="no rows or frames were found")
+        + f", {EXIT_LOST} written, but rows or frames were lost or bad on the way (the summary "
+          "line says how many)")
     p.add_argument("log", metavar="LOG", help="capture file, or - for stdin")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="rows file to write (- for stdout)")
@@ -317,7 +334,9 @@ def _add_cmd(sub: Any) -> None:
             "stop, start [count], rate <hz>, interval <s>, mode <allan|raw|binary|\n"
             "both>, range <1.5|2|4|6>, save, load, defaults.\n\n"
             "example: imu-allan cmd --port /dev/ttyUSB0 rate 250"),
-        epilog="exit status: 0 reply ok, 1 error reply or no reply in time, 2 usage error "
+        epilog="a line answered 'error:5 input lost' (the device lost some of its bytes and ran "
+               "nothing) is sent again, 3 times in all.\n"
+               "exit status: 0 reply ok, 1 error reply or no reply in time, 2 usage error "
                "or the port cannot be opened")
     p.add_argument("--port", required=True, metavar="PORT", help="serial port, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=_baud, default=115200, metavar="B", help="baud rate (default 115200)")
@@ -379,7 +398,7 @@ def _add_analyze(sub: Any) -> None:
             "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
             "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
             "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
-            "exit status: 0 success, 2 usage or input error (one line on stderr)"))
+            "exit status: 0 success, 2 usage, input or output error (one line on stderr)"))
     p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
     p.add_argument("--fs", type=_fs, metavar="HZ",
                    help="sample rate, Hz: required for rows files and CSV without a time column "

@@ -85,8 +85,11 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
         dev = np.array([p["dev"] for p in pts])
         lo = np.array([p["low"] for p in pts])
         hi = np.array([p["high"] for p in pts])
-        flagged = np.array([bool(p.get("flags")) for p in pts])
+        flagged = np.array([bool(p.get("flags")) for p in pts], dtype=bool)
         ok = ~flagged
+        if not pts:  # a constant (stuck) channel: nothing to draw on log axes
+            _empty(ax, ch, "constant channel:\nAllan deviation 0 at every tau")
+            continue
         edf = np.array([p["edf"] if p.get("edf") is not None else 0.0 for p in pts])
         band = ok & (edf >= MIN_EDF_BAND)
         for r in c["fit"].get("unexplained", []):
@@ -150,6 +153,13 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
     return _save(plt, fig, os.path.join(directory, f"adev_{group}.png"))
 
 
+def _empty(ax: Any, ch: str, why: str) -> None:
+    ax.text(0.5, 0.5, why, ha="center", va="center", transform=ax.transAxes)
+    ax.set_title(ch)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
 def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], directory: str) -> str:
     fig, axes = plt.subplots(1, len(chans), figsize=(5.2 * len(chans), 4.4), squeeze=False)
     for ax, ch in zip(axes[0], chans):
@@ -159,6 +169,9 @@ def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], dir
             ax.set_visible(False)
             continue
         f = np.array(p["f_hz"])
+        if not np.any(np.array(p["psd"], dtype=float) > 0):  # a constant channel
+            _empty(ax, ch, "constant channel:\nPSD 0 at every frequency")
+            continue
         ax.loglog(f, np.array(p["psd"], dtype=float), color="k", lw=1, label="Welch PSD")
         m = c.get("model")
         if m and m.get("psd"):

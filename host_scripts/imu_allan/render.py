@@ -19,6 +19,7 @@ import math
 from typing import Any, Iterable, Optional
 
 from .channels import CHANNELS
+from .device.consistency import sig3
 from .device.records import DeviceReport, flag_names
 from .errors import InputError
 from .profiles import LITERATURE
@@ -158,19 +159,6 @@ def device_header_text(h: dict[str, Any]) -> str:
 def errors_text(errors: dict[str, int]) -> str:
     bad = {k: v for k, v in errors.items() if v}
     return "not used: " + (", ".join(f"{k} {v}" for k, v in bad.items()) if bad else "nothing") + "\n"
-
-
-def sig3(v: float) -> str:
-    """3 significant digits as the device's summary prints them:
-    ``0.0100``, ``2.02``, ``164``, ``1.23e-4`` below 0.001."""
-    if v == 0:
-        return "0"
-    if v < 1e-3:
-        mant, exp = f"{v:.2e}".split("e")
-        return f"{mant}e{int(exp)}"
-    if v >= 999.5:
-        return f"{v:.0f}"
-    return f"{v:#.3g}".rstrip(".")
 
 
 def device_adev_table(rows: list[dict[str, Any]], channels: Iterable[str]) -> str:
@@ -332,7 +320,8 @@ def terms_csv(doc: dict[str, Any]) -> str:
                 rng = t["tau_range_s"] or [None, None]
                 w.writerow([ch, c["unit"], k, NAMES[k], _r(t["value"]), _r(t["low"]), _r(t["high"]),
                             c["term_units"][k], _r(rng[0]), _r(rng[1]), "yes", _r(ub),
-                            _r(t["value"] * lf), _r(t["low"] * lf), _r(t["high"] * lf), lu, ""])
+                            _r(t["value"] * lf), _r(t["low"] * lf), _r(t["high"] * lf), lu,
+                            c["term_notes"].get(k, "")])
     return buf.getvalue()
 
 

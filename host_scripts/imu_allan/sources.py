@@ -125,6 +125,33 @@ CAPTURE_BLOCK = 1 << 20
 """Samples handed to the statistics at a time from a capture in memory."""
 
 
+def _one_setting(name: str, cap: Capture) -> None:
+    """Samples taken at two rates or ranges are not one series: refuse them
+    (the headers, and replies such as ``ok reset rate=250`` or ``ok status
+    ... fs=100 range=1.5``, say what the device was set to, in order)."""
+    rates: list[float] = []
+    ranges: list[str] = []
+    said = [("H", r.header.fs_hz, r.header.range_g) for r in cap.reports]
+    for body in cap.replies:
+        words = dict(w.split("=", 1) for w in body.split()[1:] if "=" in w)
+        said.append(("ok", words.get("rate", words.get("fs")), words.get("range")))
+    for _, rate, rng in said:
+        try:
+            if rate is not None and float(rate) not in rates:
+                rates.append(float(rate))
+        except ValueError:
+            pass
+        if rng is not None and rng not in ranges:
+            ranges.append(rng)
+    if len(rates) > 1:
+        raise InputError(f"'{name}': the sample rate changes midway ({', then '.join(f'{r:g}' for r in rates)}"
+                         " Hz): its samples are not one series; cut the capture at the change and "
+                         "analyze each part at its own rate")
+    if len(ranges) > 1:
+        raise InputError(f"'{name}': the accelerometer range changes midway ({', then '.join(ranges)} g): "
+                         "cut the capture at the change and analyze each part")
+
+
 def _is_capture(head: bytes) -> bool:
     """Intact protocol lines or binary frames in the first bytes."""
     if split_frames(head).bodies:
@@ -141,6 +168,7 @@ def _capture(name: str, cap: Capture) -> Source:
     lost = {k: c[k] for k in LOSS_KEYS if c.get(k)}
     n = cap.samples.shape[1]
     if n >= 2:
+        _one_setting(name, cap)
         codes = cap.samples[:len(CHANNELS)]
         samples = SampleSource("capture", name, list(CHANNELS),
                                lambda: (codes[:, a:a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK)),
@@ -188,8 +216,12 @@ def _text(path: str, name: str, head: bytes, size: int) -> Source:
     fields = line.replace(",", " ").replace(";", " ").split()
     if len(fields) == 7 and all(re.fullmatch(r"\d+", f) for f in fields):
         return Source(name, SampleSource(
-            "rows", name, list(CHANNELS), lambda: (b[:len(CHANNELS)] for b in iter_blocks(path)),
+            "rows", name, list(CHANNELS), lambda: (b[:len(CHANNELS)] for b in iter_blocks(path, name=name)),
             True, n_hint=max(size // 26, 1), size_bytes=size), None)
+    if len(fields) == 7 and all(re.fullmatch(r"[-+]?\d+(\.\d*)?", f) for f in fields):
+        bad = next(f for f in fields if not re.fullmatch(r"\d+", f))
+        raise InputError(f"'{name}': line {lineno}: {bad!r} is not a 10-bit ADC code (a rows file "
+                         "has 7 integer codes 0..1023: ax ay az gx gy gz temp)")
     raise InputError(f"'{name}': line {lineno} has {len(fields)} numeric columns and no header: "
                      "a rows file has 7 integer codes (ax ay az gx gy gz temp); for other data "
                      "add a first line naming the columns, e.g. 't,ax,ay,az,gx,gy,gz'")
@@ -209,10 +241,34 @@ _ALIASES = {
     "gz": ("gz", "gyrz", "gyr_z", "gyro_z", "gyroz", "g_z", "wz", "w_z", "omega_z", "angular_velocity_z",
            "rate_z", "zgyro", "z_gyro"),
 }
-_TIME = {"t": 1.0, "time": 1.0, "timestamp": 1.0, "time_s": 1.0, "sec": 1.0, "secs": 1.0,
-         "seconds": 1.0, "stamp": 1.0, "ts": 1.0, "time_ns": 1e-9, "timestamp_ns": 1e-9,
-         "time_us": 1e-6, "timestamp_us": 1e-6, "time_ms": 1e-3, "timestamp_ms": 1e-3,
-         "field_header_stamp": 1e-9, "header_stamp": 1e-9, "rosbagtimestamp": 1e-9}
+_TIME: dict[str, Optional[float]] = {
+    "t": None, "time": None, "timestamp": None, "stamp": None, "ts": None,  # unit from magnitude
+    "time_s": 1.0, "sec": 1.0, "secs": 1.0, "seconds": 1.0,
+    "time_ns": 1e-9, "timestamp_ns": 1e-9, "time_us": 1e-6, "timestamp_us": 1e-6,
+    "time_ms": 1e-3, "timestamp_ms": 1e-3,
+    "field_header_stamp": 1e-9, "header_stamp": 1e-9, "rosbagtimestamp": 1e-9}  # ROS: integer ns
+"""Time columns by name, and the factor to seconds (None: read from the values)."""
+FS_RANGE = (0.1, 100e3)
+"""Sample rates a time column may give, Hz; outside, its unit was misread."""
+_UNITS = {"ns": 1e-9, "us": 1e-6, "µs": 1e-6, "ms": 1e-3, "s": 1.0}
+
+
+def time_unit(t: np.ndarray, step: float) -> float:
+    """Seconds per unit of a time column named without a unit (``%time`` of
+    ``rostopic echo -p`` is integer ns): epoch values tell by their size
+    (~1.7e18 ns, 1.7e15 us, 1.7e12 ms, 1.7e9 s); times from 0 by the step,
+    the first unit in s, ms, us, ns that gives 1 Hz .. 10 kHz."""
+    t0 = float(abs(t[0])) if t.size else 0.0
+    for size, factor in ((1e17, 1e-9), (1e14, 1e-6), (1e11, 1e-3)):
+        if t0 >= size:
+            return factor
+    if t0 < 1e8 and step > 0:
+        for factor in (1.0, 1e-3, 1e-6, 1e-9):
+            if 1.0 <= 1.0 / (step * factor) <= 1e4:
+                return factor
+    return 1.0
+
+
 _UNIT_IN_NAME = re.compile(r"[\[(]\s*([^\])]*?)\s*[\])]")
 
 
@@ -238,7 +294,7 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
     delim, cols = _split(header)
     chan_col: dict[str, int] = {}
     units: dict[str, str] = {}
-    time_col, time_factor = None, 1.0
+    time_col, time_factor = None, None
     for i, col in enumerate(cols):
         key, unit = _normalize(col)
         for ch, names in _ALIASES.items():
@@ -251,8 +307,8 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
         else:
             if key in _TIME and time_col is None:
                 time_col, time_factor = i, _TIME[key]
-                if unit in ("ns", "us", "ms", "s"):
-                    time_factor = {"ns": 1e-9, "us": 1e-6, "ms": 1e-3, "s": 1.0}[unit]
+                if unit in _UNITS:
+                    time_factor = _UNITS[unit]
     if not chan_col:
         raise InputError(f"'{name}': line {lineno}: no column named like a sensor channel in "
                          f"{header!r} (expected ax ay az gx gy gz, acc_x, gyro_x, ...)")
@@ -265,22 +321,41 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
     # first rows: are the values integer codes? a time column gives fs
     first = next(_csv_blocks(path, name, lineno, delim, use, time_col, len(cols), max_bytes=SNIFF_BYTES,
                              with_time=True), None)
+    if first is None or not first[0].size:
+        raise InputError(f"'{name}': line {lineno} is a header, and no data row follows it")
     if first is not None:
         vals, t = first
         src.integer = bool(vals.size) and bool(np.all(vals == np.rint(vals))) and bool(
             np.all((vals >= 0) & (vals <= 1023)))
         if t is not None and t.size >= 3:
-            dt = np.diff(t) * time_factor
-            dt = dt[np.isfinite(dt)]
-            med = float(np.median(dt)) if dt.size else math.nan
-            if med > 0 and math.isfinite(med):
-                src.fs = 1.0 / med
-                jitter = float(np.max(np.abs(dt - med)) / med) if dt.size else 0.0
-                src.notes.append(f"sample rate {src.fs:.6g} Hz from the time column "
-                                 f"(median step {med:.6g} s"
-                                 + (f", steps vary by up to {jitter * 100:.0f} %" if jitter > 0.01 else "")
-                                 + ")")
+            _rate_from_time(src, name, t, time_factor)
     return src
+
+
+def _rate_from_time(src: SampleSource, name: str, t: np.ndarray, factor: Optional[float]) -> None:
+    steps = np.diff(t)
+    steps = steps[np.isfinite(steps)]
+    raw = float(np.median(steps)) if steps.size else math.nan
+    if not (raw > 0 and math.isfinite(raw)):
+        return
+    how = "named" if factor is not None else "read from the values"
+    factor = time_unit(t, raw) if factor is None else factor
+    med = raw * factor
+    fs = 1.0 / med
+    span = float(t[-1] - t[0]) * factor
+    if span > 0 and np.all(np.abs(steps * factor - med) <= 0.01 * med):
+        fs = (t.size - 1) / span  # regular steps: the span, not one step, sets the rate
+        # (epoch ns in float64 are quantized to 256 ns: one step is that coarse, the span is not)
+    if not FS_RANGE[0] <= fs <= FS_RANGE[1]:
+        raise InputError(f"'{name}': the time column gives {fs:.6g} Hz (median step {med:.6g} s, unit "
+                         f"{how}), outside {FS_RANGE[0]:g} Hz .. {FS_RANGE[1]:g} Hz: give its unit in the "
+                         "header (e.g. 'time [ns]') or --fs")
+    src.fs = fs
+    jitter = float(np.max(np.abs(steps * factor - med)) / med)
+    unit = {1e-9: "ns", 1e-6: "us", 1e-3: "ms", 1.0: "s"}.get(factor, f"{factor:g} s")
+    src.notes.append(f"sample rate {fs:.6g} Hz from the time column (in {unit}, {how}; median step "
+                     f"{med:.6g} s" + (f", steps vary by up to {jitter * 100:.0f} %, more than 1 %"
+                                       if jitter > 0.01 else "") + ")")
 
 
 def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], use: list[int],

@@ -266,3 +266,117 @@ def test_kalibr_needs_physical_units(run_cli, files) -> None:
                            "--kalibr", files["dir"] / "k.yaml")
     assert rc == 2 and err == ("imu-allan analyze: --kalibr needs channels in physical units: use the "
                                "thesis profile or --scale\n")
+
+
+@pytest.mark.filterwarnings("error::UserWarning")  # matplotlib's "cannot be log-scaled" included
+def test_a_constant_channel_is_analyzed_and_plotted_with_a_note(tmp_path: Path, run_cli) -> None:
+    """A stuck gyro (issue 10: TypeError in the plot): the others are analyzed,
+    the figure is written, and a note says why gx has no terms."""
+    rng = np.random.default_rng(1)
+    codes = np.clip(np.rint(rng.normal(500, 2, (20000, 7))), 0, 1023).astype(int)
+    codes[:, 3] = 512
+    rows = tmp_path / "stuck.txt"
+    np.savetxt(rows, codes, fmt="%d", delimiter="\t")
+    rc, out, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--json", "--plot", tmp_path / "figs")
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert any(n.startswith("gx is constant") for n in doc["notes"])
+    assert all(p["dev"] is None for p in doc["channels"]["gx"]["curve"])
+    assert doc["channels"]["gy"]["terms"]["N"] is not None
+    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
+        "adev_accelerometer.png", "adev_gyroscope.png", "psd_accelerometer.png", "psd_gyroscope.png"]
+
+
+@pytest.mark.parametrize("change,message", [
+    (line("ok reset rate=250"), "the sample rate changes midway (100, then 250 Hz)"),
+    (line("ok reset range=4"), "the accelerometer range changes midway (1.5, then 4 g)"),
+])
+def test_a_capture_whose_rate_or_range_changes_is_refused(change: bytes, message: str, tmp_path: Path,
+                                                          run_cli) -> None:
+    rows = [raw_row([500 + i % 7, 1, 2, 3, 4, 5, 6]) for i in range(400)]
+    cap = tmp_path / "cap.log"
+    cap.write_bytes(line("ok status run=1 fs=100 mode=raw range=1.5") + b"".join(rows[:200]) + change
+                    + b"".join(rows[200:]))
+    rc, out, err = run_cli("analyze", cap, "--fs", "100")
+    assert rc == 2 and out == "" and err.count("\n") == 1 and message in err, err
+    same = tmp_path / "same.log"  # a reply that restates the same rate is no change
+    same.write_bytes(line("ok status run=1 fs=100 mode=raw range=1.5") + b"".join(rows[:200])
+                     + line("ok rate=100") + b"".join(rows[200:]))
+    rc, _, err = run_cli("analyze", same, "--fs", "100", "--no-model")
+    assert rc == 0, err
+
+
+def _csv_with_time(path: Path, head: str, t: np.ndarray) -> Path:
+    x = np.random.default_rng(3).normal(0.0, 0.01, (t.size, 3))
+    with open(path, "w") as f:
+        f.write(head + ",gx [rad/s],gy [rad/s],gz [rad/s]\n")
+        for ti, row in zip(t, x):
+            f.write(f"{ti}," + ",".join(f"{v:.6f}" for v in row) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("head,t", [
+    ("%time", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),          # rostopic echo -p: ns
+    ("field.header.stamp", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),
+    ("time", 5_000_000 * np.arange(3000)),                                         # ns from 0
+    ("timestamp", 5000 * np.arange(3000)),                                         # us from 0
+    ("t", 5 * np.arange(3000)),                                                    # ms from 0
+    ("time", 1_700_000_000.0 + 0.005 * np.arange(3000)),                          # epoch seconds
+    ("time [us]", 5000 * np.arange(3000)),
+    ("time_ms", 5 * np.arange(3000)),
+])
+def test_csv_time_column_in_any_unit(head: str, t: np.ndarray, tmp_path: Path, run_cli) -> None:
+    """issue 9: integer ns, us, ms or s, from the name or the magnitude: 200 Hz every time."""
+    path = _csv_with_time(tmp_path / "imu.csv", head, t)
+    rc, out, err = run_cli("analyze", path, "--no-model", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert doc["source"]["fs_hz"] == pytest.approx(200.0, rel=1e-6)
+    assert any(n.startswith("sample rate 200 Hz from the time column") for n in doc["notes"])
+
+
+def test_csv_time_column_giving_an_absurd_rate_is_refused(tmp_path: Path, run_cli) -> None:
+    path = _csv_with_time(tmp_path / "imu.csv", "time [s]", 1e-7 * np.arange(3000))  # 10 MHz
+    rc, out, err = run_cli("analyze", path, "--no-model")
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert "the time column gives 1e+07 Hz" in err and "outside 0.1 Hz .. 100000 Hz" in err
+
+
+def test_clipped_codes_are_counted_and_the_terms_say_so(tmp_path: Path, run_cli) -> None:
+    """issue 9: codes at 0 or 1023 counted per channel and warned about."""
+    rng = np.random.default_rng(5)
+    codes = np.clip(np.rint(rng.normal(500, 3, (20000, 7))), 0, 1023).astype(int)
+    hits = rng.choice(20000, 37, replace=False)
+    codes[hits, 4] = 1023  # gy clips 37 times
+    codes[hits[:5], 0] = 0  # ax 5 times
+    rows = tmp_path / "clip.txt"
+    np.savetxt(rows, codes, fmt="%d", delimiter="\t")
+    rc, out, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    notes = [n for n in doc["notes"] if " clipped: " in n]
+    assert [n.split(" clipped")[0] for n in notes] == ["ax", "gy"]
+    assert "37 samples at code 0 or 1023 (0.185 % of 20000" in notes[1]
+    gy = doc["channels"]["gy"]
+    assert all("clipped channel (37 samples" in gy["term_notes"][k] for k, t in gy["terms"].items() if t)
+    assert not any("clipped" in v for v in doc["channels"]["gx"]["term_notes"].values())
+
+
+def test_a_capture_is_read_once(tmp_path: Path, run_cli, monkeypatch) -> None:
+    """issue 11: a capture was opened to peek, decoded to count, decoded again and
+    read a third time for the PSD; now its bytes are read in one pass."""
+    import builtins
+    rows = [raw_row([500 + (i * 7) % 13, 1, 2, 3 + i % 5, 4, 5, 6]) for i in range(3000)]
+    cap = tmp_path / "cap.log"
+    cap.write_bytes(line("ok mode=raw") + b"".join(rows))
+    opened: list[str] = []
+    real_open = builtins.open
+
+    def counting_open(file, *a, **k):
+        if str(file) == str(cap):
+            opened.append(str(file))
+        return real_open(file, *a, **k)
+    monkeypatch.setattr(builtins, "open", counting_open)
+    rc, out, err = run_cli("analyze", cap, "--fs", "100", "--json", "--memory", "1")
+    assert rc == 0, err
+    assert json.loads(out)["source"]["n"] == 3000 and opened == [str(cap)]

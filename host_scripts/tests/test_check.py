@@ -115,8 +115,8 @@ def test_pairs_must_follow_n_in_a_stopped_run(tmp_path: Path, run_cli, rows) -> 
             return pairs - 1, exact_acc(codes, 4, pairs - 1), flags
         return pairs, acc, flags
     log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=fewer))
-    rc, out, _ = run_cli("check", log, data)
-    assert rc == 1 and "gy level 2: pairs 748 < floor(n/m) - 1 = 749" in out
+    rc, out, err = run_cli("check", log, data)
+    assert rc == 1 and "gy level 2: pairs 748 < floor(n/m) - 1 = 749" in err  # refused by the decoder
 
 
 def test_bad_input(tmp_path: Path, run_cli, rows) -> None:

@@ -109,3 +109,105 @@ def test_default_paths_point_into_the_checkout() -> None:
     assert simrun.DEFAULT_SIM == simrun.REPO / "build" / "host" / "imu-sim"
     assert simrun.DEFAULT_ELF == simrun.REPO / "build" / "avr-atmega168" / "imu-allan.elf"
     assert os.path.basename(simrun.DEFAULT_ELF) == "imu-allan.elf"
+
+
+# ---- output errors: one line, exit 2 (issue 10) -----------------------------------------
+
+def _run(args: list[str], stdout: object, tmp: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], stdout=stdout,
+                          stderr=subprocess.PIPE, cwd=tmp, env=env, timeout=120)
+
+
+@pytest.fixture()
+def small_rows(tmp_path: Path) -> Path:
+    path = tmp_path / "imu.txt"
+    assert _run(["gen", "-n", "3000", "-o", str(path)], subprocess.DEVNULL, tmp_path).returncode == 0
+    return path
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("argv", [
+    ["gen", "-n", "200000", "-o", "/dev/full"],
+    ["rows", "{rows}", "-o", "/dev/full"],
+    ["gen", "-n", "10", "-o", "{tmp}/x.txt", "--json-params", "/dev/full"],
+    ["analyze", "{rows}", "--fs", "100", "--no-model", "--curves", "/dev/full"],
+])
+def test_a_full_disk_is_one_line(argv: list[str], small_rows: Path, tmp_path: Path) -> None:
+    args = [a.format(rows=small_rows, tmp=tmp_path) for a in argv]
+    proc = _run(args, subprocess.DEVNULL, tmp_path)
+    err = proc.stderr.decode()
+    assert proc.returncode == 2 and err.count("\n") == 1, err
+    assert "cannot write '/dev/full': No space left on device" in err and "Traceback" not in err
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+@pytest.mark.parametrize("argv", [["gen", "-n", "200000", "-o", "-"], ["reference", "{rows}", "--fs", "100"],
+                                  ["rows", "{rows}", "-o", "-"]])
+def test_a_full_or_closed_stdout_is_one_line(argv: list[str], small_rows: Path, tmp_path: Path) -> None:
+    args = [a.format(rows=small_rows) for a in argv]
+    with open("/dev/full", "wb") as full:
+        proc = _run(args, full, tmp_path)
+    err = proc.stderr.decode()
+    assert proc.returncode == 2 and err.count("\n") == 1 and "No space left on device" in err, err
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    closed = subprocess.run(" ".join([sys.executable, "-m", "imu_allan.cli", *args]) + " >&-", shell=True,
+                            stderr=subprocess.PIPE, cwd=tmp_path, env=env, timeout=120)
+    err = closed.stderr.decode()
+    assert closed.returncode == 2 and err.count("\n") == 1 and "cannot write stdout" in err, err
+
+
+def test_rows_tells_lost_from_failed(tmp_path: Path, run_cli) -> None:
+    """Rows written but some lost: 3; nothing found: 1; both documented in --help."""
+    rc, out, _ = run_cli("rows", "--help")
+    assert rc == 0 and "1 no rows or frames were found" in out and "3 written, but rows or frames" in out
+    cap = tmp_path / "cap.log"
+    rows = [b"%d\t1\t2\t3\t4\t5\t6\r\n" % i for i in range(300)]
+    good = b"".join(rows)
+    cap.write_bytes(b"junk\n" + good)
+    rc, _, err = run_cli("rows", cap, "-o", tmp_path / "r.txt")
+    assert rc == 0, err
+    lost = tmp_path / "lost.log"
+    lost.write_bytes(b"junk\n" + b"".join(rows[:100]) + b"1\t2\t3\n" + b"".join(rows[100:]))  # a bad row
+    rc, _, err = run_cli("rows", lost, "-o", tmp_path / "r.txt")
+    assert rc == 3 and "bad rows 1" in err
+    (tmp_path / "none.log").write_bytes(b"nothing here\n")
+    rc, _, err = run_cli("rows", tmp_path / "none.log", "-o", tmp_path / "r.txt")
+    assert rc == 1 and "no raw rows or binary frames" in err
+
+
+@pytest.mark.parametrize("text,want", [("250", 250), ("0250", 250), ("1000", 1000), ("50", 50)])
+def test_sim_rate_is_one_of_the_device_rates(text: str, want: int) -> None:
+    from imu_allan.cliargs import build_parser
+    args = build_parser().parse_args(["sim", "--adc", "x.txt", "--fs", text, "-o", "y.log"])
+    assert args.fs == want  # decimal, never octal
+
+
+@pytest.mark.parametrize("text", ["0", "4294967396", "4294967346", "99", "1e2", "-100", "250.0", "abc"])
+def test_sim_refuses_other_rates(text: str, run_cli) -> None:
+    rc, out, err = run_cli("sim", "--adc", "x.txt", "--fs", text, "-o", "y.log")
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert f"{text!r} is not a rate of the device (50, 100, 200, 250, 500, 1000 Hz)" in err
+
+
+@pytest.mark.parametrize("content,argv,message", [
+    (b"", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
+    (b"# only a comment\n", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
+    (b"t,ax,ay,az,gx,gy,gz\n", ("analyze", "{f}"), "'{f}': line 1 is a header, and no data row follows it"),
+    (b"-1\t2\t3\t4\t5\t6\t7\n1\t2\t3\t4\t5\t6\t7\n", ("analyze", "{f}", "--fs", "100"),
+     "'{f}': line 1: '-1' is not a 10-bit ADC code"),
+])
+def test_messages_name_the_real_cause(content: bytes, argv: tuple, message: str, tmp_path: Path,
+                                      run_cli) -> None:
+    f = tmp_path / "in.txt"
+    f.write_bytes(content)
+    rc, out, err = run_cli(*(a.format(f=f) for a in argv))
+    assert rc == 2 and out == "" and err.count("\n") == 1 and message.format(f=f) in err, err
+
+
+def test_stdin_is_named_stdin(monkeypatch, run_cli) -> None:
+    import io
+    data = b"1\t2\t3\t4\t5\t6\t7\n" * 10 + b"1\t2\t3\t4\t5\t6\n"
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
+    rc, _, err = run_cli("analyze", "-", "--fs", "100")
+    assert rc == 2 and err == "imu-allan analyze: <stdin>: line 11: 6 columns, expected 7 (ax ay az gx gy gz temp)\n"

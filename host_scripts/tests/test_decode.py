@@ -14,12 +14,12 @@ ROW_KEYS = {"channel", "level", "m", "tau_s", "pairs", "covers", "acc", "avar", 
 
 
 def hand_report(seq: int = 5) -> list[bytes]:
-    """levels=2: 12 rows with values picked by hand."""
+    """levels=2: 12 rows with values picked by hand (as a running device could send them)."""
     out = [line(header_body(seq, 2, 1000, fs=200, run=1))]
     for c, ch in enumerate(CH):
         out.append(line(f"L,{seq},{ch},0,999,{1000 * (c + 1):012X},00"))
-        out.append(line(f"L,{seq},{ch},1,{0 if ch == 'gz' else 499},"
-                        f"{0 if ch == 'gz' else 0xFFFFFFFFFFFF:012X},{'03' if ch == 'gy' else '00'}"))
+        out.append(line(f"L,{seq},{ch},1,499,"
+                        f"{0xFFFFFFFFFFFF if ch == 'gy' else 4000 * (c + 1):012X},{'03' if ch == 'gy' else '00'}"))
     out.append(line(f"S,{seq},   tau_s       ax       ay       az       gx       gy       gz"))
     out.append(line(f"E,{seq},12"))
     return out
@@ -52,7 +52,22 @@ def test_hand_written_report_json(tmp_path: Path, run_cli) -> None:
     assert gy1["channel"] == "gy" and gy1["flags"] == ["sat", "range"]
     assert gy1["acc"] == 2**48 - 1 and gy1["avar"] == (2**48 - 1) / (2 * 4 * 499)
     gz1 = rows[11]
+    assert gz1["pairs"] == 499 and gz1["acc"] == 24000 and gz1["avar"] == 24000 / (2 * 4 * 499)
+
+
+def test_a_level_without_pairs(tmp_path: Path, run_cli) -> None:
+    """A stopped run of 3 samples: level 1 (m = 2) has one cluster, no pair."""
+    log = tmp_path / "dev.log"
+    log.write_bytes(line(header_body(4, 2, 3, fs=200, run=0))
+                    + b"".join(line(f"L,4,{ch},0,2,{2 * (c + 1):012X},00") + line(f"L,4,{ch},1,0,{0:012X},00")
+                               for c, ch in enumerate(CH))
+                    + line("E,4,12"))
+    rc, out, err = run_cli("decode", log, "--json")
+    assert rc == 0, err
+    gz1 = json.loads(out)["rows"][11]
     assert gz1["pairs"] == 0 and gz1["avar"] is None and gz1["adev"] is None
+    rc, out, _ = run_cli("decode", log, "--csv")
+    assert out.splitlines()[-1] == "gz,1,2,0.01,0,2,0,,,"
 
 
 def test_settings_keys_and_replies(tmp_path: Path, run_cli) -> None:
@@ -80,7 +95,7 @@ def test_text_and_csv(tmp_path: Path, run_cli) -> None:
     lines = out.splitlines()
     assert lines[0] == "channel,level,m,tau_s,pairs,covers,acc,avar,adev,flags"
     assert len(lines) == 13 and lines[1].startswith("ax,0,1,0.005,999,1000,1000,")
-    assert lines[-1] == "gz,1,2,0.01,0,2,0,,,"
+    assert lines[-1].startswith("gz,1,2,0.01,499,1000,24000,")
 
 
 def test_last_and_all_reports(tmp_path: Path, run_cli) -> None:

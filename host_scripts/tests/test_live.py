@@ -65,7 +65,7 @@ def test_rows_from_binary_capture_with_losses(tmp_path: Path, run_cli) -> None:
     cap.write_bytes(line("ok mode=binary") + b"".join(frames))
     out = tmp_path / "rows.txt"
     rc, _, err = run_cli("rows", cap, "-o", out)
-    assert rc == 1 and out.exists()
+    assert rc == 3 and out.exists()
     keep = [i for i in range(600) if not 100 <= i < 103 and i != 300]
     assert _rows_file(out) == codes[keep].tolist()
     assert "596 rows written" in err and "frames lost 4" in err and "bad frames 1" in err
@@ -77,7 +77,7 @@ def test_rows_bad_row_and_stdout(tmp_path: Path, run_cli) -> None:
     data = _raw(codes)
     cap.write_bytes(data.replace(raw_row(codes[150]), raw_row(codes[150]).replace(b"\t", b"\tx", 1)))
     rc, out, err = run_cli("rows", cap, "-o", "-")
-    assert rc == 1 and "bad rows 1" in err and "rows lost 1" in err
+    assert rc == 3 and "bad rows 1" in err and "rows lost 1" in err
     assert len([ln for ln in out.splitlines() if not ln.startswith("#")]) == 199
 
 
@@ -265,3 +265,29 @@ def test_cmd_port_lost(device, run_cli) -> None:
     dev = device(hold=0.3)  # never answers, then goes away
     rc, out, err = run_cli("cmd", "--port", dev.path, "--timeout", "5", "status")
     assert rc == 1 and out == "" and err.count("\n") == 1 and "connection lost" in err
+
+
+def test_rows_says_the_drops_of_the_count_lines(tmp_path: Path, run_cli) -> None:
+    """issue 9: count lines said drops=5 while rows printed 'rows lost 0'."""
+    rows = [b"%d\t1\t2\t3\t4\t5\t6\r\n" % i for i in range(300)]
+    cap = tmp_path / "cap.log"
+    cap.write_bytes(line("ok mode=raw") + b"".join(rows[:100]) + line("C,100,2")
+                    + b"".join(rows[100:200]) + line("C,200,5") + line("ok reset")
+                    + b"".join(rows[200:300]) + line("C,100,1"))
+    rc, _, err = run_cli("rows", cap, "-o", tmp_path / "r.txt")
+    assert rc == 3 and "rows lost 0" in err and "device drops 6" in err, err  # 5 in the first run, 1 after
+    rc, out, err = run_cli("analyze", cap, "--fs", "100", "--no-model", "--json")
+    assert rc == 0, err
+    assert any("device_drops 6" in n for n in json.loads(out)["notes"])
+
+
+def test_cmd_sends_again_a_line_whose_bytes_were_lost(device, run_cli) -> None:
+    """issue 10: 'error:5 input lost' means nothing ran: cmd tries again (3 times in all)."""
+    answers = iter([line("error:5 input lost"), line("ok interval=3600")])
+    dev = device(lambda c: next(answers))
+    rc, out, err = run_cli("cmd", "--port", dev.path, "--timeout", "2", "interval", "3600")
+    assert rc == 0 and out == "ok interval=3600\n", err
+    assert dev.commands == ["interval 3600", "interval 3600"]
+    dev2 = device(lambda c: line("error:5 input lost"))
+    rc, out, _ = run_cli("cmd", "--port", dev2.path, "--timeout", "2", "status")
+    assert rc == 1 and out == "error:5 input lost\n" and dev2.commands == ["status"] * 3

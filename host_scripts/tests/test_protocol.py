@@ -40,12 +40,12 @@ def test_split_counts_every_kind_of_loss() -> None:
             + b"$E,1,6*12G4\r\n"                     # not hex: malformed
             + b"$L,1,ax,0,3" + good[1]               # restart at the next $
             + line("ok").replace(b"\r\n", b"\n")     # bare LF is fine
-            + line("ok", lower=True)                 # lower-case hex is fine
+            + line("ok", lower=True)                 # lower-case hex: never sent, malformed
             + b"xx" + good[2]
             + b"$L,1,ax,0,3,000")                    # end of input mid-line
     f = split_frames(data)
-    assert f.bodies == ["ok", "ok started", "ok", "ok", "B,proto=1,fw=0.1.0,mcu=atmega168,reset=por"]
-    assert f.errors == {"bad_crc": 1, "malformed": 2, "restarted": 1, "truncated": 1,
+    assert f.bodies == ["ok", "ok started", "ok", "B,proto=1,fw=0.1.0,mcu=atmega168,reset=por"]
+    assert f.errors == {"bad_crc": 1, "malformed": 3, "restarted": 1, "truncated": 1,
                         "garbage_bytes": 7}
 
 

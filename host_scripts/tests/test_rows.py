@@ -84,3 +84,21 @@ def test_format_round_trip(tmp_path: Path) -> None:
     p.write_bytes(text)
     assert np.array_equal(read_rows(p), rows)
     assert text == "".join("\t".join(map(str, r)) + "\n" for r in rows.T.tolist()).encode()
+
+
+def test_a_gzip_file_reads_like_the_plain_one(tmp_path, run_cli) -> None:
+    """The real recording of issue 9 ships as .tsv.gz: read decompressed, by its magic bytes."""
+    import gzip
+    import json
+    plain = tmp_path / "imu.txt"
+    rc, _, err = run_cli("gen", "-n", "5000", "--seed", "4", "-o", plain)
+    assert rc == 0, err
+    packed = tmp_path / "imu.data"  # no .gz in the name: the content tells
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    a = run_cli("reference", plain, "--fs", "100", "--json")
+    b = run_cli("reference", packed, "--fs", "100", "--json")
+    assert a[0] == b[0] == 0 and json.loads(a[1])["rows"] == json.loads(b[1])["rows"]
+    cut = tmp_path / "cut.gz"
+    cut.write_bytes(packed.read_bytes()[:-40])
+    rc, out, err = run_cli("reference", cut, "--fs", "100")
+    assert rc == 2 and err.count("\n") == 1 and f"cannot read '{cut}'" in err

@@ -13,14 +13,12 @@ BLOCK_BYTES = 1 << 23
 """Bytes read at a time: large enough for vectorized decoding, small enough for memory."""
 
 PathLike = Union[str, Path]
+GZIP_MAGIC = b"\x1f\x8b"
 
 
 def input_name(path: PathLike) -> str:
     """How messages name an input: ``<stdin>`` for ``-``."""
     return "<stdin>" if str(path) == "-" else str(path)
-
-
-GZIP_MAGIC = b"\x1f\x8b"
 
 
 def open_input(path: PathLike) -> BinaryIO:
@@ -58,7 +56,10 @@ def _blocks(f: BinaryIO, name: str, block_bytes: int) -> Iterator[bytes]:
             yield block
     finally:
         if f is not sys.stdin.buffer:
+            inner = f.fileobj if isinstance(f, gzip.GzipFile) else None  # GzipFile leaves it open
             f.close()
+            if inner is not None:
+                inner.close()
 
 
 def read_all(path: PathLike) -> bytes:

@@ -83,8 +83,9 @@ def frame(body: str) -> bytes:
 
 
 _BODY = re.compile(rb"[\x20-\x23\x25-\x29\x2B-\x7E]*")
-LINE = re.compile(rb"([\x20-\x23\x25-\x29\x2B-\x7E]{0,%d})\*([0-9A-Fa-f]{4})\r?" % MAX_BODY)
-"""What follows the ``$`` of an intact-looking line, up to its LF: the body and the CRC."""
+LINE = re.compile(rb"([\x20-\x23\x25-\x29\x2B-\x7E]{0,%d})\*([0-9A-F]{4})\r?" % MAX_BODY)
+"""What follows the ``$`` of an intact-looking line, up to its LF: the body and the CRC
+(upper-case hex only, as the device sends it: a lower-case digit is a corruption)."""
 
 LINE_ERRORS = ("bad_crc", "malformed", "restarted", "truncated", "garbage_bytes")
 """Counters of :func:`split_frames`, in the order reports list them."""

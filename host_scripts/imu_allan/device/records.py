@@ -17,15 +17,19 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Optional
 
 from ..channels import CHANNELS
+from .consistency import problem
 from .framing import LINE_ERRORS, split_frames
 
 PROTO = 1
+RATES_HZ = (50, 100, 200, 250, 500, 1000)
+"""The sample rates the device accepts (`rate <hz>`, docs/protocol.md)."""
 FLAG_SAT = 0x01
 FLAG_RANGE = 0x02
 ACC_MAX = (1 << 48) - 1
 """Saturation value of an accumulator (the SAT flag)."""
 
-ERROR_KEYS = LINE_ERRORS + ("unparsable", "unknown_records", "orphan_lines", "incomplete_reports")
+ERROR_KEYS = LINE_ERRORS + ("unparsable", "unknown_records", "orphan_lines", "incomplete_reports",
+                            "inconsistent_reports", "missing_reports")
 """Keys of ``DecodeResult.errors`` (all always present)."""
 
 CLIP_KEYS = CHANNELS + ("temp",)
@@ -115,6 +119,8 @@ class DecodeResult:
     boots: list[Boot] = field(default_factory=list)
     replies: list[str] = field(default_factory=list)
     """Bodies of the intact replies (``ok ...``, ``error:<code> ...``), in order."""
+    refused: list[str] = field(default_factory=list)
+    """Why each whole report that failed the cross-checks was refused."""
 
 
 def flag_names(flags: int) -> list[str]:
@@ -231,18 +237,25 @@ def parse_row(fields: list[str]) -> LRow:
     ch, level, pairs, acc, flags = fields
     if ch not in CHANNELS:
         raise BodyError(f"unknown channel {ch!r}")
-    if not re.fullmatch(r"[0-9A-Fa-f]{12}", acc):
-        raise BodyError(f"acc must be 12 hex digits: {acc!r}")
-    if not re.fullmatch(r"[0-9A-Fa-f]{2}", flags):
-        raise BodyError(f"flags must be 2 hex digits: {flags!r}")
+    if not re.fullmatch(r"[0-9A-F]{12}", acc):  # upper case only, as the device sends
+        raise BodyError(f"acc must be 12 upper-case hex digits: {acc!r}")
+    if not re.fullmatch(r"[0-9A-F]{2}", flags):
+        raise BodyError(f"flags must be 2 upper-case hex digits: {flags!r}")
     return LRow(ch, _uint(level, "level", 31), _uint(pairs, "pairs"), int(acc, 16), int(flags, 16))
 
 
-def parse_count(fields: list[str]) -> int:
-    """``C,<rows>[,...]`` (fields after ``C``) -> rows. Further fields are ignored."""
+def parse_count(fields: list[str]) -> tuple[int, Optional[int]]:
+    """``C,<rows>[,<drops>[,...]]`` (fields after ``C``) -> (rows, drops or None).
+    Further fields are ignored."""
     if not fields:
         raise BodyError("C record without a count")
-    return _uint(fields[0], "rows")
+    drops = _uint(fields[1], "drops") if len(fields) > 1 and fields[1] else None
+    return _uint(fields[0], "rows"), drops
+
+
+def resets_run(body: str) -> bool:
+    """A boot or a reply whose word ``reset`` says a new run began (drops count from 0)."""
+    return body.startswith("B,") or body == "B" or (body.startswith("ok ") and "reset" in body[3:].split())
 
 
 _ERROR_REPLY = re.compile(r"error:\d+( |$)")
@@ -254,6 +267,16 @@ def is_reply(body: str) -> bool:
 
 
 _RESTART_WORDS = {"reset", "loaded", "defaults"}
+
+
+def cuts_report(body: str) -> bool:
+    """Does this reply mean the device cut the report it was sending off
+    (docs/protocol.md): a reset of the accumulators (the word ``reset``) or a
+    switch to mode raw or binary?"""
+    if not body.startswith("ok "):
+        return False
+    words = body[3:].split()
+    return "reset" in words or "mode=raw" in words or "mode=binary" in words
 
 
 def restarts_output(body: str) -> bool:
@@ -289,7 +312,12 @@ class Assembler:
         self.reports: list[DeviceReport] = []
         self.boots: list[Boot] = []
         self.replies: list[str] = []
+        self.refused: list[str] = []
+        """Why each report that arrived whole was refused (consistency.py), in order."""
         self._open: Optional[DeviceReport] = None
+        self._summary: list[str] = []   # the open report's S lines
+        self._moving = False            # a reply came inside the open report
+        self._last_seq: Optional[int] = None  # of the last H/L/S/E seen since boot
 
     def _abandon(self) -> None:
         if self._open is not None:
@@ -300,54 +328,83 @@ class Assembler:
         self._abandon()
 
     def add(self, body: str) -> None:
-        errors = self.errors
         fields = body.split(",")
         kind = fields[0]
         try:
             if kind == "B":
                 boot = parse_boot(fields[1:])
                 self._abandon()  # the device reset: an open report never ends
+                self._last_seq = None  # seq counts from 0 again
                 self.boots.append(boot)
             elif kind in ("H", "L", "S", "E"):
-                if len(fields) < 2:
-                    raise BodyError(f"{kind} without seq")
-                seq = _uint(fields[1], "seq", _SEQ_MAX)
-                if kind == "H":
-                    header = parse_header(seq, fields[2:])
-                    self._abandon()
-                    self._open = DeviceReport(seq, header)
-                    return
-                if kind == "L":
-                    row = parse_row(fields[2:])
-                elif kind == "E":
-                    if len(fields) != 3:
-                        raise BodyError("E record needs exactly <seq>,<rows>")
-                    count = _uint(fields[2], "rows")
-                open_ = self._open
-                if open_ is None or seq != open_.seq:
-                    errors["orphan_lines"] += 1
-                    if kind == "E":
-                        errors["incomplete_reports"] += 1  # a report whose H was lost
-                    return
-                if kind == "L":
-                    open_.rows.append(row)
-                elif kind == "E":
-                    if _complete(open_, count):
-                        open_.rows.sort(key=lambda r: (CHANNELS.index(r.channel), r.level))
-                        self.reports.append(open_)
-                        self._open = None
-                    else:
-                        self._abandon()
+                self._report_line(kind, fields)
             elif kind == "C":
                 parse_count(fields[1:])  # raw row counts: checked by stream.py
             elif kind == "ok" or kind.startswith("ok ") or kind.startswith("error:"):
                 if not is_reply(body):
                     raise BodyError("bad error reply")
-                self.replies.append(body)
+                self._reply(body)
             else:
-                errors["unknown_records"] += 1  # readers ignore record types they do not know
+                self.errors["unknown_records"] += 1  # readers ignore record types they do not know
         except (BodyError, KeyError, ValueError):
-            errors["unparsable"] += 1  # a lost L row then fails the report's E count
+            self.errors["unparsable"] += 1  # a lost L row then fails the report's E count
+
+    def _reply(self, body: str) -> None:
+        self.replies.append(body)
+        if self._open is not None:
+            if cuts_report(body):
+                self._abandon()  # the device cut the report off: it gets no E
+            else:
+                self._moving = True  # a command ran between two lines: `start` may have too
+
+    def _report_line(self, kind: str, fields: list[str]) -> None:
+        errors = self.errors
+        if len(fields) < 2:
+            raise BodyError(f"{kind} without seq")
+        seq = _uint(fields[1], "seq", _SEQ_MAX)
+        if kind == "H":
+            header = parse_header(seq, fields[2:])
+            self._count_gap(seq)
+            self._abandon()
+            self._open, self._summary, self._moving = DeviceReport(seq, header), [], False
+            return
+        row = parse_row(fields[2:]) if kind == "L" else None
+        if kind == "E":
+            if len(fields) != 3:
+                raise BodyError("E record needs exactly <seq>,<rows>")
+            count = _uint(fields[2], "rows")
+        self._count_gap(seq)
+        open_ = self._open
+        if open_ is None or seq != open_.seq:
+            errors["orphan_lines"] += 1
+            if kind == "E":
+                errors["incomplete_reports"] += 1  # a report whose H was lost
+            return
+        if row is not None:
+            open_.rows.append(row)
+        elif kind == "S":
+            self._summary.append(",".join(fields[2:]))
+        elif not _complete(open_, count):
+            self._abandon()
+        else:
+            self._open = None
+            why = problem(open_, self._summary, self._moving or open_.header.running is not False)
+            if why is not None:
+                errors["inconsistent_reports"] += 1
+                self.refused.append(f"report seq {seq}: {why}")
+                return
+            open_.rows.sort(key=lambda r: (CHANNELS.index(r.channel), r.level))
+            self.reports.append(open_)
+
+    def _count_gap(self, seq: int) -> None:
+        """Reports that vanished whole: a jump in seq (a report cut off by a
+        reset keeps its seq; a jump of half the range or more is a restart)."""
+        last = self._last_seq
+        if last is not None:
+            gap = (seq - last - 1) % (_SEQ_MAX + 1)
+            if 0 < gap < (_SEQ_MAX + 1) // 2 and seq != last:
+                self.errors["missing_reports"] += gap
+        self._last_seq = seq
 
 
 def decode_bytes(data: bytes) -> DecodeResult:
@@ -359,7 +416,7 @@ def decode_bytes(data: bytes) -> DecodeResult:
     for body in frames.bodies:
         asm.add(body)
     asm.finish()
-    return DecodeResult(asm.reports, errors, asm.boots, asm.replies)
+    return DecodeResult(asm.reports, errors, asm.boots, asm.replies, asm.refused)
 
 
 def _complete(rep: DeviceReport, count: int) -> bool:

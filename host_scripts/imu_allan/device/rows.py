@@ -13,7 +13,7 @@ millions of rows read in seconds; writing is vectorized the same way.
 from __future__ import annotations
 
 import re
-from typing import Iterator
+from typing import Iterator, Optional
 
 import numpy as np
 
@@ -26,13 +26,14 @@ _POW10 = 10 ** np.arange(10, dtype=np.int64)
 
 
 def iter_blocks(path: PathLike, block_bytes: int = BLOCK_BYTES,
-                ncol: int = len(COLUMNS)) -> Iterator[np.ndarray]:
+                ncol: int = len(COLUMNS), name: Optional[str] = None) -> Iterator[np.ndarray]:
     """Yield the rows of ``path`` as uint16 arrays of shape (ncol, rows).
 
     Channel-major blocks (each channel contiguous). Raises InputError naming
-    the file and line on the first malformed line.
+    the file (``name``: how to call it, e.g. ``<stdin>`` for its spooled copy)
+    and line on the first malformed line.
     """
-    name = input_name(path)
+    name = input_name(path) if name is None else name
     tail = b""
     line = 1  # file line number of the first line of the next block
     for chunk in read_blocks(path, block_bytes):

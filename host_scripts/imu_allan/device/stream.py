@@ -44,7 +44,10 @@ Resync rules, in the order they apply:
    shortfall is ``rows_lost``.  An interval cannot be checked
    (``count_unchecked``) when the count restarted in it: a boot or a reply
    saying ``reset``, ``loaded``, ``defaults`` or ``mode=...`` came between,
-   or the count went down, or more samples arrived than it went up.
+   or the count went down, or more samples arrived than it went up.  A
+   count line's second field is the device's own ``drops`` (sample sets it
+   lost, since its last reset): ``device_drops`` adds them up over the runs
+   of the capture.
 5. Frame sequence numbers: a gap between consecutive intact frames counts
    ``(seq - previous - 1) mod 256`` lost frames (``frames_lost``; 256 or
    more frames lost in a row are undercounted), except across a restart
@@ -63,7 +66,7 @@ import numpy as np
 from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, SYNC, crc16_many,
                       frame_codes, frame_crc_ok)
 from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
-                      restarts_output)
+                      resets_run, restarts_output)
 
 NCOL = FRAME_CODES  # ax ay az gx gy gz temp
 MAX_CARRY = 4096
@@ -74,10 +77,10 @@ firmware cuts a line into steps of at most 20 bytes); beyond, the line is
 given up as malformed."""
 
 STREAM_KEYS = ("rows", "bad_rows", "count_lines", "rows_lost", "count_unchecked",
-               "frames", "bad_frames", "frames_lost")
+               "frames", "bad_frames", "frames_lost", "device_drops")
 """Counters of raw rows and binary frames; ``counts`` also holds ``ERROR_KEYS``."""
 
-LOSS_KEYS = ("bad_rows", "rows_lost", "bad_frames", "frames_lost")
+LOSS_KEYS = ("bad_rows", "rows_lost", "bad_frames", "frames_lost", "device_drops")
 """Counters that mean samples were lost or damaged on the way."""
 
 _CLASS = np.zeros(256, dtype=np.uint8)  # 0 other, 1 digit, 2 tab, 3 LF, 4 CR
@@ -200,6 +203,8 @@ class StreamDecoder:
         self._samples = 0            # samples returned so far
         self._count_base: Optional[tuple[int, int]] = None  # (count, samples then)
         self._count_restart = False
+        self._drops_before = 0       # device drops of the runs before this one (count lines)
+        self._run_drops = 0          # this run's, from its last count line
         self._last_seq: Optional[int] = None
         self._frame_restart = False
         self._done = False
@@ -368,7 +373,7 @@ class StreamDecoder:
         for key, body in bodies:
             if body.startswith("C,") or body == "C":
                 try:
-                    value = parse_count(body.split(",")[1:])
+                    value, drops = parse_count(body.split(",")[1:])
                 except BodyError:
                     c["unparsable"] += 1
                     continue
@@ -384,9 +389,15 @@ class StreamDecoder:
                         c["rows_lost"] += sent - got
                 self._count_base = (value, here)
                 self._count_restart = False
+                if drops is not None:
+                    self._run_drops = drops
+                    c["device_drops"] = self._drops_before + drops
                 continue
             if restarts_output(body):
                 self._count_restart = True
+            if resets_run(body):
+                self._drops_before += self._run_drops
+                self._run_drops = 0
             asm.add(body)
         out.reports = asm.reports[n_rep:]
         out.replies = asm.replies[n_rpl:]
