@@ -1,4 +1,4 @@
-"""The board's sample set: one home for its channel names and code range."""
+"""The board's sample set: one home for its channel names, code range and rates."""
 
 CHANNELS = ("ax", "ay", "az", "gx", "gy", "gz")
 """Sensor channels, in the order of every row, report and table."""
@@ -8,3 +8,6 @@ COLUMNS = CHANNELS + ("temp",)
 
 CODE_MAX = 1023
 """Largest 10-bit ADC code."""
+
+RATES_HZ = (50, 100, 200, 250, 500, 1000)
+"""Sample rates the device offers (firmware/vocab.h; docs/protocol.md)."""

@@ -6,8 +6,7 @@ import argparse
 from typing import Any, Callable, NoReturn, Optional
 
 from ._version import __version__
-from .channels import CHANNELS
-from .device.records import RATES_HZ
+from .channels import CHANNELS, RATES_HZ
 
 EXIT_LOST = 3
 """Exit status of a command that did its work but found data lost on the way."""

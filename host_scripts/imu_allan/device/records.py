@@ -21,7 +21,6 @@ from .consistency import problem
 from .framing import LINE_ERRORS, split_frames
 
 PROTO = 1
-RATES_HZ = (50, 100, 200, 250, 500, 1000)
 """The sample rates the device accepts (`rate <hz>`, docs/protocol.md)."""
 FLAG_SAT = 0x01
 FLAG_RANGE = 0x02
