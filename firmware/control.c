@@ -6,6 +6,7 @@
 
 #include "adc.h"
 #include "board.h"
+#include "cmdline.h"
 #include "command.h"
 #include "config.h"
 #include "link.h"
@@ -15,17 +16,6 @@
 #include "tx.h"
 #include "uart.h"
 #include "vocab.h"
-
-/* The command line being received; `ready` holds a complete one until the
- * output is between two lines. */
-static struct {
-  char text[COMMAND_LINE_MAX + 1];
-  uint8_t len;
-  uint8_t overflow; /* LINE_LONG, LINE_LOST: the line is thrown away at its end */
-  uint8_t ready;
-} line;
-#define LINE_LONG 1
-#define LINE_LOST 2
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -197,20 +187,25 @@ static void execute(const command_t *cmd)
   }
 }
 
+/* Run the complete command line (replies: docs/protocol.md). */
 static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
-  uint8_t err;
-  line.ready = 0;
-  if (line.overflow) {
-    if (line.overflow & LINE_LOST)
-      tx_error(CMD_ERR_LOST, PSTR("input lost"));
-    else
-      tx_error(CMD_ERR_LONG, PSTR("line too long"));
-    line.overflow = 0;
+  const char *text;
+  uint8_t err = cmdline_take(&text);
+  if (err == CMD_ERR_LOST) {
+    tx_error(err, PSTR("input lost"));
     return;
   }
-  err = command_parse(line.text, &cmd);
+  if (err == CMD_ERR_LONG) {
+    tx_error(err, PSTR("line too long"));
+    return;
+  }
+  if (err == CMD_ERR_BYTE) {
+    tx_error(err, PSTR("bad byte"));
+    return;
+  }
+  err = command_parse(text, &cmd);
   if (err == CMD_ERR_UNKNOWN)
     tx_error(err, PSTR("unknown command"));
   else if (err)
@@ -219,36 +214,16 @@ static __attribute__((noinline)) void run_line(void)
     execute(&cmd);
 }
 
-/* Assemble command lines from the RX ring; run each when the output is
- * between two lines (and no EEPROM save is under way). */
-static __attribute__((noinline)) void poll_commands(void)
-{
-  int16_t c;
-  while (!line.ready && (c = uart_read()) >= 0) {
-    if (c & UART_READ_GAP) {
-      line.overflow |= LINE_LOST; /* never run a line with bytes missing */
-      c &= 0xFF;
-    }
-    if (c == '\r' || c == '\n') {
-      line.text[line.len] = 0;
-      line.ready = line.len || line.overflow; /* blank lines are ignored */
-      line.len = 0;
-    } else if (line.len < COMMAND_LINE_MAX) {
-      line.text[line.len++] = (char)c;
-    } else {
-      line.overflow |= LINE_LONG; /* discard the whole line at its end */
-    }
-  }
-  if (line.ready && tx_can_interject() && !settings_saving())
-    run_line();
-}
-
 void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
   if (settings_saving() && tx_can_interject() && settings_poll())
     tx_ok(PSTR("saved"));
-  poll_commands();
+  /* A complete line runs when the output is between two lines (and no
+   * EEPROM save is under way), so its reply never cuts into a line. */
+  cmdline_poll();
+  if (cmdline_ready() && tx_can_interject() && !settings_saving())
+    run_line();
   if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
       !tx_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
     tx_report(); /* its header restarts the interval */
@@ -256,5 +231,5 @@ void control_poll(void)
 
 uint8_t control_has_work(void)
 {
-  return uart_rx_pending() || settings_saving();
+  return uart_rx_pending() || settings_saving() || cmdline_ready();
 }

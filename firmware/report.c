@@ -117,9 +117,12 @@ uint8_t report_boot_step(uint8_t step)
   return 0;
 }
 
-/* `temp=<mean>:<min>:<max>` over the report's interval, the mean to one
- * decimal without overflowing 32 bits. */
-static __attribute__((noinline)) void put_temp_mean(void)
+/* `<mean>:<min>:<max>` of the temperature over the report's interval, in
+ * one step (at most 16 characters: `1023.0:1023:1023`), so that no sample
+ * can come between the mean and the extremes; `-` when the interval holds
+ * no sample.  The mean to one decimal without overflowing 32 bits.  The
+ * next report's interval starts here. */
+static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
   if (n) {
@@ -133,9 +136,12 @@ static __attribute__((noinline)) void put_temp_mean(void)
     proto_u32(q);
     proto_putc('.');
     proto_u32(tenth);
+    put_key_u32(PSTR(":"), sample_stats.temp_min);
+    put_key_u32(PSTR(":"), sample_stats.temp_max);
   } else {
     proto_putc('-');
   }
+  sample_interval_restart();
 }
 
 static __attribute__((noinline)) uint8_t step_header(uint8_t step)
@@ -164,26 +170,21 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
     if (step > clip0)
       proto_putc(':');
     proto_u32(sample_stats.clips[step - clip0]);
+    if (step == temp - 1)
+      proto_puts_P(PSTR(",temp="));
   } else if (step == temp) {
-    proto_puts_P(PSTR(",temp="));
-    put_temp_mean();
+    put_temp();
   } else if (step == temp + 1) {
-    if (sample_stats.since_report) {
-      put_key_u32(PSTR(":"), sample_stats.temp_min);
-      put_key_u32(PSTR(":"), sample_stats.temp_max);
-    }
-    sample_interval_restart(); /* the next report's interval starts here */
-  } else if (step == temp + 2) {
     proto_puts_P(adc_running() ? PSTR(",run=1,mode=") : PSTR(",run=0,mode="));
     proto_puts_P(vocab_word(vocab_modes, settings.mode));
-  } else if (step == temp + 3) {
+  } else if (step == temp + 2) {
     proto_puts_P(PSTR(",range="));
     proto_puts_P(vocab_word(vocab_ranges, settings.range));
     proto_puts_P(PSTR(",cfg="));
-  } else if (step == temp + 4) {
+  } else if (step == temp + 3) {
     proto_puts_P(vocab_word(vocab_sources, settings_source));
     proto_puts_P(PSTR(",reset="));
-  } else if (step == temp + 5) {
+  } else if (step == temp + 4) {
     put_causes();
   } else {
     proto_end();

@@ -335,6 +335,65 @@ static void test_link_budget_refuses_raw_at_1000_hz(void)
   TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
 }
 
+static void test_line_with_nul_is_refused_whole_and_runs_nothing(void)
+{
+  static const char *bad[] = {"reset\0xyz", "rate 250\0 junk", "status\x01", "help\xff", "\0"};
+  static const size_t len[] = {9, 14, 7, 5, 1};
+  char b[256], want[64];
+  fx_boot(1);
+  fx_run_us(1000000);
+  for (unsigned i = 0; i < 5; i++) {
+    fx_send(bad[i], len[i]);
+    fx_send_str("\r");
+    fx_run_us(60000);
+    line("error:", i, b, sizeof b);
+    TEST_ASSERT_EQUAL_STRING("error:6 bad byte", b);
+  }
+  command("stop");
+  line("ok stopped", 0, b, sizeof b);
+  snprintf(want, sizeof want, "ok stopped n=%u", (unsigned)fx_sets_made); /* never reset */
+  TEST_ASSERT_EQUAL_STRING(want, b);
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("ok status"));
+}
+
+static void test_backspace_and_delete_erase_the_last_character(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("stattus\b\b\bus");
+  line("ok status", 0, b, sizeof b);
+  command("rate 2000\x7f\x7f" "0");
+  line("ok", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok reset rate=200", b);
+}
+
+static void test_report_header_temp_is_dash_or_mean_min_max(void)
+{
+  char b[512];
+  unsigned dashes = 0;
+  fx_boot(1);
+  for (unsigned i = 0; i < 40; i++) {
+    fx_run_us(2000 + 1370u * i); /* every phase against the 10 ms tick */
+    fx_send_str("reset\rreport\r");
+    fx_run_us(400000);
+  }
+  TEST_ASSERT_EQUAL_UINT(40, fx_count_lines("E,"));
+  for (unsigned i = 0; i < 40; i++) {
+    line("H,", i, b, sizeof b);
+    const char *t = field(b, "temp");
+    unsigned q, tenth, lo, hi;
+    char end;
+    if (strcmp(t, "-") == 0) {
+      dashes++;
+      continue;
+    }
+    TEST_ASSERT_EQUAL_INT_MESSAGE(4, sscanf(t, "%u.%u:%u:%u%c", &q, &tenth, &lo, &hi, &end), t);
+    TEST_ASSERT_TRUE(lo <= q && q <= hi && tenth <= 9);
+  }
+  TEST_ASSERT_TRUE(dashes < 40);
+}
+
 static const struct { const char *name; void (*fn)(void); } tests[] = {
 #define T(f) {#f, f}
   T(test_boot_line_names_protocol_version_and_reset_cause),
@@ -348,6 +407,9 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_saved_settings_are_in_force_at_power_up),
   T(test_periodic_report_follows_the_interval),
   T(test_link_budget_refuses_raw_at_1000_hz),
+  T(test_line_with_nul_is_refused_whole_and_runs_nothing),
+  T(test_backspace_and_delete_erase_the_last_character),
+  T(test_report_header_temp_is_dash_or_mean_min_max),
 #undef T
 };
 
