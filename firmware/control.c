@@ -113,10 +113,11 @@ static void run_load(uint16_t old_rate, uint8_t old_range)
 {
   settings_t before = settings;
   uint8_t source = settings_source;
-  if (settings_load() != CFG_SAVED) {
-    settings = before; /* nothing valid saved: keep what is in force */
+  uint8_t loaded = settings_load();
+  if (loaded != CFG_SAVED) {
+    settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
-    tx_error(CMD_ERR_STATE, PSTR("nothing saved"));
+    tx_error(CMD_ERR_STATE, loaded == CFG_INFEASIBLE ? PSTR("link too slow") : PSTR("nothing saved"));
     return;
   }
   tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));

@@ -11,6 +11,7 @@
 #include <util/crc16.h>
 
 #include "config.h"
+#include "link.h"
 #include "vocab.h"
 
 #define SETTINGS_VERSION 1
@@ -75,6 +76,8 @@ uint8_t settings_load(void)
   } else if (rec[0] != SETTINGS_VERSION || rec[RECORD_BYTES - 2u] != (uint8_t)(crc >> 8) ||
              rec[RECORD_BYTES - 1u] != (uint8_t)crc || !valid(&s)) {
     settings_source = CFG_CORRUPT;
+  } else if (!link_fits(s.mode, s.rate_hz, BAUD)) {
+    settings_source = CFG_INFEASIBLE; /* refused like `rate` and `mode` would be */
   } else {
     settings = s;
     settings_source = CFG_SAVED;

@@ -394,6 +394,26 @@ static void test_report_header_temp_is_dash_or_mean_min_max(void)
   TEST_ASSERT_TRUE(dashes < 40);
 }
 
+/* A record with a good CRC whose rate/mode pair the link cannot carry. */
+static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
+{
+  char b[256];
+  static const uint8_t rec[7] = {1, 0xE8, 3, 5, 0, 1, 0}; /* raw at 1000 Hz */
+  memcpy(fake_eeprom, rec, 7);
+  unsigned crc = ref_crc16_modbus(rec, 7);
+  fake_eeprom[7] = (uint8_t)(crc >> 8);
+  fake_eeprom[8] = (uint8_t)crc;
+  memset(fake_eeprom + 9, 0xFF, sizeof fake_eeprom - 9);
+  fx_boot(1);
+  fx_run_us(60000);
+  command("status");
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible", b);
+  command("load");
+  line("error:", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
+}
+
 static const struct { const char *name; void (*fn)(void); } tests[] = {
 #define T(f) {#f, f}
   T(test_boot_line_names_protocol_version_and_reset_cause),
@@ -410,6 +430,7 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_line_with_nul_is_refused_whole_and_runs_nothing),
   T(test_backspace_and_delete_erase_the_last_character),
   T(test_report_header_temp_is_dash_or_mean_min_max),
+  T(test_infeasible_saved_settings_load_defaults_and_say_so),
 #undef T
 };
 
