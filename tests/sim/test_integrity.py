@@ -123,3 +123,45 @@ def test_infeasible_eeprom_record_loads_defaults(run, tmp_path: Path, mode: int,
     assert head["cfg"] == "infeasible" and head["fs_hz"] == 100
     assert "OK" in r.check(fs=100)
     assert json.loads(r.stats_file.read_text())["device_drops"] == 0
+
+
+def _reply_storm(n: int, seed: int, mode: str) -> str:
+    """`mode <mode>` early, the longest replies (status, help) every 40 to
+    120 rows, `mode allan` near the end."""
+    rng = np.random.default_rng(seed)
+    lines, i = [f"50\tmode {mode}\\r"], 100
+    while True:
+        i += int(rng.integers(40, 120))
+        if i >= n - 300:
+            break
+        lines.append(f"{i}\t{'status' if len(lines) % 2 else 'help'}\\r")
+    lines.append(f"{n - 150}\tmode allan\\r")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("mode,fs", [("raw", 100), ("binary", 500), ("both", 50)])
+def test_replies_never_cost_a_sample(run, tmp_path: Path, mode: str, fs: int) -> None:
+    """At the highest rate the link budget accepts for each mode, a storm
+    of the longest replies loses no sample set (the budget counts them)."""
+    r = run(f"replies-{mode}-{fs}")
+    n = 6000 if fs <= 100 else 12000
+    cli("gen", "-n", str(n), "--fs", str(fs), "--seed", str(fs + 3), "-o", str(r.rows))
+    uart = tmp_path / "uart.txt"
+    uart.write_text(_reply_storm(n, fs, mode))
+    simulate_and_check(r, n, fs, uart_in=uart)
+    log = r.log.read_bytes()
+    assert log.count(b"$ok help ") + log.count(b"$ok status ") >= (n - 400) // 120
+    assert b"$error:" not in log
+
+
+def test_budget_refuses_raw_where_replies_would_cost_samples(run, tmp_path: Path) -> None:
+    """Raw at 200 and 250 Hz: rows fit the link (63 %, 79 %), but a help
+    reply holds them back longer than the two-set ring lasts, so the mode
+    is refused and nothing changes (the run stays whole and exact)."""
+    r = run("raw-refused")
+    n = 3000
+    cli("gen", "-n", str(n), "--fs", "250", "--seed", "31", "-o", str(r.rows))
+    uart = tmp_path / "uart.txt"
+    uart.write_text("100\tmode raw\\r\n")
+    simulate_and_check(r, n, 250, uart_in=uart)
+    assert b"$error:4 link too slow" in r.log.read_bytes()
