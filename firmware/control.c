@@ -32,26 +32,38 @@ static void range_pins(uint8_t range)
  * report being written would now mix two runs: it is cut off. */
 static void new_run(void)
 {
-  tx_abort_report();
+  tx_new_run();
   sample_reset();
   sample_interval_restart();
   tx_restart_rows();
 }
 
+/* The `count` of a `start <count>` still running (the engine's n when it
+ * stops), or 0. */
+static uint32_t count_in_force(void)
+{
+  uint32_t left = adc_remaining();
+  if (left == ADC_UNLIMITED || !adc_running())
+    return 0;
+  return sample_engine.n + adc_pending() + left;
+}
+
 /* Put the settings in force; a different rate or range starts a new run
- * (results from mixed settings would be meaningless).  Returns 1 if so. */
+ * (results from mixed settings would be meaningless), which keeps a
+ * `start <count>`: it stops at n = count.  Returns 1 if so. */
 static uint8_t apply_settings(uint16_t old_rate, uint8_t old_range)
 {
   uint8_t changed = settings.rate_hz != old_rate || settings.range != old_range;
   if (changed) {
     uint8_t was_running = adc_running();
+    uint32_t count = count_in_force();
     adc_stop();
     adc_flush(); /* sets taken under the old settings go with the old run */
     adc_set_rate(settings.rate_hz);
     range_pins(settings.range);
     new_run();
     if (was_running)
-      adc_start(0, 0);
+      adc_start(count != 0, count);
   }
   return changed;
 }
@@ -137,11 +149,16 @@ static void execute(const command_t *cmd)
     tx_ok(0);
     tx_report(); /* follows the reply */
     break;
-  case CMD_RESET:
+  case CMD_RESET: {
+    uint32_t count;
     sample_feed(); /* sets taken so far belong to the old run */
+    count = count_in_force();
     new_run();
+    if (count)
+      adc_limit(count); /* `start <count>` stops at n = count in the new run */
     tx_ok(PSTR("reset"));
     break;
+  }
   case CMD_STOP:
     adc_stop();
     sample_feed();

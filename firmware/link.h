@@ -14,13 +14,13 @@
 
 /* Worst-case bytes of one raw row ("1023\t" x 6, "1023\r\n") and of the
  * count line sent every LINK_COUNT_EVERY rows or frames
- * ("$C,4294967295,4294967295*XXXX\r\n"). */
+ * ("$C,4294967295,4294967295,XXXX*XXXX\r\n"). */
 #define LINK_RAW_ROW 36u
-#define LINK_COUNT_LINE 31u
+#define LINK_COUNT_LINE 36u
 #define LINK_COUNT_EVERY 100u
 #define LINK_FRAME 13u      /* one binary frame */
 #define LINK_REPLY_MAX 95u  /* longest reply line (help; status is at most 91) */
-#define LINK_REPORT_MAX 264u /* longest report line: the header with every count at its maximum */
+#define LINK_REPORT_MAX 273u /* longest report line: the header with every count at its maximum */
 #define LINK_USE_PERCENT 90u /* of BAUD/10 bytes per second, at most */
 
 /* Bytes per second the mode sends at rate fs, worst case, reports aside. */

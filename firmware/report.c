@@ -18,22 +18,28 @@
 #include "vocab.h"
 
 /* Parts of a report, in order. */
-enum { PART_HEADER, PART_ROW, PART_SUM_HEAD, PART_SUM_ROW, PART_END };
+enum { PART_HEADER, PART_ROW, PART_SUM_HEAD, PART_SUM_ROW, PART_CHECK, PART_END };
 
 static struct {
   uint8_t part, ch, level;
-  uint16_t seq;
+  uint16_t seq;   /* of the report being written; +1 when one starts */
+  uint8_t run_id; /* +1 with every new run (report_new_run) */
   uint8_t reset_cause;
   /* The L row's snapshot. */
   uint8_t flags;
   uint16_t acc_hi;
   uint32_t acc_lo;
   uint32_t pairs;
-} rep;
+} rep = {.seq = 0xFFFF}; /* the first report is seq 0 */
 
 void report_init(uint8_t cause)
 {
   rep.reset_cause = cause;
+}
+
+void report_new_run(void)
+{
+  rep.run_id++;
 }
 
 void report_begin(void)
@@ -41,6 +47,8 @@ void report_begin(void)
   rep.part = PART_HEADER;
   rep.ch = 0;
   rep.level = 0;
+  rep.seq++; /* a report cut off keeps its number: the next one differs */
+  proto_bound_restart();
 }
 
 /* ---- pieces ---- */
@@ -51,9 +59,14 @@ static void put_channel(uint8_t ch)
   proto_putc((char)pgm_read_byte(&vocab_channels[2 * ch + 1]));
 }
 
+/* `<type>,<seq>,`; H and L lines are bound (their bodies go into the
+ * report's V check). */
 static void begin_seq(char type)
 {
-  proto_begin();
+  if (type == 'H' || type == 'L')
+    proto_begin_bound();
+  else
+    proto_begin();
   proto_putc(type);
   proto_putc(',');
   proto_u32(rep.seq);
@@ -146,25 +159,27 @@ static __attribute__((noinline)) void put_temp(void)
 
 static __attribute__((noinline)) uint8_t step_header(uint8_t step)
 {
-  const uint8_t clip0 = 11, temp = clip0 + ADC_COLUMNS;
+  const uint8_t clip0 = 12, temp = clip0 + ADC_COLUMNS;
   if (step == 0) {
     begin_seq('H');
   } else if (step <= 3) {
     step_identity((uint8_t)(step - 1));
   } else if (step == 4) {
-    put_key_u32(PSTR(",fcpu="), F_CPU);
+    put_key_u32(PSTR(",id="), rep.run_id);
   } else if (step == 5) {
-    put_key_u32(PSTR(",baud="), BAUD);
+    put_key_u32(PSTR(",fcpu="), F_CPU);
   } else if (step == 6) {
-    put_key_u32(PSTR(",fs="), adc_rate());
+    put_key_u32(PSTR(",baud="), BAUD);
   } else if (step == 7) {
+    put_key_u32(PSTR(",fs="), adc_rate());
+  } else if (step == 8) {
     put_key_u32(PSTR(",levels="), ALLAN_LEVELS);
     put_key_u32(PSTR(",acc48="), ALLAN_ACC48_FROM);
-  } else if (step == 8) {
-    put_key_u32(PSTR(",n="), sample_engine.n);
   } else if (step == 9) {
-    put_key_u32(PSTR(",drops="), adc_drops());
+    put_key_u32(PSTR(",n="), sample_engine.n);
   } else if (step == 10) {
+    put_key_u32(PSTR(",drops="), adc_drops());
+  } else if (step == 11) {
     proto_puts_P(PSTR(",clips="));
   } else if (step < temp) {
     if (step > clip0)
@@ -269,6 +284,23 @@ static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
   return 0;
 }
 
+/* `V,<seq>,id=<run>,crc=<XXXX>`: the run and the CRC-16/MODBUS of the
+ * bodies of this report's H and L lines (docs/protocol.md). */
+static __attribute__((noinline)) uint8_t step_check(uint8_t step)
+{
+  if (step == 0) {
+    begin_seq('V');
+    put_key_u32(PSTR("id="), rep.run_id);
+  } else if (step == 1) {
+    proto_puts_P(PSTR(",crc="));
+    proto_hex(proto_bound(), 4);
+  } else {
+    proto_end();
+    return 1;
+  }
+  return 0;
+}
+
 /* After a whole line: the part and row the next line belongs to. */
 static void next_line(void)
 {
@@ -298,11 +330,11 @@ uint8_t report_step(uint8_t step)
   case PART_ROW: done = step_row(step); break;
   case PART_SUM_HEAD: done = step_sum_head(step); break;
   case PART_SUM_ROW: done = step_sum_row(step); break;
+  case PART_CHECK: done = step_check(step); break;
   default:
     begin_seq('E');
     proto_u32((uint32_t)ALLAN_CHANNELS * ALLAN_LEVELS);
     proto_end();
-    rep.seq++;
     return REPORT_DONE;
   }
   if (!done)

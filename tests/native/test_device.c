@@ -32,6 +32,9 @@ static unsigned ref_crc16(const char *s, size_t n)
   return reg;
 }
 
+static unsigned ref_crc16_modbus(const uint8_t *p, size_t n);
+static unsigned ref_crc16_modbus_more(unsigned reg, const uint8_t *p, size_t n);
+
 /* The n-th line starting with prefix, its CRC verified; fails if absent. */
 static void line(const char *prefix, unsigned n, char *body, size_t size)
 {
@@ -235,10 +238,26 @@ static void test_raw_mode_writes_every_set_in_order_with_count_lines(void)
     rows++;
     p = strchr(p, '\n') + 1;
   }
-  TEST_ASSERT_EQUAL_UINT(100, rows); /* then the count line */
+  TEST_ASSERT_EQUAL_UINT(100, rows); /* then the count line, with the CRC of the rows */
+  const char *rows_start = strchr(strstr(fx_out, "ok mode=raw"), '\n') + 1;
+  unsigned crc = ref_crc16_modbus((const uint8_t *)rows_start, (size_t)(p - rows_start));
+  char want[32];
+  snprintf(want, sizeof want, "C,100,0,%04X", crc);
   line("C,", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("C,100,0", b);
+  TEST_ASSERT_EQUAL_STRING(want, b);
   assert_all_lines_whole();
+}
+
+static unsigned ref_crc16_modbus_more(unsigned reg, const uint8_t *p, size_t n)
+{
+  for (size_t i = 0; i < n; i++)
+    for (int b = 0; b < 8; b++) {
+      unsigned in = (p[i] >> b) & 1u, low = reg & 1u;
+      reg >>= 1;
+      if (low ^ in)
+        reg ^= 0xA001;
+    }
+  return reg;
 }
 
 static unsigned ref_crc16_modbus(const uint8_t *p, size_t n)
@@ -414,6 +433,106 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
 }
 
+/* CRC-16/MODBUS over the bodies of report seq's H and L lines, in order. */
+static unsigned bound_crc(unsigned seq)
+{
+  char prefix[16], body[512];
+  unsigned crc = 0xFFFF;
+  for (int kind = 0; kind < 2; kind++) {
+    snprintf(prefix, sizeof prefix, "%c,%u,", kind ? 'L' : 'H', seq);
+    for (unsigned i = 0; fx_find_line(prefix, i, body, sizeof body, NULL) >= 0; i++) {
+      const uint8_t *b = (const uint8_t *)body;
+      size_t n = strlen(body);
+      crc = ref_crc16_modbus_more(crc, b, n);
+      if (!kind)
+        break; /* one header */
+    }
+  }
+  return crc;
+}
+
+static void test_report_check_line_binds_rows_to_header(void)
+{
+  char b[512], want[64], id[16];
+  fx_boot(1);
+  fx_run_us(2000000);
+  command("report");
+  fx_run_us(600000);
+  line("H,0,", 0, b, sizeof b);
+  snprintf(id, sizeof id, "%s", field(b, "id"));
+  line("V,0,", 0, b, sizeof b);
+  snprintf(want, sizeof want, "V,0,id=%s,crc=%04X", id, bound_crc(0));
+  TEST_ASSERT_EQUAL_STRING(want, b);
+  /* V comes right before E */
+  long v = fx_find_line("V,0,", 0, b, sizeof b, NULL);
+  long e = fx_find_line("E,0,", 0, b, sizeof b, NULL);
+  TEST_ASSERT_TRUE(v >= 0 && e > v && strchr(fx_out + v, '\n') + 1 == fx_out + e);
+  assert_all_lines_whole();
+}
+
+static void test_seq_advances_when_a_report_starts_and_reset_changes_id(void)
+{
+  char b[512], id0[16];
+  fx_boot(1);
+  fx_run_us(2000000);
+  command("report");
+  fx_run_us(50000); /* the report is under way: cut it off */
+  TEST_ASSERT_TRUE(fx_count_lines("L,0,") > 0);
+  command("reset");
+  command("report");
+  fx_run_us(600000);
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("E,0,")); /* report 0 never ended */
+  line("H,0,", 0, b, sizeof b);
+  snprintf(id0, sizeof id0, "%s", field(b, "id"));
+  line("H,1,", 0, b, sizeof b); /* the next report has the next seq */
+  TEST_ASSERT_FALSE(strcmp(id0, field(b, "id")) == 0); /* and another run */
+  line("E,1,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("E,1,90", b);
+  line("V,1,", 0, b, sizeof b);
+  char head[512], want[64];
+  line("H,1,", 0, head, sizeof head);
+  snprintf(want, sizeof want, "V,1,id=%s,crc=%04X", field(head, "id"), bound_crc(1));
+  TEST_ASSERT_EQUAL_STRING(want, b);
+}
+
+/* `start <count>` means n = count when it stops, through a reset. */
+static void test_start_count_stops_at_count_through_a_reset(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("stop");
+  command("reset");
+  command("start 300");
+  fx_run_us(1000000); /* about 100 sets in */
+  command("reset");
+  fx_run_us(4000000);
+  command("status");
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("run=0", strstr(b, "run=0") ? "run=0" : b);
+  command("stop");
+  line("ok stopped", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok stopped n=300", b);
+}
+
+/* A rate change starts a new run and keeps the count (docs/protocol.md). */
+static void test_start_count_is_kept_through_a_rate_change(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("stop");
+  command("reset");
+  command("start 300");
+  fx_run_us(1000000);
+  command("rate 200");
+  line("ok reset rate", 0, b, sizeof b);
+  fx_run_us(3000000);
+  command("stop");
+  line("ok stopped", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok stopped n=300", b);
+}
+
 static const struct { const char *name; void (*fn)(void); } tests[] = {
 #define T(f) {#f, f}
   T(test_boot_line_names_protocol_version_and_reset_cause),
@@ -431,6 +550,10 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_backspace_and_delete_erase_the_last_character),
   T(test_report_header_temp_is_dash_or_mean_min_max),
   T(test_infeasible_saved_settings_load_defaults_and_say_so),
+  T(test_report_check_line_binds_rows_to_header),
+  T(test_seq_advances_when_a_report_starts_and_reset_changes_id),
+  T(test_start_count_stops_at_count_through_a_reset),
+  T(test_start_count_is_kept_through_a_rate_change),
 #undef T
 };
 
