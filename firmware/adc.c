@@ -71,6 +71,22 @@ void adc_start(uint8_t lim, uint32_t count)
   }
 }
 
+uint32_t adc_remaining(void)
+{
+  uint32_t r;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { r = limited ? budget : ADC_UNLIMITED; }
+  return r;
+}
+
+void adc_limit(uint32_t total)
+{
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    uint8_t waiting = adc_pending();
+    limited = 1;
+    budget = total > waiting ? total - waiting : 0;
+  }
+}
+
 void adc_stop(void)
 {
   TIMSK1 = 0;

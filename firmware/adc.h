@@ -21,6 +21,14 @@ uint16_t adc_rate(void);
 /* Start ticking. With limited, take exactly `count` more scans, then stop. */
 void adc_start(uint8_t limited, uint32_t count);
 
+/* Scans a limited start still has to take, or ADC_UNLIMITED. */
+#define ADC_UNLIMITED 0xFFFFFFFFul
+uint32_t adc_remaining(void);
+
+/* Limit the running tick to `total` sets counting those already waiting in
+ * the ring (a new run keeps a `start <count>`). */
+void adc_limit(uint32_t total);
+
 /* Stop ticking and wait for an unfinished scan to land in the ring. */
 void adc_stop(void);
 

@@ -37,6 +37,7 @@ enum {
 #define CMD_ERR_LONG    3
 #define CMD_ERR_STATE   4
 #define CMD_ERR_LOST    5 /* bytes of the line were lost on the way in */
+#define CMD_ERR_BYTE    6 /* a byte no command holds: NUL, a control, 8-bit */
 
 typedef struct {
   uint8_t id;      /* CMD_* */

@@ -102,16 +102,17 @@
 #endif
 
 /* The default mode must keep up with the link at the default rate: the
- * rules of link.c (throughput, and the longest line that can hold a
- * sample's output back within two sample periods), at compile time. */
+ * rules of link.c (throughput, and the longest wait of a sample's output,
+ * replies and reports included, within two sample periods), at compile
+ * time. */
 #ifdef BAUD
 #  include "link.h"
 #  if MODE_DEFAULT == MODE_RAW || MODE_DEFAULT == MODE_BOTH
 #    define CONFIG_LINK_BYTES (FS_DEFAULT * LINK_RAW_ROW + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
 #    if MODE_DEFAULT == MODE_RAW
-#      define CONFIG_LINK_WAIT LINK_REPLY_MAX
+#      define CONFIG_LINK_WAIT (LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW)
 #    else
-#      define CONFIG_LINK_WAIT LINK_REPORT_MAX
+#      define CONFIG_LINK_WAIT (LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW)
 #    endif
 #  elif MODE_DEFAULT == MODE_BINARY
 #    define CONFIG_LINK_BYTES (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
@@ -123,7 +124,7 @@
 #  if CONFIG_LINK_BYTES * 100 > (BAUD / 10) * LINK_USE_PERCENT
 #    error "MODE_DEFAULT at FS_DEFAULT sends more than the link carries at BAUD"
 #  endif
-#  if CONFIG_LINK_WAIT * FS_DEFAULT > 2 * (BAUD / 10)
+#  if CONFIG_LINK_WAIT * FS_DEFAULT * 100 > 2 * (BAUD / 10) * LINK_USE_PERCENT
 #    error "MODE_DEFAULT at FS_DEFAULT: a long line would hold samples back beyond the ring's slack at BAUD"
 #  endif
 #endif

@@ -6,6 +6,7 @@
 
 #include "adc.h"
 #include "board.h"
+#include "cmdline.h"
 #include "command.h"
 #include "config.h"
 #include "link.h"
@@ -15,17 +16,6 @@
 #include "tx.h"
 #include "uart.h"
 #include "vocab.h"
-
-/* The command line being received; `ready` holds a complete one until the
- * output is between two lines. */
-static struct {
-  char text[COMMAND_LINE_MAX + 1];
-  uint8_t len;
-  uint8_t overflow; /* LINE_LONG, LINE_LOST: the line is thrown away at its end */
-  uint8_t ready;
-} line;
-#define LINE_LONG 1
-#define LINE_LOST 2
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -42,26 +32,38 @@ static void range_pins(uint8_t range)
  * report being written would now mix two runs: it is cut off. */
 static void new_run(void)
 {
-  tx_abort_report();
+  tx_new_run();
   sample_reset();
   sample_interval_restart();
   tx_restart_rows();
 }
 
+/* The `count` of a `start <count>` still running (the engine's n when it
+ * stops), or 0. */
+static uint32_t count_in_force(void)
+{
+  uint32_t left = adc_remaining();
+  if (left == ADC_UNLIMITED || !adc_running())
+    return 0;
+  return sample_engine.n + adc_pending() + left;
+}
+
 /* Put the settings in force; a different rate or range starts a new run
- * (results from mixed settings would be meaningless).  Returns 1 if so. */
+ * (results from mixed settings would be meaningless), which keeps a
+ * `start <count>`: it stops at n = count.  Returns 1 if so. */
 static uint8_t apply_settings(uint16_t old_rate, uint8_t old_range)
 {
   uint8_t changed = settings.rate_hz != old_rate || settings.range != old_range;
   if (changed) {
     uint8_t was_running = adc_running();
+    uint32_t count = count_in_force();
     adc_stop();
     adc_flush(); /* sets taken under the old settings go with the old run */
     adc_set_rate(settings.rate_hz);
     range_pins(settings.range);
     new_run();
     if (was_running)
-      adc_start(0, 0);
+      adc_start(count != 0, count);
   }
   return changed;
 }
@@ -123,10 +125,11 @@ static void run_load(uint16_t old_rate, uint8_t old_range)
 {
   settings_t before = settings;
   uint8_t source = settings_source;
-  if (settings_load() != CFG_SAVED) {
-    settings = before; /* nothing valid saved: keep what is in force */
+  uint8_t loaded = settings_load();
+  if (loaded != CFG_SAVED) {
+    settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
-    tx_error(CMD_ERR_STATE, PSTR("nothing saved"));
+    tx_error(CMD_ERR_STATE, loaded == CFG_INFEASIBLE ? PSTR("link too slow") : PSTR("nothing saved"));
     return;
   }
   tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
@@ -146,11 +149,16 @@ static void execute(const command_t *cmd)
     tx_ok(0);
     tx_report(); /* follows the reply */
     break;
-  case CMD_RESET:
+  case CMD_RESET: {
+    uint32_t count;
     sample_feed(); /* sets taken so far belong to the old run */
+    count = count_in_force();
     new_run();
+    if (count)
+      adc_limit(count); /* `start <count>` stops at n = count in the new run */
     tx_ok(PSTR("reset"));
     break;
+  }
   case CMD_STOP:
     adc_stop();
     sample_feed();
@@ -197,20 +205,25 @@ static void execute(const command_t *cmd)
   }
 }
 
+/* Run the complete command line (replies: docs/protocol.md). */
 static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
-  uint8_t err;
-  line.ready = 0;
-  if (line.overflow) {
-    if (line.overflow & LINE_LOST)
-      tx_error(CMD_ERR_LOST, PSTR("input lost"));
-    else
-      tx_error(CMD_ERR_LONG, PSTR("line too long"));
-    line.overflow = 0;
+  const char *text;
+  uint8_t err = cmdline_take(&text);
+  if (err == CMD_ERR_LOST) {
+    tx_error(err, PSTR("input lost"));
     return;
   }
-  err = command_parse(line.text, &cmd);
+  if (err == CMD_ERR_LONG) {
+    tx_error(err, PSTR("line too long"));
+    return;
+  }
+  if (err == CMD_ERR_BYTE) {
+    tx_error(err, PSTR("bad byte"));
+    return;
+  }
+  err = command_parse(text, &cmd);
   if (err == CMD_ERR_UNKNOWN)
     tx_error(err, PSTR("unknown command"));
   else if (err)
@@ -219,36 +232,16 @@ static __attribute__((noinline)) void run_line(void)
     execute(&cmd);
 }
 
-/* Assemble command lines from the RX ring; run each when the output is
- * between two lines (and no EEPROM save is under way). */
-static __attribute__((noinline)) void poll_commands(void)
-{
-  int16_t c;
-  while (!line.ready && (c = uart_read()) >= 0) {
-    if (c & UART_READ_GAP) {
-      line.overflow |= LINE_LOST; /* never run a line with bytes missing */
-      c &= 0xFF;
-    }
-    if (c == '\r' || c == '\n') {
-      line.text[line.len] = 0;
-      line.ready = line.len || line.overflow; /* blank lines are ignored */
-      line.len = 0;
-    } else if (line.len < COMMAND_LINE_MAX) {
-      line.text[line.len++] = (char)c;
-    } else {
-      line.overflow |= LINE_LONG; /* discard the whole line at its end */
-    }
-  }
-  if (line.ready && tx_can_interject() && !settings_saving())
-    run_line();
-}
-
 void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
   if (settings_saving() && tx_can_interject() && settings_poll())
     tx_ok(PSTR("saved"));
-  poll_commands();
+  /* A complete line runs when the output is between two lines (and no
+   * EEPROM save is under way), so its reply never cuts into a line. */
+  cmdline_poll();
+  if (cmdline_ready() && tx_can_interject() && !settings_saving())
+    run_line();
   if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
       !tx_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
     tx_report(); /* its header restarts the interval */
@@ -256,5 +249,5 @@ void control_poll(void)
 
 uint8_t control_has_work(void)
 {
-  return uart_rx_pending() || settings_saving();
+  return uart_rx_pending() || settings_saving() || cmdline_ready();
 }

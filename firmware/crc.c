@@ -18,3 +18,16 @@ uint16_t crc16_update(uint16_t crc, uint8_t byte)
   return crc;
 #endif
 }
+
+uint16_t crc16_modbus_update(uint16_t crc, uint8_t byte)
+{
+#ifdef __AVR__
+  return _crc16_update(crc, byte);
+#else
+  uint8_t i;
+  crc ^= byte;
+  for (i = 0; i < 8; i++)
+    crc = (crc & 1u) ? (uint16_t)((crc >> 1) ^ 0xA001u) : (uint16_t)(crc >> 1);
+  return crc;
+#endif
+}

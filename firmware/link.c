@@ -21,15 +21,23 @@ uint16_t link_percent(uint8_t mode, uint16_t fs, uint32_t baud)
   return (uint16_t)((link_bytes_per_s(mode, fs) * 100u + cap - 1u) / cap);
 }
 
+uint16_t link_wait_bytes(uint8_t mode)
+{
+  /* if, not switch: a switch becomes a lookup table, in RAM on the AVR */
+  if (mode == MODE_RAW)
+    return LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW;
+  if (mode == MODE_BOTH)
+    return LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW;
+  if (mode == MODE_BINARY)
+    return UART_STEP_MAX + LINK_FRAME;
+  return 0;
+}
+
 uint8_t link_fits(uint8_t mode, uint16_t fs, uint32_t baud)
 {
-  uint32_t cap = baud / 10u;
-  uint32_t longest = mode == MODE_BOTH ? LINK_REPORT_MAX
-                    : mode == MODE_RAW ? LINK_REPLY_MAX : UART_STEP_MAX + LINK_FRAME;
-  if (mode == MODE_ALLAN)
-    return 1;
-  if (link_bytes_per_s(mode, fs) * 100u > cap * LINK_USE_PERCENT)
+  uint32_t usable = (baud / 10u) * LINK_USE_PERCENT; /* bytes per second, x100 */
+  if (link_bytes_per_s(mode, fs) * 100u > usable)
     return 0;
-  /* longest / cap seconds <= 2 / fs */
-  return longest * fs <= 2u * cap;
+  /* wait / (usable / 100) seconds <= 2 / fs */
+  return (uint32_t)link_wait_bytes(mode) * fs * 100u <= 2u * usable;
 }

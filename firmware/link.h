@@ -14,13 +14,13 @@
 
 /* Worst-case bytes of one raw row ("1023\t" x 6, "1023\r\n") and of the
  * count line sent every LINK_COUNT_EVERY rows or frames
- * ("$C,4294967295,4294967295*XXXX\r\n"). */
+ * ("$C,4294967295,4294967295,XXXX*XXXX\r\n"). */
 #define LINK_RAW_ROW 36u
-#define LINK_COUNT_LINE 31u
+#define LINK_COUNT_LINE 36u
 #define LINK_COUNT_EVERY 100u
 #define LINK_FRAME 13u      /* one binary frame */
-#define LINK_REPLY_MAX 92u  /* longest reply line (status, help) */
-#define LINK_REPORT_MAX 264u /* longest report line: the header with every count at its maximum */
+#define LINK_REPLY_MAX 95u  /* longest reply line (help; status is at most 91) */
+#define LINK_REPORT_MAX 273u /* longest report line: the header with every count at its maximum */
 #define LINK_USE_PERCENT 90u /* of BAUD/10 bytes per second, at most */
 
 /* Bytes per second the mode sends at rate fs, worst case, reports aside. */
@@ -29,11 +29,18 @@ uint32_t link_bytes_per_s(uint8_t mode, uint16_t fs);
 /* Percent of the link (BAUD/10 bytes per second) the mode uses, rounded up. */
 uint16_t link_percent(uint8_t mode, uint16_t fs, uint32_t baud);
 
-/* 1 when the mode keeps up: throughput within LINK_USE_PERCENT, and the
- * longest text that can hold a sample's output back goes out within two
- * sample periods, the slack the sample ring gives.  Raw rows wait for a
- * whole line (a reply, or in `both` a report line); binary frames may cut
- * into a text line, so they wait one output step at most. */
+/* Worst-case bytes that can stand between a sample set's arrival and the
+ * end of its own row or frame: raw rows wait for a whole line (the longest
+ * reply, or in `both` the longest report line) behind one output step
+ * already in the TX ring, then go out themselves; binary frames cut into
+ * text, so they wait one output step at most.  0 in mode allan. */
+uint16_t link_wait_bytes(uint8_t mode);
+
+/* 1 when the mode keeps up, replies and reports included: its throughput
+ * stays within LINK_USE_PERCENT of the link, and link_wait_bytes() go out
+ * within two sample periods (the slack of the two-set sample ring) at the
+ * same LINK_USE_PERCENT, so that no reply and no report line ever costs a
+ * sample set. */
 uint8_t link_fits(uint8_t mode, uint16_t fs, uint32_t baud);
 
 #endif /* LINK_H */

@@ -7,6 +7,8 @@
 
 static proto_sink_t proto_sink;
 static uint16_t proto_crc;
+static uint16_t proto_bound_crc;
+static uint8_t proto_bound_on; /* the current line is bound */
 
 void proto_init(proto_sink_t sink)
 {
@@ -16,7 +18,24 @@ void proto_init(proto_sink_t sink)
 void proto_begin(void)
 {
   proto_crc = CRC16_INIT;
+  proto_bound_on = 0;
   proto_sink('$');
+}
+
+void proto_begin_bound(void)
+{
+  proto_begin();
+  proto_bound_on = 1;
+}
+
+void proto_bound_restart(void)
+{
+  proto_bound_crc = CRC16_MODBUS_INIT;
+}
+
+uint16_t proto_bound(void)
+{
+  return proto_bound_crc;
 }
 
 void proto_putc(char c)
@@ -25,6 +44,8 @@ void proto_putc(char c)
   if (c == '$' || c == '*' || (uint8_t)c < 0x20 || (uint8_t)c > 0x7E)
     c = '?';
   proto_crc = crc16_update(proto_crc, (uint8_t)c);
+  if (proto_bound_on)
+    proto_bound_crc = crc16_modbus_update(proto_bound_crc, (uint8_t)c);
   proto_sink((uint8_t)c);
 }
 

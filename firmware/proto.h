@@ -13,6 +13,13 @@ typedef void (*proto_sink_t)(uint8_t c);
 
 void proto_init(proto_sink_t sink);
 void proto_begin(void);                 /* '$', CRC restarts */
+
+/* A line whose body also goes into the bound CRC (CRC-16/MODBUS over the
+ * bodies of every such line since proto_bound_restart()): a report's H
+ * and L lines, checked again by its V line. */
+void proto_begin_bound(void);
+void proto_bound_restart(void);
+uint16_t proto_bound(void);
 void proto_putc(char c);                /* one body character */
 void proto_puts(const char *s);         /* body text from RAM */
 void proto_puts_P(const char *s);       /* body text from flash (PSTR) */

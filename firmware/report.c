@@ -18,22 +18,28 @@
 #include "vocab.h"
 
 /* Parts of a report, in order. */
-enum { PART_HEADER, PART_ROW, PART_SUM_HEAD, PART_SUM_ROW, PART_END };
+enum { PART_HEADER, PART_ROW, PART_SUM_HEAD, PART_SUM_ROW, PART_CHECK, PART_END };
 
 static struct {
   uint8_t part, ch, level;
-  uint16_t seq;
+  uint16_t seq;   /* of the report being written; +1 when one starts */
+  uint8_t run_id; /* +1 with every new run (report_new_run) */
   uint8_t reset_cause;
   /* The L row's snapshot. */
   uint8_t flags;
   uint16_t acc_hi;
   uint32_t acc_lo;
   uint32_t pairs;
-} rep;
+} rep = {.seq = 0xFFFF}; /* the first report is seq 0 */
 
 void report_init(uint8_t cause)
 {
   rep.reset_cause = cause;
+}
+
+void report_new_run(void)
+{
+  rep.run_id++;
 }
 
 void report_begin(void)
@@ -41,6 +47,8 @@ void report_begin(void)
   rep.part = PART_HEADER;
   rep.ch = 0;
   rep.level = 0;
+  rep.seq++; /* a report cut off keeps its number: the next one differs */
+  proto_bound_restart();
 }
 
 /* ---- pieces ---- */
@@ -51,9 +59,14 @@ static void put_channel(uint8_t ch)
   proto_putc((char)pgm_read_byte(&vocab_channels[2 * ch + 1]));
 }
 
+/* `<type>,<seq>,`; H and L lines are bound (their bodies go into the
+ * report's V check). */
 static void begin_seq(char type)
 {
-  proto_begin();
+  if (type == 'H' || type == 'L')
+    proto_begin_bound();
+  else
+    proto_begin();
   proto_putc(type);
   proto_putc(',');
   proto_u32(rep.seq);
@@ -117,9 +130,12 @@ uint8_t report_boot_step(uint8_t step)
   return 0;
 }
 
-/* `temp=<mean>:<min>:<max>` over the report's interval, the mean to one
- * decimal without overflowing 32 bits. */
-static __attribute__((noinline)) void put_temp_mean(void)
+/* `<mean>:<min>:<max>` of the temperature over the report's interval, in
+ * one step (at most 16 characters: `1023.0:1023:1023`), so that no sample
+ * can come between the mean and the extremes; `-` when the interval holds
+ * no sample.  The mean to one decimal without overflowing 32 bits.  The
+ * next report's interval starts here. */
+static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
   if (n) {
@@ -133,57 +149,57 @@ static __attribute__((noinline)) void put_temp_mean(void)
     proto_u32(q);
     proto_putc('.');
     proto_u32(tenth);
+    put_key_u32(PSTR(":"), sample_stats.temp_min);
+    put_key_u32(PSTR(":"), sample_stats.temp_max);
   } else {
     proto_putc('-');
   }
+  sample_interval_restart();
 }
 
 static __attribute__((noinline)) uint8_t step_header(uint8_t step)
 {
-  const uint8_t clip0 = 11, temp = clip0 + ADC_COLUMNS;
+  const uint8_t clip0 = 12, temp = clip0 + ADC_COLUMNS;
   if (step == 0) {
     begin_seq('H');
   } else if (step <= 3) {
     step_identity((uint8_t)(step - 1));
   } else if (step == 4) {
-    put_key_u32(PSTR(",fcpu="), F_CPU);
+    put_key_u32(PSTR(",id="), rep.run_id);
   } else if (step == 5) {
-    put_key_u32(PSTR(",baud="), BAUD);
+    put_key_u32(PSTR(",fcpu="), F_CPU);
   } else if (step == 6) {
-    put_key_u32(PSTR(",fs="), adc_rate());
+    put_key_u32(PSTR(",baud="), BAUD);
   } else if (step == 7) {
+    put_key_u32(PSTR(",fs="), adc_rate());
+  } else if (step == 8) {
     put_key_u32(PSTR(",levels="), ALLAN_LEVELS);
     put_key_u32(PSTR(",acc48="), ALLAN_ACC48_FROM);
-  } else if (step == 8) {
-    put_key_u32(PSTR(",n="), sample_engine.n);
   } else if (step == 9) {
-    put_key_u32(PSTR(",drops="), adc_drops());
+    put_key_u32(PSTR(",n="), sample_engine.n);
   } else if (step == 10) {
+    put_key_u32(PSTR(",drops="), adc_drops());
+  } else if (step == 11) {
     proto_puts_P(PSTR(",clips="));
   } else if (step < temp) {
     if (step > clip0)
       proto_putc(':');
     proto_u32(sample_stats.clips[step - clip0]);
+    if (step == temp - 1)
+      proto_puts_P(PSTR(",temp="));
   } else if (step == temp) {
-    proto_puts_P(PSTR(",temp="));
-    put_temp_mean();
+    put_temp();
   } else if (step == temp + 1) {
-    if (sample_stats.since_report) {
-      put_key_u32(PSTR(":"), sample_stats.temp_min);
-      put_key_u32(PSTR(":"), sample_stats.temp_max);
-    }
-    sample_interval_restart(); /* the next report's interval starts here */
-  } else if (step == temp + 2) {
     proto_puts_P(adc_running() ? PSTR(",run=1,mode=") : PSTR(",run=0,mode="));
     proto_puts_P(vocab_word(vocab_modes, settings.mode));
-  } else if (step == temp + 3) {
+  } else if (step == temp + 2) {
     proto_puts_P(PSTR(",range="));
     proto_puts_P(vocab_word(vocab_ranges, settings.range));
     proto_puts_P(PSTR(",cfg="));
-  } else if (step == temp + 4) {
+  } else if (step == temp + 3) {
     proto_puts_P(vocab_word(vocab_sources, settings_source));
     proto_puts_P(PSTR(",reset="));
-  } else if (step == temp + 5) {
+  } else if (step == temp + 4) {
     put_causes();
   } else {
     proto_end();
@@ -268,6 +284,23 @@ static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
   return 0;
 }
 
+/* `V,<seq>,id=<run>,crc=<XXXX>`: the run and the CRC-16/MODBUS of the
+ * bodies of this report's H and L lines (docs/protocol.md). */
+static __attribute__((noinline)) uint8_t step_check(uint8_t step)
+{
+  if (step == 0) {
+    begin_seq('V');
+    put_key_u32(PSTR("id="), rep.run_id);
+  } else if (step == 1) {
+    proto_puts_P(PSTR(",crc="));
+    proto_hex(proto_bound(), 4);
+  } else {
+    proto_end();
+    return 1;
+  }
+  return 0;
+}
+
 /* After a whole line: the part and row the next line belongs to. */
 static void next_line(void)
 {
@@ -297,11 +330,11 @@ uint8_t report_step(uint8_t step)
   case PART_ROW: done = step_row(step); break;
   case PART_SUM_HEAD: done = step_sum_head(step); break;
   case PART_SUM_ROW: done = step_sum_row(step); break;
+  case PART_CHECK: done = step_check(step); break;
   default:
     begin_seq('E');
     proto_u32((uint32_t)ALLAN_CHANNELS * ALLAN_LEVELS);
     proto_end();
-    rep.seq++;
     return REPORT_DONE;
   }
   if (!done)

@@ -16,7 +16,10 @@ void report_init(uint8_t reset_cause);
 /* One step of the boot line; returns 1 when the line is written. */
 uint8_t report_boot_step(uint8_t step);
 
-/* The next report starts from its header. */
+/* A new run (reset, or a rate or range change): `id=` changes. */
+void report_new_run(void);
+
+/* The next report starts from its header, with the next seq. */
 void report_begin(void);
 
 /* What report_step() has just done. */

@@ -2,15 +2,16 @@
  * settings.c - see settings.h.  EEPROM record at address 0:
  *   byte 0      SETTINGS_VERSION
  *   bytes 1..6  settings_t (rate, interval, mode, range)
- *   bytes 7..8  CRC-16 (avr-libc _crc16_update, init 0xFFFF) of bytes 0..6
+ *   bytes 7..8  CRC-16/MODBUS (crc.h), high byte first, of bytes 0..6
  * A blank EEPROM reads 0xFF everywhere.
  */
 #include "settings.h"
 
 #include <avr/eeprom.h>
-#include <util/crc16.h>
 
 #include "config.h"
+#include "crc.h"
+#include "link.h"
 #include "vocab.h"
 
 #define SETTINGS_VERSION 1
@@ -33,10 +34,10 @@ static uint8_t record_byte(uint8_t i, uint16_t crc)
 
 static uint16_t record_crc(void)
 {
-  uint16_t crc = 0xFFFF;
+  uint16_t crc = CRC16_MODBUS_INIT;
   uint8_t i;
   for (i = 0; i <= sizeof(settings_t); i++)
-    crc = _crc16_update(crc, record_byte(i, 0));
+    crc = crc16_modbus_update(crc, record_byte(i, 0));
   return crc;
 }
 
@@ -66,7 +67,7 @@ uint8_t settings_load(void)
     if (rec[i] != 0xFF)
       blank = 0;
   for (i = 0; i < RECORD_BYTES - 2u; i++)
-    crc = _crc16_update(crc, rec[i]);
+    crc = crc16_modbus_update(crc, rec[i]);
   for (i = 0; i < sizeof s; i++)
     ((uint8_t *)&s)[i] = rec[1 + i];
   settings_defaults();
@@ -75,6 +76,8 @@ uint8_t settings_load(void)
   } else if (rec[0] != SETTINGS_VERSION || rec[RECORD_BYTES - 2u] != (uint8_t)(crc >> 8) ||
              rec[RECORD_BYTES - 1u] != (uint8_t)crc || !valid(&s)) {
     settings_source = CFG_CORRUPT;
+  } else if (!link_fits(s.mode, s.rate_hz, BAUD)) {
+    settings_source = CFG_INFEASIBLE; /* refused like `rate` and `mode` would be */
   } else {
     settings = s;
     settings_source = CFG_SAVED;

@@ -24,8 +24,9 @@ extern uint8_t settings_source; /* CFG_*: where they came from (`cfg=`) */
 /* The built-in settings (config.h); source becomes CFG_DEFAULTS. */
 void settings_defaults(void);
 
-/* Read the EEPROM record; a blank or invalid one gives the defaults.
- * Returns (and records) CFG_SAVED, CFG_BLANK or CFG_CORRUPT. */
+/* Read the EEPROM record; a blank, invalid or infeasible one gives the
+ * defaults.  Returns (and records) CFG_SAVED, CFG_BLANK, CFG_CORRUPT or
+ * CFG_INFEASIBLE. */
 uint8_t settings_load(void);
 
 /* Start writing the settings to EEPROM; settings_poll() finishes the job. */

@@ -2,6 +2,7 @@
 #include "stream.h"
 
 #include "adc.h"
+#include "crc.h"
 #include "fmt.h"
 #include "link.h"
 #include "pgm.h"
@@ -14,20 +15,30 @@ enum {
   LINE_NONE,        /* between lines */
   LINE_ROW_HALF,    /* a raw row's first half is written */
   LINE_COUNT_DUE,   /* a count line waits for a line boundary */
-  LINE_COUNT_HALF   /* a count line's first half is written */
+  LINE_COUNT_HALF,  /* a count line's rows are written */
+  LINE_COUNT_LAST   /* a count line's drops are written */
 };
 
 static struct {
   uint8_t line;     /* LINE_* */
   uint8_t set_done; /* the oldest set's row or frame is written */
+  uint16_t crc;     /* CRC-16/MODBUS of the rows or frames since the last count line */
   uint32_t rows;    /* rows or frames written since stream_restart() */
 } st;
+
+/* Every row or frame byte goes out here, into the count line's CRC. */
+static void put(uint8_t c)
+{
+  st.crc = crc16_modbus_update(st.crc, c);
+  proto_raw(c);
+}
 
 void stream_restart(void)
 {
   st.line = LINE_NONE;
   st.set_done = 0;
   st.rows = 0;
+  st.crc = CRC16_MODBUS_INIT;
 }
 
 uint8_t stream_holds_oldest(void)
@@ -42,7 +53,7 @@ void stream_taken(void)
 
 uint8_t stream_line_open(void)
 {
-  return st.line == LINE_ROW_HALF || st.line == LINE_COUNT_HALF;
+  return st.line == LINE_ROW_HALF || st.line >= LINE_COUNT_HALF;
 }
 
 uint8_t stream_busy(void)
@@ -59,7 +70,7 @@ static void set_written(void)
   st.line = st.rows % LINK_COUNT_EVERY == 0 ? LINE_COUNT_DUE : LINE_NONE;
 }
 
-/* `$C,<rows>,<drops>` in two steps. */
+/* `$C,<rows>,<drops>,<crc>` in three steps; the CRC restarts after it. */
 static __attribute__((noinline)) void step_count_line(void)
 {
   if (st.line == LINE_COUNT_DUE) {
@@ -67,10 +78,15 @@ static __attribute__((noinline)) void step_count_line(void)
     proto_puts_P(PSTR("C,"));
     proto_u32(st.rows);
     st.line = LINE_COUNT_HALF;
-  } else {
+  } else if (st.line == LINE_COUNT_HALF) {
     proto_putc(',');
     proto_u32(adc_drops());
+    st.line = LINE_COUNT_LAST;
+  } else {
+    proto_putc(',');
+    proto_hex(st.crc, 4);
     proto_end();
+    st.crc = CRC16_MODBUS_INIT;
     st.line = LINE_NONE;
   }
 }
@@ -87,16 +103,16 @@ static __attribute__((noinline)) void step_raw_row(void)
     uint8_t j;
     n = fmt_u32(buf, code[i]);
     for (j = 0; j < n; j++)
-      proto_raw((uint8_t)buf[j]);
+      put((uint8_t)buf[j]);
     if (i + 1 < ADC_COLUMNS)
-      proto_raw('\t');
+      put('\t');
   }
   if (!second) {
     st.line = LINE_ROW_HALF;
     return;
   }
-  proto_raw('\r');
-  proto_raw('\n');
+  put('\r');
+  put('\n');
   set_written();
 }
 
@@ -108,7 +124,7 @@ static __attribute__((noinline)) void step_frame(void)
   adc_peek_packed(b + 2); /* the payload lands where the frame wants it */
   proto_frame(b, (uint8_t)st.rows, b + 2);
   for (i = 0; i < PROTO_FRAME_BYTES; i++)
-    proto_raw(b[i]);
+    put(b[i]);
   if (st.line == LINE_COUNT_DUE) { /* a frame may come before a due count line */
     st.set_done = 1;
     st.rows++;
@@ -123,7 +139,7 @@ uint8_t stream_step(uint8_t at_boundary, uint8_t held)
     step_raw_row();
     return 1;
   }
-  if (st.line == LINE_COUNT_HALF || (st.line == LINE_COUNT_DUE && at_boundary)) {
+  if (st.line >= LINE_COUNT_HALF || (st.line == LINE_COUNT_DUE && at_boundary)) {
     step_count_line();
     return 1;
   }

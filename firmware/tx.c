@@ -115,6 +115,12 @@ void tx_abort_report(void)
   tx.flags &= (uint8_t)~(PAUSED | REPORT_NEXT);
 }
 
+void tx_new_run(void)
+{
+  tx_abort_report();
+  report_new_run();
+}
+
 void tx_restart_rows(void)
 {
   stream_restart();

@@ -40,6 +40,9 @@ uint8_t tx_can_interject(void);
  * because the accumulators were just reset under it. */
 void tx_abort_report(void);
 
+/* A new run: the report in progress is cut off, the run identity changes. */
+void tx_new_run(void);
+
 /* The stream's rows count from 0 again, and a new run's rows wait for the
  * reply of the command that started it. */
 void tx_restart_rows(void);

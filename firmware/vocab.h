@@ -36,8 +36,10 @@
 /* Longest report interval in seconds (`interval`, REPORT, the EEPROM). */
 #define VOCAB_INTERVAL_MAX_S 3600
 
-/* Where the settings in force came from (`cfg=`): vocab_sources. */
-enum { CFG_SAVED, CFG_BLANK, CFG_CORRUPT, CFG_DEFAULTS };
+/* Where the settings in force came from (`cfg=`): vocab_sources.
+ * CFG_INFEASIBLE: a saved record whose rate/mode pair the link cannot
+ * carry (checked like the `rate` and `mode` commands); defaults in force. */
+enum { CFG_SAVED, CFG_BLANK, CFG_CORRUPT, CFG_DEFAULTS, CFG_INFEASIBLE };
 
 /* Name tables: NUL-separated words in flash, in the order of the values
  * above.  vocab_causes follows the MCUSR bits PORF EXTRF BORF WDRF. */

@@ -50,10 +50,12 @@ FUZZ_CFLAGS := -std=gnu99 -g -O1 -fsanitize=fuzzer,address,undefined -fno-saniti
                -Wall -Wextra -Werror -I $(FW_DIR) -I $(FUZZ_DIR)
 FUZZ_DEPS := $(wildcard $(FW_DIR)/*.h) $(FUZZ_DIR)/fuzz_util.h $(FUZZ_DIR)/fuzz.mk
 
-FUZZ_TARGETS := fuzz_command fuzz_proto fuzz_fmt fuzz_allan fuzz_allan20
+FUZZ_TARGETS := fuzz_command fuzz_cmdline fuzz_proto fuzz_fmt fuzz_allan fuzz_allan20
 
 # Per target: firmware sources, extra flags, seed directory, input size.
 FUZZ_SRC_fuzz_command := command.c vocab.c
+# The receiver with the parser, on whole byte streams (NULs and all bytes).
+FUZZ_SRC_fuzz_cmdline := cmdline.c command.c vocab.c
 FUZZ_SRC_fuzz_proto := proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_fmt := fmt.c
 FUZZ_SRC_fuzz_allan := allan.c
@@ -65,6 +67,7 @@ FUZZ_XFLAGS_fuzz_allan20 := -fno-sanitize-coverage=trace-cmp -DALLAN_LEVELS=20 -
 FUZZ_MAIN_fuzz_allan20 := fuzz_allan
 FUZZ_SEEDS_fuzz_allan20 := fuzz_allan
 FUZZ_MAX_LEN_fuzz_command = $(FUZZ_COMMAND_MAX_LEN)
+FUZZ_MAX_LEN_fuzz_cmdline := 512
 FUZZ_MAX_LEN_fuzz_proto := 1024
 FUZZ_MAX_LEN_fuzz_fmt := 32
 FUZZ_MAX_LEN_fuzz_allan := 2048

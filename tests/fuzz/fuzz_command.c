@@ -1,5 +1,8 @@
 /*
  * fuzz_command - command_parse() on arbitrary bytes (firmware/command.c).
+ * The parser takes NUL-terminated lines, so the input is cut at its first
+ * NUL here; what the device does with a NUL (or any byte) inside a line
+ * received from the UART is fuzz_cmdline's subject, on whole streams.
  *
  * Written against the parser's contract, not its word list, so that new
  * commands and argument kinds need no change here.  For any line:

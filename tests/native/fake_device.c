@@ -138,6 +138,15 @@ void adc_start(uint8_t lim, uint32_t count)
 }
 
 void adc_stop(void) { running = 0; }
+
+uint32_t adc_remaining(void) { return limited ? budget : ADC_UNLIMITED; }
+
+void adc_limit(uint32_t total)
+{
+  uint32_t waiting = adc_pending();
+  limited = 1;
+  budget = total > waiting ? total - waiting : 0;
+}
 uint8_t adc_running(void) { return (uint8_t)running; }
 
 uint8_t adc_pending(void)

@@ -32,6 +32,9 @@ static unsigned ref_crc16(const char *s, size_t n)
   return reg;
 }
 
+static unsigned ref_crc16_modbus(const uint8_t *p, size_t n);
+static unsigned ref_crc16_modbus_more(unsigned reg, const uint8_t *p, size_t n);
+
 /* The n-th line starting with prefix, its CRC verified; fails if absent. */
 static void line(const char *prefix, unsigned n, char *body, size_t size)
 {
@@ -235,10 +238,26 @@ static void test_raw_mode_writes_every_set_in_order_with_count_lines(void)
     rows++;
     p = strchr(p, '\n') + 1;
   }
-  TEST_ASSERT_EQUAL_UINT(100, rows); /* then the count line */
+  TEST_ASSERT_EQUAL_UINT(100, rows); /* then the count line, with the CRC of the rows */
+  const char *rows_start = strchr(strstr(fx_out, "ok mode=raw"), '\n') + 1;
+  unsigned crc = ref_crc16_modbus((const uint8_t *)rows_start, (size_t)(p - rows_start));
+  char want[32];
+  snprintf(want, sizeof want, "C,100,0,%04X", crc);
   line("C,", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("C,100,0", b);
+  TEST_ASSERT_EQUAL_STRING(want, b);
   assert_all_lines_whole();
+}
+
+static unsigned ref_crc16_modbus_more(unsigned reg, const uint8_t *p, size_t n)
+{
+  for (size_t i = 0; i < n; i++)
+    for (int b = 0; b < 8; b++) {
+      unsigned in = (p[i] >> b) & 1u, low = reg & 1u;
+      reg >>= 1;
+      if (low ^ in)
+        reg ^= 0xA001;
+    }
+  return reg;
 }
 
 static unsigned ref_crc16_modbus(const uint8_t *p, size_t n)
@@ -335,6 +354,185 @@ static void test_link_budget_refuses_raw_at_1000_hz(void)
   TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
 }
 
+static void test_line_with_nul_is_refused_whole_and_runs_nothing(void)
+{
+  static const char *bad[] = {"reset\0xyz", "rate 250\0 junk", "status\x01", "help\xff", "\0"};
+  static const size_t len[] = {9, 14, 7, 5, 1};
+  char b[256], want[64];
+  fx_boot(1);
+  fx_run_us(1000000);
+  for (unsigned i = 0; i < 5; i++) {
+    fx_send(bad[i], len[i]);
+    fx_send_str("\r");
+    fx_run_us(60000);
+    line("error:", i, b, sizeof b);
+    TEST_ASSERT_EQUAL_STRING("error:6 bad byte", b);
+  }
+  command("stop");
+  line("ok stopped", 0, b, sizeof b);
+  snprintf(want, sizeof want, "ok stopped n=%u", (unsigned)fx_sets_made); /* never reset */
+  TEST_ASSERT_EQUAL_STRING(want, b);
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("ok status"));
+}
+
+static void test_backspace_and_delete_erase_the_last_character(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("stattus\b\b\bus");
+  line("ok status", 0, b, sizeof b);
+  command("rate 2000\x7f\x7f" "0");
+  line("ok", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok reset rate=200", b);
+}
+
+static void test_report_header_temp_is_dash_or_mean_min_max(void)
+{
+  char b[512];
+  unsigned dashes = 0;
+  fx_boot(1);
+  for (unsigned i = 0; i < 40; i++) {
+    fx_run_us(2000 + 1370u * i); /* every phase against the 10 ms tick */
+    fx_send_str("reset\rreport\r");
+    fx_run_us(400000);
+  }
+  TEST_ASSERT_EQUAL_UINT(40, fx_count_lines("E,"));
+  for (unsigned i = 0; i < 40; i++) {
+    line("H,", i, b, sizeof b);
+    const char *t = field(b, "temp");
+    unsigned q, tenth, lo, hi;
+    char end;
+    if (strcmp(t, "-") == 0) {
+      dashes++;
+      continue;
+    }
+    TEST_ASSERT_EQUAL_INT_MESSAGE(4, sscanf(t, "%u.%u:%u:%u%c", &q, &tenth, &lo, &hi, &end), t);
+    TEST_ASSERT_TRUE(lo <= q && q <= hi && tenth <= 9);
+  }
+  TEST_ASSERT_TRUE(dashes < 40);
+}
+
+/* A record with a good CRC whose rate/mode pair the link cannot carry. */
+static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
+{
+  char b[256];
+  static const uint8_t rec[7] = {1, 0xE8, 3, 5, 0, 1, 0}; /* raw at 1000 Hz */
+  memcpy(fake_eeprom, rec, 7);
+  unsigned crc = ref_crc16_modbus(rec, 7);
+  fake_eeprom[7] = (uint8_t)(crc >> 8);
+  fake_eeprom[8] = (uint8_t)crc;
+  memset(fake_eeprom + 9, 0xFF, sizeof fake_eeprom - 9);
+  fx_boot(1);
+  fx_run_us(60000);
+  command("status");
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible", b);
+  command("load");
+  line("error:", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
+}
+
+/* CRC-16/MODBUS over the bodies of report seq's H and L lines, in order. */
+static unsigned bound_crc(unsigned seq)
+{
+  char prefix[16], body[512];
+  unsigned crc = 0xFFFF;
+  for (int kind = 0; kind < 2; kind++) {
+    snprintf(prefix, sizeof prefix, "%c,%u,", kind ? 'L' : 'H', seq);
+    for (unsigned i = 0; fx_find_line(prefix, i, body, sizeof body, NULL) >= 0; i++) {
+      const uint8_t *b = (const uint8_t *)body;
+      size_t n = strlen(body);
+      crc = ref_crc16_modbus_more(crc, b, n);
+      if (!kind)
+        break; /* one header */
+    }
+  }
+  return crc;
+}
+
+static void test_report_check_line_binds_rows_to_header(void)
+{
+  char b[512], want[64], id[16];
+  fx_boot(1);
+  fx_run_us(2000000);
+  command("report");
+  fx_run_us(600000);
+  line("H,0,", 0, b, sizeof b);
+  snprintf(id, sizeof id, "%s", field(b, "id"));
+  line("V,0,", 0, b, sizeof b);
+  snprintf(want, sizeof want, "V,0,id=%s,crc=%04X", id, bound_crc(0));
+  TEST_ASSERT_EQUAL_STRING(want, b);
+  /* V comes right before E */
+  long v = fx_find_line("V,0,", 0, b, sizeof b, NULL);
+  long e = fx_find_line("E,0,", 0, b, sizeof b, NULL);
+  TEST_ASSERT_TRUE(v >= 0 && e > v && strchr(fx_out + v, '\n') + 1 == fx_out + e);
+  assert_all_lines_whole();
+}
+
+static void test_seq_advances_when_a_report_starts_and_reset_changes_id(void)
+{
+  char b[512], id0[16];
+  fx_boot(1);
+  fx_run_us(2000000);
+  command("report");
+  fx_run_us(50000); /* the report is under way: cut it off */
+  TEST_ASSERT_TRUE(fx_count_lines("L,0,") > 0);
+  command("reset");
+  command("report");
+  fx_run_us(600000);
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("E,0,")); /* report 0 never ended */
+  line("H,0,", 0, b, sizeof b);
+  snprintf(id0, sizeof id0, "%s", field(b, "id"));
+  line("H,1,", 0, b, sizeof b); /* the next report has the next seq */
+  TEST_ASSERT_FALSE(strcmp(id0, field(b, "id")) == 0); /* and another run */
+  line("E,1,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("E,1,90", b);
+  line("V,1,", 0, b, sizeof b);
+  char head[512], want[64];
+  line("H,1,", 0, head, sizeof head);
+  snprintf(want, sizeof want, "V,1,id=%s,crc=%04X", field(head, "id"), bound_crc(1));
+  TEST_ASSERT_EQUAL_STRING(want, b);
+}
+
+/* `start <count>` means n = count when it stops, through a reset. */
+static void test_start_count_stops_at_count_through_a_reset(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("stop");
+  command("reset");
+  command("start 300");
+  fx_run_us(1000000); /* about 100 sets in */
+  command("reset");
+  fx_run_us(4000000);
+  command("status");
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("run=0", strstr(b, "run=0") ? "run=0" : b);
+  command("stop");
+  line("ok stopped", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok stopped n=300", b);
+}
+
+/* A rate change starts a new run and keeps the count (docs/protocol.md). */
+static void test_start_count_is_kept_through_a_rate_change(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(60000);
+  command("stop");
+  command("reset");
+  command("start 300");
+  fx_run_us(1000000);
+  command("rate 200");
+  line("ok reset rate", 0, b, sizeof b);
+  fx_run_us(3000000);
+  command("stop");
+  line("ok stopped", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok stopped n=300", b);
+}
+
 static const struct { const char *name; void (*fn)(void); } tests[] = {
 #define T(f) {#f, f}
   T(test_boot_line_names_protocol_version_and_reset_cause),
@@ -348,6 +546,14 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_saved_settings_are_in_force_at_power_up),
   T(test_periodic_report_follows_the_interval),
   T(test_link_budget_refuses_raw_at_1000_hz),
+  T(test_line_with_nul_is_refused_whole_and_runs_nothing),
+  T(test_backspace_and_delete_erase_the_last_character),
+  T(test_report_header_temp_is_dash_or_mean_min_max),
+  T(test_infeasible_saved_settings_load_defaults_and_say_so),
+  T(test_report_check_line_binds_rows_to_header),
+  T(test_seq_advances_when_a_report_starts_and_reset_changes_id),
+  T(test_start_count_stops_at_count_through_a_reset),
+  T(test_start_count_is_kept_through_a_rate_change),
 #undef T
 };
 

@@ -134,7 +134,7 @@ def _contiguous_slice(rows: np.ndarray, part: np.ndarray) -> int:
     raise AssertionError("the captured rows are not an unbroken run of the input")
 
 
-@pytest.mark.parametrize("mode,fs", [("raw", 250), ("binary", 500), ("both", 50)])
+@pytest.mark.parametrize("mode,fs", [("raw", 100), ("binary", 500), ("both", 50)])
 def test_output_modes_carry_every_sample(run, tmp_path: Path, mode: str, fs: int) -> None:
     """Switch to an output mode during the run and back to allan near its
     end: the capture's rows (raw text, or binary frames) must be an unbroken

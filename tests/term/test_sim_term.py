@@ -165,6 +165,8 @@ class SimTerm:
                 rows.append(body.split(",")[2:])
             elif kind == "E":
                 return head, rows, int(body.split(",")[2])
+            elif kind == "V":                 # the report's check line
+                assert body.split(",")[2] == f"id={head['id']}", body
             else:
                 assert kind == "S", body
 

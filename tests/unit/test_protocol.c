@@ -60,6 +60,43 @@ static void test_crc_check_value_and_random_strings(void)
   }
 }
 
+/* CRC-16/MODBUS: the catalogue's check value, and a bit-by-bit MSB-first
+ * computation on bit-reversed bytes (an independent formulation). */
+static unsigned rev(unsigned v, int bits)
+{
+  unsigned r = 0;
+  for (int i = 0; i < bits; i++)
+    r |= ((v >> i) & 1u) << (bits - 1 - i);
+  return r;
+}
+
+static void test_crc_modbus_check_value_and_random_strings(void)
+{
+  uint16_t c = CRC16_MODBUS_INIT;
+  for (const char *p = "123456789"; *p; p++)
+    c = crc16_modbus_update(c, (uint8_t)*p);
+  TEST_ASSERT_EQUAL_HEX16(0x4B37, c);
+  for (int t = 0; t < 200; t++) {
+    uint8_t s[64];
+    size_t n = next() % sizeof s;
+    uint32_t reg = 0xFFFF; /* reflected init 0xFFFF is 0xFFFF */
+    for (size_t i = 0; i < n; i++) {
+      s[i] = (uint8_t)next();
+      unsigned in = rev(s[i], 8);
+      for (int b = 7; b >= 0; b--) {
+        unsigned top = (reg >> 15) & 1u;
+        reg = (reg << 1) & 0xFFFF;
+        if (top ^ ((in >> b) & 1u))
+          reg ^= 0x8005;
+      }
+    }
+    c = CRC16_MODBUS_INIT;
+    for (size_t i = 0; i < n; i++)
+      c = crc16_modbus_update(c, s[i]);
+    TEST_ASSERT_EQUAL_HEX16(rev(reg, 16), c);
+  }
+}
+
 /* ---- fmt ---- */
 static void test_fmt_u32_and_hex_match_snprintf(void)
 {
@@ -297,34 +334,43 @@ static void test_command_settings_words(void)
 }
 
 /* The link rules of docs/protocol.md, worked out by hand at 115200 baud
- * (11520 bytes/s; 90 % = 10368; two periods of slack). */
+ * (11520 bytes/s; 90 % = 10368 usable).  A set's row or frame may wait
+ * behind the longest line it cannot cut into (help: 95 bytes; the header:
+ * 264) and one 20-byte output step, then its own row (36) or frame (13);
+ * that must go out at the usable rate within two sample periods. */
 static void test_link_budget(void)
 {
   const uint32_t b = 115200;
-  /* raw: 36 bytes a row + 31 per 100 rows; a 92-byte reply within 2/fs */
-  TEST_ASSERT_EQUAL_UINT32(250u * 36u + (250u * 31u + 99u) / 100u, link_bytes_per_s(MODE_RAW, 250));
-  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 250, b));   /* 9078 B/s; 92*250 = 23000 <= 23040 */
+  /* raw: 36 bytes a row + a 36-byte count line per 100 rows; 95 + 20 + 36
+   * = 151 bytes of wait */
+  TEST_ASSERT_EQUAL_UINT32(250u * 36u + (250u * 36u + 99u) / 100u, link_bytes_per_s(MODE_RAW, 250));
+  TEST_ASSERT_EQUAL_UINT16(151, link_wait_bytes(MODE_RAW));
+  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, b));   /* 151 / 10368 s = 14.6 ms <= 20 ms */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 200, b));  /* 14.6 ms > 10 ms: a help reply would cost a set */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 250, b));  /* throughput fits (9090 B/s), the wait does not */
   TEST_ASSERT_FALSE(link_fits(MODE_RAW, 500, b));  /* 18155 B/s */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 250, 57600)); /* the example: 250 Hz needs more than 57600 */
-  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, 57600));
-  /* binary: 13 bytes a frame; frames cut into lines: 33 bytes of wait */
-  TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 500, b));
-  TEST_ASSERT_FALSE(link_fits(MODE_BINARY, 1000, b)); /* 13310 B/s */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 100, 57600)); /* 151 / 5184 s = 29 ms > 20 ms */
+  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 50, 57600));
+  /* binary: 13 bytes a frame; frames cut into lines: 20 + 13 = 33 bytes of wait */
+  TEST_ASSERT_EQUAL_UINT16(33, link_wait_bytes(MODE_BINARY));
+  TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 500, b));   /* 3.2 ms <= 4 ms */
+  TEST_ASSERT_FALSE(link_fits(MODE_BINARY, 1000, b)); /* 13360 B/s */
   TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 1000, 250000));
-  /* both: a 264-byte header line within 2/fs */
-  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));
+  /* both: 264 + 20 + 36 = 320 bytes of wait */
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));   /* 30.9 ms <= 40 ms */
   TEST_ASSERT_FALSE(link_fits(MODE_BOTH, 100, b));
-  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000));
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000)); /* 14.2 ms <= 20 ms */
   /* allan: reports wait for the link */
   TEST_ASSERT_TRUE(link_fits(MODE_ALLAN, 1000, 9600));
   TEST_ASSERT_EQUAL_UINT16(0, link_percent(MODE_ALLAN, 1000, b));
-  TEST_ASSERT_EQUAL_UINT16(79, link_percent(MODE_RAW, 250, b)); /* 9078 / 11520 = 78.8 % */
+  TEST_ASSERT_EQUAL_UINT16(79, link_percent(MODE_RAW, 250, b)); /* 9090 / 11520 = 78.9 % */
 }
 
 int main(void)
 {
   UNITY_BEGIN();
   RUN_TEST(test_crc_check_value_and_random_strings);
+  RUN_TEST(test_crc_modbus_check_value_and_random_strings);
   RUN_TEST(test_fmt_u32_and_hex_match_snprintf);
   RUN_TEST(test_fmt_adev_three_significant_digits);
   RUN_TEST(test_fmt_tau_every_level_and_rate);
