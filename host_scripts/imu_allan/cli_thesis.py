@@ -129,22 +129,22 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     measure = (sweep.sim_measure(sw, args.firmware, args.keep_rows) if args.sim
                else sweep.port_measure(sw, args.port, args.baud))
     sweep.run(sw, measure, sweep.say_stderr)
-    doc = sweep.document(sw)
-    if args.plot:
-        path = sweep.write_plot(doc, args.plot)
-        print(f"imu-allan sweep: wrote {path}", file=sys.stderr)
-    sys.stdout.write(json.dumps(doc, indent=1) + "\n" if args.json else sweep.text(doc))
-    return 0
+    return _emit("sweep", sweep.document(sw), sweep, args)
 
 
 def cmd_thermal(args: argparse.Namespace) -> int:
     from . import thermal
     doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile,
                         segments=max(args.segments, 1))
+    return _emit("thermal", doc, thermal, args)
+
+
+def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespace) -> int:
+    """The plot (--plot DIR) and the document as text or JSON (--json)."""
     if args.plot:
-        path = thermal.write_plot(doc, args.plot)
-        print(f"imu-allan thermal: wrote {path}", file=sys.stderr)
-    sys.stdout.write(json.dumps(doc, indent=1) + "\n" if args.json else thermal.text(doc))
+        path = module.write_plot(doc, args.plot)
+        print(f"imu-allan {command}: wrote {path}", file=sys.stderr)
+    sys.stdout.write(json.dumps(doc, indent=1) + "\n" if args.json else module.text(doc))
     return 0
 
 

@@ -32,6 +32,16 @@ def _mpl() -> Any:
     return plt
 
 
+def pyplot_for(directory: str) -> Any:
+    """matplotlib's pyplot (file output only) once ``directory`` exists; one line if
+    it cannot be made.  Every command that writes figures starts here."""
+    try:
+        os.makedirs(directory, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create '{directory}': {exc.strerror or exc}") from None
+    return _mpl()
+
+
 def _groups(doc: dict[str, Any]) -> list[tuple[str, list[str]]]:
     chans = list(doc["channels"])
     out = []
@@ -47,11 +57,7 @@ def _coef(c: dict[str, Any]) -> np.ndarray:
 
 
 def write_plots(doc: dict[str, Any], directory: str) -> list[str]:
-    try:
-        os.makedirs(directory, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create '{directory}': {exc.strerror or exc}") from None
-    plt = _mpl()
+    plt = pyplot_for(directory)
     files = []
     for group, chans in _groups(doc):
         files.append(_adev_figure(plt, doc, group, chans, directory))

@@ -505,13 +505,8 @@ PLOTTED = ("N", "N_tau0", "B", "K", "sigma_sensor", "sigma_BIAS")
 
 def write_plot(doc: dict[str, Any], directory: str) -> str:
     """terms-vs-fs.png: one panel per quantity, one series per channel, the fitted power laws."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    try:
-        os.makedirs(directory, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create '{directory}': {exc.strerror or exc}") from None
+    from .plots import pyplot_for
+    plt = pyplot_for(directory)
     keys = list(doc["rates"])
     fig, axes = plt.subplots(2, 3, figsize=(14, 8))
     for ax, q in zip(axes.flat, PLOTTED):

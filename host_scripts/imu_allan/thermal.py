@@ -405,13 +405,8 @@ def text(doc: dict[str, Any]) -> str:
 
 
 def write_plot(doc: dict[str, Any], directory: str) -> str:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    try:
-        os.makedirs(directory, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create '{directory}': {exc.strerror or exc}") from None
+    from .plots import pyplot_for
+    plt = pyplot_for(directory)
     fig, axes = plt.subplots(2, 3, figsize=(14, 8))
     for ax, (ch, c) in zip(axes.flat, doc["channels"].items()):
         for key, label in (("adev_before", "raw"), ("adev_after", "thermal bias removed")):
