@@ -9,13 +9,19 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* One line on stderr: the prefix, then the message. */
+static void say(const char *prefix, const char *fmt, va_list ap)
+{
+  fputs(prefix, stderr);
+  vfprintf(stderr, fmt, ap);
+  fputc('\n', stderr);
+}
+
 void warn(const char *fmt, ...)
 {
   va_list ap;
   va_start(ap, fmt);
-  fputs(PROG ": warning: ", stderr);
-  vfprintf(stderr, fmt, ap);
-  fputc('\n', stderr);
+  say(PROG ": warning: ", fmt, ap);
   va_end(ap);
 }
 
@@ -23,9 +29,7 @@ void die(int code, const char *fmt, ...)
 {
   va_list ap;
   va_start(ap, fmt);
-  fputs(PROG ": ", stderr);
-  vfprintf(stderr, fmt, ap);
-  fputc('\n', stderr);
+  say(PROG ": ", fmt, ap);
   va_end(ap);
   exit(code);
 }
