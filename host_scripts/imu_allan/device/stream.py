@@ -320,14 +320,25 @@ class StreamDecoder:
                     from_frame=np.concatenate((np.zeros(rows_at.size, dtype=bool),
                                                np.ones(fpos.size, dtype=bool)))[order])
         skeys = keys[order]
-        sbytes = [res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()] + fbytes
-        self._held_bytes.extend(sbytes[i] for i in order.tolist())
-        self._held = np.concatenate((self._held, out.samples), axis=1)
-        self._held_frame = np.concatenate((self._held_frame, out.from_frame))
+        self._hold([res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()] + fbytes, order, out)
         self._frame_gaps(fkey, fseq, [k for k, body in bodies if restarts_output(body)])
         released: list[tuple[np.ndarray, np.ndarray]] = []
         self._records(bodies, skeys, out, released)
         self._samples += skeys.size
+        self._release(final, released, out)
+        return out
+
+    def _hold(self, sbytes: list[bytes], order: np.ndarray, out: Chunk) -> None:
+        """Keep this step's samples (in stream order) and their bytes until a
+        count line decides on them."""
+        self._held_bytes.extend(sbytes[i] for i in order.tolist())
+        self._held = np.concatenate((self._held, out.samples), axis=1)
+        self._held_frame = np.concatenate((self._held_frame, out.from_frame))
+
+    def _release(self, final: bool, released: list[tuple[np.ndarray, np.ndarray]],
+                 out: Chunk) -> None:
+        """Give up what waits too long (or everything, at the end); with
+        ``verified_only`` the chunk's samples become the released ones."""
         limit = self._samples - HOLD_MAX
         if final:
             self._settle(self._samples, self._samples, released)
@@ -338,7 +349,6 @@ class StreamDecoder:
                            else np.zeros((NCOL, 0), dtype=np.uint16))
             out.from_frame = (np.concatenate([f for _, f in released]) if released
                               else np.zeros(0, dtype=bool))
-        return out
 
     def _settle(self, start: int, end: int, released: list[tuple[np.ndarray, np.ndarray]],
                 verdict: Optional[bool] = None) -> None:
