@@ -52,8 +52,11 @@ def logs(tmp_path_factory) -> dict[str, bytes]:
     adc = write_rows(d / "adc.tsv", thesis_like(ROWS, 3))
     out = {}
     for name, uart in (("report", None), ("splice", "1000\treport\\r\n1030\treset\\r\n1400\treport\\r\n"),
-                       ("raw", "0\tmode raw\\r\n"), ("binary", "0\tmode binary\\r\n")):
+                       ("raw", "0\tmode raw\\r\n"), ("binary", "0\tmode binary\\r\n"),
+                       ("both", "0\tmode both\\r\n1500\treport\\r\n")):
         cmd = [str(SIM), "--adc", str(adc), "-o", str(d / f"{name}.log")]
+        if name == "both":
+            cmd += ["--fs", "50"]  # rows and reports share the link up to 50 Hz
         if uart:
             (d / f"{name}.in").write_text(uart)
             cmd += ["--uart-in", str(d / f"{name}.in")]
@@ -197,6 +200,13 @@ def test_intact_captures_are_written_whole_and_verified(logs, tmp_path, mode) ->
     assert rc == 0, err
     assert np.array_equal(got, _truth(logs))
     assert f"{ROWS // 100} blocks verified" in err and "0 rows dropped" in err
+
+
+def test_rows_and_reports_of_mode_both_are_all_verified(logs) -> None:
+    cap = decode_stream(logs["both"], line_start=True)
+    assert [r.seq for r in cap.reports] == [0, 1] and cap.counts["report_check_failed"] == 0
+    assert cap.counts["blocks_verified"] == ROWS // 100 and cap.counts["blocks_bad"] == 0
+    assert np.array_equal(cap.samples.T.astype(np.int64), _truth(logs))
 
 
 def test_a_changed_raw_digit_drops_its_block(logs, tmp_path) -> None:
