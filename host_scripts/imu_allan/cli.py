@@ -115,7 +115,7 @@ def cmd_rows(args: argparse.Namespace) -> int:
     from .device.rows import format_rows
     from .device.stream import LOSS_KEYS, StreamDecoder
     name = input_name(args.log)
-    dec = StreamDecoder()
+    dec = StreamDecoder(verified_only=True)
     written = frames = 0
     blocks = read_blocks(args.log)
     with _output(args.output) as dst:
@@ -131,12 +131,20 @@ def cmd_rows(args: argparse.Namespace) -> int:
         print(f"imu-allan rows: no raw rows or binary frames in '{name}' "
               f"(bad rows {c['bad_rows']}, bad frames {c['bad_frames']})", file=sys.stderr)
         return 1
+    if c["blocks_verified"] or c["blocks_bad"]:
+        checked = (f"; {c['blocks_verified']} blocks verified by their count line's CRC, "
+                   f"{c['rows_dropped']} rows dropped ({c['blocks_bad']} bad blocks holding "
+                   f"{c['rows_in_bad_blocks']} rows: a row changed, lost or added; "
+                   f"{c['rows_unverified']} rows no block CRC covers)")
+    else:
+        checked = ("; unverified: the capture's count lines carry no block CRC (older firmware)"
+                   if c["count_lines"] else "; unverified: no count lines")
     print(f"imu-allan rows: {written} rows written to {args.output} ({written - frames} from raw "
-          f"rows, {frames} from binary frames); bad rows {c['bad_rows']}, rows lost "
+          f"rows, {frames} from binary frames){checked}; bad rows {c['bad_rows']}, rows lost "
           f"{c['rows_lost']} (count lines), frames lost {c['frames_lost']}, "
           f"bad frames {c['bad_frames']}, device drops {c['device_drops']} (sample sets the "
           "device itself lost, per its count lines)", file=sys.stderr)
-    return EXIT_LOST if any(c[k] for k in LOSS_KEYS) else 0
+    return EXIT_LOST if c["rows_dropped"] or any(c[k] for k in LOSS_KEYS) else 0
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:

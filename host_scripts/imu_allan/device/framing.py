@@ -74,6 +74,36 @@ def crc16_columns(grid: np.ndarray, lens: Optional[np.ndarray] = None) -> np.nda
     return crc
 
 
+def _modbus_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+        table.append(crc)
+    return tuple(table)
+
+
+MODBUS_TABLE = _modbus_table()
+MODBUS_INIT = 0xFFFF
+
+
+def crc16_modbus(data: bytes, crc: int = MODBUS_INIT) -> int:
+    """CRC-16/MODBUS: poly 0x8005 reflected (0xA001 shifting right), init
+    0xFFFF, no xor-out: the second line of defence (docs/protocol.md): the
+    ``V`` check of a report's H and L bodies, and the ``block`` field of count
+    lines over raw rows and binary frames.  A polynomial other than the lines'
+    CRC-16, so that an error one misses the other catches (2^-31 for both).
+    ``crc``: the value so far, to continue over more bytes.
+
+    ``crc16_modbus(b"123456789") == 0x4B37``.
+    """
+    table = MODBUS_TABLE
+    for byte in data:
+        crc = (crc >> 8) ^ table[(crc ^ byte) & 0xFF]
+    return crc
+
+
 def frame(body: str) -> bytes:
     """Encode one line the way the device does: ``$body*CRC\\r\\n``."""
     raw = body.encode("ascii")
@@ -167,6 +197,12 @@ def frame_crc_ok(b: np.ndarray, starts: np.ndarray) -> np.ndarray:
     end of ``b``): does the CRC of bytes 1-10 equal bytes 11-12?"""
     g = b[starts[:, None] + np.arange(1, FRAME_BYTES)].astype(np.int64)  # (k, 12)
     return crc16_columns(g[:, :10]) == (g[:, 10] << 8) | g[:, 11]
+
+
+def frame_bytes(b: np.ndarray, starts: np.ndarray) -> list[bytes]:
+    """The 13 bytes of each frame at ``starts``, as received (for count lines' block CRC)."""
+    g = b[starts[:, None] + np.arange(FRAME_BYTES)]
+    return [row.tobytes() for row in g]
 
 
 def frame_codes(b: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

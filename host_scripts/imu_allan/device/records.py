@@ -1,7 +1,7 @@
-"""Records of the protocol (B, H, L, S, E, C, ok, error) and complete device reports.
+"""Records of the protocol (B, H, L, S, V, E, C, ok, error) and complete device reports.
 
 ``decode_bytes(data)`` turns a raw device log into the list of its complete
-reports (header + every L row + E, all intact) and the counts of everything
+reports (header + every L row + its V check + E, all intact and agreeing) and the counts of everything
 that could not be used.  Nothing partial or unchecked is ever returned.
 ``Assembler`` is the same record logic fed one CRC-checked body at a time
 (used by ``stream.py`` for live and mixed captures).
@@ -18,7 +18,7 @@ from typing import Any, Optional
 
 from ..channels import CHANNELS
 from .consistency import problem
-from .framing import LINE_ERRORS, split_frames
+from .framing import LINE_ERRORS, MODBUS_INIT, crc16_modbus, split_frames
 
 PROTO = 1
 """The sample rates the device accepts (`rate <hz>`, docs/protocol.md)."""
@@ -28,8 +28,11 @@ ACC_MAX = (1 << 48) - 1
 """Saturation value of an accumulator (the SAT flag)."""
 
 ERROR_KEYS = LINE_ERRORS + ("unparsable", "unknown_records", "orphan_lines", "incomplete_reports",
-                            "inconsistent_reports", "missing_reports")
-"""Keys of ``DecodeResult.errors`` (all always present)."""
+                            "inconsistent_reports", "missing_reports", "report_check_failed")
+"""Keys of ``DecodeResult.errors`` (all always present).  ``report_check_failed``: a
+whole report refused by its ``V`` check line (a missing, repeated or malformed ``V``
+from a firmware that sends them, an ``id`` other than the header's, or a CRC that
+does not match the H and L bodies received)."""
 
 CLIP_KEYS = CHANNELS + ("temp",)
 _UINT = re.compile(r"\d+")
@@ -252,6 +255,17 @@ def parse_count(fields: list[str]) -> tuple[int, Optional[int]]:
     return _uint(fields[0], "rows"), drops
 
 
+def parse_count_block(fields: list[str]) -> Optional[int]:
+    """The ``block`` CRC of a count line ``C,<rows>,<drops>,<block>`` (fields
+    after ``C``): 4 upper-case hex digits; None for a count line of the first
+    protocol-1 firmware, which sends no ``block``."""
+    if len(fields) < 3:
+        return None
+    if not re.fullmatch(r"[0-9A-F]{4}", fields[2]):
+        raise BodyError(f"count line block must be 4 upper-case hex digits: {fields[2]!r}")
+    return int(fields[2], 16)
+
+
 def resets_run(body: str) -> bool:
     """A boot or a reply whose word ``reset`` says a new run began (drops count from 0)."""
     return body.startswith("B,") or body == "B" or (body.startswith("ok ") and "reset" in body[3:].split())
@@ -316,6 +330,8 @@ class Assembler:
         self._open: Optional[DeviceReport] = None
         self._summary: list[str] = []   # the open report's S lines
         self._moving = False            # a reply came inside the open report
+        self._bound = MODBUS_INIT       # CRC-16/MODBUS of the open report's H and L bodies
+        self._check: list[str] = []     # the open report's V line(s), after V,<seq>,
         self._last_seq: Optional[int] = None  # of the last H/L/S/E seen since boot
 
     def _abandon(self) -> None:
@@ -335,8 +351,8 @@ class Assembler:
                 self._abandon()  # the device reset: an open report never ends
                 self._last_seq = None  # seq counts from 0 again
                 self.boots.append(boot)
-            elif kind in ("H", "L", "S", "E"):
-                self._report_line(kind, fields)
+            elif kind in ("H", "L", "S", "V", "E"):
+                self._report_line(kind, fields, body)
             elif kind == "C":
                 parse_count(fields[1:])  # raw row counts: checked by stream.py
             elif kind == "ok" or kind.startswith("ok ") or kind.startswith("error:"):
@@ -356,7 +372,7 @@ class Assembler:
             else:
                 self._moving = True  # a command ran between two lines: `start` may have too
 
-    def _report_line(self, kind: str, fields: list[str]) -> None:
+    def _report_line(self, kind: str, fields: list[str], body: str) -> None:
         errors = self.errors
         if len(fields) < 2:
             raise BodyError(f"{kind} without seq")
@@ -366,6 +382,8 @@ class Assembler:
             self._count_gap(seq)
             self._abandon()
             self._open, self._summary, self._moving = DeviceReport(seq, header), [], False
+            self._bound = crc16_modbus(body.encode("ascii"))
+            self._check = []
             return
         row = parse_row(fields[2:]) if kind == "L" else None
         if kind == "E":
@@ -381,12 +399,20 @@ class Assembler:
             return
         if row is not None:
             open_.rows.append(row)
+            self._bound = crc16_modbus(body.encode("ascii"), self._bound)
+        elif kind == "V":
+            self._check.append(",".join(fields[2:]))
         elif kind == "S":
             self._summary.append(",".join(fields[2:]))
         elif not _complete(open_, count):
             self._abandon()
         else:
             self._open = None
+            bad = check_problem(open_.header, self._check, self._bound)
+            if bad is not None:
+                errors["report_check_failed"] += 1
+                self.refused.append(f"report seq {seq}: {bad}")
+                return
             why = problem(open_, self._summary, self._moving or open_.header.running is not False)
             if why is not None:
                 errors["inconsistent_reports"] += 1
@@ -416,6 +442,35 @@ def decode_bytes(data: bytes) -> DecodeResult:
         asm.add(body)
     asm.finish()
     return DecodeResult(asm.reports, errors, asm.boots, asm.replies, asm.refused)
+
+
+_CHECK = re.compile(r"id=(\d{1,3}),crc=([0-9A-F]{4})")
+
+
+def check_problem(header: DeviceHeader, checks: list[str], bound: int) -> Optional[str]:
+    """Why a whole report fails its ``V`` check (docs/protocol.md), or None.
+
+    ``checks``: the text after ``V,<seq>,`` of each V line the report got;
+    ``bound``: the CRC-16/MODBUS of its H body and then its L bodies, as
+    received.  A firmware that sends V lines says so with ``id=`` in its
+    header: its report needs exactly one V with that id and that CRC.  A
+    report of an older firmware (no ``id=``, no V) is accepted as before; a V
+    that comes anyway is checked.
+    """
+    run = header.extra.get("id")
+    if not checks:
+        return None if run is None else f"no V check line (the header says id={run})"
+    if len(checks) > 1:
+        return f"{len(checks)} V check lines"
+    m = _CHECK.fullmatch(checks[0])
+    if m is None:
+        return f"malformed V check line {checks[0]!r}"
+    if run != m.group(1):
+        return f"V says id={m.group(1)}, the header id={run}: rows of two runs"
+    if int(m.group(2), 16) != bound:
+        return (f"V crc={m.group(2)}, the H and L bodies received give {bound:04X}: "
+                "a row changed or from another report")
+    return None
 
 
 def _complete(rep: DeviceReport, count: int) -> bool:

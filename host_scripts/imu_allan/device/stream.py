@@ -36,8 +36,8 @@ Resync rules, in the order they apply:
    separated by one tab each, nothing else; any other non-empty line is a
    ``bad_rows``.  Empty lines are ignored.  A row cut by a ``$`` is garbage
    before that ``$``; a row cut by the end of the capture is ``truncated``.
-   Raw rows carry no checksum: a digit changed into another digit cannot be
-   seen, only lost and malformed rows.
+   Raw rows carry no checksum of their own: a digit changed into another
+   digit is seen only by the count line's block CRC (rule 4).
 4. Count lines ``$C,<rows>`` check the samples received between two count
    lines (raw rows and binary frames, both counted: the firmware also sends
    count lines in binary mode) against the difference of their counts; the
@@ -47,7 +47,21 @@ Resync rules, in the order they apply:
    or the count went down, or more samples arrived than it went up.  A
    count line's second field is the device's own ``drops`` (sample sets it
    lost, since its last reset): ``device_drops`` adds them up over the runs
-   of the capture.
+   of the capture.  Its fourth field, ``block``, is the CRC-16/MODBUS of the
+   bytes of the rows (as received: digits, tabs, CR, LF) or frames (13
+   bytes) since the previous count line, or since the count restarted.  A
+   block is verified (``blocks_verified``) when both its count and its CRC
+   match the samples received, taken from the previous count line or, after
+   a restart marker, from the marker (whichever matches); otherwise it is bad
+   (``blocks_bad``, its samples in ``rows_in_bad_blocks``: a row changed,
+   lost or added).  Samples no block CRC vouched for (after the last count
+   line, before a restart that no count line covers, before the first count
+   line of a capture that started mid-block, or under count lines without
+   ``block`` from older firmware, ``count_lines_nocrc``) are
+   ``rows_unverified``.  With ``verified_only`` the decoder returns only the
+   samples of verified blocks, once their count line arrived; until the
+   first count line with a ``block`` (older firmware, a plain rows file) it
+   returns every intact sample as before.
 5. Frame sequence numbers: a gap between consecutive intact frames counts
    ``(seq - previous - 1) mod 256`` lost frames (``frames_lost``; 256 or
    more frames lost in a row are undercounted), except across a restart
@@ -64,9 +78,9 @@ from typing import Any, Optional
 import numpy as np
 
 from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, SYNC, crc16_many,
-                      frame_codes, frame_crc_ok)
+                      crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
 from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
-                      resets_run, restarts_output)
+                      parse_count_block, resets_run, restarts_output)
 
 NCOL = FRAME_CODES  # ax ay az gx gy gz temp
 MAX_CARRY = 4096
@@ -77,11 +91,17 @@ firmware cuts a line into steps of at most 20 bytes); beyond, the line is
 given up as malformed."""
 
 STREAM_KEYS = ("rows", "bad_rows", "count_lines", "rows_lost", "count_unchecked",
-               "frames", "bad_frames", "frames_lost", "device_drops")
+               "frames", "bad_frames", "frames_lost", "device_drops",
+               "blocks_verified", "blocks_bad", "rows_in_bad_blocks", "rows_unverified",
+               "count_lines_nocrc", "rows_dropped")
 """Counters of raw rows and binary frames; ``counts`` also holds ``ERROR_KEYS``."""
 
-LOSS_KEYS = ("bad_rows", "rows_lost", "bad_frames", "frames_lost", "device_drops")
+LOSS_KEYS = ("bad_rows", "rows_lost", "bad_frames", "frames_lost", "device_drops", "blocks_bad")
 """Counters that mean samples were lost or damaged on the way."""
+HOLD_MAX = 1000
+"""Samples kept waiting for a count line (100 rows or frames apart); beyond,
+the oldest are given up as unverified (or, before any block CRC was seen,
+returned unverified as older firmware's were)."""
 
 _CLASS = np.zeros(256, dtype=np.uint8)  # 0 other, 1 digit, 2 tab, 3 LF, 4 CR
 _CLASS[0x30:0x3A] = 1
@@ -191,7 +211,7 @@ class StreamDecoder:
     of a line (a capture from a port opened mid-stream does not).
     """
 
-    def __init__(self, line_start: bool = False) -> None:
+    def __init__(self, line_start: bool = False, verified_only: bool = False) -> None:
         self.counts: dict[str, int] = dict.fromkeys(STREAM_KEYS + ERROR_KEYS, 0)
         self._asm = Assembler(self.counts)
         self._pending = b""          # raw bytes from the first undecided 0xA5
@@ -200,6 +220,14 @@ class StreamDecoder:
         self._dpos = np.zeros(0, dtype=np.int64)  # frames waiting behind the carry
         self._dseq = np.zeros(0, dtype=np.int64)
         self._dcodes = np.zeros((NCOL, 0), dtype=np.uint16)
+        self._dbytes: list[bytes] = []
+        self._verified_only = verified_only
+        self._crc_seen = False       # a count line with a block CRC came
+        self._held_from = 0          # global index of the first held sample
+        self._held_bytes: list[bytes] = []  # each held sample's bytes, as received
+        self._held = np.zeros((NCOL, 0), dtype=np.uint16)
+        self._held_frame = np.zeros(0, dtype=bool)
+        self._marker: Optional[int] = None  # sample index of the last restart marker
         self._samples = 0            # samples returned so far
         self._count_base: Optional[tuple[int, int]] = None  # (count, samples then)
         self._count_restart = False
@@ -230,7 +258,7 @@ class StreamDecoder:
 
     def _process(self, buf: bytes, final: bool) -> Chunk:
         c = self.counts
-        res, fpos, fseq, fcodes = self._cut_frames(buf, final)
+        res, fpos, fseq, fcodes, fbytes = self._cut_frames(buf, final)
 
         r = np.frombuffer(res, dtype=np.uint8)
         lf = np.flatnonzero(r == 0x0A)
@@ -273,6 +301,8 @@ class StreamDecoder:
         now = fpos <= release
         self._dpos, self._dseq = fpos[~now] - end, fseq[~now]
         self._dcodes = fcodes[:, ~now]
+        self._dbytes = [fb for fb, w in zip(fbytes, now.tolist()) if not w]
+        fbytes = [fb for fb, w in zip(fbytes, now.tolist()) if w]
         fpos, fseq, fcodes = fpos[now], fseq[now], fcodes[:, now]
 
         bodies: list[tuple[int, str]] = []
@@ -290,13 +320,94 @@ class StreamDecoder:
                     from_frame=np.concatenate((np.zeros(rows_at.size, dtype=bool),
                                                np.ones(fpos.size, dtype=bool)))[order])
         skeys = keys[order]
+        self._hold([res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()] + fbytes, order, out)
         self._frame_gaps(fkey, fseq, [k for k, body in bodies if restarts_output(body)])
-        self._records(bodies, skeys, out)
+        released: list[tuple[np.ndarray, np.ndarray]] = []
+        self._records(bodies, skeys, out, released)
         self._samples += skeys.size
+        self._release(final, released, out)
         return out
 
+    def _hold(self, sbytes: list[bytes], order: np.ndarray, out: Chunk) -> None:
+        """Keep this step's samples (in stream order) and their bytes until a
+        count line decides on them."""
+        self._held_bytes.extend(sbytes[i] for i in order.tolist())
+        self._held = np.concatenate((self._held, out.samples), axis=1)
+        self._held_frame = np.concatenate((self._held_frame, out.from_frame))
+
+    def _release(self, final: bool, released: list[tuple[np.ndarray, np.ndarray]],
+                 out: Chunk) -> None:
+        """Give up what waits too long (or everything, at the end); with
+        ``verified_only`` the chunk's samples become the released ones."""
+        limit = self._samples - HOLD_MAX
+        if final:
+            self._settle(self._samples, self._samples, released)
+        elif self._held_from < limit:
+            self._settle(limit, limit, released)
+        if self._verified_only:
+            out.samples = (np.concatenate([s for s, _ in released], axis=1) if released
+                           else np.zeros((NCOL, 0), dtype=np.uint16))
+            out.from_frame = (np.concatenate([f for _, f in released]) if released
+                              else np.zeros(0, dtype=bool))
+
+    def _settle(self, start: int, end: int, released: list[tuple[np.ndarray, np.ndarray]],
+                verdict: Optional[bool] = None) -> None:
+        """Let go of the held samples before ``end``: those before ``start``
+        no block CRC vouched for, those in [start, end) verified (``verdict``
+        True), bad (False) or unverified (None)."""
+        c = self.counts
+        base = self._held_from
+        a, b = start - base, end - base
+        if a > 0:
+            c["rows_unverified"] += a
+            if self._crc_seen:
+                c["rows_dropped"] += a
+            else:
+                released.append((self._held[:, :a], self._held_frame[:a]))
+        if b > a:
+            if verdict is None:
+                c["rows_unverified"] += b - a
+            if verdict is True or (verdict is None and not self._crc_seen):
+                released.append((self._held[:, a:b], self._held_frame[a:b]))
+            else:
+                c["rows_dropped"] += b - a
+        self._held_from = end
+        self._held_bytes = self._held_bytes[b:]
+        self._held = self._held[:, b:]
+        self._held_frame = self._held_frame[b:]
+
+    def _count_block(self, here: int, value: int, block: Optional[int],
+                     released: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        """A count line after ``here`` samples: verify the block it closes."""
+        c = self.counts
+        if block is None:
+            c["count_lines_nocrc"] += 1
+            self._settle(here, here, released)
+            return
+        self._crc_seen = True
+        tries = []  # (first sample of the block, rows the device sent in it)
+        if self._marker is not None:
+            tries.append((self._marker, value))  # the count restarted at the marker
+        if self._count_base is not None and value >= self._count_base[0]:
+            tries.append((self._count_base[1], value - self._count_base[0]))
+        if not tries:
+            tries.append((max(here - value, self._held_from), value))  # the capture's first block
+        for start, sent in tries:
+            if start >= self._held_from and here - start == sent and crc16_modbus(
+                    b"".join(self._held_bytes[start - self._held_from: here - self._held_from])) == block:
+                c["blocks_verified"] += 1
+                self._settle(start, here, released, True)
+                return
+        if self._count_base is None and self._marker is None:
+            self._settle(here, here, released)  # mid-block start: nothing to hold it to
+            return
+        start = tries[0][0]
+        c["blocks_bad"] += 1
+        c["rows_in_bad_blocks"] += here - max(start, self._held_from)
+        self._settle(max(start, self._held_from), here, released, False)
+
     def _cut_frames(self, buf: bytes, final: bool
-                    ) -> tuple[bytes, np.ndarray, np.ndarray, np.ndarray]:
+                    ) -> tuple[bytes, np.ndarray, np.ndarray, np.ndarray, list[bytes]]:
         """Take the intact binary frames out of ``buf`` (rule 1): the text left
         (behind the carried text), and the frames (those waiting from the last
         step first): their positions in that text, sequence numbers and codes."""
@@ -325,7 +436,7 @@ class StreamDecoder:
         fpos = np.concatenate((self._dpos, fpos))
         fseq = np.concatenate((self._dseq, seq))
         fcodes = np.concatenate((self._dcodes, codes), axis=1)
-        return res, fpos, fseq, fcodes
+        return res, fpos, fseq, fcodes, self._dbytes + frame_bytes(b, starts)
 
     def _give_up(self, carry: bytes, ended: bool) -> None:
         """Text after the last LF that will not be completed: cut by the end of
@@ -367,13 +478,15 @@ class StreamDecoder:
         self._last_seq = int(fseq[-1])
         self._frame_restart = len(marks) > int(m[-1])
 
-    def _records(self, bodies: list[tuple[int, str]], skeys: np.ndarray, out: Chunk) -> None:
+    def _records(self, bodies: list[tuple[int, str]], skeys: np.ndarray, out: Chunk,
+                 released: list[tuple[np.ndarray, np.ndarray]]) -> None:
         asm, c = self._asm, self.counts
         n_rep, n_rpl, n_boot = len(asm.reports), len(asm.replies), len(asm.boots)
         for key, body in bodies:
             if body.startswith("C,") or body == "C":
                 try:
                     value, drops = parse_count(body.split(",")[1:])
+                    block = parse_count_block(body.split(",")[1:])
                 except BodyError:
                     c["unparsable"] += 1
                     continue
@@ -387,14 +500,17 @@ class StreamDecoder:
                         c["count_unchecked"] += 1
                     else:
                         c["rows_lost"] += sent - got
+                self._count_block(here, value, block, released)
                 self._count_base = (value, here)
                 self._count_restart = False
+                self._marker = None
                 if drops is not None:
                     self._run_drops = drops
                     c["device_drops"] = self._drops_before + drops
                 continue
             if restarts_output(body):
                 self._count_restart = True
+                self._marker = self._samples + int(np.searchsorted(skeys, key))
             if resets_run(body):
                 self._drops_before += self._run_drops
                 self._run_drops = 0
