@@ -524,6 +524,8 @@ static __attribute__((noinline)) void put_frame(void)
 static __attribute__((noinline)) uint8_t step_report(void)
 {
   uint8_t done;
+  if (out.step == 0 && (out.part == PART_ROW || out.part == PART_SUM_ROW))
+    allan_settle_level(&sample_engine, out.level); /* the engine's waiting pairs, on a short stack */
   switch (out.part) {
   case PART_HEADER:
     done = step_header(out.step);
