@@ -28,6 +28,7 @@
 #include "avr_ioport.h"
 #include "avr_uart.h"
 
+#include "sim_isr.h"
 #include "sim_rows.h"
 #include "sim_term.h"
 
@@ -1042,6 +1043,11 @@ static void print_stats(int json)
   KV("isr_count", "%llu", (unsigned long long)g.pb1.count);
   KV("isr_cycles_mean", "%s", imean);
   KV("isr_cycles_max", "%s", imax);
+  /* Whole interrupts, vector to reti (sim_isr.c), not the probe's window. */
+  sim_isr_stat_t adc_isr = sim_isr_stat(g.adc->adc.vector), any_isr = sim_isr_all();
+  KV("isr_adc_cycles_mean", "%.1f", adc_isr.count ? (double)adc_isr.sum / adc_isr.count : 0.0);
+  KV("isr_adc_cycles_max", "%llu", (unsigned long long)adc_isr.max);
+  KV("isr_any_cycles_max", "%llu", (unsigned long long)any_isr.max);
   KV("cpu_busy_fraction", "%.6f", busy);
   KV("cycles_total", "%llu", (unsigned long long)avr->cycle);
   KV("cycles_slept", "%llu", (unsigned long long)g.slept);
@@ -1185,6 +1191,9 @@ static void usage(FILE *f)
 "  sample_cycles_mean/max, sample_count  CPU cycles PB0 stays high (the\n"
 "                    firmware raises it while it handles one sample set)\n"
 "  isr_cycles_mean/max, isr_count        the same for PB1 (ADC interrupt)\n"
+"  isr_adc_cycles_mean/max, isr_any_cycles_max  whole interrupts, from the\n"
+"                    vector to reti (simavr's interrupt status): the ADC's,\n"
+"                    and the longest of any vector\n"
 "  allan_cycles_mean/max, allan_count    the same for PB2 (high around each\n"
 "                                        call into the Allan engine)\n"
 "  cpu_busy_fraction 1 - slept cycles / total cycles\n"
@@ -1517,6 +1526,7 @@ int main(int argc, char **argv)
   g.adc_irq = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, 0);
   g.uart_irq = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), 0);
   avr_irq_register_notify(g.adc_irq + ADC_IRQ_OUT_TRIGGER, adc_trigger, NULL);
+  sim_isr_watch(avr);
   avr_irq_register_notify(g.uart_irq + UART_IRQ_OUTPUT, uart_out, NULL);
   avr_irq_register_notify(g.uart_irq + UART_IRQ_OUT_XON, xon_notify, NULL);
   avr_irq_register_notify(g.uart_irq + UART_IRQ_OUT_XOFF, xoff_notify, NULL);

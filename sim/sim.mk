@@ -11,8 +11,8 @@
 SIM_MK_DEFAULT_GOAL := $(.DEFAULT_GOAL)
 
 IMU_SIM := $(BUILD)/host/imu-sim
-IMU_SIM_SRC := sim/imu_sim.c sim/sim_rows.c sim/sim_term.c
-IMU_SIM_HDR := sim/sim_rows.h sim/sim_term.h
+IMU_SIM_SRC := sim/imu_sim.c sim/sim_rows.c sim/sim_term.c sim/sim_isr.c
+IMU_SIM_HDR := sim/sim_rows.h sim/sim_term.h sim/sim_isr.h
 
 # simavr's headers include each other as "sim_avr.h", so their directory
 # goes on the include path; as -isystem, so that -Werror spares them.
