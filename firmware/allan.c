@@ -63,28 +63,33 @@ static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ex
 {
   /* Few values live at once, so that this rare path needs a small frame
    * on the deepest stack of the sampling path. */
-  uint8_t a = (uint8_t)(d >> 16);
-  uint16_t b = (uint16_t)d;
-  uint32_t t = (uint32_t)b * b;    /* b^2 */
-  uint32_t lo = c->acc_lo + t;
-  uint32_t up = (lo < t) + c->acc_mid + (uint16_t)a * a; /* bits 32.. of acc + a^2 2^32 + b^2 */
+  uint16_t a = (uint16_t)(d >> 16), b = (uint16_t)d, up;
+  uint32_t t, lo;
+  __asm__("" : "+r"(a), "+r"(b)); /* 16 x 16 multiplies, not 32 x 32 */
+  t = (uint32_t)b * b;             /* b^2 */
+  lo = c->acc_lo + t;
+  up = (uint16_t)(lo < t) + a * a; /* bits 32.. of acc + a^2 2^32 + b^2: below 2^16 */
   t = (uint32_t)a * b * 2u;        /* 2ab, below 2^25, goes in at bit 16 */
-  up += t >> 16;
+  up += (uint16_t)(t >> 16);       /* still below 2^16: a^2 + 2^9 + 2 */
   t <<= 16;
   lo += t;
   up += lo < t;
-  /* up now holds bits 32.. of the sum (below 2^17): its low byte is the new
-   * acc_mid, the rest must fit the extension byte (48-bit levels only). */
-  if (up >> 8) {
-    uint16_t top = (uint16_t)(up >> 8);
-    if (!ext || (uint16_t)(*ext + top) > 0xFFu) {
-      cell_saturate(c, ext);
-      return;
+  /* Bits 32.. of the sum are up + acc_mid (below 2^17): the low byte is
+   * the new acc_mid, the rest must fit the extension byte (48-bit levels
+   * only). */
+  {
+    uint16_t sum = up + c->acc_mid;
+    uint16_t top = (uint16_t)((sum >> 8) | (sum < up ? 0x100u : 0u));
+    if (top) {
+      if (!ext || (uint16_t)(*ext + top) > 0xFFu) {
+        cell_saturate(c, ext);
+        return;
+      }
+      *ext = (uint8_t)(*ext + top);
     }
-    *ext = (uint8_t)(*ext + top);
+    c->acc_lo = lo;
+    c->acc_mid = (uint8_t)sum;
   }
-  c->acc_lo = lo;
-  c->acc_mid = (uint8_t)up;
 }
 
 /* acc += d^2 for d < 2^16, the common case (every level-0 pair and nearly
@@ -146,7 +151,7 @@ static inline __attribute__((always_inline)) allan_sum_t narrow_step(allan_t *a,
                                                                       allan_cell_t *c, uint16_t v)
 {
   uint16_t last = c->sum_lo;
-  if (k != a->first)
+  if (a->depth != (uint8_t)(ALLAN_TOP_FIRST | (k + 1u))) /* not level k's first cluster */
     cell_add_small(a, ch, k, c, v >= last ? v - last : last - v);
   c->sum_lo = v;
   return (allan_sum_t)v + last;
@@ -227,16 +232,19 @@ __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
   n = ++a->n;
   /* Sample n completes a cluster at every level k with 2^k | n: `depth`
    * levels.  Level k has a pair unless this is its very first cluster,
-   * i.e. unless n == 2^k: `first` names that level (none: 0xFF).  Both are
-   * worked out once here, in 8 bits, for all channels. */
+   * i.e. unless n == 2^k, which can only be the top level: ALLAN_TOP_FIRST
+   * in `depth` says so.  Both are worked out once here, in 8 bits, for all
+   * channels. */
   depth = 1;
   while (depth < ALLAN_LEVELS && !(n & 1u)) { /* shift out trailing zeros */
     n >>= 1;
     depth++;
   }
   a->depth = depth;
-  /* What is left is 1 exactly when the count was 2^(depth-1). */
-  a->first = n == 1u ? (uint8_t)(depth - 1) : 0xFFu;
+  /* What is left is 1 exactly when the count was 2^(depth-1): the top
+   * level's first cluster, which has no pair yet. */
+  if (n == 1u)
+    a->depth = (uint8_t)(depth | ALLAN_TOP_FIRST);
 
   /* Deferred pairs of levels this set overwrites are settled first: a
    * safety net, the schedule in allan_channel settles them long before
@@ -258,7 +266,7 @@ __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
 static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_t v16)
 {
   allan_cell_t *c = &a->cell[ch][2];
-  uint8_t k = 2, top = (uint8_t)(a->depth - 1u);
+  uint8_t k = 2, top = (uint8_t)((a->depth & ~ALLAN_TOP_FIRST) - 1u);
   allan_sum_t v, last;
   uint8_t *hi;
 
@@ -297,8 +305,8 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
     c->sum_lo = (uint16_t)v;
     *hi = (uint8_t)(v >> 16);
   }
-  if (k == a->first)
-    return;
+  if (a->depth & ALLAN_TOP_FIRST)
+    return; /* the top level's first cluster: no pair yet */
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
   if (k >= ALLAN_WIDE_LEVEL && range_breaks(a, ch, k)) {
     cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
@@ -306,6 +314,15 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
   }
 #endif
   cell_add_square(a, ch, k, c, pair_diff(k, v, last));
+}
+
+/* Channel ch's share of the lowest waiting level's pairs; the last
+ * channel's clears the level's bit. */
+static __attribute__((noinline)) void settle_next(allan_t *a, uint8_t ch)
+{
+  settle_one(a, ch, lowest_pending(a->pend));
+  if (ch == ALLAN_CHANNELS - 1u)
+    a->pend &= a->pend - 1u; /* that level's bit, the lowest */
 }
 
 void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
@@ -322,9 +339,9 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
     a->max[ch] = code;
 #endif
   v = (uint16_t)narrow_step(a, ch, 0, c, code);
-  if (a->depth > 1) {
+  if ((a->depth & ~ALLAN_TOP_FIRST) > 1u) {
     v = (uint16_t)narrow_step(a, ch, 1, c + 1, v);
-    if (a->depth > 2) {
+    if ((a->depth & ~ALLAN_TOP_FIRST) > 2u) {
       cascade_up(a, ch, v);
       return;
     }
@@ -332,12 +349,8 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
   /* A set that cascades no higher than level 1 (three in four) takes the
    * waiting pairs of the lowest waiting level, channel by channel: its
    * cells are not touched by this set. */
-  if (a->pend) {
-    uint8_t k = lowest_pending(a->pend);
-    settle_one(a, ch, k);
-    if (ch == ALLAN_CHANNELS - 1u)
-      a->pend &= a->pend - 1u; /* k's bit, the lowest */
-  }
+  if (a->pend)
+    settle_next(a, ch);
 }
 
 uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])

@@ -65,6 +65,8 @@ typedef struct ALLAN_PACKED {
   uint8_t  acc_mid; /*                             bits 32..39 */
 } allan_cell_t;
 
+#define ALLAN_TOP_FIRST 0x80u
+
 /* One bit per level whose pairs wait to be taken (allan.c, settle()):
  * levels 2 .. ALLAN_LEVELS-2 can wait. */
 #if ALLAN_LEVELS > 17
@@ -83,14 +85,15 @@ typedef struct {
   uint16_t max[ALLAN_CHANNELS]; /* largest code seen (0 before any) */
 #endif
   uint32_t n;                   /* sample sets pushed */
-  uint8_t depth, first;         /* the cascade of the set in progress (allan_begin) */
+  uint8_t depth;                /* levels the set in progress completes (allan_begin),
+                                   | ALLAN_TOP_FIRST when the top one has no pair yet */
   allan_pend_t pend;            /* levels whose pairs are deferred */
 } allan_t;
 
 /* Bytes of state for a build: what `avr-size` sees of the engine. */
 #define ALLAN_STATE_BYTES \
   (ALLAN_CHANNELS * (7u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) \
-   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 6u + sizeof(allan_pend_t))
+   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 5u + sizeof(allan_pend_t))
 
 /* 1 when a level's accumulator has 48 bits (written so that a zero
  * ALLAN_ACC48_FROM draws no "always true" warning). */

@@ -217,9 +217,9 @@ static void test_state_is_packed(void)
 {
   /* 7 bytes per channel-level, an eighth for the sum above m = 64, a ninth
    * for 48-bit levels, the code range only where wide levels need it, and
-   * the sample count, the cascade's depth and first level, and one bit
+   * the sample count, the cascade's depth, and one bit
    * per level whose pairs may wait (levels 2 .. NLEV-2). */
-  size_t expect = NCH * (7u * NLEV + (NLEV - 7u) + (NLEV - ALLAN_ACC48_FROM) + (NLEV > 15 ? 4u : 0u)) + 6u
+  size_t expect = NCH * (7u * NLEV + (NLEV - 7u) + (NLEV - ALLAN_ACC48_FROM) + (NLEV > 15 ? 4u : 0u)) + 5u
                   + (NLEV - 2 > 16 ? 4u : 2u);
   TEST_ASSERT_EQUAL_UINT32(7, sizeof(allan_cell_t));
   TEST_ASSERT_EQUAL_UINT32(expect, ALLAN_STATE_BYTES);
