@@ -26,8 +26,16 @@ typedef struct {
 static volatile adc_slot_t ring[ADC_RING];
 static volatile uint8_t ring_head, ring_tail;
 static volatile uint8_t scan_col;
-static volatile uint8_t scanning;
-static volatile uint8_t limited;
+/* What the ADC interrupt writes to ADMUX and ADCSRA before anything else:
+ * the next column's channel, and ADSC while a column remains (see ADC_vect). */
+static volatile uint8_t next_admux, next_adcsra;
+#define ADCSRA_IDLE ((1 << ADEN) | (1 << ADIE) | BOARD_ADPS)
+#define ADCSRA_START (ADCSRA_IDLE | (1 << ADSC))
+/* SCANNING while a scan runs, LIMITED when `start <count>` counts scans:
+ * one byte for both, as every byte of SRAM is stack margin. */
+static volatile uint8_t flags;
+#define SCANNING 0x01u
+#define LIMITED  0x02u
 static volatile uint32_t budget; /* scans left when limited */
 static volatile uint8_t isr_drops; /* counted by the ISRs, 8 bits to keep them small */
 static uint32_t drops;             /* folded in by the main loop */
@@ -41,7 +49,7 @@ void adc_init(void)
 {
   BOARD_PROBE_INIT();
   ADMUX = BOARD_ADMUX_REF;
-  ADCSRA = (1 << ADEN) | (1 << ADIE) | BOARD_ADPS;
+  ADCSRA = ADCSRA_IDLE;
   DIDR0 = 0x3F; /* ADC0..5 are analog only: no digital input buffers */
   TCCR1A = 0;
   TCCR1B = (1 << WGM12); /* CTC on OCR1A, clock off until adc_start */
@@ -62,7 +70,7 @@ uint16_t adc_rate(void)
 void adc_start(uint8_t lim, uint32_t count)
 {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    limited = lim;
+    flags = (uint8_t)((flags & SCANNING) | (lim ? LIMITED : 0u));
     budget = count;
     TCNT1 = 0;
     TIFR1 = (1 << OCF1A);
@@ -75,7 +83,7 @@ void adc_stop(void)
 {
   TIMSK1 = 0;
   TCCR1B = (1 << WGM12);
-  while (scanning)
+  while (flags & SCANNING)
     ;
 }
 
@@ -169,11 +177,11 @@ void adc_count_drop(void)
 
 ISR(TIMER1_COMPA_vect)
 {
-  if (scanning) {
+  if (flags & SCANNING) {
     drop_one(); /* previous scan unfinished: the rate outruns the ADC */
     return;
   }
-  if (limited) {
+  if (flags & LIMITED) {
     if (budget == 0) {
       TIMSK1 = 0; /* done: the count asked for by `start <count>` */
       TCCR1B = (1 << WGM12);
@@ -181,33 +189,63 @@ ISR(TIMER1_COMPA_vect)
     }
     budget--;
   }
-  scanning = 1;
+  flags |= SCANNING;
   scan_col = 0;
   ring[ring_head].hi = 0;
   ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[0]);
-  ADCSRA |= (1 << ADSC);
+  ADCSRA = ADCSRA_START;
+  next_admux = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[1]);
+  next_adcsra = ADCSRA_START;
 }
 
-ISR(ADC_vect)
+/* The ADC interrupt starts the next conversion first thing: a conversion
+ * started by ADSC begins at the next ADC clock edge, so an ADSC written
+ * within one ADC clock (64 cycles) of ADIF costs 14 ADC clocks per
+ * conversion, a later one 15 (with the compiler's 15-register prologue in
+ * front it came 109 cycles late).  Its first instructions, before any
+ * prologue, copy two prepared bytes to ADMUX (the channel may change once
+ * ADIF is set) and ADCSRA (ADSC, or not after the last column), touching
+ * neither SREG nor any register but r24; then the ISR proper below. */
+ISR(ADC_vect, ISR_NAKED)
+{
+  __asm__ __volatile__(
+    "push r24\n\t"
+    "lds r24, %[mux]\n\t"
+    "sts %[admux], r24\n\t"
+    "lds r24, %[csra]\n\t"
+    "sts %[adcsra], r24\n\t"
+    "pop r24\n\t"
+    "jmp __vector_adc_result\n\t"
+    :
+    : [mux] "i"(&next_admux), [csra] "i"(&next_adcsra),
+      [admux] "i"(_SFR_MEM_ADDR(ADMUX)), [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)));
+}
+
+/* The rest of the ADC interrupt: an ordinary ISR body ("__vector" in its
+ * name, so that avr-gcc accepts it as one), entered by the jump above. */
+void __vector_adc_result(void) __attribute__((signal, used, externally_visible));
+void __vector_adc_result(void)
 {
   uint8_t col = scan_col, h = ring_head;
   uint8_t lo, hi;
   BOARD_PROBE_ISR_ON();
   lo = ADCL; /* ADCL first: reading it locks ADCH until ADCH is read */
-  hi = ADCH;
+  hi = ADCH; /* the result stays until the conversion just started ends */
   ring[h].lo[col] = lo;
   ring[h].hi = (uint16_t)((ring[h].hi >> 2) | ((uint16_t)hi << 12));
   if (++col < ADC_COLUMNS) {
     scan_col = col;
-    ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[col]);
-    ADCSRA |= (1 << ADSC);
+    if (col + 1u < ADC_COLUMNS)
+      next_admux = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[col + 1u]);
+    else
+      next_adcsra = ADCSRA_IDLE; /* the last column: start nothing after it */
   } else {
     uint8_t next = ring_next(h);
     if (next == ring_tail)
       drop_one(); /* main loop behind: this set is lost, and counted */
     else
       ring_head = next;
-    scanning = 0;
+    flags &= (uint8_t)~SCANNING;
   }
   BOARD_PROBE_ISR_OFF();
 }
