@@ -118,7 +118,7 @@ uint8_t command_parse(const char *line, command_t *out)
 
 uint8_t command_rate_ok(uint32_t hz)
 {
-  return hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000;
+  return hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000 || hz == 1250;
 }
 
 static const char *nth_word(const char *list, uint8_t n)

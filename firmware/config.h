@@ -45,13 +45,15 @@
 #  define FW_MCU_NAME "host"
 #endif
 
-/* Default sample rate (Hz) at power-up: 50, 100, 200, 250, 500 or 1000. */
+/* Default sample rate (Hz) at power-up: 50, 100, 200, 250, 500, 1000 or
+ * 1250 (the highest rate whose Timer1 period is exact at 10 MHz and that
+ * the 7-column ADC scan, 627 us, fits: see docs/firmware.md). */
 #ifndef FS_DEFAULT
 #  define FS_DEFAULT 100
 #endif
 #if FS_DEFAULT != 50 && FS_DEFAULT != 100 && FS_DEFAULT != 200 && \
-    FS_DEFAULT != 250 && FS_DEFAULT != 500 && FS_DEFAULT != 1000
-#  error "FS_DEFAULT must be one of 50, 100, 200, 250, 500, 1000"
+    FS_DEFAULT != 250 && FS_DEFAULT != 500 && FS_DEFAULT != 1000 && FS_DEFAULT != 1250
+#  error "FS_DEFAULT must be one of 50, 100, 200, 250, 500, 1000, 1250"
 #endif
 
 /* Seconds of sampling between periodic reports (0: only on request). */
