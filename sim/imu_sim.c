@@ -24,6 +24,7 @@
 #include "sim_io.h"
 #include "sim_regbit.h"
 #include "avr_adc.h"
+#include "avr_timer.h"
 #include "avr_eeprom.h"
 #include "avr_ioport.h"
 #include "avr_uart.h"
@@ -493,6 +494,7 @@ static void adc_trigger(avr_irq_t *irq, uint32_t value, void *param)
   uint16_t code;
   int ch = -1;
   (void)irq; (void)param;
+  sim_isr_note_adsc();
 
   /* The hardware keeps the last result until the next one completes;
    * simavr computes it when ADCL is read.  Latch a result the firmware
@@ -978,6 +980,8 @@ static stack_t_ stack_mark(void)
   return s;
 }
 
+static avr_io_t *find_io(const char *kind, char name);
+
 static void print_stats(int json)
 {
   avr_t *avr = g.avr;
@@ -1048,6 +1052,10 @@ static void print_stats(int json)
   KV("isr_adc_cycles_mean", "%.1f", adc_isr.count ? (double)adc_isr.sum / adc_isr.count : 0.0);
   KV("isr_adc_cycles_max", "%llu", (unsigned long long)adc_isr.max);
   KV("isr_any_cycles_max", "%llu", (unsigned long long)any_isr.max);
+  KV("adsc_after_adc_vector_max", "%llu", (unsigned long long)sim_isr_adsc_max(g.adc->adc.vector));
+  avr_timer_t *t1 = (avr_timer_t *)find_io("timer", '1');
+  KV("adsc_after_tick_max", "%llu",
+     (unsigned long long)(t1 ? sim_isr_adsc_max(t1->comp[AVR_TIMER_COMPA].interrupt.vector) : 0));
   KV("cpu_busy_fraction", "%.6f", busy);
   KV("cycles_total", "%llu", (unsigned long long)avr->cycle);
   KV("cycles_slept", "%llu", (unsigned long long)g.slept);
@@ -1192,8 +1200,10 @@ static void usage(FILE *f)
 "                    firmware raises it while it handles one sample set)\n"
 "  isr_cycles_mean/max, isr_count        the same for PB1 (ADC interrupt)\n"
 "  isr_adc_cycles_mean/max, isr_any_cycles_max  whole interrupts, from the\n"
-"                    vector to reti (simavr's interrupt status): the ADC's,\n"
+"                    jump to the vector to the end of reti: the ADC's,\n"
 "                    and the longest of any vector\n"
+"  adsc_after_adc_vector_max, adsc_after_tick_max  cycles from the ADC's\n"
+"                    (Timer1 COMPA's) vector to the ADSC its ISR writes\n"
 "  allan_cycles_mean/max, allan_count    the same for PB2 (high around each\n"
 "                                        call into the Allan engine)\n"
 "  cpu_busy_fraction 1 - slept cycles / total cycles\n"
@@ -1348,6 +1358,7 @@ static inline void watch_sp(void)
     g.sp_min = sp;
     g.sp_min_pc = avr->pc;
   }
+  sim_isr_step();
 }
 
 /* Real time: a timer every slice, so that a sleeping device never skips

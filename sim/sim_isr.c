@@ -1,43 +1,74 @@
 /* sim_isr.c - see sim_isr.h. */
 #include "sim_isr.h"
 
+#include "sim_core.h"
 #include "sim_interrupts.h"
-#include "sim_irq.h"
 
 #define SIM_ISR_VECTORS 64
 
 static struct {
   avr_t *avr;
-  avr_cycle_count_t entered[SIM_ISR_VECTORS];
+  uint32_t table_end;         /* bytes: the vector table ends here */
+  int cur;                    /* vector running, -1: none */
+  uint16_t sp0;               /* SP at its first instruction (PC pushed) */
+  avr_cycle_count_t t0;
   sim_isr_stat_t stat[SIM_ISR_VECTORS];
-} isr;
+  uint64_t adsc_max[SIM_ISR_VECTORS];
+} isr = {.cur = -1};
 
-/* simavr raises a vector's RUNNING irq to 1 as it jumps to the vector and
- * back to 0 when the ISR executes `reti`. */
-static void running(avr_irq_t *irq, uint32_t value, void *param)
+static uint16_t sp(void)
 {
-  uint8_t v = (uint8_t)(uintptr_t)param;
-  (void)irq;
-  if (value) {
-    isr.entered[v] = isr.avr->cycle;
-  } else if (isr.entered[v]) {
-    uint64_t d = isr.avr->cycle - isr.entered[v];
-    sim_isr_stat_t *s = &isr.stat[v];
-    s->count++;
-    s->sum += d;
-    if (d > s->max)
-      s->max = d;
-  }
+  return (uint16_t)(isr.avr->data[R_SPL] | isr.avr->data[R_SPH] << 8);
 }
 
 void sim_isr_watch(avr_t *avr)
 {
+  avr_int_table_p t = &avr->interrupts;
+  unsigned last = 0;
   isr.avr = avr;
-  for (unsigned v = 1; v < SIM_ISR_VECTORS; v++) {
-    avr_irq_t *irq = avr_get_interrupt_irq(avr, (uint8_t)v);
-    if (irq)
-      avr_irq_register_notify(irq + AVR_INT_IRQ_RUNNING, running, (void *)(uintptr_t)v);
+  for (unsigned i = 0; i < t->vector_count; i++)
+    if (t->vector[i]->vector > last)
+      last = t->vector[i]->vector;
+  isr.table_end = (last + 1u) * avr->vector_size;
+}
+
+/* After every instruction: the PC only ever reaches the vector table when
+ * the core takes an interrupt (it pushed the PC: SP is sp0); the ISR is over
+ * when that PC is popped again (`reti`).  The firmware does not nest ISRs. */
+void sim_isr_step(void)
+{
+  avr_t *avr = isr.avr;
+  if (!avr)
+    return;
+  if (isr.cur < 0) {
+    if (avr->pc && avr->pc < isr.table_end && avr->pc % avr->vector_size == 0) {
+      isr.cur = (int)(avr->pc / avr->vector_size);
+      isr.sp0 = sp();
+      isr.t0 = avr->cycle;
+    }
+  } else if (sp() > isr.sp0) {
+    uint64_t d = avr->cycle - isr.t0;
+    sim_isr_stat_t *s = &isr.stat[isr.cur % SIM_ISR_VECTORS];
+    s->count++;
+    s->sum += d;
+    if (d > s->max)
+      s->max = d;
+    isr.cur = -1;
   }
+}
+
+void sim_isr_note_adsc(void)
+{
+  if (isr.cur < 0)
+    return; /* started from the main loop */
+  uint64_t d = isr.avr->cycle - isr.t0;
+  if (d > isr.adsc_max[isr.cur % SIM_ISR_VECTORS])
+    isr.adsc_max[isr.cur % SIM_ISR_VECTORS] = d;
+}
+
+uint64_t sim_isr_adsc_max(uint8_t vector)
+{
+  return vector < SIM_ISR_VECTORS ? isr.adsc_max[vector] : 0;
 }
 
 sim_isr_stat_t sim_isr_stat(uint8_t vector)
