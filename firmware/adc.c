@@ -121,8 +121,17 @@ uint8_t adc_peek(uint16_t code[ADC_COLUMNS])
 
 uint16_t adc_oldest(uint8_t col)
 {
-  uint8_t t = ring_tail;
-  return (uint16_t)(ring[t].lo[col] | (((ring[t].hi >> (2u * col)) & 3u) << 8));
+  /* The top bits from the right byte of hi, shifted at most 6 places: the
+   * AVR shifts one bit per instruction, and this runs 7 times a set. */
+  volatile adc_slot_t *s = &ring[ring_tail];
+  uint8_t b = col < 4u ? (uint8_t)s->hi : (uint8_t)(s->hi >> 8);
+  switch (col & 3u) {
+  case 1: b >>= 2; break;
+  case 2: b >>= 4; break;
+  case 3: b >>= 6; break;
+  default: break;
+  }
+  return (uint16_t)(s->lo[col] | ((uint16_t)(b & 3u) << 8));
 }
 
 uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES])
