@@ -157,15 +157,6 @@ static inline __attribute__((always_inline)) allan_sum_t narrow_step(allan_t *a,
   return (allan_sum_t)v + last;
 }
 
-/* The stored cluster sum of one channel-level, 24 bits. */
-static allan_sum_t level_sum(const allan_t *a, uint8_t ch, uint8_t k)
-{
-  allan_sum_t s = a->cell[ch][k].sum_lo;
-  if (k >= ALLAN_NARROW_LEVELS)
-    s |= (allan_sum_t)a->sum_hi[ch][k - ALLAN_NARROW_LEVELS] << 16;
-  return s;
-}
-
 /* |v - last| for the two latest cluster sums of level k. */
 static inline __attribute__((always_inline)) uint32_t pair_diff(uint8_t k, allan_sum_t v, allan_sum_t last)
 {
@@ -188,28 +179,31 @@ static inline __attribute__((always_inline)) uint32_t pair_diff(uint8_t k, allan
   return d;
 }
 
-/* The deferred pair of level k of one channel.  Level k+1 completed with
- * it, so level k's previous sum is level k+1's sum minus level k's: both
- * stay in place until level k completes again, 2^k sets later.  Its frame
- * is no bigger than cascade_up's, on the same stack. */
-static __attribute__((noinline)) void settle_one(allan_t *a, uint8_t ch, uint8_t k)
+/* Level k's deferred pairs, for every channel (returns ALLAN_OK, for
+ * allan_begin's tail call).  Level k+1 completed with
+ * each, so level k's previous sum is level k+1's sum minus level k's: both
+ * stay in place until level k completes again, 2^k sets later. */
+static __attribute__((noinline)) uint8_t settle(allan_t *a, uint8_t k)
 {
-  allan_sum_t v = level_sum(a, ch, k);
-  allan_sum_t last = (allan_sum_t)((level_sum(a, ch, (uint8_t)(k + 1u)) - v) & SUM_MASK);
-  cell_add_square(a, ch, k, &a->cell[ch][k], pair_diff(k, v, last));
-}
-
-/* Level k's deferred pairs, for every channel. */
-static __attribute__((noinline)) void settle(allan_t *a, uint8_t k)
-{
+  allan_cell_t *c = &a->cell[0][k];
   uint8_t ch;
-  for (ch = 0; ch < ALLAN_CHANNELS; ch++)
-    settle_one(a, ch, k);
+  for (ch = 0; ch < ALLAN_CHANNELS; ch++, c += ALLAN_LEVELS) {
+    allan_sum_t v = c->sum_lo, up = c[1].sum_lo;
+    if (k + 1u >= ALLAN_NARROW_LEVELS) {
+      const uint8_t *hi = &a->sum_hi[ch][k + 1u - ALLAN_NARROW_LEVELS]; /* level k+1's top byte */
+      up |= (allan_sum_t)hi[0] << 16;
+      if (k >= ALLAN_NARROW_LEVELS)
+        v |= (allan_sum_t)hi[-1] << 16;
+    }
+    cell_add_square(a, ch, k, c, pair_diff(k, v, (allan_sum_t)((up - v) & SUM_MASK)));
+  }
   a->pend &= (allan_pend_t)~((allan_pend_t)1 << k);
+  return ALLAN_OK;
 }
 
-/* Lowest level with a deferred pair (pend != 0): by bytes, then bits, as
- * the AVR shifts one bit per instruction. */
+/* Lowest level with a deferred pair (pend != 0): a byte, a nibble, then
+ * bit tests, as the AVR shifts one bit per instruction and this runs for
+ * every channel of a set that takes waiting pairs. */
 static uint8_t lowest_pending(allan_pend_t pend)
 {
   uint8_t k = 0, b;
@@ -217,9 +211,12 @@ static uint8_t lowest_pending(allan_pend_t pend)
     pend >>= 8;
     k += 8;
   }
-  for (b = (uint8_t)pend; !(b & 1u); b >>= 1)
-    k++;
-  return k;
+  b = (uint8_t)pend;
+  if (!(b & 0x0Fu)) {
+    b >>= 4;
+    k += 4;
+  }
+  return (uint8_t)(k + ((b & 1u) ? 0u : (b & 2u) ? 1u : (b & 4u) ? 2u : 3u));
 }
 
 __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
@@ -246,15 +243,18 @@ __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
   if (n == 1u)
     a->depth = (uint8_t)(depth | ALLAN_TOP_FIRST);
 
-  /* Deferred pairs of levels this set overwrites are settled first: a
-   * safety net, the schedule in allan_channel settles them long before
-   * (docs/allan-engine.md). */
+  /* Deferred pairs of levels this set overwrites are settled first (a
+   * safety net: the schedule below settles them long before, see
+   * docs/allan-engine.md), then, in a set that cascades no higher than
+   * level 1 (three in four), the lowest waiting level's. */
   while (a->pend & (((allan_pend_t)1 << depth) - 1u))
     settle(a, lowest_pending(a->pend));
   /* This set's pairs at levels 2 .. depth-2 are deferred; the top level's
    * pair is taken now, its previous sum being nowhere else. */
   if (depth >= 4)
     a->pend |= (allan_pend_t)((((allan_pend_t)1 << (depth - 1u)) - 1u) & ~(allan_pend_t)3u);
+  if (depth <= 2u && a->pend)
+    return settle(a, lowest_pending(a->pend)); /* last, so that its frame replaces this one */
   return ALLAN_OK;
 }
 
@@ -316,15 +316,6 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
   cell_add_square(a, ch, k, c, pair_diff(k, v, last));
 }
 
-/* Channel ch's share of the lowest waiting level's pairs; the last
- * channel's clears the level's bit. */
-static __attribute__((noinline)) void settle_next(allan_t *a, uint8_t ch)
-{
-  settle_one(a, ch, lowest_pending(a->pend));
-  if (ch == ALLAN_CHANNELS - 1u)
-    a->pend &= a->pend - 1u; /* that level's bit, the lowest */
-}
-
 void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
 {
   /* Levels 0 and 1 here (every sample, every other sample), the rest out
@@ -341,16 +332,9 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
   v = (uint16_t)narrow_step(a, ch, 0, c, code);
   if ((a->depth & ~ALLAN_TOP_FIRST) > 1u) {
     v = (uint16_t)narrow_step(a, ch, 1, c + 1, v);
-    if ((a->depth & ~ALLAN_TOP_FIRST) > 2u) {
+    if ((a->depth & ~ALLAN_TOP_FIRST) > 2u)
       cascade_up(a, ch, v);
-      return;
-    }
   }
-  /* A set that cascades no higher than level 1 (three in four) takes the
-   * waiting pairs of the lowest waiting level, channel by channel: its
-   * cells are not touched by this set. */
-  if (a->pend)
-    settle_next(a, ch);
 }
 
 uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS])
