@@ -211,10 +211,32 @@ ISR(TIMER1_COMPA_vect)
  * started by ADSC begins at the next ADC clock edge, so an ADSC written
  * within one ADC clock (64 cycles) of ADIF costs 14 ADC clocks per
  * conversion, a later one 15 (with the compiler's 15-register prologue in
- * front it came 109 cycles late).  Its first instructions, before any
- * prologue, copy two prepared bytes to ADMUX (the channel may change once
- * ADIF is set) and ADCSRA (ADSC, or not after the last column), touching
- * neither SREG nor any register but r24; then the ISR proper below. */
+ * front it came 109 cycles late).  Its first instructions copy two
+ * prepared bytes to ADMUX (the channel may change once ADIF is set) and
+ * ADCSRA (ADSC, or not after the last column).
+ *
+ * Then the same work as this C, in assembly with 6 registers (the
+ * compiler's version pushed 15, on top of the main loop's deepest stack,
+ * where every byte counts on the ATmega168):
+ *
+ *   slot = &ring[ring_head];  slot->lo[scan_col] = ADCL;
+ *   slot->hi = (slot->hi >> 2) | (ADCH << 12);     top 2 bits, column by column
+ *   if (++scan_col < ADC_COLUMNS) {
+ *     if (scan_col + 1 < ADC_COLUMNS) next_admux = REF | adc_mux[scan_col + 1];
+ *     else next_adcsra = ADCSRA_IDLE;              start nothing after the last
+ *   } else {                                        scan done
+ *     next = ring_next(ring_head);
+ *     if (next == ring_tail) drop_one(); else ring_head = next;
+ *     flags &= ~SCANNING;
+ *   }
+ */
+#if BOARD_PROBES
+#  define ADC_ISR_PROBE_ON "sbi %[portb], 1\n\t"
+#  define ADC_ISR_PROBE_OFF "cbi %[portb], 1\n\t"
+#else
+#  define ADC_ISR_PROBE_ON ""
+#  define ADC_ISR_PROBE_OFF ""
+#endif
 ISR(ADC_vect, ISR_NAKED)
 {
   __asm__ __volatile__(
@@ -223,38 +245,114 @@ ISR(ADC_vect, ISR_NAKED)
     "sts %[admux], r24\n\t"
     "lds r24, %[csra]\n\t"
     "sts %[adcsra], r24\n\t"
+    "in r24, __SREG__\n\t"
+    "push r24\n\t"
+    "push r25\n\t"
+    "push r26\n\t"
+    "push r27\n\t"
+    "push r30\n\t"
+    "push r31\n\t"
+    ADC_ISR_PROBE_ON
+    /* Z = slot = ring + 9 * ring_head, X = &slot->lo[scan_col] */
+    "lds r24, %[head]\n\t"
+    "mov r25, r24\n\t"
+    "lsl r25\n\t"
+    "lsl r25\n\t"
+    "lsl r25\n\t"
+    "add r25, r24\n\t"
+    "ldi r30, lo8(%[ring])\n\t"
+    "ldi r31, hi8(%[ring])\n\t"
+    "add r30, r25\n\t"
+    "ldi r25, 0\n\t"
+    "adc r31, r25\n\t"
+    "lds r24, %[col]\n\t"
+    "movw r26, r30\n\t"
+    "add r26, r24\n\t"
+    "adc r27, r25\n\t"
+    "lds r25, %[adcl]\n\t"   /* ADCL first: reading it locks ADCH until ADCH is read */
+    "st X, r25\n\t"
+    "lds r26, %[adch]\n\t"   /* r26: the code's top 2 bits */
+    /* hi word >> 2, with the top bits in at bits 12..13 */
+    "ldd r25, Z+%[hilo]\n\t"
+    "lsr r25\n\t"
+    "lsr r25\n\t"
+    "ldd r27, Z+%[hilo]+1\n\t"
+    "mov r24, r27\n\t"
+    "andi r24, 3\n\t"
+    "swap r24\n\t"
+    "lsl r24\n\t"
+    "lsl r24\n\t"
+    "or r25, r24\n\t"
+    "std Z+%[hilo], r25\n\t"
+    "lsr r27\n\t"
+    "lsr r27\n\t"
+    "swap r26\n\t"
+    "or r27, r26\n\t"
+    "std Z+%[hilo]+1, r27\n\t"
+    /* the next column */
+    "lds r24, %[col]\n\t"
+    "inc r24\n\t"
+    "cpi r24, %[ncol]\n\t"
+    "brsh 3f\n\t"
+    "sts %[col], r24\n\t"
+    "cpi r24, %[ncol]-1\n\t"
+    "brsh 2f\n\t"
+    "ldi r30, lo8(%[mux1])\n\t"
+    "ldi r31, hi8(%[mux1])\n\t"
+    "add r30, r24\n\t"
+    "ldi r25, 0\n\t"
+    "adc r31, r25\n\t"
+    "lpm r25, Z\n\t"
+    "ori r25, %[ref]\n\t"
+    "sts %[mux], r25\n\t"
+    "rjmp 9f\n"
+    "2:\n\t"
+    "ldi r25, %[idle]\n\t"
+    "sts %[csra], r25\n\t"
+    "rjmp 9f\n"
+    /* scan done: into the ring, or counted as dropped */
+    "3:\n\t"
+    "lds r24, %[head]\n\t"
+    "inc r24\n\t"
+    "cpi r24, %[nring]\n\t"
+    "brne 4f\n\t"
+    "ldi r24, 0\n"
+    "4:\n\t"
+    "lds r25, %[tail]\n\t"
+    "cp r24, r25\n\t"
+    "brne 5f\n\t"
+    "lds r25, %[drops]\n\t"
+    "cpi r25, 0xFF\n\t"
+    "breq 6f\n\t"
+    "inc r25\n\t"
+    "sts %[drops], r25\n\t"
+    "rjmp 6f\n"
+    "5:\n\t"
+    "sts %[head], r24\n"
+    "6:\n\t"
+    "lds r25, %[flags]\n\t"
+    "andi r25, %[notscan]\n\t"
+    "sts %[flags], r25\n"
+    "9:\n\t"
+    ADC_ISR_PROBE_OFF
+    "pop r31\n\t"
+    "pop r30\n\t"
+    "pop r27\n\t"
+    "pop r26\n\t"
+    "pop r25\n\t"
     "pop r24\n\t"
-    "jmp __vector_adc_result\n\t"
+    "out __SREG__, r24\n\t"
+    "pop r24\n\t"
+    "reti\n\t"
     :
     : [mux] "i"(&next_admux), [csra] "i"(&next_adcsra),
-      [admux] "i"(_SFR_MEM_ADDR(ADMUX)), [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)));
-}
-
-/* The rest of the ADC interrupt: an ordinary ISR body ("__vector" in its
- * name, so that avr-gcc accepts it as one), entered by the jump above. */
-void __vector_adc_result(void) __attribute__((signal, used, externally_visible));
-void __vector_adc_result(void)
-{
-  uint8_t col = scan_col, h = ring_head;
-  uint8_t lo, hi;
-  BOARD_PROBE_ISR_ON();
-  lo = ADCL; /* ADCL first: reading it locks ADCH until ADCH is read */
-  hi = ADCH; /* the result stays until the conversion just started ends */
-  ring[h].lo[col] = lo;
-  ring[h].hi = (uint16_t)((ring[h].hi >> 2) | ((uint16_t)hi << 12));
-  if (++col < ADC_COLUMNS) {
-    scan_col = col;
-    if (col + 1u < ADC_COLUMNS)
-      next_admux = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[col + 1u]);
-    else
-      next_adcsra = ADCSRA_IDLE; /* the last column: start nothing after it */
-  } else {
-    uint8_t next = ring_next(h);
-    if (next == ring_tail)
-      drop_one(); /* main loop behind: this set is lost, and counted */
-    else
-      ring_head = next;
-    flags &= (uint8_t)~SCANNING;
-  }
-  BOARD_PROBE_ISR_OFF();
+      [admux] "i"(_SFR_MEM_ADDR(ADMUX)), [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)),
+      [adcl] "i"(_SFR_MEM_ADDR(ADCL)), [adch] "i"(_SFR_MEM_ADDR(ADCH)),
+#if BOARD_PROBES
+      [portb] "I"(_SFR_IO_ADDR(PORTB)),
+#endif
+      [head] "i"(&ring_head), [tail] "i"(&ring_tail), [col] "i"(&scan_col), [ring] "i"(ring),
+      [hilo] "n"(ADC_COLUMNS), [ncol] "n"(ADC_COLUMNS), [nring] "n"(ADC_RING),
+      [mux1] "i"(&adc_mux[1]), [ref] "n"(BOARD_ADMUX_REF), [idle] "n"(ADCSRA_IDLE),
+      [drops] "i"(&isr_drops), [flags] "i"(&flags), [notscan] "n"((uint8_t)~SCANNING));
 }
