@@ -325,6 +325,8 @@ static void next_line(void)
 uint8_t report_step(uint8_t step)
 {
   uint8_t done;
+  if (step == 0 && (rep.part == PART_ROW || rep.part == PART_SUM_ROW))
+    allan_settle_level(&sample_engine, rep.level); /* the engine's waiting pairs, on a short stack */
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
