@@ -26,8 +26,16 @@ typedef struct {
 static volatile adc_slot_t ring[ADC_RING];
 static volatile uint8_t ring_head, ring_tail;
 static volatile uint8_t scan_col;
-static volatile uint8_t scanning;
-static volatile uint8_t limited;
+/* What the ADC interrupt writes to ADMUX and ADCSRA before anything else:
+ * the next column's channel, and ADSC while a column remains (see ADC_vect). */
+static volatile uint8_t next_admux, next_adcsra;
+#define ADCSRA_IDLE ((1 << ADEN) | (1 << ADIE) | BOARD_ADPS)
+#define ADCSRA_START (ADCSRA_IDLE | (1 << ADSC))
+/* SCANNING while a scan runs, LIMITED when `start <count>` counts scans:
+ * one byte for both, as every byte of SRAM is stack margin. */
+static volatile uint8_t flags;
+#define SCANNING 0x01u
+#define LIMITED  0x02u
 static volatile uint32_t budget; /* scans left when limited */
 static volatile uint8_t isr_drops; /* counted by the ISRs, 8 bits to keep them small */
 static uint32_t drops;             /* folded in by the main loop */
@@ -41,7 +49,7 @@ void adc_init(void)
 {
   BOARD_PROBE_INIT();
   ADMUX = BOARD_ADMUX_REF;
-  ADCSRA = (1 << ADEN) | (1 << ADIE) | BOARD_ADPS;
+  ADCSRA = ADCSRA_IDLE;
   DIDR0 = 0x3F; /* ADC0..5 are analog only: no digital input buffers */
   TCCR1A = 0;
   TCCR1B = (1 << WGM12); /* CTC on OCR1A, clock off until adc_start */
@@ -62,7 +70,7 @@ uint16_t adc_rate(void)
 void adc_start(uint8_t lim, uint32_t count)
 {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    limited = lim;
+    flags = (uint8_t)((flags & SCANNING) | (lim ? LIMITED : 0u));
     budget = count;
     TCNT1 = 0;
     TIFR1 = (1 << OCF1A);
@@ -74,7 +82,7 @@ void adc_start(uint8_t lim, uint32_t count)
 uint32_t adc_remaining(void)
 {
   uint32_t r;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { r = limited ? budget : ADC_UNLIMITED; }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { r = (flags & LIMITED) ? budget : ADC_UNLIMITED; }
   return r;
 }
 
@@ -82,7 +90,7 @@ void adc_limit(uint32_t total)
 {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     uint8_t waiting = adc_pending();
-    limited = 1;
+    flags |= LIMITED;
     budget = total > waiting ? total - waiting : 0;
   }
 }
@@ -91,7 +99,7 @@ void adc_stop(void)
 {
   TIMSK1 = 0;
   TCCR1B = (1 << WGM12);
-  while (scanning)
+  while (flags & SCANNING)
     ;
 }
 
@@ -129,8 +137,17 @@ uint8_t adc_peek(uint16_t code[ADC_COLUMNS])
 
 uint16_t adc_oldest(uint8_t col)
 {
-  uint8_t t = ring_tail;
-  return (uint16_t)(ring[t].lo[col] | (((ring[t].hi >> (2u * col)) & 3u) << 8));
+  /* The top bits from the right byte of hi, shifted at most 6 places: the
+   * AVR shifts one bit per instruction, and this runs 7 times a set. */
+  volatile adc_slot_t *s = &ring[ring_tail];
+  uint8_t b = col < 4u ? (uint8_t)s->hi : (uint8_t)(s->hi >> 8);
+  switch (col & 3u) {
+  case 1: b >>= 2; break;
+  case 2: b >>= 4; break;
+  case 3: b >>= 6; break;
+  default: break;
+  }
+  return (uint16_t)(s->lo[col] | ((uint16_t)(b & 3u) << 8));
 }
 
 uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES])
@@ -185,11 +202,11 @@ void adc_count_drop(void)
 
 ISR(TIMER1_COMPA_vect)
 {
-  if (scanning) {
+  if (flags & SCANNING) {
     drop_one(); /* previous scan unfinished: the rate outruns the ADC */
     return;
   }
-  if (limited) {
+  if (flags & LIMITED) {
     if (budget == 0) {
       TIMSK1 = 0; /* done: the count asked for by `start <count>` */
       TCCR1B = (1 << WGM12);
@@ -197,33 +214,161 @@ ISR(TIMER1_COMPA_vect)
     }
     budget--;
   }
-  scanning = 1;
+  flags |= SCANNING;
   scan_col = 0;
   ring[ring_head].hi = 0;
   ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[0]);
-  ADCSRA |= (1 << ADSC);
+  ADCSRA = ADCSRA_START;
+  next_admux = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[1]);
+  next_adcsra = ADCSRA_START;
 }
 
-ISR(ADC_vect)
+/* The ADC interrupt starts the next conversion first thing: a conversion
+ * started by ADSC begins at the next ADC clock edge, so an ADSC written
+ * within one ADC clock (64 cycles) of ADIF costs 14 ADC clocks per
+ * conversion, a later one 15 (with the compiler's 15-register prologue in
+ * front it came 109 cycles late).  Its first instructions copy two
+ * prepared bytes to ADMUX (the channel may change once ADIF is set) and
+ * ADCSRA (ADSC, or not after the last column).
+ *
+ * Then the same work as this C, in assembly with 6 registers (the
+ * compiler's version pushed 15, on top of the main loop's deepest stack,
+ * where every byte counts on the ATmega168):
+ *
+ *   slot = &ring[ring_head];  slot->lo[scan_col] = ADCL;
+ *   slot->hi = (slot->hi >> 2) | (ADCH << 12);     top 2 bits, column by column
+ *   if (++scan_col < ADC_COLUMNS) {
+ *     if (scan_col + 1 < ADC_COLUMNS) next_admux = REF | adc_mux[scan_col + 1];
+ *     else next_adcsra = ADCSRA_IDLE;              start nothing after the last
+ *   } else {                                        scan done
+ *     next = ring_next(ring_head);
+ *     if (next == ring_tail) drop_one(); else ring_head = next;
+ *     flags &= ~SCANNING;
+ *   }
+ */
+#if BOARD_PROBES
+#  define ADC_ISR_PROBE_ON "sbi %[portb], 1\n\t"
+#  define ADC_ISR_PROBE_OFF "cbi %[portb], 1\n\t"
+#else
+#  define ADC_ISR_PROBE_ON ""
+#  define ADC_ISR_PROBE_OFF ""
+#endif
+ISR(ADC_vect, ISR_NAKED)
 {
-  uint8_t col = scan_col, h = ring_head;
-  uint8_t lo, hi;
-  BOARD_PROBE_ISR_ON();
-  lo = ADCL; /* ADCL first: reading it locks ADCH until ADCH is read */
-  hi = ADCH;
-  ring[h].lo[col] = lo;
-  ring[h].hi = (uint16_t)((ring[h].hi >> 2) | ((uint16_t)hi << 12));
-  if (++col < ADC_COLUMNS) {
-    scan_col = col;
-    ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[col]);
-    ADCSRA |= (1 << ADSC);
-  } else {
-    uint8_t next = ring_next(h);
-    if (next == ring_tail)
-      drop_one(); /* main loop behind: this set is lost, and counted */
-    else
-      ring_head = next;
-    scanning = 0;
-  }
-  BOARD_PROBE_ISR_OFF();
+  __asm__ __volatile__(
+    "push r24\n\t"
+    "lds r24, %[mux]\n\t"
+    "sts %[admux], r24\n\t"
+    "lds r24, %[csra]\n\t"
+    "sts %[adcsra], r24\n\t"
+    "in r24, __SREG__\n\t"
+    "push r24\n\t"
+    "push r25\n\t"
+    "push r26\n\t"
+    "push r27\n\t"
+    "push r30\n\t"
+    "push r31\n\t"
+    ADC_ISR_PROBE_ON
+    /* Z = slot = ring + 9 * ring_head, X = &slot->lo[scan_col] */
+    "lds r24, %[head]\n\t"
+    "mov r25, r24\n\t"
+    "lsl r25\n\t"
+    "lsl r25\n\t"
+    "lsl r25\n\t"
+    "add r25, r24\n\t"
+    "ldi r30, lo8(%[ring])\n\t"
+    "ldi r31, hi8(%[ring])\n\t"
+    "add r30, r25\n\t"
+    "ldi r25, 0\n\t"
+    "adc r31, r25\n\t"
+    "lds r24, %[col]\n\t"
+    "movw r26, r30\n\t"
+    "add r26, r24\n\t"
+    "adc r27, r25\n\t"
+    "lds r25, %[adcl]\n\t"   /* ADCL first: reading it locks ADCH until ADCH is read */
+    "st X, r25\n\t"
+    "lds r26, %[adch]\n\t"   /* r26: the code's top 2 bits */
+    /* hi word >> 2, with the top bits in at bits 12..13 */
+    "ldd r25, Z+%[hilo]\n\t"
+    "lsr r25\n\t"
+    "lsr r25\n\t"
+    "ldd r27, Z+%[hilo]+1\n\t"
+    "mov r24, r27\n\t"
+    "andi r24, 3\n\t"
+    "swap r24\n\t"
+    "lsl r24\n\t"
+    "lsl r24\n\t"
+    "or r25, r24\n\t"
+    "std Z+%[hilo], r25\n\t"
+    "lsr r27\n\t"
+    "lsr r27\n\t"
+    "swap r26\n\t"
+    "or r27, r26\n\t"
+    "std Z+%[hilo]+1, r27\n\t"
+    /* the next column */
+    "lds r24, %[col]\n\t"
+    "inc r24\n\t"
+    "cpi r24, %[ncol]\n\t"
+    "brsh 3f\n\t"
+    "sts %[col], r24\n\t"
+    "cpi r24, %[ncol]-1\n\t"
+    "brsh 2f\n\t"
+    "ldi r30, lo8(%[mux1])\n\t"
+    "ldi r31, hi8(%[mux1])\n\t"
+    "add r30, r24\n\t"
+    "ldi r25, 0\n\t"
+    "adc r31, r25\n\t"
+    "lpm r25, Z\n\t"
+    "ori r25, %[ref]\n\t"
+    "sts %[mux], r25\n\t"
+    "rjmp 9f\n"
+    "2:\n\t"
+    "ldi r25, %[idle]\n\t"
+    "sts %[csra], r25\n\t"
+    "rjmp 9f\n"
+    /* scan done: into the ring, or counted as dropped */
+    "3:\n\t"
+    "lds r24, %[head]\n\t"
+    "inc r24\n\t"
+    "cpi r24, %[nring]\n\t"
+    "brne 4f\n\t"
+    "ldi r24, 0\n"
+    "4:\n\t"
+    "lds r25, %[tail]\n\t"
+    "cp r24, r25\n\t"
+    "brne 5f\n\t"
+    "lds r25, %[drops]\n\t"
+    "cpi r25, 0xFF\n\t"
+    "breq 6f\n\t"
+    "inc r25\n\t"
+    "sts %[drops], r25\n\t"
+    "rjmp 6f\n"
+    "5:\n\t"
+    "sts %[head], r24\n"
+    "6:\n\t"
+    "lds r25, %[flags]\n\t"
+    "andi r25, %[notscan]\n\t"
+    "sts %[flags], r25\n"
+    "9:\n\t"
+    ADC_ISR_PROBE_OFF
+    "pop r31\n\t"
+    "pop r30\n\t"
+    "pop r27\n\t"
+    "pop r26\n\t"
+    "pop r25\n\t"
+    "pop r24\n\t"
+    "out __SREG__, r24\n\t"
+    "pop r24\n\t"
+    "reti\n\t"
+    :
+    : [mux] "i"(&next_admux), [csra] "i"(&next_adcsra),
+      [admux] "i"(_SFR_MEM_ADDR(ADMUX)), [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)),
+      [adcl] "i"(_SFR_MEM_ADDR(ADCL)), [adch] "i"(_SFR_MEM_ADDR(ADCH)),
+#if BOARD_PROBES
+      [portb] "I"(_SFR_IO_ADDR(PORTB)),
+#endif
+      [head] "i"(&ring_head), [tail] "i"(&ring_tail), [col] "i"(&scan_col), [ring] "i"(ring),
+      [hilo] "n"(ADC_COLUMNS), [ncol] "n"(ADC_COLUMNS), [nring] "n"(ADC_RING),
+      [mux1] "i"(&adc_mux[1]), [ref] "n"(BOARD_ADMUX_REF), [idle] "n"(ADCSRA_IDLE),
+      [drops] "i"(&isr_drops), [flags] "i"(&flags), [notscan] "n"((uint8_t)~SCANNING));
 }

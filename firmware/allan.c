@@ -63,28 +63,33 @@ static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ex
 {
   /* Few values live at once, so that this rare path needs a small frame
    * on the deepest stack of the sampling path. */
-  uint8_t a = (uint8_t)(d >> 16);
-  uint16_t b = (uint16_t)d;
-  uint32_t t = (uint32_t)b * b;    /* b^2 */
-  uint32_t lo = c->acc_lo + t;
-  uint32_t up = (lo < t) + c->acc_mid + (uint16_t)a * a; /* bits 32.. of acc + a^2 2^32 + b^2 */
+  uint16_t a = (uint16_t)(d >> 16), b = (uint16_t)d, up;
+  uint32_t t, lo;
+  __asm__("" : "+r"(a), "+r"(b)); /* 16 x 16 multiplies, not 32 x 32 */
+  t = (uint32_t)b * b;             /* b^2 */
+  lo = c->acc_lo + t;
+  up = (uint16_t)(lo < t) + a * a; /* bits 32.. of acc + a^2 2^32 + b^2: below 2^16 */
   t = (uint32_t)a * b * 2u;        /* 2ab, below 2^25, goes in at bit 16 */
-  up += t >> 16;
+  up += (uint16_t)(t >> 16);       /* still below 2^16: a^2 + 2^9 + 2 */
   t <<= 16;
   lo += t;
   up += lo < t;
-  /* up now holds bits 32.. of the sum (below 2^17): its low byte is the new
-   * acc_mid, the rest must fit the extension byte (48-bit levels only). */
-  if (up >> 8) {
-    uint16_t top = (uint16_t)(up >> 8);
-    if (!ext || (uint16_t)(*ext + top) > 0xFFu) {
-      cell_saturate(c, ext);
-      return;
+  /* Bits 32.. of the sum are up + acc_mid (below 2^17): the low byte is
+   * the new acc_mid, the rest must fit the extension byte (48-bit levels
+   * only). */
+  {
+    uint16_t sum = up + c->acc_mid;
+    uint16_t top = (uint16_t)((sum >> 8) | (sum < up ? 0x100u : 0u));
+    if (top) {
+      if (!ext || (uint16_t)(*ext + top) > 0xFFu) {
+        cell_saturate(c, ext);
+        return;
+      }
+      *ext = (uint8_t)(*ext + top);
     }
-    *ext = (uint8_t)(*ext + top);
+    c->acc_lo = lo;
+    c->acc_mid = (uint8_t)sum;
   }
-  c->acc_lo = lo;
-  c->acc_mid = (uint8_t)up;
 }
 
 /* acc += d^2 for d < 2^16, the common case (every level-0 pair and nearly
@@ -92,15 +97,19 @@ static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ex
 static inline __attribute__((always_inline)) void cell_add_small(allan_t *a, uint8_t ch, uint8_t level,
                                                                   allan_cell_t *c, uint16_t d)
 {
-  uint32_t sq = (uint32_t)d * d;
-  uint32_t lo = c->acc_lo + sq;
+  uint32_t sq, lo;
+  /* Hide d's origin so that avr-gcc multiplies 16 x 16 (not 32 x 32). */
+  __asm__("" : "+r"(d));
+  sq = (uint32_t)d * d;
+  lo = c->acc_lo + sq;
   c->acc_lo = lo;
   if (lo < sq)
     cell_carry(a, ch, level);
 }
 
 /* acc += d^2, saturating at the accumulator's width. */
-static void cell_add_square(allan_t *a, uint8_t ch, uint8_t level, allan_cell_t *c, uint32_t d)
+static inline __attribute__((always_inline)) void cell_add_square(allan_t *a, uint8_t ch, uint8_t level,
+                                                                  allan_cell_t *c, uint32_t d)
 {
   if (d < 0x10000ul)
     cell_add_small(a, ch, level, c, (uint16_t)d);
@@ -135,7 +144,82 @@ void allan_reset(allan_t *a)
 #endif
 }
 
-uint8_t allan_begin(allan_t *a)
+/* One narrow level k (sums below 2^16): pair the new cluster sum v with the
+ * previous one, store it, and return the next level's new sum (24 bits: it
+ * leaves 16 after the last narrow level). */
+static inline __attribute__((always_inline)) allan_sum_t narrow_step(allan_t *a, uint8_t ch, uint8_t k,
+                                                                      allan_cell_t *c, uint16_t v)
+{
+  uint16_t last = c->sum_lo;
+  if (a->depth != (uint8_t)(ALLAN_TOP_FIRST | (k + 1u))) /* not level k's first cluster */
+    cell_add_small(a, ch, k, c, v >= last ? v - last : last - v);
+  c->sum_lo = v;
+  return (allan_sum_t)v + last;
+}
+
+/* |v - last| for the two latest cluster sums of level k. */
+static inline __attribute__((always_inline)) uint32_t pair_diff(uint8_t k, allan_sum_t v, allan_sum_t last)
+{
+  uint32_t d;
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+  if (k >= ALLAN_WIDE_LEVEL) {
+    /* Sums mod 2^24; |dS| < 2^23 was proven by the code range when the
+     * pair completed (a broken bound saturated the level then), so
+     * sign-extend. */
+    d = (uint32_t)(v - last) & SUM_MASK;
+    if (d & SUM_SIGN)
+      d = (SUM_MASK + 1ul) - d;
+    return d;
+  }
+#else
+  (void)k;
+#endif
+  /* True sums below 2^24: plain subtraction is exact. */
+  d = v >= last ? (uint32_t)(v - last) : (uint32_t)(last - v);
+  return d;
+}
+
+/* Level k's deferred pairs, for every channel (returns ALLAN_OK, for
+ * allan_begin's tail call).  Level k+1 completed with
+ * each, so level k's previous sum is level k+1's sum minus level k's: both
+ * stay in place until level k completes again, 2^k sets later. */
+static __attribute__((noinline)) uint8_t settle(allan_t *a, uint8_t k)
+{
+  allan_cell_t *c = &a->cell[0][k];
+  uint8_t ch;
+  for (ch = 0; ch < ALLAN_CHANNELS; ch++, c += ALLAN_LEVELS) {
+    allan_sum_t v = c->sum_lo, up = c[1].sum_lo;
+    if (k + 1u >= ALLAN_NARROW_LEVELS) {
+      const uint8_t *hi = &a->sum_hi[ch][k + 1u - ALLAN_NARROW_LEVELS]; /* level k+1's top byte */
+      up |= (allan_sum_t)hi[0] << 16;
+      if (k >= ALLAN_NARROW_LEVELS)
+        v |= (allan_sum_t)hi[-1] << 16;
+    }
+    cell_add_square(a, ch, k, c, pair_diff(k, v, (allan_sum_t)((up - v) & SUM_MASK)));
+  }
+  a->pend &= (allan_pend_t)~((allan_pend_t)1 << k);
+  return ALLAN_OK;
+}
+
+/* Lowest level with a deferred pair (pend != 0): a byte, a nibble, then
+ * bit tests, as the AVR shifts one bit per instruction and this runs for
+ * every channel of a set that takes waiting pairs. */
+static uint8_t lowest_pending(allan_pend_t pend)
+{
+  uint8_t k = 0, b;
+  while (!(uint8_t)pend) {
+    pend >>= 8;
+    k += 8;
+  }
+  b = (uint8_t)pend;
+  if (!(b & 0x0Fu)) {
+    b >>= 4;
+    k += 4;
+  }
+  return (uint8_t)(k + ((b & 1u) ? 0u : (b & 2u) ? 1u : (b & 4u) ? 2u : 3u));
+}
+
+__attribute__((noinline)) uint8_t allan_begin(allan_t *a)
 {
   uint32_t n;
   uint8_t depth;
@@ -145,81 +229,91 @@ uint8_t allan_begin(allan_t *a)
   n = ++a->n;
   /* Sample n completes a cluster at every level k with 2^k | n: `depth`
    * levels.  Level k has a pair unless this is its very first cluster,
-   * i.e. unless n == 2^k: `first` names that level (none: 0xFF).  Both are
-   * worked out once here, in 8 bits, for all channels. */
+   * i.e. unless n == 2^k, which can only be the top level: ALLAN_TOP_FIRST
+   * in `depth` says so.  Both are worked out once here, in 8 bits, for all
+   * channels. */
   depth = 1;
   while (depth < ALLAN_LEVELS && !(n & 1u)) { /* shift out trailing zeros */
     n >>= 1;
     depth++;
   }
   a->depth = depth;
-  /* What is left is 1 exactly when the count was 2^(depth-1). */
-  a->first = n == 1u ? (uint8_t)(depth - 1) : 0xFFu;
-  return ALLAN_OK;
-}
+  /* What is left is 1 exactly when the count was 2^(depth-1): the top
+   * level's first cluster, which has no pair yet. */
+  if (n == 1u)
+    a->depth = (uint8_t)(depth | ALLAN_TOP_FIRST);
 
-/* One narrow level k (sums below 2^16): pair the new cluster sum v with the
- * previous one, store it, and return the next level's new sum (24 bits: it
- * leaves 16 after the last narrow level). */
-static inline __attribute__((always_inline)) allan_sum_t narrow_step(allan_t *a, uint8_t ch, uint8_t k,
-                                                                      allan_cell_t *c, uint16_t v)
-{
-  uint16_t last = c->sum_lo;
-  if (k != a->first)
-    cell_add_small(a, ch, k, c, v >= last ? v - last : last - v);
-  c->sum_lo = v;
-  return (allan_sum_t)v + last;
+  /* Deferred pairs of levels this set overwrites are settled first (a
+   * safety net: the schedule below settles them long before, see
+   * docs/allan-engine.md), then, in a set that cascades no higher than
+   * level 1 (three in four), the lowest waiting level's. */
+  while (a->pend & (((allan_pend_t)1 << depth) - 1u))
+    settle(a, lowest_pending(a->pend));
+  /* This set's pairs at levels 2 .. depth-2 are deferred; the top level's
+   * pair is taken now, its previous sum being nowhere else. */
+  if (depth >= 4)
+    a->pend |= (allan_pend_t)((((allan_pend_t)1 << (depth - 1u)) - 1u) & ~(allan_pend_t)3u);
+  if (depth <= 2u && a->pend)
+    return settle(a, lowest_pending(a->pend)); /* last, so that its frame replaces this one */
+  return ALLAN_OK;
 }
 
 /* Levels 2 .. depth-1 of one channel, v16 being the new level-2 cluster
  * sum.  Out of line: three samples in four need none of it, and levels 0
- * and 1 then run with a small frame.  Levels below ALLAN_NARROW_LEVELS run a
- * 16-bit loop; the wide ones keep their sums' top byte in sum_hi[]. */
+ * and 1 then run with a small frame.  Every level but the top one only
+ * stores its new sum and passes the next level's on (its pair waits in
+ * `pend`, see settle()); the top level takes its pair here. */
 static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_t v16)
 {
   allan_cell_t *c = &a->cell[ch][2];
-  uint8_t k = 2, depth = a->depth;
-  uint8_t first = a->first;
-  uint8_t narrow_end = depth < ALLAN_NARROW_LEVELS ? depth : ALLAN_NARROW_LEVELS;
-  allan_sum_t v = (allan_sum_t)v16; /* level 2's sum, in 24 bits */
+  uint8_t k = 2, top = (uint8_t)((a->depth & ~ALLAN_TOP_FIRST) - 1u);
+  allan_sum_t v, last;
   uint8_t *hi;
 
-  for (; k < narrow_end; k++, c++) {
-    v = narrow_step(a, ch, k, c, v16);
-    v16 = (uint16_t)v; /* exact while level k + 1 is narrow */
+  /* Levels below the last narrow one: their sums and the next level's
+   * stay below 2^16. */
+  for (; k < top && k < ALLAN_NARROW_LEVELS - 1u; k++, c++) {
+    uint16_t l16 = c->sum_lo;
+    c->sum_lo = v16;
+    v16 = (uint16_t)(v16 + l16);
   }
-  if (k >= depth)
-    return;
-
-  hi = a->sum_hi[ch];
-  for (; k < depth; k++, c++, hi++) {
-    allan_sum_t last = c->sum_lo | ((allan_sum_t)*hi << 16);
-    if (k != first) {
-      uint32_t d;
+  v = v16;
+  if (k < top && k == ALLAN_NARROW_LEVELS - 1u) { /* the last narrow level: the next sum is wide */
+    last = c->sum_lo;
+    c->sum_lo = v16;
+    v += last;
+    k++;
+    c++;
+  }
+  if (k < ALLAN_NARROW_LEVELS) { /* the top level is narrow */
+    last = c->sum_lo;
+    c->sum_lo = (uint16_t)v;
+  } else {
+    hi = &a->sum_hi[ch][k - ALLAN_NARROW_LEVELS];
+    for (; k < top; k++, c++, hi++) {
+      last = c->sum_lo | ((allan_sum_t)*hi << 16);
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
-      if (k >= ALLAN_WIDE_LEVEL) {
-        if (range_breaks(a, ch, k)) {
-          cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
-          d = 0;
-        } else {
-          /* Sums mod 2^24; |dS| < 2^23 is proven, so sign-extend. */
-          d = (uint32_t)(v - last) & SUM_MASK;
-          if (d & SUM_SIGN)
-            d = (SUM_MASK + 1ul) - d;
-        }
-      } else
+      if (k >= ALLAN_WIDE_LEVEL && range_breaks(a, ch, k))
+        cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
 #endif
-      {
-        /* True sums below 2^24: plain subtraction is exact. */
-        d = v >= last ? (uint32_t)(v - last) : (uint32_t)(last - v);
-      }
-      cell_add_square(a, ch, k, c, d);
+      c->sum_lo = (uint16_t)v;
+      *hi = (uint8_t)(v >> 16);
+      /* The next level's cluster is this one and the one before it. */
+      v = (allan_sum_t)((v + last) & SUM_MASK);
     }
+    last = c->sum_lo | ((allan_sum_t)*hi << 16);
     c->sum_lo = (uint16_t)v;
     *hi = (uint8_t)(v >> 16);
-    /* The next level's cluster is this one and the one before it. */
-    v = (allan_sum_t)((v + last) & SUM_MASK);
   }
+  if (a->depth & ALLAN_TOP_FIRST)
+    return; /* the top level's first cluster: no pair yet */
+#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+  if (k >= ALLAN_WIDE_LEVEL && range_breaks(a, ch, k)) {
+    cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
+    return;
+  }
+#endif
+  cell_add_square(a, ch, k, c, pair_diff(k, v, last));
 }
 
 void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
@@ -236,9 +330,9 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
     a->max[ch] = code;
 #endif
   v = (uint16_t)narrow_step(a, ch, 0, c, code);
-  if (a->depth > 1) {
+  if ((a->depth & ~ALLAN_TOP_FIRST) > 1u) {
     v = (uint16_t)narrow_step(a, ch, 1, c + 1, v);
-    if (a->depth > 2)
+    if ((a->depth & ~ALLAN_TOP_FIRST) > 2u)
       cascade_up(a, ch, v);
   }
 }
@@ -263,9 +357,23 @@ uint32_t allan_pairs(const allan_t *a, uint8_t level)
   return clusters >= 2 ? clusters - 1 : 0;
 }
 
-void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)
+void allan_settle_level(allan_t *a, uint8_t level)
+{
+  if ((a->pend >> level) & 1u)
+    settle(a, level);
+}
+
+void allan_settle(allan_t *a)
+{
+  while (a->pend)
+    settle(a, lowest_pending(a->pend));
+}
+
+void allan_acc(allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)
 {
   const allan_cell_t *c = &a->cell[ch][level];
+  if ((a->pend >> level) & 1u)
+    settle(a, level); /* this level's waiting pairs, for every channel */
   uint16_t h = c->acc_mid;
   if (ALLAN_IS_ACC48(level))
     h |= (uint16_t)a->acc_hi[ch][level - ALLAN_ACC48_FROM] << 8;
@@ -273,7 +381,7 @@ void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32
   *lo = c->acc_lo;
 }
 
-uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level)
+uint8_t allan_flags(allan_t *a, uint8_t ch, uint8_t level)
 {
   uint16_t hi;
   uint32_t lo;

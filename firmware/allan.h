@@ -65,6 +65,16 @@ typedef struct ALLAN_PACKED {
   uint8_t  acc_mid; /*                             bits 32..39 */
 } allan_cell_t;
 
+#define ALLAN_TOP_FIRST 0x80u
+
+/* One bit per level whose pairs wait to be taken (allan.c, settle()):
+ * levels 2 .. ALLAN_LEVELS-2 can wait. */
+#if ALLAN_LEVELS > 17
+typedef uint32_t allan_pend_t;
+#else
+typedef uint16_t allan_pend_t;
+#endif
+
 typedef struct {
   allan_cell_t cell[ALLAN_CHANNELS][ALLAN_LEVELS];
   uint8_t sum_hi[ALLAN_CHANNELS][ALLAN_LEVELS - ALLAN_NARROW_LEVELS];
@@ -75,13 +85,15 @@ typedef struct {
   uint16_t max[ALLAN_CHANNELS]; /* largest code seen (0 before any) */
 #endif
   uint32_t n;                   /* sample sets pushed */
-  uint8_t depth, first;         /* the cascade of the set in progress (allan_begin) */
+  uint8_t depth;                /* levels the set in progress completes (allan_begin),
+                                   | ALLAN_TOP_FIRST when the top one has no pair yet */
+  allan_pend_t pend;            /* levels whose pairs are deferred */
 } allan_t;
 
 /* Bytes of state for a build: what `avr-size` sees of the engine. */
 #define ALLAN_STATE_BYTES \
   (ALLAN_CHANNELS * (7u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) \
-   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 6u)
+   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 5u + sizeof(allan_pend_t))
 
 /* 1 when a level's accumulator has 48 bits (written so that a zero
  * ALLAN_ACC48_FROM draws no "always true" warning). */
@@ -104,13 +116,25 @@ uint8_t allan_push(allan_t *a, const uint16_t code[ALLAN_CHANNELS]);
 uint8_t allan_begin(allan_t *a);
 void allan_channel(allan_t *a, uint8_t ch, uint16_t code);
 
+/* Reading, between two sets (not between allan_begin() and the set's last
+ * allan_channel()).  A level's pairs may wait a few sets to be taken (see
+ * "Spreading the cascade" in docs/allan-engine.md); allan_acc() and
+ * allan_flags() take that level's waiting pairs first, so what they return
+ * always covers allan_pairs() pairs exactly: hence the non-const engine. */
+
 /* Number of (S_j, S_{j-1}) pairs behind level's accumulator. */
 uint32_t allan_pairs(const allan_t *a, uint8_t level);
 
 /* ALLAN_FLAG_* bits for one channel-level; 0 means exact. */
-uint8_t allan_flags(const allan_t *a, uint8_t ch, uint8_t level);
+uint8_t allan_flags(allan_t *a, uint8_t ch, uint8_t level);
 
 /* The accumulator of one channel-level, as hi (bits 32..47) and lo. */
-void allan_acc(const allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo);
+void allan_acc(allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo);
+
+/* Take one level's waiting pairs now, or every level's.  allan_acc() does
+ * the first itself; a caller with a deep stack at its reads (the report)
+ * calls it beforehand from a shallow one. */
+void allan_settle_level(allan_t *a, uint8_t level);
+void allan_settle(allan_t *a);
 
 #endif /* ALLAN_H */

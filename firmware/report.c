@@ -254,29 +254,35 @@ static __attribute__((noinline)) uint8_t step_sum_head(uint8_t step)
   return 0;
 }
 
-static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
+/* One right-aligned cell of 3 significant digits, '!' when flagged: its
+ * text buffer lives here, off the stack of the line's other calls
+ * (begin_seq's number formatting is the report's deepest path). */
+static __attribute__((noinline)) void put_sig3_cell(uint32_t mant, int8_t exp, uint8_t flagged)
 {
   char buf[FMT_SIG3_MAX + 1];
-  uint8_t len;
+  uint8_t len = fmt_sig3(buf, mant, exp);
+  if (flagged) {
+    buf[len++] = '!';
+    buf[len] = 0;
+  }
+  put_cell(buf, len);
+}
+
+static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
+{
   uint32_t mant;
   int8_t exp;
   if (step == 0) {
     begin_seq('S');
     exp = fmt_tau(&mant, rep.level, adc_rate());
-    len = fmt_sig3(buf, mant, exp);
-    put_cell(buf, len);
+    put_sig3_cell(mant, exp, 0);
   } else if (step <= ALLAN_CHANNELS) {
     uint8_t ch = (uint8_t)(step - 1);
     uint16_t hi;
     uint32_t lo;
     allan_acc(&sample_engine, ch, rep.level, &hi, &lo);
     exp = fmt_adev(&mant, hi, lo, allan_pairs(&sample_engine, rep.level), rep.level);
-    len = fmt_sig3(buf, mant, exp);
-    if (allan_flags(&sample_engine, ch, rep.level)) {
-      buf[len++] = '!';
-      buf[len] = 0;
-    }
-    put_cell(buf, len);
+    put_sig3_cell(mant, exp, allan_flags(&sample_engine, ch, rep.level) != 0);
   } else {
     proto_end();
     return 1;
@@ -325,6 +331,12 @@ static void next_line(void)
 uint8_t report_step(uint8_t step)
 {
   uint8_t done;
+  /* The engine's waiting pairs for the level about to be read, here on a
+   * short stack rather than inside allan_acc under step_row/step_sum_row.
+   * A summary row reads a channel a step, and sets taken between two
+   * steps may leave the level waiting again: settle before each of them. */
+  if ((rep.part == PART_ROW && step == 0) || rep.part == PART_SUM_ROW)
+    allan_settle_level(&sample_engine, rep.level);
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;

@@ -29,9 +29,12 @@
 #define VOCAB_RANGES 4
 
 /* The supported sample rates in Hz.  A macro so config.h can check its
- * default with the preprocessor; vocab_rate_ok() is the run-time test. */
+ * default with the preprocessor; vocab_rate_ok() is the run-time test.
+ * 1250 is the highest rate whose Timer1 period is exact at 10 MHz and that
+ * the 7-column ADC scan fits (1500 has no exact period; docs/firmware.md). */
 #define VOCAB_RATE_OK(hz) ((hz) == 50 || (hz) == 100 || (hz) == 200 || \
-                           (hz) == 250 || (hz) == 500 || (hz) == 1000)
+                           (hz) == 250 || (hz) == 500 || (hz) == 1000 || \
+                           (hz) == 1250)
 
 /* Longest report interval in seconds (`interval`, REPORT, the EEPROM). */
 #define VOCAB_INTERVAL_MAX_S 3600

@@ -12,7 +12,7 @@
  *   sim_board.c     board mode (--board): flash and EEPROM kept in files, a
  *                   bootloader, the reset on opening the port
  * and the helpers sim_rows.c (input files), sim_term.c (pty, synthetic IMU),
- * sim_err.c (error-buffer formatting).
+ * sim_err.c (error-buffer formatting), sim_isr.c (whole-interrupt timing).
  */
 #ifndef HARNESS_H
 #define HARNESS_H
@@ -27,6 +27,7 @@
 #include "avr_adc.h"
 #include "avr_uart.h"
 
+#include "sim_isr.h"
 #include "sim_rows.h"
 #include "sim_term.h"
 
@@ -127,6 +128,10 @@ typedef struct {
 /* The one harness state (defined in imu_sim.c). */
 extern harness_t g;
 
+/* ---- imu_sim.c ---------------------------------------------------------- */
+/* A peripheral of g.avr by kind ("adc", "uart", "timer") and name (0: any). */
+avr_io_t *find_io(const char *kind, char name);
+
 /* ---- sim_msg.c ---------------------------------------------------------- */
 void warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void die(int code, const char *fmt, ...)
@@ -175,6 +180,7 @@ static inline void watch_sp(void)
     g.sp_min = sp;
     g.sp_min_pc = avr->pc;
   }
+  sim_isr_step();
 }
 
 /* ---- sim_board.c -------------------------------------------------------- */

@@ -79,7 +79,7 @@ static void open_outputs(void)
   }
 }
 
-static avr_io_t *find_io(const char *kind, char name)
+avr_io_t *find_io(const char *kind, char name)
 {
   for (avr_io_t *io = g.avr->io_port; io; io = io->next)
     if (io->kind && !strcmp(io->kind, kind) &&
@@ -132,6 +132,7 @@ static void make_avr(elf_firmware_t *fw)
   g.adc_irq = avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, 0);
   g.uart_irq = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), 0);
   adc_connect();
+  sim_isr_watch(avr);
   serial_connect();
   measure_connect();
 }

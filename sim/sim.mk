@@ -29,8 +29,8 @@ IMU_SIM := $(BUILD)/host/imu-sim
 # The harness's rooms (harness.h lists them), and the firmware's own CRC.
 IMU_SIM_SRC := $(addprefix sim/,imu_sim.c sim_cli.c sim_msg.c sim_serial.c \
                sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_board.c sim_rows.c \
-               sim_term.c sim_err.c) $(FW_DIR)/crc.c
-IMU_SIM_HDR := $(addprefix sim/,harness.h sim_rows.h sim_term.h sim_err.h) \
+               sim_term.c sim_err.c sim_isr.c) $(FW_DIR)/crc.c
+IMU_SIM_HDR := $(addprefix sim/,harness.h sim_rows.h sim_term.h sim_err.h sim_isr.h) \
                $(FW_DIR)/crc.h
 
 # simavr's headers include each other as "sim_avr.h", so their directory

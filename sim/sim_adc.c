@@ -135,6 +135,7 @@ static void adc_trigger(avr_irq_t *irq, uint32_t value, void *param)
   uint16_t code;
   int ch = -1;
   (void)irq; (void)param;
+  sim_isr_note_adsc();
 
   /* The hardware keeps the last result until the next one completes;
    * simavr computes it when ADCL is read.  Latch a result the firmware

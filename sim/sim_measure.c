@@ -15,6 +15,7 @@
 
 #include "sim_io.h"
 #include "avr_ioport.h"
+#include "avr_timer.h"
 
 static void pulse(pulse_t *p, uint32_t value)
 {
@@ -198,7 +199,7 @@ void print_stats(int json)
       return;
     }
   }
-  stat_kv_t kv[40];
+  stat_kv_t kv[48];
   int n = 0;
 #define KV(k, ...) \
   (kv[n].key = (k), kv[n].text = 0, \
@@ -222,6 +223,15 @@ void print_stats(int json)
   KV("isr_count", "%llu", (unsigned long long)g.pb1.count);
   KV("isr_cycles_mean", "%s", imean);
   KV("isr_cycles_max", "%s", imax);
+  /* Whole interrupts, vector to reti (sim_isr.c), not the probe's window. */
+  sim_isr_stat_t adc_isr = sim_isr_stat(g.adc->adc.vector), any_isr = sim_isr_all();
+  KV("isr_adc_cycles_mean", "%.1f", adc_isr.count ? (double)adc_isr.sum / adc_isr.count : 0.0);
+  KV("isr_adc_cycles_max", "%llu", (unsigned long long)adc_isr.max);
+  KV("isr_any_cycles_max", "%llu", (unsigned long long)any_isr.max);
+  KV("adsc_after_adc_vector_max", "%llu", (unsigned long long)sim_isr_adsc_max(g.adc->adc.vector));
+  avr_timer_t *t1 = (avr_timer_t *)find_io("timer", '1');
+  KV("adsc_after_tick_max", "%llu",
+     (unsigned long long)(t1 ? sim_isr_adsc_max(t1->comp[AVR_TIMER_COMPA].interrupt.vector) : 0));
   KV("cpu_busy_fraction", "%.6f", busy);
   KV("cycles_total", "%llu", (unsigned long long)avr->cycle);
   KV("cycles_slept", "%llu", (unsigned long long)g.slept);

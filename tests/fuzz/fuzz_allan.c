@@ -94,7 +94,7 @@ static void ref_push(const uint16_t *code)
   }
 }
 
-static void check_cell(const allan_t *a, int ch, int k)
+static void check_cell(allan_t *a, int ch, int k)
 {
   uint16_t hi;
   uint32_t lo;
@@ -115,7 +115,7 @@ static void check_cell(const allan_t *a, int ch, int k)
              (unsigned long long)((want & ALLAN_FLAG_SAT) ? ACC_MAX(k) : ref.acc[ch][k]), want);
 }
 
-static void check_all(const allan_t *a)
+static void check_all(allan_t *a)
 {
   for (int ch = 0; ch < NCH; ch++)
     for (int k = 0; k < NLEV; k++)

@@ -21,7 +21,7 @@
  *     the line parses the same (unless it was CMD_ERR_LONG);
  *   - nothing is read past the NUL: every line is copied into a heap block
  *     of exactly its length + 1, which ASan guards.
- * Also vocab_rate_ok() against the six rates, on the input's first 4 bytes.
+ * Also vocab_rate_ok() against the seven rates, on the input's first 4 bytes.
  * Lines run up to and beyond COMMAND_LINE_MAX (the run sets -max_len).
  */
 #include <stdint.h>
@@ -171,12 +171,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
   }
 
-  /* vocab_rate_ok: exactly the six rates of docs/protocol.md. */
+  /* vocab_rate_ok: exactly the seven rates of docs/protocol.md. */
   if (size >= 4) {
     uint32_t hz = (uint32_t)data[0] | (uint32_t)data[1] << 8 | (uint32_t)data[2] << 16 | (uint32_t)data[3] << 24;
     if (data[3] == 0xFF) /* near the rates too */
       hz &= 0x7FF;
-    FUZZ_CHECK(!vocab_rate_ok(hz) == !(hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000),
+    FUZZ_CHECK(!vocab_rate_ok(hz) == !(hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000 ||
+                                     hz == 1250),
                "vocab_rate_ok(%lu)", (unsigned long)hz);
   }
 

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from conftest import cli
+from imu_allan.channels import RATES_HZ
 
-RATES = [50, 100, 200, 250, 500, 1000]
+RATES = list(RATES_HZ)  # every rate the device offers
 
 
 def simulate_and_check(r, n: int, fs: int, uart_in: Path | None = None) -> tuple[dict, dict]:

@@ -217,8 +217,10 @@ static void test_state_is_packed(void)
 {
   /* 7 bytes per channel-level, an eighth for the sum above m = 64, a ninth
    * for 48-bit levels, the code range only where wide levels need it, and
-   * the sample count. */
-  size_t expect = NCH * (7u * NLEV + (NLEV - 7u) + (NLEV - ALLAN_ACC48_FROM) + (NLEV > 15 ? 4u : 0u)) + 6u;
+   * the sample count, the cascade's depth, and one bit
+   * per level whose pairs may wait (levels 2 .. NLEV-2). */
+  size_t expect = NCH * (7u * NLEV + (NLEV - 7u) + (NLEV - ALLAN_ACC48_FROM) + (NLEV > 15 ? 4u : 0u)) + 5u
+                  + (NLEV - 2 > 16 ? 4u : 2u);
   TEST_ASSERT_EQUAL_UINT32(7, sizeof(allan_cell_t));
   TEST_ASSERT_EQUAL_UINT32(expect, ALLAN_STATE_BYTES);
   TEST_ASSERT_TRUE(sizeof eng >= expect && sizeof eng <= expect + 7); /* + host alignment */
@@ -306,6 +308,59 @@ static void test_piecewise_push_matches_push(void)
   }
   TEST_ASSERT_EQUAL_MEMORY(&eng, &other, sizeof eng);
   check_all(x, 50000, "piecewise");
+}
+
+/* Pairs wait a few sets after a deep cascade (docs/allan-engine.md): a
+ * read between any two sets must still cover exactly allan_pairs() pairs.
+ * Reads right after every deep cascade and at a rotating level elsewhere,
+ * each checked against the reference over the first n sets. */
+static void test_reads_between_any_two_sets_are_exact(void)
+{
+  const uint32_t n = 9000;
+  char msg[96];
+  uint16_t *x = rows(n);
+  fill(x, n, S_WALK, 21);
+  allan_reset(&eng);
+  for (uint32_t i = 1; i <= n; i++) {
+    TEST_ASSERT_EQUAL_UINT8(ALLAN_OK, allan_push(&eng, &x[(size_t)(i - 1) * NCH]));
+    if ((i & 63u) != 0 && i % 97u != 0)
+      continue;
+    for (int t = 0; t < 3; t++) {
+      int ch = (int)((i / 64u + (uint32_t)t) % NCH), k = (int)((i / 97u + (uint32_t)t * 5u) % 14u);
+      ref_t r = reference(x, i, ch, k);
+      snprintf(msg, sizeof msg, "read after n=%u ch=%d level=%d", i, ch, k);
+      TEST_ASSERT_EQUAL_UINT32_MESSAGE(r.pairs, allan_pairs(&eng, (uint8_t)k), msg);
+      TEST_ASSERT_TRUE_MESSAGE(engine_acc(ch, k) == r.sumsq, msg);
+    }
+  }
+  check_all(x, n, "reads");
+}
+
+/* Reading (which takes waiting pairs early) leaves the same engine as not
+ * reading, once both have taken every waiting pair. */
+static void test_reading_early_changes_nothing(void)
+{
+  static allan_t quiet;
+  uint16_t hi;
+  uint32_t lo;
+  uint16_t *x = rows(40000);
+  fill(x, 40000, S_IMU, 22);
+  allan_reset(&eng);
+  allan_reset(&quiet);
+  for (uint32_t i = 0; i < 40000; i++) {
+    TEST_ASSERT_EQUAL_UINT8(ALLAN_OK, allan_push(&eng, &x[(size_t)i * NCH]));
+    TEST_ASSERT_EQUAL_UINT8(ALLAN_OK, allan_push(&quiet, &x[(size_t)i * NCH]));
+    if (i % 5u == 0)
+      allan_acc(&eng, (uint8_t)(i % NCH), (uint8_t)(i % NLEV), &hi, &lo);
+    if (i % 1001u == 0)
+      allan_settle_level(&eng, (uint8_t)(i % NLEV));
+  }
+  TEST_ASSERT_TRUE(quiet.pend != 0 || eng.pend == 0); /* 40000 = 2^6 * 625: pairs wait */
+  allan_settle(&eng);
+  allan_settle(&quiet);
+  TEST_ASSERT_EQUAL_HEX32(0, eng.pend);
+  TEST_ASSERT_EQUAL_MEMORY(&quiet, &eng, sizeof eng);
+  check_all(x, 40000, "early reads");
 }
 
 static void test_bad_code_is_refused_and_changes_nothing(void)
@@ -426,6 +481,8 @@ int main(void)
   RUN_TEST(test_saturation_boundary_one_pair_fits_two_do_not);
   RUN_TEST(test_pair_counts_follow_sample_count);
   RUN_TEST(test_piecewise_push_matches_push);
+  RUN_TEST(test_reads_between_any_two_sets_are_exact);
+  RUN_TEST(test_reading_early_changes_nothing);
   RUN_TEST(test_bad_code_is_refused_and_changes_nothing);
   RUN_TEST(test_full_counter_is_refused);
   RUN_TEST(test_reset_forgets_everything);
