@@ -26,9 +26,6 @@ def __getattr__(name: str) -> Any:
     if name in _API:
         from . import api
         return getattr(api, name)
-    if name == "allan":  # bench/run.py: ``from imu_allan import allan``
-        from .stats import allan
-        return allan
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
