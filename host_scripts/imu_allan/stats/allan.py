@@ -82,20 +82,31 @@ def max_m(stat: str, n: int) -> int:
 
 
 def _prepare(x: ArrayLike) -> np.ndarray:
-    """Rate samples -> partial sums X (n + 1), int64 when x is integer-valued."""
+    """Rate samples -> partial sums X (n + 1), int64 when x is integer-valued.
+
+    Built chunk by chunk with the offset removed on the way, so the only
+    array the size of the input is X itself (peak memory ~1x the input)."""
     a = np.asarray(x)
     if a.ndim != 1:
         raise ValueError("one channel at a time: x must be 1-D")
-    if np.issubdtype(a.dtype, np.integer) or (a.dtype == np.float64 and a.size and _integral(a)):
-        v = a.astype(np.int64)
-        v = v - int(offset(v[:BLOCK])) if v.size else v
-        X = np.empty(v.size + 1, dtype=np.int64)
-    else:
-        v = a.astype(np.float64)
-        v = v - (float(offset(v[:BLOCK])) if v.size else 0.0)
-        X = np.empty(v.size + 1, dtype=np.float64)
+    integral = np.issubdtype(a.dtype, np.integer) or (a.dtype == np.float64 and a.size and _integral(a))
+    dtype = np.int64 if integral else np.float64
+    X = np.empty(a.size + 1, dtype=dtype)
     X[0] = 0
-    np.cumsum(v, out=X[1:])
+    if not a.size:
+        return X
+    off = offset(a[:BLOCK])
+    off = int(off) if integral else float(off)
+    carry = dtype(0)
+    tmp = np.empty(min(a.size, 1 << 18), dtype=dtype)
+    for s in range(0, a.size, tmp.size):
+        e = min(s + tmp.size, a.size)
+        t = tmp[:e - s]
+        t[...] = a[s:e]  # widen first: unsigned codes must not wrap
+        t -= off
+        np.cumsum(t, out=X[s + 1:e + 1])
+        X[s + 1:e + 1] += carry
+        carry = X[e]
     return X
 
 
