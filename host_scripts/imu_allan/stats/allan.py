@@ -16,6 +16,12 @@ Integer data (ADC codes) are handled in exact integer arithmetic up to the
 squares: partial sums and differences are exact, only the final sums of
 squares round. Float data have their first block's mean removed first.
 
+Octave grids (every m a power of two) in memory go to the cache-blocked
+kernels of kernels.py: the overlapping cascade of moving sums in two stages
+(octave_oavar_sums) and the non-overlapping pair-sum cascade in chunks
+(octave_avar_sums); pairwise sums keep them within ~1e-13 of an
+extended-precision evaluation of the definitions (tests/test_octave_kernels.py).
+
 ``OctaveEngine`` is the streaming path: overlapping and non-overlapping AVAR
 at m = 1, 2, 4, ... in one pass over blocks of any size, O(n) per level
 (a pipelined cascade of moving sums y_{2m}[i] = y_m[i] + y_m[i+m] kept in

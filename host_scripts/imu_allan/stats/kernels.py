@@ -81,7 +81,7 @@ def blocked(total: int, fn: Callable[[int, int], float], chunk: int = 1 << 18) -
 
 OCTAVE_TILE = 1 << 17
 """Stage-1 tile of the overlapping octave kernel: samples per tile (cache-sized)."""
-OCTAVE_SPLIT = 1 << 13
+OCTAVE_SPLIT = 1 << 14
 """First cluster size of stage 2 (its halo: stage-1 tiles read SPLIT - 1 samples more)."""
 
 
