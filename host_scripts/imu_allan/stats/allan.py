@@ -16,6 +16,12 @@ Integer data (ADC codes) are handled in exact integer arithmetic up to the
 squares: partial sums and differences are exact, only the final sums of
 squares round. Float data have their first block's mean removed first.
 
+Octave grids (every m a power of two) in memory go to the cache-blocked
+kernels of kernels.py: the overlapping cascade of moving sums in two stages
+(octave_oavar_sums) and the non-overlapping pair-sum cascade in chunks
+(octave_avar_sums); pairwise sums keep them within ~1e-13 of an
+extended-precision evaluation of the definitions (tests/test_octave_kernels.py).
+
 ``OctaveEngine`` is the streaming path: overlapping and non-overlapping AVAR
 at m = 1, 2, 4, ... in one pass over blocks of any size, O(n) per level
 (a pipelined cascade of moving sums y_{2m}[i] = y_m[i] + y_m[i+m] kept in
@@ -35,7 +41,8 @@ from typing import Callable, Iterable, Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .kernels import DOT_MAX, blocked as _blocked, offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq
+from .kernels import (DOT_MAX, HEAD, blocked as _blocked, octave_avar_sums, octave_oavar_sums, offset,
+                      rowdots, sumsq as _ssq, sumsq_any as _sumsq)
 
 from .options import TAU_KINDS  # noqa: F401  (its home: options.py)
 BLOCK = 1 << 16
@@ -81,20 +88,31 @@ def max_m(stat: str, n: int) -> int:
 
 
 def _prepare(x: ArrayLike) -> np.ndarray:
-    """Rate samples -> partial sums X (n + 1), int64 when x is integer-valued."""
+    """Rate samples -> partial sums X (n + 1), int64 when x is integer-valued.
+
+    Built chunk by chunk with the offset removed on the way, so the only
+    array the size of the input is X itself (peak memory ~1x the input)."""
     a = np.asarray(x)
     if a.ndim != 1:
         raise ValueError("one channel at a time: x must be 1-D")
-    if np.issubdtype(a.dtype, np.integer) or (a.dtype == np.float64 and a.size and _integral(a)):
-        v = a.astype(np.int64)
-        v = v - int(offset(v[:BLOCK])) if v.size else v
-        X = np.empty(v.size + 1, dtype=np.int64)
-    else:
-        v = a.astype(np.float64)
-        v = v - (float(offset(v[:BLOCK])) if v.size else 0.0)
-        X = np.empty(v.size + 1, dtype=np.float64)
+    integral = np.issubdtype(a.dtype, np.integer) or (a.dtype == np.float64 and a.size and _integral(a))
+    dtype = np.int64 if integral else np.float64
+    X = np.empty(a.size + 1, dtype=dtype)
     X[0] = 0
-    np.cumsum(v, out=X[1:])
+    if not a.size:
+        return X
+    off = offset(a[:BLOCK])
+    off = int(off) if integral else float(off)
+    carry = dtype(0)
+    tmp = np.empty(min(a.size, 1 << 18), dtype=dtype)
+    for s in range(0, a.size, tmp.size):
+        e = min(s + tmp.size, a.size)
+        t = tmp[:e - s]
+        t[...] = a[s:e]  # widen first: unsigned codes must not wrap
+        t -= off
+        np.cumsum(t, out=X[s + 1:e + 1])
+        X[s + 1:e + 1] += carry
+        carry = X[e]
     return X
 
 
@@ -103,15 +121,50 @@ def _integral(a: np.ndarray) -> bool:
 
 
 def oavar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
-    """Overlapping AVAR at each m; returns (avar, terms). nan where no term."""
-    X = _prepare(x)
-    return _second_diff(X, np.asarray(list(ms), dtype=np.int64), overlapping=True, progress=progress)
+    """Overlapping AVAR at each m; returns (avar, terms). nan where no term.
+
+    Octave grids (every m a power of two) take the cache-blocked cascade of
+    kernels.octave_oavar_sums; other grids the partial sums X."""
+    m_a = np.asarray(list(ms), dtype=np.int64)
+    if _octaves(m_a):
+        return _octave(x, m_a, octave_oavar_sums)
+    return _second_diff(_prepare(x), m_a, overlapping=True, progress=progress)
 
 
 def avar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
-    """Non-overlapping AVAR (floor(n/m) - 1 pairs) at each m; returns (avar, pairs)."""
-    X = _prepare(x)
-    return _second_diff(X, np.asarray(list(ms), dtype=np.int64), overlapping=False, progress=progress)
+    """Non-overlapping AVAR (floor(n/m) - 1 pairs) at each m; returns (avar, pairs).
+
+    Octave grids take the chunked pair-sum cascade of kernels.octave_avar_sums."""
+    m_a = np.asarray(list(ms), dtype=np.int64)
+    if _octaves(m_a):
+        return _octave(x, m_a, octave_avar_sums)
+    return _second_diff(_prepare(x), m_a, overlapping=False, progress=progress)
+
+
+def _octaves(ms: np.ndarray) -> bool:
+    return bool(ms.size) and bool(np.all((ms > 0) & ((ms & (ms - 1)) == 0)))
+
+
+def _octave(x: ArrayLike, ms: np.ndarray, kernel) -> tuple[np.ndarray, np.ndarray]:
+    """The octave kernel's sums at every level, picked at ``ms``."""
+    a = np.asarray(x)
+    if a.ndim != 1:
+        raise ValueError("one channel at a time: x must be 1-D")
+    if not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.float64):
+        a = a.astype(np.float64)
+    off = float(offset(a[:HEAD])) if a.size else 0.0
+    sums, count = kernel(a, off)
+    k = np.log2(ms).astype(np.int64)
+    have = k < sums.size
+    out = np.full(ms.size, np.nan)
+    cnt = np.zeros(ms.size, dtype=np.int64)
+    kk = k[have]
+    cnt[have] = np.maximum(count[kk], 0)
+    ok = have.copy()
+    ok[have] = count[kk] > 0
+    m = ms[ok].astype(np.float64)
+    out[ok] = sums[k[ok]] / (2.0 * m * m * count[k[ok]])
+    return out, cnt
 
 
 def _second_diff(X: np.ndarray, ms: np.ndarray, overlapping: bool,
@@ -445,5 +498,7 @@ def oadev_octave(x: ArrayLike, fs: float = 1.0) -> tuple[np.ndarray, np.ndarray]
 
     Same values as ``allantools.oadev(x, rate=fs, data_type="freq", taus="octave")``.
     """
-    r = octave_oavar(np.asarray(x, dtype=np.float64), nonoverlapping=False)
-    return r.ms / float(fs), np.sqrt(r.oavar[:, 0])
+    a = np.asarray(x, dtype=np.float64)
+    ms = 1 << np.arange(max(int(math.log2(a.size // 2)) + 1, 0) if a.size >= 2 else 0, dtype=np.int64)
+    v, _ = oavar(a, ms)
+    return ms / float(fs), np.sqrt(v)

@@ -8,6 +8,7 @@ and their differences stay exact and only the final sums of squares round.
 """
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import numpy as np
@@ -74,3 +75,134 @@ def blocked(total: int, fn: Callable[[int, int], float], chunk: int = 1 << 18) -
     for a in range(0, total, chunk):
         s += fn(a, min(a + chunk, total))
     return s
+
+
+# ---- in-memory octave kernels (m = 1, 2, 4 ... of one channel) ---------------------
+
+OCTAVE_TILE = 1 << 17
+"""Stage-1 tile of the overlapping octave kernel: samples per tile (cache-sized)."""
+OCTAVE_SPLIT = 1 << 14
+"""First cluster size of stage 2 (its halo: stage-1 tiles read SPLIT - 1 samples more)."""
+
+
+def octave_oavar_sums(x: np.ndarray, off: float) -> tuple[np.ndarray, np.ndarray]:
+    """Overlapping octave sums: for m = 2^k <= n/2, sum_i (y_m[i+m] - y_m[i])^2 and
+    the term count n - 2m + 1, where y_m[i] = sum of x[i .. i+m-1] - m * off.
+
+    The cascade y_2m[i] = y_m[i] + y_m[i+m] (pairwise sums: accurate, exact for
+    integer codes) in two cache-blocked stages, so each sample crosses main
+    memory about three times in total instead of about three times per level:
+      1. levels m < SPLIT over tiles of the input with a halo of SPLIT samples;
+         writes y_SPLIT (one array the size of the input: the only big buffer);
+      2. levels m >= SPLIT only combine entries of y_SPLIT whose indices agree
+         modulo SPLIT, so y_SPLIT viewed as rows of SPLIT columns splits into
+         independent column blocks, each cascaded through every upper level in cache.
+    """
+    n = x.size
+    levels = int(math.log2(n // 2)) + 1 if n >= 2 else 0
+    acc = np.zeros(levels)
+    ms = np.left_shift(1, np.arange(levels, dtype=np.int64))
+    terms = n - 2 * ms + 1
+    if not levels:
+        return acc, terms
+    M = min(OCTAVE_SPLIT, 1 << levels)  # 2^levels <= n: y_M has at least one value
+    K = M.bit_length() - 1
+    T = max(OCTAVE_TILE, 8 * M)
+    LY = n - M + 1
+    stage2 = K < levels
+    Q = -(-LY // M)
+    Y = np.empty((Q, M)) if stage2 else None
+    bufs = (np.empty(T + M), np.empty(T + M))
+    tmp = np.empty(T + M)
+    for a in range(0, LY, T):
+        b = min(a + T + M - 1, n)
+        L = b - a
+        last = a + T >= LY  # the last tile takes every remaining term (b = n)
+        buf = bufs[0]
+        np.subtract(x[a:b], off, out=buf[:L])
+        for k in range(K):
+            m = 1 << k
+            c = n - 2 * m + 1 - a if last else min(T, n - 2 * m + 1 - a)  # terms i in [a, a + c)
+            if c <= 0:
+                break
+            acc[k] += sumsq(np.subtract(buf[m:m + c], buf[:c], out=tmp[:c]))
+            L -= m  # y_2m values in the tile
+            nxt = bufs[(k + 1) % 2]
+            np.add(buf[:L], buf[m:m + L], out=nxt[:L])  # separate buffers: no overlap copy
+            buf = nxt
+        if Y is not None:
+            cnt = min(T, LY - a)
+            Y.reshape(-1)[a:a + cnt] = buf[:cnt]
+    if Y is None:
+        return acc, terms
+    R = min(M, 1 << max(3, (max(OCTAVE_TILE // 2 // Q, 1)).bit_length() - 1))
+    tiles = (np.empty(Q * R), np.empty(Q * R))
+    tmp2 = np.empty(Q * R)
+    for r0 in range(0, M, R):
+        src = tiles[0]
+        np.copyto(src.reshape(Q, R), Y[:, r0:r0 + R])
+        for k in range(K, levels):
+            m = 1 << k
+            e0 = n - 2 * m - r0  # terms i = q M + r0 + j with i <= n - 2m
+            if e0 < 0:
+                break
+            qf, rem = divmod(e0, M)
+            cnt = qf * R + min(R, rem + 1)  # a prefix of the row-major block
+            s = (m // M) * R
+            acc[k] += sumsq(np.subtract(src[s:s + cnt], src[:cnt], out=tmp2[:cnt]))
+            dst = tiles[1] if src is tiles[0] else tiles[0]
+            np.add(src[:cnt], src[s:s + cnt], out=dst[:cnt])
+            src = dst
+    return acc, terms
+
+
+def octave_avar_sums(x: np.ndarray, off: float, chunk: int = 1 << 16) -> tuple[np.ndarray, np.ndarray]:
+    """Non-overlapping octave sums: for m = 2^k <= n/2, sum_j (S_m[j+1] - S_m[j])^2
+    over the floor(n/m) - 1 pairs of consecutive cluster sums S_m (offset removed).
+
+    Cluster sums cascade S_2m[j] = S_m[2j] + S_m[2j+1] inside chunks of ``chunk``
+    (a power of two) samples: one pass over the input, nothing written to main
+    memory but one sum per chunk; the pair across a chunk boundary uses the
+    previous chunk's last sum, kept in slot 0 of each level's buffer."""
+    n = x.size
+    levels = int(math.log2(n // 2)) + 1 if n >= 2 else 0
+    acc = np.zeros(levels)
+    ms = np.left_shift(1, np.arange(levels, dtype=np.int64))
+    pairs = n // ms - 1
+    if not levels:
+        return acc, pairs
+    KC = chunk.bit_length() - 1
+    inner = min(levels, KC + 1)  # levels cascaded inside a chunk (m <= chunk)
+    bufs = [np.empty((chunk >> k) + 1) for k in range(inner)]
+    have = [False] * inner
+    diff = np.empty(chunk)
+    top = np.empty(n // chunk + 1)  # level-KC sums, one per full chunk
+    ntop = 0
+    for a in range(0, n, chunk):
+        b = min(a + chunk, n)
+        L = b - a
+        np.subtract(x[a:b], off, out=bufs[0][1:L + 1])
+        for k in range(inner):
+            buf = bufs[k]
+            lo = 0 if have[k] else 1  # slot 0: the previous chunk's last sum
+            if L + 1 - lo >= 2:
+                acc[k] += sumsq(np.subtract(buf[lo + 1:L + 1], buf[lo:L], out=diff[:L - lo]))
+            if L >= 1:
+                buf[0] = buf[L]
+                have[k] = True
+            if k + 1 < inner:
+                h = L // 2
+                if h:
+                    np.add(buf[1:2 * h:2], buf[2:2 * h + 1:2], out=bufs[k + 1][1:h + 1])
+                L = h
+            elif inner < levels and L == 1:
+                top[ntop] = buf[1]
+                ntop += 1
+    # levels above the chunk: plain cascade over the chunk sums
+    S = top[:ntop]
+    for k in range(inner, levels):
+        h = S.size // 2
+        S = S[0:2 * h:2] + S[1:2 * h:2]
+        if S.size >= 2:
+            acc[k] = sumsq(np.diff(S))
+    return acc, pairs
