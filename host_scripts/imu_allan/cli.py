@@ -135,7 +135,7 @@ def cmd_rows(args: argparse.Namespace) -> int:
         checked = (f"; {c['blocks_verified']} blocks verified by their count line's CRC, "
                    f"{c['rows_dropped']} rows dropped ({c['blocks_bad']} bad blocks holding "
                    f"{c['rows_in_bad_blocks']} rows: a row changed, lost or added; "
-                   f"{c['rows_unverified']} rows no block CRC covers)")
+                   f"{c['rows_unverified']} rows written unverified: no block CRC covers them)")
     else:
         checked = ("; unverified: the capture's count lines carry no block CRC (older firmware)"
                    if c["count_lines"] else "; unverified: no count lines")

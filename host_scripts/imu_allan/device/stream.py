@@ -58,10 +58,11 @@ Resync rules, in the order they apply:
    line, before a restart that no count line covers, before the first count
    line of a capture that started mid-block, or under count lines without
    ``block`` from older firmware, ``count_lines_nocrc``) are
-   ``rows_unverified``.  With ``verified_only`` the decoder returns only the
-   samples of verified blocks, once their count line arrived; until the
-   first count line with a ``block`` (older firmware, a plain rows file) it
-   returns every intact sample as before.
+   ``rows_unverified``.  With ``verified_only`` the decoder holds samples
+   until their count line arrived and drops the samples of bad blocks
+   (``rows_dropped``); unverified samples are returned and counted, since no
+   check exists that could tell them wrong (the partial block at a mode
+   switch or at the capture's end).
 5. Frame sequence numbers: a gap between consecutive intact frames counts
    ``(seq - previous - 1) mod 256`` lost frames (``frames_lost``; 256 or
    more frames lost in a row are undercounted), except across a restart
@@ -358,16 +359,17 @@ class StreamDecoder:
         c = self.counts
         base = self._held_from
         a, b = start - base, end - base
+        # Samples no block CRC covers (the partial block before a mode switch or
+        # the capture's end) cannot be verified, but nothing says they are wrong:
+        # they are written, counted as unverified and said; only a block whose CRC
+        # or count fails is dropped.
         if a > 0:
             c["rows_unverified"] += a
-            if self._crc_seen:
-                c["rows_dropped"] += a
-            else:
-                released.append((self._held[:, :a], self._held_frame[:a]))
+            released.append((self._held[:, :a], self._held_frame[:a]))
         if b > a:
             if verdict is None:
                 c["rows_unverified"] += b - a
-            if verdict is True or (verdict is None and not self._crc_seen):
+            if verdict is not False:
                 released.append((self._held[:, a:b], self._held_frame[a:b]))
             else:
                 c["rows_dropped"] += b - a
