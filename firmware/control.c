@@ -8,24 +8,23 @@
 #include "board.h"
 #include "command.h"
 #include "config.h"
+#include "lineedit.h"
 #include "link.h"
 #include "pgm.h"
+#include "proto.h"
 #include "sample.h"
 #include "settings.h"
+#include "stream.h"
 #include "tx.h"
 #include "uart.h"
 #include "vocab.h"
 
-/* The command line being received; `ready` holds a complete one until the
- * output is between two lines. */
-static struct {
-  char text[COMMAND_LINE_MAX + 1];
-  uint8_t len;
-  uint8_t overflow; /* LINE_LONG, LINE_LOST: the line is thrown away at its end */
-  uint8_t ready;
-} line;
-#define LINE_LONG 1
-#define LINE_LOST 2
+/* The command line being received and echoed; `ready`: a complete one
+ * waits until its echo is out and the output is between two lines.
+ * `quoted`: an error reply quotes the line's text: the next line waits
+ * until that reply is written. */
+static lineedit_t line;
+static uint8_t ready, quoted;
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -83,7 +82,7 @@ static void run_start(const command_t *cmd)
   if (cmd->has_arg) {
     uint32_t have = sample_engine.n + adc_pending();
     if (cmd->arg < have) {
-      tx_error(CMD_ERR_ARG, PSTR("count too small"));
+      tx_error(CMD_ERR_ARG, CMD_START, 0, PSTR("count too small"), PSTR("; > samples taken"));
       return;
     }
     adc_start(1, cmd->arg - have);
@@ -93,13 +92,16 @@ static void run_start(const command_t *cmd)
   tx_ok(PSTR("started"));
 }
 
+static const char link_slow_P[] PROGMEM = "link too slow";
+static const char lower_rate_P[] PROGMEM = "; lower rate or mode";
+
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
 static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 {
   if (!vocab_rate_ok(hz)) {
-    tx_error(CMD_ERR_ARG, PSTR("unsupported rate"));
+    tx_error(CMD_ERR_ARG, CMD_RATE, 0, PSTR("unsupported rate"), TX_ALLOWED_ARGS);
   } else if (!link_fits(settings.mode, (uint16_t)hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, PSTR("link too slow"));
+    tx_error(CMD_ERR_STATE, CMD_RATE, 0, link_slow_P, lower_rate_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
     tx_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), hz);
@@ -109,7 +111,7 @@ static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 static void run_mode(uint8_t mode)
 {
   if (!link_fits(mode, settings.rate_hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, PSTR("link too slow"));
+    tx_error(CMD_ERR_STATE, CMD_MODE, 0, link_slow_P, lower_rate_P);
     return;
   }
   if (mode == MODE_RAW || mode == MODE_BINARY)
@@ -126,7 +128,7 @@ static void run_load(uint16_t old_rate, uint8_t old_range)
   if (settings_load() != CFG_SAVED) {
     settings = before; /* nothing valid saved: keep what is in force */
     settings_source = source;
-    tx_error(CMD_ERR_STATE, PSTR("nothing saved"));
+    tx_error(CMD_ERR_STATE, CMD_LOAD, 0, PSTR("nothing saved"), PSTR("; save first"));
     return;
   }
   tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
@@ -140,7 +142,7 @@ static void execute(const command_t *cmd)
   switch (cmd->id) {
   case CMD_REPORT:
     if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
-      tx_error(CMD_ERR_STATE, PSTR("no reports in this mode"));
+      tx_error(CMD_ERR_STATE, CMD_REPORT, 0, PSTR("none in this mode"), PSTR("; mode allan or both"));
       break;
     }
     tx_ok(0);
@@ -164,7 +166,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
-      tx_error(CMD_ERR_ARG, PSTR("interval 0..3600"));
+      tx_error(CMD_ERR_ARG, CMD_INTERVAL, 0, PSTR("too long"), TX_ALLOWED_ARGS);
     } else {
       settings.interval_s = (uint16_t)cmd->arg;
       tx_ok_n(PSTR("interval="), cmd->arg);
@@ -191,6 +193,11 @@ static void execute(const command_t *cmd)
   case CMD_STATUS:
     tx_status();
     break;
+  case CMD_ECHO:
+    if (cmd->has_arg)
+      settings.echo = (uint8_t)cmd->arg;
+    tx_ok_word(PSTR("echo="), vocab_word(vocab_onoff, settings.echo));
+    break;
   default: /* CMD_HELP */
     tx_help();
     break;
@@ -201,56 +208,70 @@ static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
   uint8_t err;
-  line.ready = 0;
+  ready = 0;
   if (line.overflow) {
+    quoted = 1;
     if (line.overflow & LINE_LOST)
-      tx_error(CMD_ERR_LOST, PSTR("input lost"));
+      tx_error(CMD_ERR_LOST, CMD_NONE, line.text, PSTR("input lost"), PSTR("; send it again"));
     else
-      tx_error(CMD_ERR_LONG, PSTR("line too long"));
-    line.overflow = 0;
-    return;
+      tx_error(CMD_ERR_LONG, CMD_NONE, line.text, PSTR("line too long"), PSTR("; 16 characters"));
+  } else {
+    err = command_parse(line.text, &cmd);
+    if (err == CMD_ERR_UNKNOWN) {
+      quoted = 1;
+      tx_error(err, CMD_NONE, line.text, PSTR("unknown command"), PSTR("; help lists them"));
+    } else if (err) {
+      tx_error(err, cmd.id, 0, PSTR("bad argument"), TX_ALLOWED_ARGS);
+    } else if (cmd.id != CMD_NONE) {
+      execute(&cmd);
+    }
   }
-  err = command_parse(line.text, &cmd);
-  if (err == CMD_ERR_UNKNOWN)
-    tx_error(err, PSTR("unknown command"));
-  else if (err)
-    tx_error(err, PSTR("bad argument"));
-  else if (cmd.id != CMD_NONE)
-    execute(&cmd);
+  lineedit_next(&line);
 }
 
-/* Assemble command lines from the RX ring; run each when the output is
- * between two lines (and no EEPROM save is under way). */
+static void echo_put(uint8_t c)
+{
+  proto_raw(c);
+}
+
+/* The echo goes out at the start of an output line and never splits one:
+ * in mode allan, as typed while nothing else is written; otherwise the
+ * whole line once it has ended, between two lines (a raw row waits for
+ * it as for a reply, within the link budget: link.h). */
+static __attribute__((noinline)) void echo_poll(void)
+{
+  uint8_t live = settings.mode == MODE_ALLAN && !tx_busy();
+  if (tx_can_write() && (live || (line.ended && tx_can_interject())))
+    lineedit_echo(&line, !live, echo_put);
+}
+
+/* Assemble command lines from the RX ring; run each when its echo is out
+ * and the output is between two lines (and no EEPROM save is under way). */
 static __attribute__((noinline)) void poll_commands(void)
 {
   int16_t c;
-  while (!line.ready && (c = uart_read()) >= 0) {
-    if (c & UART_READ_GAP) {
-      line.overflow |= LINE_LOST; /* never run a line with bytes missing */
-      c &= 0xFF;
-    }
-    if (c == '\r' || c == '\n') {
-      line.text[line.len] = 0;
-      line.ready = line.len || line.overflow; /* blank lines are ignored */
-      line.len = 0;
-    } else if (line.len < COMMAND_LINE_MAX) {
-      line.text[line.len++] = (char)c;
-    } else {
-      line.overflow |= LINE_LONG; /* discard the whole line at its end */
-    }
+  if (quoted && tx_can_interject())
+    quoted = 0; /* the reply quoting the last line is out */
+  while (!ready && !line.ended && !quoted && (c = uart_read()) >= 0) {
+    if (lineedit_feed(&line, (uint8_t)c, (c & UART_READ_GAP) != 0) == LINE_ENDED)
+      ready = 1;
+    if (!settings.echo)
+      line.ended = 0;
   }
-  if (line.ready && tx_can_interject() && !settings_saving())
+  if (settings.echo)
+    echo_poll();
+  if (ready && !line.ended && tx_can_interject() && !settings_saving())
     run_line();
 }
 
 void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
-  if (settings_saving() && tx_can_interject() && settings_poll())
+  if (settings_saving() && tx_can_interject() && !line.open && settings_poll())
     tx_ok(PSTR("saved"));
   poll_commands();
   if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
-      !tx_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
+      !tx_busy() && !line.open && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
     tx_report(); /* its header restarts the interval */
 }
 

@@ -2,6 +2,7 @@
 #include "reply.h"
 
 #include "adc.h"
+#include "command.h"
 #include "config.h"
 #include "link.h"
 #include "pgm.h"
@@ -16,8 +17,30 @@ static struct {
   union {
     uint32_t n;         /* REPLY_TAIL_NUM */
     const char *word_P; /* REPLY_TAIL_WORD */
+    struct {
+      const char *quote;     /* error: the line, when tail (the command id) is CMD_NONE */
+      const char *allowed_P; /* error: "; ..." or REPLY_ALLOWED_ARGS */
+    } err;
+    struct {
+      uint8_t id, k; /* help: the command of this line, its piece */
+    } help;
   } tail_value;
 } rpl;
+
+static void put_key_u32(const char *key_P, uint32_t v)
+{
+  proto_puts_P(key_P);
+  proto_u32(v);
+}
+
+void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P)
+{
+  rpl.code = code;
+  rpl.tail = id;
+  rpl.text_P = what_P;
+  rpl.tail_value.err.quote = quote;
+  rpl.tail_value.err.allowed_P = allowed_P;
+}
 
 void reply_set(uint8_t code, const char *text_P, uint32_t n)
 {
@@ -40,28 +63,93 @@ void reply_set_plain(uint8_t code, const char *text_P)
   rpl.code = code;
   rpl.text_P = text_P;
   rpl.tail = REPLY_TAIL_NONE;
+  rpl.tail_value.help.id = CMD_REPORT;
+  rpl.tail_value.help.k = 0;
 }
 
-static void put_key_u32(const char *key_P, uint32_t v)
+/* Lists of allowed words, by argument kind from ARG_RATE on; an entry's
+ * words come from vocab.h's tables, so help, errors and the parser agree. */
+static const char rates_P[] PROGMEM = "50\0" "100\0" "200\0" "250\0" "500\0" "1000";
+
+/* Piece k of the arguments of a command of this kind, as help shows
+ * them (" 50|100|...|1000 (Hz)"); in an error (`err`) "; " comes first
+ * instead of the space.  Returns 1 after the last piece.  Each piece is
+ * at most UART_STEP_MAX characters. */
+static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, uint8_t err)
 {
-  proto_puts_P(key_P);
-  proto_u32(v);
+  const char *list = 0, *pre = 0, *post = 0;
+  uint8_t count = 0;
+  switch (kind) {
+  case ARG_NONE: pre = err ? PSTR(" no argument") : 0; break;
+  case ARG_COUNT: pre = PSTR(" [count]"); break;
+  case ARG_RATE: list = rates_P; count = 6; post = PSTR(" (Hz)"); break;
+  case ARG_SECONDS: pre = PSTR(" 0..3600 s, 0 off"); break;
+  case ARG_MODE: list = vocab_modes; count = VOCAB_MODES; break;
+  case ARG_RANGE: list = vocab_ranges; count = VOCAB_RANGES; post = PSTR(" (g)"); break;
+  default: list = vocab_onoff; count = 2; pre = PSTR(" ["); post = PSTR("]"); break;
+  }
+  if (k == 0) {
+    if (err)
+      proto_puts_P(PSTR(";"));
+    if (pre)
+      proto_puts_P(pre);
+    else if (list)
+      proto_putc(' ');
+  } else if (k <= count) {
+    if (k > 1)
+      proto_putc('|');
+    proto_puts_P(vocab_word(list, (uint8_t)(k - 1)));
+  } else {
+    if (post)
+      proto_puts_P(post);
+    return 1;
+  }
+  return 0;
 }
 
-/* `ok <text>`, `error:<code> <text>`, and the tail. */
+/* `error:<code> <command>: <what>; <allowed>` */
+static __attribute__((noinline)) uint8_t step_error(uint8_t step)
+{
+  if (step == 0) {
+    proto_begin();
+    put_key_u32(PSTR("error:"), rpl.code);
+    proto_putc(' ');
+  } else if (step == 1) {
+    if (rpl.tail == CMD_NONE) {
+      const char *q = rpl.tail_value.err.quote;
+      uint8_t i;
+      while (*q == ' ' || *q == '\t')
+        q++;
+      for (i = 0; i < COMMAND_LINE_MAX && q[i] && q[i] != ' ' && q[i] != '\t'; i++)
+        proto_putc((q[i] < 0x20 || q[i] > 0x7E || q[i] == '$' || q[i] == '*') ? '?' : q[i]);
+    } else {
+      proto_puts_P(command_word(rpl.tail));
+    }
+    proto_puts_P(PSTR(": "));
+  } else if (step == 2) {
+    proto_puts_P(rpl.text_P);
+  } else if (rpl.tail_value.err.allowed_P) {
+    if (step == 3)
+      proto_puts_P(rpl.tail_value.err.allowed_P);
+    else
+      goto end;
+  } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
+end:
+    proto_end();
+    return 1;
+  }
+  return 0;
+}
+
+/* `ok <text>` and the tail. */
 static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
 {
   switch (step) {
   case 0:
     proto_begin();
-    if (rpl.code != REPLY_OK) {
-      put_key_u32(PSTR("error:"), rpl.code);
+    proto_puts_P(PSTR("ok"));
+    if (rpl.text_P)
       proto_putc(' ');
-    } else {
-      proto_puts_P(PSTR("ok"));
-      if (rpl.text_P)
-        proto_putc(' ');
-    }
     break;
   case 1:
     if (rpl.text_P)
@@ -112,29 +200,30 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
   return 0;
 }
 
+/* `ok help <command><arguments>`, one line per command. */
 static __attribute__((noinline)) uint8_t step_help(uint8_t step)
 {
-  switch (step) {
-  case 0:
+  uint8_t id = rpl.tail_value.help.id;
+  if (step == 0) {
     proto_begin();
-    proto_puts_P(PSTR("ok help report reset"));
-    break;
-  case 1: proto_puts_P(PSTR(" stop start rate")); break;
-  case 2: proto_puts_P(PSTR(" interval mode range")); break;
-  case 3: proto_puts_P(PSTR(" save load defaults")); break;
-  case 4: proto_puts_P(PSTR(" status help")); break;
-  default:
+    proto_puts_P(PSTR("ok help "));
+    proto_puts_P(command_word(id));
+    rpl.tail_value.help.k = 0;
+  } else if (put_allowed(command_arg_kind(id), rpl.tail_value.help.k++, 0)) {
     proto_end();
-    return 1;
+    rpl.tail_value.help.id = ++id;
+    return id < CMD_REPORT + CMD_COUNT ? REPLY_LINE_DONE : REPLY_DONE;
   }
-  return 0;
+  return REPLY_MORE;
 }
 
 uint8_t reply_step(uint8_t step)
 {
-  if (rpl.code == REPLY_STATUS)
-    return step_status(step);
   if (rpl.code == REPLY_HELP)
     return step_help(step);
-  return step_plain(step);
+  if (rpl.code == REPLY_STATUS)
+    return step_status(step) ? REPLY_DONE : REPLY_MORE;
+  if (rpl.code != REPLY_OK)
+    return step_error(step) ? REPLY_DONE : REPLY_MORE;
+  return step_plain(step) ? REPLY_DONE : REPLY_MORE;
 }

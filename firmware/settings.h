@@ -16,6 +16,7 @@ typedef struct {
   uint16_t interval_s; /* 0: reports only on request */
   uint8_t mode;        /* MODE_* */
   uint8_t range;       /* RANGE_* */
+  uint8_t echo;        /* 1: typed characters are echoed (lineedit.h) */
 } settings_t;
 
 extern settings_t settings;

@@ -75,9 +75,15 @@ void tx_report(void)
   start(JOB_REPORT);
 }
 
+static void plain(uint8_t code, const char *text_P)
+{
+  reply_set_plain(code, text_P);
+  start(JOB_REPLY);
+}
+
 void tx_ok(const char *text_P)
 {
-  tx_error(REPLY_OK, text_P);
+  plain(REPLY_OK, text_P);
 }
 
 void tx_ok_n(const char *text_P, uint32_t n)
@@ -92,20 +98,20 @@ void tx_ok_word(const char *text_P, const char *word_P)
   start(JOB_REPLY);
 }
 
-void tx_error(uint8_t code, const char *text_P)
+void tx_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P)
 {
-  reply_set_plain(code, text_P);
+  reply_set_error(code, id, quote, what_P, allowed_P);
   start(JOB_REPLY);
 }
 
 void tx_status(void)
 {
-  tx_error(REPLY_STATUS, 0);
+  plain(REPLY_STATUS, 0);
 }
 
 void tx_help(void)
 {
-  tx_error(REPLY_HELP, 0);
+  plain(REPLY_HELP, 0);
 }
 
 void tx_abort_report(void)
@@ -150,8 +156,12 @@ void tx_poll(void)
       done = report_step(tx.step);
       tx.step = done == REPORT_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPORT_DONE;
+    } else if (tx.job == JOB_REPLY) {
+      done = reply_step(tx.step); /* a line of help at a time: rows may come between */
+      tx.step = done == REPLY_MORE ? (uint8_t)(tx.step + 1) : 0;
+      done = done == REPLY_DONE;
     } else {
-      done = tx.job == JOB_BOOT ? report_boot_step(tx.step) : reply_step(tx.step);
+      done = report_boot_step(tx.step);
       tx.step++;
     }
     if (done)

@@ -24,9 +24,12 @@ void tx_report(void);                                  /* a whole report, after 
 void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */
 void tx_ok_n(const char *text_P, uint32_t n);          /* `ok <text><n>` */
 void tx_ok_word(const char *text_P, const char *word_P); /* `ok <text><word>` */
-void tx_error(uint8_t code, const char *text_P);       /* `error:<code> <text>` */
+/* `error:<code> <command>: <what>; <allowed>`: see reply_set_error();
+ * TX_ALLOWED_ARGS: the allowed part lists the command's arguments. */
+#define TX_ALLOWED_ARGS ((const char *)0)
+void tx_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P);
 void tx_status(void);                                  /* `ok status ...` */
-void tx_help(void);                                    /* `ok help ...` */
+void tx_help(void);                                    /* `ok help <command> <args>`, a line each */
 
 /* 1 while a job or a stream line is being written. */
 uint8_t tx_busy(void);

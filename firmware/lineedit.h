@@ -1,0 +1,51 @@
+/*
+ * lineedit.h - a terminal's command line: typed bytes in, the line and
+ * its echo out.  Pure (no I/O): control.c feeds it the received bytes and
+ * writes the echo it asks for where the output allows.
+ *
+ * Editing: Backspace (0x08) and DEL (0x7F) erase the last character,
+ * Ctrl-C (0x03) and Esc (0x1B) drop the line, CR or LF ends it.
+ * Echo (docs/protocol.md): an echoed line is `> <text>` CR LF, written
+ * at the start of an output line; "\b \b" erases a shown character.  The
+ * echo never holds '$' (shown as '?') nor a control byte, so that it can
+ * never be taken for a protocol line.
+ */
+#ifndef LINEEDIT_H
+#define LINEEDIT_H
+
+#include <stdint.h>
+
+#include "command.h" /* COMMAND_LINE_MAX */
+
+/* lineedit_feed() results */
+#define LINE_TYPING 0 /* the line goes on */
+#define LINE_ENDED  1 /* a complete line is in text (len 0: blank) */
+#define LINE_DROPPED 2 /* Ctrl-C or Esc: the line was thrown away */
+
+/* overflow bits: the line is refused at its end */
+#define LINE_LONG 1
+#define LINE_LOST 2
+
+typedef struct {
+  char text[COMMAND_LINE_MAX + 1];
+  uint8_t len;
+  uint8_t overflow;  /* LINE_LONG, LINE_LOST */
+  uint8_t ended;     /* a line ended (or was dropped) and its echo is not yet finished */
+  uint8_t shown;     /* characters of text on the terminal (echo) */
+  uint8_t keep;      /* of them, still equal to text */
+  uint8_t open;      /* the echo line's "> " is out, its CR LF not yet */
+} lineedit_t;
+
+/* One received byte; `lost`: bytes were lost just before it. */
+uint8_t lineedit_feed(lineedit_t *l, uint8_t c, uint8_t lost);
+
+/* Write the echo due now, at most LINEEDIT_ECHO_MAX bytes, through put;
+ * returns the count (0: nothing due).  `final`: echo nothing until the
+ * line has ended, then all of it at once (output that must not be cut). */
+#define LINEEDIT_ECHO_MAX (2u + COMMAND_LINE_MAX + 2u)
+uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c));
+
+/* The line is taken (run or refused): the next one starts. */
+void lineedit_next(lineedit_t *l);
+
+#endif /* LINEEDIT_H */
