@@ -14,7 +14,6 @@
 #include "proto.h"
 #include "sample.h"
 #include "settings.h"
-#include "stream.h"
 #include "tx.h"
 #include "uart.h"
 #include "vocab.h"
@@ -229,20 +228,18 @@ static __attribute__((noinline)) void run_line(void)
   lineedit_next(&line);
 }
 
-static void echo_put(uint8_t c)
-{
-  proto_raw(c);
-}
-
 /* The echo goes out at the start of an output line and never splits one:
  * in mode allan, as typed while nothing else is written; otherwise the
  * whole line once it has ended, between two lines (a raw row waits for
  * it as for a reply, within the link budget: link.h). */
 static __attribute__((noinline)) void echo_poll(void)
 {
-  uint8_t live = settings.mode == MODE_ALLAN && !tx_busy();
-  if (tx_can_write() && (live || (line.ended && tx_can_interject())))
-    lineedit_echo(&line, !live, echo_put);
+  if (settings.mode == MODE_ALLAN && !tx_busy()) {
+    if (tx_can_write())
+      lineedit_echo(&line, 0, proto_raw); /* nothing else is being written */
+  } else if (line.ended && tx_can_interject()) {
+    tx_echo(&line);
+  }
 }
 
 /* Assemble command lines from the RX ring; run each when its echo is out

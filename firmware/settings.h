@@ -17,7 +17,7 @@ typedef struct {
   uint8_t mode;        /* MODE_* */
   uint8_t range;       /* RANGE_* */
   uint8_t echo;        /* 1: typed characters are echoed (lineedit.h) */
-} settings_t;
+} __attribute__((packed)) settings_t; /* the EEPROM record holds it byte for byte, on the AVR and natively */
 
 extern settings_t settings;
 extern uint8_t settings_source; /* CFG_*: where they came from (`cfg=`) */

@@ -6,13 +6,14 @@
  */
 #include "tx.h"
 
+#include "lineedit.h"
 #include "proto.h"
 #include "reply.h"
 #include "report.h"
 #include "stream.h"
 #include "uart.h"
 
-enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT };
+enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_ECHO };
 
 /* flags */
 #define REPORT_NEXT 1 /* a report waits for the current job to end */
@@ -22,6 +23,7 @@ enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT };
 static struct {
   uint8_t job, step, flags;
 } tx;
+static lineedit_t *echo_line; /* JOB_ECHO: the line whose echo is written */
 
 void tx_init(uint8_t reset_cause)
 {
@@ -63,6 +65,12 @@ static void start(uint8_t job)
 void tx_boot(void)
 {
   start(JOB_BOOT);
+}
+
+void tx_echo(lineedit_t *line)
+{
+  echo_line = line;
+  start(JOB_ECHO);
 }
 
 void tx_report(void)
@@ -131,7 +139,7 @@ void tx_restart_rows(void)
  * the line it had reached, from its start; a waiting one begins. */
 static void job_done(void)
 {
-  if (tx.job != JOB_REPORT)
+  if (tx.job == JOB_REPLY || tx.job == JOB_BOOT)
     tx.flags &= (uint8_t)~HOLD_ROWS;
   tx.job = JOB_NONE;
   if (tx.flags & PAUSED) {
@@ -160,6 +168,9 @@ void tx_poll(void)
       done = reply_step(tx.step); /* a line of help at a time: rows may come between */
       tx.step = done == REPLY_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPLY_DONE;
+    } else if (tx.job == JOB_ECHO) {
+      lineedit_echo(echo_line, 1, proto_raw);
+      done = !echo_line->ended;
     } else {
       done = report_boot_step(tx.step);
       tx.step++;

@@ -18,7 +18,10 @@
 /* The proto sink becomes the UART; MCUSR bits for the `reset=` fields. */
 void tx_init(uint8_t reset_cause);
 
-/* Queue jobs (replies only when tx_can_interject()). */
+#include "lineedit.h"
+
+/* Queue jobs (replies and echo only when tx_can_interject()). */
+void tx_echo(lineedit_t *line);                        /* the rest of an ended line's echo, whole */
 void tx_boot(void);
 void tx_report(void);                                  /* a whole report, after the current job */
 void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */

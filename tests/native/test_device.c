@@ -120,7 +120,7 @@ static void test_unknown_command_gets_error_and_sampling_goes_on(void)
   fx_send_str("bogus 12\r");
   fx_run_us(100000);
   line("error:", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("error:1 unknown command", b);
+  TEST_ASSERT_EQUAL_STRING("error:1 bogus: unknown command; help lists them", b);
   fx_send_str("stop\r");
   fx_run_us(50000);
   line("ok stopped", 0, b, sizeof b);
@@ -268,12 +268,12 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
   command("range 4");
   command("save");
   line("ok saved", 0, b, sizeof b);
-  /* the record: version 1, rate LE, interval LE, mode, range, CRC big-endian */
-  static const uint8_t want[7] = {1, 50, 0, 7, 0, 3, 2};
-  TEST_ASSERT_EQUAL_HEX8_ARRAY(want, fake_eeprom, 7);
-  unsigned crc = ref_crc16_modbus(fake_eeprom, 7);
-  TEST_ASSERT_EQUAL_HEX8(crc >> 8, fake_eeprom[7]);
-  TEST_ASSERT_EQUAL_HEX8(crc & 0xFF, fake_eeprom[8]);
+  /* the record: version 2, rate LE, interval LE, mode, range, echo, CRC big-endian */
+  static const uint8_t want[8] = {2, 50, 0, 7, 0, 3, 2, 1};
+  TEST_ASSERT_EQUAL_HEX8_ARRAY(want, fake_eeprom, 8);
+  unsigned crc = ref_crc16_modbus(fake_eeprom, 8);
+  TEST_ASSERT_EQUAL_HEX8(crc >> 8, fake_eeprom[8]);
+  TEST_ASSERT_EQUAL_HEX8(crc & 0xFF, fake_eeprom[9]);
   fx_send_str("defaults\r");
   fx_run_us(100000);
   line("ok defaults", 0, b, sizeof b);
@@ -291,12 +291,12 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
 static void test_saved_settings_are_in_force_at_power_up(void)
 {
   char b[256];
-  static const uint8_t rec[7] = {1, 0xF4, 1, 5, 0, 0, 3}; /* 500 Hz, 5 s, allan, 6 g */
-  memcpy(fake_eeprom, rec, 7);
-  unsigned crc = ref_crc16_modbus(rec, 7);
-  fake_eeprom[7] = (uint8_t)(crc >> 8);
-  fake_eeprom[8] = (uint8_t)crc;
-  memset(fake_eeprom + 9, 0xFF, sizeof fake_eeprom - 9);
+  static const uint8_t rec[8] = {2, 0xF4, 1, 5, 0, 0, 3, 0}; /* 500 Hz, 5 s, allan, 6 g, no echo */
+  memcpy(fake_eeprom, rec, 8);
+  unsigned crc = ref_crc16_modbus(rec, 8);
+  fake_eeprom[8] = (uint8_t)(crc >> 8);
+  fake_eeprom[9] = (uint8_t)crc;
+  memset(fake_eeprom + 10, 0xFF, sizeof fake_eeprom - 10);
   fx_boot(1);
   fx_send_str("status\r");
   fx_run_us(100000);
@@ -332,7 +332,7 @@ static void test_link_budget_refuses_raw_at_1000_hz(void)
   command("rate 1000");
   command("mode raw");
   line("error:", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
+  TEST_ASSERT_EQUAL_STRING("error:4 mode: link too slow; lower rate or mode", b);
 }
 
 static const struct { const char *name; void (*fn)(void); } tests[] = {
