@@ -250,10 +250,14 @@ static __attribute__((noinline)) void poll_commands(void)
   if (quoted && tx_can_interject())
     quoted = 0; /* the reply quoting the last line is out */
   while (!ready && !line.ended && !quoted && (c = uart_read()) >= 0) {
-    if (lineedit_feed(&line, (uint8_t)c, (c & UART_READ_GAP) != 0) == LINE_ENDED)
+    uint8_t r = lineedit_feed(&line, (uint8_t)c, (c & UART_READ_GAP) != 0);
+    if (r == LINE_ENDED)
       ready = 1;
-    if (!settings.echo)
+    if (!settings.echo) {
       line.ended = 0;
+      if (r == LINE_DROPPED)
+        lineedit_next(&line);
+    }
   }
   if (settings.echo)
     echo_poll();

@@ -11,9 +11,7 @@ uint8_t lineedit_feed(lineedit_t *l, uint8_t c, uint8_t lost)
     return LINE_ENDED;
   }
   if (c == 0x03 || c == 0x1B) {
-    l->len = 0;
-    l->shown = l->keep = 0; /* shown text stays; the echo ends its line */
-    l->overflow = 0;
+    l->overflow = LINE_DROP; /* the echo shows it whole, then it goes */
     l->ended = 1;
     return LINE_DROPPED;
   }
@@ -49,8 +47,11 @@ uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c))
   if (!l->open) {
     if (!l->len && !l->ended)
       return 0; /* nothing typed yet */
-    if (!l->len && !l->shown) {
-      l->ended = 0; /* a blank or dropped line with nothing shown */
+    if (!l->len && !l->shown) { /* a blank or dropped line, nothing shown */
+      if (l->overflow & LINE_DROP)
+        lineedit_next(l);
+      else
+        l->ended = 0;
       return 0;
     }
     put_n(put, &n, '>');
@@ -74,6 +75,8 @@ uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c))
     l->open = 0;
     l->shown = l->keep = 0;
     l->ended = 0;
+    if (l->overflow & LINE_DROP)
+      lineedit_next(l);
   }
   return n;
 }

@@ -25,6 +25,7 @@
 /* overflow bits: the line is refused at its end */
 #define LINE_LONG 1
 #define LINE_LOST 2
+#define LINE_DROP 4 /* dropped (Ctrl-C, Esc): its echo ends, then it goes */
 
 typedef struct {
   char text[COMMAND_LINE_MAX + 1];
