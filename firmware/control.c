@@ -18,12 +18,14 @@
 #include "uart.h"
 #include "vocab.h"
 
-/* The command line being received and echoed; `ready`: a complete one
- * waits until its echo is out and the output is between two lines.
- * `quoted`: an error reply quotes the line's text: the next line waits
- * until that reply is written. */
-static lineedit_t line;
-static uint8_t ready, quoted;
+/* The command line being received and echoed is lineedit.  hold:
+ * READY, a complete line waits until its echo is out and the output is
+ * between two lines; QUOTED, an error reply quotes the line's text: the
+ * next line waits until that reply is written. */
+#define line lineedit
+static uint8_t hold;
+#define READY 1
+#define QUOTED 2
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -207,22 +209,23 @@ static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
   uint8_t err;
-  ready = 0;
-  if (line.overflow) {
-    quoted = 1;
-    if (line.overflow & LINE_LOST)
+  hold = QUOTED; /* cleared at once unless an error reply quotes the line */
+  if (line.flags & LINE_REFUSED) {
+    if (line.flags & LINE_LOST)
       tx_error(CMD_ERR_LOST, CMD_NONE, line.text, PSTR("input lost"), PSTR("; send it again"));
     else
       tx_error(CMD_ERR_LONG, CMD_NONE, line.text, PSTR("line too long"), PSTR("; 16 characters"));
   } else {
     err = command_parse(line.text, &cmd);
     if (err == CMD_ERR_UNKNOWN) {
-      quoted = 1;
       tx_error(err, CMD_NONE, line.text, PSTR("unknown command"), PSTR("; help lists them"));
     } else if (err) {
+      hold = 0;
       tx_error(err, cmd.id, 0, PSTR("bad argument"), TX_ALLOWED_ARGS);
-    } else if (cmd.id != CMD_NONE) {
-      execute(&cmd);
+    } else {
+      hold = 0;
+      if (cmd.id != CMD_NONE)
+        execute(&cmd);
     }
   }
   lineedit_next(&line);
@@ -237,8 +240,8 @@ static __attribute__((noinline)) void echo_poll(void)
   if (settings.mode == MODE_ALLAN && !tx_busy()) {
     if (tx_can_write())
       lineedit_echo(&line, 0, proto_raw); /* nothing else is being written */
-  } else if (line.ended && tx_can_interject()) {
-    tx_echo(&line);
+  } else if (lineedit_ended(&line) && tx_can_interject()) {
+    tx_echo();
   }
 }
 
@@ -247,32 +250,32 @@ static __attribute__((noinline)) void echo_poll(void)
 static __attribute__((noinline)) void poll_commands(void)
 {
   int16_t c;
-  if (quoted && tx_can_interject())
-    quoted = 0; /* the reply quoting the last line is out */
-  while (!ready && !line.ended && !quoted && (c = uart_read()) >= 0) {
+  if (hold == QUOTED && tx_can_interject())
+    hold = 0; /* the reply quoting the last line is out */
+  while (!hold && !lineedit_ended(&line) && (c = uart_read()) >= 0) {
     uint8_t r = lineedit_feed(&line, (uint8_t)c, (c & UART_READ_GAP) != 0);
     if (r == LINE_ENDED)
-      ready = 1;
+      hold = READY;
     if (!settings.echo) {
-      line.ended = 0;
+      line.flags &= (uint8_t)~LINE_ENDED_BIT;
       if (r == LINE_DROPPED)
         lineedit_next(&line);
     }
   }
   if (settings.echo)
     echo_poll();
-  if (ready && !line.ended && tx_can_interject() && !settings_saving())
+  if (hold == READY && !lineedit_ended(&line) && tx_can_interject() && !settings_saving())
     run_line();
 }
 
 void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
-  if (settings_saving() && tx_can_interject() && !line.open && settings_poll())
+  if (settings_saving() && tx_can_interject() && !lineedit_open(&line) && settings_poll())
     tx_ok(PSTR("saved"));
   poll_commands();
   if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
-      !tx_busy() && !line.open && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
+      !tx_busy() && !lineedit_open(&line) && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
     tx_report(); /* its header restarts the interval */
 }
 

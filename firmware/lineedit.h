@@ -22,20 +22,29 @@
 #define LINE_ENDED  1 /* a complete line is in text (len 0: blank) */
 #define LINE_DROPPED 2 /* Ctrl-C or Esc: the line was thrown away */
 
-/* overflow bits: the line is refused at its end */
+/* flags: LINE_LONG, LINE_LOST: the line is refused at its end */
 #define LINE_LONG 1
 #define LINE_LOST 2
 #define LINE_DROP 4 /* dropped (Ctrl-C, Esc): its echo ends, then it goes */
+#define LINE_ENDED_BIT 8 /* the line ended (or was dropped), its echo not yet finished */
+#define LINE_OPEN 16 /* the echo line's "> " is out, its CR LF not yet */
 
 typedef struct {
   char text[COMMAND_LINE_MAX + 1];
   uint8_t len;
-  uint8_t overflow;  /* LINE_LONG, LINE_LOST */
-  uint8_t ended;     /* a line ended (or was dropped) and its echo is not yet finished */
+  uint8_t flags;     /* LINE_LONG, LINE_LOST, LINE_DROP, LINE_ENDED_BIT, LINE_OPEN */
   uint8_t shown;     /* characters of text on the terminal (echo) */
   uint8_t keep;      /* of them, still equal to text */
-  uint8_t open;      /* the echo line's "> " is out, its CR LF not yet */
 } lineedit_t;
+
+/* The device's command line (one terminal): control.c fills and runs it,
+ * the output scheduler writes the rest of its echo (tx_echo). */
+extern lineedit_t lineedit;
+
+/* 1 while an ended line's echo is not finished; 1 while an echo line is open. */
+#define lineedit_ended(l) (((l)->flags & LINE_ENDED_BIT) != 0)
+#define lineedit_open(l) (((l)->flags & LINE_OPEN) != 0)
+#define LINE_REFUSED (LINE_LONG | LINE_LOST) /* refused at its end */
 
 /* One received byte; `lost`: bytes were lost just before it. */
 uint8_t lineedit_feed(lineedit_t *l, uint8_t c, uint8_t lost);

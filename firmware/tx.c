@@ -23,7 +23,6 @@ enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_ECHO };
 static struct {
   uint8_t job, step, flags;
 } tx;
-static lineedit_t *echo_line; /* JOB_ECHO: the line whose echo is written */
 
 void tx_init(uint8_t reset_cause)
 {
@@ -67,9 +66,8 @@ void tx_boot(void)
   start(JOB_BOOT);
 }
 
-void tx_echo(lineedit_t *line)
+void tx_echo(void)
 {
-  echo_line = line;
   start(JOB_ECHO);
 }
 
@@ -169,8 +167,8 @@ void tx_poll(void)
       tx.step = done == REPLY_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPLY_DONE;
     } else if (tx.job == JOB_ECHO) {
-      lineedit_echo(echo_line, 1, proto_raw);
-      done = !echo_line->ended;
+      lineedit_echo(&lineedit, 1, proto_raw);
+      done = !lineedit_ended(&lineedit);
     } else {
       done = report_boot_step(tx.step);
       tx.step++;

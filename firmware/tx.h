@@ -18,10 +18,8 @@
 /* The proto sink becomes the UART; MCUSR bits for the `reset=` fields. */
 void tx_init(uint8_t reset_cause);
 
-#include "lineedit.h"
-
 /* Queue jobs (replies and echo only when tx_can_interject()). */
-void tx_echo(lineedit_t *line);                        /* the rest of an ended line's echo, whole */
+void tx_echo(void);                                    /* the rest of the ended line's echo (lineedit.h), whole */
 void tx_boot(void);
 void tx_report(void);                                  /* a whole report, after the current job */
 void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */
