@@ -18,14 +18,11 @@
 #include "uart.h"
 #include "vocab.h"
 
-/* The command line being received and echoed is lineedit.  hold:
- * READY, a complete line waits until its echo is out and the output is
- * between two lines; QUOTED, an error reply quotes the line's text: the
- * next line waits until that reply is written. */
+/* The command line being received and echoed is lineedit; `ready`: a
+ * complete one waits until its echo is out and the output is between two
+ * lines. */
 #define line lineedit
-static uint8_t hold;
-#define READY 1
-#define QUOTED 2
+static uint8_t ready;
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -209,63 +206,69 @@ static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
   uint8_t err;
-  hold = QUOTED; /* cleared at once unless an error reply quotes the line */
+  ready = 0;
   if (line.flags & LINE_REFUSED) {
-    if (line.flags & LINE_LOST)
-      tx_error(CMD_ERR_LOST, CMD_NONE, line.text, PSTR("input lost"), PSTR("; send it again"));
-    else
-      tx_error(CMD_ERR_LONG, CMD_NONE, line.text, PSTR("line too long"), PSTR("; 16 characters"));
+    tx_error(line.flags & LINE_LOST ? CMD_ERR_LOST : CMD_ERR_LONG, CMD_NONE, line.text, 0, 0);
   } else {
     err = command_parse(line.text, &cmd);
     if (err == CMD_ERR_UNKNOWN) {
-      tx_error(err, CMD_NONE, line.text, PSTR("unknown command"), PSTR("; help lists them"));
+      tx_error(err, CMD_NONE, line.text, 0, 0);
     } else if (err) {
-      hold = 0;
       tx_error(err, cmd.id, 0, PSTR("bad argument"), TX_ALLOWED_ARGS);
-    } else {
-      hold = 0;
-      if (cmd.id != CMD_NONE)
-        execute(&cmd);
+    } else if (cmd.id != CMD_NONE) {
+      execute(&cmd);
     }
   }
-  lineedit_next(&line);
+  if (lineedit_ended(&line))
+    line.flags |= LINE_RUN; /* its echo job ends it */
+  else
+    lineedit_next(&line);
 }
 
-/* The echo goes out at the start of an output line and never splits one:
- * in mode allan, as typed while nothing else is written; otherwise the
- * whole line once it has ended, between two lines (a raw row waits for
- * it as for a reply, within the link budget: link.h). */
-static __attribute__((noinline)) void echo_poll(void)
+/* 1 when the echo is written as typed: mode allan, nothing else being
+ * written.  Otherwise a line's echo goes out whole once it has ended, as
+ * an output job just before its reply (a raw row waits for it as for a
+ * reply, within the link budget: link.h). */
+static uint8_t echo_live(void)
 {
-  if (settings.mode == MODE_ALLAN && !tx_busy()) {
-    if (tx_can_write())
-      lineedit_echo(&line, 0, proto_raw); /* nothing else is being written */
-  } else if (lineedit_ended(&line) && tx_can_interject()) {
-    tx_echo();
-  }
+  return settings.mode == MODE_ALLAN && !tx_busy();
 }
 
-/* Assemble command lines from the RX ring; run each when its echo is out
- * and the output is between two lines (and no EEPROM save is under way). */
+/* Assemble command lines from the RX ring; run each when the output is
+ * between two lines (and no EEPROM save is under way).  The echo never
+ * holds a line back: as typed, it takes what room the output has (a paste
+ * faster than the link may be shown in part); whole, it is the job just
+ * before the reply, and input waits only for that one step. */
 static __attribute__((noinline)) void poll_commands(void)
 {
   int16_t c;
-  if (hold == QUOTED && tx_can_interject())
-    hold = 0; /* the reply quoting the last line is out */
-  while (!hold && !lineedit_ended(&line) && (c = uart_read()) >= 0) {
+  while (!ready && !lineedit_ended(&line) && (c = uart_read()) >= 0) {
     uint8_t r = lineedit_feed(&line, (uint8_t)c, (c & UART_READ_GAP) != 0);
     if (r == LINE_ENDED)
-      hold = READY;
+      ready = 1;
     if (!settings.echo) {
       line.flags &= (uint8_t)~LINE_ENDED_BIT;
       if (r == LINE_DROPPED)
         lineedit_next(&line);
     }
   }
-  if (settings.echo)
-    echo_poll();
-  if (hold == READY && !lineedit_ended(&line) && tx_can_interject() && !settings_saving())
+  if (settings.echo) {
+    if (echo_live()) {
+      if (tx_can_write())
+        lineedit_echo(&line, 0, proto_raw);
+    } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
+      tx_echo(); /* a dropped line's end */
+    }
+  }
+  if (ready && tx_can_interject() && !settings_saving()) {
+    if (lineedit_ended(&line)) {
+      if (echo_live())
+        line.flags = (uint8_t)((line.flags & LINE_REFUSED) | LINE_RUN); /* no room: the rest is not shown */
+      else
+        tx_echo(); /* the reply follows it */
+    }
     run_line();
+  }
 }
 
 void control_poll(void)

@@ -49,7 +49,7 @@ uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c))
     if (!l->len && !lineedit_ended(l))
       return 0; /* nothing typed yet */
     if (!l->len && !l->shown) { /* a blank or dropped line, nothing shown */
-      if (l->flags & LINE_DROP)
+      if (l->flags & (LINE_DROP | LINE_RUN))
         lineedit_next(l);
       else
         l->flags &= (uint8_t)~LINE_ENDED_BIT;
@@ -75,7 +75,7 @@ uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c))
     put_n(put, &n, '\n');
     l->flags &= (uint8_t)~(LINE_OPEN | LINE_ENDED_BIT);
     l->shown = l->keep = 0;
-    if (l->flags & LINE_DROP)
+    if (l->flags & (LINE_DROP | LINE_RUN))
       lineedit_next(l);
   }
   return n;

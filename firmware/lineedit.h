@@ -28,11 +28,12 @@
 #define LINE_DROP 4 /* dropped (Ctrl-C, Esc): its echo ends, then it goes */
 #define LINE_ENDED_BIT 8 /* the line ended (or was dropped), its echo not yet finished */
 #define LINE_OPEN 16 /* the echo line's "> " is out, its CR LF not yet */
+#define LINE_RUN 32 /* the line has run: the end of its echo ends it */
 
 typedef struct {
   char text[COMMAND_LINE_MAX + 1];
   uint8_t len;
-  uint8_t flags;     /* LINE_LONG, LINE_LOST, LINE_DROP, LINE_ENDED_BIT, LINE_OPEN */
+  uint8_t flags;     /* LINE_LONG, LINE_LOST, LINE_DROP, LINE_ENDED_BIT, LINE_OPEN, LINE_RUN */
   uint8_t shown;     /* characters of text on the terminal (echo) */
   uint8_t keep;      /* of them, still equal to text */
 } lineedit_t;

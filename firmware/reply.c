@@ -10,21 +10,25 @@
 #include "settings.h"
 #include "vocab.h"
 
+#define WORD_MAX 6 /* characters of an unknown command word quoted */
+
 static struct {
   uint8_t code; /* REPLY_OK, an error code, REPLY_STATUS or REPLY_HELP */
-  uint8_t tail; /* REPLY_TAIL_* */
-  const char *text_P;
+  uint8_t tail; /* REPLY_TAIL_*; for an error, the command id */
   union {
-    uint32_t n;         /* REPLY_TAIL_NUM */
-    const char *word_P; /* REPLY_TAIL_WORD */
     struct {
-      const char *quote;     /* error: the line, when tail (the command id) is CMD_NONE */
-      const char *allowed_P; /* error: "; ..." or REPLY_ALLOWED_ARGS */
-    } err;
-    struct {
-      uint8_t id, k; /* help: the command of this line, its piece */
-    } help;
-  } tail_value;
+      const char *text_P;
+      union {
+        uint32_t n;         /* REPLY_TAIL_NUM */
+        const char *word_P; /* REPLY_TAIL_WORD */
+        const char *allowed_P; /* error: "; ..." or REPLY_ALLOWED_ARGS */
+        struct {
+          uint8_t id, k; /* help: the command of this line, its piece */
+        } help;
+      } tail_value;
+    };
+    char word[WORD_MAX]; /* error naming no command (CMD_NONE): the line's first word */
+  };
 } rpl;
 
 static void put_key_u32(const char *key_P, uint32_t v)
@@ -37,9 +41,26 @@ void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *wh
 {
   rpl.code = code;
   rpl.tail = id;
+  if (id == CMD_NONE) {
+    /* A copy: the line's buffer takes the next line at once.  A longer
+     * word is cut, its last character shown as '~'. */
+    uint8_t i = 0;
+    while (*quote == ' ' || *quote == '\t')
+      quote++;
+    for (; i < WORD_MAX; i++) {
+      char c = quote[i];
+      if (c == ' ' || c == '\t')
+        c = 0;
+      rpl.word[i] = (c && (c < 0x20 || c > 0x7E || c == '$' || c == '*')) ? '?' : c;
+      if (!c)
+        return;
+    }
+    if (quote[i] && quote[i] != ' ' && quote[i] != '\t')
+      rpl.word[WORD_MAX - 1] = '~';
+    return;
+  }
   rpl.text_P = what_P;
-  rpl.tail_value.err.quote = quote;
-  rpl.tail_value.err.allowed_P = allowed_P;
+  rpl.tail_value.allowed_P = allowed_P;
 }
 
 void reply_set(uint8_t code, const char *text_P, uint32_t n)
@@ -110,27 +131,29 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
 /* `error:<code> <command>: <what>; <allowed>` */
 static __attribute__((noinline)) uint8_t step_error(uint8_t step)
 {
+  uint8_t none = rpl.tail == CMD_NONE;
   if (step == 0) {
     proto_begin();
     put_key_u32(PSTR("error:"), rpl.code);
     proto_putc(' ');
   } else if (step == 1) {
-    if (rpl.tail == CMD_NONE) {
-      const char *q = rpl.tail_value.err.quote;
+    if (none) {
       uint8_t i;
-      while (*q == ' ' || *q == '\t')
-        q++;
-      for (i = 0; i < COMMAND_LINE_MAX && q[i] && q[i] != ' ' && q[i] != '\t'; i++)
-        proto_putc((q[i] < 0x20 || q[i] > 0x7E || q[i] == '$' || q[i] == '*') ? '?' : q[i]);
+      for (i = 0; i < WORD_MAX && rpl.word[i]; i++)
+        proto_putc(rpl.word[i]);
     } else {
       proto_puts_P(command_word(rpl.tail));
     }
     proto_puts_P(PSTR(": "));
   } else if (step == 2) {
-    proto_puts_P(rpl.text_P);
-  } else if (rpl.tail_value.err.allowed_P) {
+    proto_puts_P(!none ? rpl.text_P
+                 : rpl.code == CMD_ERR_LOST ? PSTR("input lost")
+                 : rpl.code == CMD_ERR_LONG ? PSTR("line too long") : PSTR("unknown command"));
+  } else if (none || rpl.tail_value.allowed_P) {
     if (step == 3)
-      proto_puts_P(rpl.tail_value.err.allowed_P);
+      proto_puts_P(!none ? rpl.tail_value.allowed_P
+                   : rpl.code == CMD_ERR_LOST ? PSTR("; send it again")
+                   : rpl.code == CMD_ERR_LONG ? PSTR("; 16 characters") : PSTR("; help lists them"));
     else
       goto end;
   } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {

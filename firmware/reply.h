@@ -28,8 +28,9 @@ void reply_set(uint8_t code, const char *text_P, uint32_t n);
 void reply_set_word(const char *text_P, const char *word_P);
 
 /* `error:<code> <command>: <what>; <allowed>` (docs/protocol.md).  The
- * command is command_word(id), or for id CMD_NONE the first word of the
- * line `quote` (RAM, read while the reply's second step is written).
+ * command is command_word(id), or for id CMD_NONE (an unknown word, a
+ * line too long or with bytes lost) the first word of the line `quote`,
+ * copied (6 characters at most), and the texts follow from the code.
  * allowed_P: a flash text starting "; ", or REPLY_ALLOWED_ARGS for the
  * command's own arguments as help shows them. */
 #define REPLY_ALLOWED_ARGS ((const char *)0)

@@ -19,6 +19,7 @@ enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_ECHO };
 #define REPORT_NEXT 1 /* a report waits for the current job to end */
 #define PAUSED      2 /* a report waits for the reply written between its lines */
 #define HOLD_ROWS   4 /* a new run's rows wait for the reply that started it */
+#define REPLY_NEXT  8 /* a reply waits for the echo of its command line */
 
 static struct {
   uint8_t job, step, flags;
@@ -55,6 +56,10 @@ uint8_t tx_can_interject(void)
  * pauses (its place is kept by report.c) and resumes after it. */
 static void start(uint8_t job)
 {
+  if (tx.job == JOB_ECHO && job == JOB_REPLY) {
+    tx.flags |= REPLY_NEXT;
+    return;
+  }
   if (tx.job == JOB_REPORT && job != JOB_REPORT)
     tx.flags |= PAUSED;
   tx.job = job;
@@ -140,7 +145,11 @@ static void job_done(void)
   if (tx.job == JOB_REPLY || tx.job == JOB_BOOT)
     tx.flags &= (uint8_t)~HOLD_ROWS;
   tx.job = JOB_NONE;
-  if (tx.flags & PAUSED) {
+  if (tx.flags & REPLY_NEXT) {
+    tx.flags &= (uint8_t)~REPLY_NEXT;
+    tx.job = JOB_REPLY;
+    tx.step = 0;
+  } else if (tx.flags & PAUSED) {
     tx.flags &= (uint8_t)~PAUSED;
     tx.job = JOB_REPORT;
     tx.step = 0;
