@@ -254,8 +254,7 @@ static __attribute__((noinline)) void poll_commands(void)
   }
   if (settings.echo) {
     if (echo_live()) {
-      if (tx_can_write())
-        lineedit_echo(&line, 0, proto_raw);
+      lineedit_echo(&line, 0, proto_raw, uart_tx_room());
     } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
       tx_echo(); /* a dropped line's end */
     }

@@ -40,11 +40,13 @@ static char shown_as(char c)
   return (c < 0x20 || c > 0x7E || c == '$') ? '?' : c;
 }
 
-uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c))
+uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c), uint8_t room)
 {
   uint8_t n = 0;
-  if (final && !lineedit_ended(l))
+  if ((final && !lineedit_ended(l)) || room < 4)
     return 0;
+  if (room > LINEEDIT_ECHO_MAX)
+    room = LINEEDIT_ECHO_MAX;
   if (!lineedit_open(l)) {
     if (!l->len && !lineedit_ended(l))
       return 0; /* nothing typed yet */
@@ -60,14 +62,14 @@ uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c))
     l->flags |= LINE_OPEN;
   }
   while (l->shown > l->keep) {
-    if (n + 3u > LINEEDIT_ECHO_MAX - 2u)
+    if (n + 3u > room - 2u)
       return n; /* more next time */
     put_n(put, &n, '\b');
     put_n(put, &n, ' ');
     put_n(put, &n, '\b');
     l->shown--;
   }
-  while (l->shown < l->len && n < LINEEDIT_ECHO_MAX - 2u)
+  while (l->shown < l->len && n < room - 2u)
     put_n(put, &n, shown_as(l->text[l->shown++]));
   l->keep = l->shown;
   if (lineedit_ended(l) && l->shown == l->len) {

@@ -50,11 +50,11 @@ extern lineedit_t lineedit;
 /* One received byte; `lost`: bytes were lost just before it. */
 uint8_t lineedit_feed(lineedit_t *l, uint8_t c, uint8_t lost);
 
-/* Write the echo due now, at most LINEEDIT_ECHO_MAX bytes, through put;
- * returns the count (0: nothing due).  `final`: echo nothing until the
+/* Write the echo due now, at most min(room, LINEEDIT_ECHO_MAX) bytes,
+ * through put; returns the count (0: nothing due or no room).  `final`: echo nothing until the
  * line has ended, then all of it at once (output that must not be cut). */
 #define LINEEDIT_ECHO_MAX (2u + COMMAND_LINE_MAX + 2u)
-uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c));
+uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c), uint8_t room);
 
 /* The line is taken (run or refused): the next one starts. */
 void lineedit_next(lineedit_t *l);

@@ -176,7 +176,7 @@ void tx_poll(void)
       tx.step = done == REPLY_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPLY_DONE;
     } else if (tx.job == JOB_ECHO) {
-      lineedit_echo(&lineedit, 1, proto_raw);
+      lineedit_echo(&lineedit, 1, proto_raw, UART_STEP_MAX);
       done = !lineedit_ended(&lineedit);
     } else {
       done = report_boot_step(tx.step);
