@@ -80,7 +80,7 @@ static void run_start(const command_t *cmd)
   if (cmd->has_arg) {
     uint32_t have = sample_engine.n + adc_pending();
     if (cmd->arg < have) {
-      tx_error(CMD_ERR_ARG, CMD_START, 0, PSTR("count too small"), PSTR("; > samples taken"));
+      tx_error(CMD_ERR_ARG, CMD_START, 0, PSTR("count too small"), PSTR("; above n"));
       return;
     }
     adc_start(1, cmd->arg - have);
@@ -91,13 +91,13 @@ static void run_start(const command_t *cmd)
 }
 
 static const char link_slow_P[] PROGMEM = "link too slow";
-static const char lower_rate_P[] PROGMEM = "; lower rate or mode";
+static const char lower_rate_P[] PROGMEM = "; lower the rate";
 
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
 static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 {
   if (!vocab_rate_ok(hz)) {
-    tx_error(CMD_ERR_ARG, CMD_RATE, 0, PSTR("unsupported rate"), TX_ALLOWED_ARGS);
+    tx_error(CMD_ERR_ARG, CMD_RATE, 0, PSTR("unsupported"), TX_ALLOWED_ARGS);
   } else if (!link_fits(settings.mode, (uint16_t)hz, BAUD)) {
     tx_error(CMD_ERR_STATE, CMD_RATE, 0, link_slow_P, lower_rate_P);
   } else {

@@ -35,9 +35,9 @@ static void put_n(void (*put)(uint8_t c), uint8_t *n, char c)
   ++*n;
 }
 
-static char shown_as(char c)
+char lineedit_shown_as(char c)
 {
-  return (c < 0x20 || c > 0x7E || c == '$') ? '?' : c;
+  return (c < 0x20 || c > 0x7E || c == '$' || c == '*') ? '?' : c;
 }
 
 uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c), uint8_t room)
@@ -70,7 +70,7 @@ uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c), uint
     l->shown--;
   }
   while (l->shown < l->len && n < room - 2u)
-    put_n(put, &n, shown_as(l->text[l->shown++]));
+    put_n(put, &n, lineedit_shown_as(l->text[l->shown++]));
   l->keep = l->shown;
   if (lineedit_ended(l) && l->shown == l->len) {
     put_n(put, &n, '\r');

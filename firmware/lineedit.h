@@ -56,6 +56,10 @@ uint8_t lineedit_feed(lineedit_t *l, uint8_t c, uint8_t lost);
 #define LINEEDIT_ECHO_MAX (2u + COMMAND_LINE_MAX + 2u)
 uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c), uint8_t room);
 
+/* How a typed character is shown (echo, quoted in an error): '?' for a
+ * control byte, '$' or '*', which would spoil a protocol line. */
+char lineedit_shown_as(char c);
+
 /* The line is taken (run or refused): the next one starts. */
 void lineedit_next(lineedit_t *l);
 

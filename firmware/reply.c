@@ -4,6 +4,7 @@
 #include "adc.h"
 #include "command.h"
 #include "config.h"
+#include "lineedit.h"
 #include "link.h"
 #include "pgm.h"
 #include "proto.h"
@@ -43,20 +44,16 @@ void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *wh
   rpl.tail = id;
   if (id == CMD_NONE) {
     /* A copy: the line's buffer takes the next line at once.  A longer
-     * word is cut, its last character shown as '~'. */
-    uint8_t i = 0;
-    while (*quote == ' ' || *quote == '\t')
-      quote++;
-    for (; i < WORD_MAX; i++) {
+     * word is cut. */
+    uint8_t i;
+    for (i = 0; i < WORD_MAX; i++) {
       char c = quote[i];
       if (c == ' ' || c == '\t')
         c = 0;
-      rpl.word[i] = (c && (c < 0x20 || c > 0x7E || c == '$' || c == '*')) ? '?' : c;
+      rpl.word[i] = c;
       if (!c)
-        return;
+        break;
     }
-    if (quote[i] && quote[i] != ' ' && quote[i] != '\t')
-      rpl.word[WORD_MAX - 1] = '~';
     return;
   }
   rpl.text_P = what_P;
@@ -92,26 +89,47 @@ void reply_set_plain(uint8_t code, const char *text_P)
  * words come from vocab.h's tables, so help, errors and the parser agree. */
 static const char rates_P[] PROGMEM = "50\0" "100\0" "200\0" "250\0" "500\0" "1000";
 
+static const char count_P[] PROGMEM = " [count]";
+static const char seconds_P[] PROGMEM = " 0..3600 s";
+static const char open_P[] PROGMEM = " [";
+static const char hz_P[] PROGMEM = " (Hz)";
+static const char g_P[] PROGMEM = " (g)";
+static const char close_P[] PROGMEM = "]";
+
+/* By argument kind from ARG_COUNT on: the words allowed (a vocab.h
+ * list), how many, and the text before and after them. */
+static const struct {
+  const char *list, *pre, *post;
+  uint8_t count;
+} allowed[] PROGMEM = {
+  {0, count_P, 0, 0},                              /* ARG_COUNT */
+  {rates_P, 0, hz_P, 6},                           /* ARG_RATE */
+  {0, seconds_P, 0, 0},                            /* ARG_SECONDS */
+  {vocab_modes, 0, 0, VOCAB_MODES},                /* ARG_MODE */
+  {vocab_ranges, 0, g_P, VOCAB_RANGES},            /* ARG_RANGE */
+  {vocab_onoff, open_P, close_P, 2},               /* ARG_ONOFF */
+};
+
 /* Piece k of the arguments of a command of this kind, as help shows
- * them (" 50|100|...|1000 (Hz)"); in an error (`err`) "; " comes first
- * instead of the space.  Returns 1 after the last piece.  Each piece is
- * at most UART_STEP_MAX characters. */
+ * them (" 50|100|...|1000 (Hz)"); in an error (`err`) ";" comes first.
+ * Returns 1 after the last piece.  Each piece is at most UART_STEP_MAX
+ * characters. */
 static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, uint8_t err)
 {
   const char *list = 0, *pre = 0, *post = 0;
   uint8_t count = 0;
-  switch (kind) {
-  case ARG_NONE: pre = err ? PSTR(" no argument") : 0; break;
-  case ARG_COUNT: pre = PSTR(" [count]"); break;
-  case ARG_RATE: list = rates_P; count = 6; post = PSTR(" (Hz)"); break;
-  case ARG_SECONDS: pre = PSTR(" 0..3600 s, 0 off"); break;
-  case ARG_MODE: list = vocab_modes; count = VOCAB_MODES; break;
-  case ARG_RANGE: list = vocab_ranges; count = VOCAB_RANGES; post = PSTR(" (g)"); break;
-  default: list = vocab_onoff; count = 2; pre = PSTR(" ["); post = PSTR("]"); break;
+  if (kind == ARG_NONE) {
+    pre = err ? PSTR(" no argument") : 0;
+  } else {
+    kind = (uint8_t)(kind - ARG_COUNT);
+    list = (const char *)pgm_read_ptr(&allowed[kind].list);
+    pre = (const char *)pgm_read_ptr(&allowed[kind].pre);
+    post = (const char *)pgm_read_ptr(&allowed[kind].post);
+    count = pgm_read_byte(&allowed[kind].count);
   }
   if (k == 0) {
     if (err)
-      proto_puts_P(PSTR(";"));
+      proto_putc(';');
     if (pre)
       proto_puts_P(pre);
     else if (list)
@@ -140,7 +158,7 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
     if (none) {
       uint8_t i;
       for (i = 0; i < WORD_MAX && rpl.word[i]; i++)
-        proto_putc(rpl.word[i]);
+        proto_putc(lineedit_shown_as(rpl.word[i]));
     } else {
       proto_puts_P(command_word(rpl.tail));
     }
@@ -152,8 +170,8 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
   } else if (none || rpl.tail_value.allowed_P) {
     if (step == 3)
       proto_puts_P(!none ? rpl.tail_value.allowed_P
-                   : rpl.code == CMD_ERR_LOST ? PSTR("; send it again")
-                   : rpl.code == CMD_ERR_LONG ? PSTR("; 16 characters") : PSTR("; help lists them"));
+                   : rpl.code == CMD_ERR_LOST ? PSTR("; resend")
+                   : rpl.code == CMD_ERR_LONG ? PSTR("; 16 chars") : PSTR("; see help"));
     else
       goto end;
   } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
