@@ -80,7 +80,7 @@ static void run_start(const command_t *cmd)
   if (cmd->has_arg) {
     uint32_t have = sample_engine.n + adc_pending();
     if (cmd->arg < have) {
-      tx_error(CMD_ERR_ARG, CMD_START, 0, PSTR("count too small"), PSTR("; above n"));
+      tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small"), PSTR("; above n"));
       return;
     }
     adc_start(1, cmd->arg - have);
@@ -91,15 +91,15 @@ static void run_start(const command_t *cmd)
 }
 
 static const char link_slow_P[] PROGMEM = "link too slow";
-static const char lower_rate_P[] PROGMEM = "; lower the rate";
+static const char lower_rate_P[] PROGMEM = "; lower rate";
 
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
 static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 {
   if (!vocab_rate_ok(hz)) {
-    tx_error(CMD_ERR_ARG, CMD_RATE, 0, PSTR("unsupported"), TX_ALLOWED_ARGS);
+    tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported"), TX_ALLOWED_ARGS);
   } else if (!link_fits(settings.mode, (uint16_t)hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, CMD_RATE, 0, link_slow_P, lower_rate_P);
+    tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P, lower_rate_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
     tx_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), hz);
@@ -109,7 +109,7 @@ static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 static void run_mode(uint8_t mode)
 {
   if (!link_fits(mode, settings.rate_hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, CMD_MODE, 0, link_slow_P, lower_rate_P);
+    tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P, lower_rate_P);
     return;
   }
   if (mode == MODE_RAW || mode == MODE_BINARY)
@@ -126,7 +126,7 @@ static void run_load(uint16_t old_rate, uint8_t old_range)
   if (settings_load() != CFG_SAVED) {
     settings = before; /* nothing valid saved: keep what is in force */
     settings_source = source;
-    tx_error(CMD_ERR_STATE, CMD_LOAD, 0, PSTR("nothing saved"), PSTR("; save first"));
+    tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved"), PSTR("; save first"));
     return;
   }
   tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
@@ -140,7 +140,7 @@ static void execute(const command_t *cmd)
   switch (cmd->id) {
   case CMD_REPORT:
     if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
-      tx_error(CMD_ERR_STATE, CMD_REPORT, 0, PSTR("none in this mode"), PSTR("; mode allan or both"));
+      tx_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode"), PSTR("; allan or both"));
       break;
     }
     tx_ok(0);
@@ -164,7 +164,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
-      tx_error(CMD_ERR_ARG, CMD_INTERVAL, 0, PSTR("too long"), TX_ALLOWED_ARGS);
+      tx_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long"), TX_ALLOWED_ARGS);
     } else {
       settings.interval_s = (uint16_t)cmd->arg;
       tx_ok_n(PSTR("interval="), cmd->arg);
@@ -207,18 +207,14 @@ static __attribute__((noinline)) void run_line(void)
   command_t cmd;
   uint8_t err;
   ready = 0;
-  if (line.flags & LINE_REFUSED) {
-    tx_error(line.flags & LINE_LOST ? CMD_ERR_LOST : CMD_ERR_LONG, CMD_NONE, line.text, 0, 0);
-  } else {
-    err = command_parse(line.text, &cmd);
-    if (err == CMD_ERR_UNKNOWN) {
-      tx_error(err, CMD_NONE, line.text, 0, 0);
-    } else if (err) {
-      tx_error(err, cmd.id, 0, PSTR("bad argument"), TX_ALLOWED_ARGS);
-    } else if (cmd.id != CMD_NONE) {
-      execute(&cmd);
-    }
-  }
+  err = line.flags & LINE_LOST ? CMD_ERR_LOST
+        : line.flags & LINE_LONG ? CMD_ERR_LONG : command_parse(line.text, &cmd);
+  if (err == CMD_ERR_ARG)
+    tx_error(err, cmd.id, PSTR("bad argument"), TX_ALLOWED_ARGS);
+  else if (err)
+    tx_refuse(err, line.text);
+  else if (cmd.id != CMD_NONE)
+    execute(&cmd);
   if (lineedit_ended(&line))
     line.flags |= LINE_RUN; /* its echo job ends it */
   else

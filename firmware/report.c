@@ -336,8 +336,8 @@ static __attribute__((noinline)) int8_t level_dev(uint8_t l, uint8_t n, uint32_t
 /* `T,<seq>,<ch>,<level N>,<N>,<level B>,<B>`: the noise terms read off
  * the channel's deviations (docs/protocol.md), in counts: N = sigma(tau)
  * sqrt(tau) in count sqrt(s) at the level nearest 1 s, and B = min sigma
- * / 0.664 in counts over the levels with at least 8 pairs ("-,-" when
- * none).  One level is looked at per step. */
+ * / 0.664 in counts over the levels with at least 8 pairs (T lines come
+ * only when level 0 has that many).  One level is looked at per step. */
 static __attribute__((noinline)) uint8_t step_terms(uint8_t step)
 {
   uint32_t mant;
@@ -347,7 +347,6 @@ static __attribute__((noinline)) uint8_t step_terms(uint8_t step)
     begin_seq('T');
     put_channel(rep.ch);
     proto_putc(',');
-    rep.acc_hi = 0xFFFF;
     rep.pairs = 0xFFFFFFFFul;
   } else if (step == 1) {
     l = terms_n_level();
@@ -369,13 +368,9 @@ static __attribute__((noinline)) uint8_t step_terms(uint8_t step)
       }
     }
   } else if (step == 2 + ALLAN_LEVELS) {
-    if (rep.acc_hi == 0xFFFF) {
-      proto_puts_P(PSTR("-,-"));
-    } else {
-      proto_u32(rep.acc_hi);
-      proto_putc(',');
-      put_sig3((rep.pairs & 0xFFFFu) * TERMS_B_SCALE, (int8_t)((uint8_t)(rep.pairs >> 16) - 128 - 16));
-    }
+    proto_u32(rep.acc_hi); /* level 0 has 8 pairs at least: T lines come only then */
+    proto_putc(',');
+    put_sig3((rep.pairs & 0xFFFFu) * TERMS_B_SCALE, (int8_t)((uint8_t)(rep.pairs >> 16) - 128 - 16));
   } else {
     proto_end();
     return 1;
@@ -396,6 +391,8 @@ static void next_line(void)
     if (++rep.level < ALLAN_LEVELS && pairs_at(rep.level))
       return;
     rep.ch = 0;
+    if (pairs_at(0) < TERMS_B_PAIRS)
+      rep.part++; /* too few pairs for the terms: no T lines */
   } else if (rep.part == PART_TERMS) {
     if (++rep.ch < ALLAN_CHANNELS)
       return;

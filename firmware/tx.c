@@ -6,6 +6,8 @@
  */
 #include "tx.h"
 
+#include "adc.h"
+#include "command.h"
 #include "lineedit.h"
 #include "proto.h"
 #include "reply.h"
@@ -20,6 +22,8 @@ enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_ECHO };
 #define PAUSED      2 /* a report waits for the reply written between its lines */
 #define HOLD_ROWS   4 /* a new run's rows wait for the reply that started it */
 #define REPLY_NEXT  8 /* a reply waits for the echo of its command line */
+#define ROW_GAP    16 /* ... and then for a row or frame, so that the two never
+                       * hold the stream back together (link.h's budget) */
 
 static struct {
   uint8_t job, step, flags;
@@ -109,9 +113,15 @@ void tx_ok_word(const char *text_P, const char *word_P)
   start(JOB_REPLY);
 }
 
-void tx_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P)
+void tx_error(uint8_t code, uint8_t id, const char *what_P, const char *allowed_P)
 {
-  reply_set_error(code, id, quote, what_P, allowed_P);
+  reply_set_error(code, id, 0, what_P, allowed_P);
+  start(JOB_REPLY);
+}
+
+void tx_refuse(uint8_t code, const char *line)
+{
+  reply_set_error(code, CMD_NONE, line, 0, 0);
   start(JOB_REPLY);
 }
 
@@ -147,6 +157,8 @@ static void job_done(void)
   tx.job = JOB_NONE;
   if (tx.flags & REPLY_NEXT) {
     tx.flags &= (uint8_t)~REPLY_NEXT;
+    if (stream_holds_oldest() && adc_running() && !(tx.flags & HOLD_ROWS))
+      tx.flags |= ROW_GAP; /* rows keep coming: one goes first */
     tx.job = JOB_REPLY;
     tx.step = 0;
   } else if (tx.flags & PAUSED) {
@@ -163,9 +175,11 @@ void tx_poll(void)
 {
   while (tx_can_write()) {
     uint8_t done;
-    if (stream_step(at_line_boundary(), tx.flags & HOLD_ROWS))
+    if (stream_step(at_line_boundary(), tx.flags & HOLD_ROWS)) {
+      tx.flags &= (uint8_t)~ROW_GAP;
       continue;
-    if (tx.job == JOB_NONE)
+    }
+    if (tx.job == JOB_NONE || (tx.flags & ROW_GAP))
       break;
     if (tx.job == JOB_REPORT) {
       done = report_step(tx.step);

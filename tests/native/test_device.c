@@ -332,7 +332,7 @@ static void test_link_budget_refuses_raw_at_1000_hz(void)
   command("rate 1000");
   command("mode raw");
   line("error:", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("error:4 mode: link too slow; lower the rate", b);
+  TEST_ASSERT_EQUAL_STRING("error:4 mode: link too slow; lower rate", b);
 }
 
 static const struct { const char *name; void (*fn)(void); } tests[] = {
