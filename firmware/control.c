@@ -18,11 +18,10 @@
 #include "uart.h"
 #include "vocab.h"
 
-/* The command line being received and echoed is lineedit; `ready`: a
- * complete one waits until its echo is out and the output is between two
- * lines. */
+/* The command line being received and echoed is lineedit; LINE_READY: a
+ * complete one waits until the output is between two lines. */
 #define line lineedit
-static uint8_t ready;
+#define ready (line.flags & LINE_READY)
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -119,7 +118,7 @@ static void run_mode(uint8_t mode)
   tx_ok_word(PSTR("mode="), vocab_word(vocab_modes, mode));
 }
 
-static void run_load(uint16_t old_rate, uint8_t old_range)
+static __attribute__((noinline)) void run_load(uint16_t old_rate, uint8_t old_range)
 {
   settings_t before = settings;
   uint8_t source = settings_source;
@@ -206,7 +205,7 @@ static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
   uint8_t err;
-  ready = 0;
+  line.flags &= (uint8_t)~LINE_READY;
   err = line.flags & LINE_LOST ? CMD_ERR_LOST
         : line.flags & LINE_LONG ? CMD_ERR_LONG : command_parse(line.text, &cmd);
   if (err == CMD_ERR_ARG)
@@ -235,13 +234,13 @@ static uint8_t echo_live(void)
  * holds a line back: as typed, it takes what room the output has (a paste
  * faster than the link may be shown in part); whole, it is the job just
  * before the reply, and input waits only for that one step. */
-static __attribute__((noinline)) void poll_commands(void)
+static __attribute__((noinline)) void read_line(void)
 {
   int16_t c;
   while (!ready && !lineedit_ended(&line) && (c = uart_read()) >= 0) {
     uint8_t r = lineedit_feed(&line, (uint8_t)c, (c & UART_READ_GAP) != 0);
     if (r == LINE_ENDED)
-      ready = 1;
+      line.flags |= LINE_READY;
     if (!settings.echo) {
       line.flags &= (uint8_t)~LINE_ENDED_BIT;
       if (r == LINE_DROPPED)
@@ -250,11 +249,18 @@ static __attribute__((noinline)) void poll_commands(void)
   }
   if (settings.echo) {
     if (echo_live()) {
-      lineedit_echo(&line, 0, proto_raw, uart_tx_room());
+      lineedit_echo(&line, 0, uart_write, uart_tx_room());
     } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
       tx_echo(); /* a dropped line's end */
     }
   }
+}
+
+/* Kept apart from read_line(), and small: a command may feed the engine
+ * (stop, start, reset), the deepest stack there is. */
+static void poll_commands(void)
+{
+  read_line();
   if (ready && tx_can_interject() && !settings_saving()) {
     if (lineedit_ended(&line)) {
       if (echo_live())

@@ -29,6 +29,7 @@
 #define LINE_ENDED_BIT 8 /* the line ended (or was dropped), its echo not yet finished */
 #define LINE_OPEN 16 /* the echo line's "> " is out, its CR LF not yet */
 #define LINE_RUN 32 /* the line has run: the end of its echo ends it */
+#define LINE_READY 64 /* control.c: the ended line waits for its turn to run */
 
 typedef struct {
   char text[COMMAND_LINE_MAX + 1];

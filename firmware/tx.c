@@ -182,7 +182,12 @@ void tx_poll(void)
     if (tx.job == JOB_NONE || (tx.flags & ROW_GAP))
       break;
     if (tx.job == JOB_REPORT) {
+      uint8_t room = uart_tx_room();
       done = report_step(tx.step);
+      if (done == REPORT_MORE && uart_tx_room() == room) {
+        tx.step++; /* a step that only computed (a T line's search): the loop */
+        break;     /* feeds the engine before the next one */
+      }
       tx.step = done == REPORT_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPORT_DONE;
     } else if (tx.job == JOB_REPLY) {
@@ -190,7 +195,7 @@ void tx_poll(void)
       tx.step = done == REPLY_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPLY_DONE;
     } else if (tx.job == JOB_ECHO) {
-      lineedit_echo(&lineedit, 1, proto_raw, UART_STEP_MAX);
+      lineedit_echo(&lineedit, 1, uart_write, UART_STEP_MAX);
       done = !lineedit_ended(&lineedit);
     } else {
       done = report_boot_step(tx.step);
