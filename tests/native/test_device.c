@@ -6,6 +6,7 @@
  * against independent computations written here: the CRCs bit by bit, the
  * codes from the fake ADC's pattern, the fields from the commands sent.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -335,6 +336,74 @@ static void test_link_budget_refuses_raw_at_1000_hz(void)
   TEST_ASSERT_EQUAL_STRING("error:4 mode: link too slow; lower rate", b);
 }
 
+/* Half a unit in the third significant digit of v, plus the device's
+ * fixed-point error (fmt_adev: below 1e-4 relative). */
+static double printed_tol(double v)
+{
+  return 0.5 * pow(10.0, floor(log10(v)) - 2) * 1.0001 + 2e-4 * v;
+}
+
+/* The T lines (N and B read on the device in fixed point) against N and B
+ * computed here in double from the same report's L rows, on many reports:
+ * four rates, runs of different lengths, each stopped then reported. */
+static void test_noise_terms_match_float_on_many_reports(void)
+{
+  static const unsigned rates[] = {50, 100, 250, 1000};
+  char b[256], cmd[32];
+  unsigned seq = 0, checked = 0;
+  fx_boot(1);
+  fx_run_us(60000);
+  command("echo off");
+  command("interval 0"); /* reports only on request: seq counts ours */
+  for (unsigned r = 0; r < 4; r++) {
+    snprintf(cmd, sizeof cmd, "rate %u", rates[r]);
+    command(cmd);
+    for (unsigned run = 0; run < 3; run++, seq++) {
+      unsigned n = 300u + 1700u * run + 37u * r; /* 300 .. 3500 sets */
+      command("stop");
+      command("reset");
+      snprintf(cmd, sizeof cmd, "start %u", n);
+      command(cmd);
+      fx_run_us((uint64_t)n * 1000000u / rates[r] + 100000u);
+      command("report");
+      fx_run_us(700000);
+      for (unsigned c = 0; c < 6; c++) {
+        static const char *chs[] = {"ax", "ay", "az", "gx", "gy", "gz"};
+        double adev[15];
+        unsigned long pairs[15];
+        int kn = -1, kb = -1;
+        for (unsigned k = 0; k < 15; k++) {
+          char pre[24], hex[16];
+          unsigned lv;
+          snprintf(pre, sizeof pre, "L,%u,%s,%u,", seq, chs[c], k);
+          line(pre, 0, b, sizeof b);
+          TEST_ASSERT_EQUAL_INT(3, sscanf(b + strlen(pre) - 2 - (k > 9), "%u,%lu,%12s", &lv, &pairs[k], hex));
+          hex[12] = 0;
+          double acc = (double)strtoull(hex, NULL, 16), m = (double)(1u << k);
+          adev[k] = pairs[k] ? sqrt(acc / (2.0 * m * m * (double)pairs[k])) : 0.0;
+          if (pairs[k] && (kn < 0 || fabs(m - rates[r]) < fabs((double)(1u << kn) - rates[r])))
+            kn = (int)k;
+          if (pairs[k] >= 8 && (kb < 0 || adev[k] < adev[kb]))
+            kb = (int)k;
+        }
+        char pre[16];
+        int tkn, tkb;
+        double tn, tb;
+        snprintf(pre, sizeof pre, "T,%u,%s,", seq, chs[c]);
+        line(pre, 0, b, sizeof b);
+        TEST_ASSERT_EQUAL_INT(4, sscanf(b + strlen(pre), "%d,%lf,%d,%lf", &tkn, &tn, &tkb, &tb));
+        double wn = adev[kn] * sqrt((double)(1u << kn) / rates[r]), wb = adev[kb] / 0.664;
+        TEST_ASSERT_EQUAL_INT_MESSAGE(kn, tkn, b);
+        TEST_ASSERT_TRUE_MESSAGE(fabs(tn - wn) <= printed_tol(wn), b);
+        TEST_ASSERT_TRUE_MESSAGE(tkb == kb || fabs(adev[tkb] - adev[kb]) <= 2e-4 * adev[kb], b);
+        TEST_ASSERT_TRUE_MESSAGE(fabs(tb - wb) <= printed_tol(wb), b);
+        checked++;
+      }
+    }
+  }
+  TEST_ASSERT_EQUAL_UINT(4 * 3 * 6, checked);
+}
+
 static const struct { const char *name; void (*fn)(void); } tests[] = {
 #define T(f) {#f, f}
   T(test_boot_line_names_protocol_version_and_reset_cause),
@@ -345,6 +414,7 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_range_command_drives_gselect_pins),
   T(test_raw_mode_writes_every_set_in_order_with_count_lines),
   T(test_save_writes_a_checked_record_and_load_restores_it),
+  T(test_noise_terms_match_float_on_many_reports),
   T(test_saved_settings_are_in_force_at_power_up),
   T(test_periodic_report_follows_the_interval),
   T(test_link_budget_refuses_raw_at_1000_hz),
