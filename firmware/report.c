@@ -18,7 +18,7 @@
 #include "vocab.h"
 
 /* Parts of a report, in order. */
-enum { PART_HEADER, PART_ROW, PART_SUM_HEAD, PART_SUM_ROW, PART_TERMS, PART_END };
+enum { PART_HEADER, PART_ROW, PART_SUM_TITLE, PART_SUM_HEAD, PART_SUM_ROW, PART_TERMS, PART_END };
 
 static struct {
   uint8_t part, ch, level;
@@ -241,6 +241,27 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
   return 0;
 }
 
+static const char title0_P[] PROGMEM = "Allan deviation ";
+static const char title1_P[] PROGMEM = "(ADC counts) by ";
+static const char title2_P[] PROGMEM = "tau (s); T lines: ";
+static const char title3_P[] PROGMEM = "N, B in counts";
+
+/* The summary's first line says what it shows and in which units. */
+static __attribute__((noinline)) uint8_t step_sum_title(uint8_t step)
+{
+  static const char *const parts[] PROGMEM = {title0_P, title1_P, title2_P, title3_P};
+  if (step == 0) {
+    begin_seq('S');
+    return 0;
+  }
+  if (step <= 4) {
+    proto_puts_P((const char *)pgm_read_ptr(&parts[step - 1]));
+    return 0;
+  }
+  proto_end();
+  return 1;
+}
+
 static __attribute__((noinline)) uint8_t step_sum_head(uint8_t step)
 {
   if (step == 0) {
@@ -411,6 +432,7 @@ uint8_t report_step(uint8_t step)
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
+  case PART_SUM_TITLE: done = step_sum_title(step); break;
   case PART_SUM_HEAD: done = step_sum_head(step); break;
   case PART_SUM_ROW: done = step_sum_row(step); break;
   case PART_TERMS: done = step_terms(step); break;
