@@ -21,7 +21,11 @@
 #include "cmdline.h"
 #include "command.h"
 #include "fuzz_util.h"
+#include "lineedit.h"
+#include "settings.h"
 #include "uart.h"
+
+settings_t settings; /* echo off: the receiver alone (no output) */
 
 static const uint8_t *stream;
 static size_t stream_len, stream_pos, gap_at = (size_t)-1;
@@ -65,12 +69,17 @@ static size_t model(const uint8_t *s, size_t n, size_t gap, event_t *ev)
       }
       len = 0;
       code = 0;
+    } else if (c == 0x03 || c == 0x1B) {
+      len = 0; /* Ctrl-C, Esc: the line is dropped, lost bytes with it */
+      code = 0;
     } else if (c == 0x08 || c == 0x7F) {
       if (len)
         len--;
     } else if ((c < 0x20 && c != '\t') || c > 0x7E) {
       if (!code)
         code = CMD_ERR_BYTE;
+      if (len < COMMAND_LINE_MAX)
+        text[len++] = '?'; /* it takes its place, shown as '?' */
     } else if (len < COMMAND_LINE_MAX) {
       text[len++] = (char)c;
     } else if (!code) {
@@ -105,6 +114,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     cmdline_poll();
     if (cmdline_ready())
       cmdline_take(&t);
+    lineedit_next(&lineedit);
     stream = save;
     stream_len = save_len;
     stream_pos = 0;
@@ -126,6 +136,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                    (unsigned)(uint8_t)*p);
       (void)command_parse(text, &cmd);
     }
+    lineedit_next(&lineedit); /* as control.c does once the line has run */
     k++;
   }
   FUZZ_CHECK(k == count, "%zu lines, model %zu", k, count);
