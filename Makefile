@@ -29,7 +29,12 @@ HEX      := $(FW_BUILD)/imu-allan.hex
 # instead of inline in every function: about 600 bytes of flash for a few
 # cycles per call (the ISRs keep their own), which the ATmega168's 15,360
 # bytes under a bootloader need (bench/run.py measures the cycles).
-FW_OPT := -Os -flto -mcall-prologues
+# -mrelax: calls and jumps within reach become rcall/rjmp (2 bytes each,
+# and a cycle less).  -mstrict-X, -fno-move-loop-invariants: about 170
+# bytes more; loop invariants are then recomputed in the loop (a few
+# cycles in the engine's cascade: bench/run.py).  Together these keep
+# the issue 10 and 12 features under the bootloader.
+FW_OPT := -Os -flto -mcall-prologues -mrelax -mstrict-X -fno-move-loop-invariants
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP

@@ -146,6 +146,12 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
   return 0;
 }
 
+/* A line refused before any command is known, by CMD_ERR_* code - 1
+ * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE; 2 and 4
+ * always name their command): what, and what is allowed. */
+static const char refused_what_P[] PROGMEM = "unknown command\0\0line too long\0\0input lost\0bad byte";
+static const char refused_allowed_P[] PROGMEM = "; see help\0\0; 16 chars\0\0; resend\0; printable ASCII";
+
 /* `error:<code> <command>: <what>; <allowed>` */
 static __attribute__((noinline)) uint8_t step_error(uint8_t step)
 {
@@ -164,16 +170,10 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
     }
     proto_puts_P(PSTR(": "));
   } else if (step == 2) {
-    proto_puts_P(!none ? rpl.text_P
-                 : rpl.code == CMD_ERR_LOST ? PSTR("input lost")
-                 : rpl.code == CMD_ERR_LONG ? PSTR("line too long")
-                 : rpl.code == CMD_ERR_BYTE ? PSTR("bad byte") : PSTR("unknown command"));
+    proto_puts_P(!none ? rpl.text_P : vocab_word(refused_what_P, (uint8_t)(rpl.code - 1)));
   } else if (none || rpl.tail_value.allowed_P) {
     if (step == 3)
-      proto_puts_P(!none ? rpl.tail_value.allowed_P
-                   : rpl.code == CMD_ERR_LOST ? PSTR("; resend")
-                   : rpl.code == CMD_ERR_LONG ? PSTR("; 16 chars")
-                   : rpl.code == CMD_ERR_BYTE ? PSTR("; printable ASCII") : PSTR("; see help"));
+      proto_puts_P(!none ? rpl.tail_value.allowed_P : vocab_word(refused_allowed_P, (uint8_t)(rpl.code - 1)));
     else
       goto end;
   } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {

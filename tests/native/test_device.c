@@ -489,12 +489,13 @@ static void test_report_header_temp_is_dash_or_mean_min_max(void)
 static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
 {
   char b[256];
-  static const uint8_t rec[7] = {1, 0xE8, 3, 5, 0, 1, 0}; /* raw at 1000 Hz */
-  memcpy(fake_eeprom, rec, 7);
-  unsigned crc = ref_crc16_modbus(rec, 7);
-  fake_eeprom[7] = (uint8_t)(crc >> 8);
-  fake_eeprom[8] = (uint8_t)crc;
-  memset(fake_eeprom + 9, 0xFF, sizeof fake_eeprom - 9);
+  /* record v2: raw at 1000 Hz, interval 5, range 1.5 g, echo on */
+  static const uint8_t rec[8] = {2, 0xE8, 3, 5, 0, 1, 0, 1};
+  memcpy(fake_eeprom, rec, 8);
+  unsigned crc = ref_crc16_modbus(rec, 8);
+  fake_eeprom[8] = (uint8_t)(crc >> 8);
+  fake_eeprom[9] = (uint8_t)crc;
+  memset(fake_eeprom + 10, 0xFF, sizeof fake_eeprom - 10);
   fx_boot(1);
   fx_run_us(60000);
   command("status");
@@ -502,7 +503,7 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible", b);
   command("load");
   line("error:", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
+  TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);
 }
 
 /* CRC-16/MODBUS over the bodies of report seq's H and L lines, in order. */
