@@ -33,8 +33,14 @@ uint8_t cmdline_ready(void)
 uint8_t cmdline_take(const char **text)
 {
   uint8_t f = lineedit.flags;
-  lineedit.flags = (uint8_t)(f & ~LINE_READY);
   *text = lineedit.text;
+  /* The line is taken: with its echo still due, the echo job ends it
+   * (reading waits for that); else the next line starts now, since a
+   * command may poll the receiver (sample_feed) while it runs. */
+  if (lineedit_ended(&lineedit))
+    lineedit.flags = (uint8_t)((f & ~LINE_READY) | LINE_RUN);
+  else
+    lineedit_next(&lineedit);
   /* lost bytes outrank the rest (the line's end may be what was lost) */
   return f & LINE_LOST ? CMD_ERR_LOST : f & LINE_BYTE ? CMD_ERR_BYTE : f & LINE_LONG ? CMD_ERR_LONG : 0;
 }

@@ -21,10 +21,10 @@ void cmdline_poll(void);
 /* 1 when a complete line waits to be run. */
 uint8_t cmdline_ready(void);
 
-/* Take the complete line: returns 0 and sets *text (NUL-terminated, valid
- * until lineedit_next), or the error code that refuses it (CMD_ERR_LONG,
- * CMD_ERR_LOST, CMD_ERR_BYTE; *text is set too, for the error's quote).
- * The caller ends the line (lineedit_next, or LINE_RUN with echo). */
+/* Take the complete line: returns 0 and sets *text (NUL-terminated; parse
+ * it before the next cmdline_poll, which may start the next line in the
+ * same buffer), or the error code that refuses it (CMD_ERR_LONG,
+ * CMD_ERR_LOST, CMD_ERR_BYTE; *text is set too, for the error's quote). */
 uint8_t cmdline_take(const char **text);
 
 #endif /* CMDLINE_H */

@@ -235,13 +235,9 @@ static __attribute__((noinline)) void run_line(void)
   if (err == CMD_ERR_ARG)
     tx_error(err, cmd.id, PSTR("bad argument"), TX_ALLOWED_ARGS);
   else if (err)
-    tx_refuse(err, line.text);
+    tx_refuse(err, text);
   else if (cmd.id != CMD_NONE)
-    execute(&cmd);
-  if (lineedit_ended(&line))
-    line.flags |= LINE_RUN; /* its echo job ends it */
-  else
-    lineedit_next(&line);
+    execute(&cmd); /* it may poll the receiver: the next line may begin */
 }
 
 /* 1 when the echo is written as typed: mode allan, nothing else being

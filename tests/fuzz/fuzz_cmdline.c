@@ -21,7 +21,6 @@
 #include "cmdline.h"
 #include "command.h"
 #include "fuzz_util.h"
-#include "lineedit.h"
 #include "settings.h"
 #include "uart.h"
 
@@ -114,7 +113,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     cmdline_poll();
     if (cmdline_ready())
       cmdline_take(&t);
-    lineedit_next(&lineedit);
     stream = save;
     stream_len = save_len;
     stream_pos = 0;
@@ -136,7 +134,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                    (unsigned)(uint8_t)*p);
       (void)command_parse(text, &cmd);
     }
-    lineedit_next(&lineedit); /* as control.c does once the line has run */
     k++;
   }
   FUZZ_CHECK(k == count, "%zu lines, model %zu", k, count);
