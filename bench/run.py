@@ -126,8 +126,8 @@ def device(tmp: Path, quick: bool) -> dict:
     rows = gen(tmp, "noisy", 20000, 1000, seed=13)
     noise = "".join(f"{i}\t\\x00\\x7f\\xff\\x01\\rreport\\rstatus\\r{'x' * 30}\\r\n" for i in range(100, 19000, 700))
     worst["noisy_rx"] = simulate(tmp, "noisy", rows, 1000, noise)["stack_free_bytes"]
-    worst["raw_250hz"] = simulate(tmp, "raw", gen(tmp, "r250", 12000, 250, seed=25), 250,
-                                  "100\tmode raw\\r\n11800\tmode allan\\r\n")["stack_free_bytes"]
+    worst["raw_100hz"] = simulate(tmp, "raw", gen(tmp, "r100raw", 6000, 100, seed=25), 100,
+                                  "100\tmode raw\\r\n5800\tmode allan\\r\n")["stack_free_bytes"]
     r["stack_free_bytes"] = min(worst.values())
     r["stack_free_by_scenario"] = worst
     return r
