@@ -188,4 +188,4 @@ def test_budget_refuses_raw_where_replies_would_cost_samples(run, tmp_path: Path
     uart = tmp_path / "uart.txt"
     uart.write_text("100\tmode raw\\r\n")
     simulate_and_check(r, n, 250, uart_in=uart)
-    assert b"$error:4 link too slow" in r.log.read_bytes()
+    assert b"$error:4 mode: link too slow; lower rate*" in r.log.read_bytes()
