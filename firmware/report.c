@@ -396,7 +396,10 @@ static __attribute__((noinline)) int8_t level_dev(uint8_t l, uint8_t n, uint32_t
  * only when level 0 has that many).  One level is looked at per step. */
 static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
 {
-  uint32_t mant;
+  /* The mantissa lives in rep.acc_lo (the L rows' snapshot, free once
+   * they are out), not on the stack: this step is inlined into the main
+   * loop, whose frame lies under every other one. */
+#define mant rep.acc_lo
   uint8_t l;
   int8_t exp;
   if (step == 0) {
@@ -432,6 +435,7 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
     return 1;
   }
   return 0;
+#undef mant
 }
 
 /* After a whole line: the part and row the next line belongs to. */
