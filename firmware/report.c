@@ -295,14 +295,15 @@ static __attribute__((noinline)) uint8_t step_sum_head(uint8_t step)
   return 0;
 }
 
-static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
+/* The cells of a summary row; its buffer is not on the stack while the
+ * line begins (begin_seq: seq formatting, the deepest report path). */
+static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
 {
   char buf[FMT_SIG3_MAX + 1];
   uint8_t len;
   uint32_t mant;
   int8_t exp;
   if (step == 0) {
-    begin_seq('S');
     exp = fmt_tau(&mant, rep.level, adc_rate());
     len = fmt_sig3(buf, mant, exp);
     put_cell(buf, len);
@@ -323,6 +324,13 @@ static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
     return 1;
   }
   return 0;
+}
+
+static uint8_t step_sum_row(uint8_t step)
+{
+  if (step == 0)
+    begin_seq('S');
+  return sum_row_cells(step);
 }
 
 /* `V,<seq>,id=<run>,crc=<XXXX>`: the run and the CRC-16/MODBUS of the
