@@ -109,9 +109,10 @@ def test_help_shows_each_command_with_its_arguments(tmp_path: Path) -> None:
 
 
 def test_report_ends_with_a_summary_screen(tmp_path: Path) -> None:
-    """After `report`, the last 24 lines hold the whole summary: a title
-    saying what and in which units, the tau table, a T line per channel,
-    the end line; none wider than 80 columns."""
+    """After `report`, the last 25 lines hold the whole summary (24 but the
+    title once all 15 levels have pairs; docs/protocol.md): a title saying
+    what and in which units, the tau table, a T line per channel, the check
+    line, the end line; none wider than 80 columns."""
     t = SimTerm(tmp_path, "--synthetic", "--fast")
     try:
         t.open()
@@ -128,10 +129,12 @@ def test_report_ends_with_a_summary_screen(tmp_path: Path) -> None:
     finally:
         t.stop()
     lines = raw.split(b"\r\n")[:-1]
-    screen = lines[-24:]
+    screen = lines[-25:]
     assert all(len(ln) + 2 <= 80 for ln in screen), [ln for ln in screen if len(ln) + 2 > 80]
     titles = [i for i, ln in enumerate(screen) if b"Allan deviation (ADC counts) by tau (s)" in ln]
     assert titles, screen
+    levels = sum(1 for ln in screen[titles[0] + 2:] if ln.startswith(b"$S,"))
+    assert titles[0] >= 1 or levels == 15, (titles, levels)  # 24 lines unless 15 levels
     body = screen[titles[0]:]
     assert body[1].split(b",", 2)[2].split(b"*")[0].split() == [b"tau_s", b"ax", b"ay", b"az", b"gx", b"gy", b"gz"]
     tl = [ln for ln in body if ln.startswith(b"$T,")]
