@@ -12,18 +12,19 @@
 
 #include <stdint.h>
 
-/* Move received bytes into the line until it is complete.  BS and DEL
- * erase the last character; a line with a byte outside printable ASCII,
- * TAB, BS, DEL and CR/LF is refused whole, as is one that lost bytes or
- * is too long. */
+/* Move received bytes into the line (lineedit: the editor and its echo)
+ * until it is complete.  BS and DEL erase the last character, Ctrl-C and
+ * Esc drop the line; a line with any other byte outside printable ASCII
+ * and TAB is refused whole, as is one that lost bytes or is too long. */
 void cmdline_poll(void);
 
 /* 1 when a complete line waits to be run. */
 uint8_t cmdline_ready(void);
 
-/* Take the complete line: returns 0 and sets *text (NUL-terminated, valid
- * until the next cmdline_poll), or the error code that refuses it
- * (CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE). */
+/* Take the complete line: returns 0 and sets *text (NUL-terminated; parse
+ * it before the next cmdline_poll, which may start the next line in the
+ * same buffer), or the error code that refuses it (CMD_ERR_LONG,
+ * CMD_ERR_LOST, CMD_ERR_BYTE; *text is set too, for the error's quote). */
 uint8_t cmdline_take(const char **text);
 
 #endif /* CMDLINE_H */

@@ -4,17 +4,23 @@
 #include "pgm.h"
 #include "vocab.h"
 
-/* Kinds of argument a command takes. */
-enum { ARG_NONE, ARG_OPT_NUM, ARG_NUM, ARG_MODE, ARG_RANGE };
-
 /* Words, in the order of the CMD_* ids starting at CMD_REPORT, and the
  * argument each takes. */
 static const char cmd_words[] PROGMEM =
-  "report\0reset\0stop\0start\0rate\0status\0help\0interval\0mode\0range\0save\0load\0defaults\0";
-static const uint8_t cmd_arg[] PROGMEM = {ARG_NONE, ARG_NONE, ARG_NONE, ARG_OPT_NUM, ARG_NUM,
-                                          ARG_NONE, ARG_NONE, ARG_NUM, ARG_MODE, ARG_RANGE,
-                                          ARG_NONE, ARG_NONE, ARG_NONE};
-#define CMD_COUNT 13
+  "report\0reset\0stop\0start\0rate\0status\0help\0interval\0mode\0range\0save\0load\0defaults\0echo";
+static const uint8_t cmd_arg[] PROGMEM = {ARG_NONE, ARG_NONE,    ARG_NONE, ARG_COUNT, ARG_RATE,
+                                          ARG_NONE, ARG_NONE,    ARG_SECONDS, ARG_MODE, ARG_RANGE,
+                                          ARG_NONE, ARG_NONE,    ARG_NONE, ARG_ONOFF};
+
+const char *command_word(uint8_t id)
+{
+  return vocab_word(cmd_words, (uint8_t)(id - CMD_REPORT));
+}
+
+uint8_t command_arg_kind(uint8_t id)
+{
+  return pgm_read_byte(&cmd_arg[id - CMD_REPORT]);
+}
 
 static uint8_t is_space(char c)
 {
@@ -50,6 +56,7 @@ uint8_t command_parse(const char *line, command_t *out)
   if (id == CMD_COUNT)
     return CMD_ERR_UNKNOWN;
   kind = pgm_read_byte(&cmd_arg[id]);
+  out->id = (uint8_t)(CMD_REPORT + id); /* named in an argument error */
   p += len;
   while (is_space(*p))
     p++;
@@ -58,9 +65,10 @@ uint8_t command_parse(const char *line, command_t *out)
     len = word_len(p);
     if (kind == ARG_NONE) {
       return CMD_ERR_ARG;
-    } else if (kind == ARG_MODE || kind == ARG_RANGE) {
-      uint8_t count = kind == ARG_MODE ? VOCAB_MODES : VOCAB_RANGES;
-      uint8_t v = vocab_find(kind == ARG_MODE ? vocab_modes : vocab_ranges, count, p, len);
+    } else if (kind >= ARG_MODE) {
+      uint8_t count = kind == ARG_MODE ? VOCAB_MODES : kind == ARG_RANGE ? VOCAB_RANGES : 2;
+      uint8_t v = vocab_find(kind == ARG_MODE ? vocab_modes : kind == ARG_RANGE ? vocab_ranges : vocab_onoff,
+                             count, p, len);
       if (v == count)
         return CMD_ERR_ARG;
       out->arg = v;
@@ -83,9 +91,8 @@ uint8_t command_parse(const char *line, command_t *out)
     if (*p)
       return CMD_ERR_ARG; /* one argument at most */
     out->has_arg = 1;
-  } else if (kind != ARG_NONE && kind != ARG_OPT_NUM) {
+  } else if (kind != ARG_NONE && kind != ARG_COUNT && kind != ARG_ONOFF) {
     return CMD_ERR_ARG;
   }
-  out->id = (uint8_t)(CMD_REPORT + id);
   return CMD_OK;
 }

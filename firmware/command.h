@@ -26,8 +26,17 @@ enum {
   CMD_RANGE,    /* arg: RANGE_* (g-select code) */
   CMD_SAVE,
   CMD_LOAD,
-  CMD_DEFAULTS
+  CMD_DEFAULTS,
+  CMD_ECHO      /* arg: 0 off, 1 on; none: show the setting */
 };
+#define CMD_COUNT 14 /* commands, CMD_REPORT .. CMD_ECHO */
+
+/* Kinds of argument a command takes (command_arg_kind). */
+enum { ARG_NONE, ARG_COUNT, ARG_RATE, ARG_SECONDS, ARG_MODE, ARG_RANGE, ARG_ONOFF };
+
+/* The word of command id (CMD_REPORT..), in flash; the kind of its argument. */
+const char *command_word(uint8_t id);
+uint8_t command_arg_kind(uint8_t id);
 
 
 /* Error codes of `error:<code>` replies. */
@@ -46,7 +55,8 @@ typedef struct {
 } command_t;
 
 /* Parse one line (NUL-terminated, no end of line). Returns CMD_OK or a
- * CMD_ERR_* code; on CMD_OK *out holds the command (CMD_NONE for blank). */
+ * CMD_ERR_* code; on CMD_OK *out holds the command (CMD_NONE for blank),
+ * on CMD_ERR_ARG out->id names the command whose argument is wrong. */
 uint8_t command_parse(const char *line, command_t *out);
 
 #endif /* COMMAND_H */

@@ -9,13 +9,21 @@
 #include "cmdline.h"
 #include "command.h"
 #include "config.h"
+#include "lineedit.h"
 #include "link.h"
 #include "pgm.h"
+#include "proto.h"
 #include "sample.h"
 #include "settings.h"
 #include "tx.h"
 #include "uart.h"
 #include "vocab.h"
+
+/* The command line being received and echoed is lineedit (cmdline.c
+ * fills it); LINE_READY: a complete one waits until the output is between
+ * two lines. */
+#define line lineedit
+#define ready (line.flags & LINE_READY)
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -85,7 +93,7 @@ static void run_start(const command_t *cmd)
   if (cmd->has_arg) {
     uint32_t have = sample_engine.n + adc_pending();
     if (cmd->arg < have) {
-      tx_error(CMD_ERR_ARG, PSTR("count too small"));
+      tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small"), PSTR("; above n"));
       return;
     }
     adc_start(1, cmd->arg - have);
@@ -95,13 +103,16 @@ static void run_start(const command_t *cmd)
   tx_ok(PSTR("started"));
 }
 
+static const char link_slow_P[] PROGMEM = "link too slow";
+static const char lower_rate_P[] PROGMEM = "; lower rate";
+
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
 static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 {
   if (!vocab_rate_ok(hz)) {
-    tx_error(CMD_ERR_ARG, PSTR("unsupported rate"));
+    tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported"), TX_ALLOWED_ARGS);
   } else if (!link_fits(settings.mode, (uint16_t)hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, PSTR("link too slow"));
+    tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P, lower_rate_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
     tx_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), hz);
@@ -111,7 +122,7 @@ static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 static void run_mode(uint8_t mode)
 {
   if (!link_fits(mode, settings.rate_hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, PSTR("link too slow"));
+    tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P, lower_rate_P);
     return;
   }
   if (mode == MODE_RAW || mode == MODE_BINARY)
@@ -121,7 +132,7 @@ static void run_mode(uint8_t mode)
   tx_ok_word(PSTR("mode="), vocab_word(vocab_modes, mode));
 }
 
-static void run_load(uint16_t old_rate, uint8_t old_range)
+static __attribute__((noinline)) void run_load(uint16_t old_rate, uint8_t old_range)
 {
   settings_t before = settings;
   uint8_t source = settings_source;
@@ -129,7 +140,10 @@ static void run_load(uint16_t old_rate, uint8_t old_range)
   if (loaded != CFG_SAVED) {
     settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
-    tx_error(CMD_ERR_STATE, loaded == CFG_INFEASIBLE ? PSTR("link too slow") : PSTR("nothing saved"));
+    if (loaded == CFG_INFEASIBLE)
+      tx_error(CMD_ERR_STATE, CMD_LOAD, link_slow_P, lower_rate_P);
+    else
+      tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved"), PSTR("; save first"));
     return;
   }
   tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
@@ -143,7 +157,7 @@ static void execute(const command_t *cmd)
   switch (cmd->id) {
   case CMD_REPORT:
     if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
-      tx_error(CMD_ERR_STATE, PSTR("no reports in this mode"));
+      tx_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode"), PSTR("; allan or both"));
       break;
     }
     tx_ok(0);
@@ -172,7 +186,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
-      tx_error(CMD_ERR_ARG, PSTR("interval 0..3600"));
+      tx_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long"), TX_ALLOWED_ARGS);
     } else {
       settings.interval_s = (uint16_t)cmd->arg;
       tx_ok_n(PSTR("interval="), cmd->arg);
@@ -199,6 +213,11 @@ static void execute(const command_t *cmd)
   case CMD_STATUS:
     tx_status();
     break;
+  case CMD_ECHO:
+    if (cmd->has_arg)
+      settings.echo = (uint8_t)cmd->arg;
+    tx_ok_word(PSTR("echo="), vocab_word(vocab_onoff, settings.echo));
+    break;
   default: /* CMD_HELP */
     tx_help();
     break;
@@ -211,39 +230,68 @@ static __attribute__((noinline)) void run_line(void)
   command_t cmd;
   const char *text;
   uint8_t err = cmdline_take(&text);
-  if (err == CMD_ERR_LOST) {
-    tx_error(err, PSTR("input lost"));
-    return;
-  }
-  if (err == CMD_ERR_LONG) {
-    tx_error(err, PSTR("line too long"));
-    return;
-  }
-  if (err == CMD_ERR_BYTE) {
-    tx_error(err, PSTR("bad byte"));
-    return;
-  }
-  err = command_parse(text, &cmd);
-  if (err == CMD_ERR_UNKNOWN)
-    tx_error(err, PSTR("unknown command"));
+  if (!err)
+    err = command_parse(text, &cmd);
+  if (err == CMD_ERR_ARG)
+    tx_error(err, cmd.id, PSTR("bad argument"), TX_ALLOWED_ARGS);
   else if (err)
-    tx_error(err, PSTR("bad argument"));
+    tx_refuse(err, text);
   else if (cmd.id != CMD_NONE)
-    execute(&cmd);
+    execute(&cmd); /* it may poll the receiver: the next line may begin */
+}
+
+/* 1 when the echo is written as typed: mode allan, nothing else being
+ * written.  Otherwise a line's echo goes out whole once it has ended, as
+ * an output job just before its reply (a raw row waits for it as for a
+ * reply, within the link budget: link.h). */
+static uint8_t echo_live(void)
+{
+  return settings.mode == MODE_ALLAN && !tx_busy();
+}
+
+/* Echo the command line (cmdline.c assembles it, also between the
+ * engine's channels).  The echo never holds a line back: as typed, it
+ * takes what room the output has (a paste faster than the link may be
+ * shown in part); whole, it is the job just before the reply, and input
+ * waits only for that one step. */
+static __attribute__((noinline)) void read_line(void)
+{
+  cmdline_poll();
+  if (settings.echo) {
+    if (echo_live()) {
+      lineedit_echo(&line, 0, uart_write, uart_tx_room());
+    } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
+      tx_echo(); /* a dropped or blank line's end */
+    }
+  }
+}
+
+/* Kept apart from read_line(), and small: a command may feed the engine
+ * (stop, start, reset), the deepest stack there is. */
+static void poll_commands(void)
+{
+  read_line();
+  if (ready && tx_can_interject() && !settings_saving()) {
+    if (lineedit_ended(&line)) {
+      if (echo_live())
+        line.flags = (uint8_t)((line.flags & LINE_REFUSED) | LINE_RUN); /* no room: the rest is not shown */
+      else
+        tx_echo(); /* the reply follows it */
+    }
+    run_line();
+  }
 }
 
 void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
-  if (settings_saving() && tx_can_interject() && settings_poll())
+  if (settings_saving() && tx_can_interject() && !lineedit_open(&line) && settings_poll())
     tx_ok(PSTR("saved"));
   /* A complete line runs when the output is between two lines (and no
    * EEPROM save is under way), so its reply never cuts into a line. */
-  cmdline_poll();
-  if (cmdline_ready() && tx_can_interject() && !settings_saving())
-    run_line();
+  poll_commands();
   if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
-      !tx_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
+      !tx_busy() && !lineedit_open(&line) && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
     tx_report(); /* its header restarts the interval */
 }
 

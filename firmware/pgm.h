@@ -13,6 +13,7 @@
 #  define PSTR(s) (s)
 #  define pgm_read_byte(p) (*(const unsigned char *)(p))
 #  define pgm_read_dword(p) (*(p))
+#  define pgm_read_ptr(p) (*(p))
 #  define strcmp_P strcmp
 #  define strcasecmp_P strcasecmp
 #  include <strings.h>

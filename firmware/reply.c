@@ -2,22 +2,63 @@
 #include "reply.h"
 
 #include "adc.h"
+#include "command.h"
 #include "config.h"
+#include "lineedit.h"
 #include "link.h"
 #include "pgm.h"
 #include "proto.h"
 #include "settings.h"
 #include "vocab.h"
 
+#define WORD_MAX 6 /* characters of an unknown command word quoted */
+
 static struct {
   uint8_t code; /* REPLY_OK, an error code, REPLY_STATUS or REPLY_HELP */
-  uint8_t tail; /* REPLY_TAIL_* */
-  const char *text_P;
+  uint8_t tail; /* REPLY_TAIL_*; for an error, the command id */
   union {
-    uint32_t n;         /* REPLY_TAIL_NUM */
-    const char *word_P; /* REPLY_TAIL_WORD */
-  } tail_value;
+    struct {
+      const char *text_P;
+      union {
+        uint32_t n;         /* REPLY_TAIL_NUM */
+        const char *word_P; /* REPLY_TAIL_WORD */
+        const char *allowed_P; /* error: "; ..." or REPLY_ALLOWED_ARGS */
+        struct {
+          uint8_t id, k; /* help: the command of this line, its piece */
+        } help;
+      } tail_value;
+    };
+    char word[WORD_MAX]; /* error naming no command (CMD_NONE): the line's first word */
+  };
 } rpl;
+
+static void put_key_u32(const char *key_P, uint32_t v)
+{
+  proto_puts_P(key_P);
+  proto_u32(v);
+}
+
+void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P)
+{
+  rpl.code = code;
+  rpl.tail = id;
+  if (id == CMD_NONE) {
+    /* A copy: the line's buffer takes the next line at once.  A longer
+     * word is cut. */
+    uint8_t i;
+    for (i = 0; i < WORD_MAX; i++) {
+      char c = quote[i];
+      if (c == ' ' || c == '\t')
+        c = 0;
+      rpl.word[i] = c;
+      if (!c)
+        break;
+    }
+    return;
+  }
+  rpl.text_P = what_P;
+  rpl.tail_value.allowed_P = allowed_P;
+}
 
 void reply_set(uint8_t code, const char *text_P, uint32_t n)
 {
@@ -40,28 +81,118 @@ void reply_set_plain(uint8_t code, const char *text_P)
   rpl.code = code;
   rpl.text_P = text_P;
   rpl.tail = REPLY_TAIL_NONE;
+  rpl.tail_value.help.id = CMD_REPORT;
+  rpl.tail_value.help.k = 0;
 }
 
-static void put_key_u32(const char *key_P, uint32_t v)
+/* Lists of allowed words, by argument kind from ARG_RATE on; an entry's
+ * words come from vocab.h's tables, so help, errors and the parser agree. */
+static const char rates_P[] PROGMEM = "50\0" "100\0" "200\0" "250\0" "500\0" "1000";
+
+static const char count_P[] PROGMEM = " [count]";
+static const char seconds_P[] PROGMEM = " 0..3600 s";
+static const char open_P[] PROGMEM = " [";
+static const char hz_P[] PROGMEM = " (Hz)";
+static const char g_P[] PROGMEM = " (g)";
+static const char close_P[] PROGMEM = "]";
+
+/* By argument kind from ARG_COUNT on: the words allowed (a vocab.h
+ * list), how many, and the text before and after them. */
+static const struct {
+  const char *list, *pre, *post;
+  uint8_t count;
+} allowed[] PROGMEM = {
+  {0, count_P, 0, 0},                              /* ARG_COUNT */
+  {rates_P, 0, hz_P, 6},                           /* ARG_RATE */
+  {0, seconds_P, 0, 0},                            /* ARG_SECONDS */
+  {vocab_modes, 0, 0, VOCAB_MODES},                /* ARG_MODE */
+  {vocab_ranges, 0, g_P, VOCAB_RANGES},            /* ARG_RANGE */
+  {vocab_onoff, open_P, close_P, 2},               /* ARG_ONOFF */
+};
+
+/* Piece k of the arguments of a command of this kind, as help shows
+ * them (" 50|100|...|1000 (Hz)"); in an error (`err`) ";" comes first.
+ * Returns 1 after the last piece.  Each piece is at most UART_STEP_MAX
+ * characters. */
+static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, uint8_t err)
 {
-  proto_puts_P(key_P);
-  proto_u32(v);
+  const char *list = 0, *pre = 0, *post = 0;
+  uint8_t count = 0;
+  if (kind == ARG_NONE) {
+    pre = err ? PSTR(" no argument") : 0;
+  } else {
+    kind = (uint8_t)(kind - ARG_COUNT);
+    list = (const char *)pgm_read_ptr(&allowed[kind].list);
+    pre = (const char *)pgm_read_ptr(&allowed[kind].pre);
+    post = (const char *)pgm_read_ptr(&allowed[kind].post);
+    count = pgm_read_byte(&allowed[kind].count);
+  }
+  if (k == 0) {
+    if (err)
+      proto_putc(';');
+    if (pre)
+      proto_puts_P(pre);
+    else if (list)
+      proto_putc(' ');
+  } else if (k <= count) {
+    if (k > 1)
+      proto_putc('|');
+    proto_puts_P(vocab_word(list, (uint8_t)(k - 1)));
+  } else {
+    if (post)
+      proto_puts_P(post);
+    return 1;
+  }
+  return 0;
 }
 
-/* `ok <text>`, `error:<code> <text>`, and the tail. */
+/* A line refused before any command is known, by CMD_ERR_* code - 1
+ * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE; 2 and 4
+ * always name their command): what, and what is allowed. */
+static const char refused_what_P[] PROGMEM = "unknown command\0\0line too long\0\0input lost\0bad byte";
+static const char refused_allowed_P[] PROGMEM = "; see help\0\0; 16 chars\0\0; resend\0; printable ASCII";
+
+/* `error:<code> <command>: <what>; <allowed>` */
+static __attribute__((noinline)) uint8_t step_error(uint8_t step)
+{
+  uint8_t none = rpl.tail == CMD_NONE;
+  if (step == 0) {
+    proto_begin();
+    put_key_u32(PSTR("error:"), rpl.code);
+    proto_putc(' ');
+  } else if (step == 1) {
+    if (none) {
+      uint8_t i;
+      for (i = 0; i < WORD_MAX && rpl.word[i]; i++)
+        proto_putc(lineedit_shown_as(rpl.word[i]));
+    } else {
+      proto_puts_P(command_word(rpl.tail));
+    }
+    proto_puts_P(PSTR(": "));
+  } else if (step == 2) {
+    proto_puts_P(!none ? rpl.text_P : vocab_word(refused_what_P, (uint8_t)(rpl.code - 1)));
+  } else if (none || rpl.tail_value.allowed_P) {
+    if (step == 3)
+      proto_puts_P(!none ? rpl.tail_value.allowed_P : vocab_word(refused_allowed_P, (uint8_t)(rpl.code - 1)));
+    else
+      goto end;
+  } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
+end:
+    proto_end();
+    return 1;
+  }
+  return 0;
+}
+
+/* `ok <text>` and the tail. */
 static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
 {
   switch (step) {
   case 0:
     proto_begin();
-    if (rpl.code != REPLY_OK) {
-      put_key_u32(PSTR("error:"), rpl.code);
+    proto_puts_P(PSTR("ok"));
+    if (rpl.text_P)
       proto_putc(' ');
-    } else {
-      proto_puts_P(PSTR("ok"));
-      if (rpl.text_P)
-        proto_putc(' ');
-    }
     break;
   case 1:
     if (rpl.text_P)
@@ -112,29 +243,30 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
   return 0;
 }
 
+/* `ok help <command><arguments>`, one line per command. */
 static __attribute__((noinline)) uint8_t step_help(uint8_t step)
 {
-  switch (step) {
-  case 0:
+  uint8_t id = rpl.tail_value.help.id;
+  if (step == 0) {
     proto_begin();
-    proto_puts_P(PSTR("ok help report reset"));
-    break;
-  case 1: proto_puts_P(PSTR(" stop start rate")); break;
-  case 2: proto_puts_P(PSTR(" interval mode range")); break;
-  case 3: proto_puts_P(PSTR(" save load defaults")); break;
-  case 4: proto_puts_P(PSTR(" status help")); break;
-  default:
+    proto_puts_P(PSTR("ok help "));
+    proto_puts_P(command_word(id));
+    rpl.tail_value.help.k = 0;
+  } else if (put_allowed(command_arg_kind(id), rpl.tail_value.help.k++, 0)) {
     proto_end();
-    return 1;
+    rpl.tail_value.help.id = ++id;
+    return id < CMD_REPORT + CMD_COUNT ? REPLY_LINE_DONE : REPLY_DONE;
   }
-  return 0;
+  return REPLY_MORE;
 }
 
 uint8_t reply_step(uint8_t step)
 {
-  if (rpl.code == REPLY_STATUS)
-    return step_status(step);
   if (rpl.code == REPLY_HELP)
     return step_help(step);
-  return step_plain(step);
+  if (rpl.code == REPLY_STATUS)
+    return step_status(step) ? REPLY_DONE : REPLY_MORE;
+  if (rpl.code != REPLY_OK)
+    return step_error(step) ? REPLY_DONE : REPLY_MORE;
+  return step_plain(step) ? REPLY_DONE : REPLY_MORE;
 }

@@ -1,6 +1,7 @@
 /*
  * reply.h - the replies to command lines (docs/protocol.md): `ok ...`,
- * `error:<code> <text>`, `ok status ...` and `ok help ...`.  A producer:
+ * `error:<code> <command>: <what>; <allowed>`, `ok status ...` and
+ * `ok help <command> <arguments>` (one line per command).  A producer:
  * the output scheduler (tx.c) sets the reply up and writes it one step of
  * at most UART_STEP_MAX characters at a time.
  */
@@ -26,7 +27,21 @@ void reply_set_plain(uint8_t code, const char *text_P);
 void reply_set(uint8_t code, const char *text_P, uint32_t n);
 void reply_set_word(const char *text_P, const char *word_P);
 
-/* One step of the reply; returns 1 when its line is written. */
+/* `error:<code> <command>: <what>; <allowed>` (docs/protocol.md).  The
+ * command is command_word(id), or for id CMD_NONE (an unknown word, a
+ * line too long or with bytes lost) the first word of the line `quote`,
+ * copied (6 characters at most), and the texts follow from the code.
+ * allowed_P: a flash text starting "; ", or REPLY_ALLOWED_ARGS for the
+ * command's own arguments as help shows them. */
+#define REPLY_ALLOWED_ARGS ((const char *)0)
+void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P);
+
+/* One step of the reply: REPLY_MORE (call again with step + 1),
+ * REPLY_LINE_DONE (a line of a multi-line reply is out: the next starts
+ * at step 0; others may write between them), REPLY_DONE. */
+#define REPLY_MORE      0
+#define REPLY_LINE_DONE 1
+#define REPLY_DONE      2
 uint8_t reply_step(uint8_t step);
 
 #endif /* REPLY_H */

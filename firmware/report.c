@@ -18,19 +18,27 @@
 #include "vocab.h"
 
 /* Parts of a report, in order. */
-enum { PART_HEADER, PART_ROW, PART_SUM_HEAD, PART_SUM_ROW, PART_CHECK, PART_END };
+/* A report's lines in order (docs/protocol.md): H, L..., S title, S head,
+ * S rows, T..., V, E. */
+enum { PART_HEADER, PART_ROW, PART_SUM_TITLE, PART_SUM_HEAD, PART_SUM_ROW, PART_TERMS, PART_CHECK, PART_END };
 
 static struct {
   uint8_t part, ch, level;
   uint16_t seq;   /* of the report being written; +1 when one starts */
   uint8_t run_id; /* +1 with every new run (report_new_run) */
   uint8_t reset_cause;
-  /* The L row's snapshot. */
+  /* The L row's snapshot; in a T line, the least deviation so far:
+   * its key (min_key()) in pairs, its level in acc_hi (0xFFFF: none). */
   uint8_t flags;
   uint16_t acc_hi;
   uint32_t acc_lo;
   uint32_t pairs;
 } rep = {.seq = 0xFFFF}; /* the first report is seq 0 */
+
+/* B = sigma_min / 0.664: 2^16 / 0.664, for a mantissa below 2^15. */
+#define TERMS_B_SCALE 98699ul
+/* Levels whose deviation B may come from: at least this many pairs. */
+#define TERMS_B_PAIRS 8u
 
 void report_init(uint8_t cause)
 {
@@ -52,6 +60,18 @@ void report_begin(void)
 }
 
 /* ---- pieces ---- */
+
+/* The engine's pairs and accumulators, out of line: called from many
+ * steps, inlined each time they would cost flash the T lines need. */
+static __attribute__((noinline)) uint32_t pairs_at(uint8_t level)
+{
+  return allan_pairs(&sample_engine, level);
+}
+
+static __attribute__((noinline)) void acc_at(uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)
+{
+  allan_acc(&sample_engine, ch, level, hi, lo);
+}
 
 static void put_channel(uint8_t ch)
 {
@@ -214,8 +234,8 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
   switch (step) {
   case 0:
     /* Snapshot first: the engine moves on while the row drains. */
-    allan_acc(&sample_engine, rep.ch, rep.level, &rep.acc_hi, &rep.acc_lo);
-    rep.pairs = allan_pairs(&sample_engine, rep.level);
+    acc_at(rep.ch, rep.level, &rep.acc_hi, &rep.acc_lo);
+    rep.pairs = pairs_at(rep.level);
     rep.flags = allan_flags(&sample_engine, rep.ch, rep.level);
     begin_seq('L');
     put_channel(rep.ch);
@@ -237,6 +257,27 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
     return 1;
   }
   return 0;
+}
+
+static const char title0_P[] PROGMEM = "Allan deviation ";
+static const char title1_P[] PROGMEM = "(ADC counts) by ";
+static const char title2_P[] PROGMEM = "tau (s); T lines: ";
+static const char title3_P[] PROGMEM = "N, B in counts";
+
+/* The summary's first line says what it shows and in which units. */
+static __attribute__((noinline)) uint8_t step_sum_title(uint8_t step)
+{
+  static const char *const parts[] PROGMEM = {title0_P, title1_P, title2_P, title3_P};
+  if (step == 0) {
+    begin_seq('S');
+    return 0;
+  }
+  if (step <= 4) {
+    proto_puts_P((const char *)pgm_read_ptr(&parts[step - 1]));
+    return 0;
+  }
+  proto_end();
+  return 1;
 }
 
 static __attribute__((noinline)) uint8_t step_sum_head(uint8_t step)
@@ -268,26 +309,33 @@ static __attribute__((noinline)) void put_sig3_cell(uint32_t mant, int8_t exp, u
   put_cell(buf, len);
 }
 
-static __attribute__((noinline)) uint8_t step_sum_row(uint8_t step)
+/* The cells of a summary row (begin_seq is not under them: step_sum_row). */
+static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
 {
   uint32_t mant;
   int8_t exp;
   if (step == 0) {
-    begin_seq('S');
     exp = fmt_tau(&mant, rep.level, adc_rate());
     put_sig3_cell(mant, exp, 0);
   } else if (step <= ALLAN_CHANNELS) {
     uint8_t ch = (uint8_t)(step - 1);
     uint16_t hi;
     uint32_t lo;
-    allan_acc(&sample_engine, ch, rep.level, &hi, &lo);
-    exp = fmt_adev(&mant, hi, lo, allan_pairs(&sample_engine, rep.level), rep.level);
+    acc_at(ch, rep.level, &hi, &lo);
+    exp = fmt_adev(&mant, hi, lo, pairs_at(rep.level), rep.level);
     put_sig3_cell(mant, exp, allan_flags(&sample_engine, ch, rep.level) != 0);
   } else {
     proto_end();
     return 1;
   }
   return 0;
+}
+
+static uint8_t step_sum_row(uint8_t step)
+{
+  if (step == 0)
+    begin_seq('S');
+  return sum_row_cells(step);
 }
 
 /* `V,<seq>,id=<run>,crc=<XXXX>`: the run and the CRC-16/MODBUS of the
@@ -307,6 +355,102 @@ static __attribute__((noinline)) uint8_t step_check(uint8_t step)
   return 0;
 }
 
+/* The level whose tau = 2^level / fs is nearest 1 s (ties: the lower),
+ * among those with pairs. */
+static uint8_t terms_n_level(void)
+{
+  uint16_t fs = adc_rate();
+  uint8_t l, best = 0;
+  uint32_t m = 1, best_d = 0xFFFFFFFFul;
+  for (l = 0; l < ALLAN_LEVELS && pairs_at(l); l++, m <<= 1) {
+    uint32_t d = m > fs ? m - fs : fs - m;
+    if (d < best_d) {
+      best_d = d;
+      best = l;
+    }
+  }
+  return best;
+}
+
+static __attribute__((noinline)) void put_sig3(uint32_t mant, int8_t exp)
+{
+  char buf[FMT_SIG3_MAX + 1];
+  fmt_sig3(buf, mant, exp);
+  proto_puts(buf);
+}
+
+/* The deviation of the T line's channel at level l as mant * 2^exp
+ * (returned); with `n`, times sqrt(tau): N^2 = acc / (2 pairs m^2) * m / fs
+ * = acc / (2 pairs fs 2^l), i.e. fmt_adev with pairs' = pairs fs (times 2
+ * for an odd l) and level l / 2.  0 pairs: mant 0. */
+static __attribute__((noinline)) int8_t level_dev(uint8_t l, uint8_t n, uint32_t *mant)
+{
+  uint16_t hi;
+  uint32_t lo, pairs = pairs_at(l);
+  uint8_t lv = l;
+  acc_at(rep.ch, l, &hi, &lo);
+  if (n) {
+    lv = (uint8_t)(l >> 1);
+    while (pairs >= (1ul << 21)) { /* pairs' within 32 bits */
+      pairs >>= 2;
+      lv++;
+    }
+    pairs *= adc_rate();
+    if (l & 1u)
+      pairs <<= 1;
+  }
+  return fmt_adev(mant, hi, lo, pairs, lv);
+}
+
+/* `T,<seq>,<ch>,<level N>,<N>,<level B>,<B>`: the noise terms read off
+ * the channel's deviations (docs/protocol.md), in counts: N = sigma(tau)
+ * sqrt(tau) in count sqrt(s) at the level nearest 1 s, and B = min sigma
+ * / 0.664 in counts over the levels with at least 8 pairs (T lines come
+ * only when level 0 has that many).  One level is looked at per step. */
+static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
+{
+  /* The mantissa lives in rep.acc_lo (the L rows' snapshot, free once
+   * they are out), not on the stack: this step is inlined into the main
+   * loop, whose frame lies under every other one. */
+#define mant rep.acc_lo
+  uint8_t l;
+  int8_t exp;
+  if (step == 0) {
+    begin_seq('T');
+    put_channel(rep.ch);
+    proto_putc(',');
+    rep.pairs = 0xFFFFFFFFul;
+  } else if (step == 1) {
+    l = terms_n_level();
+    exp = level_dev(l, 1, &mant);
+    proto_u32(l);
+    proto_putc(',');
+    put_sig3(mant, exp);
+    proto_putc(',');
+  } else if (step < 2 + ALLAN_LEVELS) {
+    l = (uint8_t)(step - 2);
+    if (pairs_at(l) >= TERMS_B_PAIRS) {
+      /* mant is 0 or in [2^14, 2^15): (exp + 128, mant) orders as one number */
+      exp = level_dev(l, 0, &mant);
+      if (mant)
+        mant |= (uint32_t)(uint8_t)(exp + 128) << 16;
+      if (mant < rep.pairs) {
+        rep.pairs = mant;
+        rep.acc_hi = l;
+      }
+    }
+  } else if (step == 2 + ALLAN_LEVELS) {
+    proto_u32(rep.acc_hi); /* level 0 has 8 pairs at least: T lines come only then */
+    proto_putc(',');
+    put_sig3((rep.pairs & 0xFFFFu) * TERMS_B_SCALE, (int8_t)((uint8_t)(rep.pairs >> 16) - 128 - 16));
+  } else {
+    proto_end();
+    return 1;
+  }
+  return 0;
+#undef mant
+}
+
 /* After a whole line: the part and row the next line belongs to. */
 static void next_line(void)
 {
@@ -317,14 +461,20 @@ static void next_line(void)
     if (++rep.ch < ALLAN_CHANNELS)
       return;
   } else if (rep.part == PART_SUM_ROW) {
-    if (++rep.level < ALLAN_LEVELS && allan_pairs(&sample_engine, rep.level))
+    if (++rep.level < ALLAN_LEVELS && pairs_at(rep.level))
+      return;
+    rep.ch = 0;
+    if (pairs_at(0) < TERMS_B_PAIRS)
+      rep.part++; /* too few pairs for the terms: no T lines */
+  } else if (rep.part == PART_TERMS) {
+    if (++rep.ch < ALLAN_CHANNELS)
       return;
   }
   rep.part++;
   if (rep.part == PART_SUM_ROW) {
     rep.level = 0;
-    if (!allan_pairs(&sample_engine, 0))
-      rep.part++; /* no pairs yet: no summary rows */
+    if (!pairs_at(0))
+      rep.part += 2; /* no pairs yet: no summary rows, no terms (V follows) */
   }
 }
 
@@ -340,8 +490,10 @@ uint8_t report_step(uint8_t step)
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
+  case PART_SUM_TITLE: done = step_sum_title(step); break;
   case PART_SUM_HEAD: done = step_sum_head(step); break;
   case PART_SUM_ROW: done = step_sum_row(step); break;
+  case PART_TERMS: done = step_terms(step); break;
   case PART_CHECK: done = step_check(step); break;
   default:
     begin_seq('E');

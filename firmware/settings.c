@@ -1,8 +1,9 @@
 /*
  * settings.c - see settings.h.  EEPROM record at address 0:
  *   byte 0      SETTINGS_VERSION
- *   bytes 1..6  settings_t (rate, interval, mode, range)
- *   bytes 7..8  CRC-16/MODBUS (crc.h), high byte first, of bytes 0..6
+ *   bytes 1..7  settings_t (rate, interval, mode, range, echo)
+ *   bytes 8..9  CRC-16/MODBUS (crc.h), high byte first, of bytes 0..7
+ * (version 1 had no echo byte: it reads as corrupt, the defaults apply)
  * A blank EEPROM reads 0xFF everywhere.
  */
 #include "settings.h"
@@ -14,7 +15,7 @@
 #include "link.h"
 #include "vocab.h"
 
-#define SETTINGS_VERSION 1
+#define SETTINGS_VERSION 2
 #define RECORD_BYTES (1u + sizeof(settings_t) + 2u)
 
 settings_t settings;
@@ -22,7 +23,7 @@ uint8_t settings_source;
 
 static uint8_t save_pos = 0xFF; /* next record byte to write; 0xFF: idle */
 
-/* Byte i of the record for the current settings (crc: of bytes 0..6). */
+/* Byte i of the record for the current settings (crc: of bytes 0..7). */
 static uint8_t record_byte(uint8_t i, uint16_t crc)
 {
   if (i == 0)
@@ -44,7 +45,7 @@ static uint16_t record_crc(void)
 static uint8_t valid(const settings_t *s)
 {
   return vocab_rate_ok(s->rate_hz) && s->interval_s <= VOCAB_INTERVAL_MAX_S && s->mode < VOCAB_MODES &&
-         s->range < VOCAB_RANGES;
+         s->range < VOCAB_RANGES && s->echo <= 1;
 }
 
 void settings_defaults(void)
@@ -53,6 +54,7 @@ void settings_defaults(void)
   settings.interval_s = REPORT;
   settings.mode = MODE_DEFAULT;
   settings.range = RANGE_DEFAULT;
+  settings.echo = 1;
   settings_source = CFG_DEFAULTS;
 }
 

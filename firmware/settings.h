@@ -16,7 +16,8 @@ typedef struct {
   uint16_t interval_s; /* 0: reports only on request */
   uint8_t mode;        /* MODE_* */
   uint8_t range;       /* RANGE_* */
-} settings_t;
+  uint8_t echo;        /* 1: typed characters are echoed (lineedit.h) */
+} __attribute__((packed)) settings_t; /* the EEPROM record holds it byte for byte, on the AVR and natively */
 
 extern settings_t settings;
 extern uint8_t settings_source; /* CFG_*: where they came from (`cfg=`) */

@@ -6,18 +6,24 @@
  */
 #include "tx.h"
 
+#include "adc.h"
+#include "command.h"
+#include "lineedit.h"
 #include "proto.h"
 #include "reply.h"
 #include "report.h"
 #include "stream.h"
 #include "uart.h"
 
-enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT };
+enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_ECHO };
 
 /* flags */
 #define REPORT_NEXT 1 /* a report waits for the current job to end */
 #define PAUSED      2 /* a report waits for the reply written between its lines */
 #define HOLD_ROWS   4 /* a new run's rows wait for the reply that started it */
+#define REPLY_NEXT  8 /* a reply waits for the echo of its command line */
+#define ROW_GAP    16 /* ... and then for a row or frame, so that the two never
+                       * hold the stream back together (link.h's budget) */
 
 static struct {
   uint8_t job, step, flags;
@@ -54,6 +60,10 @@ uint8_t tx_can_interject(void)
  * pauses (its place is kept by report.c) and resumes after it. */
 static void start(uint8_t job)
 {
+  if (tx.job == JOB_ECHO && job == JOB_REPLY) {
+    tx.flags |= REPLY_NEXT;
+    return;
+  }
   if (tx.job == JOB_REPORT && job != JOB_REPORT)
     tx.flags |= PAUSED;
   tx.job = job;
@@ -63,6 +73,11 @@ static void start(uint8_t job)
 void tx_boot(void)
 {
   start(JOB_BOOT);
+}
+
+void tx_echo(void)
+{
+  start(JOB_ECHO);
 }
 
 void tx_report(void)
@@ -75,9 +90,15 @@ void tx_report(void)
   start(JOB_REPORT);
 }
 
+static void plain(uint8_t code, const char *text_P)
+{
+  reply_set_plain(code, text_P);
+  start(JOB_REPLY);
+}
+
 void tx_ok(const char *text_P)
 {
-  tx_error(REPLY_OK, text_P);
+  plain(REPLY_OK, text_P);
 }
 
 void tx_ok_n(const char *text_P, uint32_t n)
@@ -92,20 +113,26 @@ void tx_ok_word(const char *text_P, const char *word_P)
   start(JOB_REPLY);
 }
 
-void tx_error(uint8_t code, const char *text_P)
+void tx_error(uint8_t code, uint8_t id, const char *what_P, const char *allowed_P)
 {
-  reply_set_plain(code, text_P);
+  reply_set_error(code, id, 0, what_P, allowed_P);
+  start(JOB_REPLY);
+}
+
+void tx_refuse(uint8_t code, const char *line)
+{
+  reply_set_error(code, CMD_NONE, line, 0, 0);
   start(JOB_REPLY);
 }
 
 void tx_status(void)
 {
-  tx_error(REPLY_STATUS, 0);
+  plain(REPLY_STATUS, 0);
 }
 
 void tx_help(void)
 {
-  tx_error(REPLY_HELP, 0);
+  plain(REPLY_HELP, 0);
 }
 
 void tx_abort_report(void)
@@ -131,10 +158,16 @@ void tx_restart_rows(void)
  * the line it had reached, from its start; a waiting one begins. */
 static void job_done(void)
 {
-  if (tx.job != JOB_REPORT)
+  if (tx.job == JOB_REPLY || tx.job == JOB_BOOT)
     tx.flags &= (uint8_t)~HOLD_ROWS;
   tx.job = JOB_NONE;
-  if (tx.flags & PAUSED) {
+  if (tx.flags & REPLY_NEXT) {
+    tx.flags &= (uint8_t)~REPLY_NEXT;
+    if (stream_holds_oldest() && adc_running() && !(tx.flags & HOLD_ROWS))
+      tx.flags |= ROW_GAP; /* rows keep coming: one goes first */
+    tx.job = JOB_REPLY;
+    tx.step = 0;
+  } else if (tx.flags & PAUSED) {
     tx.flags &= (uint8_t)~PAUSED;
     tx.job = JOB_REPORT;
     tx.step = 0;
@@ -148,16 +181,30 @@ void tx_poll(void)
 {
   while (tx_can_write()) {
     uint8_t done;
-    if (stream_step(at_line_boundary(), tx.flags & HOLD_ROWS))
+    if (stream_step(at_line_boundary(), tx.flags & HOLD_ROWS)) {
+      tx.flags &= (uint8_t)~ROW_GAP;
       continue;
-    if (tx.job == JOB_NONE)
+    }
+    if (tx.job == JOB_NONE || (tx.flags & ROW_GAP))
       break;
     if (tx.job == JOB_REPORT) {
+      uint8_t room = uart_tx_room();
       done = report_step(tx.step);
+      if (done == REPORT_MORE && uart_tx_room() == room) {
+        tx.step++; /* a step that only computed (a T line's search): the loop */
+        break;     /* feeds the engine before the next one */
+      }
       tx.step = done == REPORT_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPORT_DONE;
+    } else if (tx.job == JOB_REPLY) {
+      done = reply_step(tx.step); /* a line of help at a time: rows may come between */
+      tx.step = done == REPLY_MORE ? (uint8_t)(tx.step + 1) : 0;
+      done = done == REPLY_DONE;
+    } else if (tx.job == JOB_ECHO) {
+      lineedit_echo(&lineedit, 1, uart_write, UART_STEP_MAX);
+      done = !lineedit_ended(&lineedit);
     } else {
-      done = tx.job == JOB_BOOT ? report_boot_step(tx.step) : reply_step(tx.step);
+      done = report_boot_step(tx.step);
       tx.step++;
     }
     if (done)

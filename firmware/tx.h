@@ -18,15 +18,22 @@
 /* The proto sink becomes the UART; MCUSR bits for the `reset=` fields. */
 void tx_init(uint8_t reset_cause);
 
-/* Queue jobs (replies only when tx_can_interject()). */
+/* Queue jobs (replies and echo only when tx_can_interject()). */
+void tx_echo(void);                                    /* the rest of the ended line's echo (lineedit.h), whole */
 void tx_boot(void);
 void tx_report(void);                                  /* a whole report, after the current job */
 void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */
 void tx_ok_n(const char *text_P, uint32_t n);          /* `ok <text><n>` */
 void tx_ok_word(const char *text_P, const char *word_P); /* `ok <text><word>` */
-void tx_error(uint8_t code, const char *text_P);       /* `error:<code> <text>` */
+/* `error:<code> <command>: <what>; <allowed>`: see reply_set_error();
+ * TX_ALLOWED_ARGS: the allowed part lists the command's arguments.
+ * tx_refuse: a line refused before any command is known (unknown word,
+ * too long, bytes lost), naming its first word. */
+#define TX_ALLOWED_ARGS ((const char *)0)
+void tx_error(uint8_t code, uint8_t id, const char *what_P, const char *allowed_P);
+void tx_refuse(uint8_t code, const char *line);
 void tx_status(void);                                  /* `ok status ...` */
-void tx_help(void);                                    /* `ok help ...` */
+void tx_help(void);                                    /* `ok help <command> <args>`, a line each */
 
 /* 1 while a job or a stream line is being written. */
 uint8_t tx_busy(void);

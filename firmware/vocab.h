@@ -50,6 +50,7 @@ extern const char vocab_modes[];
 extern const char vocab_ranges[];
 extern const char vocab_sources[];
 extern const char vocab_causes[];
+extern const char vocab_onoff[]; /* "off", "on": 0, 1 */
 /* Channel names, two letters each, no separator: "axayazgxgygz". */
 extern const char vocab_channels[];
 

@@ -14,10 +14,10 @@
 /* Strip the line ending and a trailing comment; 1 if anything but blanks
  * is left.  A line starting with '$' is a protocol line (a raw capture of
  * the device holds count lines "$C,<rows>,<drops>*CRC" and replies):
- * skipped. */
+ * skipped, and so is the echo of a typed command line ("> ..."). */
 static int strip(char *s)
 {
-  if (s[0] == '$')
+  if (s[0] == '$' || s[0] == '>')
     return 0;
   char *p = strchr(s, '#');
   if (p)

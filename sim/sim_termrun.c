@@ -5,6 +5,7 @@
  */
 #define _GNU_SOURCE
 #include "harness.h"
+#include "sim_regbit.h"
 
 #include <errno.h>
 #include <poll.h>
@@ -90,6 +91,12 @@ static void term_poll(void)
     }
     t.connected = now;
   }
+  /* Typed bytes wait in the pty until the firmware has enabled its
+   * receiver: the device powers up when the terminal opens it (as a board
+   * reset by DTR does), and a command sent at once would otherwise reach
+   * a UART not yet listening and be lost without a reply. */
+  if (!avr_regbit_get(g.avr, g.uart->rxen))
+    return;
   while (t.connected && readable && g.txq_len < 64) {
     uint8_t buf[64];
     ssize_t n = read(t.pty.master, buf, sizeof buf - g.txq_len);

@@ -10,6 +10,11 @@ a SAT row must carry a saturation value (2^48 - 1, or 2^40 - 1 for narrower
 accumulators) no larger than the exact sum, and an unflagged row's exact sum
 must stay below it.  When the header says from which level the accumulators
 have 48 bits (``acc48``; 40 bits below), each row is held to its own width.
+
+The noise terms the device read off its own deviations (T records) are
+recomputed from the report's integers (``expected_terms``) and must agree
+within the printed precision (half a unit in the third significant digit,
+plus the device's fixed-point error, ``TERM_REL``).
 """
 from __future__ import annotations
 
@@ -25,6 +30,11 @@ from .device.files import PathLike
 from .device.rows import iter_blocks
 
 REL_TOL = 1e-12
+TERM_REL = 2e-4
+"""Relative error the device's fixed-point deviation may add (fmt_adev: below 1e-4)."""
+B_FACTOR = 0.664
+"""Bias instability: the flicker floor of the Allan deviation is 0.664 B (IEEE 952)."""
+B_MIN_PAIRS = 8
 SAT_VALUES = ((1 << 40) - 1, ACC_MAX)
 
 
@@ -33,6 +43,7 @@ class CheckResult:
     file_rows: int = 0
     rows: int = 0          # L rows in the report
     compared: int = 0      # rows without flags, compared exactly
+    terms: int = 0         # device noise terms (T records) recomputed
     exact: int = 0         # ... whose acc equals the host's exact sum
     flagged: list[str] = field(default_factory=list)
     max_rel: float = 0.0
@@ -118,7 +129,67 @@ def check_report(report: DeviceReport, rows_path: PathLike, fs_hz: Optional[floa
         if rel > REL_TOL:
             bad(f"{where}: avar {r.avar!r} vs float64 reference {want!r} "
                 f"(relative difference {rel:.3g} > {REL_TOL:g})")
+    _check_terms(report, res)
     return res
+
+
+def expected_terms(report: DeviceReport, channel: str) -> dict[str, Optional[tuple[int, float]]]:
+    """The noise terms as the device defines them (docs/protocol.md, T), from
+    the report's own L rows: N = adev(tau) * sqrt(tau) at the level whose tau
+    is nearest 1 s (ties: the lower) among levels with pairs, in count*sqrt(s);
+    B = min adev / 0.664 over levels with at least 8 pairs, in counts.
+    {"N": (level, value) or None, "B": ...}."""
+    fs = float(report.header.fs_hz)
+    rows = [r for r in report.rows if r.channel == channel and r.pairs]
+    out: dict[str, Optional[tuple[int, float]]] = {"N": None, "B": None}
+    if rows:
+        n = min(rows, key=lambda r: (abs(r.m - fs), r.level))
+        out["N"] = (n.level, float(np.sqrt(n.avar * n.m / fs)))
+    cand = [r for r in rows if r.pairs >= B_MIN_PAIRS]
+    if cand:
+        b = min(cand, key=lambda r: (r.avar, r.level))
+        out["B"] = (b.level, float(np.sqrt(b.avar)) / B_FACTOR)
+    return out
+
+
+def _printed_tol(value: float) -> float:
+    """Half a unit in the third significant digit of value, plus TERM_REL."""
+    if value <= 0:
+        return 1e-300
+    return 0.5 * 10.0 ** (np.floor(np.log10(value)) - 2) * 1.0001 + TERM_REL * value
+
+
+def _check_terms(report: DeviceReport, res: CheckResult) -> None:
+    """Each T record against the terms recomputed from the report's integers.
+    A running device computes its T lines a few samples after its L rows:
+    those are compared only when the header says the run had stopped."""
+    bad = res.mismatches.append
+    if not report.terms or report.header.running is not False:
+        return
+    for ch, got in report.terms.items():
+        want = expected_terms(report, ch)
+        for name in ("N", "B"):
+            g, w = getattr(got, name), want[name]
+            where = f"{ch} {name}"
+            if w is None or g.level is None:
+                if (w is None) != (g.level is None):
+                    bad(f"{where}: device {'-' if g.level is None else g.value}, "
+                        f"expected {'-' if w is None else w[1]:.4g}")
+                continue
+            res.terms += 1
+            level, value = w
+            rows = {r.level: r for r in report.rows if r.channel == ch}
+            if g.level != level:
+                # a near tie of the minimum may fall either way in fixed point
+                alt = rows.get(g.level)
+                same = alt is not None and name == "B" and alt.pairs >= B_MIN_PAIRS and \
+                    abs(np.sqrt(alt.avar) / B_FACTOR - value) <= TERM_REL * value
+                if not same:
+                    bad(f"{where}: device used level {g.level}, expected {level}")
+                    continue
+            if abs(g.value - value) > _printed_tol(value):
+                bad(f"{where}: device {g.value:g}, recomputed {value:.6g} "
+                    f"(beyond the printed precision)")
 
 
 def _check_header(h: DeviceHeader, fs_hz: Optional[float], res: CheckResult) -> None:
@@ -146,6 +217,8 @@ def summary(res: CheckResult, report: DeviceReport, log_name: str, rows_name: st
         f"max relative difference of avar vs float64 reference: {res.max_rel:.3g} "
         f"(limit {REL_TOL:g})",
     ]
+    if res.terms:
+        lines.append(f"noise terms (T): {res.terms} recomputed from the report's integers")
     if res.flagged:
         lines.append("flagged: " + ", ".join(res.flagged))
     if res.ok:

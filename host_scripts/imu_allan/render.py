@@ -46,9 +46,22 @@ CSV_COLUMNS = ("channel", "level", "m", "tau_s", "pairs", "covers", "acc", "avar
 def report_doc(rep: DeviceReport) -> Doc:
     """A complete device report as the ``{header, rows}`` document of ``decode --json``."""
     fs = rep.header.fs_hz
-    return {"header": rep.header.as_dict(),
-            "rows": [row_dict(r.channel, r.level, r.pairs, r.acc, r.avar, fs, flag_names(r.flags))
-                     for r in rep.rows]}
+    doc = {"header": rep.header.as_dict(),
+           "rows": [row_dict(r.channel, r.level, r.pairs, r.acc, r.avar, fs, flag_names(r.flags))
+                    for r in rep.rows]}
+    if rep.terms:
+        doc["terms"] = terms_doc(rep, fs)
+    return doc
+
+
+def terms_doc(rep: DeviceReport, fs: float) -> dict[str, Any]:
+    """The device's own noise terms (T records) as ``decode --json`` shows them:
+    ``{ch: {"N": {"value", "tau_s"}, "B": {...}}}``, N in count*sqrt(s), B in
+    counts, as printed (3 significant digits); a term the device could not read
+    off is null."""
+    def one(t: Any) -> Optional[dict[str, Any]]:
+        return None if t.level is None else {"value": t.value, "tau_s": 2 ** t.level / fs}
+    return {ch: {"N": one(t.N), "B": one(t.B)} for ch, t in rep.terms.items()}
 
 
 def decode_text(docs: list[Doc], total: int, log: str, every: bool, errors: dict[str, int]) -> str:

@@ -56,6 +56,8 @@ def report_lines(rows: np.ndarray, levels: int, seq: int = 0, fs: int = 100, dro
             if tweak:
                 pairs, acc, flags = tweak(ch, k, pairs, acc, flags)
             out.append(line(f"L,{seq},{ch},{k},{pairs},{acc:012X},{flags:02X}"))
+    # the summary's title line, then its column heading (docs/protocol.md)
+    out.append(line(f"S,{seq},Allan deviation (ADC counts) by tau (s); T lines: N, B in counts"))
     out.append(line(f"S,{seq},   tau_s       ax       ay       az       gx       gy       gz"))
     out.append(line(f"E,{seq},{6 * levels}"))
     return out

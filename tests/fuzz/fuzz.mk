@@ -55,7 +55,7 @@ FUZZ_TARGETS := fuzz_command fuzz_cmdline fuzz_proto fuzz_fmt fuzz_allan fuzz_al
 # Per target: firmware sources, extra flags, seed directory, input size.
 FUZZ_SRC_fuzz_command := command.c vocab.c
 # The receiver with the parser, on whole byte streams (NULs and all bytes).
-FUZZ_SRC_fuzz_cmdline := cmdline.c command.c vocab.c
+FUZZ_SRC_fuzz_cmdline := cmdline.c lineedit.c command.c vocab.c
 FUZZ_SRC_fuzz_proto := proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_fmt := fmt.c
 FUZZ_SRC_fuzz_allan := allan.c

@@ -21,7 +21,10 @@
 #include "cmdline.h"
 #include "command.h"
 #include "fuzz_util.h"
+#include "settings.h"
 #include "uart.h"
+
+settings_t settings; /* echo off: the receiver alone (no output) */
 
 static const uint8_t *stream;
 static size_t stream_len, stream_pos, gap_at = (size_t)-1;
@@ -65,12 +68,17 @@ static size_t model(const uint8_t *s, size_t n, size_t gap, event_t *ev)
       }
       len = 0;
       code = 0;
+    } else if (c == 0x03 || c == 0x1B) {
+      len = 0; /* Ctrl-C, Esc: the line is dropped, lost bytes with it */
+      code = 0;
     } else if (c == 0x08 || c == 0x7F) {
       if (len)
         len--;
     } else if ((c < 0x20 && c != '\t') || c > 0x7E) {
       if (!code)
         code = CMD_ERR_BYTE;
+      if (len < COMMAND_LINE_MAX)
+        text[len++] = '?'; /* it takes its place, shown as '?' */
     } else if (len < COMMAND_LINE_MAX) {
       text[len++] = (char)c;
     } else if (!code) {

@@ -6,6 +6,7 @@
  * against independent computations written here: the CRCs bit by bit, the
  * codes from the fake ADC's pattern, the fields from the commands sent.
  */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -123,7 +124,7 @@ static void test_unknown_command_gets_error_and_sampling_goes_on(void)
   fx_send_str("bogus 12\r");
   fx_run_us(100000);
   line("error:", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("error:1 unknown command", b);
+  TEST_ASSERT_EQUAL_STRING("error:1 bogus: unknown command; see help", b);
   fx_send_str("stop\r");
   fx_run_us(50000);
   line("ok stopped", 0, b, sizeof b);
@@ -144,7 +145,7 @@ static void test_reply_between_report_lines_pauses_report(void)
   TEST_ASSERT_TRUE(fx_count_lines("L,") > 0); /* the report is under way */
   TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("E,"));
   fx_send_str("status\r");
-  fx_run_us(300000);
+  fx_run_us(500000); /* the rest of the report: about 4.7 kB at 11.5 kB/s */
   long st = fx_find_line("ok status", 0, b, sizeof b, NULL);
   long h = fx_find_line("H,0,", 0, b, sizeof b, NULL);
   long e = fx_find_line("E,0,", 0, b, sizeof b, NULL);
@@ -287,12 +288,12 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
   command("range 4");
   command("save");
   line("ok saved", 0, b, sizeof b);
-  /* the record: version 1, rate LE, interval LE, mode, range, CRC big-endian */
-  static const uint8_t want[7] = {1, 50, 0, 7, 0, 3, 2};
-  TEST_ASSERT_EQUAL_HEX8_ARRAY(want, fake_eeprom, 7);
-  unsigned crc = ref_crc16_modbus(fake_eeprom, 7);
-  TEST_ASSERT_EQUAL_HEX8(crc >> 8, fake_eeprom[7]);
-  TEST_ASSERT_EQUAL_HEX8(crc & 0xFF, fake_eeprom[8]);
+  /* the record: version 2, rate LE, interval LE, mode, range, echo, CRC big-endian */
+  static const uint8_t want[8] = {2, 50, 0, 7, 0, 3, 2, 1};
+  TEST_ASSERT_EQUAL_HEX8_ARRAY(want, fake_eeprom, 8);
+  unsigned crc = ref_crc16_modbus(fake_eeprom, 8);
+  TEST_ASSERT_EQUAL_HEX8(crc >> 8, fake_eeprom[8]);
+  TEST_ASSERT_EQUAL_HEX8(crc & 0xFF, fake_eeprom[9]);
   fx_send_str("defaults\r");
   fx_run_us(100000);
   line("ok defaults", 0, b, sizeof b);
@@ -310,12 +311,12 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
 static void test_saved_settings_are_in_force_at_power_up(void)
 {
   char b[256];
-  static const uint8_t rec[7] = {1, 0xF4, 1, 5, 0, 0, 3}; /* 500 Hz, 5 s, allan, 6 g */
-  memcpy(fake_eeprom, rec, 7);
-  unsigned crc = ref_crc16_modbus(rec, 7);
-  fake_eeprom[7] = (uint8_t)(crc >> 8);
-  fake_eeprom[8] = (uint8_t)crc;
-  memset(fake_eeprom + 9, 0xFF, sizeof fake_eeprom - 9);
+  static const uint8_t rec[8] = {2, 0xF4, 1, 5, 0, 0, 3, 0}; /* 500 Hz, 5 s, allan, 6 g, no echo */
+  memcpy(fake_eeprom, rec, 8);
+  unsigned crc = ref_crc16_modbus(rec, 8);
+  fake_eeprom[8] = (uint8_t)(crc >> 8);
+  fake_eeprom[9] = (uint8_t)crc;
+  memset(fake_eeprom + 10, 0xFF, sizeof fake_eeprom - 10);
   fx_boot(1);
   fx_send_str("status\r");
   fx_run_us(100000);
@@ -351,13 +352,83 @@ static void test_link_budget_refuses_raw_at_1000_hz(void)
   command("rate 1000");
   command("mode raw");
   line("error:", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
+  TEST_ASSERT_EQUAL_STRING("error:4 mode: link too slow; lower rate", b);
+}
+
+/* Half a unit in the third significant digit of v, plus the device's
+ * fixed-point error (fmt_adev: below 1e-4 relative). */
+static double printed_tol(double v)
+{
+  return 0.5 * pow(10.0, floor(log10(v)) - 2) * 1.0001 + 2e-4 * v;
+}
+
+/* The T lines (N and B read on the device in fixed point) against N and B
+ * computed here in double from the same report's L rows, on many reports:
+ * four rates, runs of different lengths, each stopped then reported. */
+static void test_noise_terms_match_float_on_many_reports(void)
+{
+  static const unsigned rates[] = {50, 100, 250, 1000};
+  char b[256], cmd[32];
+  unsigned seq = 0, checked = 0;
+  fx_boot(1);
+  fx_run_us(60000);
+  command("echo off");
+  command("interval 0"); /* reports only on request: seq counts ours */
+  for (unsigned r = 0; r < 4; r++) {
+    snprintf(cmd, sizeof cmd, "rate %u", rates[r]);
+    command(cmd);
+    for (unsigned run = 0; run < 3; run++, seq++) {
+      unsigned n = 300u + 1700u * run + 37u * r; /* 300 .. 3500 sets */
+      command("stop");
+      command("reset");
+      snprintf(cmd, sizeof cmd, "start %u", n);
+      command(cmd);
+      fx_run_us((uint64_t)n * 1000000u / rates[r] + 100000u);
+      command("report");
+      fx_run_us(700000);
+      for (unsigned c = 0; c < 6; c++) {
+        static const char *chs[] = {"ax", "ay", "az", "gx", "gy", "gz"};
+        double adev[15];
+        unsigned long pairs[15];
+        int kn = -1, kb = -1;
+        for (unsigned k = 0; k < 15; k++) {
+          char pre[24], hex[16];
+          unsigned lv;
+          snprintf(pre, sizeof pre, "L,%u,%s,%u,", seq, chs[c], k);
+          line(pre, 0, b, sizeof b);
+          TEST_ASSERT_EQUAL_INT(3, sscanf(b + strlen(pre) - 2 - (k > 9), "%u,%lu,%12s", &lv, &pairs[k], hex));
+          hex[12] = 0;
+          double acc = (double)strtoull(hex, NULL, 16), m = (double)(1u << k);
+          adev[k] = pairs[k] ? sqrt(acc / (2.0 * m * m * (double)pairs[k])) : 0.0;
+          if (pairs[k] && (kn < 0 || fabs(m - rates[r]) < fabs((double)(1u << kn) - rates[r])))
+            kn = (int)k;
+          if (pairs[k] >= 8 && (kb < 0 || adev[k] < adev[kb]))
+            kb = (int)k;
+        }
+        char pre[16];
+        int tkn, tkb;
+        double tn, tb;
+        snprintf(pre, sizeof pre, "T,%u,%s,", seq, chs[c]);
+        line(pre, 0, b, sizeof b);
+        TEST_ASSERT_EQUAL_INT(4, sscanf(b + strlen(pre), "%d,%lf,%d,%lf", &tkn, &tn, &tkb, &tb));
+        double wn = adev[kn] * sqrt((double)(1u << kn) / rates[r]), wb = adev[kb] / 0.664;
+        TEST_ASSERT_EQUAL_INT_MESSAGE(kn, tkn, b);
+        TEST_ASSERT_TRUE_MESSAGE(fabs(tn - wn) <= printed_tol(wn), b);
+        TEST_ASSERT_TRUE_MESSAGE(tkb == kb || fabs(adev[tkb] - adev[kb]) <= 2e-4 * adev[kb], b);
+        TEST_ASSERT_TRUE_MESSAGE(fabs(tb - wb) <= printed_tol(wb), b);
+        checked++;
+      }
+    }
+  }
+  TEST_ASSERT_EQUAL_UINT(4 * 3 * 6, checked);
 }
 
 static void test_line_with_nul_is_refused_whole_and_runs_nothing(void)
 {
   static const char *bad[] = {"reset\0xyz", "rate 250\0 junk", "status\x01", "help\xff", "\0"};
   static const size_t len[] = {9, 14, 7, 5, 1};
+  /* the bad byte shows as '?' in the quoted first word (6 characters) */
+  static const char *quote[] = {"reset?", "rate", "status", "help?", "?"};
   char b[256], want[64];
   fx_boot(1);
   fx_run_us(1000000);
@@ -366,7 +437,8 @@ static void test_line_with_nul_is_refused_whole_and_runs_nothing(void)
     fx_send_str("\r");
     fx_run_us(60000);
     line("error:", i, b, sizeof b);
-    TEST_ASSERT_EQUAL_STRING("error:6 bad byte", b);
+    snprintf(want, sizeof want, "error:6 %s: bad byte; printable ASCII", quote[i]);
+    TEST_ASSERT_EQUAL_STRING(want, b);
   }
   command("stop");
   line("ok stopped", 0, b, sizeof b);
@@ -417,12 +489,13 @@ static void test_report_header_temp_is_dash_or_mean_min_max(void)
 static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
 {
   char b[256];
-  static const uint8_t rec[7] = {1, 0xE8, 3, 5, 0, 1, 0}; /* raw at 1000 Hz */
-  memcpy(fake_eeprom, rec, 7);
-  unsigned crc = ref_crc16_modbus(rec, 7);
-  fake_eeprom[7] = (uint8_t)(crc >> 8);
-  fake_eeprom[8] = (uint8_t)crc;
-  memset(fake_eeprom + 9, 0xFF, sizeof fake_eeprom - 9);
+  /* record v2: raw at 1000 Hz, interval 5, range 1.5 g, echo on */
+  static const uint8_t rec[8] = {2, 0xE8, 3, 5, 0, 1, 0, 1};
+  memcpy(fake_eeprom, rec, 8);
+  unsigned crc = ref_crc16_modbus(rec, 8);
+  fake_eeprom[8] = (uint8_t)(crc >> 8);
+  fake_eeprom[9] = (uint8_t)crc;
+  memset(fake_eeprom + 10, 0xFF, sizeof fake_eeprom - 10);
   fx_boot(1);
   fx_run_us(60000);
   command("status");
@@ -430,7 +503,7 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible", b);
   command("load");
   line("error:", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("error:4 link too slow", b);
+  TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);
 }
 
 /* CRC-16/MODBUS over the bodies of report seq's H and L lines, in order. */
@@ -543,6 +616,7 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_range_command_drives_gselect_pins),
   T(test_raw_mode_writes_every_set_in_order_with_count_lines),
   T(test_save_writes_a_checked_record_and_load_restores_it),
+  T(test_noise_terms_match_float_on_many_reports),
   T(test_saved_settings_are_in_force_at_power_up),
   T(test_periodic_report_follows_the_interval),
   T(test_link_budget_refuses_raw_at_1000_hz),

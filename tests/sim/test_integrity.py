@@ -88,9 +88,10 @@ def test_line_with_a_nul_or_control_byte_is_refused_whole(run, tmp_path: Path) -
     n = 4000
     cli("gen", "-n", str(n), "--fs", "100", "--seed", "17", "-o", str(r.rows))
     bad = ["reset\\x00xyz", "range 6\\x00!", "interval 5\\x00000", "rate 250\\x00 junk",
-           "status\\x01", "help\\xff", "\\x00", "stop\\x1b"]
+           "status\\x01", "help\\xff", "\\x00", "stop\\x1a"]
+    dropped = ["stop\\x1b", "stop\\x03"]  # Esc, Ctrl-C: the line is dropped, no reply
     uart = tmp_path / "uart.txt"
-    uart.write_text("".join(f"{500 + 300 * i}\t{b}\\r\n" for i, b in enumerate(bad)))
+    uart.write_text("".join(f"{500 + 300 * i}\t{b}\\r\n" for i, b in enumerate(bad + dropped)))
     simulate_and_check(r, n, 100, uart_in=uart)
     log = r.log.read_bytes()
     log = log[log.index(b"$ok started"):]  # after the harness's own commands
@@ -187,4 +188,4 @@ def test_budget_refuses_raw_where_replies_would_cost_samples(run, tmp_path: Path
     uart = tmp_path / "uart.txt"
     uart.write_text("100\tmode raw\\r\n")
     simulate_and_check(r, n, 250, uart_in=uart)
-    assert b"$error:4 link too slow" in r.log.read_bytes()
+    assert b"$error:4 mode: link too slow; lower rate*" in r.log.read_bytes()

@@ -68,6 +68,7 @@ class SimTerm:
         self.ser: serial.Serial | None = None
         self.buf = b""
         self.seen: list[bytes] = []   # bodies of all lines read
+        self.echoes: list[bytes] = []  # echo lines ("> ..." CR LF) read
 
     def errors(self) -> str:
         return self.stderr.read_text(errors="replace") if self.stderr.exists() else ""
@@ -98,13 +99,17 @@ class SimTerm:
         (with strict=False a bad line reads as b"")."""
         assert self.ser is not None
         deadline = time.monotonic() + timeout
-        while b"\n" not in self.buf:
-            if time.monotonic() > deadline:
-                raise AssertionError(f"no device line within {timeout} s "
-                                     f"(partial {self.buf[:80]!r}); imu-sim: {self.errors()}")
-            self.buf += self.ser.read(max(1, self.ser.in_waiting))
-        raw, self.buf = self.buf.split(b"\n", 1)
-        raw += b"\n"
+        while True:
+            while b"\n" not in self.buf:
+                if time.monotonic() > deadline:
+                    raise AssertionError(f"no device line within {timeout} s "
+                                         f"(partial {self.buf[:80]!r}); imu-sim: {self.errors()}")
+                self.buf += self.ser.read(max(1, self.ser.in_waiting))
+            raw, self.buf = self.buf.split(b"\n", 1)
+            raw += b"\n"
+            if not raw.startswith(b"> "):
+                break
+            self.echoes.append(raw)   # the echo of a typed line
         m = LINE.match(raw)
         if not strict and not (m and int(m.group(2), 16) == crc16(m.group(1))):
             return b""
@@ -168,7 +173,7 @@ class SimTerm:
             elif kind == "V":                 # the report's check line
                 assert body.split(",")[2] == f"id={head['id']}", body
             else:
-                assert kind == "S", body
+                assert kind in ("S", "T"), body   # the summary, the noise terms
 
 
 @pytest.fixture(scope="module")
@@ -413,7 +418,8 @@ def test_raw_capture_replays(tmp_path: Path) -> None:
     finally:
         d.stop()
     lines = capture.split(b"\r\n")
-    data = [list(map(int, l.split(b"\t"))) for l in lines if l and not l.startswith(b"$")]
+    assert b"> start 300" in lines          # the echo, a line of its own
+    data = [list(map(int, l.split(b"\t"))) for l in lines if l and not l.startswith((b"$", b"> "))]
     assert len(data) == 300
     start = table.index(data[0])
     assert data == [table[(start + i) % 7] for i in range(300)]

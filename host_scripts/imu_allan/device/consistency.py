@@ -117,6 +117,10 @@ def _values(rep: "DeviceReport") -> Optional[str]:
     return None
 
 
+# The summary's first line, a title (protocol: "Allan deviation (ADC counts) by tau (s); ...").
+SUMMARY_TITLE = "Allan deviation "
+
+
 def _summary(rep: "DeviceReport", summary: list[str], moving: bool) -> Optional[str]:
     fs = rep.header.fs_hz
     by_tau = {}
@@ -125,8 +129,8 @@ def _summary(rep: "DeviceReport", summary: list[str], moving: bool) -> Optional[
     rows = {(r.channel, r.level): r for r in rep.rows}
     for text in summary:
         cells = text.split()
-        if not cells or cells[0] == "tau_s":
-            continue
+        if not cells or cells[0] == "tau_s" or text.startswith(SUMMARY_TITLE):
+            continue  # the column heading, the title line (docs/protocol.md)
         level = by_tau.get(cells[0])
         if level is None or len(cells) != 1 + len(CHANNELS):
             return f"summary line {text.strip()!r}: not a level of this report"

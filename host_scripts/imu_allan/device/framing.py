@@ -170,6 +170,9 @@ def split_frames(data: bytes) -> Frames:
 
 
 def _garbage(chunk: bytes) -> int:
+    """Bytes outside lines, CR, LF and the device's echo lines ("> ...") aside."""
+    if b">" in chunk:
+        chunk = b"\n".join(ln for ln in chunk.split(b"\n") if not ln.startswith(b"> "))
     return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
 
 

@@ -68,9 +68,15 @@ def command_line(words: list[str]) -> bytes:
 def send_command(ser: Any, line: bytes, timeout: float) -> Optional[str]:
     """Send ``line``; the body of the first intact reply within ``timeout``
     seconds (``ok ...`` or ``error:...``), or None.  Other traffic (reports,
-    raw rows, binary frames, garbage) is read and ignored."""
+    raw rows, binary frames, the device's echo of typed lines, garbage) is
+    read and ignored.  A boot line before any reply means the device
+    (re)started after the line was sent, e.g. because opening the port
+    reset it, so the line never reached its command loop: it is sent again,
+    once.  A multi-line reply (``ok help ...``) is returned whole, its lines
+    joined by newlines."""
     import serial  # type: ignore[import-untyped]
     dec = StreamDecoder()
+    resent = False
     try:
         ser.reset_input_buffer()  # a reply already waiting is not ours
         ser.write(line)
@@ -81,10 +87,31 @@ def send_command(ser: Any, line: bytes, timeout: float) -> Optional[str]:
             if data:
                 chunk = dec.feed(data)
                 if chunk.replies:
-                    return chunk.replies[0]
+                    return _rest_of_reply(ser, dec, chunk.replies)
+                if chunk.boots and not resent:
+                    resent = True
+                    ser.write(line)
+                    ser.flush()
     except (serial.SerialException, OSError) as exc:
         raise PortError(str(exc)) from None
     return None
+
+
+def _rest_of_reply(ser: Any, dec: StreamDecoder, replies: list[str]) -> str:
+    """The further lines of a multi-line reply (``ok help <command>``, one
+    per command): read while they keep coming."""
+    if not replies[0].startswith("ok help "):
+        return replies[0]
+    lines = [r for r in replies if r.startswith("ok help ")]
+    quiet_until = time.monotonic() + 0.3
+    while time.monotonic() < quiet_until:
+        data = ser.read(4096)
+        if data:
+            more = [r for r in dec.feed(data).replies if r.startswith("ok help ")]
+            if more:
+                lines += more
+                quiet_until = time.monotonic() + 0.3
+    return "\n".join(lines)
 
 
 class Monitor:

@@ -105,13 +105,33 @@ class DeviceHeader:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
+@dataclass(frozen=True)
+class DeviceTerm:
+    """One noise term the device read off its own deviations (a T record):
+    the octave level it used and the value as printed (3 significant digits),
+    N in count*sqrt(s), B in counts; level and value None when the device had
+    no level to take it from (``-``)."""
+    level: Optional[int]
+    value: Optional[float]
+
+
+@dataclass(frozen=True)
+class DeviceTerms:
+    """A T record: ``T,<seq>,<ch>,<level N>,<N>,<level B>,<B>``."""
+    channel: str
+    N: DeviceTerm
+    B: DeviceTerm
+
+
 @dataclass
 class DeviceReport:
     """One whole report of the device: its header and every L row, in channel
-    then level order."""
+    then level order; the noise terms of its T records by channel (firmware
+    that sends them)."""
     seq: int
     header: DeviceHeader
     rows: list[LRow] = field(default_factory=list)
+    terms: dict[str, DeviceTerms] = field(default_factory=dict)
 
 
 @dataclass
@@ -246,6 +266,22 @@ def parse_row(fields: list[str]) -> LRow:
     return LRow(ch, _uint(level, "level", 31), _uint(pairs, "pairs"), int(acc, 16), int(flags, 16))
 
 
+def _term(level: str, value: str) -> DeviceTerm:
+    if level == "-" and value == "-":
+        return DeviceTerm(None, None)
+    v = float(value)
+    if not v >= 0 or v == float("inf"):
+        raise BodyError(f"bad term value {value!r}")
+    return DeviceTerm(_uint(level, "level", 63), v)
+
+
+def parse_terms(fields: list[str]) -> DeviceTerms:
+    """The fields of a T record after its seq: ch, level N, N, level B, B."""
+    if len(fields) != 5 or fields[0] not in CHANNELS:
+        raise BodyError("T record needs <ch>,<level N>,<N>,<level B>,<B>")
+    return DeviceTerms(fields[0], _term(fields[1], fields[2]), _term(fields[3], fields[4]))
+
+
 def parse_count(fields: list[str]) -> tuple[int, Optional[int]]:
     """``C,<rows>[,<drops>[,...]]`` (fields after ``C``) -> (rows, drops or None).
     Further fields are ignored."""
@@ -351,7 +387,7 @@ class Assembler:
                 self._abandon()  # the device reset: an open report never ends
                 self._last_seq = None  # seq counts from 0 again
                 self.boots.append(boot)
-            elif kind in ("H", "L", "S", "V", "E"):
+            elif kind in ("H", "L", "S", "T", "V", "E"):
                 self._report_line(kind, fields, body)
             elif kind == "C":
                 parse_count(fields[1:])  # raw row counts: checked by stream.py
@@ -386,6 +422,7 @@ class Assembler:
             self._check = []
             return
         row = parse_row(fields[2:]) if kind == "L" else None
+        term = parse_terms(fields[2:]) if kind == "T" else None
         if kind == "E":
             if len(fields) != 3:
                 raise BodyError("E record needs exactly <seq>,<rows>")
@@ -402,6 +439,8 @@ class Assembler:
             self._bound = crc16_modbus(body.encode("ascii"), self._bound)
         elif kind == "V":
             self._check.append(",".join(fields[2:]))
+        elif term is not None:
+            open_.terms[term.channel] = term
         elif kind == "S":
             self._summary.append(",".join(fields[2:]))
         elif not _complete(open_, count):

@@ -159,6 +159,10 @@ def _text(chunk: bytes) -> int:
     return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
 
 
+ECHO = 0x3E
+"""'>': the device's echo of a typed command line starts with "> " (docs/protocol.md)."""
+
+
 def _rows(b: np.ndarray, ls: np.ndarray, le: np.ndarray, cand: np.ndarray
           ) -> tuple[np.ndarray, np.ndarray, int]:
     """Raw rows among whole lines [ls, le) (le: index of the LF) of ``b``.
@@ -269,6 +273,7 @@ class StreamDecoder:
         dline = np.unique(np.searchsorted(lf, dollars)) if dollars.size else dollars
         cand = np.ones(lf.size, dtype=bool)
         cand[dline] = False
+        cand[r[ls] == ECHO] = False  # the device's echo of a typed line: not data
         if lf.size and not self._carry_line_start:
             cand[0] = False
             if 0 not in dline:
