@@ -185,6 +185,8 @@ void tx_poll(void)
       tx.flags &= (uint8_t)~ROW_GAP;
       continue;
     }
+    if ((tx.flags & ROW_GAP) && !adc_pending() && !adc_running())
+      tx.flags &= (uint8_t)~ROW_GAP; /* sampling ended (start <count>, stop): no row will come */
     if (tx.job == JOB_NONE || (tx.flags & ROW_GAP))
       break;
     if (tx.job == JOB_REPORT) {
