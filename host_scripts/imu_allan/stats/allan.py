@@ -167,43 +167,49 @@ def _octave(x: ArrayLike, ms: np.ndarray, kernel) -> tuple[np.ndarray, np.ndarra
     return out, cnt
 
 
-def _second_diff(X: np.ndarray, ms: np.ndarray, overlapping: bool,
-                 progress: ProgressFn) -> tuple[np.ndarray, np.ndarray]:
+def _per_m(X: np.ndarray, ms: np.ndarray, progress: ProgressFn,
+           one: Callable[[int, int], Optional[tuple[float, int]]]) -> tuple[np.ndarray, np.ndarray]:
+    """The one loop over cluster sizes behind every statistic here: ``one(n, m)``
+    gives (variance, terms) at m, or None where m is too long for n + 1 phase points."""
     n = X.size - 1
     out = np.full(ms.size, np.nan)
     count = np.zeros(ms.size, dtype=np.int64)
     for j, m in enumerate(ms.tolist()):
         if progress:
             progress(j)
+        r = one(n, m)
+        if r is not None:
+            out[j], count[j] = r
+    return out, count
+
+
+def _second_diff(X: np.ndarray, ms: np.ndarray, overlapping: bool,
+                 progress: ProgressFn) -> tuple[np.ndarray, np.ndarray]:
+    """AVAR (NIST SP 1065 eq. 11, 12) from second differences of the phase X."""
+    def one(n: int, m: int) -> Optional[tuple[float, int]]:
         if overlapping:
             c = n - 2 * m + 1
             if c < 1:
-                continue
+                return None
             s = _blocked(c, lambda a, b: _sumsq(X[a + 2 * m:b + 2 * m] - 2 * X[a + m:b + m] + X[a:b]))
         else:
             c = n // m - 1
             if c < 1:
-                continue
+                return None
             P = X[::m]
             s = _sumsq(P[2:c + 2] - 2 * P[1:c + 1] + P[:c])
-        out[j] = s / (2.0 * m * m * c)
-        count[j] = c
-    return out, count
+        return s / (2.0 * m * m * c), c
+    return _per_m(X, ms, progress, one)
 
 
 def mvar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
-    """Modified AVAR at each m (allantools' mdev algorithm); returns (mvar, terms)."""
+    """Modified AVAR at each m (allantools' mdev algorithm, NIST SP 1065 eq. 14); returns (mvar, terms)."""
     X = _prepare(x)
-    n = X.size - 1
-    ms_a = np.asarray(list(ms), dtype=np.int64)
-    out = np.full(ms_a.size, np.nan)
-    count = np.zeros(ms_a.size, dtype=np.int64)
-    for j, m in enumerate(ms_a.tolist()):
-        if progress:
-            progress(j)
+
+    def one(n: int, m: int) -> Optional[tuple[float, int]]:
         e = n + 1 - 3 * m  # third differences of X
         if e < 0:
-            continue
+            return None
         v0 = (X[2 * m:3 * m] - 2 * X[m:2 * m] + X[0:m]).sum()
         s = float(v0) * float(v0)
         carry = v0
@@ -214,30 +220,23 @@ def mvar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[
             v += carry
             carry = v[-1]
             s += _sumsq(v)
-        c = e + 1
-        out[j] = s / (2.0 * float(m) ** 4 * c)
-        count[j] = c
-    return out, count
+        return s / (2.0 * float(m) ** 4 * (e + 1)), e + 1
+    return _per_m(X, np.asarray(list(ms), dtype=np.int64), progress, one)
 
 
 def ohvar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
-    """Overlapping Hadamard variance at each m; returns (hvar, terms)."""
+    """Overlapping Hadamard variance at each m (NIST SP 1065 eq. 17); returns (hvar, terms)."""
     X = _prepare(x)
-    n = X.size - 1
-    ms_a = np.asarray(list(ms), dtype=np.int64)
-    out = np.full(ms_a.size, np.nan)
-    count = np.zeros(ms_a.size, dtype=np.int64)
-    for j, m in enumerate(ms_a.tolist()):
-        if progress:
-            progress(j)
+
+    def one(n: int, m: int) -> Optional[tuple[float, int]]:
         c = n + 1 - 3 * m
         if c < 1:
-            continue
+            return None
         s = _blocked(c, lambda a, b: _sumsq(X[a + 3 * m:b + 3 * m] - 3 * X[a + 2 * m:b + 2 * m]
                                             + 3 * X[a + m:b + m] - X[a:b]))
-        out[j] = s / (6.0 * m * m * c)
-        count[j] = c
-    return out, count
+        return s / (6.0 * m * m * c), c
+    return _per_m(X, np.asarray(list(ms), dtype=np.int64), progress, one)
+
 
 
 # ---- streaming octave engine -----------------------------------------------------------
