@@ -105,7 +105,9 @@ unit:
 	cmake --build $(BUILD)/unit -j 2
 	cd $(BUILD)/unit && ctest --output-on-failure
 
-pytest:
+# The host tests that drive the real firmware in imu-sim (sweep, the report
+# check line) need both built; without them they would skip.
+pytest: firmware $(IMU_SIM)
 	cd host_scripts && $(PYTHON) -m pytest -q
 
 # The simulated device on a pseudo-terminal, driven as a user would.
