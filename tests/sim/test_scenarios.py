@@ -135,6 +135,19 @@ def _contiguous_slice(rows: np.ndarray, part: np.ndarray) -> int:
     raise AssertionError("the captured rows are not an unbroken run of the input")
 
 
+def _assert_rows_from_switch_to_switch_back(r, tmp_path: Path, n: int) -> None:
+    """`imu-allan rows` on the capture exits 0 and gives an unbroken run of the
+    input rows from the switch to a stream mode (row 100) to the switch back
+    (row n - 200)."""
+    extracted = tmp_path / "extracted.tsv"
+    proc = cli("rows", str(r.log), "-o", str(extracted), check=False)
+    assert proc.returncode == 0, proc.stderr
+    rows = np.loadtxt(r.rows, dtype=int, comments="#")
+    got = np.loadtxt(extracted, dtype=int, comments="#")
+    start = _contiguous_slice(rows, got)
+    assert 100 <= start <= 110 and start + len(got) >= n - 210, (start, len(got))
+
+
 @pytest.mark.parametrize("mode,fs", [("raw", 100), ("binary", 500), ("both", 50)])
 def test_output_modes_carry_every_sample(run, tmp_path: Path, mode: str, fs: int) -> None:
     """Switch to an output mode during the run and back to allan near its
@@ -147,14 +160,7 @@ def test_output_modes_carry_every_sample(run, tmp_path: Path, mode: str, fs: int
     uart = tmp_path / "uart.txt"
     uart.write_text(f"100\tmode {mode}\\r\n{n - 200}\tmode allan\\r\n")
     simulate_and_check(r, n, fs, uart_in=uart)
-    extracted = tmp_path / "extracted.tsv"
-    proc = cli("rows", str(r.log), "-o", str(extracted), check=False)
-    assert proc.returncode == 0, proc.stderr
-    rows = np.loadtxt(r.rows, dtype=int, comments="#")
-    got = np.loadtxt(extracted, dtype=int, comments="#")
-    start = _contiguous_slice(rows, got)
-    # Output began right after the switch and ran until the switch back.
-    assert 100 <= start <= 110 and start + len(got) >= n - 210, (start, len(got))
+    _assert_rows_from_switch_to_switch_back(r, tmp_path, n)
 
 
 def test_typing_in_raw_100_hz_costs_no_sample(run, tmp_path: Path) -> None:
@@ -184,13 +190,7 @@ def test_typing_in_raw_100_hz_costs_no_sample(run, tmp_path: Path) -> None:
     assert b"\r\n> help\r\n" in text and text.count(b"$ok help ") == 14
     assert b"\r\n> rate 9\r\n" in text
     assert b"$error:2 rate: unsupported; 50|100|200|250|500|1000 (Hz)*" in text
-    extracted = tmp_path / "extracted.tsv"
-    proc = cli("rows", str(r.log), "-o", str(extracted), check=False)
-    assert proc.returncode == 0, proc.stderr
-    rows = np.loadtxt(r.rows, dtype=int, comments="#")
-    got = np.loadtxt(extracted, dtype=int, comments="#")
-    start = _contiguous_slice(rows, got)
-    assert 100 <= start <= 110 and start + len(got) >= n - 210, (start, len(got))
+    _assert_rows_from_switch_to_switch_back(r, tmp_path, n)
 
 
 def _settings_record(rate: int, interval: int, mode: int, rng: int, good_crc: bool = True) -> bytes:
