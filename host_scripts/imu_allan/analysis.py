@@ -228,7 +228,8 @@ def _host_curves(host: HostPass, c_i: int, extra: bool = True) -> dict[str, _Cur
     return out
 
 
-def _device_curve(report: DeviceReport, ch: str) -> _Curve:
+def device_curve(report: DeviceReport, ch: str) -> _Curve:
+    """The on-device octave AVAR of ``ch`` as a curve (levels with pairs, by m)."""
     rows = sorted((r for r in report.rows if r.channel == ch and r.pairs > 0), key=lambda r: r.level)
     ms = np.array([r.m for r in rows], dtype=np.int64)
     return _Curve(ms, np.array([r.avar for r in rows]), np.array([r.covers + 1 for r in rows]),
@@ -246,7 +247,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
     sc = profile.scale(ch)
     k2 = sc.per_count ** 2
     curves = _host_curves(host, c_i, opts.extra_curves) if host is not None else {}
-    dev = _device_curve(report, ch) if report is not None else None
+    dev = device_curve(report, ch) if report is not None else None
     if host is not None:
         main, overlapping, stat = curves["oavar"], True, "oadev"
         res: allan.OctaveResult = host.octave  # the fit's grid, whatever --taus shows
@@ -269,7 +270,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         "kind": sc.kind,
         "scale_per_count": sc.per_count,
         "term_units": {k: term_unit(sc, k) for k in terms.TERMS},
-        "terms": {k: _term_json(t) for k, t in fit.terms.items()},
+        "terms": {k: term_json(t) for k, t in fit.terms.items()},
         "term_notes": _term_notes(fit, _clipping(ch, c_i, host, report, notes)),
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
         "b_classic": _b_classic(fit),
@@ -335,7 +336,8 @@ def _term_notes(fit: terms.FitResult, clipped: Optional[str]) -> dict[str, str]:
     return out
 
 
-def _term_json(t: terms.Term) -> Optional[dict[str, Any]]:
+def term_json(t: terms.Term) -> Optional[dict[str, Any]]:
+    """A noise term as the JSON of ``analyze --json`` (None when not identified)."""
     if t.value is None:
         return None
     return {"value": t.value, "low": t.low, "high": t.high,

@@ -51,6 +51,9 @@ class SampleSource:
     size_bytes: Optional[int] = None
     units: dict[str, str] = field(default_factory=dict)   # from the CSV header
     notes: list[str] = field(default_factory=list)
+    open_temperature: Optional[Callable[[], Iterator[np.ndarray]]] = None
+    """Blocks of the temperature column's codes, aligned with ``open_blocks``
+    (rows files and captures carry it; CSV does not)."""
 
 
 @dataclass
@@ -80,7 +83,7 @@ def load(path: str) -> Source:
     if not first:
         raise InputError(f"'{name}' is empty")
     head = first[:SNIFF_BYTES]
-    if _is_capture(head):
+    if is_capture(head):
         return _capture(name, read_capture(path, first, blocks))
     if path == "-":
         path = _spool(first, blocks)
@@ -152,7 +155,7 @@ def _one_setting(name: str, cap: Capture) -> None:
                          "cut the capture at the change and analyze each part")
 
 
-def _is_capture(head: bytes) -> bool:
+def is_capture(head: bytes) -> bool:
     """Intact protocol lines or binary frames in the first bytes."""
     if split_frames(head).bodies:
         return True
@@ -173,6 +176,8 @@ def _capture(name: str, cap: Capture) -> Source:
         samples = SampleSource("capture", name, list(CHANNELS),
                                lambda: (codes[:, a:a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK)),
                                True, n_hint=n, size_bytes=None)
+        temp = cap.samples[len(CHANNELS)]
+        samples.open_temperature = lambda: (temp[a:a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK))
         if src.header is not None:
             samples.fs = float(src.header.fs_hz)
         if lost:
@@ -217,7 +222,8 @@ def _text(path: str, name: str, head: bytes, size: int) -> Source:
     if len(fields) == 7 and all(re.fullmatch(r"\d+", f) for f in fields):
         return Source(name, SampleSource(
             "rows", name, list(CHANNELS), lambda: (b[:len(CHANNELS)] for b in iter_blocks(path, name=name)),
-            True, n_hint=max(size // 26, 1), size_bytes=size), None)
+            True, n_hint=max(size // 26, 1), size_bytes=size,
+            open_temperature=lambda: (b[len(CHANNELS)] for b in iter_blocks(path, name=name))), None)
     if len(fields) == 7 and all(re.fullmatch(r"[-+]?\d+(\.\d*)?", f) for f in fields):
         bad = next(f for f in fields if not re.fullmatch(r"\d+", f))
         raise InputError(f"'{name}': line {lineno}: {bad!r} is not a 10-bit ADC code (a rows file "

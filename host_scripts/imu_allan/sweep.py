@@ -182,13 +182,13 @@ def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from
     """The IEEE 952 fit of the device curve restricted to tau >= fit_from and to the
     ``allowed`` terms (replaces the terms)."""
     from .stats import edf, terms
-    from .analysis import _device_curve, _term_json
-    cv = _device_curve(rep, ch)
+    from .analysis import device_curve, term_json
+    cv = device_curve(rep, ch)
     tau = cv.ms / fs
     mask = np.array([not f for f in cv.flags], dtype=bool) & (tau >= fit_from * (1 - 1e-9))
     fit = terms.fit_terms(tau, cv.var * k2, edf.edf_function(cv.ms, cv.N, cv.stride), mask=mask,
                           overlapping=False, allowed=tuple(allowed or terms.TERMS))
-    out["terms"] = {k: _term_json(t) for k, t in fit.terms.items()}
+    out["terms"] = {k: term_json(t) for k, t in fit.terms.items()}
     out["upper_bounds"] = {k: (t.upper if math.isfinite(t.upper) else None) for k, t in fit.terms.items()}
     out["chi2_dof"] = fit.chi2_red if math.isfinite(fit.chi2_red) else None
     out["fit_notes"] = fit.notes + [f"terms {','.join(allowed or terms.TERMS)} fitted at tau >= "

@@ -55,29 +55,24 @@ BLOCKS = 400
 
 
 def read_with_temperature(path: str) -> tuple[np.ndarray, Optional[float], str]:
-    """(7, n) codes of a rows file or a raw/both capture, its fs if a header says, its kind."""
-    from .device.capture import read_capture
-    from .device.files import open_input
-    from .device.rows import read_rows
-    from .sources import _is_capture
-    try:
-        f = open_input(path)
-    except OSError as exc:
-        raise InputError(f"cannot read '{path}': {exc.strerror or exc}") from None
-    try:
-        head = f.read(1 << 16)
-    finally:
-        f.close()
-    if not head:
-        raise InputError(f"'{path}' is empty")
-    if _is_capture(head):
-        cap = read_capture(path)
-        if not cap.samples.shape[1]:
-            raise InputError(f"'{path}': a device capture without raw rows or binary frames "
-                             "(the thermal study needs the samples: mode raw or both)")
-        fs = float(cap.reports[-1].header.fs_hz) if cap.reports else None
-        return cap.samples, fs, "capture"
-    return read_rows(path), None, "rows"
+    """(7, n) codes of a rows file or a raw/both capture, its fs if a header says, its kind.
+
+    Read through the one file reader (sources.load); only the sources that
+    carry the temperature column (rows files, captures with samples) qualify."""
+    from .sources import load
+    src = load(path)
+    s = src.samples
+    if s is None:
+        raise InputError(f"'{src.name}': a device capture without raw rows or binary frames "
+                         "(the thermal study needs the samples: mode raw or both)")
+    if s.open_temperature is None:
+        raise InputError(f"'{src.name}': no temperature column (a {s.kind} file; the thermal study "
+                         "reads rows files and device captures)")
+    chans = [b for b in s.open_blocks()]
+    temps = [t for t in s.open_temperature()]
+    if not chans:
+        return np.zeros((len(s.channels) + 1, 0), dtype=np.uint16), s.fs, s.kind
+    return np.vstack([np.concatenate(chans, axis=1), np.concatenate(temps)[None, :]]), s.fs, s.kind
 
 
 FLICKER_T_MIN, FLICKER_RATIO = 1e-3, 8.0

@@ -132,5 +132,9 @@ def test_cli_json_shape_and_errors(capture, tmp_path):
     short.write_text("500\t500\t500\t500\t500\t500\t63\n" * 10)
     p = _cli("thermal", str(short), "--fs", "50")
     assert p.returncode == 2 and "too few" in p.stderr
+    csv = tmp_path / "no-temp.csv"
+    csv.write_text("t,ax,ay,az,gx,gy,gz\n" + "".join(f"{i * 0.02:.2f},1,2,3,4,5,6\n" for i in range(2000)))
+    p = _cli("thermal", str(csv))
+    assert p.returncode == 2 and "no temperature column" in p.stderr and len(p.stderr.splitlines()) == 1
     p = _cli("thermal", str(rows), "--fs", "50", "--temp-scale", "abc")
     assert p.returncode == 2 and "C_PER_COUNT" in p.stderr
