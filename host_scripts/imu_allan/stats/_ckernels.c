@@ -1,0 +1,595 @@
+/* Compiled Allan kernels of imu_allan.stats (kernels.py keeps the numpy path
+ * as the fallback when this extension is not built).
+ *
+ * Plain C with the buffer protocol: no numpy headers.  Every function takes a
+ * C-contiguous 1-D buffer of rate samples (float64/32, int8..int64, uint8..32;
+ * a numpy array or an np.memmap of a file) and the offset removed before
+ * summing, and fills a float64 buffer of sums of squares, one per level.
+ *
+ *   octave_overlap    overlapping octave sums, the two-stage cache-blocked
+ *                     cascade y_2m[i] = y_m[i] + y_m[i+m] (one buffer the size
+ *                     of the input, as the numpy path); or, with stream=1, the
+ *                     same first stage and, above it, one running difference
+ *                     per level d_m(i+1) = d_m(i) + x[i+2m] - 2x[i+m] + x[i]
+ *                     read straight from the input (O(1) memory: a file's
+ *                     mmap is read in place, every level exact, no stride).
+ *   octave_nonoverlap non-overlapping octave sums, pair-sum cascade in chunks.
+ *   oavar_any         overlapping (or non-overlapping) sums at any cluster
+ *                     sizes from the phase X, stored as float64 offsets from a
+ *                     long double base per block of 4096 samples, so that a
+ *                     second difference never subtracts large numbers.
+ *
+ * Accuracy: sums of squares are added in float64 over blocks of at most 1024
+ * terms and the block sums in long double (blocked summation); cascade sums
+ * are pairwise; the running differences are long double.  The results agree
+ * with a long double evaluation of the definitions to ~1e-14 (tests).
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+typedef long double ld;
+typedef Py_ssize_t ssz;
+
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__linux__) && !defined(__clang__)
+#define HOT __attribute__((target_clones("avx2", "default")))
+#else
+#define HOT
+#endif
+
+#define SUMBLOCK 1024 /* float64 terms per partial sum (blocked summation) */
+/* Four independent 4-wide partial sums in the inner loops, so that no add
+ * waits on the previous one (GCC/clang vector extensions: AVX2 in the avx2
+ * clone, pairs of SSE2 operations otherwise). */
+typedef double v4 __attribute__((vector_size(32)));
+
+static inline v4 ld4(const double *p) { v4 v; memcpy(&v, p, sizeof v); return v; }
+static inline void st4(double *p, v4 v) { memcpy(p, &v, sizeof v); }
+static inline double hsum(v4 a, v4 b, v4 c, v4 d)
+{
+    v4 s = (a + b) + (c + d);
+    return (s[0] + s[1]) + (s[2] + s[3]);
+}
+
+/* A large scratch buffer: 2 MB aligned and, on Linux, backed by huge pages
+ * where the kernel allows it (a fresh 80 MB buffer otherwise costs 20,000
+ * page faults, as much time as the arithmetic). */
+static void *big_alloc(size_t bytes)
+{
+    void *p = NULL;
+    size_t align = (size_t)2 << 20;
+    if (bytes < align) return malloc(bytes);
+    bytes = (bytes + align - 1) / align * align;
+    if (posix_memalign(&p, align, bytes)) return NULL;
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    madvise(p, bytes, MADV_HUGEPAGE);
+#endif
+    return p;
+}
+
+/* ---- input formats ------------------------------------------------------ */
+
+enum fmt { F64, F32, I64, I32, I16, I8, U64, U32, U16, U8 };
+
+static int parse_fmt(const Py_buffer *v)
+{
+    const char *f = v->format ? v->format : "B";
+    while (*f == '@' || *f == '=' || *f == '<') f++;
+    if (f[0] == '\0' || f[1] != '\0') return -1;
+    switch (f[0]) {
+    case 'd': return v->itemsize == 8 ? F64 : -1;
+    case 'f': return v->itemsize == 4 ? F32 : -1;
+    case 'b': return I8;
+    case 'B': return U8;
+    case 'h': return I16;
+    case 'H': return U16;
+    case 'i': case 'l': case 'q':
+        return v->itemsize == 8 ? I64 : v->itemsize == 4 ? I32 : -1;
+    case 'I': case 'L': case 'Q':
+        return v->itemsize == 8 ? U64 : v->itemsize == 4 ? U32 : -1;
+    }
+    return -1;
+}
+
+/* dst[i] = x[start + i] - off as double, i < count */
+static void load(const void *x, int fmt, ssz start, ssz count, double off, double *dst)
+{
+#define LOAD(T) do { const T *s = (const T *)x + start; \
+        for (ssz i = 0; i < count; i++) dst[i] = (double)s[i] - off; } while (0)
+    switch (fmt) {
+    case F64: LOAD(double); break;
+    case F32: LOAD(float); break;
+    case I64: LOAD(int64_t); break;
+    case I32: LOAD(int32_t); break;
+    case I16: LOAD(int16_t); break;
+    case I8: LOAD(int8_t); break;
+    case U64: LOAD(uint64_t); break;
+    case U32: LOAD(uint32_t); break;
+    case U16: LOAD(uint16_t); break;
+    case U8: LOAD(uint8_t); break;
+    }
+#undef LOAD
+}
+
+static ld value(const void *x, int fmt, ssz i)
+{
+    switch (fmt) {
+    case F64: return ((const double *)x)[i];
+    case F32: return ((const float *)x)[i];
+    case I64: return ((const int64_t *)x)[i];
+    case I32: return ((const int32_t *)x)[i];
+    case I16: return ((const int16_t *)x)[i];
+    case I8: return ((const int8_t *)x)[i];
+    case U64: return ((const uint64_t *)x)[i];
+    case U32: return ((const uint32_t *)x)[i];
+    case U16: return ((const uint16_t *)x)[i];
+    default: return ((const uint8_t *)x)[i];
+    }
+}
+
+/* ---- inner loops ---------------------------------------------------------- */
+
+/* sum over i < c of (buf[i+m] - buf[i])^2; and nxt[i] = buf[i] + buf[i+m] for
+ * i < L (L >= c; nxt may be NULL).  One pass: the difference and the next
+ * level's moving sum read the same two values. */
+HOT static ld step(const double *buf, ssz m, ssz c, ssz L, double *nxt)
+{
+    ld total = 0;
+    const double *hi = buf + m;
+    for (ssz s = 0; s < c; s += SUMBLOCK) {
+        ssz e = s + SUMBLOCK < c ? s + SUMBLOCK : c;
+        v4 a0 = {0}, a1 = {0}, a2 = {0}, a3 = {0};
+        double t = 0.0;
+        ssz i = s;
+        if (nxt) {
+            for (; i + 16 <= e; i += 16) {
+                v4 x0 = ld4(buf + i), x1 = ld4(buf + i + 4), x2 = ld4(buf + i + 8), x3 = ld4(buf + i + 12);
+                v4 y0 = ld4(hi + i), y1 = ld4(hi + i + 4), y2 = ld4(hi + i + 8), y3 = ld4(hi + i + 12);
+                st4(nxt + i, x0 + y0); st4(nxt + i + 4, x1 + y1);
+                st4(nxt + i + 8, x2 + y2); st4(nxt + i + 12, x3 + y3);
+                v4 d0 = y0 - x0, d1 = y1 - x1, d2 = y2 - x2, d3 = y3 - x3;
+                a0 += d0 * d0; a1 += d1 * d1; a2 += d2 * d2; a3 += d3 * d3;
+            }
+            for (; i < e; i++) {
+                double d = hi[i] - buf[i];
+                nxt[i] = buf[i] + hi[i];
+                t += d * d;
+            }
+        } else {
+            for (; i + 16 <= e; i += 16) {
+                v4 d0 = ld4(hi + i) - ld4(buf + i), d1 = ld4(hi + i + 4) - ld4(buf + i + 4);
+                v4 d2 = ld4(hi + i + 8) - ld4(buf + i + 8), d3 = ld4(hi + i + 12) - ld4(buf + i + 12);
+                a0 += d0 * d0; a1 += d1 * d1; a2 += d2 * d2; a3 += d3 * d3;
+            }
+            for (; i < e; i++) {
+                double d = hi[i] - buf[i];
+                t += d * d;
+            }
+        }
+        total += hsum(a0, a1, a2, a3) + t;
+    }
+    if (nxt)
+        for (ssz i = c; i < L; i++) nxt[i] = buf[i] + hi[i];
+    return total;
+}
+
+/* ---- overlapping octave sums ----------------------------------------------- */
+
+static int levels_of(ssz n)
+{
+    int k = 0;
+    if (n < 2) return 0;
+    while (((ssz)2 << k) <= n) k++;  /* largest k with 2^k <= n/2 ... */
+    return k;                        /* levels: m = 2^0 .. 2^(k-1), 2^(k-1) <= n/2 */
+}
+
+/* The running second differences of the levels K .. levels-1 (m >= 2^K):
+ * d_m(i) = y_m(i+m) - y_m(i), d_m(i+1) = d_m(i) + x[i+2m] - 2 x[i+m] + x[i]
+ * (the offset cancels).  Long double; all levels advance together over
+ * blocks of i so that the input is read once per block per distinct offset. */
+#define CHAIN_BLOCK 2048
+#define MAXLEV 64
+
+static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc)
+{
+    int nl = levels - K;
+    if (nl <= 0) return;
+    ld d[MAXLEV];
+    ssz last[MAXLEV];
+    for (int j = 0; j < nl; j++) {
+        ssz m = (ssz)1 << (K + j);
+        ld s0 = 0, s1 = 0;
+        for (ssz i = 0; i < m; i++) { s0 += value(x, fmt, i); s1 += value(x, fmt, i + m); }
+        d[j] = s1 - s0;
+        last[j] = n - 2 * m;  /* terms i = 0 .. last */
+        acc[K + j] = 0;
+    }
+    /* the offsets read: 0 and 2^K .. 2^levels; each block converted once */
+    int no = nl + 2;
+    double *blk = malloc(sizeof(double) * (size_t)no * CHAIN_BLOCK);
+    if (!blk) return;
+    ssz top = last[0];  /* the longest chain */
+    for (ssz a = 0; a < top; a += CHAIN_BLOCK) {
+        ssz len = a + CHAIN_BLOCK <= top ? CHAIN_BLOCK : top - a;  /* steps i = a .. a+len-1 */
+        load(x, fmt, a, len, 0.0, blk);
+        for (int o = 1; o < no; o++) {
+            ssz off = (ssz)1 << (K + o - 1);
+            ssz cnt = len;
+            if (a + off + cnt > n) cnt = n - a - off;
+            if (cnt > 0) load(x, fmt, a + off, cnt, 0.0, blk + (size_t)o * CHAIN_BLOCK);
+        }
+        for (int j = 0; j < nl; j++) {
+            ssz steps = last[j] - a;  /* steps still to take at this level */
+            if (steps <= 0) continue;
+            if (steps > len) steps = len;
+            const double *x0 = blk, *x1 = blk + (size_t)(j + 1) * CHAIN_BLOCK,
+                         *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK;
+            ld dj = d[j], s = 0, s2 = 0, dj2;
+            ssz i = 0;
+            /* two interleaved halves of the accumulator hide the add latency */
+            for (; i + 1 < steps; i += 2) {
+                s += dj * dj;
+                dj2 = dj + (((ld)x2[i] + (ld)x0[i]) - 2 * (ld)x1[i]);
+                s2 += dj2 * dj2;
+                dj = dj2 + (((ld)x2[i + 1] + (ld)x0[i + 1]) - 2 * (ld)x1[i + 1]);
+            }
+            for (; i < steps; i++) {
+                s += dj * dj;
+                dj += ((ld)x2[i] + (ld)x0[i]) - 2 * (ld)x1[i];
+            }
+            d[j] = dj;
+            acc[K + j] += s + s2;
+        }
+    }
+    for (int j = 0; j < nl; j++) acc[K + j] += d[j] * d[j];  /* the term i = last */
+    free(blk);
+}
+
+static int octave_overlap_impl(const void *x, int fmt, ssz n, double off, ssz tile, ssz split,
+                               int stream, ld *acc)
+{
+    int levels = levels_of(n);
+    for (int k = 0; k < levels; k++) acc[k] = 0;
+    if (!levels) return 0;
+    ssz M = split < ((ssz)1 << levels) ? split : ((ssz)1 << levels);
+    int K = 0;
+    while (((ssz)1 << (K + 1)) <= M) K++;
+    ssz T = tile > 8 * M ? tile : 8 * M;
+    ssz LY = n - M + 1;
+    int stage2 = K < levels && !stream;
+    ssz Q = (LY + M - 1) / M;
+    double *Y = NULL, *b0 = NULL, *b1 = NULL;
+    if (stage2) {
+        Y = big_alloc(sizeof(double) * (size_t)(Q * M));
+        if (!Y) return -1;
+        memset(Y + LY, 0, sizeof(double) * (size_t)(Q * M - LY));
+    }
+    b0 = malloc(sizeof(double) * (size_t)(T + M));
+    b1 = malloc(sizeof(double) * (size_t)(T + M));
+    if (!b0 || !b1) { free(Y); free(b0); free(b1); return -1; }
+    for (ssz a = 0; a < LY; a += T) {
+        ssz b = a + T + M - 1 < n ? a + T + M - 1 : n;
+        ssz L = b - a;
+        int last = a + T >= LY;
+        double *buf = b0, *nxt = b1;
+        load(x, fmt, a, L, off, buf);
+        for (int k = 0; k < K; k++) {
+            ssz m = (ssz)1 << k;
+            ssz c = n - 2 * m + 1 - a;
+            if (!last && c > T) c = T;
+            if (c <= 0) break;
+            L -= m;
+            acc[k] += step(buf, m, c, L, nxt);
+            double *t = buf; buf = nxt; nxt = t;
+        }
+        if (Y) {
+            ssz cnt = T < LY - a ? T : LY - a;
+            memcpy(Y + a, buf, sizeof(double) * (size_t)cnt);
+        }
+    }
+    free(b0); free(b1);
+    if (stream) {
+        chains(x, fmt, n, K, levels, acc);
+        return 0;
+    }
+    if (!Y) return 0;
+    /* stage 2: columns r0 .. r0+R of Y (rows of M) through every upper level */
+    ssz want = tile / 2 / Q;
+    if (want < 1) want = 1;
+    int lb = 0;
+    while (((ssz)2 << lb) <= want) lb++;
+    if (lb < 3) lb = 3;
+    ssz R = ((ssz)1 << lb) < M ? ((ssz)1 << lb) : M;
+    double *t0 = malloc(sizeof(double) * (size_t)(Q * R)), *t1 = malloc(sizeof(double) * (size_t)(Q * R));
+    if (!t0 || !t1) { free(Y); free(t0); free(t1); return -1; }
+    for (ssz r0 = 0; r0 < M; r0 += R) {
+        double *src = t0, *dst = t1;
+        for (ssz q = 0; q < Q; q++) memcpy(src + q * R, Y + q * M + r0, sizeof(double) * (size_t)R);
+        for (int k = K; k < levels; k++) {
+            ssz m = (ssz)1 << k;
+            ssz e0 = n - 2 * m - r0;
+            if (e0 < 0) break;
+            ssz qf = e0 / M, rem = e0 % M;
+            ssz cnt = qf * R + (R < rem + 1 ? R : rem + 1);
+            ssz s = (m / M) * R;
+            acc[k] += step(src, s, cnt, cnt, dst);
+            double *t = src; src = dst; dst = t;
+        }
+    }
+    free(t0); free(t1); free(Y);
+    return 0;
+}
+
+/* ---- non-overlapping octave sums -------------------------------------------- */
+
+/* Cluster sums cascade S_2m[j] = S_m[2j] + S_m[2j+1] inside chunks; the pair
+ * across a chunk boundary uses the previous chunk's last sum (slot 0). */
+HOT static ld pairs_step(const double *buf, ssz L)
+{
+    /* sum over i < L - 1 of (buf[i+1] - buf[i])^2 */
+    return step(buf, 1, L - 1, 0, NULL);
+}
+
+static int octave_nonoverlap_impl(const void *x, int fmt, ssz n, double off, ssz chunk, ld *acc)
+{
+    int levels = levels_of(n);
+    for (int k = 0; k < levels; k++) acc[k] = 0;
+    if (!levels) return 0;
+    int KC = 0;
+    while (((ssz)2 << KC) <= chunk) KC++;
+    int inner = levels < KC + 1 ? levels : KC + 1;
+    double *bufs[MAXLEV];
+    int have[MAXLEV];
+    double *top = malloc(sizeof(double) * (size_t)(n / chunk + 1));
+    if (!top) return -1;
+    for (int k = 0; k < inner; k++) {
+        bufs[k] = malloc(sizeof(double) * (size_t)((chunk >> k) + 1));
+        have[k] = 0;
+        if (!bufs[k]) { for (int j = 0; j < k; j++) free(bufs[j]); free(top); return -1; }
+    }
+    ssz ntop = 0;
+    for (ssz a = 0; a < n; a += chunk) {
+        ssz L = a + chunk <= n ? chunk : n - a;
+        load(x, fmt, a, L, off, bufs[0] + 1);
+        for (int k = 0; k < inner; k++) {
+            double *buf = bufs[k];
+            ssz lo = have[k] ? 0 : 1;  /* slot 0: the previous chunk's last sum */
+            if (L + 1 - lo >= 2) acc[k] += pairs_step(buf + lo, L + 1 - lo);
+            if (L >= 1) { buf[0] = buf[L]; have[k] = 1; }
+            if (k + 1 < inner) {
+                ssz h = L / 2;
+                double *up = bufs[k + 1] + 1;
+                for (ssz j = 0; j < h; j++) up[j] = buf[2 * j + 1] + buf[2 * j + 2];
+                L = h;
+            } else if (inner < levels && L == 1) {
+                top[ntop++] = buf[1];
+            }
+        }
+    }
+    /* levels above the chunk: plain cascade over the chunk sums (in place) */
+    ssz cnt = ntop;
+    for (int k = inner; k < levels; k++) {
+        ssz h = cnt / 2;
+        for (ssz j = 0; j < h; j++) top[j] = top[2 * j] + top[2 * j + 1];
+        cnt = h;
+        ld s = 0;
+        for (ssz j = 0; j + 1 < cnt; j++) { double d = top[j + 1] - top[j]; s += (ld)d * d; }
+        acc[k] = s;
+    }
+    for (int k = 0; k < inner; k++) free(bufs[k]);
+    free(top);
+    return 0;
+}
+
+/* ---- any cluster sizes, from the phase --------------------------------------- */
+
+#define PBLOCK 4096  /* phase samples per long double base */
+
+/* X(i) = sum_{j<i} (x_j - off) = base[i / PBLOCK] + rel[i], i = 0 .. n */
+static int phase(const void *x, int fmt, ssz n, double off, double **rel_out, ld **base_out)
+{
+    ssz nb = n / PBLOCK + 1;
+    double *rel = malloc(sizeof(double) * (size_t)(n + 1));
+    ld *base = malloc(sizeof(ld) * (size_t)nb);
+    double tmp[PBLOCK];
+    if (!rel || !base) { free(rel); free(base); return -1; }
+    ld X = 0;
+    for (ssz b = 0; b < nb; b++) {
+        ssz a = b * PBLOCK, e = a + PBLOCK < n + 1 ? a + PBLOCK : n + 1;  /* phase points a .. e-1 */
+        base[b] = X;
+        ld r = 0;
+        rel[a] = 0.0;
+        ssz cnt = e - a;  /* samples a .. e-1 give points a+1 .. e */
+        if (a + cnt > n) cnt = n - a;
+        load(x, fmt, a, cnt, off, tmp);
+        for (ssz i = 0; i < cnt; i++) {
+            r += tmp[i];
+            if (a + i + 1 < e) rel[a + i + 1] = (double)r;
+        }
+        X += r;
+    }
+    *rel_out = rel;
+    *base_out = base;
+    return 0;
+}
+
+HOT static double seg2(const double *r0, const double *r1, const double *r2, ssz cnt, double c)
+{
+    v4 a0 = {0}, a1 = {0}, cc = {c, c, c, c};
+    double t = 0.0;
+    ssz i = 0;
+    for (; i + 8 <= cnt; i += 8) {
+        v4 d0 = (ld4(r2 + i) - 2.0 * ld4(r1 + i) + ld4(r0 + i)) + cc;
+        v4 d1 = (ld4(r2 + i + 4) - 2.0 * ld4(r1 + i + 4) + ld4(r0 + i + 4)) + cc;
+        a0 += d0 * d0; a1 += d1 * d1;
+    }
+    for (; i < cnt; i++) {
+        double d = (r2[i] - 2.0 * r1[i] + r0[i]) + c;
+        t += d * d;
+    }
+    v4 z = {0};
+    return hsum(a0, a1, z, z) + t;
+}
+
+static ld overlap_m(const double *rel, const ld *base, ssz n, ssz m)
+{
+    ssz c = n - 2 * m + 1;  /* terms i = 0 .. c-1 */
+    ld total = 0;
+    for (ssz i = 0; i < c;) {
+        ssz p0 = i, p1 = i + m, p2 = i + 2 * m;
+        ssz b0 = p0 / PBLOCK, b1 = p1 / PBLOCK, b2 = p2 / PBLOCK;
+        ssz e = c - i;
+        ssz r;
+        if ((r = (b0 + 1) * PBLOCK - p0) < e) e = r;
+        if ((r = (b1 + 1) * PBLOCK - p1) < e) e = r;
+        if ((r = (b2 + 1) * PBLOCK - p2) < e) e = r;
+        if (e > SUMBLOCK) e = SUMBLOCK;
+        double cb = (double)(base[b2] - 2 * base[b1] + base[b0]);
+        total += seg2(rel + p0, rel + p1, rel + p2, e, cb);
+        i += e;
+    }
+    return total;
+}
+
+static ld nonoverlap_m(const double *rel, const ld *base, ssz n, ssz m)
+{
+    ssz c = n / m - 1;
+    ld total = 0;
+    for (ssz j = 0; j < c; j++) {
+        ssz p = j * m;
+#define XP(q) (base[(q) / PBLOCK] + (ld)rel[q])
+        ld d = XP(p + 2 * m) - 2 * XP(p + m) + XP(p);
+#undef XP
+        double dd = (double)d;
+        total += (ld)dd * dd;
+    }
+    return total;
+}
+
+/* ---- Python glue -------------------------------------------------------------- */
+
+static int get_in(PyObject *obj, Py_buffer *v, int *fmt)
+{
+    if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) return -1;
+    if (v->ndim != 1 || (*fmt = parse_fmt(v)) < 0) {
+        PyBuffer_Release(v);
+        PyErr_SetString(PyExc_TypeError, "x: a contiguous 1-D buffer of int8..64, uint8..64, float32 or float64");
+        return -1;
+    }
+    return 0;
+}
+
+static int get_out(PyObject *obj, Py_buffer *v, ssz need)
+{
+    if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0) return -1;
+    if (v->ndim != 1 || v->itemsize != 8 || !v->format || strchr(v->format, 'd') == NULL
+        || v->shape[0] < need) {
+        PyBuffer_Release(v);
+        PyErr_SetString(PyExc_ValueError, "out: a writable float64 buffer, one slot per level");
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *py_octave(PyObject *args, int kind)
+{
+    PyObject *xo, *oo;
+    double off;
+    Py_ssize_t p1 = 1 << 17, p2 = 1 << 14;
+    int stream = 0;
+    if (kind == 0) {
+        if (!PyArg_ParseTuple(args, "OdO|nni", &xo, &off, &oo, &p1, &p2, &stream)) return NULL;
+    } else {
+        if (!PyArg_ParseTuple(args, "OdO|n", &xo, &off, &oo, &p1)) return NULL;
+    }
+    if (p1 < 1 || p2 < 1 || (p1 & (p1 - 1)) || (p2 & (p2 - 1))) {
+        PyErr_SetString(PyExc_ValueError, "tile, split and chunk: powers of two");
+        return NULL;
+    }
+    Py_buffer xv, ov;
+    int fmt;
+    if (get_in(xo, &xv, &fmt) < 0) return NULL;
+    ssz n = xv.shape[0];
+    int levels = levels_of(n);
+    if (get_out(oo, &ov, levels) < 0) { PyBuffer_Release(&xv); return NULL; }
+    ld acc[MAXLEV];
+    int rc;
+    Py_BEGIN_ALLOW_THREADS
+    rc = kind == 0 ? octave_overlap_impl(xv.buf, fmt, n, off, p1, p2, stream, acc)
+                   : octave_nonoverlap_impl(xv.buf, fmt, n, off, p1, acc);
+    Py_END_ALLOW_THREADS
+    for (int k = 0; k < levels; k++) ((double *)ov.buf)[k] = (double)acc[k];
+    PyBuffer_Release(&xv);
+    PyBuffer_Release(&ov);
+    if (rc) return PyErr_NoMemory();
+    return PyLong_FromLong(levels);
+}
+
+static PyObject *octave_overlap(PyObject *self, PyObject *args) { (void)self; return py_octave(args, 0); }
+static PyObject *octave_nonoverlap(PyObject *self, PyObject *args) { (void)self; return py_octave(args, 1); }
+
+static PyObject *any_m(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *xo, *mo, *oo;
+    double off;
+    int overlapping;
+    if (!PyArg_ParseTuple(args, "OdOOp", &xo, &off, &mo, &oo, &overlapping)) return NULL;
+    Py_buffer xv, mv, ov;
+    int fmt;
+    if (get_in(xo, &xv, &fmt) < 0) return NULL;
+    if (PyObject_GetBuffer(mo, &mv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) { PyBuffer_Release(&xv); return NULL; }
+    if (mv.ndim != 1 || mv.itemsize != 8 || parse_fmt(&mv) != I64) {
+        PyBuffer_Release(&xv); PyBuffer_Release(&mv);
+        PyErr_SetString(PyExc_TypeError, "ms: contiguous int64");
+        return NULL;
+    }
+    ssz nm = mv.shape[0];
+    if (get_out(oo, &ov, nm) < 0) { PyBuffer_Release(&xv); PyBuffer_Release(&mv); return NULL; }
+    ssz n = xv.shape[0];
+    const int64_t *ms = mv.buf;
+    double *out = ov.buf;
+    int rc = 0;
+    Py_BEGIN_ALLOW_THREADS
+    double *rel;
+    ld *base;
+    rc = phase(xv.buf, fmt, n, off, &rel, &base);
+    if (!rc) {
+        for (ssz j = 0; j < nm; j++) {
+            ssz m = ms[j];
+            ssz terms = overlapping ? n - 2 * m + 1 : (m > 0 ? n / m - 1 : 0);
+            if (m < 1 || terms < 1) { out[j] = NAN; continue; }
+            out[j] = (double)(overlapping ? overlap_m(rel, base, n, m) : nonoverlap_m(rel, base, n, m));
+        }
+        free(rel);
+        free(base);
+    }
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&xv); PyBuffer_Release(&mv); PyBuffer_Release(&ov);
+    if (rc) return PyErr_NoMemory();
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"octave_overlap", octave_overlap, METH_VARARGS,
+     "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0) -> levels\n"
+     "Overlapping octave sums of squares into out[k] (m = 2^k)."},
+    {"octave_nonoverlap", octave_nonoverlap, METH_VARARGS,
+     "octave_nonoverlap(x, off, out, chunk=2**16) -> levels\n"
+     "Non-overlapping octave sums of squares into out[k]."},
+    {"any_m", any_m, METH_VARARGS,
+     "any_m(x, off, ms, out, overlapping)\n"
+     "Sums of squared second differences of the phase at each m (nan where no term)."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ckernels",
+                                    "Compiled Allan kernels (see kernels.py).", -1, methods,
+                                    NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC PyInit__ckernels(void) { return PyModule_Create(&module); }
