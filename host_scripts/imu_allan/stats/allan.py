@@ -41,8 +41,8 @@ from typing import Callable, Iterable, Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .kernels import (DOT_MAX, HEAD, blocked as _blocked, octave_avar_sums, octave_oavar_sums, offset,
-                      rowdots, sumsq as _ssq, sumsq_any as _sumsq)
+from .kernels import (DOT_MAX, HEAD, any_m_sums, blocked as _blocked, octave_avar_sums, octave_oavar_sums,
+                      offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq)
 
 from .options import TAU_KINDS  # noqa: F401  (its home: options.py)
 BLOCK = 1 << 16
@@ -124,10 +124,14 @@ def oavar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple
     """Overlapping AVAR at each m; returns (avar, terms). nan where no term.
 
     Octave grids (every m a power of two) take the cache-blocked cascade of
-    kernels.octave_oavar_sums; other grids the partial sums X."""
+    kernels.octave_oavar_sums; other grids the compiled phase kernel
+    (kernels.any_m_sums) or, without it, the partial sums X."""
     m_a = np.asarray(list(ms), dtype=np.int64)
     if _octaves(m_a):
         return _octave(x, m_a, octave_oavar_sums)
+    r = _any_m(x, m_a, overlapping=True)
+    if r is not None:
+        return r
     return _second_diff(_prepare(x), m_a, overlapping=True, progress=progress)
 
 
@@ -138,7 +142,37 @@ def avar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[
     m_a = np.asarray(list(ms), dtype=np.int64)
     if _octaves(m_a):
         return _octave(x, m_a, octave_avar_sums)
+    r = _any_m(x, m_a, overlapping=False)
+    if r is not None:
+        return r
     return _second_diff(_prepare(x), m_a, overlapping=False, progress=progress)
+
+
+def _one_channel(x: ArrayLike) -> np.ndarray:
+    a = np.asarray(x)
+    if a.ndim != 1:
+        raise ValueError("one channel at a time: x must be 1-D")
+    if not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.float64):
+        a = a.astype(np.float64)
+    return a
+
+
+def _any_m(x: ArrayLike, ms: np.ndarray, overlapping: bool) -> Optional[tuple[np.ndarray, np.ndarray]]:
+    """AVAR at any m from the compiled phase kernel; None without it."""
+    a = _one_channel(x)
+    n = a.size
+    off = float(offset(a[:HEAD])) if n else 0.0
+    sums = any_m_sums(a, off, ms, overlapping)
+    if sums is None:
+        return None
+    m = np.maximum(ms, 1)
+    cnt = np.where(ms >= 1, (n - 2 * m + 1) if overlapping else (n // m - 1), 0)
+    cnt = np.maximum(cnt, 0)
+    out = np.full(ms.size, np.nan)
+    ok = cnt > 0
+    mf = ms[ok].astype(np.float64)
+    out[ok] = sums[ok] / (2.0 * mf * mf * cnt[ok])
+    return out, cnt.astype(np.int64)
 
 
 def _octaves(ms: np.ndarray) -> bool:
@@ -147,11 +181,7 @@ def _octaves(ms: np.ndarray) -> bool:
 
 def _octave(x: ArrayLike, ms: np.ndarray, kernel) -> tuple[np.ndarray, np.ndarray]:
     """The octave kernel's sums at every level, picked at ``ms``."""
-    a = np.asarray(x)
-    if a.ndim != 1:
-        raise ValueError("one channel at a time: x must be 1-D")
-    if not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.float64):
-        a = a.astype(np.float64)
+    a = _one_channel(x)
     off = float(offset(a[:HEAD])) if a.size else 0.0
     sums, count = kernel(a, off)
     k = np.log2(ms).astype(np.int64)
