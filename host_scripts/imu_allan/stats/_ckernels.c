@@ -211,7 +211,7 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc)
         acc[K + j] = 0;
     }
     /* the offsets read: 0 and 2^K .. 2^levels; each block converted once */
-    int no = nl + 2;
+    int no = nl + 3;  /* one spare: the pair loop reads offset 2^(levels+1) of a lone last level */
     double *blk = malloc(sizeof(double) * (size_t)no * CHAIN_BLOCK);
     if (!blk) return;
     ssz top = last[0];  /* the longest chain */
@@ -224,27 +224,37 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc)
             if (a + off + cnt > n) cnt = n - a - off;
             if (cnt > 0) load(x, fmt, a + off, cnt, 0.0, blk + (size_t)o * CHAIN_BLOCK);
         }
-        for (int j = 0; j < nl; j++) {
-            ssz steps = last[j] - a;  /* steps still to take at this level */
-            if (steps <= 0) continue;
-            if (steps > len) steps = len;
+        /* two levels per loop: two independent long double chains hide the add latency */
+        for (int j = 0; j < nl; j += 2) {
+            int two = j + 1 < nl;
+            ssz sa = last[j] - a, sb = two ? last[j + 1] - a : 0;
+            if (sa > len) sa = len;
+            if (sb > len) sb = len;
+            if (sa < 0) sa = 0;
+            if (sb < 0) sb = 0;
             const double *x0 = blk, *x1 = blk + (size_t)(j + 1) * CHAIN_BLOCK,
-                         *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK;
-            ld dj = d[j], s = 0, s2 = 0, dj2;
-            ssz i = 0;
-            /* two interleaved halves of the accumulator hide the add latency */
-            for (; i + 1 < steps; i += 2) {
-                s += dj * dj;
-                dj2 = dj + (((ld)x2[i] + (ld)x0[i]) - 2 * (ld)x1[i]);
-                s2 += dj2 * dj2;
-                dj = dj2 + (((ld)x2[i + 1] + (ld)x0[i + 1]) - 2 * (ld)x1[i + 1]);
+                         *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK,
+                         *x3 = blk + (size_t)(j + 3) * CHAIN_BLOCK;
+            ld da = d[j], db = two ? d[j + 1] : 0, ta = 0, tb = 0;
+            ssz both = two ? (sa < sb ? sa : sb) : 0, i = 0;
+            for (; i < both; i++) {
+                ld u0 = x0[i], u1 = x1[i], u2 = x2[i], u3 = x3[i];
+                ta += da * da;
+                tb += db * db;
+                da += (u2 + u0) - 2 * u1;
+                db += (u3 + u0) - 2 * u2;
             }
-            for (; i < steps; i++) {
-                s += dj * dj;
-                dj += ((ld)x2[i] + (ld)x0[i]) - 2 * (ld)x1[i];
+            for (ssz k = i; k < sa; k++) {
+                ta += da * da;
+                da += ((ld)x2[k] + (ld)x0[k]) - 2 * (ld)x1[k];
             }
-            d[j] = dj;
-            acc[K + j] += s + s2;
+            for (ssz k = i; k < sb; k++) {
+                tb += db * db;
+                db += ((ld)x3[k] + (ld)x0[k]) - 2 * (ld)x2[k];
+            }
+            d[j] = da;
+            acc[K + j] += ta;
+            if (two) { d[j + 1] = db; acc[K + j + 1] += tb; }
         }
     }
     for (int j = 0; j < nl; j++) acc[K + j] += d[j] * d[j];  /* the term i = last */

@@ -522,6 +522,35 @@ def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None,
     return eng.finish()
 
 
+def octave_mapped(x: ArrayLike, nonoverlapping: bool = True) -> OctaveResult:
+    """One channel too large for memory, e.g. ``np.load(path, mmap_mode="r")`` of an
+    .npy file: overlapping (and non-overlapping) AVAR at m = 1, 2, 4 ... n/2,
+    exact at every octave (every offset, stride 1), with O(1) extra memory.
+
+    The compiled kernel reads the mapping in place: the levels below 2^14 in
+    cache-sized tiles, each level above as one running second difference
+    d_m(i+1) = d_m(i) + x[i+2m] - 2 x[i+m] + x[i] (long double; exact for
+    integer codes) advancing over the file with three pointers. Without the
+    compiled kernels this falls back to the in-memory kernels (a buffer the
+    size of the input)."""
+    a = np.asarray(x)
+    if a.ndim != 1:
+        raise ValueError("one channel at a time: x must be 1-D")
+    n = a.size
+    off = float(offset(a[:HEAD])) if n else 0.0
+    acc, terms = octave_oavar_sums(a, off, stream=True)
+    levels = acc.size
+    ms = 1 << np.arange(levels, dtype=np.int64)
+    ov = (acc / (2.0 * ms * ms * np.maximum(terms, 1)))[:, None]
+    if nonoverlapping:
+        nacc, pairs = octave_avar_sums(a, off)
+        nv = np.where(pairs > 0, nacc / (2.0 * ms * ms * np.maximum(pairs, 1)), np.nan)[:, None]
+    else:
+        pairs = n // ms - 1
+        nv = np.full((levels, 1), np.nan)
+    return OctaveResult(n, ms, ov, terms, np.ones(levels, dtype=np.int64), nv, pairs)
+
+
 def oadev_octave(x: ArrayLike, fs: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """(taus, overlapping ADEV) at m = 1, 2, 4 ... n/2 of one channel: the fast path.
 
