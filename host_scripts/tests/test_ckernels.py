@@ -182,3 +182,25 @@ def test_bad_buffers_are_refused():
         kernels._C.octave_overlap(np.zeros(64), 0.0, np.zeros(2))
     with pytest.raises(ValueError):
         kernels._C.octave_overlap(np.zeros(64), 0.0, np.zeros(8), 100)
+
+
+@pytest.mark.parametrize("n", [1000, 70_001])
+@pytest.mark.parametrize("stream", [False, True])
+def test_large_integer_codes_exact_sums_rounded_once(n, stream, monkeypatch):
+    """25-bit codes (a walk folded into range): squares and sums far above 2^53,
+    where float64 squares and sums would round; the kernels' sums are the exact integer
+    sums (Python ints) rounded once, on every grid."""
+    monkeypatch.setattr(kernels, "OCTAVE_SPLIT", 1 << 6)
+    monkeypatch.setattr(kernels, "OCTAVE_TILE", 1 << 10)
+    rng = np.random.default_rng(n)
+    codes = (np.cumsum(rng.integers(-(1 << 20), 1 << 20, n)) % (1 << 25)).astype(np.int32)
+    off = float(kernels.offset(codes[:kernels.HEAD]))
+    c = codes.astype(np.int64) - int(off)
+    octave = allan.tau_grid("octave", n // 2)
+    want = [float(v) for v in exact_sums(c, octave, True)]
+    assert max(want) > 2.0 ** 64
+    assert list(kernels.octave_oavar_sums(codes, off, stream=stream)[0]) == want
+    assert list(kernels.octave_avar_sums(codes, off, 1 << 5)[0]) == [float(v) for v in exact_sums(c, octave, False)]
+    log = allan.tau_grid("log", n // 2)
+    assert list(kernels.any_m_sums(codes, off, log, True)) == [float(v) for v in exact_sums(c, log, True)]
+    assert list(kernels.any_m_sums(codes, off, log, False)) == [float(v) for v in exact_sums(c, log, False)]

@@ -19,6 +19,11 @@
  *                     long double straight line per block of 1024 samples, so
  *                     that a second difference never subtracts large numbers.
  *
+ * exact=1 (integer codes, partial sums below 2^52): every difference is an
+ * exact integer and the sums of squares are exact 128-bit integers, rounded
+ * once into the float64 result (a float64 block sum below 2^52 is taken as is,
+ * a larger one recounted in integers).
+ *
  * Accuracy: sums of squares are added in float64 over blocks of at most 1024
  * terms and the block sums in long double (blocked summation); cascade sums
  * are pairwise; the running differences are long double.  The results agree
@@ -36,6 +41,26 @@
 
 typedef long double ld;
 typedef Py_ssize_t ssz;
+
+/* Exact integer sums of squares (integer codes whose partial sums stay below
+ * 2^52): 128-bit accumulators where the compiler has them. */
+#ifdef __SIZEOF_INT128__
+#define EXACT_OK 1
+typedef unsigned __int128 u128;
+#else
+#define EXACT_OK 0
+typedef uint64_t u128;  /* unused: exact mode is refused */
+#endif
+#define EXACT_BLOCK 0x1p52  /* a float64 block sum below this is an exact integer */
+
+static inline u128 sq(int64_t d)
+{
+#if EXACT_OK
+    return (u128)((__int128)d * d);
+#else
+    return (u128)d * (u128)d;
+#endif
+}
 
 #if defined(__GNUC__) && defined(__x86_64__) && defined(__linux__) && !defined(__clang__)
 #define HOT __attribute__((target_clones("avx2", "default")))
@@ -138,7 +163,7 @@ static ld value(const void *x, int fmt, ssz i)
 /* sum over i < c of (buf[i+m] - buf[i])^2; and nxt[i] = buf[i] + buf[i+m] for
  * i < L (L >= c; nxt may be NULL).  One pass: the difference and the next
  * level's moving sum read the same two values. */
-HOT static ld step(const double *buf, ssz m, ssz c, ssz L, double *nxt)
+HOT static ld step(const double *buf, ssz m, ssz c, ssz L, double *nxt, u128 *ex)
 {
     ld total = 0;
     const double *hi = buf + m;
@@ -172,7 +197,14 @@ HOT static ld step(const double *buf, ssz m, ssz c, ssz L, double *nxt)
                 t += d * d;
             }
         }
-        total += hsum(a0, a1, a2, a3) + t;
+        double bs = hsum(a0, a1, a2, a3) + t;
+        if (!ex) {
+            total += bs;
+        } else if (bs < EXACT_BLOCK) {  /* every square and partial sum was an exact integer */
+            *ex += (u128)(uint64_t)bs;
+        } else {                        /* recount the block in integers */
+            for (ssz k = s; k < e; k++) *ex += sq((int64_t)hi[k] - (int64_t)buf[k]);
+        }
     }
     if (nxt)
         for (ssz i = c; i < L; i++) nxt[i] = buf[i] + hi[i];
@@ -196,7 +228,7 @@ static int levels_of(ssz n)
 #define CHAIN_BLOCK 2048
 #define MAXLEV 64
 
-static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc)
+static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u128 *ex)
 {
     int nl = levels - K;
     if (nl <= 0) return;
@@ -209,6 +241,7 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc)
         d[j] = s1 - s0;
         last[j] = n - 2 * m;  /* terms i = 0 .. last */
         acc[K + j] = 0;
+        if (ex) ex[K + j] = 0;
     }
     /* the offsets read: 0 and 2^K .. 2^levels; each block converted once */
     int no = nl + 3;  /* one spare: the pair loop reads offset 2^(levels+1) of a lone last level */
@@ -223,6 +256,23 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc)
             ssz cnt = len;
             if (a + off + cnt > n) cnt = n - a - off;
             if (cnt > 0) load(x, fmt, a + off, cnt, 0.0, blk + (size_t)o * CHAIN_BLOCK);
+        }
+        if (ex) {  /* integer codes: int64 differences, 128-bit sums: exact */
+            for (int j = 0; j < nl; j++) {
+                ssz st = last[j] - a;
+                if (st > len) st = len;
+                const double *x0 = blk, *x1 = blk + (size_t)(j + 1) * CHAIN_BLOCK,
+                             *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK;
+                int64_t dj = (int64_t)d[j];
+                u128 t = 0;
+                for (ssz i = 0; i < st; i++) {
+                    t += sq(dj);
+                    dj += (int64_t)x2[i] + (int64_t)x0[i] - 2 * (int64_t)x1[i];
+                }
+                d[j] = (ld)dj;
+                ex[K + j] += t;
+            }
+            continue;
         }
         /* two levels per loop: two independent long double chains hide the add latency */
         for (int j = 0; j < nl; j += 2) {
@@ -257,12 +307,15 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc)
             if (two) { d[j + 1] = db; acc[K + j + 1] += tb; }
         }
     }
-    for (int j = 0; j < nl; j++) acc[K + j] += d[j] * d[j];  /* the term i = last */
+    for (int j = 0; j < nl; j++) {  /* the term i = last */
+        if (ex) ex[K + j] += sq((int64_t)d[j]);
+        else acc[K + j] += d[j] * d[j];
+    }
     free(blk);
 }
 
 static int octave_overlap_impl(const void *x, int fmt, ssz n, double off, ssz tile, ssz split,
-                               int stream, ld *acc)
+                               int stream, ld *acc, u128 *ex)
 {
     int levels = levels_of(n);
     for (int k = 0; k < levels; k++) acc[k] = 0;
@@ -295,7 +348,7 @@ static int octave_overlap_impl(const void *x, int fmt, ssz n, double off, ssz ti
             if (!last && c > T) c = T;
             if (c <= 0) break;
             L -= m;
-            acc[k] += step(buf, m, c, L, nxt);
+            acc[k] += step(buf, m, c, L, nxt, ex ? ex + k : NULL);
             double *t = buf; buf = nxt; nxt = t;
         }
         if (Y) {
@@ -305,7 +358,7 @@ static int octave_overlap_impl(const void *x, int fmt, ssz n, double off, ssz ti
     }
     free(b0); free(b1);
     if (stream) {
-        chains(x, fmt, n, K, levels, acc);
+        chains(x, fmt, n, K, levels, acc, ex);
         return 0;
     }
     if (!Y) return 0;
@@ -328,7 +381,7 @@ static int octave_overlap_impl(const void *x, int fmt, ssz n, double off, ssz ti
             ssz qf = e0 / M, rem = e0 % M;
             ssz cnt = qf * R + (R < rem + 1 ? R : rem + 1);
             ssz s = (m / M) * R;
-            acc[k] += step(src, s, cnt, cnt, dst);
+            acc[k] += step(src, s, cnt, cnt, dst, ex ? ex + k : NULL);
             double *t = src; src = dst; dst = t;
         }
     }
@@ -340,13 +393,8 @@ static int octave_overlap_impl(const void *x, int fmt, ssz n, double off, ssz ti
 
 /* Cluster sums cascade S_2m[j] = S_m[2j] + S_m[2j+1] inside chunks; the pair
  * across a chunk boundary uses the previous chunk's last sum (slot 0). */
-HOT static ld pairs_step(const double *buf, ssz L)
-{
-    /* sum over i < L - 1 of (buf[i+1] - buf[i])^2 */
-    return step(buf, 1, L - 1, 0, NULL);
-}
 
-static int octave_nonoverlap_impl(const void *x, int fmt, ssz n, double off, ssz chunk, ld *acc)
+static int octave_nonoverlap_impl(const void *x, int fmt, ssz n, double off, ssz chunk, ld *acc, u128 *ex)
 {
     int levels = levels_of(n);
     for (int k = 0; k < levels; k++) acc[k] = 0;
@@ -370,7 +418,7 @@ static int octave_nonoverlap_impl(const void *x, int fmt, ssz n, double off, ssz
         for (int k = 0; k < inner; k++) {
             double *buf = bufs[k];
             ssz lo = have[k] ? 0 : 1;  /* slot 0: the previous chunk's last sum */
-            if (L + 1 - lo >= 2) acc[k] += pairs_step(buf + lo, L + 1 - lo);
+            if (L + 1 - lo >= 2) acc[k] += step(buf + lo, 1, L - lo, 0, NULL, ex ? ex + k : NULL);
             if (L >= 1) { buf[0] = buf[L]; have[k] = 1; }
             if (k + 1 < inner) {
                 ssz h = L / 2;
@@ -389,7 +437,11 @@ static int octave_nonoverlap_impl(const void *x, int fmt, ssz n, double off, ssz
         for (ssz j = 0; j < h; j++) top[j] = top[2 * j] + top[2 * j + 1];
         cnt = h;
         ld s = 0;
-        for (ssz j = 0; j + 1 < cnt; j++) { double d = top[j + 1] - top[j]; s += (ld)d * d; }
+        for (ssz j = 0; j + 1 < cnt; j++) {
+            double d = top[j + 1] - top[j];
+            if (ex) ex[k] += sq((int64_t)d);
+            else s += (ld)d * d;
+        }
         acc[k] = s;
     }
     for (int k = 0; k < inner; k++) free(bufs[k]);
@@ -408,7 +460,7 @@ static int octave_nonoverlap_impl(const void *x, int fmt, ssz n, double off, ssz
  * ramp far from the offset, so second differences lose no digits to it. */
 struct phase { double *rel, *mu; ld *base; };
 
-static int phase(const void *x, int fmt, ssz n, double off, struct phase *ph)
+static int phase(const void *x, int fmt, ssz n, double off, int exact, struct phase *ph)
 {
     ssz nb = n / PBLOCK + 1;
     ph->rel = malloc(sizeof(double) * (size_t)(n + 1));
@@ -427,7 +479,7 @@ static int phase(const void *x, int fmt, ssz n, double off, struct phase *ph)
         ld r = 0;
         for (ssz i = 0; i < cnt; i++) r += tmp[i];
         double mu = cnt > 0 ? (double)(r / cnt) : 0.0;
-        if (fmt >= I64 && off == rint(off)) mu = rint(mu);  /* integer codes stay integer: exact */
+        if (exact) mu = rint(mu);  /* integer codes: an integral line keeps rel integral */
         ph->base[b] = X;
         ph->mu[b] = mu;
         ph->rel[a] = 0.0;
@@ -469,7 +521,7 @@ HOT static double seg2(const double *r0, const double *r1, const double *r2, ssz
     return hsum(a0, a1, z, z) + t;
 }
 
-static ld overlap_m(const struct phase *ph, ssz n, ssz m)
+static ld overlap_m(const struct phase *ph, ssz n, ssz m, u128 *ex)
 {
     ssz c = n - 2 * m + 1;  /* terms i = 0 .. c-1 */
     ld total = 0;
@@ -485,20 +537,26 @@ static ld overlap_m(const struct phase *ph, ssz n, ssz m)
                 - 2 * (ph->base[b1] + (ld)ph->mu[b1] * (ld)(p1 - b1 * PBLOCK))
                 + ph->base[b0] + (ld)ph->mu[b0] * (ld)(p0 - b0 * PBLOCK);
         ld c1 = (ld)ph->mu[b2] - 2 * (ld)ph->mu[b1] + (ld)ph->mu[b0];
-        total += seg2(ph->rel + p0, ph->rel + p1, ph->rel + p2, e, (double)c0, (double)c1);
+        double bs = seg2(ph->rel + p0, ph->rel + p1, ph->rel + p2, e, (double)c0, (double)c1);
+        if (!ex) total += bs;
+        else if (bs < EXACT_BLOCK) *ex += (u128)(uint64_t)bs;
+        else
+            for (ssz j = i; j < i + e; j++)
+                *ex += sq((int64_t)(phase_at(ph, j + 2 * m) - 2 * phase_at(ph, j + m) + phase_at(ph, j)));
         i += e;
     }
     return total;
 }
 
-static ld nonoverlap_m(const struct phase *ph, ssz n, ssz m)
+static ld nonoverlap_m(const struct phase *ph, ssz n, ssz m, u128 *ex)
 {
     ssz c = n / m - 1;
     ld total = 0;
     for (ssz j = 0; j < c; j++) {
         ssz p = j * m;
         ld d = phase_at(ph, p + 2 * m) - 2 * phase_at(ph, p + m) + phase_at(ph, p);
-        total += d * d;
+        if (ex) *ex += sq((int64_t)d);
+        else total += d * d;
     }
     return total;
 }
@@ -533,11 +591,15 @@ static PyObject *py_octave(PyObject *args, int kind)
     PyObject *xo, *oo;
     double off;
     Py_ssize_t p1 = 1 << 17, p2 = 1 << 14;
-    int stream = 0;
+    int stream = 0, exact = 0;
     if (kind == 0) {
-        if (!PyArg_ParseTuple(args, "OdO|nni", &xo, &off, &oo, &p1, &p2, &stream)) return NULL;
+        if (!PyArg_ParseTuple(args, "OdO|nnii", &xo, &off, &oo, &p1, &p2, &stream, &exact)) return NULL;
     } else {
-        if (!PyArg_ParseTuple(args, "OdO|n", &xo, &off, &oo, &p1)) return NULL;
+        if (!PyArg_ParseTuple(args, "OdO|ni", &xo, &off, &oo, &p1, &exact)) return NULL;
+    }
+    if (exact && !EXACT_OK) {
+        PyErr_SetString(PyExc_ValueError, "exact: no 128-bit integers in this build");
+        return NULL;
     }
     if (p1 < 1 || p2 < 1 || (p1 & (p1 - 1)) || (p2 & (p2 - 1))) {
         PyErr_SetString(PyExc_ValueError, "tile, split and chunk: powers of two");
@@ -550,12 +612,15 @@ static PyObject *py_octave(PyObject *args, int kind)
     int levels = levels_of(n);
     if (get_out(oo, &ov, levels) < 0) { PyBuffer_Release(&xv); return NULL; }
     ld acc[MAXLEV];
+    u128 ex[MAXLEV];
     int rc;
+    memset(ex, 0, sizeof ex);
     Py_BEGIN_ALLOW_THREADS
-    rc = kind == 0 ? octave_overlap_impl(xv.buf, fmt, n, off, p1, p2, stream, acc)
-                   : octave_nonoverlap_impl(xv.buf, fmt, n, off, p1, acc);
+    rc = kind == 0 ? octave_overlap_impl(xv.buf, fmt, n, off, p1, p2, stream, acc, exact ? ex : NULL)
+                   : octave_nonoverlap_impl(xv.buf, fmt, n, off, p1, acc, exact ? ex : NULL);
     Py_END_ALLOW_THREADS
-    for (int k = 0; k < levels; k++) ((double *)ov.buf)[k] = (double)acc[k];
+    for (int k = 0; k < levels; k++)  /* exact: the integer sum, rounded once */
+        ((double *)ov.buf)[k] = exact ? (double)ex[k] : (double)acc[k];
     PyBuffer_Release(&xv);
     PyBuffer_Release(&ov);
     if (rc) return PyErr_NoMemory();
@@ -570,8 +635,12 @@ static PyObject *any_m(PyObject *self, PyObject *args)
     (void)self;
     PyObject *xo, *mo, *oo;
     double off;
-    int overlapping;
-    if (!PyArg_ParseTuple(args, "OdOOp", &xo, &off, &mo, &oo, &overlapping)) return NULL;
+    int overlapping, exact = 0;
+    if (!PyArg_ParseTuple(args, "OdOOp|i", &xo, &off, &mo, &oo, &overlapping, &exact)) return NULL;
+    if (exact && !EXACT_OK) {
+        PyErr_SetString(PyExc_ValueError, "exact: no 128-bit integers in this build");
+        return NULL;
+    }
     Py_buffer xv, mv, ov;
     int fmt;
     if (get_in(xo, &xv, &fmt) < 0) return NULL;
@@ -589,13 +658,15 @@ static PyObject *any_m(PyObject *self, PyObject *args)
     int rc = 0;
     Py_BEGIN_ALLOW_THREADS
     struct phase ph;
-    rc = phase(xv.buf, fmt, n, off, &ph);
+    rc = phase(xv.buf, fmt, n, off, exact, &ph);
     if (!rc) {
         for (ssz j = 0; j < nm; j++) {
             ssz m = ms[j];
             ssz terms = overlapping ? n - 2 * m + 1 : (m > 0 ? n / m - 1 : 0);
             if (m < 1 || terms < 1) { out[j] = NAN; continue; }
-            out[j] = (double)(overlapping ? overlap_m(&ph, n, m) : nonoverlap_m(&ph, n, m));
+            u128 e = 0;
+            ld f = overlapping ? overlap_m(&ph, n, m, exact ? &e : NULL) : nonoverlap_m(&ph, n, m, exact ? &e : NULL);
+            out[j] = exact ? (double)e : (double)f;
         }
         free(ph.rel);
         free(ph.mu);
@@ -609,13 +680,13 @@ static PyObject *any_m(PyObject *self, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"octave_overlap", octave_overlap, METH_VARARGS,
-     "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0) -> levels\n"
+     "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0, exact=0) -> levels\n"
      "Overlapping octave sums of squares into out[k] (m = 2^k)."},
     {"octave_nonoverlap", octave_nonoverlap, METH_VARARGS,
-     "octave_nonoverlap(x, off, out, chunk=2**16) -> levels\n"
+     "octave_nonoverlap(x, off, out, chunk=2**16, exact=0) -> levels\n"
      "Non-overlapping octave sums of squares into out[k]."},
     {"any_m", any_m, METH_VARARGS,
-     "any_m(x, off, ms, out, overlapping)\n"
+     "any_m(x, off, ms, out, overlapping, exact=0)\n"
      "Sums of squared second differences of the phase at each m (nan where no term)."},
     {NULL, NULL, 0, NULL}};
 
@@ -623,4 +694,12 @@ static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ckernels",
                                     "Compiled Allan kernels (see kernels.py).", -1, methods,
                                     NULL, NULL, NULL, NULL};
 
-PyMODINIT_FUNC PyInit__ckernels(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__ckernels(void)
+{
+    PyObject *m = PyModule_Create(&module);
+    if (m && PyModule_AddIntConstant(m, "EXACT", EXACT_OK) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -114,12 +114,26 @@ def _c_input(x: np.ndarray) -> Optional[np.ndarray]:
     return x if x.flags.c_contiguous else None
 
 
+def _exact(c: np.ndarray, off: float) -> int:
+    """1 when the compiled kernels can sum ``c`` exactly: integer codes and an
+    integral offset whose partial sums stay below 2^52 (every difference an
+    exact float64 integer; the sums of squares then 128-bit integers)."""
+    if c.dtype.kind not in "iu" or off != round(off) or not getattr(_C, "EXACT", False) or not c.size:
+        return 0
+    if c.itemsize <= 2:
+        amax = 1 << (8 * c.itemsize)
+    else:
+        amax = max(abs(int(c.max()) - int(off)), abs(int(c.min()) - int(off)))
+    return int(c.size * (amax + 1) < (1 << 52))
+
+
 def _levels(n: int) -> int:
     return int(math.log2(n // 2)) + 1 if n >= 2 else 0
 
 
 def octave_oavar_sums(x: np.ndarray, off: float, stream: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Overlapping octave sums (see octave_oavar_sums_numpy), compiled when available.
+    """Overlapping octave sums (see octave_oavar_sums_numpy), compiled when available:
+    for integer codes (see _exact) the exact integer sums, rounded once.
 
     ``stream``: above the first stage, one running second difference per level
     read straight from ``x`` (long double) instead of the buffer of y_SPLIT:
@@ -129,7 +143,7 @@ def octave_oavar_sums(x: np.ndarray, off: float, stream: bool = False) -> tuple[
         return octave_oavar_sums_numpy(x, off)
     n = c.size
     acc = np.zeros(max(_levels(n), 1))
-    levels = _C.octave_overlap(c, float(off), acc, OCTAVE_TILE, OCTAVE_SPLIT, int(stream))
+    levels = _C.octave_overlap(c, float(off), acc, OCTAVE_TILE, OCTAVE_SPLIT, int(stream), _exact(c, off))
     ms = np.left_shift(1, np.arange(levels, dtype=np.int64))
     return acc[:levels], n - 2 * ms + 1
 
@@ -141,7 +155,7 @@ def octave_avar_sums(x: np.ndarray, off: float, chunk: int = 1 << 16) -> tuple[n
         return octave_avar_sums_numpy(x, off, chunk)
     n = c.size
     acc = np.zeros(max(_levels(n), 1))
-    levels = _C.octave_nonoverlap(c, float(off), acc, chunk)
+    levels = _C.octave_nonoverlap(c, float(off), acc, chunk, _exact(c, off))
     ms = np.left_shift(1, np.arange(levels, dtype=np.int64))
     return acc[:levels], n // ms - 1
 
@@ -156,7 +170,7 @@ def any_m_sums(x: np.ndarray, off: float, ms: np.ndarray, overlapping: bool) -> 
     if c is None:
         return None
     out = np.empty(ms.size)
-    _C.any_m(c, float(off), np.ascontiguousarray(ms, dtype=np.int64), out, bool(overlapping))
+    _C.any_m(c, float(off), np.ascontiguousarray(ms, dtype=np.int64), out, bool(overlapping), _exact(c, off))
     return out
 
 
