@@ -208,6 +208,27 @@ def max_rel(a, b) -> float:
     return float(np.max(np.abs(a[ok] - b[ok]) / np.abs(b[ok]))) if ok.any() else float("nan")
 
 
+def longdouble_dev(x: np.ndarray, ms: np.ndarray, overlapping: bool) -> np.ndarray:
+    """ADEV straight from NIST SP 1065 eqs. 6/8 on the phase in long double
+    (64-bit mantissa on x86), mean of the first 2^16 samples removed: the
+    reference both imu-allan and allantools are held to."""
+    xl = x.astype(np.longdouble)
+    X = np.zeros(x.size + 1, dtype=np.longdouble)
+    np.cumsum(xl - xl[:1 << 16].mean(), out=X[1:])
+    del xl
+    n, out = x.size, []
+    for m in ms.tolist():
+        P, s = (X, m) if overlapping else (X[::m], 1)
+        c = P.size - 2 * s
+        acc = np.longdouble(0)
+        for a in range(0, c, 1 << 20):
+            b = min(a + (1 << 20), c)
+            d = P[a + 2 * s:b + 2 * s] - 2 * P[a + s:b + s] + P[a:b]
+            acc += np.sum(d * d)
+        out.append(float(np.sqrt(acc / (2 * m * m * c))))
+    return np.array(out)
+
+
 def host(tmp: Path, quick: bool) -> dict:
     import allantools
 
@@ -251,6 +272,16 @@ def host(tmp: Path, quick: bool) -> dict:
     r["host_octave_nonoverlapping_s"] = non_ab["ours_s_median"]
     r["host_max_rel_diff"] = {"overlapping": max_rel(ours_o, ref_o), "nonoverlapping": max_rel(ours_a, ref_a),
                               "dense": max_rel(ours_d, ref_d)}
+    # Both against the long double evaluation of the definitions: where the
+    # 1e-12 above comes from (allantools' float64 phase of this walk).
+    ld_o = longdouble_dev(x, ms_o, True)
+    ld_a = longdouble_dev(x, ms_a, False)
+    ld_d = longdouble_dev(x[:dn], taus_d.astype(np.int64), True)
+    r["host_max_rel_diff_vs_longdouble"] = {
+        "imu_allan": {"overlapping": max_rel(ours_o, ld_o), "nonoverlapping": max_rel(ours_a, ld_a),
+                      "dense": max_rel(ours_d, ld_d)},
+        "allantools": {"overlapping": max_rel(ref_o, ld_o), "nonoverlapping": max_rel(ref_a, ld_a),
+                       "dense": max_rel(ref_d, ld_d)}}
 
     # Peak RSS growth while analysing, over the input array's size (own process):
     # the octave overlapping kernel the speed figure times (allan.oavar).
@@ -368,6 +399,9 @@ def main() -> int:
                                        "walk+white input allantools' own float64 phase rounds at ~1e-12, while "
                                        "imu-allan is within ~1e-13 of a long double reference (host_scripts/tests/"
                                        "test_ckernels.py, test_octave_kernels.py)")
+    res["how"]["host_max_rel_diff_vs_longdouble"] = ("largest relative difference of each side's deviations "
+                                                     "from bench/run.py's longdouble_dev (NIST SP 1065 eqs. 6 "
+                                                     "and 8 on a long double phase), same input and taus")
     res["how"]["host_kernels"] = ("which implementation the host figures measured: the compiled kernels "
                                   "(make ext / pip install) or the numpy fallback")
     Path(args.out).write_text(json.dumps(res, indent=2) + "\n")
