@@ -204,3 +204,14 @@ def test_large_integer_codes_exact_sums_rounded_once(n, stream, monkeypatch):
     log = allan.tau_grid("log", n // 2)
     assert list(kernels.any_m_sums(codes, off, log, True)) == [float(v) for v in exact_sums(c, log, True)]
     assert list(kernels.any_m_sums(codes, off, log, False)) == [float(v) for v in exact_sums(c, log, False)]
+
+
+def test_integers_too_large_for_exact_sums_take_the_float_path():
+    """int64 codes of 2^45: partial sums beyond 2^52, so no exact mode; the
+    float path still matches the long double reference."""
+    x = np.random.default_rng(9).integers(-(1 << 45), 1 << 45, 1000)
+    off = float(kernels.offset(x[:kernels.HEAD]))
+    assert kernels._exact(x, off) == 0
+    assert kernels._exact(x >> 30, 0.0) == 1  # 2^15: exact again
+    ms = allan.tau_grid("octave", 500)
+    close(kernels.octave_oavar_sums(x, off)[0], ref_sums(x, ms, True), 1e-13)

@@ -117,14 +117,17 @@ def _c_input(x: np.ndarray) -> Optional[np.ndarray]:
 def _exact(c: np.ndarray, off: float) -> int:
     """1 when the compiled kernels can sum ``c`` exactly: integer codes and an
     integral offset whose partial sums stay below 2^52 (every difference an
-    exact float64 integer; the sums of squares then 128-bit integers)."""
+    exact float64 integer; the sums of squares then 128-bit integers that
+    cannot overflow)."""
     if c.dtype.kind not in "iu" or off != round(off) or not getattr(_C, "EXACT", False) or not c.size:
         return 0
     if c.itemsize <= 2:
         amax = 1 << (8 * c.itemsize)
     else:
         amax = max(abs(int(c.max()) - int(off)), abs(int(c.min()) - int(off)))
-    return int(c.size * (amax + 1) < (1 << 52))
+    n, a = c.size, amax + 1
+    # differences below 2^52, and every sum of squares (< n (n a)^2) within 128 bits
+    return int(n * a < (1 << 52) and n ** 3 * a * a < (1 << 127))
 
 
 def _levels(n: int) -> int:
