@@ -141,13 +141,14 @@ int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz s
             if (!last && c > T) c = T;
             if (c <= 0) break;
             L -= m;
-            acc[k] += ck_step(buf, m, c, L, nxt, ex ? ex + k : NULL);
-            double *t = buf; buf = nxt; nxt = t;
+            /* the last level writes y_M straight into Y: its L values are the
+             * tile's share, min(T, LY - a) */
+            double *dst = Y && k == K - 1 ? Y + a : nxt;
+            acc[k] += ck_step(buf, m, c, L, dst, ex ? ex + k : NULL);
+            nxt = buf;
+            buf = dst;
         }
-        if (Y) {
-            ssz cnt = T < LY - a ? T : LY - a;
-            memcpy(Y + a, buf, sizeof(double) * (size_t)cnt);
-        }
+        if (Y && K == 0) memcpy(Y + a, buf, sizeof(double) * (size_t)(T < LY - a ? T : LY - a));
     }
     free(b0); free(b1);
     if (stream) {
