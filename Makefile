@@ -63,7 +63,7 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all bench firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
 
 all: firmware
 
@@ -92,6 +92,13 @@ version:
 
 deps:
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh
+	$(MAKE) --no-print-directory ext
+
+# The compiled Allan kernels (host_scripts/imu_allan/stats/_ckernels.c) built in
+# place beside kernels.py, as `pip install` builds them; rebuilt when the source
+# changes. Optional: without a C compiler the host package uses its numpy path.
+ext:
+	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
 test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke
@@ -107,7 +114,7 @@ unit:
 
 # The host tests that drive the real firmware in imu-sim (sweep, the report
 # check line) need both built; without them they would skip.
-pytest: firmware $(IMU_SIM)
+pytest: firmware $(IMU_SIM) ext
 	cd host_scripts && $(PYTHON) -m pytest -q
 
 # The simulated device on a pseudo-terminal, driven as a user would.
@@ -125,7 +132,7 @@ sim-test: firmware $(IMU_SIM)
 
 # ---- benchmark --------------------------------------------------------------
 # Device, simulator and host side by side; writes bench/results.json.
-bench: firmware $(IMU_SIM)
+bench: firmware $(IMU_SIM) ext
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)
 
 # ---- demo ------------------------------------------------------------------

@@ -72,7 +72,9 @@ def main() -> int:
     x = np.cumsum(rng.standard_normal(n) * 0.01) + rng.standard_normal(n)  # as bench/run.py
     octave = allan.tau_grid("octave", n // 2)
     log = allan.tau_grid("log", n // 2, per_decade=10)
-    r: dict = {"samples": n}
+    from imu_allan.stats import kernels
+    r: dict = {"samples": n, "kernels": "compiled" if kernels.COMPILED else "numpy fallback"}
+    print("kernels:", r["kernels"], flush=True)
 
     def diff(ours, theirs):
         k = min(len(ours), len(theirs))

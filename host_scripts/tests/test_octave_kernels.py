@@ -37,6 +37,16 @@ def reference(x: np.ndarray, overlapping: bool) -> np.ndarray:
     return np.array(out)
 
 
+@pytest.fixture(params=["compiled", "numpy"])
+def path(request, monkeypatch):
+    """Each test runs on the compiled kernels (when built) and on the numpy fallback."""
+    if request.param == "compiled" and not kernels.COMPILED:
+        pytest.skip("the compiled kernels are not built (make ext)")
+    if request.param == "numpy":
+        monkeypatch.setattr(kernels, "_C", None)
+    return request.param
+
+
 def octave_grid(n: int) -> np.ndarray:
     return allan.tau_grid("octave", n // 2)
 
@@ -48,7 +58,7 @@ needs_longdouble = pytest.mark.skipif(np.finfo(np.longdouble).nmant < 60,
 @needs_longdouble
 @pytest.mark.parametrize("n", [5, 1000, 4097, (1 << 16) - 1, (1 << 16) + 1, 100_003])
 @pytest.mark.parametrize("overlapping", [True, False])
-def test_octave_kernels_match_extended_precision_reference(n, overlapping):
+def test_octave_kernels_match_extended_precision_reference(n, overlapping, path):
     for name, x in processes(n).items():
         fn = allan.oavar if overlapping else allan.avar
         v, count = fn(x, octave_grid(n))
@@ -61,7 +71,7 @@ def test_octave_kernels_match_extended_precision_reference(n, overlapping):
 
 @needs_longdouble
 @pytest.mark.parametrize("n", [2, 3, 17, 129, 1023, 1025, 5000, 20_011])
-def test_tiny_tiles_cross_every_stage_and_tile_edge(n, monkeypatch):
+def test_tiny_tiles_cross_every_stage_and_tile_edge(n, monkeypatch, path):
     monkeypatch.setattr(kernels, "OCTAVE_TILE", 1 << 7)
     monkeypatch.setattr(kernels, "OCTAVE_SPLIT", 1 << 4)
     x = processes(n, seed=n)["walk+white"]
@@ -75,7 +85,7 @@ def test_tiny_tiles_cross_every_stage_and_tile_edge(n, monkeypatch):
 
 @pytest.mark.parametrize("n", [4097, (1 << 16) - 1, (1 << 16) + 1, 100_003])
 @pytest.mark.parametrize("name", ["white", "walk+white"])
-def test_octave_kernels_match_allantools(n, name):
+def test_octave_kernels_match_allantools(n, name, path):
     """Where allantools is itself accurate (no strong trend: its phase is the raw
     cumulative sum, whose rounding grows with a walk or a ramp), 1e-12."""
     x = processes(n)[name]
@@ -100,7 +110,7 @@ def test_trends_agree_with_allantools_to_its_own_rounding():
         np.testing.assert_allclose(v[:dev.size], dev ** 2, rtol=1e-9, atol=0, err_msg=name)
 
 
-def test_integer_codes_and_float_codes_give_the_same_values():
+def test_integer_codes_and_float_codes_give_the_same_values(path):
     x = processes(30_001)["codes"]
     a, _ = allan.oavar(x, octave_grid(x.size))
     b, _ = allan.oavar(x.astype(np.float64), octave_grid(x.size))

@@ -1,6 +1,7 @@
 """The statistics layer: float64 (and exact integer) numbers from samples.
 
-kernels.py    offsets and sums of squares shared by the engines
+kernels.py    offsets and sums of squares shared by the engines; the octave and
+              any-m sums, from the compiled _ckernels (C) or numpy
 allan.py      Allan-family variances and the streaming octave engine
 reference.py  the device's statistic recomputed (exact acc, float64 avar)
 edf.py        equivalent degrees of freedom and chi-squared intervals

@@ -41,8 +41,8 @@ from typing import Callable, Iterable, Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .kernels import (DOT_MAX, HEAD, blocked as _blocked, octave_avar_sums, octave_oavar_sums, offset,
-                      rowdots, sumsq as _ssq, sumsq_any as _sumsq)
+from .kernels import (DOT_MAX, HEAD, any_m_sums, blocked as _blocked, octave_avar_sums, octave_oavar_sums,
+                      offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq)
 
 from .options import TAU_KINDS  # noqa: F401  (its home: options.py)
 BLOCK = 1 << 16
@@ -124,10 +124,14 @@ def oavar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple
     """Overlapping AVAR at each m; returns (avar, terms). nan where no term.
 
     Octave grids (every m a power of two) take the cache-blocked cascade of
-    kernels.octave_oavar_sums; other grids the partial sums X."""
+    kernels.octave_oavar_sums; other grids the compiled phase kernel
+    (kernels.any_m_sums) or, without it, the partial sums X."""
     m_a = np.asarray(list(ms), dtype=np.int64)
     if _octaves(m_a):
         return _octave(x, m_a, octave_oavar_sums)
+    r = _any_m(x, m_a, overlapping=True)
+    if r is not None:
+        return r
     return _second_diff(_prepare(x), m_a, overlapping=True, progress=progress)
 
 
@@ -138,7 +142,37 @@ def avar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[
     m_a = np.asarray(list(ms), dtype=np.int64)
     if _octaves(m_a):
         return _octave(x, m_a, octave_avar_sums)
+    r = _any_m(x, m_a, overlapping=False)
+    if r is not None:
+        return r
     return _second_diff(_prepare(x), m_a, overlapping=False, progress=progress)
+
+
+def _one_channel(x: ArrayLike) -> np.ndarray:
+    a = np.asarray(x)
+    if a.ndim != 1:
+        raise ValueError("one channel at a time: x must be 1-D")
+    if not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.float64):
+        a = a.astype(np.float64)
+    return a
+
+
+def _any_m(x: ArrayLike, ms: np.ndarray, overlapping: bool) -> Optional[tuple[np.ndarray, np.ndarray]]:
+    """AVAR at any m from the compiled phase kernel; None without it."""
+    a = _one_channel(x)
+    n = a.size
+    off = float(offset(a[:HEAD])) if n else 0.0
+    sums = any_m_sums(a, off, ms, overlapping)
+    if sums is None:
+        return None
+    m = np.maximum(ms, 1)
+    cnt = np.where(ms >= 1, (n - 2 * m + 1) if overlapping else (n // m - 1), 0)
+    cnt = np.maximum(cnt, 0)
+    out = np.full(ms.size, np.nan)
+    ok = cnt > 0
+    mf = ms[ok].astype(np.float64)
+    out[ok] = sums[ok] / (2.0 * mf * mf * cnt[ok])
+    return out, cnt.astype(np.int64)
 
 
 def _octaves(ms: np.ndarray) -> bool:
@@ -147,11 +181,7 @@ def _octaves(ms: np.ndarray) -> bool:
 
 def _octave(x: ArrayLike, ms: np.ndarray, kernel) -> tuple[np.ndarray, np.ndarray]:
     """The octave kernel's sums at every level, picked at ``ms``."""
-    a = np.asarray(x)
-    if a.ndim != 1:
-        raise ValueError("one channel at a time: x must be 1-D")
-    if not (np.issubdtype(a.dtype, np.integer) or a.dtype == np.float64):
-        a = a.astype(np.float64)
+    a = _one_channel(x)
     off = float(offset(a[:HEAD])) if a.size else 0.0
     sums, count = kernel(a, off)
     k = np.log2(ms).astype(np.int64)
@@ -490,6 +520,35 @@ def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None,
                        nonoverlapping=nonoverlapping)
     eng.push(a2)
     return eng.finish()
+
+
+def octave_mapped(x: ArrayLike, nonoverlapping: bool = True) -> OctaveResult:
+    """One channel too large for memory, e.g. ``np.load(path, mmap_mode="r")`` of an
+    .npy file: overlapping (and non-overlapping) AVAR at m = 1, 2, 4 ... n/2,
+    exact at every octave (every offset, stride 1), with O(1) extra memory.
+
+    The compiled kernel reads the mapping in place: the levels below 2^14 in
+    cache-sized tiles, each level above as one running second difference
+    d_m(i+1) = d_m(i) + x[i+2m] - 2 x[i+m] + x[i] (long double; exact for
+    integer codes) advancing over the file with three pointers. Without the
+    compiled kernels this falls back to the in-memory kernels (a buffer the
+    size of the input)."""
+    a = np.asarray(x)
+    if a.ndim != 1:
+        raise ValueError("one channel at a time: x must be 1-D")
+    n = a.size
+    off = float(offset(a[:HEAD])) if n else 0.0
+    acc, terms = octave_oavar_sums(a, off, stream=True)
+    levels = acc.size
+    ms = 1 << np.arange(levels, dtype=np.int64)
+    ov = (acc / (2.0 * ms * ms * np.maximum(terms, 1)))[:, None]
+    if nonoverlapping:
+        nacc, pairs = octave_avar_sums(a, off)
+        nv = np.where(pairs > 0, nacc / (2.0 * ms * ms * np.maximum(pairs, 1)), np.nan)[:, None]
+    else:
+        pairs = n // ms - 1
+        nv = np.full((levels, 1), np.nan)
+    return OctaveResult(n, ms, ov, terms, np.ones(levels, dtype=np.int64), nv, pairs)
 
 
 def oadev_octave(x: ArrayLike, fs: float = 1.0) -> tuple[np.ndarray, np.ndarray]:

@@ -1,6 +1,12 @@
 """Numeric kernels shared by the Allan engines (allan.py, reference.py):
 the offset removed before summing, and the sums of squares.
 
+The octave and any-m sums have two implementations with the same results
+(to ~1e-15; tests/test_octave_kernels.py runs both against an extended-
+precision reference): the compiled ``_ckernels`` extension (_ckernels.c,
+built by ``pip install`` or ``make ext``) and the numpy code below, used
+when the extension is absent or ``IMU_ALLAN_NO_C=1`` is set.
+
 Why an offset: partial sums of raw ADC codes (~500 per sample) grow fast and
 lose float64 digits; removing the (rounded) mean of the first block keeps
 them small, and a rounded offset keeps integer data integer, so cluster sums
@@ -9,9 +15,20 @@ and their differences stay exact and only the final sums of squares round.
 from __future__ import annotations
 
 import math
-from typing import Callable
+import os
+from typing import Callable, Optional
 
 import numpy as np
+
+try:  # the compiled kernels; the numpy code below is the fallback
+    from . import _ckernels as _C
+except ImportError:  # pragma: no cover - depends on the build
+    _C = None
+if os.environ.get("IMU_ALLAN_NO_C"):
+    _C = None
+
+COMPILED = _C is not None
+"""True when the compiled kernels (stats/_ckernels.c) are in use."""
 
 HEAD = 1 << 16
 """Samples whose mean is the offset (the first block of a stream)."""
@@ -85,7 +102,82 @@ OCTAVE_SPLIT = 1 << 14
 """First cluster size of stage 2 (its halo: stage-1 tiles read SPLIT - 1 samples more)."""
 
 
-def octave_oavar_sums(x: np.ndarray, off: float) -> tuple[np.ndarray, np.ndarray]:
+_C_KINDS = "fiu"
+
+
+def _c_input(x: np.ndarray) -> Optional[np.ndarray]:
+    """x as the compiled kernels take it (1-D, contiguous, native numbers), or None."""
+    if _C is None or x.ndim != 1 or x.dtype.kind not in _C_KINDS or not x.dtype.isnative:
+        return None
+    if x.dtype.kind == "f" and x.itemsize not in (4, 8):
+        return None
+    return x if x.flags.c_contiguous else None
+
+
+def _exact(c: np.ndarray, off: float) -> int:
+    """1 when the compiled kernels can sum ``c`` exactly: integer codes and an
+    integral offset whose partial sums stay below 2^52 (every difference an
+    exact float64 integer; the sums of squares then 128-bit integers that
+    cannot overflow)."""
+    if c.dtype.kind not in "iu" or off != round(off) or not getattr(_C, "EXACT", False) or not c.size:
+        return 0
+    if c.itemsize <= 2:
+        amax = 1 << (8 * c.itemsize)
+    else:
+        amax = max(abs(int(c.max()) - int(off)), abs(int(c.min()) - int(off)))
+    n, a = c.size, amax + 1
+    # differences below 2^52, and every sum of squares (< n (n a)^2) within 128 bits
+    return int(n * a < (1 << 52) and n ** 3 * a * a < (1 << 127))
+
+
+def _levels(n: int) -> int:
+    return int(math.log2(n // 2)) + 1 if n >= 2 else 0
+
+
+def octave_oavar_sums(x: np.ndarray, off: float, stream: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Overlapping octave sums (see octave_oavar_sums_numpy), compiled when available:
+    for integer codes (see _exact) the exact integer sums, rounded once.
+
+    ``stream``: above the first stage, one running second difference per level
+    read straight from ``x`` (long double) instead of the buffer of y_SPLIT:
+    O(1) extra memory, for an np.memmap of a file larger than memory."""
+    c = _c_input(x)
+    if c is None:
+        return octave_oavar_sums_numpy(x, off)
+    n = c.size
+    acc = np.zeros(max(_levels(n), 1))
+    levels = _C.octave_overlap(c, float(off), acc, OCTAVE_TILE, OCTAVE_SPLIT, int(stream), _exact(c, off))
+    ms = np.left_shift(1, np.arange(levels, dtype=np.int64))
+    return acc[:levels], n - 2 * ms + 1
+
+
+def octave_avar_sums(x: np.ndarray, off: float, chunk: int = 1 << 16) -> tuple[np.ndarray, np.ndarray]:
+    """Non-overlapping octave sums (see octave_avar_sums_numpy), compiled when available."""
+    c = _c_input(x)
+    if c is None:
+        return octave_avar_sums_numpy(x, off, chunk)
+    n = c.size
+    acc = np.zeros(max(_levels(n), 1))
+    levels = _C.octave_nonoverlap(c, float(off), acc, chunk, _exact(c, off))
+    ms = np.left_shift(1, np.arange(levels, dtype=np.int64))
+    return acc[:levels], n // ms - 1
+
+
+def any_m_sums(x: np.ndarray, off: float, ms: np.ndarray, overlapping: bool) -> Optional[np.ndarray]:
+    """Sums of squared second differences of the phase at each m (nan where there is
+    no term), or None without the compiled kernels (the caller's numpy path runs).
+
+    The phase is kept as float64 offsets from a long double base per block of
+    4096 samples, so no second difference subtracts large partial sums."""
+    c = _c_input(x)
+    if c is None:
+        return None
+    out = np.empty(ms.size)
+    _C.any_m(c, float(off), np.ascontiguousarray(ms, dtype=np.int64), out, bool(overlapping), _exact(c, off))
+    return out
+
+
+def octave_oavar_sums_numpy(x: np.ndarray, off: float) -> tuple[np.ndarray, np.ndarray]:
     """Overlapping octave sums: for m = 2^k <= n/2, sum_i (y_m[i+m] - y_m[i])^2 and
     the term count n - 2m + 1, where y_m[i] = sum of x[i .. i+m-1] - m * off.
 
@@ -156,7 +248,7 @@ def octave_oavar_sums(x: np.ndarray, off: float) -> tuple[np.ndarray, np.ndarray
     return acc, terms
 
 
-def octave_avar_sums(x: np.ndarray, off: float, chunk: int = 1 << 16) -> tuple[np.ndarray, np.ndarray]:
+def octave_avar_sums_numpy(x: np.ndarray, off: float, chunk: int = 1 << 16) -> tuple[np.ndarray, np.ndarray]:
     """Non-overlapping octave sums: for m = 2^k <= n/2, sum_j (S_m[j+1] - S_m[j])^2
     over the floor(n/m) - 1 pairs of consecutive cluster sums S_m (offset removed).
 

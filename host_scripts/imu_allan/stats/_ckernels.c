@@ -1,0 +1,183 @@
+/* Compiled Allan kernels of imu_allan.stats (kernels.py keeps the numpy path
+ * as the fallback when this extension is not built).
+ *
+ * Plain C with the buffer protocol: no numpy headers.  This file is the
+ * Python glue; the kernels are in ck_core.c, ck_octave.c and ck_phase.c.  Every function takes a
+ * C-contiguous 1-D buffer of rate samples (float64/32, int8..int64, uint8..32;
+ * a numpy array or an np.memmap of a file) and the offset removed before
+ * summing, and fills a float64 buffer of sums of squares, one per level.
+ *
+ *   octave_overlap    overlapping octave sums, the two-stage cache-blocked
+ *                     cascade y_2m[i] = y_m[i] + y_m[i+m] (one buffer the size
+ *                     of the input, as the numpy path); or, with stream=1, the
+ *                     same first stage and, above it, one running difference
+ *                     per level d_m(i+1) = d_m(i) + x[i+2m] - 2x[i+m] + x[i]
+ *                     read straight from the input (O(1) memory: a file's
+ *                     mmap is read in place, every level exact, no stride).
+ *   octave_nonoverlap non-overlapping octave sums, pair-sum cascade in chunks.
+ *   any_m             overlapping (or non-overlapping) sums at any cluster
+ *                     sizes from the phase X, stored as float64 offsets from a
+ *                     long double straight line per block of 1024 samples, so
+ *                     that a second difference never subtracts large numbers.
+ *
+ * exact=1 (integer codes, partial sums below 2^52): every difference is an
+ * exact integer and the sums of squares are exact 128-bit integers, rounded
+ * once into the float64 result (a float64 block sum below 2^52 is taken as is,
+ * a larger one recounted in integers).
+ *
+ * Accuracy: sums of squares are added in float64 over blocks of at most 1024
+ * terms and the block sums in long double (blocked summation); cascade sums
+ * are pairwise; the running differences are long double.  The results agree
+ * with a long double evaluation of the definitions to ~1e-14 (tests).
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include "ckernels.h"
+
+/* ---- input formats (the buffer protocol's struct codes) -------------------- */
+
+static int parse_fmt(const Py_buffer *v)
+{
+    const char *f = v->format ? v->format : "B";
+    while (*f == '@' || *f == '=' || *f == '<') f++;
+    if (f[0] == '\0' || f[1] != '\0') return -1;
+    switch (f[0]) {
+    case 'd': return v->itemsize == 8 ? F64 : -1;
+    case 'f': return v->itemsize == 4 ? F32 : -1;
+    case 'b': return I8;
+    case 'B': return U8;
+    case 'h': return I16;
+    case 'H': return U16;
+    case 'i': case 'l': case 'q':
+        return v->itemsize == 8 ? I64 : v->itemsize == 4 ? I32 : -1;
+    case 'I': case 'L': case 'Q':
+        return v->itemsize == 8 ? U64 : v->itemsize == 4 ? U32 : -1;
+    }
+    return -1;
+}
+
+/* ---- Python glue -------------------------------------------------------------- */
+
+static int get_in(PyObject *obj, Py_buffer *v, int *fmt)
+{
+    if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) return -1;
+    if (v->ndim != 1 || (*fmt = parse_fmt(v)) < 0) {
+        PyBuffer_Release(v);
+        PyErr_SetString(PyExc_TypeError, "x: a contiguous 1-D buffer of int8..64, uint8..64, float32 or float64");
+        return -1;
+    }
+    return 0;
+}
+
+static int get_out(PyObject *obj, Py_buffer *v, ssz need)
+{
+    if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0) return -1;
+    if (v->ndim != 1 || v->itemsize != 8 || !v->format || strchr(v->format, 'd') == NULL
+        || v->shape[0] < need) {
+        PyBuffer_Release(v);
+        PyErr_SetString(PyExc_ValueError, "out: a writable float64 buffer, one slot per level");
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *py_octave(PyObject *args, int kind)
+{
+    PyObject *xo, *oo;
+    double off;
+    Py_ssize_t p1 = 1 << 17, p2 = 1 << 14;
+    int stream = 0, exact = 0;
+    if (kind == 0) {
+        if (!PyArg_ParseTuple(args, "OdO|nnii", &xo, &off, &oo, &p1, &p2, &stream, &exact)) return NULL;
+    } else {
+        if (!PyArg_ParseTuple(args, "OdO|ni", &xo, &off, &oo, &p1, &exact)) return NULL;
+    }
+    if (exact && !EXACT_OK) {
+        PyErr_SetString(PyExc_ValueError, "exact: no 128-bit integers in this build");
+        return NULL;
+    }
+    if (p1 < 1 || p2 < 1 || (p1 & (p1 - 1)) || (p2 & (p2 - 1))) {
+        PyErr_SetString(PyExc_ValueError, "tile, split and chunk: powers of two");
+        return NULL;
+    }
+    Py_buffer xv, ov;
+    int fmt;
+    if (get_in(xo, &xv, &fmt) < 0) return NULL;
+    ssz n = xv.shape[0];
+    int levels = ck_levels(n);
+    if (get_out(oo, &ov, levels) < 0) { PyBuffer_Release(&xv); return NULL; }
+    ld acc[MAXLEV];
+    u128 ex[MAXLEV];
+    int rc;
+    memset(ex, 0, sizeof ex);
+    Py_BEGIN_ALLOW_THREADS
+    rc = kind == 0 ? ck_octave_overlap(xv.buf, fmt, n, off, p1, p2, stream, acc, exact ? ex : NULL)
+                   : ck_octave_nonoverlap(xv.buf, fmt, n, off, p1, acc, exact ? ex : NULL);
+    Py_END_ALLOW_THREADS
+    for (int k = 0; k < levels; k++)  /* exact: the integer sum, rounded once */
+        ((double *)ov.buf)[k] = exact ? (double)ex[k] : (double)acc[k];
+    PyBuffer_Release(&xv);
+    PyBuffer_Release(&ov);
+    if (rc) return PyErr_NoMemory();
+    return PyLong_FromLong(levels);
+}
+
+static PyObject *octave_overlap(PyObject *self, PyObject *args) { (void)self; return py_octave(args, 0); }
+static PyObject *octave_nonoverlap(PyObject *self, PyObject *args) { (void)self; return py_octave(args, 1); }
+
+static PyObject *any_m(PyObject *self, PyObject *args)
+{
+    (void)self;
+    PyObject *xo, *mo, *oo;
+    double off;
+    int overlapping, exact = 0;
+    if (!PyArg_ParseTuple(args, "OdOOp|i", &xo, &off, &mo, &oo, &overlapping, &exact)) return NULL;
+    if (exact && !EXACT_OK) {
+        PyErr_SetString(PyExc_ValueError, "exact: no 128-bit integers in this build");
+        return NULL;
+    }
+    Py_buffer xv, mv, ov;
+    int fmt;
+    if (get_in(xo, &xv, &fmt) < 0) return NULL;
+    if (PyObject_GetBuffer(mo, &mv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) { PyBuffer_Release(&xv); return NULL; }
+    if (mv.ndim != 1 || mv.itemsize != 8 || parse_fmt(&mv) != I64) {
+        PyBuffer_Release(&xv); PyBuffer_Release(&mv);
+        PyErr_SetString(PyExc_TypeError, "ms: contiguous int64");
+        return NULL;
+    }
+    if (get_out(oo, &ov, mv.shape[0]) < 0) { PyBuffer_Release(&xv); PyBuffer_Release(&mv); return NULL; }
+    int rc;
+    Py_BEGIN_ALLOW_THREADS
+    rc = ck_any_m(xv.buf, fmt, xv.shape[0], off, mv.buf, mv.shape[0], overlapping, exact, ov.buf);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&xv); PyBuffer_Release(&mv); PyBuffer_Release(&ov);
+    if (rc) return PyErr_NoMemory();
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"octave_overlap", octave_overlap, METH_VARARGS,
+     "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0, exact=0) -> levels\n"
+     "Overlapping octave sums of squares into out[k] (m = 2^k)."},
+    {"octave_nonoverlap", octave_nonoverlap, METH_VARARGS,
+     "octave_nonoverlap(x, off, out, chunk=2**16, exact=0) -> levels\n"
+     "Non-overlapping octave sums of squares into out[k]."},
+    {"any_m", any_m, METH_VARARGS,
+     "any_m(x, off, ms, out, overlapping, exact=0)\n"
+     "Sums of squared second differences of the phase at each m (nan where no term)."},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ckernels",
+                                    "Compiled Allan kernels (see kernels.py).", -1, methods,
+                                    NULL, NULL, NULL, NULL};
+
+PyMODINIT_FUNC PyInit__ckernels(void)
+{
+    PyObject *m = PyModule_Create(&module);
+    if (m && PyModule_AddIntConstant(m, "EXACT", EXACT_OK) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -1,0 +1,244 @@
+/* Octave Allan sums (m = 1, 2, 4 ...): the overlapping cascade in two
+ * cache-blocked stages or, for a file's mapping, tiles plus running second
+ * differences; the non-overlapping pair-sum cascade in chunks. */
+#include <stdlib.h>
+
+#include "ckernels.h"
+
+/* ---- overlapping octave sums ----------------------------------------------- */
+
+int ck_levels(ssz n)
+{
+    int k = 0;
+    if (n < 2) return 0;
+    while (((ssz)2 << k) <= n) k++;  /* largest k with 2^k <= n/2 ... */
+    return k;                        /* levels: m = 2^0 .. 2^(k-1), 2^(k-1) <= n/2 */
+}
+
+/* The running second differences of the levels K .. levels-1 (m >= 2^K):
+ * d_m(i) = y_m(i+m) - y_m(i), d_m(i+1) = d_m(i) + x[i+2m] - 2 x[i+m] + x[i]
+ * (the offset cancels).  Long double; all levels advance together over
+ * blocks of i so that the input is read once per block per distinct offset. */
+#define CHAIN_BLOCK 2048
+
+static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u128 *ex)
+{
+    int nl = levels - K;
+    if (nl <= 0) return;
+    ld d[MAXLEV];
+    ssz last[MAXLEV];
+    for (int j = 0; j < nl; j++) {
+        ssz m = (ssz)1 << (K + j);
+        ld s0 = 0, s1 = 0;
+        for (ssz i = 0; i < m; i++) { s0 += ck_value(x, fmt, i); s1 += ck_value(x, fmt, i + m); }
+        d[j] = s1 - s0;
+        last[j] = n - 2 * m;  /* terms i = 0 .. last */
+        acc[K + j] = 0;
+        if (ex) ex[K + j] = 0;
+    }
+    /* the offsets read: 0 and 2^K .. 2^levels; each block converted once */
+    int no = nl + 3;  /* one spare: the pair loop reads offset 2^(levels+1) of a lone last level */
+    double *blk = malloc(sizeof(double) * (size_t)no * CHAIN_BLOCK);
+    if (!blk) return;
+    ssz top = last[0];  /* the longest chain */
+    for (ssz a = 0; a < top; a += CHAIN_BLOCK) {
+        ssz len = a + CHAIN_BLOCK <= top ? CHAIN_BLOCK : top - a;  /* steps i = a .. a+len-1 */
+        ck_load(x, fmt, a, len, 0.0, blk);
+        for (int o = 1; o < no; o++) {
+            ssz off = (ssz)1 << (K + o - 1);
+            ssz cnt = len;
+            if (a + off + cnt > n) cnt = n - a - off;
+            if (cnt > 0) ck_load(x, fmt, a + off, cnt, 0.0, blk + (size_t)o * CHAIN_BLOCK);
+        }
+        if (ex) {  /* integer codes: int64 differences, 128-bit sums: exact */
+            for (int j = 0; j < nl; j++) {
+                ssz st = last[j] - a;
+                if (st > len) st = len;
+                const double *x0 = blk, *x1 = blk + (size_t)(j + 1) * CHAIN_BLOCK,
+                             *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK;
+                int64_t dj = (int64_t)d[j];
+                u128 t = 0;
+                for (ssz i = 0; i < st; i++) {
+                    t += sq(dj);
+                    dj += (int64_t)x2[i] + (int64_t)x0[i] - 2 * (int64_t)x1[i];
+                }
+                d[j] = (ld)dj;
+                ex[K + j] += t;
+            }
+            continue;
+        }
+        /* two levels per loop: two independent long double chains hide the add latency */
+        for (int j = 0; j < nl; j += 2) {
+            int two = j + 1 < nl;
+            ssz sa = last[j] - a, sb = two ? last[j + 1] - a : 0;
+            if (sa > len) sa = len;
+            if (sb > len) sb = len;
+            if (sa < 0) sa = 0;
+            if (sb < 0) sb = 0;
+            const double *x0 = blk, *x1 = blk + (size_t)(j + 1) * CHAIN_BLOCK,
+                         *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK,
+                         *x3 = blk + (size_t)(j + 3) * CHAIN_BLOCK;
+            ld da = d[j], db = two ? d[j + 1] : 0, ta = 0, tb = 0;
+            ssz both = two ? (sa < sb ? sa : sb) : 0, i = 0;
+            for (; i < both; i++) {
+                ld u0 = x0[i], u1 = x1[i], u2 = x2[i], u3 = x3[i];
+                ta += da * da;
+                tb += db * db;
+                da += (u2 + u0) - 2 * u1;
+                db += (u3 + u0) - 2 * u2;
+            }
+            for (ssz k = i; k < sa; k++) {
+                ta += da * da;
+                da += ((ld)x2[k] + (ld)x0[k]) - 2 * (ld)x1[k];
+            }
+            for (ssz k = i; k < sb; k++) {
+                tb += db * db;
+                db += ((ld)x3[k] + (ld)x0[k]) - 2 * (ld)x2[k];
+            }
+            d[j] = da;
+            acc[K + j] += ta;
+            if (two) { d[j + 1] = db; acc[K + j + 1] += tb; }
+        }
+    }
+    for (int j = 0; j < nl; j++) {  /* the term i = last */
+        if (ex) ex[K + j] += sq((int64_t)d[j]);
+        else acc[K + j] += d[j] * d[j];
+    }
+    free(blk);
+}
+
+int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz split,
+                               int stream, ld *acc, u128 *ex)
+{
+    int levels = ck_levels(n);
+    for (int k = 0; k < levels; k++) acc[k] = 0;
+    if (!levels) return 0;
+    ssz M = split < ((ssz)1 << levels) ? split : ((ssz)1 << levels);
+    int K = 0;
+    while (((ssz)1 << (K + 1)) <= M) K++;
+    ssz T = tile > 8 * M ? tile : 8 * M;
+    ssz LY = n - M + 1;
+    int stage2 = K < levels && !stream;
+    ssz Q = (LY + M - 1) / M;
+    double *Y = NULL, *b0 = NULL, *b1 = NULL;
+    if (stage2) {
+        Y = ck_big_alloc(sizeof(double) * (size_t)(Q * M));
+        if (!Y) return -1;
+        memset(Y + LY, 0, sizeof(double) * (size_t)(Q * M - LY));
+    }
+    b0 = malloc(sizeof(double) * (size_t)(T + M));
+    b1 = malloc(sizeof(double) * (size_t)(T + M));
+    if (!b0 || !b1) { free(Y); free(b0); free(b1); return -1; }
+    for (ssz a = 0; a < LY; a += T) {
+        ssz b = a + T + M - 1 < n ? a + T + M - 1 : n;
+        ssz L = b - a;
+        int last = a + T >= LY;
+        double *buf = b0, *nxt = b1;
+        ck_load(x, fmt, a, L, off, buf);
+        for (int k = 0; k < K; k++) {
+            ssz m = (ssz)1 << k;
+            ssz c = n - 2 * m + 1 - a;
+            if (!last && c > T) c = T;
+            if (c <= 0) break;
+            L -= m;
+            /* the last level writes y_M straight into Y: its L values are the
+             * tile's share, min(T, LY - a) */
+            double *dst = Y && k == K - 1 ? Y + a : nxt;
+            acc[k] += ck_step(buf, m, c, L, dst, ex ? ex + k : NULL);
+            nxt = buf;
+            buf = dst;
+        }
+        if (Y && K == 0) memcpy(Y + a, buf, sizeof(double) * (size_t)(T < LY - a ? T : LY - a));
+    }
+    free(b0); free(b1);
+    if (stream) {
+        chains(x, fmt, n, K, levels, acc, ex);
+        return 0;
+    }
+    if (!Y) return 0;
+    /* stage 2: columns r0 .. r0+R of Y (rows of M) through every upper level */
+    ssz want = tile / 2 / Q;
+    if (want < 1) want = 1;
+    int lb = 0;
+    while (((ssz)2 << lb) <= want) lb++;
+    if (lb < 3) lb = 3;
+    ssz R = ((ssz)1 << lb) < M ? ((ssz)1 << lb) : M;
+    double *t0 = malloc(sizeof(double) * (size_t)(Q * R)), *t1 = malloc(sizeof(double) * (size_t)(Q * R));
+    if (!t0 || !t1) { free(Y); free(t0); free(t1); return -1; }
+    for (ssz r0 = 0; r0 < M; r0 += R) {
+        double *src = t0, *dst = t1;
+        for (ssz q = 0; q < Q; q++) memcpy(src + q * R, Y + q * M + r0, sizeof(double) * (size_t)R);
+        for (int k = K; k < levels; k++) {
+            ssz m = (ssz)1 << k;
+            ssz e0 = n - 2 * m - r0;
+            if (e0 < 0) break;
+            ssz qf = e0 / M, rem = e0 % M;
+            ssz cnt = qf * R + (R < rem + 1 ? R : rem + 1);
+            ssz s = (m / M) * R;
+            acc[k] += ck_step(src, s, cnt, cnt, dst, ex ? ex + k : NULL);
+            double *t = src; src = dst; dst = t;
+        }
+    }
+    free(t0); free(t1); free(Y);
+    return 0;
+}
+
+/* ---- non-overlapping octave sums -------------------------------------------- */
+
+/* Cluster sums cascade S_2m[j] = S_m[2j] + S_m[2j+1] inside chunks; the pair
+ * across a chunk boundary uses the previous chunk's last sum (slot 0). */
+
+int ck_octave_nonoverlap(const void *x, int fmt, ssz n, double off, ssz chunk, ld *acc, u128 *ex)
+{
+    int levels = ck_levels(n);
+    for (int k = 0; k < levels; k++) acc[k] = 0;
+    if (!levels) return 0;
+    int KC = 0;
+    while (((ssz)2 << KC) <= chunk) KC++;
+    int inner = levels < KC + 1 ? levels : KC + 1;
+    double *bufs[MAXLEV];
+    int have[MAXLEV];
+    double *top = malloc(sizeof(double) * (size_t)(n / chunk + 1));
+    if (!top) return -1;
+    for (int k = 0; k < inner; k++) {
+        bufs[k] = malloc(sizeof(double) * (size_t)((chunk >> k) + 1));
+        have[k] = 0;
+        if (!bufs[k]) { for (int j = 0; j < k; j++) free(bufs[j]); free(top); return -1; }
+    }
+    ssz ntop = 0;
+    for (ssz a = 0; a < n; a += chunk) {
+        ssz L = a + chunk <= n ? chunk : n - a;
+        ck_load(x, fmt, a, L, off, bufs[0] + 1);
+        for (int k = 0; k < inner; k++) {
+            double *buf = bufs[k];
+            ssz lo = have[k] ? 0 : 1;  /* slot 0: the previous chunk's last sum */
+            if (L + 1 - lo >= 2) acc[k] += ck_step(buf + lo, 1, L - lo, 0, NULL, ex ? ex + k : NULL);
+            if (L >= 1) { buf[0] = buf[L]; have[k] = 1; }
+            if (k + 1 < inner) {
+                ssz h = L / 2;
+                double *up = bufs[k + 1] + 1;
+                for (ssz j = 0; j < h; j++) up[j] = buf[2 * j + 1] + buf[2 * j + 2];
+                L = h;
+            } else if (inner < levels && L == 1) {
+                top[ntop++] = buf[1];
+            }
+        }
+    }
+    /* levels above the chunk: plain cascade over the chunk sums (in place) */
+    ssz cnt = ntop;
+    for (int k = inner; k < levels; k++) {
+        ssz h = cnt / 2;
+        for (ssz j = 0; j < h; j++) top[j] = top[2 * j] + top[2 * j + 1];
+        cnt = h;
+        ld s = 0;
+        for (ssz j = 0; j + 1 < cnt; j++) {
+            double d = top[j + 1] - top[j];
+            if (ex) ex[k] += sq((int64_t)d);
+            else s += (ld)d * d;
+        }
+        acc[k] = s;
+    }
+    for (int k = 0; k < inner; k++) free(bufs[k]);
+    free(top);
+    return 0;
+}
