@@ -113,7 +113,7 @@ static void test_status_reply_is_framed_and_checksummed(void)
   fx_send_str("status\r");
   fx_run_us(50000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank units=phys", b);
   assert_all_lines_whole();
 }
 
@@ -305,7 +305,7 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
   line("ok status", 0, b, sizeof b);
   /* link: 50 rows of 36 bytes and half a 31-byte count line a second, of
    * 11520 bytes/s: 1816 / 11520 = 15.8 %, rounded up */
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved units=phys", b);
 }
 
 static void test_saved_settings_are_in_force_at_power_up(void)
@@ -321,7 +321,7 @@ static void test_saved_settings_are_in_force_at_power_up(void)
   fx_send_str("status\r");
   fx_run_us(100000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved units=phys", b);
   TEST_ASSERT_EQUAL_UINT(3, (fake_portd >> 6) & 3u);
 }
 
@@ -500,7 +500,7 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   fx_run_us(60000);
   command("status");
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible units=phys", b);
   command("load");
   line("error:", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);
@@ -536,10 +536,14 @@ static void test_report_check_line_binds_rows_to_header(void)
   line("V,0,", 0, b, sizeof b);
   snprintf(want, sizeof want, "V,0,id=%s,crc=%04X", id, bound_crc(0));
   TEST_ASSERT_EQUAL_STRING(want, b);
-  /* V comes right before E */
+  /* V ends the machine lines: after the last T, right before the first S
+   * (the summary a person reads, last before E) */
   long v = fx_find_line("V,0,", 0, b, sizeof b, NULL);
+  long t = fx_find_line("T,0,gz,", 0, b, sizeof b, NULL);
+  long s0 = fx_find_line("S,0,", 0, b, sizeof b, NULL);
   long e = fx_find_line("E,0,", 0, b, sizeof b, NULL);
-  TEST_ASSERT_TRUE(v >= 0 && e > v && strchr(fx_out + v, '\n') + 1 == fx_out + e);
+  TEST_ASSERT_TRUE(t >= 0 && v > t && strchr(fx_out + t, '\n') + 1 == fx_out + v);
+  TEST_ASSERT_TRUE(s0 > v && strchr(fx_out + v, '\n') + 1 == fx_out + s0 && e > s0);
   assert_all_lines_whole();
 }
 
