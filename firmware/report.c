@@ -269,6 +269,7 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
 #define AT_CELL 1u
 #define AT_FLAGGED 2u
 #define AT_COUNTS 4u
+#define AT_KEY 8u
 
 /* mant * 2^exp with 3 significant digits, as put_at's style says.  Its
  * text buffer lives here, off the stack of the line's other calls
@@ -286,80 +287,55 @@ static __attribute__((noinline)) void put_sig3(uint32_t mant, int8_t exp, uint8_
   proto_puts(buf);
 }
 
-/* The deviation of channel rep.ch at level l as mant * 2^exp (returned),
- * times sqrt(tau) for q = UNITS_N, scaled as quantity q for a channel of
- * this kind (units.h; q >= UNITS_QUANTITIES: unscaled, mant 0 or in
- * [2^14, 2^15)).  N^2 = acc / (2 pairs m^2) * m / fs = acc / (2 pairs fs
+/* What put_at prints at a level: a quantity of units.h for channel
+ * rep.ch (its deviation, N = sigma sqrt(tau) or B = sigma / 0.664), tau
+ * in seconds, or the uncertainty from the level's pairs in percent,
+ * 100 / sqrt(2 pairs) (white noise, non-overlapping EDF), as fmt_adev
+ * computes sqrt(10000 / (2 pairs)). */
+#define AT_PCT 3 /* UNITS_QUANTITIES */
+#define AT_TAU 4
+_Static_assert(AT_PCT == UNITS_QUANTITIES, "AT_PCT follows the quantities of units.h");
+
+/* Print `what` at level l in the style given; with AT_KEY print nothing
+ * and return the value as one number that orders as it does (B's search:
+ * the deviation in counts, mant 0 or in [2^14, 2^15), as (exp + 128) <<
+ * 16 | mant).  N^2 = acc / (2 pairs m^2) * m / fs = acc / (2 pairs fs
  * 2^l), i.e. fmt_adev with pairs' = pairs fs (times 2 for an odd l) and
- * level l / 2.  0 pairs: mant 0. */
-static __attribute__((noinline)) int8_t level_dev(uint8_t l, uint8_t q, uint8_t kind, uint32_t *mant)
+ * level l / 2.  One function, so that the reads, the arithmetic and the
+ * printing stack no deeper than one frame under a step. */
+static __attribute__((noinline)) uint32_t put_at(uint8_t what, uint8_t l, uint8_t style)
 {
-  uint16_t hi;
-  uint32_t lo, pairs = pairs_at(l);
-  uint8_t lv = l;
-  int8_t exp;
-  acc_at(rep.ch, l, &hi, &lo);
-  if (q == UNITS_N) {
-    lv = (uint8_t)(l >> 1);
-    while (pairs >= (1ul << 21)) { /* pairs' within 32 bits */
-      pairs >>= 2;
-      lv++;
-    }
-    pairs *= adc_rate();
-    if (l & 1u)
-      pairs <<= 1;
-  }
-  exp = fmt_adev(mant, hi, lo, pairs, lv);
-  if (q < UNITS_QUANTITIES)
-    exp = units_scale(mant, exp, q, kind);
-  return exp;
-}
-
-/* What put_at prints at a level: a quantity of units.h (the deviation,
- * N or B of channel rep.ch), tau in seconds, or the uncertainty from the
- * level's pairs in percent, 100 / sqrt(2 pairs) (white noise,
- * non-overlapping EDF), as fmt_adev computes sqrt(10000 / (2 pairs)). */
-#define AT_TAU UNITS_QUANTITIES
-#define AT_PCT (UNITS_QUANTITIES + 1)
-
-static __attribute__((noinline)) void put_at(uint8_t what, uint8_t l, uint8_t style)
-{
-  uint32_t mant;
+  uint32_t mant, lo = 10000ul, pairs = pairs_at(l);
+  uint16_t hi = 0;
+  uint8_t lv = 0, kind = UNITS_COUNTS;
   int8_t exp;
   if (what == AT_TAU) {
     exp = fmt_tau(&mant, l, adc_rate());
-  } else if (what == AT_PCT) {
-    exp = fmt_adev(&mant, 0, 10000ul, pairs_at(l), 0);
   } else {
-    uint8_t kind = UNITS_COUNTS;
-    if (!(style & AT_COUNTS) && !settings.counts)
-      kind = rep.ch < 3 ? (uint8_t)(UNITS_ACC + settings.range) : UNITS_GYRO;
-    exp = level_dev(l, what, kind, &mant);
+    if (what != AT_PCT) {
+      acc_at(rep.ch, l, &hi, &lo);
+      lv = l;
+      if (what == UNITS_N) {
+        lv = (uint8_t)(l >> 1);
+        while (pairs >= (1ul << 21)) { /* pairs' within 32 bits */
+          pairs >>= 2;
+          lv++;
+        }
+        pairs *= adc_rate();
+        if (l & 1u)
+          pairs <<= 1;
+      }
+      if (!(style & AT_COUNTS) && !settings.counts)
+        kind = rep.ch < 3 ? (uint8_t)(UNITS_ACC + settings.range) : UNITS_GYRO;
+    }
+    exp = fmt_adev(&mant, hi, lo, pairs, lv);
+    if (what != AT_PCT)
+      exp = units_scale(&mant, exp, what, kind);
   }
+  if (style & AT_KEY)
+    return mant ? mant | (uint32_t)(uint8_t)(exp + 128) << 16 : 0;
   put_sig3(mant, exp, style);
-}
-
-/* The cells of a summary row (begin_seq is not under them: step_sum_row). */
-static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
-{
-  uint8_t ch = (uint8_t)(step - 1);
-  if (step == 0) {
-    put_at(AT_TAU, rep.level, AT_CELL);
-  } else if (step <= ALLAN_CHANNELS) {
-    rep.ch = ch;
-    put_at(UNITS_ADEV, rep.level, allan_flags(&sample_engine, ch, rep.level) ? AT_CELL | AT_FLAGGED : AT_CELL);
-  } else {
-    proto_end();
-    return 1;
-  }
   return 0;
-}
-
-static uint8_t step_sum_row(uint8_t step)
-{
-  if (step == 0)
-    begin_seq('S');
-  return sum_row_cells(step);
 }
 
 /* `V,<seq>,id=<run>,crc=<XXXX>`: the run and the CRC-16/MODBUS of the
@@ -416,13 +392,9 @@ static __attribute__((noinline)) uint8_t step_terms(uint8_t step)
   } else if (step < 2 + ALLAN_LEVELS) {
     l = (uint8_t)(step - 2);
     if (pairs_at(l) >= TERMS_B_PAIRS) {
-      /* mant is 0 or in [2^14, 2^15): (exp + 128, mant) orders as one number */
-      uint32_t mant;
-      int8_t exp = level_dev(l, UNITS_QUANTITIES, UNITS_COUNTS, &mant);
-      if (mant)
-        mant |= (uint32_t)(uint8_t)(exp + 128) << 16;
-      if (mant < rep.b_key) {
-        rep.b_key = mant;
+      uint32_t key = put_at(UNITS_ADEV, l, AT_COUNTS | AT_KEY);
+      if (key < rep.b_key) {
+        rep.b_key = key;
         rep.b_key_level = l;
       }
     }
@@ -439,91 +411,100 @@ static __attribute__((noinline)) uint8_t step_terms(uint8_t step)
   return 0;
 }
 
-/* The summary's text lines, a piece a step (at most UART_STEP_MAX
- * characters): flash strings, and the numbers and words of PIECE_*.  The
- * first line says what it shows and in which units: `Allan deviation by
- * tau (s): accel mg at +-1.5 g, gyro deg/s` (in counts mode `...: ADC
- * counts`); the caption of the noise terms says N's tau and uncertainty
- * (the same for every channel) and the units: `N at tau 1.28 s +-3.27%:
- * m/s/rt(h), deg/rt(h); B: mg, deg/h`. */
-#define PIECE_RANGE ((const char *)1) /* the range word */
-#define PIECE_TAU ((const char *)2)   /* N's tau */
-#define PIECE_PCT ((const char *)3)   /* N's uncertainty */
+/* The summary's text lines: flash text with control bytes, a step's worth
+ * (at most UART_STEP_MAX characters) between two TEXT_STEP: TEXT_RANGE
+ * the range word, AT_TAU and AT_PCT N's tau and uncertainty (put_at),
+ * TEXT_UNITS where the words of phys and counts part.
+ * The first line says what it shows and in which units; the caption of
+ * the noise terms says N's tau and uncertainty (the same for every
+ * channel) and the units of N and B. */
+#define TEXT_STEP "\001"
+#define TEXT_RANGE "\002"
+#define TEXT_PCT "\003" /* AT_PCT */
+#define TEXT_TAU "\004" /* AT_TAU */
+#define TEXT_UNITS "\005" /* the text goes on in the units' own words */
 
-static const char allan_P[] PROGMEM = "Allan deviation ";
-static const char by_tau_P[] PROGMEM = "by tau (s): ";
-static const char accel_P[] PROGMEM = "accel mg at +-";
-static const char gyro_P[] PROGMEM = " g, gyro deg/s";
-static const char counts_P[] PROGMEM = "ADC counts";
-static const char n_at_P[] PROGMEM = "N at tau ";
-static const char s_pm_P[] PROGMEM = " s +-";
-static const char pct_P[] PROGMEM = "%: ";
-static const char n_phys_P[] PROGMEM = "m/s/rt(h), deg/rt(h)";
-static const char b_phys_P[] PROGMEM = "; B: mg, deg/h";
-static const char n_counts_P[] PROGMEM = "count*rt(s)";
-static const char b_counts_P[] PROGMEM = "; B: counts";
-
-/* By line (title, caption) and units (phys, counts). */
-static const char *const sum_text[2][2][8] PROGMEM = {
-  {{allan_P, by_tau_P, accel_P, PIECE_RANGE, gyro_P}, {allan_P, by_tau_P, counts_P}},
-  {{n_at_P, PIECE_TAU, s_pm_P, PIECE_PCT, pct_P, n_phys_P, b_phys_P},
-   {n_at_P, PIECE_TAU, s_pm_P, PIECE_PCT, pct_P, n_counts_P, b_counts_P}},
-};
+static const char title_P[] PROGMEM = "Allan deviation " TEXT_STEP "by tau (s): " TEXT_STEP TEXT_UNITS;
+static const char title_phys_P[] PROGMEM = "accel mg at +-" TEXT_RANGE TEXT_STEP " g, gyro deg/s";
+static const char title_counts_P[] PROGMEM = "ADC counts";
+static const char caption_P[] PROGMEM = "N at " TEXT_TAU " s +-" TEXT_STEP TEXT_PCT "%: " TEXT_STEP TEXT_UNITS;
+static const char caption_phys_P[] PROGMEM = "m/s/rt(h), deg/rt(h)" TEXT_STEP "; B: mg, deg/h";
+static const char caption_counts_P[] PROGMEM = "count*rt(s)" TEXT_STEP "; B: counts";
 
 static __attribute__((noinline)) uint8_t step_sum_text(uint8_t step)
 {
-  const char *piece;
+  const char *p;
+  char c;
   if (step == 0) {
     begin_seq('S');
     return 0;
   }
-  piece = (const char *)pgm_read_ptr(&sum_text[rep.part != PART_SUM_TITLE][settings.counts][step - 1]);
-  if (piece == PIECE_RANGE)
-    proto_puts_P(vocab_word(vocab_ranges, settings.range));
-  else if (piece == PIECE_TAU || piece == PIECE_PCT)
-    put_at(piece == PIECE_TAU ? AT_TAU : AT_PCT, N_LEVEL, 0);
-  else if (piece)
-    proto_puts_P(piece);
-  else {
-    proto_end();
-    return 1;
+  p = rep.part == PART_SUM_TITLE ? title_P : caption_P;
+  for (;;) {
+    c = (char)pgm_read_byte(p++);
+    if (c == TEXT_UNITS[0]) {
+      if (rep.part == PART_SUM_TITLE)
+        p = settings.counts ? title_counts_P : title_phys_P;
+      else
+        p = settings.counts ? caption_counts_P : caption_phys_P;
+    } else if (!c) {
+      if (step > 1) {
+        proto_end();
+        return 1;
+      }
+      return 0;
+    } else if (c == TEXT_STEP[0]) {
+      if (--step == 0)
+        return 0;
+    } else if (step > 1) {
+      /* an earlier step's text */
+    } else if (c == TEXT_RANGE[0])
+      proto_puts_P(vocab_word(vocab_ranges, settings.range));
+    else if (c < ' ')
+      put_at((uint8_t)c, N_LEVEL, 0);
+    else
+      proto_putc(c);
   }
-  return 0;
 }
 
-static __attribute__((noinline)) uint8_t step_sum_head(uint8_t step)
-{
-  if (step == 0) {
-    begin_seq('S');
-    proto_puts_P(PSTR("    tau_s"));
-  } else if (step <= ALLAN_CHANNELS) {
-    proto_puts_P(PSTR("       "));
-    put_channel((uint8_t)(step - 1));
-  } else {
-    proto_end();
-    return 1;
-  }
-  return 0;
-}
+/* The labels of the summary's column heading and of the rows of the noise
+ * terms under the channels' columns (rep.level: the row): N, B, then B's
+ * uncertainty in percent and its tau, by row (row + 1) % 4. */
+static const char row_labels_P[] PROGMEM = "    tau_s\0        N\0        B\0      +-%";
 
-/* The rows of the noise terms under the channels' columns (rep.level: the
- * row): N, B, B's tau and B's uncertainty in percent. */
-static const char term_labels_P[] PROGMEM = "        N\0        B\0  B tau_s\0    B +-%";
-
-static __attribute__((noinline)) uint8_t step_sum_terms(uint8_t step)
+/* The cells of a row of the summary's table: the column heading, a
+ * level's deviations (after its tau) or a row of the terms (after its
+ * label); begin_seq is not under them (step_sum_row). */
+static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
 {
-  uint8_t row = rep.level, ch = (uint8_t)(step - 1);
+  uint8_t row = rep.level, ch = (uint8_t)(step - 1), part = rep.part;
   if (step == 0) {
-    begin_seq('S');
-    proto_puts_P(vocab_word(term_labels_P, row));
+    if (part == PART_SUM_ROW)
+      put_at(AT_TAU, row, AT_CELL);
+    else
+      proto_puts_P(vocab_word(row_labels_P, part == PART_SUM_HEAD ? 0 : (uint8_t)(row + 1) & 3u));
   } else if (step <= ALLAN_CHANNELS) {
     rep.ch = ch;
-    put_at((uint8_t)(row + 1), row ? rep.b_level[ch] : N_LEVEL, AT_CELL);
+    if (part == PART_SUM_HEAD) {
+      proto_puts_P(PSTR("       "));
+      put_channel(ch);
+    } else if (part == PART_SUM_TERMS) {
+      put_at((uint8_t)(row + 1), row ? rep.b_level[ch] : N_LEVEL, AT_CELL); /* N, B, AT_PCT, AT_TAU */
+    } else {
+      put_at(UNITS_ADEV, row, allan_flags(&sample_engine, ch, row) ? AT_CELL | AT_FLAGGED : AT_CELL);
+    }
   } else {
     proto_end();
     return 1;
   }
   return 0;
+}
+
+static uint8_t step_sum_row(uint8_t step)
+{
+  if (step == 0)
+    begin_seq('S');
+  return sum_row_cells(step);
 }
 
 /* After a whole line: the part and row the next line belongs to. */
@@ -574,7 +555,7 @@ uint8_t report_step(uint8_t step)
   if ((rep.part == PART_ROW && step == 0) || rep.part == PART_SUM_ROW)
     allan_settle_level(&sample_engine, rep.level);
   else if (rep.part == PART_TERMS || rep.part >= PART_SUM_CAPTION)
-    allan_settle(&sample_engine); /* the levels the terms read */
+    allan_settle(&sample_engine); /* the terms read any level */
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
@@ -582,9 +563,9 @@ uint8_t report_step(uint8_t step)
   case PART_CHECK: done = step_check(step); break;
   case PART_SUM_TITLE:
   case PART_SUM_CAPTION: done = step_sum_text(step); break;
-  case PART_SUM_HEAD: done = step_sum_head(step); break;
-  case PART_SUM_ROW: done = step_sum_row(step); break;
-  case PART_SUM_TERMS: done = step_sum_terms(step); break;
+  case PART_SUM_HEAD:
+  case PART_SUM_ROW:
+  case PART_SUM_TERMS: done = step_sum_row(step); break;
   default:
     begin_seq('E');
     proto_u32((uint32_t)ALLAN_CHANNELS * ALLAN_LEVELS);

@@ -16,20 +16,25 @@
 #define ACC_MG(mv_per_g) (VOLT_MV / (mv_per_g) * 1000.0) /* mg per count */
 #define GYRO_DPS (VOLT_MV / UNITS_GYRO_MV_PER_DPS)       /* deg/s per count */
 /* sqrt(s) -> sqrt(h): 60; mg sqrt(s) -> m/s/sqrt(h): 60 g0 / 1000 */
-#define PER_KIND(acc, gyro, counts) {FACTOR(counts), \
-  FACTOR(acc(UNITS_ACC_MV_PER_G_1G5)), FACTOR(acc(UNITS_ACC_MV_PER_G_2G)), \
-  FACTOR(acc(UNITS_ACC_MV_PER_G_4G)), FACTOR(acc(UNITS_ACC_MV_PER_G_6G)), FACTOR(gyro)}
 #define ADEV_ACC(s) ACC_MG(s)
 #define N_ACC(s) (ACC_MG(s) * 60.0 * UNITS_G0 / 1000.0)
 #define B_ACC(s) (ACC_MG(s) / UNITS_B_FLOOR)
 
+/* Counts stay as they are: factor 1 as 1 * 2^0 (report.c's search of B
+ * relies on the deviation in counts coming out unscaled). */
+#define PER_KIND(acc, gyro) {{1, 0}, \
+  FACTOR(acc(UNITS_ACC_MV_PER_G_1G5)), FACTOR(acc(UNITS_ACC_MV_PER_G_2G)), \
+  FACTOR(acc(UNITS_ACC_MV_PER_G_4G)), FACTOR(acc(UNITS_ACC_MV_PER_G_6G)), FACTOR(gyro)}
+
 const units_factor_t units_factors[UNITS_QUANTITIES][UNITS_KINDS] PROGMEM = {
-  PER_KIND(ADEV_ACC, GYRO_DPS, 1.0),
-  PER_KIND(N_ACC, GYRO_DPS * 60.0, 1.0),
-  PER_KIND(B_ACC, GYRO_DPS * 3600.0 / UNITS_B_FLOOR, 1.0 / UNITS_B_FLOOR),
+  PER_KIND(ADEV_ACC, GYRO_DPS),
+  PER_KIND(N_ACC, GYRO_DPS * 60.0),
+  {FACTOR(1.0 / UNITS_B_FLOOR), FACTOR(B_ACC(UNITS_ACC_MV_PER_G_1G5)), FACTOR(B_ACC(UNITS_ACC_MV_PER_G_2G)),
+   FACTOR(B_ACC(UNITS_ACC_MV_PER_G_4G)), FACTOR(B_ACC(UNITS_ACC_MV_PER_G_6G)),
+   FACTOR(GYRO_DPS * 3600.0 / UNITS_B_FLOOR)},
 };
 
-int8_t units_scale(uint32_t *mant, int8_t exp, uint8_t q, uint8_t kind)
+__attribute__((noinline)) int8_t units_scale(uint32_t *mant, int8_t exp, uint8_t q, uint8_t kind)
 {
   const units_factor_t *f = &units_factors[q][kind];
   *mant *= pgm_read_word(&f->k);

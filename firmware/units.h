@@ -38,7 +38,7 @@ enum { UNITS_ADEV, UNITS_N, UNITS_B, UNITS_QUANTITIES };
 #define UNITS_GYRO 5
 #define UNITS_KINDS 6
 
-/* A factor f = k * 2^e, k in [2^15, 2^16). */
+/* A factor f = k * 2^e, k in [2^15, 2^16) (1 * 2^0 for counts unscaled). */
 typedef struct {
   uint16_t k;
   int8_t e;
