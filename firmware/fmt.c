@@ -51,7 +51,7 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
   int8_t p, pos, bottom;
   uint16_t r;
   uint8_t n = 0;
-  char d[3];
+  const char *d = buf + FMT_SIG3_MAX - 3; /* the 3 digits, at the buffer's end: read before written over */
 
   if (!m) {
     buf[0] = '0';
@@ -82,9 +82,7 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
     }
     normalize(&m, &e);
   }
-  d[0] = (char)('0' + r / 100u);
-  d[1] = (char)('0' + r / 10u % 10u);
-  d[2] = (char)('0' + r % 10u);
+  fmt_u32(buf + FMT_SIG3_MAX - 3, r);
   /* The digits are 10^p, 10^(p-1), 10^(p-2): written from 10^max(p, 0)
    * down to 10^min(p-2, 0), the point before 10^-1, zeros outside them;
    * below 0.001, as d.dd then e-<exponent>. */

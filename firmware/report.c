@@ -377,7 +377,7 @@ static uint8_t terms_n_level(void)
  * sqrt(tau) in count sqrt(s) at the level nearest 1 s, and B = min sigma
  * / 0.664 in counts over the levels with at least 8 pairs (T lines come
  * only when level 0 has that many).  One level is looked at per step. */
-static __attribute__((noinline)) uint8_t step_terms(uint8_t step)
+static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
 {
   uint8_t l;
   if (step == 0) {
