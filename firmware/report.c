@@ -269,7 +269,6 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
 #define AT_CELL 1u
 #define AT_FLAGGED 2u
 #define AT_COUNTS 4u
-#define AT_KEY 8u
 
 /* mant * 2^exp with 3 significant digits, as put_at's style says.  Its
  * text buffer lives here, off the stack of the line's other calls
@@ -303,7 +302,7 @@ _Static_assert(AT_PCT == UNITS_QUANTITIES, "AT_PCT follows the quantities of uni
  * 2^l), i.e. fmt_adev with pairs' = pairs fs (times 2 for an odd l) and
  * level l / 2.  One function, so that the reads, the arithmetic and the
  * printing stack no deeper than one frame under a step. */
-static __attribute__((noinline)) uint32_t put_at(uint8_t what, uint8_t l, uint8_t style)
+static __attribute__((noinline)) int8_t value_at(uint8_t what, uint8_t l, uint8_t style)
 {
   uint32_t mant, lo = 10000ul, pairs = pairs_at(l);
   uint16_t hi = 0;
@@ -332,10 +331,16 @@ static __attribute__((noinline)) uint32_t put_at(uint8_t what, uint8_t l, uint8_
     if (what != AT_PCT)
       exp = units_scale(&mant, exp, what, kind);
   }
-  if (style & AT_KEY)
-    return mant ? mant | (uint32_t)(uint8_t)(exp + 128) << 16 : 0;
-  put_sig3(mant, exp, style);
-  return 0;
+  rep.b_key = mant; /* free but in B's search, which keeps its least aside */
+  return exp;
+}
+
+/* value_at's reads and arithmetic, then the printing: one after the
+ * other, not one under the other (the report's deepest path). */
+static __attribute__((noinline)) void put_at(uint8_t what, uint8_t l, uint8_t style)
+{
+  int8_t exp = value_at(what, l, style);
+  put_sig3(rep.b_key, exp, style);
 }
 
 /* `V,<seq>,id=<run>,crc=<XXXX>`: the run and the CRC-16/MODBUS of the
@@ -385,15 +390,22 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
     put_channel(rep.ch);
     put_key_u32(PSTR(","), N_LEVEL);
     proto_putc(',');
-    rep.b_key = 0xFFFFFFFFul;
   } else if (step == 1) {
     put_at(UNITS_N, N_LEVEL, AT_COUNTS);
     proto_putc(',');
+    rep.b_key = 0xFFFFFFFFul; /* after put_at, which works in it */
   } else if (step < 2 + ALLAN_LEVELS) {
     l = (uint8_t)(step - 2);
     if (pairs_at(l) >= TERMS_B_PAIRS) {
-      uint32_t key = put_at(UNITS_ADEV, l, AT_COUNTS | AT_KEY);
-      if (key < rep.b_key) {
+      /* the deviation in counts, mant 0 or in [2^14, 2^15): (exp + 128) << 16
+       * | mant orders as it does */
+      uint32_t least = rep.b_key, key;
+      int8_t exp = value_at(UNITS_ADEV, l, AT_COUNTS);
+      key = rep.b_key;
+      if (key)
+        key |= (uint32_t)(uint8_t)(exp + 128) << 16;
+      rep.b_key = least;
+      if (key < least) {
         rep.b_key = key;
         rep.b_key_level = l;
       }

@@ -34,7 +34,7 @@ const units_factor_t units_factors[UNITS_QUANTITIES][UNITS_KINDS] PROGMEM = {
    FACTOR(GYRO_DPS * 3600.0 / UNITS_B_FLOOR)},
 };
 
-__attribute__((noinline)) int8_t units_scale(uint32_t *mant, int8_t exp, uint8_t q, uint8_t kind)
+int8_t units_scale(uint32_t *mant, int8_t exp, uint8_t q, uint8_t kind)
 {
   const units_factor_t *f = &units_factors[q][kind];
   *mant *= pgm_read_word(&f->k);
