@@ -39,7 +39,7 @@ static struct {
       uint32_t pairs;
     };
     struct {                 /* after the L rows, for the terms: */
-      uint32_t b_key;        /* B's search in a T line: the least deviation so far (b_search) */
+      uint32_t b_key;        /* B's search in a T line: the least deviation so far; value_at's mant */
       uint8_t b_key_level;   /* ... and its level */
       uint8_t n_level1;      /* N's level + 1, the same for every channel; 0: no terms */
       uint8_t b_level[ALLAN_CHANNELS]; /* B's level of each channel, for the summary */
@@ -295,13 +295,12 @@ static __attribute__((noinline)) void put_sig3(uint32_t mant, int8_t exp, uint8_
 #define AT_TAU 4
 _Static_assert(AT_PCT == UNITS_QUANTITIES, "AT_PCT follows the quantities of units.h");
 
-/* Print `what` at level l in the style given; with AT_KEY print nothing
- * and return the value as one number that orders as it does (B's search:
- * the deviation in counts, mant 0 or in [2^14, 2^15), as (exp + 128) <<
- * 16 | mant).  N^2 = acc / (2 pairs m^2) * m / fs = acc / (2 pairs fs
- * 2^l), i.e. fmt_adev with pairs' = pairs fs (times 2 for an odd l) and
- * level l / 2.  One function, so that the reads, the arithmetic and the
- * printing stack no deeper than one frame under a step. */
+/* `what` at level l as mant * 2^exp: exp returned, mant left in rep.b_key
+ * (free but in B's search, which keeps its least aside), in counts with
+ * AT_COUNTS or in the units setting's.  N^2 = acc / (2 pairs m^2) * m / fs
+ * = acc / (2 pairs fs 2^l), i.e. fmt_adev with pairs' = pairs fs (times 2
+ * for an odd l) and level l / 2.  In counts the deviation comes out
+ * unscaled (units.h): mant 0 or in [2^14, 2^15). */
 static __attribute__((noinline)) int8_t value_at(uint8_t what, uint8_t l, uint8_t style)
 {
   uint32_t mant, lo = 10000ul, pairs = pairs_at(l);
@@ -331,7 +330,7 @@ static __attribute__((noinline)) int8_t value_at(uint8_t what, uint8_t l, uint8_
     if (what != AT_PCT)
       exp = units_scale(&mant, exp, what, kind);
   }
-  rep.b_key = mant; /* free but in B's search, which keeps its least aside */
+  rep.b_key = mant;
   return exp;
 }
 
