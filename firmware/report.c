@@ -440,7 +440,7 @@ static const char title_phys_P[] PROGMEM = "accel mg at +-" TEXT_RANGE TEXT_STEP
 static const char title_counts_P[] PROGMEM = "ADC counts";
 static const char caption_P[] PROGMEM = "N at " TEXT_TAU " s +-" TEXT_STEP TEXT_PCT "%: " TEXT_STEP TEXT_UNITS;
 static const char caption_phys_P[] PROGMEM = "m/s/rt(h), deg/rt(h)" TEXT_STEP "; B: mg, deg/h";
-static const char caption_counts_P[] PROGMEM = "count*rt(s)" TEXT_STEP "; B: counts";
+static const char caption_counts_P[] PROGMEM = "count rt(s)" TEXT_STEP "; B: counts";
 
 static __attribute__((noinline)) uint8_t step_sum_text(uint8_t step)
 {

@@ -12,6 +12,7 @@
 #include "crc.h"
 #include "link.h"
 #include "fmt.h"
+#include "units.h"
 #include "proto.h"
 #include "unity.h"
 
@@ -187,6 +188,63 @@ static void test_fmt_adev_three_significant_digits(void)
   TEST_ASSERT_EQUAL_STRING("9.77e-4", buf);
 }
 
+/* The unit factors of units.c against the thesis board's data sheets,
+ * worked out here in double: a 10-bit ADC on 3.3 V, MMA7260Q 800/600/300/
+ * 200 mV/g, LISY300AL 3.3 mV/(deg/s); quantity 0 deviation (mg, deg/s),
+ * 1 N (m/s/sqrt(h), deg/sqrt(h)), 2 B = deviation / 0.664 (mg, deg/h);
+ * kind 0 counts (B: / 0.664 only), 1..4 accelerometer ranges, 5 gyro. */
+static double board_factor(int q, int kind)
+{
+  static const double sens[] = {0.8, 0.6, 0.3, 0.2};
+  double volt = 3.3 / 1024.0, f;
+  if (kind == UNITS_COUNTS)
+    f = 1.0;
+  else if (kind == UNITS_GYRO)
+    f = volt / 0.0033 * (q == UNITS_N ? 60.0 : q == UNITS_B ? 3600.0 : 1.0);
+  else
+    f = volt / sens[kind - UNITS_ACC] * (q == UNITS_N ? 9.80665 * 60.0 : 1000.0);
+  return q == UNITS_B ? f / 0.664 : f;
+}
+
+/* Random reports' deviations (random sums, pair counts and levels),
+ * through fmt_adev, units_scale and fmt_sig3 as the summary prints them,
+ * for every quantity, range and units, against double arithmetic. */
+static void test_units_scale_matches_float_on_random_reports(void)
+{
+  char buf[FMT_SIG3_MAX + 2];
+  unsigned checked = 0;
+  for (int t = 0; t < 20000; t++) {
+    uint64_t acc = next() >> (16 + next() % 48);
+    uint32_t pairs = (uint32_t)(next() >> (32 + next() % 32));
+    uint8_t level = (uint8_t)(next() % 15);
+    int q = (int)(next() % UNITS_QUANTITIES), kind = (int)(next() % UNITS_KINDS);
+    uint32_t mant;
+    int8_t exp;
+    double value;
+    if (!pairs) pairs = 1;
+    if (!acc) acc = 1;
+    value = sqrt((double)acc / (2.0 * pairs)) / ldexp(1.0, level) * board_factor(q, kind);
+    exp = fmt_adev(&mant, (uint16_t)(acc >> 32), (uint32_t)acc, pairs, level);
+    TEST_ASSERT_TRUE(mant < 65536u); /* units_scale's precondition */
+    exp = units_scale(&mant, exp, (uint8_t)q, (uint8_t)kind);
+    fmt_sig3(buf, mant, exp);
+    assert_sig3(buf, value, "scaled");
+    checked++;
+  }
+  TEST_ASSERT_EQUAL_UINT(20000, checked);
+  /* One count is 4.03 mg at 1.5 g and 0.977 deg/s (the thesis' resolution). */
+  {
+    uint32_t m = 1;
+    int8_t e = units_scale(&m, 0, UNITS_ADEV, UNITS_ACC + RANGE_1G5);
+    fmt_sig3(buf, m, e);
+    TEST_ASSERT_EQUAL_STRING("4.03", buf);
+    m = 1;
+    e = units_scale(&m, 0, UNITS_ADEV, UNITS_GYRO);
+    fmt_sig3(buf, m, e);
+    TEST_ASSERT_EQUAL_STRING("0.977", buf);
+  }
+}
+
 static void test_fmt_tau_every_level_and_rate(void)
 {
   static const uint16_t rates[] = {50, 100, 200, 250, 500, 1000, 1250};
@@ -329,6 +387,16 @@ static void test_command_settings_words(void)
   TEST_ASSERT_EQUAL_UINT8(CMD_HELP, c.id);
   TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("status", &c));
   TEST_ASSERT_EQUAL_UINT8(CMD_STATUS, c.id);
+  /* units: phys (0) or counts (1), alone shows the setting */
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("units counts", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_UNITS, c.id);
+  TEST_ASSERT_EQUAL_UINT32(1, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("UNITS Phys", &c));
+  TEST_ASSERT_TRUE(c.has_arg && c.arg == 0);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("units", &c));
+  TEST_ASSERT_FALSE(c.has_arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("units mg", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_UNITS, c.id);
   TEST_ASSERT_EQUAL_STRING("binary", vocab_word(vocab_modes, MODE_BINARY));
   TEST_ASSERT_EQUAL_STRING("1.5", vocab_word(vocab_ranges, RANGE_1G5));
   TEST_ASSERT_EQUAL_STRING("6", vocab_word(vocab_ranges, RANGE_6G));
@@ -375,6 +443,7 @@ int main(void)
   RUN_TEST(test_crc_modbus_check_value_and_random_strings);
   RUN_TEST(test_fmt_u32_and_hex_match_snprintf);
   RUN_TEST(test_fmt_adev_three_significant_digits);
+  RUN_TEST(test_units_scale_matches_float_on_random_reports);
   RUN_TEST(test_fmt_tau_every_level_and_rate);
   RUN_TEST(test_proto_frames_a_line_with_its_crc);
   RUN_TEST(test_proto_never_lets_framing_characters_into_a_body);
