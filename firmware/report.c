@@ -40,12 +40,11 @@ static struct {
     };
     struct {                 /* after the L rows, for the terms: */
       uint32_t b_key;        /* B's search in a T line: the least deviation so far; value_at's mant */
-      uint8_t b_key_level;   /* ... and its level */
       uint8_t n_level1;      /* N's level + 1, the same for every channel; 0: no terms */
-      uint8_t b_level[ALLAN_CHANNELS]; /* B's level of each channel, for the summary */
+      uint8_t b_level[ALLAN_CHANNELS]; /* B's level of each channel (its search's so far) */
     };
   };
-} rep = {.seq = 0xFFFF}; /* the first report is seq 0 */
+} rep; /* in .bss: report_init() sets what is not 0 */
 
 /* Levels whose deviation B may come from: at least this many pairs. */
 #define TERMS_B_PAIRS 8u
@@ -53,6 +52,7 @@ static struct {
 void report_init(uint8_t cause)
 {
   rep.reset_cause = cause;
+  rep.seq = 0xFFFF; /* the first report is seq 0 */
 }
 
 void report_new_run(void)
@@ -406,12 +406,11 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
       rep.b_key = least;
       if (key < least) {
         rep.b_key = key;
-        rep.b_key_level = l;
+        rep.b_level[rep.ch] = l;
       }
     }
   } else if (step == 2 + ALLAN_LEVELS) {
-    l = rep.b_key_level; /* level 0 has 8 pairs at least */
-    rep.b_level[rep.ch] = l;
+    l = rep.b_level[rep.ch]; /* level 0 has 8 pairs at least */
     proto_u32(l);
     proto_putc(',');
     put_at(UNITS_B, l, AT_COUNTS);
