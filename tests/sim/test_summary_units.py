@@ -14,9 +14,9 @@ N = 8000
 FS = 100
 
 
-def _simulate(run, tmp_path: Path, name: str, uart: str | None) -> "object":
+def _simulate(run, tmp_path: Path, name: str, uart: str | None, n: int = N) -> "object":
     r = run(name)
-    cli("gen", "-n", str(N), "--fs", str(FS), "--seed", "7", "-o", str(r.rows))
+    cli("gen", "-n", str(n), "--fs", str(FS), "--seed", "7", "-o", str(r.rows))
     uart_in = None
     if uart is not None:
         uart_in = tmp_path / f"{name}.uart"
@@ -33,7 +33,7 @@ def _last_report(log: str) -> list[str]:
 
 
 def test_summary_in_phys_is_last_and_checked(run, tmp_path: Path) -> None:
-    r = _simulate(run, tmp_path, "phys", None)
+    r = _simulate(run, tmp_path, "phys", None, n=33000)  # 2^15 and more: all 15 levels have pairs
     out = r.check(fs=FS)
     assert "OK" in out and "summary terms (N, B, +-% in phys units): 18" in out, out
     rep = _last_report(r.log.read_text())
@@ -43,7 +43,8 @@ def test_summary_in_phys_is_last_and_checked(run, tmp_path: Path) -> None:
     assert kinds[-1] == "E" and set(kinds[first_s:-1]) == {"S"}
     assert kinds[first_s - 1] == "V" and kinds[first_s - 7:first_s - 1] == ["T"] * 6
     summary = rep[first_s:]
-    assert len(summary) <= 23 and all(len(ln) <= 80 for ln in summary)
+    # 15 levels: the last 23 lines (an 80x24 terminal) are exactly the summary and E
+    assert len(summary) == 23 and all(len(ln) <= 80 for ln in summary)
     assert "Allan deviation by tau (s): accel mg at +-1.5 g, gyro deg/s" in summary[0]
     assert re.search(r"N at [0-9.]+ s \+-[0-9.]+%: m/s/rt\(h\), deg/rt\(h\); B: mg, deg/h", summary[-6])
     assert "units=phys" in rep[0]
