@@ -7,6 +7,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 from conftest import cli
 from imu_allan.device.framing import crc16
 
@@ -79,3 +81,37 @@ def test_a_changed_summary_value_is_caught(run, tmp_path: Path) -> None:
     r.log.write_text("".join(lines))
     out = cli("check", str(r.log), str(r.rows), "--fs", str(FS), check=False)
     assert out.returncode != 0 and "gx B: summary shows" in out.stdout, out.stdout
+
+
+def _record(bits: int) -> bytes:
+    """A version-2 EEPROM record (firmware/settings.c, built here
+    independently): 100 Hz, interval 60, mode allan, range 2 g, then the
+    echo byte (bit 0 echo, bit 1 units counts), CRC-16/MODBUS high byte first."""
+    body = bytes([2]) + (100).to_bytes(2, "little") + (60).to_bytes(2, "little") + bytes([0, 1, bits])
+    crc = 0xFFFF
+    for b in body:
+        crc ^= b
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0xA001 if crc & 1 else crc >> 1
+    return body + bytes([crc >> 8, crc & 0xFF])
+
+
+@pytest.mark.parametrize("bits,cfg,units", [(1, "saved", "phys"),     # saved before `units`: phys
+                                            (3, "saved", "counts"),   # echo on, units counts
+                                            (5, "corrupt", "phys")])  # a bit no setting has
+def test_units_saved_in_the_echo_byte(run, tmp_path: Path, bits: int, cfg: str, units: str) -> None:
+    import subprocess
+
+    from conftest import ELF, SIM
+    r = run(f"ee-{bits}")
+    cli("gen", "-n", "3000", "--seed", "5", "-o", str(r.rows))
+    ee = tmp_path / "ee.bin"
+    ee.write_bytes(_record(bits))
+    proc = subprocess.run([str(SIM), "--adc", str(r.rows), "-o", str(r.log), "--stats-json", str(r.stats_file),
+                           "--eeprom", str(ee), str(ELF)], capture_output=True, text=True, errors="replace")
+    assert proc.returncode == 0, proc.stderr
+    head = r.decode()["header"]
+    assert head["cfg"] == cfg and head["extra"]["units"] == units
+    assert head["range_g"] == ("2" if cfg == "saved" else "1.5")
+    out = r.check(fs=100)
+    assert "OK" in out and f"in {units} units" in out, out
