@@ -30,7 +30,7 @@ static struct {
   uint8_t part, ch, level;
   uint16_t seq;   /* of the report being written; +1 when one starts */
   uint8_t run_id; /* +1 with every new run (report_new_run) */
-  uint8_t reset_cause;
+  uint8_t reset_cause; /* MCUSR's PORF EXTRF BORF WDRF; bit 7: REP_COUNTS */
   union {
     struct { /* an L row's snapshot */
       uint8_t flags;
@@ -60,8 +60,16 @@ void report_new_run(void)
   rep.run_id++;
 }
 
+/* The units setting as the report began (in its header): a `units`
+ * typed while it is sent takes effect with the next one. */
+#define REP_COUNTS 0x80u
+#define rep_counts() ((int8_t)rep.reset_cause < 0)
+
 void report_begin(void)
 {
+  rep.reset_cause &= (uint8_t)~REP_COUNTS;
+  if (settings.counts)
+    rep.reset_cause |= REP_COUNTS;
   rep.part = PART_HEADER;
   rep.ch = 0;
   rep.level = 0;
@@ -219,7 +227,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
     proto_puts_P(vocab_word(vocab_ranges, settings.range));
     proto_puts_P(PSTR(",units="));
   } else if (step == temp + 3) {
-    proto_puts_P(vocab_word(vocab_units, settings.counts));
+    proto_puts_P(vocab_word(vocab_units, rep_counts()));
     proto_puts_P(PSTR(",cfg="));
   } else if (step == temp + 4) {
     proto_puts_P(vocab_word(vocab_sources, settings_source));
@@ -323,7 +331,7 @@ static __attribute__((noinline)) int8_t value_at(uint8_t what, uint8_t l, uint8_
         if (l & 1u)
           pairs <<= 1;
       }
-      if (!(style & AT_COUNTS) && !settings.counts)
+      if (!(style & AT_COUNTS) && !rep_counts())
         kind = rep.ch < 3 ? (uint8_t)(UNITS_ACC + settings.range) : UNITS_GYRO;
     }
     exp = fmt_adev(&mant, hi, lo, pairs, lv);
@@ -454,9 +462,9 @@ static __attribute__((noinline)) uint8_t step_sum_text(uint8_t step)
     c = (char)pgm_read_byte(p++);
     if (c == TEXT_UNITS[0]) {
       if (rep.part == PART_SUM_TITLE)
-        p = settings.counts ? title_counts_P : title_phys_P;
+        p = rep_counts() ? title_counts_P : title_phys_P;
       else
-        p = settings.counts ? caption_counts_P : caption_phys_P;
+        p = rep_counts() ? caption_counts_P : caption_phys_P;
     } else if (!c) {
       if (step > 1) {
         proto_end();

@@ -578,6 +578,35 @@ static void test_summary_in_physical_units_matches_float_on_many_reports(void)
   assert_all_lines_whole();
 }
 
+/* `units` typed while a report is sent takes effect with the next report:
+ * a report's summary is in the units its header says. */
+static void test_units_typed_during_a_report_apply_to_the_next(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(3000000);
+  command("echo off");
+  command("interval 0");
+  fx_send_str("report\r");
+  fx_run_us(60000); /* the report is under way */
+  TEST_ASSERT_TRUE(fx_count_lines("L,0,") > 0 && fx_count_lines("E,0,") == 0);
+  command("units counts");
+  fx_run_us(900000);
+  line("ok units", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok units=counts", b);
+  line("H,0,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("phys", field(b, "units"));
+  line("S,0,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("S,0,Allan deviation by tau (s): accel mg at +-1.5 g, gyro deg/s", b);
+  TEST_ASSERT_EQUAL_UINT(1, fx_count_lines("E,0,"));
+  command("report");
+  fx_run_us(900000);
+  line("H,1,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("counts", field(b, "units"));
+  line("S,1,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("S,1,Allan deviation by tau (s): ADC counts", b);
+}
+
 static void test_line_with_nul_is_refused_whole_and_runs_nothing(void)
 {
   static const char *bad[] = {"reset\0xyz", "rate 250\0 junk", "status\x01", "help\xff", "\0"};
@@ -777,6 +806,7 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_save_writes_a_checked_record_and_load_restores_it),
   T(test_noise_terms_match_float_on_many_reports),
   T(test_summary_in_physical_units_matches_float_on_many_reports),
+  T(test_units_typed_during_a_report_apply_to_the_next),
   T(test_saved_settings_are_in_force_at_power_up),
   T(test_periodic_report_follows_the_interval),
   T(test_link_budget_refuses_raw_at_1000_hz),
