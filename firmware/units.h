@@ -4,7 +4,7 @@
  * of channel.  Pure: builds on the AVR (table in flash) and natively.
  *
  * The board's facts, one home on the device (host_scripts/imu_allan/
- * profiles.py holds the host's; tests/term/test_units_table.py checks
+ * profiles.py holds the host's; host_scripts/tests/test_units_table.py checks
  * that the two agree): a 10-bit ADC on a 3.3 V reference; MMA7260Q
  * accelerometer 800/600/300/200 mV/g at 1.5/2/4/6 g; LISY300AL gyroscope
  * 3.3 mV/(deg/s).  One count is then 3300/1024/800 g = 4.0283 mg at
