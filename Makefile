@@ -152,7 +152,7 @@ demo: firmware $(IMU_SIM)
 	  print("simulated %.0f s in %.1f s of wall time (%.0fx), stack free %d bytes" % \
 	  (s["sim_seconds"], s["wall_seconds"], s["sim_speed_x"], s["stack_free_bytes"]))' $(DEMO_DIR)/stats.json
 	@echo "== what the device printed (human summary of its last report) =="
-	@grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 16 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'
+	@grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 22 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'
 	@echo "== decoded by the host (imu-allan decode $(DEMO_DIR)/device.log) =="
 	@$(IMU_ALLAN) decode $(DEMO_DIR)/device.log
 	@echo "== exactness (imu-allan check against the float64 reference) =="

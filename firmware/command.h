@@ -27,12 +27,13 @@ enum {
   CMD_SAVE,
   CMD_LOAD,
   CMD_DEFAULTS,
-  CMD_ECHO      /* arg: 0 off, 1 on; none: show the setting */
+  CMD_ECHO,     /* arg: 0 off, 1 on; none: show the setting */
+  CMD_UNITS     /* arg: 0 phys, 1 counts; none: show the setting */
 };
-#define CMD_COUNT 14 /* commands, CMD_REPORT .. CMD_ECHO */
+#define CMD_COUNT 15 /* commands, CMD_REPORT .. CMD_UNITS */
 
 /* Kinds of argument a command takes (command_arg_kind). */
-enum { ARG_NONE, ARG_COUNT, ARG_RATE, ARG_SECONDS, ARG_MODE, ARG_RANGE, ARG_ONOFF };
+enum { ARG_NONE, ARG_COUNT, ARG_RATE, ARG_SECONDS, ARG_MODE, ARG_RANGE, ARG_ONOFF, ARG_UNITS };
 
 /* The word of command id (CMD_REPORT..), in flash; the kind of its argument. */
 const char *command_word(uint8_t id);

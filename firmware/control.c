@@ -218,6 +218,11 @@ static void execute(const command_t *cmd)
       settings.echo = (uint8_t)cmd->arg;
     tx_ok_word(PSTR("echo="), vocab_word(vocab_onoff, settings.echo));
     break;
+  case CMD_UNITS: /* of the summary (report.c): the next report's */
+    if (cmd->has_arg)
+      settings.counts = (uint8_t)cmd->arg;
+    tx_ok_word(PSTR("units="), vocab_word(vocab_units, settings.counts));
+    break;
   default: /* CMD_HELP */
     tx_help();
     break;

@@ -45,27 +45,13 @@ static void normalize(uint32_t *m, int8_t *e)
   }
 }
 
-/* r has 3 digits; `point` of them stand before the decimal point (1..3). */
-static uint8_t put_digits(char *buf, uint16_t r, uint8_t point)
-{
-  uint8_t n = 0, i;
-  char d[3];
-  d[0] = (char)('0' + r / 100u);
-  d[1] = (char)('0' + r / 10u % 10u);
-  d[2] = (char)('0' + r % 10u);
-  for (i = 0; i < 3; i++) {
-    if (i == point)
-      buf[n++] = '.';
-    buf[n++] = d[i];
-  }
-  return n;
-}
-
 uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
 {
   int8_t j = 0; /* value * 10^j = m * 2^e */
+  int8_t p, pos, bottom;
   uint16_t r;
   uint8_t n = 0;
+  const char *d = buf + FMT_SIG3_MAX - 3; /* the 3 digits, at the buffer's end: read before written over */
 
   if (!m) {
     buf[0] = '0';
@@ -75,50 +61,42 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
   normalize(&m, &e);
   for (;;) {
     /* With m in [2^31, 2^32), value in [2^(31+e), 2^(32+e)). */
-    if (e >= -21) {              /* >= 1024: divide by 10 */
+    uint8_t s = (uint8_t)-e;
+    r = e >= -21 ? 1000u : e < -25 ? 0u : (uint16_t)(m >> s);
+    if (r >= 1000u) {            /* divide by 10 */
       m /= 10u;
       j--;
-    } else if (e < -25) {        /* < 64: multiply by 10 = by 0.625 * 16 */
+    } else if (r < 100u) {       /* multiply by 10 = by 0.625 * 16 */
       m = (m >> 1) + (m >> 3);
       e = (int8_t)(e + 4);
       j++;
     } else {
       /* Decide the decade on the truncated value, then round: 99.96 must
        * become 100 (three digits), never "100." at the wrong decade. */
-      uint8_t s = (uint8_t)-e;
-      r = (uint16_t)(m >> s);
-      if (r < 100u) {
-        m = (m >> 1) + (m >> 3);
-        e = (int8_t)(e + 4);
-        j++;
-      } else if (r >= 1000u) {
-        m /= 10u;
+      r = (uint16_t)(((m >> (s - 1)) + 1u) >> 1);
+      if (r == 1000u) { /* 999.5 and up: 100 at the next decade */
+        r = 100u;
         j--;
-      } else {
-        r = (uint16_t)(((m >> (s - 1)) + 1u) >> 1);
-        if (r == 1000u) { /* 999.5 and up: 100 at the next decade */
-          r = 100u;
-          j--;
-        }
-        break;
       }
+      break;
     }
     normalize(&m, &e);
   }
-  if (j <= 0) {                  /* r then -j zeros */
-    n = fmt_u32(buf, r);
-    while (j++ < 0)
-      buf[n++] = '0';
-  } else if (j <= 2) {
-    n = put_digits(buf, r, (uint8_t)(3 - j));
-  } else if (j <= 5) {
-    buf[n++] = '0';
-    buf[n++] = '.';
-    while (j-- > 3)
-      buf[n++] = '0';
-    n = (uint8_t)(n + put_digits(buf + n, r, 3));
-  } else {
-    n = put_digits(buf, r, 1);
+  fmt_u32(buf + FMT_SIG3_MAX - 3, r);
+  /* The digits are 10^p, 10^(p-1), 10^(p-2): written from 10^max(p, 0)
+   * down to 10^min(p-2, 0), the point before 10^-1, zeros outside them;
+   * below 0.001, as d.dd then e-<exponent>. */
+  p = (int8_t)(2 - j);
+  if (p < -3)
+    p = 0;
+  bottom = p < 2 ? (int8_t)(p - 2) : 0;
+  for (pos = p > 0 ? p : 0; pos >= bottom; pos--) {
+    int8_t k = (int8_t)(p - pos);
+    if (pos == -1)
+      buf[n++] = '.';
+    buf[n++] = k >= 0 && k <= 2 ? d[k] : '0';
+  }
+  if (j > 5) {
     buf[n++] = 'e';
     buf[n++] = '-';
     n = (uint8_t)(n + fmt_u32(buf + n, (uint32_t)(j - 2)));

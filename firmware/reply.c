@@ -108,6 +108,7 @@ static const struct {
   {vocab_modes, 0, 0, VOCAB_MODES},                /* ARG_MODE */
   {vocab_ranges, 0, g_P, VOCAB_RANGES},            /* ARG_RANGE */
   {vocab_onoff, open_P, close_P, 2},               /* ARG_ONOFF */
+  {vocab_units, open_P, close_P, 2},               /* ARG_UNITS */
 };
 
 /* Piece k of the arguments of a command of this kind, as help shows
@@ -209,7 +210,7 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
   return 0;
 }
 
-/* `ok status run= fs= mode= range= interval= link= cfg=` */
+/* `ok status run= fs= mode= range= interval= link= cfg= units=` */
 static __attribute__((noinline)) uint8_t step_status(uint8_t step)
 {
   switch (step) {
@@ -235,6 +236,10 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
     break;
   case 5:
     proto_puts_P(vocab_word(vocab_sources, settings_source));
+    break;
+  case 6:
+    proto_puts_P(PSTR(" units="));
+    proto_puts_P(vocab_word(vocab_units, settings.counts));
     break;
   default:
     proto_end();

@@ -15,34 +15,44 @@
 #include "proto.h"
 #include "sample.h"
 #include "settings.h"
+#include "units.h"
 #include "vocab.h"
 
-/* Parts of a report, in order. */
-/* A report's lines in order (docs/protocol.md): H, L..., S title, S head,
- * S rows, T..., V, E. */
-enum { PART_HEADER, PART_ROW, PART_SUM_TITLE, PART_SUM_HEAD, PART_SUM_ROW, PART_TERMS, PART_CHECK, PART_END };
+/* A report's lines in order (docs/protocol.md): the machine's H, L...,
+ * T..., V, then the summary a person reads, last on the screen: S title,
+ * S head, S rows, S caption and terms rows; E. */
+enum {
+  PART_HEADER, PART_ROW, PART_TERMS, PART_CHECK, PART_SUM_TITLE, PART_SUM_HEAD, PART_SUM_ROW,
+  PART_SUM_CAPTION, PART_SUM_TERMS, PART_END
+};
 
 static struct {
   uint8_t part, ch, level;
   uint16_t seq;   /* of the report being written; +1 when one starts */
   uint8_t run_id; /* +1 with every new run (report_new_run) */
-  uint8_t reset_cause;
-  /* The L row's snapshot; in a T line, the least deviation so far:
-   * its key (min_key()) in pairs, its level in acc_hi (0xFFFF: none). */
-  uint8_t flags;
-  uint16_t acc_hi;
-  uint32_t acc_lo;
-  uint32_t pairs;
-} rep = {.seq = 0xFFFF}; /* the first report is seq 0 */
+  uint8_t reset_cause; /* MCUSR's PORF EXTRF BORF WDRF; bit 7: REP_COUNTS */
+  union {
+    struct { /* an L row's snapshot */
+      uint8_t flags;
+      uint16_t acc_hi;
+      uint32_t acc_lo;
+      uint32_t pairs;
+    };
+    struct {                 /* after the L rows, for the terms: */
+      uint32_t b_key;        /* B's search in a T line: the least deviation so far; value_at's mant */
+      uint8_t n_level1;      /* N's level + 1, the same for every channel; 0: no terms */
+      uint8_t b_level[ALLAN_CHANNELS]; /* B's level of each channel (its search's so far) */
+    };
+  };
+} rep; /* in .bss: report_init() sets what is not 0 */
 
-/* B = sigma_min / 0.664: 2^16 / 0.664, for a mantissa below 2^15. */
-#define TERMS_B_SCALE 98699ul
 /* Levels whose deviation B may come from: at least this many pairs. */
 #define TERMS_B_PAIRS 8u
 
 void report_init(uint8_t cause)
 {
   rep.reset_cause = cause;
+  rep.seq = 0xFFFF; /* the first report is seq 0 */
 }
 
 void report_new_run(void)
@@ -50,8 +60,16 @@ void report_new_run(void)
   rep.run_id++;
 }
 
+/* The units setting as the report began (in its header): a `units`
+ * typed while it is sent takes effect with the next one. */
+#define REP_COUNTS 0x80u
+#define rep_counts() ((int8_t)rep.reset_cause < 0)
+
 void report_begin(void)
 {
+  rep.reset_cause &= (uint8_t)~REP_COUNTS;
+  if (settings.counts)
+    rep.reset_cause |= REP_COUNTS;
   rep.part = PART_HEADER;
   rep.ch = 0;
   rep.level = 0;
@@ -112,14 +130,6 @@ static void put_causes(void)
   }
   if (!any) /* a warm reset nothing recorded (reset.h) */
     proto_puts_P(PSTR("unknown"));
-}
-
-/* One right-aligned 9-character column of the summary table. */
-static void put_cell(const char *s, uint8_t len)
-{
-  while (len++ < 9)
-    proto_putc(' ');
-  proto_puts(s);
 }
 
 /* `proto=1,fw=0.2.0,mcu=atmega168`, in three steps. */
@@ -215,11 +225,14 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
   } else if (step == temp + 2) {
     proto_puts_P(PSTR(",range="));
     proto_puts_P(vocab_word(vocab_ranges, settings.range));
-    proto_puts_P(PSTR(",cfg="));
+    proto_puts_P(PSTR(",units="));
   } else if (step == temp + 3) {
+    proto_puts_P(vocab_word(vocab_units, rep_counts()));
+    proto_puts_P(PSTR(",cfg="));
+  } else if (step == temp + 4) {
     proto_puts_P(vocab_word(vocab_sources, settings_source));
     proto_puts_P(PSTR(",reset="));
-  } else if (step == temp + 4) {
+  } else if (step == temp + 5) {
     put_causes();
   } else {
     proto_end();
@@ -259,83 +272,82 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
   return 0;
 }
 
-static const char title0_P[] PROGMEM = "Allan deviation ";
-static const char title1_P[] PROGMEM = "(ADC counts) by ";
-static const char title2_P[] PROGMEM = "tau (s); T lines: ";
-static const char title3_P[] PROGMEM = "N, B in counts";
+/* put_at's styles: a right-aligned 9-character cell, a flagged value
+ * (ends in '!'), in counts whatever the units setting. */
+#define AT_CELL 1u
+#define AT_FLAGGED 2u
+#define AT_COUNTS 4u
 
-/* The summary's first line says what it shows and in which units. */
-static __attribute__((noinline)) uint8_t step_sum_title(uint8_t step)
-{
-  static const char *const parts[] PROGMEM = {title0_P, title1_P, title2_P, title3_P};
-  if (step == 0) {
-    begin_seq('S');
-    return 0;
-  }
-  if (step <= 4) {
-    proto_puts_P((const char *)pgm_read_ptr(&parts[step - 1]));
-    return 0;
-  }
-  proto_end();
-  return 1;
-}
-
-static __attribute__((noinline)) uint8_t step_sum_head(uint8_t step)
-{
-  if (step == 0) {
-    begin_seq('S');
-    proto_puts_P(PSTR("    tau_s"));
-  } else if (step <= ALLAN_CHANNELS) {
-    proto_puts_P(PSTR("       "));
-    put_channel((uint8_t)(step - 1));
-  } else {
-    proto_end();
-    return 1;
-  }
-  return 0;
-}
-
-/* One right-aligned cell of 3 significant digits, '!' when flagged: its
+/* mant * 2^exp with 3 significant digits, as put_at's style says.  Its
  * text buffer lives here, off the stack of the line's other calls
  * (begin_seq's number formatting is the report's deepest path). */
-static __attribute__((noinline)) void put_sig3_cell(uint32_t mant, int8_t exp, uint8_t flagged)
+static __attribute__((noinline)) void put_sig3(uint32_t mant, int8_t exp, uint8_t style)
 {
   char buf[FMT_SIG3_MAX + 1];
   uint8_t len = fmt_sig3(buf, mant, exp);
-  if (flagged) {
+  if (style & AT_FLAGGED) {
     buf[len++] = '!';
     buf[len] = 0;
   }
-  put_cell(buf, len);
+  while ((style & AT_CELL) && len++ < 9)
+    proto_putc(' ');
+  proto_puts(buf);
 }
 
-/* The cells of a summary row (begin_seq is not under them: step_sum_row). */
-static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
+/* What put_at prints at a level: a quantity of units.h for channel
+ * rep.ch (its deviation, N = sigma sqrt(tau) or B = sigma / 0.664), tau
+ * in seconds, or the uncertainty from the level's pairs in percent,
+ * 100 / sqrt(2 pairs) (white noise, non-overlapping EDF), as fmt_adev
+ * computes sqrt(10000 / (2 pairs)). */
+#define AT_PCT 3 /* UNITS_QUANTITIES */
+#define AT_TAU 4
+_Static_assert(AT_PCT == UNITS_QUANTITIES, "AT_PCT follows the quantities of units.h");
+
+/* `what` at level l as mant * 2^exp: exp returned, mant left in rep.b_key
+ * (free but in B's search, which keeps its least aside), in counts with
+ * AT_COUNTS or in the units setting's.  N^2 = acc / (2 pairs m^2) * m / fs
+ * = acc / (2 pairs fs 2^l), i.e. fmt_adev with pairs' = pairs fs (times 2
+ * for an odd l) and level l / 2.  In counts the deviation comes out
+ * unscaled (units.h): mant 0 or in [2^14, 2^15). */
+static __attribute__((noinline)) int8_t value_at(uint8_t what, uint8_t l, uint8_t style)
 {
-  uint32_t mant;
+  uint32_t mant, lo = 10000ul, pairs = pairs_at(l);
+  uint16_t hi = 0;
+  uint8_t lv = 0, kind = UNITS_COUNTS;
   int8_t exp;
-  if (step == 0) {
-    exp = fmt_tau(&mant, rep.level, adc_rate());
-    put_sig3_cell(mant, exp, 0);
-  } else if (step <= ALLAN_CHANNELS) {
-    uint8_t ch = (uint8_t)(step - 1);
-    uint16_t hi;
-    uint32_t lo;
-    acc_at(ch, rep.level, &hi, &lo);
-    exp = fmt_adev(&mant, hi, lo, pairs_at(rep.level), rep.level);
-    put_sig3_cell(mant, exp, allan_flags(&sample_engine, ch, rep.level) != 0);
+  if (what == AT_TAU) {
+    exp = fmt_tau(&mant, l, adc_rate());
   } else {
-    proto_end();
-    return 1;
+    if (what != AT_PCT) {
+      acc_at(rep.ch, l, &hi, &lo);
+      lv = l;
+      if (what == UNITS_N) {
+        lv = (uint8_t)(l >> 1);
+        while (pairs >= (1ul << 21)) { /* pairs' within 32 bits */
+          pairs >>= 2;
+          lv++;
+        }
+        pairs *= adc_rate();
+        if (l & 1u)
+          pairs <<= 1;
+      }
+      if (!(style & AT_COUNTS) && !rep_counts())
+        kind = rep.ch < 3 ? (uint8_t)(UNITS_ACC + settings.range) : UNITS_GYRO;
+    }
+    exp = fmt_adev(&mant, hi, lo, pairs, lv);
+    if (what != AT_PCT)
+      exp = units_scale(&mant, exp, what, kind);
   }
-  return 0;
+  rep.b_key = mant;
+  return exp;
 }
 
-static uint8_t step_sum_row(uint8_t step)
+/* value_at's reads and arithmetic, then the printing: one after the
+ * other, not one under the other (the report's deepest path). */
+static __attribute__((noinline)) void put_at(uint8_t what, uint8_t l, uint8_t style)
 {
-  if (step == 0)
-    begin_seq('S');
-  return sum_row_cells(step);
+  int8_t exp = value_at(what, l, style);
+  put_sig3(rep.b_key, exp, style);
 }
 
 /* `V,<seq>,id=<run>,crc=<XXXX>`: the run and the CRC-16/MODBUS of the
@@ -356,51 +368,21 @@ static __attribute__((noinline)) uint8_t step_check(uint8_t step)
 }
 
 /* The level whose tau = 2^level / fs is nearest 1 s (ties: the lower),
- * among those with pairs. */
+ * among those with pairs (levels 0 up to some level have them). */
 static uint8_t terms_n_level(void)
 {
   uint16_t fs = adc_rate();
-  uint8_t l, best = 0;
-  uint32_t m = 1, best_d = 0xFFFFFFFFul;
-  for (l = 0; l < ALLAN_LEVELS && pairs_at(l); l++, m <<= 1) {
-    uint32_t d = m > fs ? m - fs : fs - m;
-    if (d < best_d) {
-      best_d = d;
-      best = l;
-    }
-  }
-  return best;
+  uint8_t l = 0;
+  while ((2u << l) <= fs)
+    l++; /* 2^l <= fs < 2^(l+1) */
+  if (fs - (1u << l) > (2u << l) - fs)
+    l++;
+  while (l && !pairs_at(l))
+    l--;
+  return l;
 }
 
-static __attribute__((noinline)) void put_sig3(uint32_t mant, int8_t exp)
-{
-  char buf[FMT_SIG3_MAX + 1];
-  fmt_sig3(buf, mant, exp);
-  proto_puts(buf);
-}
-
-/* The deviation of the T line's channel at level l as mant * 2^exp
- * (returned); with `n`, times sqrt(tau): N^2 = acc / (2 pairs m^2) * m / fs
- * = acc / (2 pairs fs 2^l), i.e. fmt_adev with pairs' = pairs fs (times 2
- * for an odd l) and level l / 2.  0 pairs: mant 0. */
-static __attribute__((noinline)) int8_t level_dev(uint8_t l, uint8_t n, uint32_t *mant)
-{
-  uint16_t hi;
-  uint32_t lo, pairs = pairs_at(l);
-  uint8_t lv = l;
-  acc_at(rep.ch, l, &hi, &lo);
-  if (n) {
-    lv = (uint8_t)(l >> 1);
-    while (pairs >= (1ul << 21)) { /* pairs' within 32 bits */
-      pairs >>= 2;
-      lv++;
-    }
-    pairs *= adc_rate();
-    if (l & 1u)
-      pairs <<= 1;
-  }
-  return fmt_adev(mant, hi, lo, pairs, lv);
-}
+#define N_LEVEL ((uint8_t)(rep.n_level1 - 1u))
 
 /* `T,<seq>,<ch>,<level N>,<N>,<level B>,<B>`: the noise terms read off
  * the channel's deviations (docs/protocol.md), in counts: N = sigma(tau)
@@ -409,73 +391,176 @@ static __attribute__((noinline)) int8_t level_dev(uint8_t l, uint8_t n, uint32_t
  * only when level 0 has that many).  One level is looked at per step. */
 static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
 {
-  /* The mantissa lives in rep.acc_lo (the L rows' snapshot, free once
-   * they are out), not on the stack: this step is inlined into the main
-   * loop, whose frame lies under every other one. */
-#define mant rep.acc_lo
   uint8_t l;
-  int8_t exp;
   if (step == 0) {
     begin_seq('T');
     put_channel(rep.ch);
+    put_key_u32(PSTR(","), N_LEVEL);
     proto_putc(',');
-    rep.pairs = 0xFFFFFFFFul;
   } else if (step == 1) {
-    l = terms_n_level();
-    exp = level_dev(l, 1, &mant);
-    proto_u32(l);
+    put_at(UNITS_N, N_LEVEL, AT_COUNTS);
     proto_putc(',');
-    put_sig3(mant, exp);
-    proto_putc(',');
+    rep.b_key = 0xFFFFFFFFul; /* after put_at, which works in it */
   } else if (step < 2 + ALLAN_LEVELS) {
     l = (uint8_t)(step - 2);
     if (pairs_at(l) >= TERMS_B_PAIRS) {
-      /* mant is 0 or in [2^14, 2^15): (exp + 128, mant) orders as one number */
-      exp = level_dev(l, 0, &mant);
-      if (mant)
-        mant |= (uint32_t)(uint8_t)(exp + 128) << 16;
-      if (mant < rep.pairs) {
-        rep.pairs = mant;
-        rep.acc_hi = l;
+      /* the deviation in counts, mant 0 or in [2^14, 2^15): (exp + 128) << 16
+       * | mant orders as it does */
+      uint32_t least = rep.b_key, key;
+      int8_t exp = value_at(UNITS_ADEV, l, AT_COUNTS);
+      key = rep.b_key;
+      if (key)
+        key |= (uint32_t)(uint8_t)(exp + 128) << 16;
+      rep.b_key = least;
+      if (key < least) {
+        rep.b_key = key;
+        rep.b_level[rep.ch] = l;
       }
     }
   } else if (step == 2 + ALLAN_LEVELS) {
-    proto_u32(rep.acc_hi); /* level 0 has 8 pairs at least: T lines come only then */
+    l = rep.b_level[rep.ch]; /* level 0 has 8 pairs at least */
+    proto_u32(l);
     proto_putc(',');
-    put_sig3((rep.pairs & 0xFFFFu) * TERMS_B_SCALE, (int8_t)((uint8_t)(rep.pairs >> 16) - 128 - 16));
+    put_at(UNITS_B, l, AT_COUNTS);
   } else {
     proto_end();
     return 1;
   }
   return 0;
-#undef mant
+}
+
+/* The summary's text lines: flash text with control bytes, a step's worth
+ * (at most UART_STEP_MAX characters) between two TEXT_STEP: TEXT_RANGE
+ * the range word, AT_TAU and AT_PCT N's tau and uncertainty (put_at),
+ * TEXT_UNITS where the words of phys and counts part.
+ * The first line says what it shows and in which units; the caption of
+ * the noise terms says N's tau and uncertainty (the same for every
+ * channel) and the units of N and B. */
+#define TEXT_STEP "\001"
+#define TEXT_RANGE "\002"
+#define TEXT_PCT "\003" /* AT_PCT */
+#define TEXT_TAU "\004" /* AT_TAU */
+#define TEXT_UNITS "\005" /* the text goes on in the units' own words */
+
+static const char title_P[] PROGMEM = "Allan deviation " TEXT_STEP "by tau (s): " TEXT_STEP TEXT_UNITS;
+static const char title_phys_P[] PROGMEM = "accel mg at +-" TEXT_RANGE TEXT_STEP " g, gyro deg/s";
+static const char title_counts_P[] PROGMEM = "ADC counts";
+static const char caption_P[] PROGMEM = "N at " TEXT_TAU " s +-" TEXT_STEP TEXT_PCT "%: " TEXT_STEP TEXT_UNITS;
+static const char caption_phys_P[] PROGMEM = "m/s/rt(h), deg/rt(h)" TEXT_STEP "; B: mg, deg/h";
+static const char caption_counts_P[] PROGMEM = "count rt(s)" TEXT_STEP "; B: counts";
+
+static __attribute__((noinline)) uint8_t step_sum_text(uint8_t step)
+{
+  const char *p;
+  char c;
+  if (step == 0) {
+    begin_seq('S');
+    return 0;
+  }
+  p = rep.part == PART_SUM_TITLE ? title_P : caption_P;
+  for (;;) {
+    c = (char)pgm_read_byte(p++);
+    if (c == TEXT_UNITS[0]) {
+      if (rep.part == PART_SUM_TITLE)
+        p = rep_counts() ? title_counts_P : title_phys_P;
+      else
+        p = rep_counts() ? caption_counts_P : caption_phys_P;
+    } else if (!c) {
+      if (step > 1) {
+        proto_end();
+        return 1;
+      }
+      return 0;
+    } else if (c == TEXT_STEP[0]) {
+      if (--step == 0)
+        return 0;
+    } else if (step > 1) {
+      /* an earlier step's text */
+    } else if (c == TEXT_RANGE[0])
+      proto_puts_P(vocab_word(vocab_ranges, settings.range));
+    else if (c < ' ')
+      put_at((uint8_t)c, N_LEVEL, 0);
+    else
+      proto_putc(c);
+  }
+}
+
+/* The labels of the summary's column heading and of the rows of the noise
+ * terms under the channels' columns (rep.level: the row): N, B, then B's
+ * uncertainty in percent and its tau, by row (row + 1) % 4. */
+static const char row_labels_P[] PROGMEM = "    tau_s\0        N\0        B\0      +-%";
+
+/* The cells of a row of the summary's table: the column heading, a
+ * level's deviations (after its tau) or a row of the terms (after its
+ * label); begin_seq is not under them (step_sum_row). */
+static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
+{
+  uint8_t row = rep.level, ch = (uint8_t)(step - 1), part = rep.part;
+  if (step == 0) {
+    if (part == PART_SUM_ROW)
+      put_at(AT_TAU, row, AT_CELL);
+    else
+      proto_puts_P(vocab_word(row_labels_P, part == PART_SUM_HEAD ? 0 : (uint8_t)(row + 1) & 3u));
+  } else if (step <= ALLAN_CHANNELS) {
+    rep.ch = ch;
+    if (part == PART_SUM_HEAD) {
+      proto_puts_P(PSTR("       "));
+      put_channel(ch);
+    } else if (part == PART_SUM_TERMS) {
+      put_at((uint8_t)(row + 1), row ? rep.b_level[ch] : N_LEVEL, AT_CELL); /* N, B, AT_PCT, AT_TAU */
+    } else {
+      put_at(UNITS_ADEV, row, allan_flags(&sample_engine, ch, row) ? AT_CELL | AT_FLAGGED : AT_CELL);
+    }
+  } else {
+    proto_end();
+    return 1;
+  }
+  return 0;
+}
+
+static uint8_t step_sum_row(uint8_t step)
+{
+  if (step == 0)
+    begin_seq('S');
+  return sum_row_cells(step);
 }
 
 /* After a whole line: the part and row the next line belongs to. */
 static void next_line(void)
 {
-  if (rep.part == PART_ROW) {
+  switch (rep.part) {
+  case PART_ROW:
     if (++rep.level < ALLAN_LEVELS)
       return;
     rep.level = 0;
     if (++rep.ch < ALLAN_CHANNELS)
       return;
-  } else if (rep.part == PART_SUM_ROW) {
-    if (++rep.level < ALLAN_LEVELS && pairs_at(rep.level))
-      return;
     rep.ch = 0;
-    if (pairs_at(0) < TERMS_B_PAIRS)
+    rep.n_level1 = 0;
+    if (pairs_at(0) >= TERMS_B_PAIRS)
+      rep.n_level1 = (uint8_t)(terms_n_level() + 1u);
+    else
       rep.part++; /* too few pairs for the terms: no T lines */
-  } else if (rep.part == PART_TERMS) {
+    break;
+  case PART_TERMS:
     if (++rep.ch < ALLAN_CHANNELS)
       return;
+    break;
+  case PART_SUM_ROW:
+    if (++rep.level < ALLAN_LEVELS && pairs_at(rep.level))
+      return;
+    rep.level = 0;
+    if (!rep.n_level1)
+      rep.part += 2; /* no T lines: no terms */
+    break;
+  case PART_SUM_TERMS:
+    if (++rep.level < 4)
+      return;
+    break;
   }
   rep.part++;
-  if (rep.part == PART_SUM_ROW) {
-    rep.level = 0;
-    if (!pairs_at(0))
-      rep.part += 2; /* no pairs yet: no summary rows, no terms (V follows) */
-  }
+  if (rep.part == PART_SUM_ROW && !pairs_at(0))
+    rep.part = PART_END; /* no pairs yet: no summary rows, no terms */
 }
 
 uint8_t report_step(uint8_t step)
@@ -487,14 +572,18 @@ uint8_t report_step(uint8_t step)
    * steps may leave the level waiting again: settle before each of them. */
   if ((rep.part == PART_ROW && step == 0) || rep.part == PART_SUM_ROW)
     allan_settle_level(&sample_engine, rep.level);
+  else if (rep.part == PART_TERMS || rep.part >= PART_SUM_CAPTION)
+    allan_settle(&sample_engine); /* the terms read any level */
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
-  case PART_SUM_TITLE: done = step_sum_title(step); break;
-  case PART_SUM_HEAD: done = step_sum_head(step); break;
-  case PART_SUM_ROW: done = step_sum_row(step); break;
   case PART_TERMS: done = step_terms(step); break;
   case PART_CHECK: done = step_check(step); break;
+  case PART_SUM_TITLE:
+  case PART_SUM_CAPTION: done = step_sum_text(step); break;
+  case PART_SUM_HEAD:
+  case PART_SUM_ROW:
+  case PART_SUM_TERMS: done = step_sum_row(step); break;
   default:
     begin_seq('E');
     proto_u32((uint32_t)ALLAN_CHANNELS * ALLAN_LEVELS);

@@ -1,9 +1,11 @@
 /*
  * settings.c - see settings.h.  EEPROM record at address 0:
  *   byte 0      SETTINGS_VERSION
- *   bytes 1..7  settings_t (rate, interval, mode, range, echo)
+ *   bytes 1..7  settings_t (rate, interval, mode, range, echo and units bits)
  *   bytes 8..9  CRC-16/MODBUS (crc.h), high byte first, of bytes 0..7
- * (version 1 had no echo byte: it reads as corrupt, the defaults apply)
+ * (version 1 had no echo byte: it reads as corrupt, the defaults apply.
+ * `units` came later as bit 1 of the echo byte, 0 meaning physical units,
+ * the default: a record saved before it loads as it was, in phys.)
  * A blank EEPROM reads 0xFF everywhere.
  */
 #include "settings.h"
@@ -45,7 +47,7 @@ static uint16_t record_crc(void)
 static uint8_t valid(const settings_t *s)
 {
   return vocab_rate_ok(s->rate_hz) && s->interval_s <= VOCAB_INTERVAL_MAX_S && s->mode < VOCAB_MODES &&
-         s->range < VOCAB_RANGES && s->echo <= 1;
+         s->range < VOCAB_RANGES && !s->unused;
 }
 
 void settings_defaults(void)
@@ -55,6 +57,7 @@ void settings_defaults(void)
   settings.mode = MODE_DEFAULT;
   settings.range = RANGE_DEFAULT;
   settings.echo = 1;
+  settings.counts = 0;
   settings_source = CFG_DEFAULTS;
 }
 

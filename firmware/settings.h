@@ -1,6 +1,6 @@
 /*
  * settings.h - the user's settings (rate, report interval, output mode,
- * accelerometer range) and their copy in EEPROM: a versioned record with a
+ * accelerometer range, echo, units) and their copy in EEPROM: a versioned record with a
  * CRC-16, written only by `save`, one byte per main-loop pass so that
  * sampling never waits on the EEPROM.
  */
@@ -16,7 +16,11 @@ typedef struct {
   uint16_t interval_s; /* 0: reports only on request */
   uint8_t mode;        /* MODE_* */
   uint8_t range;       /* RANGE_* */
-  uint8_t echo;        /* 1: typed characters are echoed (lineedit.h) */
+  /* One byte, as in version 2 records before `units` (whose echo byte
+   * was 0 or 1: counts 0, physical units, for them). */
+  uint8_t echo : 1;    /* 1: typed characters are echoed (lineedit.h) */
+  uint8_t counts : 1;  /* 1: `units counts`, the summary in ADC counts; 0: physical units */
+  uint8_t unused : 6;  /* 0 in a valid record */
 } __attribute__((packed)) settings_t; /* the EEPROM record holds it byte for byte, on the AVR and natively */
 
 extern settings_t settings;

@@ -8,6 +8,7 @@ const char vocab_ranges[] PROGMEM = "1.5\0" "2\0" "4\0" "6";
 const char vocab_sources[] PROGMEM = "saved\0blank\0corrupt\0defaults\0infeasible";
 const char vocab_causes[] PROGMEM = "por\0ext\0bor\0wdt";
 const char vocab_onoff[] PROGMEM = "off\0on";
+const char vocab_units[] PROGMEM = "phys\0counts";
 const char vocab_channels[] PROGMEM = "axayazgxgygz";
 
 static char lower(char c)

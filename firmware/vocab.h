@@ -51,6 +51,7 @@ extern const char vocab_ranges[];
 extern const char vocab_sources[];
 extern const char vocab_causes[];
 extern const char vocab_onoff[]; /* "off", "on": 0, 1 */
+extern const char vocab_units[]; /* "phys", "counts": settings.counts 0, 1 */
 /* Channel names, two letters each, no separator: "axayazgxgygz". */
 extern const char vocab_channels[];
 

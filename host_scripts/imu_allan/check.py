@@ -28,6 +28,7 @@ from .device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceR
 from .stats.reference import OctaveCascade
 from .device.files import PathLike
 from .device.rows import iter_blocks
+from .device.summary import parse_terms as parse_summary_terms, scales, summary_units
 
 REL_TOL = 1e-12
 TERM_REL = 2e-4
@@ -44,6 +45,7 @@ class CheckResult:
     rows: int = 0          # L rows in the report
     compared: int = 0      # rows without flags, compared exactly
     terms: int = 0         # device noise terms (T records) recomputed
+    summary_terms: int = 0  # values of the summary's terms rows (N, B, +-%) recomputed
     exact: int = 0         # ... whose acc equals the host's exact sum
     flagged: list[str] = field(default_factory=list)
     max_rel: float = 0.0
@@ -130,6 +132,7 @@ def check_report(report: DeviceReport, rows_path: PathLike, fs_hz: Optional[floa
             bad(f"{where}: avar {r.avar!r} vs float64 reference {want!r} "
                 f"(relative difference {rel:.3g} > {REL_TOL:g})")
     _check_terms(report, res)
+    _check_summary_terms(report, res)
     return res
 
 
@@ -192,6 +195,71 @@ def _check_terms(report: DeviceReport, res: CheckResult) -> None:
                     f"(beyond the printed precision)")
 
 
+def expected_summary_terms(report: DeviceReport, channel: str) -> dict[str, tuple[int, float]]:
+    """The summary's terms of a channel in its units (the header's ``units`` and
+    ``range``), from the report's integers: N and B with their levels, and the
+    uncertainty 100 / sqrt(2 pairs) in percent of the level each was read at."""
+    scale = scales(report.header)[channel]
+    want = expected_terms(report, channel)
+    pairs = {r.level: r.pairs for r in report.rows if r.channel == channel}
+    out = {}
+    for name, factor in (("N", scale.N), ("B", scale.B * B_FACTOR)):
+        if want[name] is not None:
+            level, value = want[name]
+            out[name] = (level, value * factor)
+            out[name + "%"] = (level, 100.0 / np.sqrt(2.0 * pairs[level]))
+    return out
+
+
+def _check_summary_terms(report: DeviceReport, res: CheckResult) -> None:
+    """The summary's terms (caption and rows, docs/protocol.md) against the
+    values recomputed from the report's integers in the header's units, within
+    the printed precision (stopped runs, like the T lines)."""
+    bad = res.mismatches.append
+    if report.header.running is not False:
+        return
+    try:
+        got = parse_summary_terms(report.summary)
+    except ValueError as e:
+        bad(f"summary: {e}")
+        return
+    if got is None:
+        return
+    fs = float(report.header.fs_hz)
+    units = summary_units(report.header)
+
+    def close(shown: float, value: float) -> bool:
+        return abs(shown - value) <= _printed_tol(value)
+    for ch in CHANNELS:
+        want = expected_summary_terms(report, ch)
+        if "N" not in want or "B" not in want:
+            bad(f"{ch}: the summary shows terms the rows cannot give")
+            continue
+        n_level, n_value = want["N"]
+        if not close(got.n_tau, 2 ** n_level / fs) or not close(got.n_pct, want["N%"][1]):
+            bad(f"summary: N at {got.n_tau:g} s +-{got.n_pct:g}%, the rows give "
+                f"{2 ** n_level / fs:.4g} s +-{want['N%'][1]:.3g}%")
+        cells = got.rows[ch]
+        level, value = want["B"]
+        tau = 2 ** level / fs
+        if not close(cells["tau_s"], tau):
+            # a near tie of the minimum may fall either way in fixed point (as in T)
+            term = report.terms.get(ch)
+            if term is None or term.B.level is None or not close(cells["tau_s"], 2 ** term.B.level / fs):
+                bad(f"{ch} B: summary at tau {cells['tau_s']:g} s, the rows give {tau:.4g} s")
+                continue
+            level = term.B.level
+            row = next(r for r in report.rows if r.channel == ch and r.level == level)
+            value = float(np.sqrt(row.avar)) * scales(report.header)[ch].B
+            want["B%"] = (level, 100.0 / np.sqrt(2.0 * row.pairs))
+        for name, shown, expect in (("N", cells["N"], n_value), ("B", cells["B"], value),
+                                    ("B +-%", cells["+-%"], want["B%"][1])):
+            if not close(shown, expect):
+                bad(f"{ch} {name}: summary shows {shown:g} ({units}), recomputed {expect:.6g}")
+            else:
+                res.summary_terms += 1
+
+
 def _check_header(h: DeviceHeader, fs_hz: Optional[float], res: CheckResult) -> None:
     """The header's claims that the rows file must bear out."""
     bad = res.mismatches.append
@@ -219,6 +287,9 @@ def summary(res: CheckResult, report: DeviceReport, log_name: str, rows_name: st
     ]
     if res.terms:
         lines.append(f"noise terms (T): {res.terms} recomputed from the report's integers")
+    if res.summary_terms:
+        lines.append(f"summary terms (N, B, +-% in {summary_units(report.header)} units): "
+                     f"{res.summary_terms} recomputed from the report's integers")
     if res.flagged:
         lines.append("flagged: " + ", ".join(res.flagged))
     if res.ok:

@@ -56,12 +56,20 @@ def report_doc(rep: DeviceReport) -> Doc:
 
 def terms_doc(rep: DeviceReport, fs: float) -> dict[str, Any]:
     """The device's own noise terms (T records) as ``decode --json`` shows them:
-    ``{ch: {"N": {"value", "tau_s"}, "B": {...}}}``, N in count*sqrt(s), B in
-    counts, as printed (3 significant digits); a term the device could not read
-    off is null."""
-    def one(t: Any) -> Optional[dict[str, Any]]:
-        return None if t.level is None else {"value": t.value, "tau_s": 2 ** t.level / fs}
-    return {ch: {"N": one(t.N), "B": one(t.B)} for ch, t in rep.terms.items()}
+    ``{ch: {"N": {"value", "tau_s", "pairs", "pct"}, "B": {...}}}``, N in
+    count*sqrt(s), B in counts, as printed (3 significant digits), with the
+    pairs of the level each was read at and the uncertainty they give,
+    100/sqrt(2 pairs) percent (white noise, non-overlapping); a term the device
+    could not read off is null."""
+    pairs = {(r.channel, r.level): r.pairs for r in rep.rows}
+
+    def one(ch: str, t: Any) -> Optional[dict[str, Any]]:
+        if t.level is None:
+            return None
+        p = pairs.get((ch, t.level), 0)
+        return {"value": t.value, "tau_s": 2 ** t.level / fs, "pairs": p,
+                "pct": round(100.0 / (2.0 * p) ** 0.5, 3) if p else None}
+    return {ch: {"N": one(ch, t.N), "B": one(ch, t.B)} for ch, t in rep.terms.items()}
 
 
 def decode_text(docs: list[Doc], total: int, log: str, every: bool, errors: dict[str, int]) -> str:

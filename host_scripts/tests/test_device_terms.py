@@ -58,8 +58,11 @@ def test_decode_json_holds_the_device_terms(tmp_path: Path, run_cli) -> None:
     assert sorted(terms) == sorted(CH)
     for ch in CH:
         kn, n, kb, b = _terms(rows, ch)
-        assert terms[ch]["N"] == {"value": float(_sig3(n)), "tau_s": 2 ** kn / FS}
-        assert terms[ch]["B"] == {"value": float(_sig3(b)), "tau_s": 2 ** kb / FS}
+        pn, pb = len(rows) // 2 ** kn - 1, len(rows) // 2 ** kb - 1
+        assert terms[ch]["N"] == {"value": float(_sig3(n)), "tau_s": 2 ** kn / FS,
+                                  "pairs": pn, "pct": round(100 / math.sqrt(2 * pn), 3)}
+        assert terms[ch]["B"] == {"value": float(_sig3(b)), "tau_s": 2 ** kb / FS,
+                                  "pairs": pb, "pct": round(100 / math.sqrt(2 * pb), 3)}
 
 
 def test_check_recomputes_the_terms(tmp_path: Path, run_cli) -> None:

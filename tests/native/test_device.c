@@ -113,7 +113,7 @@ static void test_status_reply_is_framed_and_checksummed(void)
   fx_send_str("status\r");
   fx_run_us(50000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank units=phys", b);
   assert_all_lines_whole();
 }
 
@@ -305,7 +305,7 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
   line("ok status", 0, b, sizeof b);
   /* link: 50 rows of 36 bytes and half a 31-byte count line a second, of
    * 11520 bytes/s: 1816 / 11520 = 15.8 %, rounded up */
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved units=phys", b);
 }
 
 static void test_saved_settings_are_in_force_at_power_up(void)
@@ -321,7 +321,7 @@ static void test_saved_settings_are_in_force_at_power_up(void)
   fx_send_str("status\r");
   fx_run_us(100000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved units=phys", b);
   TEST_ASSERT_EQUAL_UINT(3, (fake_portd >> 6) & 3u);
 }
 
@@ -423,6 +423,190 @@ static void test_noise_terms_match_float_on_many_reports(void)
   TEST_ASSERT_EQUAL_UINT(4 * 3 * 6, checked);
 }
 
+/* The thesis board's value of one count, worked out here from the data
+ * sheets (independently of firmware/units.h): 10-bit ADC on 3.3 V,
+ * MMA7260Q 800/600/300/200 mV/g at 1.5/2/4/6 g, LISY300AL 3.3 mV/(deg/s).
+ * By quantity (0 deviation: mg, deg/s; 1 N: m/s/sqrt(h), deg/sqrt(h); 2 B
+ * per count of deviation: mg, deg/h), channel and range; 1 in counts. */
+static double unit_factor(int q, unsigned ch, unsigned range, int counts)
+{
+  static const double sens_v_per_g[] = {0.8, 0.6, 0.3, 0.2};
+  double volt = 3.3 / 1024.0;
+  if (counts)
+    return 1.0;
+  if (ch < 3) {
+    double g = volt / sens_v_per_g[range];
+    return q == 1 ? g * 9.80665 * 60.0 : g * 1000.0;
+  }
+  return volt / 0.0033 * (q == 0 ? 1.0 : q == 1 ? 60.0 : 3600.0);
+}
+
+/* A cell of 3 significant digits within the printed precision of v. */
+static void assert_printed(double v, const char *cell, const char *where)
+{
+  char msg[160];
+  double shown = strtod(cell, NULL);
+  snprintf(msg, sizeof msg, "%s: shows %s, float gives %.6g", where, cell, v);
+  TEST_ASSERT_TRUE_MESSAGE(v == 0 ? shown == 0 : fabs(shown - v) <= printed_tol(v), msg);
+}
+
+/* The summary a person reads (S lines), every range in both units, against
+ * the values computed here in double from the same report's L rows: the
+ * title, each level's deviations, and the terms (N at its tau, B with its
+ * tau, the uncertainties 100/sqrt(2 pairs)); the summary comes last, right
+ * before E, in at most 22 lines of at most 80 characters. */
+static void test_summary_in_physical_units_matches_float_on_many_reports(void)
+{
+  static const char *chs[] = {"ax", "ay", "az", "gx", "gy", "gz"};
+  static const char *ranges[] = {"1.5", "2", "4", "6"};
+  static const unsigned rates[] = {100, 250};
+  char b[256], cmd[32], want[96], pre[32];
+  unsigned seq = 0, cells = 0;
+  fx_boot(1);
+  fx_run_us(60000);
+  command("echo off");
+  command("interval 0");
+  for (unsigned u = 0; u < 2; u++) {
+    command(u ? "units counts" : "units phys");
+    line("ok units", 0 + u, b, sizeof b);
+    TEST_ASSERT_EQUAL_STRING(u ? "ok units=counts" : "ok units=phys", b);
+    for (unsigned r = 0; r < 4; r++, seq++) {
+      unsigned fs = rates[(r + u) % 2], n = 900u + 1300u * r + 211u * u;
+      snprintf(cmd, sizeof cmd, "range %s", ranges[r]);
+      command(cmd);
+      snprintf(cmd, sizeof cmd, "rate %u", fs);
+      command(cmd);
+      command("stop");
+      command("reset");
+      snprintf(cmd, sizeof cmd, "start %u", n);
+      command(cmd);
+      fx_run_us((uint64_t)n * 1000000u / fs + 100000u);
+      command("report");
+      fx_run_us(900000);
+      snprintf(pre, sizeof pre, "H,%u,", seq);
+      line(pre, 0, b, sizeof b);
+      TEST_ASSERT_EQUAL_STRING(u ? "counts" : "phys", field(b, "units"));
+      TEST_ASSERT_EQUAL_STRING(ranges[r], field(b, "range"));
+      /* the L rows, in double */
+      double adev[6][15];
+      unsigned long pairs[15];
+      unsigned levels = 0;
+      for (unsigned c = 0; c < 6; c++)
+        for (unsigned k = 0; k < 15; k++) {
+          char hex[16];
+          unsigned lv;
+          snprintf(pre, sizeof pre, "L,%u,%s,%u,", seq, chs[c], k);
+          line(pre, 0, b, sizeof b);
+          TEST_ASSERT_EQUAL_INT(3, sscanf(b + strlen(pre) - 2 - (k > 9), "%u,%lu,%12s", &lv, &pairs[k], hex));
+          double acc = (double)strtoull(hex, NULL, 16), m = (double)(1u << k);
+          adev[c][k] = pairs[k] ? sqrt(acc / (2.0 * m * m * (double)pairs[k])) : 0.0;
+          if (pairs[k] && k >= levels)
+            levels = k + 1;
+        }
+      /* the S lines: framed width, count, and last before E */
+      snprintf(pre, sizeof pre, "S,%u,", seq);
+      unsigned ns = fx_count_lines(pre);
+      TEST_ASSERT_EQUAL_UINT(2 + levels + 5, ns);
+      TEST_ASSERT_TRUE(ns <= 22);
+      for (unsigned i = 0; i < ns; i++) {
+        line(pre, i, b, sizeof b);
+        TEST_ASSERT_TRUE_MESSAGE(strlen(b) + 6 <= 80, b); /* $ body *XXXX */
+      }
+      {
+        char e[32];
+        long last = fx_find_line(pre, ns - 1, b, sizeof b, NULL);
+        snprintf(e, sizeof e, "E,%u,", seq);
+        long end = fx_find_line(e, 0, b, sizeof b, NULL);
+        TEST_ASSERT_TRUE(last >= 0 && strchr(fx_out + last, '\n') + 1 == fx_out + end);
+      }
+      line(pre, 0, b, sizeof b);
+      if (u)
+        snprintf(want, sizeof want, "S,%u,Allan deviation by tau (s): ADC counts", seq);
+      else
+        snprintf(want, sizeof want, "S,%u,Allan deviation by tau (s): accel mg at +-%s g, gyro deg/s", seq, ranges[r]);
+      TEST_ASSERT_EQUAL_STRING(want, b);
+      for (unsigned k = 0; k < levels; k++) {
+        char cell[7][16];
+        line(pre, 2 + k, b, sizeof b);
+        TEST_ASSERT_EQUAL_INT(7, sscanf(b + strlen(pre), "%15s %15s %15s %15s %15s %15s %15s", cell[0], cell[1],
+                                        cell[2], cell[3], cell[4], cell[5], cell[6]));
+        assert_printed((double)(1u << k) / fs, cell[0], "tau");
+        for (unsigned c = 0; c < 6; c++, cells++)
+          assert_printed(adev[c][k] * unit_factor(0, c, r, u), cell[1 + c], b);
+      }
+      /* the terms: N at the level nearest 1 s (ties: the lower), B the least
+       * deviation / 0.664 over levels with 8 pairs and more */
+      int kn = -1;
+      for (unsigned k = 0; k < levels; k++)
+        if (kn < 0 || fabs((double)(1u << k) - fs) < fabs((double)(1u << kn) - fs))
+          kn = (int)k;
+      double ntau, npct;
+      line(pre, 2 + levels, b, sizeof b);
+      TEST_ASSERT_EQUAL_INT_MESSAGE(2, sscanf(b + strlen(pre), "N at %lf s +-%lf%%", &ntau, &npct), b);
+      TEST_ASSERT_NOT_NULL_MESSAGE(strstr(b, u ? "%: count rt(s); B: counts" : "%: m/s/rt(h), deg/rt(h); B: mg, deg/h"), b);
+      assert_printed((double)(1u << kn) / fs, strstr(b, "at ") + 3, "N tau");
+      assert_printed(100.0 / sqrt(2.0 * pairs[kn]), strstr(b, "+-") + 2, "N +-%");
+      char row[4][7][16];
+      for (unsigned i = 0; i < 4; i++) {
+        line(pre, 3 + levels + i, b, sizeof b);
+        TEST_ASSERT_EQUAL_INT(7, sscanf(b + strlen(pre), "%15s %15s %15s %15s %15s %15s %15s", row[i][0], row[i][1],
+                                        row[i][2], row[i][3], row[i][4], row[i][5], row[i][6]));
+      }
+      TEST_ASSERT_EQUAL_STRING("N", row[0][0]);
+      TEST_ASSERT_EQUAL_STRING("B", row[1][0]);
+      TEST_ASSERT_EQUAL_STRING("+-%", row[2][0]);
+      TEST_ASSERT_EQUAL_STRING("tau_s", row[3][0]);
+      for (unsigned c = 0; c < 6; c++, cells += 4) {
+        int kb = -1;
+        for (unsigned k = 0; k < levels; k++)
+          if (pairs[k] >= 8 && (kb < 0 || adev[c][k] < adev[c][kb]))
+            kb = (int)k;
+        /* a near tie of the minimum may fall either way in fixed point */
+        double shown_tau = strtod(row[3][1 + c], NULL);
+        for (unsigned k = 0; k < levels; k++)
+          if (pairs[k] >= 8 && fabs(shown_tau - (double)(1u << k) / fs) <= printed_tol((double)(1u << k) / fs) &&
+              fabs(adev[c][k] - adev[c][kb]) <= 2e-4 * adev[c][kb])
+            kb = (int)k;
+        assert_printed(adev[c][kn] * sqrt((double)(1u << kn) / fs) * unit_factor(1, c, r, u), row[0][1 + c], "N");
+        assert_printed(adev[c][kb] / 0.664 * unit_factor(2, c, r, u), row[1][1 + c], "B");
+        assert_printed(100.0 / sqrt(2.0 * pairs[kb]), row[2][1 + c], "B +-%");
+        assert_printed((double)(1u << kb) / fs, row[3][1 + c], "B tau");
+      }
+    }
+  }
+  TEST_ASSERT_TRUE(cells > 8 * 6 * 10);
+  assert_all_lines_whole();
+}
+
+/* `units` typed while a report is sent takes effect with the next report:
+ * a report's summary is in the units its header says. */
+static void test_units_typed_during_a_report_apply_to_the_next(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(3000000);
+  command("echo off");
+  command("interval 0");
+  fx_send_str("report\r");
+  fx_run_us(60000); /* the report is under way */
+  TEST_ASSERT_TRUE(fx_count_lines("L,0,") > 0 && fx_count_lines("E,0,") == 0);
+  command("units counts");
+  fx_run_us(900000);
+  line("ok units", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok units=counts", b);
+  line("H,0,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("phys", field(b, "units"));
+  line("S,0,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("S,0,Allan deviation by tau (s): accel mg at +-1.5 g, gyro deg/s", b);
+  TEST_ASSERT_EQUAL_UINT(1, fx_count_lines("E,0,"));
+  command("report");
+  fx_run_us(900000);
+  line("H,1,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("counts", field(b, "units"));
+  line("S,1,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("S,1,Allan deviation by tau (s): ADC counts", b);
+}
+
 static void test_line_with_nul_is_refused_whole_and_runs_nothing(void)
 {
   static const char *bad[] = {"reset\0xyz", "rate 250\0 junk", "status\x01", "help\xff", "\0"};
@@ -500,7 +684,7 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   fx_run_us(60000);
   command("status");
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible units=phys", b);
   command("load");
   line("error:", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);
@@ -536,10 +720,14 @@ static void test_report_check_line_binds_rows_to_header(void)
   line("V,0,", 0, b, sizeof b);
   snprintf(want, sizeof want, "V,0,id=%s,crc=%04X", id, bound_crc(0));
   TEST_ASSERT_EQUAL_STRING(want, b);
-  /* V comes right before E */
+  /* V ends the machine lines: after the last T, right before the first S
+   * (the summary a person reads, last before E) */
   long v = fx_find_line("V,0,", 0, b, sizeof b, NULL);
+  long t = fx_find_line("T,0,gz,", 0, b, sizeof b, NULL);
+  long s0 = fx_find_line("S,0,", 0, b, sizeof b, NULL);
   long e = fx_find_line("E,0,", 0, b, sizeof b, NULL);
-  TEST_ASSERT_TRUE(v >= 0 && e > v && strchr(fx_out + v, '\n') + 1 == fx_out + e);
+  TEST_ASSERT_TRUE(t >= 0 && v > t && strchr(fx_out + t, '\n') + 1 == fx_out + v);
+  TEST_ASSERT_TRUE(s0 > v && strchr(fx_out + v, '\n') + 1 == fx_out + s0 && e > s0);
   assert_all_lines_whole();
 }
 
@@ -617,6 +805,8 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_raw_mode_writes_every_set_in_order_with_count_lines),
   T(test_save_writes_a_checked_record_and_load_restores_it),
   T(test_noise_terms_match_float_on_many_reports),
+  T(test_summary_in_physical_units_matches_float_on_many_reports),
+  T(test_units_typed_during_a_report_apply_to_the_next),
   T(test_saved_settings_are_in_force_at_power_up),
   T(test_periodic_report_follows_the_interval),
   T(test_link_budget_refuses_raw_at_1000_hz),

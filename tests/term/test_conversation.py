@@ -72,6 +72,7 @@ ERRORS = {
     "interval 4000": "error:2 interval: too long; 0..3600 s",
     "mode fast": "error:2 mode: bad argument; allan|raw|binary|both",
     "echo maybe": "error:2 echo: bad argument; [off|on]",
+    "units mg": "error:2 units: bad argument; [phys|counts]",
     "stop 3": "error:2 stop: bad argument; no argument",
     "statsu": "error:1 statsu: unknown command; see help",
     "start 4294967295 x": "error:3 start: line too long; 16 chars",
@@ -94,10 +95,11 @@ def test_help_shows_each_command_with_its_arguments(tmp_path: Path) -> None:
     try:
         t.open()
         t.send(b"help\r")
-        lines = [t.reply() for _ in range(14)]
+        lines = [t.reply() for _ in range(15)]
         words = [ln.split()[2] for ln in lines]
         assert words == ["report", "reset", "stop", "start", "rate", "status", "help",
-                         "interval", "mode", "range", "save", "load", "defaults", "echo"]
+                         "interval", "mode", "range", "save", "load", "defaults", "echo", "units"]
+        assert "ok help units [phys|counts]" in lines
         assert "ok help rate 50|100|200|250|500|1000 (Hz)" in lines
         assert "ok help mode allan|raw|binary|both" in lines
         assert all(len(ln) + 8 <= 80 for ln in lines)   # $, *CRC, CR LF
@@ -108,40 +110,133 @@ def test_help_shows_each_command_with_its_arguments(tmp_path: Path) -> None:
         assert t.stop() == 0
 
 
-def test_report_ends_with_a_summary_screen(tmp_path: Path) -> None:
-    """After `report`, the last 25 lines hold the whole summary (24 but the
-    title once all 15 levels have pairs; docs/protocol.md): a title saying
-    what and in which units, the tau table, a T line per channel, the check
-    line, the end line; none wider than 80 columns."""
+def _report_screen(t: SimTerm, units: str) -> tuple[list[bytes], list[bytes]]:
+    """`units <units>`, some seconds of samples, `stop`, `report`: every line
+    of the report as sent (through its E line) and the last 23 of them."""
+    assert t.line().startswith(b"B,")
+    assert t.command("interval 0") == "ok interval=0"   # only the report asked for
+    assert t.command(f"units {units}") == f"ok units={units}"
+    time.sleep(3)                       # some seconds of samples
+    assert t.command("stop").startswith("ok stopped n=")  # the summary then equals the rows exactly
+    t.send(b"report\r")
+    raw = b""
+    deadline = time.monotonic() + 30
+    while not (end := re.search(rb"\$E,\d+,90\*[0-9A-F]{4}\r\n", raw)):
+        assert time.monotonic() < deadline, raw[-300:]
+        raw += t.ser.read(max(1, t.ser.in_waiting))
+    lines = raw[:end.end()].split(b"\r\n")[:-1]
+    head = max(i for i, ln in enumerate(lines) if ln.startswith(b"$H,"))
+    return lines[head:], lines[-23:]
+
+
+def _body(ln: bytes) -> str:
+    m = LINE.match(ln + b"\r\n")
+    assert m and int(m.group(2), 16) == crc16(m.group(1)), ln
+    return m.group(1).decode()
+
+
+def _recomputed(report: list[bytes], units: str) -> tuple[dict, float]:
+    """From the report's own H and L lines, on the host: per channel the
+    deviation of each level, N (at the level nearest 1 s) and B (least
+    deviation / 0.664 over levels with 8 pairs), each with its level's
+    +-% = 100/sqrt(2 pairs), in the summary's units."""
+    import math
+
+    from imu_allan.profiles import G0, thesis_profile
+    head = dict(kv.split("=", 1) for kv in _body(report[0]).split(",")[2:])
+    fs, rng = float(head["fs"]), head["range"]
+    assert head["units"] == units
+    prof = thesis_profile(rng)
+    out: dict = {}
+    for ln in report:
+        if not ln.startswith(b"$L,"):
+            continue
+        _, _, ch, level, pairs, acc, _ = _body(ln).split(",")
+        k, p = int(level), int(pairs)
+        if p:
+            out.setdefault(ch, {})[k] = (p, math.sqrt(int(acc, 16) / (2 * 4 ** k * p)))
+    res = {}
+    for ch, lv in out.items():
+        per = prof.scale(ch).per_count
+        acc_ch = ch.startswith("a")
+        f_adev = 1.0 if units == "counts" else (per / G0 * 1000 if acc_ch else per)
+        f_n = 1.0 if units == "counts" else per * 60
+        f_b = 1.0 if units == "counts" else (per / G0 * 1000 if acc_ch else per * 3600)
+        kn = min(lv, key=lambda k: (abs(2 ** k - fs), k))
+        kb = min((k for k in lv if lv[k][0] >= 8), key=lambda k: (lv[k][1], k))
+        res[ch] = {"adev": {k: v[1] * f_adev for k, v in lv.items()},
+                   "N": lv[kn][1] * math.sqrt(2 ** kn / fs) * f_n, "N%": 100 / math.sqrt(2 * lv[kn][0]),
+                   "Ntau": 2 ** kn / fs, "B": lv[kb][1] / 0.664 * f_b, "B%": 100 / math.sqrt(2 * lv[kb][0]),
+                   "Btau": 2 ** kb / fs}
+    return res, fs
+
+
+def _near(shown: str, value: float) -> bool:
+    """Within the printed precision: one unit of the 3rd significant digit
+    (the device computes in fixed point)."""
+    import math
+    v = float(shown)
+    return v == value or abs(v - value) <= 10 ** (math.floor(math.log10(abs(value))) - 2) * 1.0001
+
+
+def _summary_checked(report: list[bytes], screen: list[bytes], units: str) -> None:
+    # the last 23 lines of an 80x24 terminal hold the whole summary (S lines)
+    # and E, at its bottom; above it, with fewer than 15 levels, V and T lines
+    assert all(len(ln) <= 80 for ln in screen), [ln for ln in screen if len(ln) > 80]
+    assert screen[-1].startswith(b"$E,")
+    s_lines = [ln for ln in report if ln.startswith(b"$S,")]
+    summary = [_body(ln).split(",", 2)[2] for ln in s_lines]
+    levels = len(summary) - 7
+    assert len(summary) <= 22 and screen[-1 - len(summary):-1] == s_lines
+    assert report[report.index(s_lines[0]) - 1].startswith(b"$V,")  # the machine lines end above it
+    want, fs = _recomputed(report, units)
+    chans = ["ax", "ay", "az", "gx", "gy", "gz"]
+    if units == "phys":
+        assert summary[0].startswith("Allan deviation by tau (s): accel mg at +-1.5 g, gyro deg/s")
+    else:
+        assert summary[0] == "Allan deviation by tau (s): ADC counts"
+    assert summary[1].split() == ["tau_s"] + chans
+    for k, row in enumerate(summary[2:2 + levels]):
+        cells = row.split()
+        assert _near(cells[0], 2 ** k / fs)
+        for ch, cell in zip(chans, cells[1:]):
+            assert _near(cell, want[ch]["adev"][k]), (ch, k, cell, want[ch]["adev"][k])
+    m = re.match(r"N at ([0-9.e-]+) s \+-([0-9.e-]+)%: (.*)$", summary[2 + levels])
+    assert m, summary[2 + levels]
+    assert m.group(3) == ("m/s/rt(h), deg/rt(h); B: mg, deg/h" if units == "phys" else "count rt(s); B: counts")
+    assert _near(m.group(1), want["gx"]["Ntau"]) and _near(m.group(2), want["gx"]["N%"])
+    rows = {r.split()[0]: r.split()[1:] for r in summary[3 + levels:]}
+    assert list(rows) == ["N", "B", "+-%", "tau_s"]
+    for i, ch in enumerate(chans):
+        w = want[ch]
+        assert _near(rows["N"][i], w["N"]), (ch, rows["N"][i], w["N"])
+        assert _near(rows["B"][i], w["B"]), (ch, rows["B"][i], w["B"])
+        assert _near(rows["+-%"][i], w["B%"]) and _near(rows["tau_s"][i], w["Btau"]), (ch, rows, w)
+
+
+def test_report_ends_with_the_summary_screen_in_physical_units(tmp_path: Path) -> None:
+    """After `report`, the last 23 lines (a 80x24 terminal with the cursor on
+    the empty line below) are the summary and E: at most 80 columns each, a
+    title with the units, the deviations in mg and deg/s, N and B with their
+    tau and +-%, each recomputed here from the same report's H and L lines."""
     t = SimTerm(tmp_path, "--synthetic", "--fast")
     try:
         t.open()
-        assert t.line().startswith(b"B,")
-        assert t.command("interval 0") == "ok interval=0"   # only the report asked for
-        time.sleep(3)                       # some seconds of samples
-        t.send(b"report\r")
-        raw = b""
-        deadline = time.monotonic() + 30
-        while not (end := re.search(rb"\$E,\d+,90\*[0-9A-F]{4}\r\n", raw)):
-            assert time.monotonic() < deadline, raw[-300:]
-            raw += t.ser.read(max(1, t.ser.in_waiting))
-        raw = raw[:end.end()]
+        report, screen = _report_screen(t, "phys")
     finally:
         t.stop()
-    lines = raw.split(b"\r\n")[:-1]
-    screen = lines[-25:]
-    assert all(len(ln) + 2 <= 80 for ln in screen), [ln for ln in screen if len(ln) + 2 > 80]
-    titles = [i for i, ln in enumerate(screen) if b"Allan deviation (ADC counts) by tau (s)" in ln]
-    assert titles, screen
-    levels = sum(1 for ln in screen[titles[0] + 2:] if ln.startswith(b"$S,"))
-    assert titles[0] >= 1 or levels == 15, (titles, levels)  # 24 lines unless 15 levels
-    body = screen[titles[0]:]
-    assert body[1].split(b",", 2)[2].split(b"*")[0].split() == [b"tau_s", b"ax", b"ay", b"az", b"gx", b"gy", b"gz"]
-    tl = [ln for ln in body if ln.startswith(b"$T,")]
+    _summary_checked(report, screen, "phys")
+    tl = [ln for ln in report if ln.startswith(b"$T,")]
     assert [ln.split(b",")[2] for ln in tl] == [b"ax", b"ay", b"az", b"gx", b"gy", b"gz"]
-    for ln in tl:
-        m = LINE.match(ln + b"\r\n")
-        assert m and int(m.group(2), 16) == crc16(m.group(1))
-        _, _, _, ln_n, n_val, ln_b, b_val = m.group(1).split(b",")
-        assert float(n_val) > 0 and float(b_val) > 0 and int(ln_n) < 15 and int(ln_b) < 15
-    assert body[-1].startswith(b"$E,")
+
+
+def test_units_counts_gives_the_summary_in_adc_counts(tmp_path: Path) -> None:
+    t = SimTerm(tmp_path, "--synthetic", "--fast")
+    try:
+        t.open()
+        report, screen = _report_screen(t, "counts")
+        assert t.command("units") == "ok units=counts"
+        assert t.command("status").endswith(" units=counts")
+    finally:
+        t.stop()
+    _summary_checked(report, screen, "counts")

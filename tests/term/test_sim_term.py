@@ -256,13 +256,13 @@ def test_status(dev: SimTerm) -> None:
     body = dev.command("status")
     assert body.startswith("ok status "), body
     keys = dict(kv.split("=", 1) for kv in body[len("ok status "):].split())
-    documented = ("run", "fs", "mode", "range", "interval", "link", "cfg")
+    documented = ("run", "fs", "mode", "range", "interval", "link", "cfg", "units")
     assert set(keys) == set(documented), f"status keys differ from docs/protocol.md: {body}"
     assert dev.command("stop").startswith("ok stopped")
     set_rate(dev, 100)
     keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status "):].split())
     assert keys["run"] == "0" and keys["fs"] == "100" and keys["mode"] == "allan", keys
-    assert keys["link"] == "0" and keys["cfg"] == "blank", keys
+    assert keys["link"] == "0" and keys["cfg"] == "blank" and keys["units"] == "phys", keys
     assert dev.command("interval 7") == "ok interval=7"
     assert dev.command("start") == "ok started"
     keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status "):].split())

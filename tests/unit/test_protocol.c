@@ -12,6 +12,7 @@
 #include "crc.h"
 #include "link.h"
 #include "fmt.h"
+#include "units.h"
 #include "proto.h"
 #include "unity.h"
 
@@ -187,6 +188,63 @@ static void test_fmt_adev_three_significant_digits(void)
   TEST_ASSERT_EQUAL_STRING("9.77e-4", buf);
 }
 
+/* The unit factors of units.c against the thesis board's data sheets,
+ * worked out here in double: a 10-bit ADC on 3.3 V, MMA7260Q 800/600/300/
+ * 200 mV/g, LISY300AL 3.3 mV/(deg/s); quantity 0 deviation (mg, deg/s),
+ * 1 N (m/s/sqrt(h), deg/sqrt(h)), 2 B = deviation / 0.664 (mg, deg/h);
+ * kind 0 counts (B: / 0.664 only), 1..4 accelerometer ranges, 5 gyro. */
+static double board_factor(int q, int kind)
+{
+  static const double sens[] = {0.8, 0.6, 0.3, 0.2};
+  double volt = 3.3 / 1024.0, f;
+  if (kind == UNITS_COUNTS)
+    f = 1.0;
+  else if (kind == UNITS_GYRO)
+    f = volt / 0.0033 * (q == UNITS_N ? 60.0 : q == UNITS_B ? 3600.0 : 1.0);
+  else
+    f = volt / sens[kind - UNITS_ACC] * (q == UNITS_N ? 9.80665 * 60.0 : 1000.0);
+  return q == UNITS_B ? f / 0.664 : f;
+}
+
+/* Random reports' deviations (random sums, pair counts and levels),
+ * through fmt_adev, units_scale and fmt_sig3 as the summary prints them,
+ * for every quantity, range and units, against double arithmetic. */
+static void test_units_scale_matches_float_on_random_reports(void)
+{
+  char buf[FMT_SIG3_MAX + 2];
+  unsigned checked = 0;
+  for (int t = 0; t < 20000; t++) {
+    uint64_t acc = next() >> (16 + next() % 48);
+    uint32_t pairs = (uint32_t)(next() >> (32 + next() % 32));
+    uint8_t level = (uint8_t)(next() % 15);
+    int q = (int)(next() % UNITS_QUANTITIES), kind = (int)(next() % UNITS_KINDS);
+    uint32_t mant;
+    int8_t exp;
+    double value;
+    if (!pairs) pairs = 1;
+    if (!acc) acc = 1;
+    value = sqrt((double)acc / (2.0 * pairs)) / ldexp(1.0, level) * board_factor(q, kind);
+    exp = fmt_adev(&mant, (uint16_t)(acc >> 32), (uint32_t)acc, pairs, level);
+    TEST_ASSERT_TRUE(mant < 65536u); /* units_scale's precondition */
+    exp = units_scale(&mant, exp, (uint8_t)q, (uint8_t)kind);
+    fmt_sig3(buf, mant, exp);
+    assert_sig3(buf, value, "scaled");
+    checked++;
+  }
+  TEST_ASSERT_EQUAL_UINT(20000, checked);
+  /* One count is 4.03 mg at 1.5 g and 0.977 deg/s (the thesis' resolution). */
+  {
+    uint32_t m = 1;
+    int8_t e = units_scale(&m, 0, UNITS_ADEV, UNITS_ACC + RANGE_1G5);
+    fmt_sig3(buf, m, e);
+    TEST_ASSERT_EQUAL_STRING("4.03", buf);
+    m = 1;
+    e = units_scale(&m, 0, UNITS_ADEV, UNITS_GYRO);
+    fmt_sig3(buf, m, e);
+    TEST_ASSERT_EQUAL_STRING("0.977", buf);
+  }
+}
+
 static void test_fmt_tau_every_level_and_rate(void)
 {
   static const uint16_t rates[] = {50, 100, 200, 250, 500, 1000, 1250};
@@ -329,6 +387,16 @@ static void test_command_settings_words(void)
   TEST_ASSERT_EQUAL_UINT8(CMD_HELP, c.id);
   TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("status", &c));
   TEST_ASSERT_EQUAL_UINT8(CMD_STATUS, c.id);
+  /* units: phys (0) or counts (1), alone shows the setting */
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("units counts", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_UNITS, c.id);
+  TEST_ASSERT_EQUAL_UINT32(1, c.arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("UNITS Phys", &c));
+  TEST_ASSERT_TRUE(c.has_arg && c.arg == 0);
+  TEST_ASSERT_EQUAL_UINT8(CMD_OK, command_parse("units", &c));
+  TEST_ASSERT_FALSE(c.has_arg);
+  TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse("units mg", &c));
+  TEST_ASSERT_EQUAL_UINT8(CMD_UNITS, c.id);
   TEST_ASSERT_EQUAL_STRING("binary", vocab_word(vocab_modes, MODE_BINARY));
   TEST_ASSERT_EQUAL_STRING("1.5", vocab_word(vocab_ranges, RANGE_1G5));
   TEST_ASSERT_EQUAL_STRING("6", vocab_word(vocab_ranges, RANGE_6G));
@@ -336,31 +404,32 @@ static void test_command_settings_words(void)
 
 /* The link rules of docs/protocol.md, worked out by hand at 115200 baud
  * (11520 bytes/s; 90 % = 10368 usable).  A set's row or frame may wait
- * behind the longest line it cannot cut into (help: 95 bytes; the header:
- * 264) and one 20-byte output step, then its own row (36) or frame (13);
+ * behind the longest line it cannot cut into (status: 104 bytes; the
+ * header: 286) and one 20-byte output step, then its own row (36) or frame (13);
  * that must go out at the usable rate within two sample periods. */
 static void test_link_budget(void)
 {
   const uint32_t b = 115200;
-  /* raw: 36 bytes a row + a 36-byte count line per 100 rows; 95 + 20 + 36
-   * = 151 bytes of wait */
+  /* raw: 36 bytes a row + a 36-byte count line per 100 rows; 104 + 20 + 36
+   * = 160 bytes of wait */
   TEST_ASSERT_EQUAL_UINT32(250u * 36u + (250u * 36u + 99u) / 100u, link_bytes_per_s(MODE_RAW, 250));
-  TEST_ASSERT_EQUAL_UINT16(151, link_wait_bytes(MODE_RAW));
-  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, b));   /* 151 / 10368 s = 14.6 ms <= 20 ms */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 200, b));  /* 14.6 ms > 10 ms: a help reply would cost a set */
+  TEST_ASSERT_EQUAL_UINT16(160, link_wait_bytes(MODE_RAW));
+  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, b));   /* 160 / 10368 s = 15.4 ms <= 20 ms */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 200, b));  /* 15.4 ms > 10 ms: a status reply would cost a set */
   TEST_ASSERT_FALSE(link_fits(MODE_RAW, 250, b));  /* throughput fits (9090 B/s), the wait does not */
   TEST_ASSERT_FALSE(link_fits(MODE_RAW, 500, b));  /* 18155 B/s */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 100, 57600)); /* 151 / 5184 s = 29 ms > 20 ms */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 100, 57600)); /* 160 / 5184 s = 31 ms > 20 ms */
   TEST_ASSERT_TRUE(link_fits(MODE_RAW, 50, 57600));
   /* binary: 13 bytes a frame; frames cut into lines: 20 + 13 = 33 bytes of wait */
   TEST_ASSERT_EQUAL_UINT16(33, link_wait_bytes(MODE_BINARY));
   TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 500, b));   /* 3.2 ms <= 4 ms */
   TEST_ASSERT_FALSE(link_fits(MODE_BINARY, 1000, b)); /* 13360 B/s */
   TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 1000, 250000));
-  /* both: 264 + 20 + 36 = 320 bytes of wait */
-  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));   /* 30.9 ms <= 40 ms */
+  /* both: 286 + 20 + 36 = 342 bytes of wait */
+  TEST_ASSERT_EQUAL_UINT16(342, link_wait_bytes(MODE_BOTH));
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));   /* 33.0 ms <= 40 ms */
   TEST_ASSERT_FALSE(link_fits(MODE_BOTH, 100, b));
-  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000)); /* 14.2 ms <= 20 ms */
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000)); /* 15.2 ms <= 20 ms */
   /* allan: reports wait for the link */
   TEST_ASSERT_TRUE(link_fits(MODE_ALLAN, 1000, 9600));
   TEST_ASSERT_EQUAL_UINT16(0, link_percent(MODE_ALLAN, 1000, b));
@@ -374,6 +443,7 @@ int main(void)
   RUN_TEST(test_crc_modbus_check_value_and_random_strings);
   RUN_TEST(test_fmt_u32_and_hex_match_snprintf);
   RUN_TEST(test_fmt_adev_three_significant_digits);
+  RUN_TEST(test_units_scale_matches_float_on_random_reports);
   RUN_TEST(test_fmt_tau_every_level_and_rate);
   RUN_TEST(test_proto_frames_a_line_with_its_crc);
   RUN_TEST(test_proto_never_lets_framing_characters_into_a_body);

@@ -22,7 +22,8 @@ host can check, for free:
   (no two cluster sums of 10-bit codes differ by more than 1023 m), and
   ``acc == 0`` without pairs;
 * the ``S`` summary against the rows: each cell is the row's deviation with 3
-  significant digits (``!`` when flagged); in a stopped run within one unit
+  significant digits (``!`` when flagged), in the header's ``units`` (phys:
+  mg and deg/s at the header's ``range``; summary.py); in a stopped run within one unit
   of the last digit (the device computes it in single precision), and
   within 25 % where the row has at least 1000 pairs while the run goes on
   (the summary is computed a little later, over a few more samples).
@@ -35,6 +36,7 @@ import math
 from typing import Any, Optional
 
 from ..channels import CHANNELS, CODE_MAX
+from .summary import is_text_line, scales
 
 DeviceReport = LRow = Any  # records.py's classes (it imports this module, not the reverse)
 
@@ -117,20 +119,17 @@ def _values(rep: "DeviceReport") -> Optional[str]:
     return None
 
 
-# The summary's first line, a title (protocol: "Allan deviation (ADC counts) by tau (s); ...").
-SUMMARY_TITLE = "Allan deviation "
-
-
 def _summary(rep: "DeviceReport", summary: list[str], moving: bool) -> Optional[str]:
     fs = rep.header.fs_hz
     by_tau = {}
     for k in range(rep.header.levels):
         by_tau.setdefault(sig3((1 << k) / fs), k)
     rows = {(r.channel, r.level): r for r in rep.rows}
+    scale = scales(rep.header)
     for text in summary:
         cells = text.split()
-        if not cells or cells[0] == "tau_s" or text.startswith(SUMMARY_TITLE):
-            continue  # the column heading, the title line (docs/protocol.md)
+        if is_text_line(text):
+            continue  # title, column heading, the terms' caption and rows (check.py)
         level = by_tau.get(cells[0])
         if level is None or len(cells) != 1 + len(CHANNELS):
             return f"summary line {text.strip()!r}: not a level of this report"
@@ -138,16 +137,17 @@ def _summary(rep: "DeviceReport", summary: list[str], moving: bool) -> Optional[
             r = rows.get((ch, level))
             if r is None:
                 continue  # the row count check reports a missing row
-            bad = _cell_problem(r, cell, moving)
+            bad = _cell_problem(r, cell, moving, scale[ch].adev)
             if bad:
                 return f"{_where(r)}: summary shows {cell}, {bad}"
     return None
 
 
-def _cell_problem(r: "LRow", cell: str, moving: bool) -> Optional[str]:
+def _cell_problem(r: "LRow", cell: str, moving: bool, factor: float = 1.0) -> Optional[str]:
+    """A level's cell against its row; ``factor``: counts to the summary's units."""
     if r.pairs == 0:
         return None if cell == "-" or moving else "the row has no pairs"
-    adev = math.sqrt(r.avar)
+    adev = math.sqrt(r.avar) * factor
     try:
         shown = float(cell.rstrip("!"))
     except ValueError:

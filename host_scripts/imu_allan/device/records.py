@@ -1,4 +1,7 @@
-"""Records of the protocol (B, H, L, S, V, E, C, ok, error) and complete device reports.
+"""Records of the protocol (B, H, L, T, V, S, E, C, ok, error) and complete device reports.
+
+A report's lines come as H, L..., T..., V, S..., E (the summary a person reads
+last); firmware before it sent S before T and V: both orders are read alike.
 
 ``decode_bytes(data)`` turns a raw device log into the list of its complete
 reports (header + every L row + its V check + E, all intact and agreeing) and the counts of everything
@@ -132,6 +135,8 @@ class DeviceReport:
     header: DeviceHeader
     rows: list[LRow] = field(default_factory=list)
     terms: dict[str, DeviceTerms] = field(default_factory=dict)
+    summary: list[str] = field(default_factory=list)
+    """The text of its ``S`` lines after ``S,<seq>,``, in order (summary.py)."""
 
 
 @dataclass
@@ -458,6 +463,7 @@ class Assembler:
                 self.refused.append(f"report seq {seq}: {why}")
                 return
             open_.rows.sort(key=lambda r: (CHANNELS.index(r.channel), r.level))
+            open_.summary = self._summary
             self.reports.append(open_)
 
     def _count_gap(self, seq: int) -> None:
