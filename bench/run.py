@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
 ELF = BUILD / "avr-atmega168" / "imu-allan.elf"
 SIM = BUILD / "host" / "imu-sim"
-RATES = [50, 100, 200, 250, 500, 1000, 1250]  # the offered rates, ascending
+RATES = [50, 100, 200, 250, 500, 1000, 1250, 1500]  # the offered rates, ascending
 ENV = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
 sys.path.insert(0, str(REPO / "host_scripts"))
 
