@@ -178,16 +178,17 @@ uint8_t adc_peek(uint16_t code[ADC_COLUMNS])
 uint16_t adc_oldest(uint8_t col)
 {
   /* The top bits from the right byte of hi, shifted at most 6 places: the
-   * AVR shifts one bit per instruction, and this runs 7 times a set. */
-  volatile adc_slot_t *s = &ring[ring_tail];
-  uint8_t b = col < 4u ? (uint8_t)s->hi : (uint8_t)(s->hi >> 8);
+   * AVR shifts one bit per instruction, and this runs 7 times a set.  The
+   * slot's address is worked out once (the ring is volatile). */
+  const volatile uint8_t *s = ring[ring_tail].lo;
+  uint8_t b = s[col < 4u ? ADC_COLUMNS : ADC_COLUMNS + 1];
   switch (col & 3u) {
   case 1: b >>= 2; break;
   case 2: b >>= 4; break;
   case 3: b >>= 6; break;
   default: break;
   }
-  return (uint16_t)(s->lo[col] | ((uint16_t)(b & 3u) << 8));
+  return (uint16_t)(s[col] | ((uint16_t)(b & 3u) << 8));
 }
 
 uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES])
@@ -253,8 +254,10 @@ ISR(TIMER1_COMPA_vect)
     drop_one(); /* previous scan unfinished: the rate outruns the ADC */
     return;
   }
+  /* `start <count>`: the tick stops as its last scan begins (adc_start
+   * and adc_limit never leave it running with nothing left). */
   if ((flags & LIMITED) && --budget == 0) {
-    TIMSK1 = 0; /* the last scan of `start <count>` begins: no tick after it */
+    TIMSK1 = 0;
     TCCR1B = (1 << WGM12);
   }
   flags |= SCANNING;

@@ -76,10 +76,10 @@ typedef struct ALLAN_PACKED {
  * split between two sets (docs/allan-engine.md, "Spreading the cascade").
  * It costs no RAM: the parked code waits in bits no sum uses. */
 #ifndef ALLAN_LAG_FROM
-#  define ALLAN_LAG_FROM 3u
+#  define ALLAN_LAG_FROM 2u
 #endif
 #ifndef ALLAN_LAG_DEPTH
-#  define ALLAN_LAG_DEPTH 6u
+#  define ALLAN_LAG_DEPTH 4u
 #endif
 
 /* One bit per level whose pairs wait to be taken (allan.c, settle()):
