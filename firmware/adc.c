@@ -12,7 +12,14 @@
 
 #include "board.h"
 
-#define ADC_RING 3 /* the slot at head is being filled; two wait for main */
+/* The slot at head is being filled; the others wait for the main loop.
+ * Three on the 1 KB ATmega168; on parts with 2 KB (ATmega328P, whose
+ * 20-level engine costs more a set) five, so that 1500 Hz keeps up. */
+#if RAMEND > 0x4FF
+#  define ADC_RING 5
+#else
+#  define ADC_RING 3
+#endif
 
 static const uint8_t adc_mux[ADC_COLUMNS] PROGMEM = BOARD_ADC_MUX_LIST;
 
