@@ -35,9 +35,9 @@ typedef uint32_t allan_sum_t;
 #  error "ALLAN_NARROW_LEVELS is wrong for ALLAN_CODE_MAX: its sums must fit 16 bits"
 #endif
 
-/* ext: the accumulator's bits 40..47, or 0 for a 40-bit level.  Rare:
- * out of line. */
-static __attribute__((noinline)) void cell_saturate(allan_cell_t *c, uint8_t *ext)
+/* ext: the accumulator's bits 40..47, or 0 for a 40-bit level.  Inline:
+ * cell_add_wide, on the deepest stack of the sampling path, calls nothing. */
+static inline __attribute__((always_inline)) void cell_saturate(allan_cell_t *c, uint8_t *ext)
 {
   c->acc_lo = 0xFFFFFFFFul;
   c->acc_mid = 0xFF;
@@ -306,16 +306,16 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
       k = (uint8_t)(k + n);
       __asm__ volatile(
         "1:\n\t"
-        "ld %A[l], Z\n\t"
-        "ldd %B[l], Z+1\n\t"
-        "st Z, %A[v]\n\t"
-        "std Z+1, %B[v]\n\t"
+        "ld %A[l], %a[c]\n\t"
+        "ldd %B[l], %a[c]+1\n\t"
+        "st %a[c], %A[v]\n\t"
+        "std %a[c]+1, %B[v]\n\t"
         "add %A[v], %A[l]\n\t"
         "adc %B[v], %B[l]\n\t"
-        "adiw r30, %[size]\n\t"
+        "adiw %A[c], %[size]\n\t"
         "dec %[n]\n\t"
         "brne 1b"
-        : [v] "+r"(v16), [n] "+d"(n), [l] "=&r"(l16), "+z"(c)
+        : [v] "+r"(v16), [n] "+d"(n), [l] "=&r"(l16), [c] "+b"(c)
         : [size] "n"(sizeof(allan_cell_t))
         : "memory");
     }
@@ -349,19 +349,19 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
       k = top;
       __asm__ volatile(
         "1:\n\t"
-        "ld %A[l], Z\n\t"
-        "ldd %B[l], Z+1\n\t"
-        "ld %C[l], X\n\t"
-        "st Z, %A[v]\n\t"
-        "std Z+1, %B[v]\n\t"
-        "st X+, %C[v]\n\t"
+        "ld %A[l], %a[c]\n\t"
+        "ldd %B[l], %a[c]+1\n\t"
+        "ld %C[l], %a[h]\n\t"
+        "st %a[c], %A[v]\n\t"
+        "std %a[c]+1, %B[v]\n\t"
+        "st %a[h]+, %C[v]\n\t"
         "add %A[v], %A[l]\n\t"
         "adc %B[v], %B[l]\n\t"
         "adc %C[v], %C[l]\n\t"
-        "adiw r30, %[size]\n\t"
+        "adiw %A[c], %[size]\n\t"
         "dec %[n]\n\t"
         "brne 1b"
-        : [v] "+r"(v), [n] "+d"(n), [l] "=&r"(l), "+z"(c), "+x"(hi)
+        : [v] "+r"(v), [n] "+d"(n), [l] "=&r"(l), [c] "+b"(c), [h] "+e"(hi)
         : [size] "n"(sizeof(allan_cell_t))
         : "memory");
     }

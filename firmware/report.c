@@ -485,8 +485,8 @@ uint8_t report_step(uint8_t step)
    * short stack rather than inside allan_acc under step_row/step_sum_row.
    * A summary row reads a channel a step, and sets taken between two
    * steps may leave the level waiting again: settle before each of them. */
-  if ((rep.part == PART_ROW && step == 0) || rep.part == PART_SUM_ROW)
-    allan_settle_level(&sample_engine, rep.level);
+  if ((rep.part == PART_ROW && step == 0) || rep.part == PART_SUM_ROW || rep.part == PART_TERMS)
+    allan_settle_level(&sample_engine, rep.level); /* T lines: lagging channels caught up here */
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
