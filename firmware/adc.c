@@ -12,7 +12,14 @@
 
 #include "board.h"
 
-#define ADC_RING 3 /* the slot at head is being filled; two wait for main */
+/* The slot at head is being filled; the others wait for the main loop.
+ * Three on the 1 KB ATmega168; on parts with 2 KB (ATmega328P, whose
+ * 20-level engine costs more a set) five, so that 1500 Hz keeps up. */
+#if RAMEND > 0x4FF
+#  define ADC_RING 5
+#else
+#  define ADC_RING 3
+#endif
 
 static const uint8_t adc_mux[ADC_COLUMNS] PROGMEM = BOARD_ADC_MUX_LIST;
 
@@ -49,21 +56,53 @@ void adc_init(void)
 {
   BOARD_PROBE_INIT();
   ADMUX = BOARD_ADMUX_REF;
-  ADCSRA = ADCSRA_IDLE;
+  /* The first conversion after ADEN takes 25 ADC clocks, not 13: done
+   * here (0.16 ms, interrupts still off), so that no scan ever starts with
+   * it (at 1500 Hz the first scan would outlast its period). */
+  ADCSRA = (1 << ADEN) | (1 << ADSC) | BOARD_ADPS;
+  while (ADCSRA & (1 << ADSC))
+    ;
+  ADCSRA = ADCSRA_IDLE | (1 << ADIF); /* ADIF: cleared by writing 1 */
   DIDR0 = 0x3F; /* ADC0..5 are analog only: no digital input buffers */
   TCCR1A = 0;
   TCCR1B = (1 << WGM12); /* CTC on OCR1A, clock off until adc_start */
   adc_set_rate(100);
 }
 
+/* 1500 Hz has no exact Timer1 period (10^7 / 1500 = 6666.67 CPU cycles):
+ * it runs at prescaler 1 with OCR1A dithered over three periods, 6667,
+ * 6667 and 6666 cycles at 10 MHz.  The mean is exact, and each tick is at
+ * most one CPU cycle (0.1 us) off the ideal grid, far less than the up to
+ * one ADC clock (6.4 us) by which the ADC's clock edge already moves every
+ * conversion's start (docs/firmware.md, Timing).  The dither's state is
+ * GPIOR0, an I/O register nothing else uses (no SRAM): 0 for an exact
+ * rate, else the phase 3, 2, 1 of the period in progress. */
+#define DITHER_HZ 1500u
+#define DITHER_TOP (F_CPU / DITHER_HZ - 1u)                        /* OCR1A of a short period */
+#define DITHER_LONG ((uint8_t)((F_CPU % DITHER_HZ) / (DITHER_HZ / 3u))) /* long periods in three */
+#if (3ull * F_CPU) % DITHER_HZ != 0 || F_CPU / DITHER_HZ > 65535u
+#  error "1500 Hz needs F_CPU / 1500 to be a whole number of thirds below 65536"
+#endif
+#if (F_CPU / BOARD_TIMER1_PRESCALER) % DITHER_HZ == 0
+#  error "1500 Hz has an exact period at this F_CPU: no dither needed (adc.c)"
+#endif
+
 void adc_set_rate(uint16_t hz)
 {
-  OCR1A = (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / hz - 1u);
+  if (hz == DITHER_HZ) { /* the only rate in the list without an exact period */
+    GPIOR0 = 3;
+    OCR1A = (uint16_t)(DITHER_TOP + (3u <= DITHER_LONG));
+  } else {
+    GPIOR0 = 0;
+    OCR1A = (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / hz - 1u);
+  }
 }
 
 uint16_t adc_rate(void)
 {
-  /* From the timer itself: exact for every supported rate at 10 MHz. */
+  if (GPIOR0)
+    return DITHER_HZ;
+  /* From the timer itself: exact for every other supported rate. */
   return (uint16_t)((F_CPU / BOARD_TIMER1_PRESCALER + (OCR1A + 1ul) / 2u) / (OCR1A + 1ul));
 }
 
@@ -74,8 +113,10 @@ void adc_start(uint8_t lim, uint32_t count)
     budget = count;
     TCNT1 = 0;
     TIFR1 = (1 << OCF1A);
-    TCCR1B = (1 << WGM12) | BOARD_TIMER1_CS;
-    TIMSK1 = (1 << OCIE1A);
+    if (!lim || count) { /* else nothing to take: the timer stays off */
+      TCCR1B = (uint8_t)((1 << WGM12) | (GPIOR0 ? (1 << CS10) : BOARD_TIMER1_CS));
+      TIMSK1 = (1 << OCIE1A);
+    }
   }
 }
 
@@ -92,6 +133,10 @@ void adc_limit(uint32_t total)
     uint8_t waiting = adc_pending();
     flags |= LIMITED;
     budget = total > waiting ? total - waiting : 0;
+    if (!budget) { /* enough taken: the tick stops (a scan under way lands) */
+      TIMSK1 = 0;
+      TCCR1B = (1 << WGM12);
+    }
   }
 }
 
@@ -105,7 +150,9 @@ void adc_stop(void)
 
 uint8_t adc_running(void)
 {
-  return (TIMSK1 & (1 << OCIE1A)) != 0;
+  /* The tick stops as the last scan of a `start <count>` begins; that
+   * scan still counts as running until it lands in the ring. */
+  return (TIMSK1 & (1 << OCIE1A)) || (flags & SCANNING);
 }
 
 /* Move the ISRs' count into the 32-bit total (main loop only). */
@@ -138,16 +185,17 @@ uint8_t adc_peek(uint16_t code[ADC_COLUMNS])
 uint16_t adc_oldest(uint8_t col)
 {
   /* The top bits from the right byte of hi, shifted at most 6 places: the
-   * AVR shifts one bit per instruction, and this runs 7 times a set. */
-  volatile adc_slot_t *s = &ring[ring_tail];
-  uint8_t b = col < 4u ? (uint8_t)s->hi : (uint8_t)(s->hi >> 8);
+   * AVR shifts one bit per instruction, and this runs 7 times a set.  The
+   * slot's address is worked out once (the ring is volatile). */
+  const volatile uint8_t *s = ring[ring_tail].lo;
+  uint8_t b = s[col < 4u ? ADC_COLUMNS : ADC_COLUMNS + 1];
   switch (col & 3u) {
   case 1: b >>= 2; break;
   case 2: b >>= 4; break;
   case 3: b >>= 6; break;
   default: break;
   }
-  return (uint16_t)(s->lo[col] | ((uint16_t)(b & 3u) << 8));
+  return (uint16_t)(s[col] | ((uint16_t)(b & 3u) << 8));
 }
 
 uint8_t adc_peek_packed(uint8_t out[ADC_PACKED_BYTES])
@@ -202,17 +250,22 @@ void adc_count_drop(void)
 
 ISR(TIMER1_COMPA_vect)
 {
+  uint8_t g = GPIOR0;
+  if (g) { /* dithered: the period that starts now gets the next phase's length */
+    if (--g == 0)
+      g = 3;
+    GPIOR0 = g;
+    OCR1A = (uint16_t)(DITHER_TOP + (g <= DITHER_LONG));
+  }
   if (flags & SCANNING) {
     drop_one(); /* previous scan unfinished: the rate outruns the ADC */
     return;
   }
-  if (flags & LIMITED) {
-    if (budget == 0) {
-      TIMSK1 = 0; /* done: the count asked for by `start <count>` */
-      TCCR1B = (1 << WGM12);
-      return;
-    }
-    budget--;
+  /* `start <count>`: the tick stops as its last scan begins (adc_start
+   * and adc_limit never leave it running with nothing left). */
+  if ((flags & LIMITED) && --budget == 0) {
+    TIMSK1 = 0;
+    TCCR1B = (1 << WGM12);
   }
   flags |= SCANNING;
   scan_col = 0;

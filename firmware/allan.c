@@ -22,6 +22,12 @@ typedef __uint24 allan_sum_t;
 typedef uint32_t allan_sum_t;
 #endif
 
+#if ALLAN_CODE_MAX > 1023u
+#  error "lagging channels park 11 bits in the spare bits of levels 0 and 1 (10-bit codes)"
+#endif
+#if ALLAN_LAG_DEPTH < 3
+#  error "ALLAN_LAG_DEPTH must be at least 3: lagging channels defer levels 2 and up"
+#endif
 #if ALLAN_CODE_MAX * (1ul << (ALLAN_WIDE_LEVEL - 1)) >= (1ul << ALLAN_SUM_BITS)
 #  error "ALLAN_WIDE_LEVEL is wrong for ALLAN_CODE_MAX: level WIDE-1 sums must fit 24 bits"
 #endif
@@ -29,8 +35,9 @@ typedef uint32_t allan_sum_t;
 #  error "ALLAN_NARROW_LEVELS is wrong for ALLAN_CODE_MAX: its sums must fit 16 bits"
 #endif
 
-/* ext: the accumulator's bits 40..47, or 0 for a 40-bit level. */
-static void cell_saturate(allan_cell_t *c, uint8_t *ext)
+/* ext: the accumulator's bits 40..47, or 0 for a 40-bit level.  Inline:
+ * cell_add_wide, on the deepest stack of the sampling path, calls nothing. */
+static inline __attribute__((always_inline)) void cell_saturate(allan_cell_t *c, uint8_t *ext)
 {
   c->acc_lo = 0xFFFFFFFFul;
   c->acc_mid = 0xFF;
@@ -46,13 +53,14 @@ static uint8_t *acc_ext(allan_t *a, uint8_t ch, uint8_t level);
 static __attribute__((noinline)) void cell_carry(allan_t *a, uint8_t ch, uint8_t level)
 {
   allan_cell_t *c = &a->cell[ch][level];
-  uint8_t *ext = acc_ext(a, ch, level);
-  if (++c->acc_mid == 0) {
-    if (!ext || *ext == 0xFF)
-      cell_saturate(c, ext);
-    else
-      (*ext)++;
-  }
+  uint8_t *ext;
+  if (++c->acc_mid)
+    return;
+  ext = acc_ext(a, ch, level);
+  if (ext && *ext != 0xFF)
+    (*ext)++;
+  else
+    cell_saturate(c, ext);
 }
 
 /* acc += d^2 for d >= 2^16 (d < 2^24): d = a 2^16 + b, so
@@ -219,13 +227,19 @@ static uint8_t lowest_pending(allan_pend_t pend)
   return (uint8_t)(k + ((b & 1u) ? 0u : (b & 2u) ? 1u : (b & 4u) ? 2u : 3u));
 }
 
+static void lag_catch_up(allan_t *a);
+
 __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
 {
   uint32_t n;
-  uint8_t depth;
+  uint8_t depth, caught_up = 0;
 
   if (a->n == 0xFFFFFFFFul)
     return ALLAN_ERR_FULL;
+  if (a->depth & ALLAN_LAGGING) { /* the last set's lagging channels: this set's first work */
+    lag_catch_up(a);
+    caught_up = 1;
+  }
   n = ++a->n;
   /* Sample n completes a cluster at every level k with 2^k | n: `depth`
    * levels.  Level k has a pair unless this is its very first cluster,
@@ -233,6 +247,12 @@ __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
    * in `depth` says so.  Both are worked out once here, in 8 bits, for all
    * channels. */
   depth = 1;
+  if (!(uint8_t)n) { /* a byte at a time first: the AVR shifts one bit per instruction */
+    while (!(uint8_t)n && depth + 8u <= ALLAN_LEVELS) {
+      n >>= 8;
+      depth += 8;
+    }
+  }
   while (depth < ALLAN_LEVELS && !(n & 1u)) { /* shift out trailing zeros */
     n >>= 1;
     depth++;
@@ -243,17 +263,21 @@ __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
   if (n == 1u)
     a->depth = (uint8_t)(depth | ALLAN_TOP_FIRST);
 
-  /* Deferred pairs of levels this set overwrites are settled first (a
-   * safety net: the schedule below settles them long before, see
-   * docs/allan-engine.md), then, in a set that cascades no higher than
-   * level 1 (three in four), the lowest waiting level's. */
-  while (a->pend & (((allan_pend_t)1 << depth) - 1u))
-    settle(a, lowest_pending(a->pend));
-  /* This set's pairs at levels 2 .. depth-2 are deferred; the top level's
-   * pair is taken now, its previous sum being nowhere else. */
-  if (depth >= 4)
-    a->pend |= (allan_pend_t)((((allan_pend_t)1 << (depth - 1u)) - 1u) & ~(allan_pend_t)3u);
-  if (depth <= 2u && a->pend)
+  if (depth > 2u) {
+    /* Deferred pairs of levels this set overwrites are settled first (a
+     * safety net: the schedule below settles them long before, see
+     * docs/allan-engine.md).  This set's pairs at levels 2 .. depth-2
+     * are deferred; the top level's pair is taken now, its previous sum
+     * being nowhere else. */
+    allan_pend_t mask = (allan_pend_t)(((allan_pend_t)1 << depth) - 1u);
+    while (a->pend & mask)
+      settle(a, lowest_pending(a->pend));
+    a->pend |= (allan_pend_t)((mask >> 1) & ~(allan_pend_t)3u);
+    return ALLAN_OK;
+  }
+  /* A set that cascades no higher than level 1 (three in four) takes the
+   * lowest waiting level's pairs, unless it took lagging channels' work. */
+  if (a->pend && !caught_up)
     return settle(a, lowest_pending(a->pend)); /* last, so that its frame replaces this one */
   return ALLAN_OK;
 }
@@ -266,17 +290,43 @@ __attribute__((noinline)) uint8_t allan_begin(allan_t *a)
 static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_t v16)
 {
   allan_cell_t *c = &a->cell[ch][2];
-  uint8_t k = 2, top = (uint8_t)((a->depth & ~ALLAN_TOP_FIRST) - 1u);
+  uint8_t k = 2, top = (uint8_t)((a->depth & ALLAN_DEPTH_MASK) - 1u);
   allan_sum_t v, last;
   uint8_t *hi;
 
   /* Levels below the last narrow one: their sums and the next level's
    * stay below 2^16. */
+#if defined(__AVR__)
+  {
+    /* The same as the loop below, 15 cycles a level (the compiler's: 19);
+     * this runs for every level of every channel of the deepest sets. */
+    uint8_t n = (uint8_t)((top < ALLAN_NARROW_LEVELS - 1u ? top : ALLAN_NARROW_LEVELS - 1u) - 2u);
+    if (n) {
+      uint16_t l16;
+      k = (uint8_t)(k + n);
+      __asm__ volatile(
+        "1:\n\t"
+        "ld %A[l], %a[c]\n\t"
+        "ldd %B[l], %a[c]+1\n\t"
+        "st %a[c], %A[v]\n\t"
+        "std %a[c]+1, %B[v]\n\t"
+        "add %A[v], %A[l]\n\t"
+        "adc %B[v], %B[l]\n\t"
+        "adiw %A[c], %[size]\n\t"
+        "dec %[n]\n\t"
+        "brne 1b"
+        : [v] "+r"(v16), [n] "+d"(n), [l] "=&r"(l16), [c] "+b"(c)
+        : [size] "n"(sizeof(allan_cell_t))
+        : "memory");
+    }
+  }
+#else
   for (; k < top && k < ALLAN_NARROW_LEVELS - 1u; k++, c++) {
     uint16_t l16 = c->sum_lo;
     c->sum_lo = v16;
     v16 = (uint16_t)(v16 + l16);
   }
+#endif
   v = v16;
   if (k < top && k == ALLAN_NARROW_LEVELS - 1u) { /* the last narrow level: the next sum is wide */
     last = c->sum_lo;
@@ -290,6 +340,32 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
     c->sum_lo = (uint16_t)v;
   } else {
     hi = &a->sum_hi[ch][k - ALLAN_NARROW_LEVELS];
+#if defined(__AVR__) && ALLAN_LEVELS <= ALLAN_WIDE_LEVEL
+    if (k < top) {
+      /* The loop below without its range check (no wide levels here), 20
+       * cycles a level (the compiler's: 26). */
+      uint8_t n = (uint8_t)(top - k);
+      allan_sum_t l;
+      k = top;
+      __asm__ volatile(
+        "1:\n\t"
+        "ld %A[l], %a[c]\n\t"
+        "ldd %B[l], %a[c]+1\n\t"
+        "ld %C[l], %a[h]\n\t"
+        "st %a[c], %A[v]\n\t"
+        "std %a[c]+1, %B[v]\n\t"
+        "st %a[h]+, %C[v]\n\t"
+        "add %A[v], %A[l]\n\t"
+        "adc %B[v], %B[l]\n\t"
+        "adc %C[v], %C[l]\n\t"
+        "adiw %A[c], %[size]\n\t"
+        "dec %[n]\n\t"
+        "brne 1b"
+        : [v] "+r"(v), [n] "+d"(n), [l] "=&r"(l), [c] "+b"(c), [h] "+e"(hi)
+        : [size] "n"(sizeof(allan_cell_t))
+        : "memory");
+    }
+#else
     for (; k < top; k++, c++, hi++) {
       last = c->sum_lo | ((allan_sum_t)*hi << 16);
 #if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
@@ -301,6 +377,7 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
       /* The next level's cluster is this one and the one before it. */
       v = (allan_sum_t)((v + last) & SUM_MASK);
     }
+#endif
     last = c->sum_lo | ((allan_sum_t)*hi << 16);
     c->sum_lo = (uint16_t)v;
     *hi = (uint8_t)(v >> 16);
@@ -314,6 +391,44 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
   }
 #endif
   cell_add_square(a, ch, k, c, pair_diff(k, v, last));
+}
+
+/* Lagging channels (see "Spreading the cascade" in docs/allan-engine.md):
+ * in a set that completes ALLAN_LAG_DEPTH levels or more, channels
+ * ALLAN_LAG_FROM and up take levels 0 and 1 as always but leave levels
+ * 2 and up (cascade_up) to the start of the next set, or to a read before
+ * it.  What cascade_up needs then is the new level-2 sum, i.e. level 1's
+ * previous sum (its new one stays in place): 11 bits, parked in bits no
+ * sum uses.  Level 0's sum is a code (bits 0..9) and level 1's a sum of
+ * two (bits 0..10), so bits 10..15 of the first and 11..15 of the second
+ * are free; level 0 is next written by the next set, after the catch-up. */
+static void lag_park(allan_cell_t *c, uint16_t prev1)
+{
+  c[0].sum_lo |= (uint16_t)(prev1 << 10);
+  c[1].sum_lo |= (uint16_t)((prev1 << 5) & 0xF800u);
+}
+
+/* The lagging channels' levels 2 and up, with the depth of their set. */
+static __attribute__((noinline)) void lag_catch_up(allan_t *a)
+{
+  uint8_t ch;
+  a->depth &= (uint8_t)~ALLAN_LAGGING;
+  for (ch = ALLAN_LAG_FROM; ch < ALLAN_CHANNELS; ch++) {
+    allan_cell_t *c = a->cell[ch];
+    uint16_t s0 = c[0].sum_lo, s1 = c[1].sum_lo;
+    c[0].sum_lo = s0 & 0x03FFu;
+    s0 = (uint16_t)((s0 >> 10) | ((s1 >> 5) & 0x07C0u)); /* level 1's previous sum */
+    s1 &= 0x07FFu;                                        /* and its new one */
+    c[1].sum_lo = s1;
+    cascade_up(a, ch, (uint16_t)(s0 + s1));
+  }
+}
+
+/* Lagging channels first: every read and every new set sees them done. */
+static inline __attribute__((always_inline)) void lag_settle(allan_t *a)
+{
+  if (a->depth & ALLAN_LAGGING)
+    lag_catch_up(a);
 }
 
 void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
@@ -330,10 +445,16 @@ void allan_channel(allan_t *a, uint8_t ch, uint16_t code)
     a->max[ch] = code;
 #endif
   v = (uint16_t)narrow_step(a, ch, 0, c, code);
-  if ((a->depth & ~ALLAN_TOP_FIRST) > 1u) {
+  if ((a->depth & ALLAN_DEPTH_MASK) > 1u) {
     v = (uint16_t)narrow_step(a, ch, 1, c + 1, v);
-    if ((a->depth & ~ALLAN_TOP_FIRST) > 2u)
-      cascade_up(a, ch, v);
+    if ((a->depth & ALLAN_DEPTH_MASK) > 2u) {
+      if (ch >= ALLAN_LAG_FROM && (a->depth & ALLAN_DEPTH_MASK) >= ALLAN_LAG_DEPTH) {
+        lag_park(c, (uint16_t)(v - c[1].sum_lo));
+        a->depth |= ALLAN_LAGGING;
+      } else {
+        cascade_up(a, ch, v);
+      }
+    }
   }
 }
 
@@ -359,12 +480,14 @@ uint32_t allan_pairs(const allan_t *a, uint8_t level)
 
 void allan_settle_level(allan_t *a, uint8_t level)
 {
+  lag_settle(a);
   if ((a->pend >> level) & 1u)
     settle(a, level);
 }
 
 void allan_settle(allan_t *a)
 {
+  lag_settle(a);
   while (a->pend)
     settle(a, lowest_pending(a->pend));
 }
@@ -372,6 +495,7 @@ void allan_settle(allan_t *a)
 void allan_acc(allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)
 {
   const allan_cell_t *c = &a->cell[ch][level];
+  lag_settle(a);
   if ((a->pend >> level) & 1u)
     settle(a, level); /* this level's waiting pairs, for every channel */
   uint16_t h = c->acc_mid;

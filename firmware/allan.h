@@ -65,7 +65,22 @@ typedef struct ALLAN_PACKED {
   uint8_t  acc_mid; /*                             bits 32..39 */
 } allan_cell_t;
 
-#define ALLAN_TOP_FIRST 0x80u
+/* allan_t.depth: the levels the set in progress completes, and flags. */
+#define ALLAN_DEPTH_MASK 0x3Fu
+#define ALLAN_LAGGING   0x40u /* some channels lag this set (allan.c, lag_park) */
+#define ALLAN_TOP_FIRST 0x80u /* the top one has no pair yet */
+
+/* Lagging channels: in a set that completes ALLAN_LAG_DEPTH levels or more
+ * (one set in 2^(ALLAN_LAG_DEPTH-1)), channels ALLAN_LAG_FROM and up do
+ * their work at the start of the next set, so that the deepest cascade is
+ * split between two sets (docs/allan-engine.md, "Spreading the cascade").
+ * It costs no RAM: the parked code waits in bits no sum uses. */
+#ifndef ALLAN_LAG_FROM
+#  define ALLAN_LAG_FROM 2u
+#endif
+#ifndef ALLAN_LAG_DEPTH
+#  define ALLAN_LAG_DEPTH 4u
+#endif
 
 /* One bit per level whose pairs wait to be taken (allan.c, settle()):
  * levels 2 .. ALLAN_LEVELS-2 can wait. */
@@ -86,7 +101,8 @@ typedef struct {
 #endif
   uint32_t n;                   /* sample sets pushed */
   uint8_t depth;                /* levels the set in progress completes (allan_begin),
-                                   | ALLAN_TOP_FIRST when the top one has no pair yet */
+                                   | ALLAN_TOP_FIRST when the top one has no pair yet,
+                                   | ALLAN_LAGGING while channels lag */
   allan_pend_t pend;            /* levels whose pairs are deferred */
 } allan_t;
 

@@ -51,14 +51,14 @@
 #  define FW_MCU_NAME "host"
 #endif
 
-/* Default sample rate (Hz) at power-up: 50, 100, 200, 250, 500, 1000 or
- * 1250 (the highest rate whose Timer1 period is exact at 10 MHz and that
- * the 7-column ADC scan, 627 us, fits: see docs/firmware.md). */
+/* Default sample rate (Hz) at power-up: 50, 100, 200, 250, 500, 1000,
+ * 1250 or 1500 (the highest the 7-column ADC scan, 0.64 ms, fits; its
+ * Timer1 period is dithered by one CPU cycle: see docs/firmware.md). */
 #ifndef FS_DEFAULT
 #  define FS_DEFAULT 100
 #endif
 #if !VOCAB_RATE_OK(FS_DEFAULT)
-#  error "FS_DEFAULT must be one of 50, 100, 200, 250, 500, 1000, 1250"
+#  error "FS_DEFAULT must be one of 50, 100, 200, 250, 500, 1000, 1250, 1500"
 #endif
 
 /* Seconds of sampling between periodic reports (0: only on request). */

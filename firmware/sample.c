@@ -34,10 +34,11 @@ void sample_feed(void)
           BOARD_PROBE_ALLAN_ON();
           allan_channel(&sample_engine, i, code);
           BOARD_PROBE_ALLAN_OFF();
-          /* One channel's octave cascade takes up to 0.26 ms, a whole set
-           * 1.5 ms, more than the RX ring's 8 bytes last (0.69 ms at
-           * 115200 baud): receive between channels. */
-          cmdline_poll();
+          /* A whole set takes up to 0.4 ms (docs/firmware.md), the RX
+           * ring's 8 bytes last 0.69 ms at 115200 baud: receive twice a
+           * set, so that sets taken back to back never starve it. */
+          if (i == 2 || i == ALLAN_CHANNELS - 1)
+            cmdline_poll();
         }
       } else {
         sample_stats.temp_sum += code;

@@ -30,11 +30,12 @@
 
 /* The supported sample rates in Hz.  A macro so config.h can check its
  * default with the preprocessor; vocab_rate_ok() is the run-time test.
- * 1250 is the highest rate whose Timer1 period is exact at 10 MHz and that
- * the 7-column ADC scan fits (1500 has no exact period; docs/firmware.md). */
+ * 1500 is the highest the 7-column ADC scan (0.64 ms) fits; its Timer1
+ * period is exact on average only, dithered by one CPU cycle (adc.c,
+ * docs/firmware.md). */
 #define VOCAB_RATE_OK(hz) ((hz) == 50 || (hz) == 100 || (hz) == 200 || \
                            (hz) == 250 || (hz) == 500 || (hz) == 1000 || \
-                           (hz) == 1250)
+                           (hz) == 1250 || (hz) == 1500)
 
 /* Longest report interval in seconds (`interval`, REPORT, the EEPROM). */
 #define VOCAB_INTERVAL_MAX_S 3600

@@ -9,5 +9,5 @@ COLUMNS = CHANNELS + ("temp",)
 CODE_MAX = 1023
 """Largest 10-bit ADC code."""
 
-RATES_HZ = (50, 100, 200, 250, 500, 1000, 1250)
+RATES_HZ = (50, 100, 200, 250, 500, 1000, 1250, 1500)
 """Sample rates the device offers (firmware/vocab.h; docs/protocol.md)."""

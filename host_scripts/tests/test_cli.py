@@ -187,7 +187,7 @@ def test_sim_rate_is_one_of_the_device_rates(text: str, want: int) -> None:
 def test_sim_refuses_other_rates(text: str, run_cli) -> None:
     rc, out, err = run_cli("sim", "--adc", "x.txt", "--fs", text, "-o", "y.log")
     assert rc == 2 and out == "" and err.count("\n") == 1
-    assert f"{text!r} is not a rate of the device (50, 100, 200, 250, 500, 1000, 1250 Hz)" in err
+    assert f"{text!r} is not a rate of the device (50, 100, 200, 250, 500, 1000, 1250, 1500 Hz)" in err
 
 
 @pytest.mark.parametrize("content,argv,message", [

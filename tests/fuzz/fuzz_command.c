@@ -177,7 +177,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (data[3] == 0xFF) /* near the rates too */
       hz &= 0x7FF;
     FUZZ_CHECK(!vocab_rate_ok(hz) == !(hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000 ||
-                                     hz == 1250),
+                                     hz == 1250 || hz == 1500),
                "vocab_rate_ok(%lu)", (unsigned long)hz);
   }
 

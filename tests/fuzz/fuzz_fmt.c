@@ -76,13 +76,13 @@ static char *sig3(uint32_t mant, int8_t exp, const char *what)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-  static const uint16_t rates[7] = {50, 100, 200, 250, 500, 1000, 1250};
+  static const uint16_t rates[8] = {50, 100, 200, 250, 500, 1000, 1250, 1500};
   fuzz_in_t in = {data, size};
   uint16_t acc_hi = fz_u16(&in);
   uint32_t acc_lo = fz_u32(&in);
   uint32_t pairs = fz_u32(&in);
   uint8_t level = fz_u8(&in) % 23u;
-  uint8_t rate = fz_u8(&in) % 7u;
+  uint8_t rate = fz_u8(&in) % 8u;
   uint32_t m = fz_u32(&in);
   int8_t e = (int8_t)fz_u8(&in);
   uint32_t mant;

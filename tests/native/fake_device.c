@@ -133,7 +133,7 @@ void adc_start(uint8_t lim, uint32_t count)
 {
   limited = lim;
   budget = count;
-  running = 1;
+  running = !lim || count; /* like adc.c: nothing to take, no tick */
   next_tick_ns = now_ns + 1000000000ull / rate_hz;
 }
 
@@ -146,6 +146,8 @@ void adc_limit(uint32_t total)
   uint32_t waiting = adc_pending();
   limited = 1;
   budget = total > waiting ? total - waiting : 0;
+  if (!budget)
+    running = 0;
 }
 uint8_t adc_running(void) { return (uint8_t)running; }
 
@@ -197,13 +199,10 @@ static void adc_tick(void)
 {
   unsigned next = (ring_head + 1) % ADC_SLOTS;
   uint8_t col;
-  if (limited) {
-    if (budget == 0) {
-      running = 0;
-      return;
-    }
-    budget--;
-  }
+  /* Like adc.c: the tick that takes the last set of a limited run stops
+   * (the fake's scan lands at once, so sampling has ended). */
+  if (limited && --budget == 0)
+    running = 0;
   for (col = 0; col < ADC_COLUMNS; col++)
     ring[ring_head][col] = fx_code(fx_sets_made, col);
   fx_sets_made++;

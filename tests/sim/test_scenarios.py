@@ -58,6 +58,20 @@ def test_every_sample_rate_is_exact(run, fs: int) -> None:
     assert n / fs <= stats["sim_seconds"] <= n / fs + 3.0
 
 
+def test_start_count_ends_sampling_with_its_last_set(run, tmp_path: Path) -> None:
+    """The harness runs `start <rows>`; a `status` sent as the last set is
+    taken must already say run=0 (the tick stops as the last scan starts,
+    not one sample period later: at 50 Hz that period was 20 ms)."""
+    r = run("count_end")
+    n = 200
+    cli("gen", "-n", str(n), "--fs", "50", "--seed", "5", "-o", str(r.rows))
+    uart = tmp_path / "status.txt"
+    uart.write_text(f"{n}\tstatus\\r\n")
+    simulate_and_check(r, n, 50, uart_in=uart)
+    text = r.log.read_bytes()
+    assert b"$ok status run=0 " in text and b"$ok status run=1 " not in text, text[-400:]
+
+
 def test_saturation_is_flagged_not_wrong(run) -> None:
     """Full-scale steps every 1024 samples: differences of 1023*m at levels
     7 and up overflow the ATmega168's 40-bit accumulators (levels 0..10)

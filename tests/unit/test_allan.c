@@ -363,6 +363,66 @@ static void test_reading_early_changes_nothing(void)
   check_all(x, 40000, "early reads");
 }
 
+/* Lagging channels (docs/allan-engine.md, "Spreading the cascade"): a set
+ * that completes ALLAN_LAG_DEPTH levels or more leaves the levels 2 and up
+ * of channels ALLAN_LAG_FROM.. to the next set, their state parked in the
+ * spare bits of levels 0 and 1.  Right after every such set, every channel
+ * and level read must equal the reference over the sets pushed so far
+ * (flags included: full-scale squares saturate, and park 2046, every
+ * parked bit); the reads go through a copy, so that the engine pushed on
+ * never catches up early and each lag is taken by the next set. */
+static void test_reads_right_after_a_lagging_set_are_exact(void)
+{
+  static allan_t copy;
+  static const int kinds[] = {S_WALK, S_SQUARE, S_RANDOM};
+  const uint32_t n = 4096 + 24; /* up to a 13-level cascade */
+  char msg[96];
+  uint16_t *x = rows(n);
+  for (int kind = 0; kind < 3; kind++) {
+    uint32_t lagging = 0;
+    fill(x, n, kinds[kind], 40u + (uint64_t)kind);
+    allan_reset(&eng);
+    for (uint32_t i = 1; i <= n; i++) {
+      TEST_ASSERT_EQUAL_UINT8(ALLAN_OK, allan_push(&eng, &x[(size_t)(i - 1) * NCH]));
+      if (!(eng.depth & ALLAN_LAGGING))
+        continue;
+      lagging++;
+      for (int ch = 0; ch < NCH; ch++)
+        for (int k = 0; k < NLEV; k++) {
+          ref_t r = reference(x, i, ch, k);
+          uint16_t hi;
+          uint32_t lo;
+          memcpy(&copy, &eng, sizeof eng);
+          allan_acc(&copy, (uint8_t)ch, (uint8_t)k, &hi, &lo);
+          snprintf(msg, sizeof msg, "lagging n=%u ch=%d level=%d", i, ch, k);
+          TEST_ASSERT_EQUAL_HEX8_MESSAGE(r.flags, allan_flags(&copy, (uint8_t)ch, (uint8_t)k), msg);
+          if (!r.flags)
+            TEST_ASSERT_TRUE_MESSAGE((((unsigned __int128)hi << 32) | lo) == r.sumsq, msg);
+        }
+    }
+    /* one set in 2^(ALLAN_LAG_DEPTH-1) lags */
+    TEST_ASSERT_EQUAL_UINT32(n >> (ALLAN_LAG_DEPTH - 1u), lagging);
+    check_all(x, n, "after lagging sets");
+  }
+}
+
+/* A reset while channels lag forgets them: the engine is a fresh one. */
+static void test_reset_while_channels_lag_starts_afresh(void)
+{
+  static allan_t fresh;
+  uint16_t *x = rows(3000);
+  fill(x, 1024, S_RANDOM, 31);
+  allan_reset(&eng);
+  push_all(x, 1024); /* 1024 completes 11 levels: channels lag */
+  TEST_ASSERT_TRUE((eng.depth & ALLAN_LAGGING) && eng.pend);
+  allan_reset(&eng);
+  allan_reset(&fresh);
+  TEST_ASSERT_EQUAL_MEMORY(&fresh, &eng, sizeof eng);
+  fill(x, 3000, S_WALK, 32);
+  push_all(x, 3000);
+  check_all(x, 3000, "reset while lagging");
+}
+
 static void test_bad_code_is_refused_and_changes_nothing(void)
 {
   uint16_t ok[NCH] = {500, 501, 502, 503, 504, 505};
@@ -483,6 +543,8 @@ int main(void)
   RUN_TEST(test_piecewise_push_matches_push);
   RUN_TEST(test_reads_between_any_two_sets_are_exact);
   RUN_TEST(test_reading_early_changes_nothing);
+  RUN_TEST(test_reads_right_after_a_lagging_set_are_exact);
+  RUN_TEST(test_reset_while_channels_lag_starts_afresh);
   RUN_TEST(test_bad_code_is_refused_and_changes_nothing);
   RUN_TEST(test_full_counter_is_refused);
   RUN_TEST(test_reset_forgets_everything);
