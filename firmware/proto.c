@@ -72,13 +72,12 @@ void proto_u32(uint32_t v)
 
 void proto_hex(uint32_t v, uint8_t digits)
 {
-  char buf[8];
-  uint8_t i;
   if (digits > 8)
     digits = 8; /* a 32-bit value has 8 */
-  fmt_hex(buf, v, digits);
-  for (i = 0; i < digits; i++)
-    proto_putc(buf[i]);
+  while (digits--) {
+    uint8_t d = (uint8_t)(v >> (uint8_t)(4u * digits)) & 0xFu;
+    proto_putc((char)(d < 10 ? '0' + d : 'A' - 10 + d));
+  }
 }
 
 void proto_raw(uint8_t c)
@@ -88,12 +87,13 @@ void proto_raw(uint8_t c)
 
 void proto_end(void)
 {
-  char buf[4];
-  uint8_t i;
-  fmt_hex(buf, proto_crc, 4);
+  /* The CRC's digits go through proto_putc (hex digits pass unchanged),
+   * outside the bound CRC; the line CRC they update restarts with the
+   * next line. */
+  uint16_t crc = proto_crc;
+  proto_bound_on = 0;
   proto_sink('*');
-  for (i = 0; i < 4; i++)
-    proto_sink((uint8_t)buf[i]);
+  proto_hex(crc, 4);
   proto_sink('\r');
   proto_sink('\n');
 }
