@@ -111,7 +111,7 @@ static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 {
   if (!vocab_rate_ok(hz)) {
     tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported"), TX_ALLOWED_ARGS);
-  } else if (!link_fits(settings.mode, (uint16_t)hz, BAUD)) {
+  } else if (!link_fits_here(settings.mode, (uint16_t)hz)) {
     tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P, lower_rate_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
@@ -121,7 +121,7 @@ static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 
 static void run_mode(uint8_t mode)
 {
-  if (!link_fits(mode, settings.rate_hz, BAUD)) {
+  if (!link_fits_here(mode, settings.rate_hz)) {
     tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P, lower_rate_P);
     return;
   }

@@ -12,6 +12,7 @@
 #  define PROGMEM
 #  define PSTR(s) (s)
 #  define pgm_read_byte(p) (*(const unsigned char *)(p))
+#  define pgm_read_word(p) (*(p))
 #  define pgm_read_dword(p) (*(p))
 #  define pgm_read_ptr(p) (*(p))
 #  define strcmp_P strcmp

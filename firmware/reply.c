@@ -85,10 +85,6 @@ void reply_set_plain(uint8_t code, const char *text_P)
   rpl.tail_value.help.k = 0;
 }
 
-/* Lists of allowed words, by argument kind from ARG_RATE on; an entry's
- * words come from vocab.h's tables, so help, errors and the parser agree. */
-static const char rates_P[] PROGMEM = "50\0" "100\0" "200\0" "250\0" "500\0" "1000";
-
 static const char count_P[] PROGMEM = " [count]";
 static const char seconds_P[] PROGMEM = " 0..3600 s";
 static const char open_P[] PROGMEM = " [";
@@ -97,13 +93,14 @@ static const char g_P[] PROGMEM = " (g)";
 static const char close_P[] PROGMEM = "]";
 
 /* By argument kind from ARG_COUNT on: the words allowed (a vocab.h
- * list), how many, and the text before and after them. */
+ * list; none for the rates, vocab_rates' numbers), how many, and the text
+ * before and after them: help, errors and the parser agree. */
 static const struct {
   const char *list, *pre, *post;
   uint8_t count;
 } allowed[] PROGMEM = {
   {0, count_P, 0, 0},                              /* ARG_COUNT */
-  {rates_P, 0, hz_P, 6},                           /* ARG_RATE */
+  {0, 0, hz_P, VOCAB_RATE_COUNT},                           /* ARG_RATE */
   {0, seconds_P, 0, 0},                            /* ARG_SECONDS */
   {vocab_modes, 0, 0, VOCAB_MODES},                /* ARG_MODE */
   {vocab_ranges, 0, g_P, VOCAB_RANGES},            /* ARG_RANGE */
@@ -132,12 +129,15 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
       proto_putc(';');
     if (pre)
       proto_puts_P(pre);
-    else if (list)
+    else if (count)
       proto_putc(' ');
   } else if (k <= count) {
     if (k > 1)
       proto_putc('|');
-    proto_puts_P(vocab_word(list, (uint8_t)(k - 1)));
+    if (list)
+      proto_puts_P(vocab_word(list, (uint8_t)(k - 1)));
+    else
+      proto_u32(pgm_read_word(&vocab_rates[k - 1]));
   } else {
     if (post)
       proto_puts_P(post);
@@ -230,7 +230,7 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
     put_key_u32(PSTR(" interval="), settings.interval_s);
     break;
   case 4:
-    put_key_u32(PSTR(" link="), link_percent(settings.mode, adc_rate(), BAUD));
+    put_key_u32(PSTR(" link="), link_percent_here(settings.mode, adc_rate()));
     proto_puts_P(PSTR(" cfg="));
     break;
   case 5:
