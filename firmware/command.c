@@ -79,8 +79,8 @@ uint8_t command_parse(const char *line, command_t *out)
         uint8_t d = (uint8_t)(p[i] - '0');
         if (d > 9)
           return CMD_ERR_ARG;
-        if (v > (0xFFFFFFFFul - d) / 10u)
-          return CMD_ERR_ARG; /* does not fit 32 bits */
+        if (v > 429496729ul || (v == 429496729ul && d > 5))
+          return CMD_ERR_ARG; /* does not fit 32 bits: above 4294967295 */
         v = v * 10u + d;
       }
       out->arg = v;

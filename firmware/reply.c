@@ -209,34 +209,54 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
   return 0;
 }
 
-/* `ok status run= fs= mode= range= interval= link= cfg=` */
+/* `ok status run= fs= mode= range= interval= link= cfg=`: a key=value a
+ * step, the keys from this list (a new key: a word here, a case below). */
+static const char status_keys_P[] PROGMEM = "run\0fs\0mode\0range\0interval\0link\0cfg";
+#define STATUS_KEYS 7
+
 static __attribute__((noinline)) uint8_t step_status(uint8_t step)
 {
-  switch (step) {
-  case 0:
+  uint8_t k = (uint8_t)(step - 1);
+  if (step == 0) {
     proto_begin();
-    proto_puts_P(adc_running() ? PSTR("ok status run=1") : PSTR("ok status run=0"));
-    break;
-  case 1:
-    put_key_u32(PSTR(" fs="), adc_rate());
-    proto_puts_P(PSTR(" mode="));
-    break;
-  case 2:
-    proto_puts_P(vocab_word(vocab_modes, settings.mode));
-    proto_puts_P(PSTR(" range="));
-    proto_puts_P(vocab_word(vocab_ranges, settings.range));
-    break;
-  case 3:
-    put_key_u32(PSTR(" interval="), settings.interval_s);
-    break;
-  case 4:
-    put_key_u32(PSTR(" link="), link_percent_here(settings.mode, adc_rate()));
-    proto_puts_P(PSTR(" cfg="));
-    break;
-  case 5:
-    proto_puts_P(vocab_word(vocab_sources, settings_source));
-    break;
-  default:
+    proto_puts_P(PSTR("ok status"));
+  } else if (k < STATUS_KEYS) {
+    uint32_t n = 0;
+    const char *list = 0; /* a word of this list, at n */
+    proto_putc(' ');
+    proto_puts_P(vocab_word(status_keys_P, k));
+    proto_putc('=');
+    switch (k) {
+    case 0:
+      n = adc_running();
+      break;
+    case 1:
+      n = adc_rate();
+      break;
+    case 2:
+      list = vocab_modes;
+      n = settings.mode;
+      break;
+    case 3:
+      list = vocab_ranges;
+      n = settings.range;
+      break;
+    case 4:
+      n = settings.interval_s;
+      break;
+    case 5:
+      n = link_percent_here(settings.mode, adc_rate());
+      break;
+    default:
+      list = vocab_sources;
+      n = settings_source;
+      break;
+    }
+    if (list)
+      proto_puts_P(vocab_word(list, (uint8_t)n));
+    else
+      proto_u32(n);
+  } else {
     proto_end();
     return 1;
   }
