@@ -93,7 +93,7 @@ static void run_start(const command_t *cmd)
   if (cmd->has_arg) {
     uint32_t have = sample_engine.n + adc_pending();
     if (cmd->arg < have) {
-      tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small"), PSTR("; above n"));
+      tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small\0above n"));
       return;
     }
     adc_start(1, cmd->arg - have);
@@ -103,16 +103,16 @@ static void run_start(const command_t *cmd)
   tx_ok(PSTR("started"));
 }
 
-static const char link_slow_P[] PROGMEM = "link too slow";
-static const char lower_rate_P[] PROGMEM = "; lower rate";
+/* tx_error()'s texts: what is wrong, what is allowed. */
+static const char link_slow_P[] PROGMEM = "link too slow\0lower rate";
 
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
 static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 {
   if (!vocab_rate_ok(hz)) {
-    tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported"), TX_ALLOWED_ARGS);
+    tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported\0"));
   } else if (!link_fits_here(settings.mode, (uint16_t)hz)) {
-    tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P, lower_rate_P);
+    tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
     tx_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), hz);
@@ -122,7 +122,7 @@ static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
 static void run_mode(uint8_t mode)
 {
   if (!link_fits_here(mode, settings.rate_hz)) {
-    tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P, lower_rate_P);
+    tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P);
     return;
   }
   if (mode == MODE_RAW || mode == MODE_BINARY)
@@ -141,9 +141,9 @@ static __attribute__((noinline)) void run_load(uint16_t old_rate, uint8_t old_ra
     settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
     if (loaded == CFG_INFEASIBLE)
-      tx_error(CMD_ERR_STATE, CMD_LOAD, link_slow_P, lower_rate_P);
+      tx_error(CMD_ERR_STATE, CMD_LOAD, link_slow_P);
     else
-      tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved"), PSTR("; save first"));
+      tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved\0save first"));
     return;
   }
   tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
@@ -157,7 +157,7 @@ static void execute(const command_t *cmd)
   switch (cmd->id) {
   case CMD_REPORT:
     if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
-      tx_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode"), PSTR("; allan or both"));
+      tx_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode\0allan or both"));
       break;
     }
     tx_ok(0);
@@ -186,7 +186,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
-      tx_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long"), TX_ALLOWED_ARGS);
+      tx_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long\0"));
     } else {
       settings.interval_s = (uint16_t)cmd->arg;
       tx_ok_n(PSTR("interval="), cmd->arg);
@@ -233,7 +233,7 @@ static __attribute__((noinline)) void run_line(void)
   if (!err)
     err = command_parse(text, &cmd);
   if (err == CMD_ERR_ARG)
-    tx_error(err, cmd.id, PSTR("bad argument"), TX_ALLOWED_ARGS);
+    tx_error(err, cmd.id, PSTR("bad argument\0"));
   else if (err)
     tx_refuse(err, text);
   else if (cmd.id != CMD_NONE)

@@ -22,7 +22,6 @@ static struct {
       union {
         uint32_t n;         /* REPLY_TAIL_NUM */
         const char *word_P; /* REPLY_TAIL_WORD */
-        const char *allowed_P; /* error: "; ..." or REPLY_ALLOWED_ARGS */
         struct {
           uint8_t id, k; /* help: the command of this line, its piece */
         } help;
@@ -32,13 +31,7 @@ static struct {
   };
 } rpl;
 
-static void put_key_u32(const char *key_P, uint32_t v)
-{
-  proto_puts_P(key_P);
-  proto_u32(v);
-}
-
-void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P)
+void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *text_P)
 {
   rpl.code = code;
   rpl.tail = id;
@@ -56,8 +49,7 @@ void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *wh
     }
     return;
   }
-  rpl.text_P = what_P;
-  rpl.tail_value.allowed_P = allowed_P;
+  rpl.text_P = text_P;
 }
 
 void reply_set(uint8_t code, const char *text_P, uint32_t n)
@@ -148,17 +140,20 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
 
 /* A line refused before any command is known, by CMD_ERR_* code - 1
  * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE; 2 and 4
- * always name their command): what, and what is allowed. */
-static const char refused_what_P[] PROGMEM = "unknown command\0\0line too long\0\0input lost\0bad byte";
-static const char refused_allowed_P[] PROGMEM = "; see help\0\0; 16 chars\0\0; resend\0; printable ASCII";
+ * always name their command): what, and what is allowed, as
+ * reply_set_error's texts. */
+static const char refused_P[] PROGMEM =
+  "unknown command\0see help\0\0\0line too long\0" "16 chars\0\0\0input lost\0resend\0bad byte\0printable ASCII";
 
 /* `error:<code> <command>: <what>; <allowed>` */
 static __attribute__((noinline)) uint8_t step_error(uint8_t step)
 {
   uint8_t none = rpl.tail == CMD_NONE;
+  const char *text = none ? vocab_word(refused_P, (uint8_t)(2u * (rpl.code - 1u))) : rpl.text_P;
   if (step == 0) {
     proto_begin();
-    put_key_u32(PSTR("error:"), rpl.code);
+    proto_puts_P(PSTR("error:"));
+    proto_u32(rpl.code);
     proto_putc(' ');
   } else if (step == 1) {
     if (none) {
@@ -170,16 +165,19 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
     }
     proto_puts_P(PSTR(": "));
   } else if (step == 2) {
-    proto_puts_P(!none ? rpl.text_P : vocab_word(refused_what_P, (uint8_t)(rpl.code - 1)));
-  } else if (none || rpl.tail_value.allowed_P) {
-    if (step == 3)
-      proto_puts_P(!none ? rpl.tail_value.allowed_P : vocab_word(refused_allowed_P, (uint8_t)(rpl.code - 1)));
-    else
-      goto end;
-  } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
+    proto_puts_P(text);
+  } else {
+    text = vocab_word(text, 1);
+    if (pgm_read_byte(text)) {
+      if (step == 4)
+        goto end;
+      proto_puts_P(PSTR("; "));
+      proto_puts_P(text);
+    } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
 end:
-    proto_end();
-    return 1;
+      proto_end();
+      return 1;
+    }
   }
   return 0;
 }

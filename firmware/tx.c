@@ -113,15 +113,15 @@ void tx_ok_word(const char *text_P, const char *word_P)
   start(JOB_REPLY);
 }
 
-void tx_error(uint8_t code, uint8_t id, const char *what_P, const char *allowed_P)
+void tx_error(uint8_t code, uint8_t id, const char *text_P)
 {
-  reply_set_error(code, id, 0, what_P, allowed_P);
+  reply_set_error(code, id, 0, text_P);
   start(JOB_REPLY);
 }
 
 void tx_refuse(uint8_t code, const char *line)
 {
-  reply_set_error(code, CMD_NONE, line, 0, 0);
+  reply_set_error(code, CMD_NONE, line, 0);
   start(JOB_REPLY);
 }
 
