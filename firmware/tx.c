@@ -101,13 +101,13 @@ void tx_ok(const char *text_P)
   plain(REPLY_OK, text_P);
 }
 
-void tx_ok_n(const char *text_P, uint32_t n)
+__attribute__((noinline)) void tx_ok_n(const char *text_P, uint32_t n)
 {
   reply_set(REPLY_OK, text_P, n);
   start(JOB_REPLY);
 }
 
-void tx_ok_word(const char *text_P, const char *word_P)
+__attribute__((noinline)) void tx_ok_word(const char *text_P, const char *word_P)
 {
   reply_set_word(text_P, word_P);
   start(JOB_REPLY);
