@@ -98,16 +98,14 @@ void proto_end(void)
   proto_sink('\n');
 }
 
-void proto_frame(uint8_t out[PROTO_FRAME_BYTES], uint8_t seq, const uint8_t packed[PROTO_FRAME_PAYLOAD])
+void proto_frame(uint8_t frame[PROTO_FRAME_BYTES], uint8_t seq)
 {
-  uint16_t crc = crc16_update(CRC16_INIT, seq);
+  uint16_t crc = CRC16_INIT;
   uint8_t i;
-  out[0] = PROTO_FRAME_SYNC;
-  out[1] = seq;
-  for (i = 0; i < PROTO_FRAME_PAYLOAD; i++) {
-    out[2 + i] = packed[i];
-    crc = crc16_update(crc, packed[i]);
-  }
-  out[PROTO_FRAME_BYTES - 2] = (uint8_t)(crc >> 8);
-  out[PROTO_FRAME_BYTES - 1] = (uint8_t)crc;
+  frame[0] = PROTO_FRAME_SYNC;
+  frame[1] = seq;
+  for (i = 1; i < PROTO_FRAME_BYTES - 2; i++)
+    crc = crc16_update(crc, frame[i]);
+  frame[PROTO_FRAME_BYTES - 2] = (uint8_t)(crc >> 8);
+  frame[PROTO_FRAME_BYTES - 1] = (uint8_t)crc;
 }

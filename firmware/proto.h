@@ -36,6 +36,7 @@ void proto_raw(uint8_t c);
 #define PROTO_FRAME_SYNC 0xA5
 #define PROTO_FRAME_PAYLOAD 9
 #define PROTO_FRAME_BYTES 13
-void proto_frame(uint8_t out[PROTO_FRAME_BYTES], uint8_t seq, const uint8_t packed[PROTO_FRAME_PAYLOAD]);
+/* The frame around the payload the caller has put at frame + 2. */
+void proto_frame(uint8_t frame[PROTO_FRAME_BYTES], uint8_t seq);
 
 #endif /* PROTO_H */

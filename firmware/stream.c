@@ -122,7 +122,7 @@ static __attribute__((noinline)) void step_frame(void)
 {
   uint8_t b[PROTO_FRAME_BYTES], i;
   adc_peek_packed(b + 2); /* the payload lands where the frame wants it */
-  proto_frame(b, (uint8_t)st.rows, b + 2);
+  proto_frame(b, (uint8_t)st.rows);
   for (i = 0; i < PROTO_FRAME_BYTES; i++)
     put(b[i]);
   if (st.line == LINE_COUNT_DUE) { /* a frame may come before a due count line */

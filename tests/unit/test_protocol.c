@@ -247,7 +247,9 @@ static void test_proto_binary_frame(void)
   uint8_t f[PROTO_FRAME_BYTES], body[10];
   body[0] = 0x2A;
   memcpy(body + 1, packed, 9);
-  proto_frame(f, 0x2A, packed);
+  memset(f, 0, sizeof f);
+  memcpy(f + 2, packed, 9); /* the caller's payload */
+  proto_frame(f, 0x2A);
   TEST_ASSERT_EQUAL_HEX8(0xA5, f[0]);
   TEST_ASSERT_EQUAL_HEX8(0x2A, f[1]);
   TEST_ASSERT_EQUAL_MEMORY(packed, f + 2, 9);
