@@ -148,7 +148,7 @@ void tx_new_run(void)
   report_new_run();
 }
 
-void tx_restart_rows(void)
+__attribute__((noinline)) void tx_restart_rows(void)
 {
   stream_restart();
   tx.flags |= HOLD_ROWS; /* released when the next reply is written */
