@@ -244,7 +244,7 @@ static __attribute__((noinline)) void run_line(void)
  * written.  Otherwise a line's echo goes out whole once it has ended, as
  * an output job just before its reply (a raw row waits for it as for a
  * reply, within the link budget: link.h). */
-static uint8_t echo_live(void)
+__attribute__((noinline)) static uint8_t echo_live(void)
 {
   return settings.mode == MODE_ALLAN && !tx_busy();
 }
