@@ -257,7 +257,7 @@ __attribute__((noinline)) static uint8_t echo_live(void)
 static __attribute__((noinline)) void read_line(void)
 {
   cmdline_poll();
-  if (settings.echo) {
+  if (settings.echo && !lineedit_idle(&line)) {
     if (echo_live()) {
       lineedit_echo(&line, 0, uart_write, uart_tx_room());
     } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
