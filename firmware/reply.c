@@ -219,7 +219,7 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
     proto_begin();
     proto_puts_P(PSTR("ok status"));
   } else if (k < STATUS_KEYS) {
-    uint32_t n = 0;
+    uint16_t n = 0; /* every value fits */
     const char *list = 0; /* a word of this list, at n */
     proto_putc(' ');
     proto_puts_P(vocab_word(status_keys_P, k));
