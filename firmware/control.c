@@ -59,9 +59,12 @@ static uint32_t count_in_force(void)
 /* Put the settings in force; a different rate or range starts a new run
  * (results from mixed settings would be meaningless), which keeps a
  * `start <count>`: it stops at n = count.  Returns 1 if so. */
-static uint8_t apply_settings(uint16_t old_rate, uint8_t old_range)
+static uint8_t apply_settings(void)
 {
-  uint8_t changed = settings.rate_hz != old_rate || settings.range != old_range;
+  /* In force: the timer's rate and the g-select pins (no copy kept). */
+  uint8_t port = BOARD_GSEL_PORT;
+  uint8_t range = (uint8_t)(((port >> BOARD_GSEL1_BIT) & 1u) | ((port >> BOARD_GSEL2_BIT) & 1u) << 1);
+  uint8_t changed = settings.rate_hz != adc_rate() || settings.range != range;
   if (changed) {
     uint8_t was_running = adc_running();
     uint32_t count = count_in_force();
@@ -107,7 +110,7 @@ static void run_start(const command_t *cmd)
 static const char link_slow_P[] PROGMEM = "link too slow\0lower rate";
 
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
-static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
+static void run_rate(uint32_t hz)
 {
   if (!vocab_rate_ok(hz)) {
     tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported\0"));
@@ -115,7 +118,7 @@ static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
     tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
-    tx_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), hz);
+    tx_ok_n(apply_settings() ? PSTR("reset rate=") : PSTR("rate="), hz);
   }
 }
 
@@ -132,7 +135,7 @@ static void run_mode(uint8_t mode)
   tx_ok_word(PSTR("mode="), vocab_word(vocab_modes, mode));
 }
 
-static __attribute__((noinline)) void run_load(uint16_t old_rate, uint8_t old_range)
+static __attribute__((noinline)) void run_load(void)
 {
   settings_t before = settings;
   uint8_t source = settings_source;
@@ -146,14 +149,11 @@ static __attribute__((noinline)) void run_load(uint16_t old_rate, uint8_t old_ra
       tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved\0save first"));
     return;
   }
-  tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
+  tx_ok(apply_settings() ? PSTR("loaded reset") : PSTR("loaded"));
 }
 
 static void execute(const command_t *cmd)
 {
-  uint16_t old_rate = settings.rate_hz;
-  uint8_t old_range = settings.range;
-
   switch (cmd->id) {
   case CMD_REPORT:
     if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
@@ -182,7 +182,7 @@ static void execute(const command_t *cmd)
     run_start(cmd);
     break;
   case CMD_RATE:
-    run_rate(cmd->arg, old_rate, old_range);
+    run_rate(cmd->arg);
     break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
@@ -197,18 +197,18 @@ static void execute(const command_t *cmd)
     break;
   case CMD_RANGE:
     settings.range = (uint8_t)cmd->arg;
-    tx_ok_word(apply_settings(old_rate, old_range) ? PSTR("reset range=") : PSTR("range="),
+    tx_ok_word(apply_settings() ? PSTR("reset range=") : PSTR("range="),
                vocab_word(vocab_ranges, settings.range));
     break;
   case CMD_SAVE:
     settings_save(); /* replied when the last byte is written */
     break;
   case CMD_LOAD:
-    run_load(old_rate, old_range);
+    run_load();
     break;
   case CMD_DEFAULTS:
     settings_defaults();
-    tx_ok(apply_settings(old_rate, old_range) ? PSTR("defaults reset") : PSTR("defaults"));
+    tx_ok(apply_settings() ? PSTR("defaults reset") : PSTR("defaults"));
     break;
   case CMD_STATUS:
     tx_status();
