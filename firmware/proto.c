@@ -5,15 +5,22 @@
 #include "fmt.h"
 #include "pgm.h"
 
+#ifdef __AVR__
+#  include "uart.h"
+#  define proto_sink uart_write
+#else
 static proto_sink_t proto_sink;
+#endif
 static uint16_t proto_crc;
 static uint16_t proto_bound_crc;
 static uint8_t proto_bound_on; /* the current line is bound */
 
+#ifndef __AVR__
 void proto_init(proto_sink_t sink)
 {
   proto_sink = sink;
 }
+#endif
 
 void proto_begin(void)
 {

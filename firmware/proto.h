@@ -11,7 +11,13 @@
 
 typedef void (*proto_sink_t)(uint8_t c);
 
+#ifdef __AVR__
+/* On the device every line goes to the UART (uart_write): no pointer kept
+ * in RAM, whose every byte is the stack's. */
+#  define proto_init(sink) ((void)(sink))
+#else
 void proto_init(proto_sink_t sink);
+#endif
 void proto_begin(void);                 /* '$', CRC restarts */
 
 /* A line whose body also goes into the bound CRC (CRC-16/MODBUS over the
