@@ -106,6 +106,12 @@ static void run_start(const command_t *cmd)
   tx_ok(PSTR("started"));
 }
 
+/* Replies that share their ends: "rate=" is reset_rate_P + 6, "reset"
+ * loaded_reset_P + 7. */
+static const char reset_rate_P[] PROGMEM = "reset rate=";
+static const char reset_range_P[] PROGMEM = "reset range=";
+static const char loaded_reset_P[] PROGMEM = "loaded reset";
+
 /* tx_error()'s texts: what is wrong, what is allowed. */
 static const char link_slow_P[] PROGMEM = "link too slow\0lower rate";
 
@@ -118,7 +124,7 @@ static void run_rate(uint32_t hz)
     tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
-    tx_ok_n(apply_settings() ? PSTR("reset rate=") : PSTR("rate="), hz);
+    tx_ok_n(reset_rate_P + (apply_settings() ? 0 : 6), hz);
   }
 }
 
@@ -149,7 +155,7 @@ static __attribute__((noinline)) void run_load(void)
       tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved\0save first"));
     return;
   }
-  tx_ok(apply_settings() ? PSTR("loaded reset") : PSTR("loaded"));
+  tx_ok(apply_settings() ? loaded_reset_P : PSTR("loaded"));
 }
 
 static void execute(const command_t *cmd)
@@ -170,7 +176,7 @@ static void execute(const command_t *cmd)
     new_run();
     if (count)
       adc_limit(count); /* `start <count>` stops at n = count in the new run */
-    tx_ok(PSTR("reset"));
+    tx_ok(loaded_reset_P + 7);
     break;
   }
   case CMD_STOP:
@@ -197,7 +203,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_RANGE:
     settings.range = (uint8_t)cmd->arg;
-    tx_ok_word(apply_settings() ? PSTR("reset range=") : PSTR("range="),
+    tx_ok_word(reset_range_P + (apply_settings() ? 0 : 6),
                vocab_word(vocab_ranges, settings.range));
     break;
   case CMD_SAVE:
@@ -286,7 +292,7 @@ void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
   if (settings_saving() && tx_can_interject() && !lineedit_open(&line) && settings_poll())
-    tx_ok(PSTR("saved"));
+    tx_ok(vocab_sources); /* "saved": the first word, CFG_SAVED */
   /* A complete line runs when the output is between two lines (and no
    * EEPROM save is under way), so its reply never cuts into a line. */
   poll_commands();
