@@ -46,6 +46,12 @@ static void new_run(void)
   tx_restart_rows();
 }
 
+/* Sets sampled so far: those the engine holds and those waiting for it. */
+static __attribute__((noinline)) uint32_t sets_taken(void)
+{
+  return sample_engine.n + adc_pending();
+}
+
 /* The `count` of a `start <count>` still running (the engine's n when it
  * stops), or 0. */
 static uint32_t count_in_force(void)
@@ -53,7 +59,7 @@ static uint32_t count_in_force(void)
   uint32_t left = adc_remaining();
   if (left == ADC_UNLIMITED || !adc_running())
     return 0;
-  return sample_engine.n + adc_pending() + left;
+  return sets_taken() + left;
 }
 
 /* Put the settings in force; a different rate or range starts a new run
@@ -94,7 +100,7 @@ static void run_start(const command_t *cmd)
 {
   sample_feed();
   if (cmd->has_arg) {
-    uint32_t have = sample_engine.n + adc_pending();
+    uint32_t have = sets_taken();
     if (cmd->arg < have) {
       tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small\0above n"));
       return;
