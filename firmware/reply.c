@@ -13,6 +13,10 @@
 
 #define WORD_MAX 6 /* characters of an unknown command word quoted */
 
+#if CMD_ERR_BYTE > 9
+#  error "step_error() writes an error code as one digit"
+#endif
+
 static struct {
   uint8_t code; /* REPLY_OK, an error code, REPLY_STATUS or REPLY_HELP */
   uint8_t tail; /* REPLY_TAIL_*; for an error, the command id */
@@ -153,7 +157,7 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("error:"));
-    proto_u32(rpl.code);
+    proto_putc((char)('0' + rpl.code)); /* one digit: command.h's codes */
     proto_putc(' ');
   } else if (step == 1) {
     if (none) {
