@@ -95,23 +95,19 @@ static __attribute__((noinline)) void step_count_line(void)
  * characters: codes 0..3, then 4..6 and the line end. */
 static __attribute__((noinline)) void step_raw_row(void)
 {
-  uint16_t code[ADC_COLUMNS];
   char buf[10];
-  uint8_t i, n, second = st.line == LINE_ROW_HALF;
-  adc_peek(code);
-  for (i = second ? 4 : 0; i < (second ? ADC_COLUMNS : 4); i++) {
-    uint8_t j;
-    n = fmt_u32(buf, code[i]);
+  uint8_t second = st.line == LINE_ROW_HALF;
+  uint8_t i = second ? 4 : 0, end = second ? ADC_COLUMNS : 4;
+  for (; i < end; i++) {
+    uint8_t j, n = fmt_u32(buf, adc_oldest(i));
     for (j = 0; j < n; j++)
       put((uint8_t)buf[j]);
-    if (i + 1 < ADC_COLUMNS)
-      put('\t');
+    put(i + 1 < ADC_COLUMNS ? '\t' : '\r');
   }
   if (!second) {
     st.line = LINE_ROW_HALF;
     return;
   }
-  put('\r');
   put('\n');
   set_written();
 }
