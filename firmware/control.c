@@ -144,7 +144,7 @@ static void run_mode(uint8_t mode)
     tx_abort_report(); /* no reports in these modes */
   settings.mode = mode;
   tx_restart_rows();
-  tx_ok_word(PSTR("mode="), vocab_word(vocab_modes, mode));
+  tx_ok_word(PSTR("mode="), vocab_modes, mode);
 }
 
 static __attribute__((noinline)) void run_load(void)
@@ -209,8 +209,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_RANGE:
     settings.range = (uint8_t)cmd->arg;
-    tx_ok_word(reset_range_P + (apply_settings() ? 0 : 6),
-               vocab_word(vocab_ranges, settings.range));
+    tx_ok_word(reset_range_P + (apply_settings() ? 0 : 6), vocab_ranges, settings.range);
     break;
   case CMD_SAVE:
     settings_save(); /* replied when the last byte is written */
@@ -228,7 +227,7 @@ static void execute(const command_t *cmd)
   case CMD_ECHO:
     if (cmd->has_arg)
       settings.echo = (uint8_t)cmd->arg;
-    tx_ok_word(PSTR("echo="), vocab_word(vocab_onoff, settings.echo));
+    tx_ok_word(PSTR("echo="), vocab_onoff, settings.echo);
     break;
   default: /* CMD_HELP */
     tx_help();

@@ -25,7 +25,10 @@ static struct {
       const char *text_P;
       union {
         uint32_t n;         /* REPLY_TAIL_NUM */
-        const char *word_P; /* REPLY_TAIL_WORD */
+        struct {
+          const char *list_P; /* REPLY_TAIL_WORD: word n of this list */
+          uint8_t n;
+        } word;
         struct {
           uint8_t id, k; /* help: the command of this line, its piece */
         } help;
@@ -64,12 +67,13 @@ void reply_set(uint8_t code, const char *text_P, uint32_t n)
   rpl.tail_value.n = n;
 }
 
-void reply_set_word(const char *text_P, const char *word_P)
+void reply_set_word(const char *text_P, const char *list_P, uint8_t n)
 {
   rpl.code = REPLY_OK;
   rpl.text_P = text_P;
   rpl.tail = REPLY_TAIL_WORD;
-  rpl.tail_value.word_P = word_P;
+  rpl.tail_value.word.list_P = list_P;
+  rpl.tail_value.word.n = n;
 }
 
 void reply_set_plain(uint8_t code, const char *text_P)
@@ -202,7 +206,7 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
     if (rpl.tail == REPLY_TAIL_NUM)
       proto_u32(rpl.tail_value.n);
     else if (rpl.tail == REPLY_TAIL_WORD)
-      proto_puts_P(rpl.tail_value.word_P);
+      proto_puts_P(vocab_word(rpl.tail_value.word.list_P, rpl.tail_value.word.n));
     break;
   default:
     proto_end();

@@ -22,10 +22,10 @@ enum { REPLY_TAIL_NONE, REPLY_TAIL_NUM, REPLY_TAIL_WORD };
 
 /* The next reply (texts and words in flash; text may be 0 for a bare
  * `ok`): `ok <text>` or `error:<code> <text>`, also REPLY_STATUS and
- * REPLY_HELP; `ok <text><n>`; `ok <text><word>`. */
+ * REPLY_HELP; `ok <text><n>`; `ok <text><word>`, word n of a word list. */
 void reply_set_plain(uint8_t code, const char *text_P);
 void reply_set(uint8_t code, const char *text_P, uint32_t n);
-void reply_set_word(const char *text_P, const char *word_P);
+void reply_set_word(const char *text_P, const char *list_P, uint8_t n);
 
 /* `error:<code> <command>: <what>; <allowed>` (docs/protocol.md).  The
  * command is command_word(id), or for id CMD_NONE (an unknown word, a

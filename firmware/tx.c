@@ -107,9 +107,9 @@ __attribute__((noinline)) void tx_ok_n(const char *text_P, uint32_t n)
   start(JOB_REPLY);
 }
 
-__attribute__((noinline)) void tx_ok_word(const char *text_P, const char *word_P)
+__attribute__((noinline)) void tx_ok_word(const char *text_P, const char *list_P, uint8_t n)
 {
-  reply_set_word(text_P, word_P);
+  reply_set_word(text_P, list_P, n);
   start(JOB_REPLY);
 }
 

@@ -24,7 +24,7 @@ void tx_boot(void);
 void tx_report(void);                                  /* a whole report, after the current job */
 void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */
 void tx_ok_n(const char *text_P, uint32_t n);          /* `ok <text><n>` */
-void tx_ok_word(const char *text_P, const char *word_P); /* `ok <text><word>` */
+void tx_ok_word(const char *text_P, const char *list_P, uint8_t n); /* `ok <text><word n of list>` */
 /* `error:<code> <command>: <what>; <allowed>`: see reply_set_error(),
  * whose text_P says what is wrong and what is allowed.
  * tx_refuse: a line refused before any command is known (unknown word,
