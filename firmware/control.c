@@ -98,17 +98,15 @@ void control_init(void)
  * count sets. */
 static void run_start(const command_t *cmd)
 {
+  uint32_t have = 0; /* without a count, arg is 0: adc_start(0, 0) */
   sample_feed();
-  if (cmd->has_arg) {
-    uint32_t have = sets_taken();
-    if (cmd->arg < have) {
-      tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small\0above n"));
-      return;
-    }
-    adc_start(1, cmd->arg - have);
-  } else {
-    adc_start(0, 0);
+  if (cmd->has_arg)
+    have = sets_taken();
+  if (cmd->arg < have) {
+    tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small\0above n"));
+    return;
   }
+  adc_start(cmd->has_arg, cmd->arg - have);
   tx_ok(PSTR("started"));
 }
 
