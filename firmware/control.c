@@ -110,11 +110,12 @@ static void run_start(const command_t *cmd)
   tx_ok(PSTR("started"));
 }
 
-/* Replies that share their ends: "rate=" is reset_rate_P + 6, "reset"
- * loaded_reset_P + 7. */
+/* Replies that share their ends: "rate=" is reset_rate_P + 6; "loaded"
+ * and "defaults" end with word 1 of reset_tail_P (" reset") when they
+ * reset, word 0 ("") when not, and "reset" is reset_tail_P + 2. */
 static const char reset_rate_P[] PROGMEM = "reset rate=";
 static const char reset_range_P[] PROGMEM = "reset range=";
-static const char loaded_reset_P[] PROGMEM = "loaded reset";
+static const char reset_tail_P[] PROGMEM = "\0 reset";
 
 /* tx_error()'s texts: what is wrong, what is allowed. */
 static const char link_slow_P[] PROGMEM = "link too slow\0lower rate";
@@ -159,7 +160,7 @@ static __attribute__((noinline)) void run_load(void)
       tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved\0save first"));
     return;
   }
-  tx_ok(apply_settings() ? loaded_reset_P : PSTR("loaded"));
+  tx_ok_word(PSTR("loaded"), reset_tail_P, apply_settings());
 }
 
 static void execute(const command_t *cmd)
@@ -180,7 +181,7 @@ static void execute(const command_t *cmd)
     new_run();
     if (count)
       adc_limit(count); /* `start <count>` stops at n = count in the new run */
-    tx_ok(loaded_reset_P + 7);
+    tx_ok(reset_tail_P + 2);
     break;
   }
   case CMD_STOP:
@@ -217,7 +218,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_DEFAULTS:
     settings_defaults();
-    tx_ok(apply_settings() ? PSTR("defaults reset") : PSTR("defaults"));
+    tx_ok_word(PSTR("defaults"), reset_tail_P, apply_settings());
     break;
   case CMD_STATUS:
     tx_status();
