@@ -154,10 +154,7 @@ static __attribute__((noinline)) void run_load(void)
   if (loaded != CFG_SAVED) {
     settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
-    if (loaded == CFG_INFEASIBLE)
-      tx_error(CMD_ERR_STATE, CMD_LOAD, link_slow_P);
-    else
-      tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved\0save first"));
+    tx_error(CMD_ERR_STATE, CMD_LOAD, loaded == CFG_INFEASIBLE ? link_slow_P : PSTR("nothing saved\0save first"));
     return;
   }
   tx_ok_word(PSTR("loaded"), reset_tail_P, apply_settings());
