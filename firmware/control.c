@@ -46,6 +46,14 @@ static void new_run(void)
   tx_restart_rows();
 }
 
+/* The settings' rate and range in force, and a new run. */
+static __attribute__((noinline)) void put_in_force(void)
+{
+  adc_set_rate(settings.rate_hz);
+  range_pins(settings.range);
+  new_run();
+}
+
 /* Sets sampled so far: those the engine holds and those waiting for it. */
 static __attribute__((noinline)) uint32_t sets_taken(void)
 {
@@ -76,9 +84,7 @@ static uint8_t apply_settings(void)
     uint32_t count = count_in_force();
     adc_stop();
     adc_flush(); /* sets taken under the old settings go with the old run */
-    adc_set_rate(settings.rate_hz);
-    range_pins(settings.range);
-    new_run();
+    put_in_force();
     if (was_running)
       adc_start(count != 0, count);
   }
@@ -89,9 +95,7 @@ void control_init(void)
 {
   settings_load();
   BOARD_GSEL_DDR |= (1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT);
-  range_pins(settings.range);
-  adc_set_rate(settings.rate_hz);
-  new_run();
+  put_in_force();
 }
 
 /* `start [count]`: with a count, stop by itself when the engine holds

@@ -146,18 +146,21 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
   return 0;
 }
 
-/* A line refused before any command is known, by CMD_ERR_* code - 1
- * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE; 2 and 4
- * always name their command): what, and what is allowed, as
+/* A line refused before any command is known, by CMD_ERR_* code / 2
+ * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE: 0, 1, 2, 3;
+ * 2 and 4 always name their command): what, and what is allowed, as
  * reply_set_error's texts. */
 static const char refused_P[] PROGMEM =
-  "unknown command\0see help\0\0\0line too long\0" "16 chars\0\0\0input lost\0resend\0bad byte\0printable ASCII";
+  "unknown command\0see help\0line too long\0" "16 chars\0input lost\0resend\0bad byte\0printable ASCII";
+#if CMD_ERR_UNKNOWN / 2 != 0 || CMD_ERR_LONG / 2 != 1 || CMD_ERR_LOST / 2 != 2 || CMD_ERR_BYTE / 2 != 3
+#  error "refused_P is indexed by code / 2"
+#endif
 
 /* `error:<code> <command>: <what>; <allowed>` */
 static __attribute__((noinline)) uint8_t step_error(uint8_t step)
 {
   uint8_t none = rpl.tail == CMD_NONE;
-  const char *text = none ? vocab_word(refused_P, (uint8_t)(2u * (rpl.code - 1u))) : rpl.text_P;
+  const char *text = none ? vocab_word(refused_P, (uint8_t)(rpl.code & ~1u)) : rpl.text_P;
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("error:"));
