@@ -19,7 +19,8 @@
 
 static struct {
   uint8_t code; /* REPLY_OK, an error code, REPLY_STATUS or REPLY_HELP */
-  uint8_t tail; /* REPLY_TAIL_*; for an error, the command id */
+  uint8_t tail; /* REPLY_TAIL_*; for an error, the command id; for help,
+                 * the command of this line, from 0 (CMD_REPORT) */
   union {
     struct {
       const char *text_P;
@@ -29,9 +30,6 @@ static struct {
           const char *list_P; /* REPLY_TAIL_WORD: word n of this list */
           uint8_t n;
         } word;
-        struct {
-          uint8_t id, k; /* help: the command of this line, its piece */
-        } help;
       } tail_value;
     };
     char word[WORD_MAX]; /* error naming no command (CMD_NONE): the line's first word */
@@ -80,9 +78,7 @@ void reply_set_plain(uint8_t code, const char *text_P)
 {
   rpl.code = code;
   rpl.text_P = text_P;
-  rpl.tail = REPLY_TAIL_NONE;
-  rpl.tail_value.help.id = CMD_REPORT;
-  rpl.tail_value.help.k = 0;
+  rpl.tail = REPLY_TAIL_NONE; /* help: from the first command */
 }
 
 static const char count_P[] PROGMEM = " [count]";
@@ -275,16 +271,14 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
 /* `ok help <command><arguments>`, one line per command. */
 static __attribute__((noinline)) uint8_t step_help(uint8_t step)
 {
-  uint8_t id = rpl.tail_value.help.id;
+  uint8_t id = (uint8_t)(CMD_REPORT + rpl.tail);
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("ok help "));
     proto_puts_P(command_word(id));
-    rpl.tail_value.help.k = 0;
-  } else if (put_allowed(command_arg_kind(id), rpl.tail_value.help.k++, 0)) {
+  } else if (put_allowed(command_arg_kind(id), (uint8_t)(step - 1), 0)) {
     proto_end();
-    rpl.tail_value.help.id = ++id;
-    return id < CMD_REPORT + CMD_COUNT ? REPLY_LINE_DONE : REPLY_DONE;
+    return ++rpl.tail < CMD_COUNT ? REPLY_LINE_DONE : REPLY_DONE;
   }
   return REPLY_MORE;
 }
