@@ -183,10 +183,10 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
     } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
 end:
       proto_end();
-      return 1;
+      return REPLY_DONE;
     }
   }
-  return 0;
+  return REPLY_MORE;
 }
 
 /* `ok <text>` and the tail. */
@@ -209,9 +209,9 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
     break;
   default:
     proto_end();
-    return 1;
+    return REPLY_DONE;
   }
-  return 0;
+  return REPLY_MORE;
 }
 
 /* `ok status run= fs= mode= range= interval= link= cfg=`: a key=value a
@@ -263,9 +263,9 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
       proto_u32(n);
   } else {
     proto_end();
-    return 1;
+    return REPLY_DONE;
   }
-  return 0;
+  return REPLY_MORE;
 }
 
 /* `ok help <command><arguments>`, one line per command. */
@@ -283,13 +283,14 @@ static __attribute__((noinline)) uint8_t step_help(uint8_t step)
   return REPLY_MORE;
 }
 
+/* Each step function returns REPLY_MORE, REPLY_LINE_DONE or REPLY_DONE. */
 uint8_t reply_step(uint8_t step)
 {
   if (rpl.code == REPLY_HELP)
     return step_help(step);
   if (rpl.code == REPLY_STATUS)
-    return step_status(step) ? REPLY_DONE : REPLY_MORE;
+    return step_status(step);
   if (rpl.code != REPLY_OK)
-    return step_error(step) ? REPLY_DONE : REPLY_MORE;
-  return step_plain(step) ? REPLY_DONE : REPLY_MORE;
+    return step_error(step);
+  return step_plain(step);
 }
