@@ -27,6 +27,14 @@ static uint8_t is_space(char c)
   return c == ' ' || c == '\t';
 }
 
+/* p past any spaces and tabs. */
+static __attribute__((noinline)) const char *skip_spaces(const char *p)
+{
+  while (is_space(*p))
+    p++;
+  return p;
+}
+
 /* Length of the word at p (up to a space, a tab or the end).  16 bits:
  * the parser takes any string, longer than the device's line buffer. */
 static uint16_t word_len(const char *p)
@@ -46,8 +54,7 @@ uint8_t command_parse(const char *line, command_t *out)
   out->id = CMD_NONE;
   out->has_arg = 0;
   out->arg = 0;
-  while (is_space(*p))
-    p++;
+  p = skip_spaces(p);
   if (!*p)
     return CMD_OK;
 
@@ -57,9 +64,7 @@ uint8_t command_parse(const char *line, command_t *out)
     return CMD_ERR_UNKNOWN;
   kind = pgm_read_byte(&cmd_arg[id]);
   out->id = (uint8_t)(CMD_REPORT + id); /* named in an argument error */
-  p += len;
-  while (is_space(*p))
-    p++;
+  p = skip_spaces(p + len);
 
   if (*p) {
     len = word_len(p);
@@ -80,16 +85,13 @@ uint8_t command_parse(const char *line, command_t *out)
         uint8_t d = (uint8_t)(p[i] - '0');
         if (d > 9)
           return CMD_ERR_ARG;
-        if (v > (0xFFFFFFFFul - d) / 10u)
-          return CMD_ERR_ARG; /* does not fit 32 bits */
+        if (v > 429496729ul || (v == 429496729ul && d > 5))
+          return CMD_ERR_ARG; /* does not fit 32 bits: above 4294967295 */
         v = v * 10u + d;
       }
       out->arg = v;
     }
-    p += len;
-    while (is_space(*p))
-      p++;
-    if (*p)
+    if (*skip_spaces(p + len))
       return CMD_ERR_ARG; /* one argument at most */
     out->has_arg = 1;
   } else if (kind > ARG_COUNT && kind < ARG_ONOFF) {

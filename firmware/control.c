@@ -46,6 +46,20 @@ static void new_run(void)
   tx_restart_rows();
 }
 
+/* The settings' rate and range in force, and a new run. */
+static __attribute__((noinline)) void put_in_force(void)
+{
+  adc_set_rate(settings.rate_hz);
+  range_pins(settings.range);
+  new_run();
+}
+
+/* Sets sampled so far: those the engine holds and those waiting for it. */
+static __attribute__((noinline)) uint32_t sets_taken(void)
+{
+  return sample_engine.n + adc_pending();
+}
+
 /* The `count` of a `start <count>` still running (the engine's n when it
  * stops), or 0. */
 static uint32_t count_in_force(void)
@@ -53,23 +67,24 @@ static uint32_t count_in_force(void)
   uint32_t left = adc_remaining();
   if (left == ADC_UNLIMITED || !adc_running())
     return 0;
-  return sample_engine.n + adc_pending() + left;
+  return sets_taken() + left;
 }
 
 /* Put the settings in force; a different rate or range starts a new run
  * (results from mixed settings would be meaningless), which keeps a
  * `start <count>`: it stops at n = count.  Returns 1 if so. */
-static uint8_t apply_settings(uint16_t old_rate, uint8_t old_range)
+static uint8_t apply_settings(void)
 {
-  uint8_t changed = settings.rate_hz != old_rate || settings.range != old_range;
+  /* In force: the timer's rate and the g-select pins (no copy kept). */
+  uint8_t port = BOARD_GSEL_PORT;
+  uint8_t range = (uint8_t)(((port >> BOARD_GSEL1_BIT) & 1u) | ((port >> BOARD_GSEL2_BIT) & 1u) << 1);
+  uint8_t changed = settings.rate_hz != adc_rate() || settings.range != range;
   if (changed) {
     uint8_t was_running = adc_running();
     uint32_t count = count_in_force();
     adc_stop();
     adc_flush(); /* sets taken under the old settings go with the old run */
-    adc_set_rate(settings.rate_hz);
-    range_pins(settings.range);
-    new_run();
+    put_in_force();
     if (was_running)
       adc_start(count != 0, count);
   }
@@ -80,59 +95,62 @@ void control_init(void)
 {
   settings_load();
   BOARD_GSEL_DDR |= (1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT);
-  range_pins(settings.range);
-  adc_set_rate(settings.rate_hz);
-  new_run();
+  put_in_force();
 }
 
 /* `start [count]`: with a count, stop by itself when the engine holds
  * count sets. */
 static void run_start(const command_t *cmd)
 {
+  uint32_t have = 0; /* without a count, arg is 0: adc_start(0, 0) */
   sample_feed();
-  if (cmd->has_arg) {
-    uint32_t have = sample_engine.n + adc_pending();
-    if (cmd->arg < have) {
-      tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small"), PSTR("; above n"));
-      return;
-    }
-    adc_start(1, cmd->arg - have);
-  } else {
-    adc_start(0, 0);
+  if (cmd->has_arg)
+    have = sets_taken();
+  if (cmd->arg < have) {
+    tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small\0above n"));
+    return;
   }
+  adc_start(cmd->has_arg, cmd->arg - have);
   tx_ok(PSTR("started"));
 }
 
-static const char link_slow_P[] PROGMEM = "link too slow";
-static const char lower_rate_P[] PROGMEM = "; lower rate";
+/* Replies that share their ends: "rate=" is reset_rate_P + 6; "loaded"
+ * and "defaults" end with word 1 of reset_tail_P (" reset") when they
+ * reset, word 0 ("") when not, and "reset" is reset_tail_P + 2. */
+static const char reset_rate_P[] PROGMEM = "reset rate=";
+static const char reset_range_P[] PROGMEM = "reset range=";
+static const char reset_tail_P[] PROGMEM = "\0 reset";
+
+/* tx_error()'s texts: what is wrong, what is allowed. */
+static const char link_slow_P[] PROGMEM = "link too slow\0lower rate";
 
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
-static void run_rate(uint32_t hz, uint16_t old_rate, uint8_t old_range)
+static void run_rate(uint32_t hz)
 {
   if (!vocab_rate_ok(hz)) {
-    tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported"), TX_ALLOWED_ARGS);
-  } else if (!link_fits(settings.mode, (uint16_t)hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P, lower_rate_P);
+    tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported\0"));
+  } else if (!link_fits_here(settings.mode, (uint16_t)hz)) {
+    tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
-    tx_ok_n(apply_settings(old_rate, old_range) ? PSTR("reset rate=") : PSTR("rate="), hz);
+    tx_ok_n(reset_rate_P + (apply_settings() ? 0 : 6), hz);
   }
 }
 
 static void run_mode(uint8_t mode)
 {
-  if (!link_fits(mode, settings.rate_hz, BAUD)) {
-    tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P, lower_rate_P);
+  if (!link_fits_here(mode, settings.rate_hz)) {
+    tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P);
     return;
   }
   if (mode == MODE_RAW || mode == MODE_BINARY)
     tx_abort_report(); /* no reports in these modes */
   settings.mode = mode;
   tx_restart_rows();
-  tx_ok_word(PSTR("mode="), vocab_word(vocab_modes, mode));
+  tx_ok_word(PSTR("mode="), vocab_modes, mode);
 }
 
-static __attribute__((noinline)) void run_load(uint16_t old_rate, uint8_t old_range)
+static __attribute__((noinline)) void run_load(void)
 {
   settings_t before = settings;
   uint8_t source = settings_source;
@@ -140,24 +158,18 @@ static __attribute__((noinline)) void run_load(uint16_t old_rate, uint8_t old_ra
   if (loaded != CFG_SAVED) {
     settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
-    if (loaded == CFG_INFEASIBLE)
-      tx_error(CMD_ERR_STATE, CMD_LOAD, link_slow_P, lower_rate_P);
-    else
-      tx_error(CMD_ERR_STATE, CMD_LOAD, PSTR("nothing saved"), PSTR("; save first"));
+    tx_error(CMD_ERR_STATE, CMD_LOAD, loaded == CFG_INFEASIBLE ? link_slow_P : PSTR("nothing saved\0save first"));
     return;
   }
-  tx_ok(apply_settings(old_rate, old_range) ? PSTR("loaded reset") : PSTR("loaded"));
+  tx_ok_word(PSTR("loaded"), reset_tail_P, apply_settings());
 }
 
 static void execute(const command_t *cmd)
 {
-  uint16_t old_rate = settings.rate_hz;
-  uint8_t old_range = settings.range;
-
   switch (cmd->id) {
   case CMD_REPORT:
     if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
-      tx_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode"), PSTR("; allan or both"));
+      tx_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode\0allan or both"));
       break;
     }
     tx_ok(0);
@@ -170,7 +182,7 @@ static void execute(const command_t *cmd)
     new_run();
     if (count)
       adc_limit(count); /* `start <count>` stops at n = count in the new run */
-    tx_ok(PSTR("reset"));
+    tx_ok(reset_tail_P + 2);
     break;
   }
   case CMD_STOP:
@@ -182,11 +194,11 @@ static void execute(const command_t *cmd)
     run_start(cmd);
     break;
   case CMD_RATE:
-    run_rate(cmd->arg, old_rate, old_range);
+    run_rate(cmd->arg);
     break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
-      tx_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long"), TX_ALLOWED_ARGS);
+      tx_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long\0"));
     } else {
       settings.interval_s = (uint16_t)cmd->arg;
       tx_ok_n(PSTR("interval="), cmd->arg);
@@ -197,18 +209,17 @@ static void execute(const command_t *cmd)
     break;
   case CMD_RANGE:
     settings.range = (uint8_t)cmd->arg;
-    tx_ok_word(apply_settings(old_rate, old_range) ? PSTR("reset range=") : PSTR("range="),
-               vocab_word(vocab_ranges, settings.range));
+    tx_ok_word(reset_range_P + (apply_settings() ? 0 : 6), vocab_ranges, settings.range);
     break;
   case CMD_SAVE:
     settings_save(); /* replied when the last byte is written */
     break;
   case CMD_LOAD:
-    run_load(old_rate, old_range);
+    run_load();
     break;
   case CMD_DEFAULTS:
     settings_defaults();
-    tx_ok(apply_settings(old_rate, old_range) ? PSTR("defaults reset") : PSTR("defaults"));
+    tx_ok_word(PSTR("defaults"), reset_tail_P, apply_settings());
     break;
   case CMD_STATUS:
     tx_status();
@@ -216,12 +227,12 @@ static void execute(const command_t *cmd)
   case CMD_ECHO:
     if (cmd->has_arg)
       settings.echo = (uint8_t)cmd->arg;
-    tx_ok_word(PSTR("echo="), vocab_word(vocab_onoff, settings.echo));
+    tx_ok_word(PSTR("echo="), vocab_onoff, settings.echo);
     break;
   case CMD_UNITS: /* of the summary (report.c): the next report's */
     if (cmd->has_arg)
       settings.counts = (uint8_t)cmd->arg;
-    tx_ok_word(PSTR("units="), vocab_word(vocab_units, settings.counts));
+    tx_ok_word(PSTR("units="), vocab_units, settings.counts);
     break;
   default: /* CMD_HELP */
     tx_help();
@@ -238,7 +249,7 @@ static __attribute__((noinline)) void run_line(void)
   if (!err)
     err = command_parse(text, &cmd);
   if (err == CMD_ERR_ARG)
-    tx_error(err, cmd.id, PSTR("bad argument"), TX_ALLOWED_ARGS);
+    tx_error(err, cmd.id, PSTR("bad argument\0"));
   else if (err)
     tx_refuse(err, text);
   else if (cmd.id != CMD_NONE)
@@ -249,7 +260,7 @@ static __attribute__((noinline)) void run_line(void)
  * written.  Otherwise a line's echo goes out whole once it has ended, as
  * an output job just before its reply (a raw row waits for it as for a
  * reply, within the link budget: link.h). */
-static uint8_t echo_live(void)
+__attribute__((noinline)) static uint8_t echo_live(void)
 {
   return settings.mode == MODE_ALLAN && !tx_busy();
 }
@@ -262,7 +273,7 @@ static uint8_t echo_live(void)
 static __attribute__((noinline)) void read_line(void)
 {
   cmdline_poll();
-  if (settings.echo) {
+  if (settings.echo && !lineedit_idle(&line)) {
     if (echo_live()) {
       lineedit_echo(&line, 0, uart_write, uart_tx_room());
     } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
@@ -291,7 +302,7 @@ void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
   if (settings_saving() && tx_can_interject() && !lineedit_open(&line) && settings_poll())
-    tx_ok(PSTR("saved"));
+    tx_ok(vocab_sources); /* "saved": the first word, CFG_SAVED */
   /* A complete line runs when the output is between two lines (and no
    * EEPROM save is under way), so its reply never cuts into a line. */
   poll_commands();

@@ -90,7 +90,7 @@ uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c), uint
   return n;
 }
 
-void lineedit_next(lineedit_t *l)
+__attribute__((noinline)) void lineedit_next(lineedit_t *l)
 {
   l->len = 0;
   l->flags = 0;

@@ -60,6 +60,11 @@ uint8_t lineedit_feed(lineedit_t *l, uint8_t c, uint8_t lost);
 #define LINEEDIT_ECHO_MAX (2u + COMMAND_LINE_MAX + 2u)
 uint8_t lineedit_echo(lineedit_t *l, uint8_t final, void (*put)(uint8_t c), uint8_t room);
 
+/* 1 when there is no line at all: nothing typed, nothing shown, no
+ * flag; lineedit_echo() has nothing to do (a cheap test for the main
+ * loop, which would otherwise call it on every pass). */
+#define lineedit_idle(l) (!((l)->len | (l)->shown | (l)->flags))
+
 /* How a typed character is shown (echo, quoted in an error): '?' for a
  * control byte, '$' or '*', which would spoil a protocol line. */
 char lineedit_shown_as(char c);

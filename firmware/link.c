@@ -1,43 +1,52 @@
 /* link.c - see link.h. */
 #include "link.h"
 
+#include "pgm.h"
 
 uint32_t link_bytes_per_s(uint8_t mode, uint16_t fs)
 {
-  switch (mode) {
-  case MODE_RAW:
-  case MODE_BOTH:
-    return (uint32_t)fs * LINK_RAW_ROW + ((uint32_t)fs * LINK_COUNT_LINE + LINK_COUNT_EVERY - 1u) / LINK_COUNT_EVERY;
-  case MODE_BINARY:
-    return (uint32_t)fs * LINK_FRAME + ((uint32_t)fs * LINK_COUNT_LINE + LINK_COUNT_EVERY - 1u) / LINK_COUNT_EVERY;
-  default:
-    return 0; /* allan: only reports, which wait for the link */
-  }
+  return LINK_BYTES_PER_S(mode, (uint32_t)fs); /* allan: only reports, which wait for the link */
 }
 
 uint16_t link_percent(uint8_t mode, uint16_t fs, uint32_t baud)
 {
-  uint32_t cap = baud / 10u;
-  return (uint16_t)((link_bytes_per_s(mode, fs) * 100u + cap - 1u) / cap);
+  return LINK_PERCENT(mode, (uint32_t)fs, baud);
 }
 
 uint16_t link_wait_bytes(uint8_t mode)
 {
-  /* if, not switch: a switch becomes a lookup table, in RAM on the AVR */
-  if (mode == MODE_RAW)
-    return LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW;
-  if (mode == MODE_BOTH)
-    return LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW;
-  if (mode == MODE_BINARY)
-    return UART_STEP_MAX + LINK_FRAME;
-  return 0;
+  return LINK_WAIT_BYTES(mode);
 }
 
 uint8_t link_fits(uint8_t mode, uint16_t fs, uint32_t baud)
 {
-  uint32_t usable = (baud / 10u) * LINK_USE_PERCENT; /* bytes per second, x100 */
-  if (link_bytes_per_s(mode, fs) * 100u > usable)
-    return 0;
-  /* wait / (usable / 100) seconds <= 2 / fs */
-  return (uint32_t)link_wait_bytes(mode) * fs * 100u <= 2u * usable;
+  return LINK_FITS(mode, (uint32_t)fs, baud);
 }
+
+#ifdef BAUD
+/* By rate, in vocab_rates' order: the percent of raw and both (the same
+ * rows), of binary, and which modes fit (bit MODE_*). */
+#define LINK_ENTRY(baud, hz)                                                                        \
+  {LINK_PERCENT(MODE_RAW, hz##ul, baud), LINK_PERCENT(MODE_BINARY, hz##ul, baud),                   \
+   (uint8_t)((1u << MODE_ALLAN) | (LINK_FITS(MODE_RAW, hz##ul, baud) ? 1u << MODE_RAW : 0u) |       \
+             (LINK_FITS(MODE_BINARY, hz##ul, baud) ? 1u << MODE_BINARY : 0u) |                      \
+             (LINK_FITS(MODE_BOTH, hz##ul, baud) ? 1u << MODE_BOTH : 0u))},
+static const struct {
+  uint16_t rows, frames;
+  uint8_t fits;
+} budget[VOCAB_RATE_COUNT] PROGMEM = {VOCAB_RATES(LINK_ENTRY, BAUD)};
+
+uint8_t link_fits_here(uint8_t mode, uint16_t fs)
+{
+  uint8_t i = vocab_rate_index(fs);
+  return i < VOCAB_RATE_COUNT && ((pgm_read_byte(&budget[i].fits) >> mode) & 1u);
+}
+
+uint16_t link_percent_here(uint8_t mode, uint16_t fs)
+{
+  uint8_t i = vocab_rate_index(fs);
+  if (i == VOCAB_RATE_COUNT || mode == MODE_ALLAN)
+    return 0;
+  return pgm_read_word(mode == MODE_BINARY ? &budget[i].frames : &budget[i].rows);
+}
+#endif

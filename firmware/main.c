@@ -43,7 +43,8 @@ int main(void)
   adc_start(0, 0);
   for (;;) {
     reset_watchdog_kick();
-    sample_feed(); /* the stream holds a set until its row or frame is out */
+    if (adc_pending()) /* sample_feed's prologue is not for nothing */
+      sample_feed(); /* the stream holds a set until its row or frame is out */
     tx_poll();
     control_poll();
     /* Sleep until the next interrupt unless there is work to do now. */

@@ -5,15 +5,22 @@
 #include "fmt.h"
 #include "pgm.h"
 
+#ifdef __AVR__
+#  include "uart.h"
+#  define proto_sink uart_write
+#else
 static proto_sink_t proto_sink;
+#endif
 static uint16_t proto_crc;
 static uint16_t proto_bound_crc;
 static uint8_t proto_bound_on; /* the current line is bound */
 
+#ifndef __AVR__
 void proto_init(proto_sink_t sink)
 {
   proto_sink = sink;
 }
+#endif
 
 void proto_begin(void)
 {
@@ -72,13 +79,12 @@ void proto_u32(uint32_t v)
 
 void proto_hex(uint32_t v, uint8_t digits)
 {
-  char buf[8];
-  uint8_t i;
   if (digits > 8)
     digits = 8; /* a 32-bit value has 8 */
-  fmt_hex(buf, v, digits);
-  for (i = 0; i < digits; i++)
-    proto_putc(buf[i]);
+  while (digits--) {
+    uint8_t d = (uint8_t)(v >> (uint8_t)(4u * digits)) & 0xFu;
+    proto_putc((char)(d < 10 ? '0' + d : 'A' - 10 + d));
+  }
 }
 
 void proto_raw(uint8_t c)
@@ -88,26 +94,25 @@ void proto_raw(uint8_t c)
 
 void proto_end(void)
 {
-  char buf[4];
-  uint8_t i;
-  fmt_hex(buf, proto_crc, 4);
+  /* The CRC's digits go through proto_putc (hex digits pass unchanged),
+   * outside the bound CRC; the line CRC they update restarts with the
+   * next line. */
+  uint16_t crc = proto_crc;
+  proto_bound_on = 0;
   proto_sink('*');
-  for (i = 0; i < 4; i++)
-    proto_sink((uint8_t)buf[i]);
+  proto_hex(crc, 4);
   proto_sink('\r');
   proto_sink('\n');
 }
 
-void proto_frame(uint8_t out[PROTO_FRAME_BYTES], uint8_t seq, const uint8_t packed[PROTO_FRAME_PAYLOAD])
+void proto_frame(uint8_t frame[PROTO_FRAME_BYTES], uint8_t seq)
 {
-  uint16_t crc = crc16_update(CRC16_INIT, seq);
+  uint16_t crc = CRC16_INIT;
   uint8_t i;
-  out[0] = PROTO_FRAME_SYNC;
-  out[1] = seq;
-  for (i = 0; i < PROTO_FRAME_PAYLOAD; i++) {
-    out[2 + i] = packed[i];
-    crc = crc16_update(crc, packed[i]);
-  }
-  out[PROTO_FRAME_BYTES - 2] = (uint8_t)(crc >> 8);
-  out[PROTO_FRAME_BYTES - 1] = (uint8_t)crc;
+  frame[0] = PROTO_FRAME_SYNC;
+  frame[1] = seq;
+  for (i = 1; i < PROTO_FRAME_BYTES - 2; i++)
+    crc = crc16_update(crc, frame[i]);
+  frame[PROTO_FRAME_BYTES - 2] = (uint8_t)(crc >> 8);
+  frame[PROTO_FRAME_BYTES - 1] = (uint8_t)crc;
 }

@@ -11,7 +11,13 @@
 
 typedef void (*proto_sink_t)(uint8_t c);
 
+#ifdef __AVR__
+/* On the device every line goes to the UART (uart_write): no pointer kept
+ * in RAM, whose every byte is the stack's. */
+#  define proto_init(sink) ((void)(sink))
+#else
 void proto_init(proto_sink_t sink);
+#endif
 void proto_begin(void);                 /* '$', CRC restarts */
 
 /* A line whose body also goes into the bound CRC (CRC-16/MODBUS over the
@@ -36,6 +42,7 @@ void proto_raw(uint8_t c);
 #define PROTO_FRAME_SYNC 0xA5
 #define PROTO_FRAME_PAYLOAD 9
 #define PROTO_FRAME_BYTES 13
-void proto_frame(uint8_t out[PROTO_FRAME_BYTES], uint8_t seq, const uint8_t packed[PROTO_FRAME_PAYLOAD]);
+/* The frame around the payload the caller has put at frame + 2. */
+void proto_frame(uint8_t frame[PROTO_FRAME_BYTES], uint8_t seq);
 
 #endif /* PROTO_H */

@@ -13,32 +13,30 @@
 
 #define WORD_MAX 6 /* characters of an unknown command word quoted */
 
+#if CMD_ERR_BYTE > 9
+#  error "step_error() writes an error code as one digit"
+#endif
+
 static struct {
   uint8_t code; /* REPLY_OK, an error code, REPLY_STATUS or REPLY_HELP */
-  uint8_t tail; /* REPLY_TAIL_*; for an error, the command id */
+  uint8_t tail; /* REPLY_TAIL_*; for an error, the command id; for help,
+                 * the command of this line, from 0 (CMD_REPORT) */
   union {
     struct {
       const char *text_P;
       union {
         uint32_t n;         /* REPLY_TAIL_NUM */
-        const char *word_P; /* REPLY_TAIL_WORD */
-        const char *allowed_P; /* error: "; ..." or REPLY_ALLOWED_ARGS */
         struct {
-          uint8_t id, k; /* help: the command of this line, its piece */
-        } help;
+          const char *list_P; /* REPLY_TAIL_WORD: word n of this list */
+          uint8_t n;
+        } word;
       } tail_value;
     };
     char word[WORD_MAX]; /* error naming no command (CMD_NONE): the line's first word */
   };
 } rpl;
 
-static void put_key_u32(const char *key_P, uint32_t v)
-{
-  proto_puts_P(key_P);
-  proto_u32(v);
-}
-
-void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P)
+void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *text_P)
 {
   rpl.code = code;
   rpl.tail = id;
@@ -56,8 +54,7 @@ void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *wh
     }
     return;
   }
-  rpl.text_P = what_P;
-  rpl.tail_value.allowed_P = allowed_P;
+  rpl.text_P = text_P;
 }
 
 void reply_set(uint8_t code, const char *text_P, uint32_t n)
@@ -68,26 +65,21 @@ void reply_set(uint8_t code, const char *text_P, uint32_t n)
   rpl.tail_value.n = n;
 }
 
-void reply_set_word(const char *text_P, const char *word_P)
+void reply_set_word(const char *text_P, const char *list_P, uint8_t n)
 {
   rpl.code = REPLY_OK;
   rpl.text_P = text_P;
   rpl.tail = REPLY_TAIL_WORD;
-  rpl.tail_value.word_P = word_P;
+  rpl.tail_value.word.list_P = list_P;
+  rpl.tail_value.word.n = n;
 }
 
 void reply_set_plain(uint8_t code, const char *text_P)
 {
   rpl.code = code;
   rpl.text_P = text_P;
-  rpl.tail = REPLY_TAIL_NONE;
-  rpl.tail_value.help.id = CMD_REPORT;
-  rpl.tail_value.help.k = 0;
+  rpl.tail = REPLY_TAIL_NONE; /* help: from the first command */
 }
-
-/* Lists of allowed words, by argument kind from ARG_RATE on; an entry's
- * words come from vocab.h's tables, so help, errors and the parser agree. */
-static const char rates_P[] PROGMEM = "50\0" "100\0" "200\0" "250\0" "500\0" "1000";
 
 static const char count_P[] PROGMEM = " [count]";
 static const char seconds_P[] PROGMEM = " 0..3600 s";
@@ -97,13 +89,14 @@ static const char g_P[] PROGMEM = " (g)";
 static const char close_P[] PROGMEM = "]";
 
 /* By argument kind from ARG_COUNT on: the words allowed (a vocab.h
- * list), how many, and the text before and after them. */
+ * list; none for the rates, vocab_rates' numbers), how many, and the text
+ * before and after them: help, errors and the parser agree. */
 static const struct {
   const char *list, *pre, *post;
   uint8_t count;
 } allowed[] PROGMEM = {
   {0, count_P, 0, 0},                              /* ARG_COUNT */
-  {rates_P, 0, hz_P, 6},                           /* ARG_RATE */
+  {0, 0, hz_P, VOCAB_RATE_COUNT},                           /* ARG_RATE */
   {0, seconds_P, 0, 0},                            /* ARG_SECONDS */
   {vocab_modes, 0, 0, VOCAB_MODES},                /* ARG_MODE */
   {vocab_ranges, 0, g_P, VOCAB_RANGES},            /* ARG_RANGE */
@@ -133,12 +126,15 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
       proto_putc(';');
     if (pre)
       proto_puts_P(pre);
-    else if (list)
+    else if (count)
       proto_putc(' ');
   } else if (k <= count) {
     if (k > 1)
       proto_putc('|');
-    proto_puts_P(vocab_word(list, (uint8_t)(k - 1)));
+    if (list)
+      proto_puts_P(vocab_word(list, (uint8_t)(k - 1)));
+    else
+      proto_u32(pgm_read_word(&vocab_rates[k - 1]));
   } else {
     if (post)
       proto_puts_P(post);
@@ -147,19 +143,25 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
   return 0;
 }
 
-/* A line refused before any command is known, by CMD_ERR_* code - 1
- * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE; 2 and 4
- * always name their command): what, and what is allowed. */
-static const char refused_what_P[] PROGMEM = "unknown command\0\0line too long\0\0input lost\0bad byte";
-static const char refused_allowed_P[] PROGMEM = "; see help\0\0; 16 chars\0\0; resend\0; printable ASCII";
+/* A line refused before any command is known, by CMD_ERR_* code / 2
+ * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE: 0, 1, 2, 3;
+ * 2 and 4 always name their command): what, and what is allowed, as
+ * reply_set_error's texts. */
+static const char refused_P[] PROGMEM =
+  "unknown command\0see help\0line too long\0" "16 chars\0input lost\0resend\0bad byte\0printable ASCII";
+#if CMD_ERR_UNKNOWN / 2 != 0 || CMD_ERR_LONG / 2 != 1 || CMD_ERR_LOST / 2 != 2 || CMD_ERR_BYTE / 2 != 3
+#  error "refused_P is indexed by code / 2"
+#endif
 
 /* `error:<code> <command>: <what>; <allowed>` */
 static __attribute__((noinline)) uint8_t step_error(uint8_t step)
 {
   uint8_t none = rpl.tail == CMD_NONE;
+  const char *text = none ? vocab_word(refused_P, (uint8_t)(rpl.code & ~1u)) : rpl.text_P;
   if (step == 0) {
     proto_begin();
-    put_key_u32(PSTR("error:"), rpl.code);
+    proto_puts_P(PSTR("error:"));
+    proto_putc((char)('0' + rpl.code)); /* one digit: command.h's codes */
     proto_putc(' ');
   } else if (step == 1) {
     if (none) {
@@ -171,18 +173,21 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
     }
     proto_puts_P(PSTR(": "));
   } else if (step == 2) {
-    proto_puts_P(!none ? rpl.text_P : vocab_word(refused_what_P, (uint8_t)(rpl.code - 1)));
-  } else if (none || rpl.tail_value.allowed_P) {
-    if (step == 3)
-      proto_puts_P(!none ? rpl.tail_value.allowed_P : vocab_word(refused_allowed_P, (uint8_t)(rpl.code - 1)));
-    else
-      goto end;
-  } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
+    proto_puts_P(text);
+  } else {
+    text = vocab_word(text, 1);
+    if (pgm_read_byte(text)) {
+      if (step == 4)
+        goto end;
+      proto_puts_P(PSTR("; "));
+      proto_puts_P(text);
+    } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
 end:
-    proto_end();
-    return 1;
+      proto_end();
+      return REPLY_DONE;
+    }
   }
-  return 0;
+  return REPLY_MORE;
 }
 
 /* `ok <text>` and the tail. */
@@ -201,77 +206,96 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
     if (rpl.tail == REPLY_TAIL_NUM)
       proto_u32(rpl.tail_value.n);
     else if (rpl.tail == REPLY_TAIL_WORD)
-      proto_puts_P(rpl.tail_value.word_P);
+      proto_puts_P(vocab_word(rpl.tail_value.word.list_P, rpl.tail_value.word.n));
     break;
   default:
     proto_end();
-    return 1;
+    return REPLY_DONE;
   }
-  return 0;
+  return REPLY_MORE;
 }
 
-/* `ok status run= fs= mode= range= interval= link= cfg= units=` */
+/* `ok status run= fs= mode= range= interval= link= cfg= units=`: a key=value a
+ * step, the keys from this list (a new key: a word here, a case below). */
+static const char status_keys_P[] PROGMEM = "run\0fs\0mode\0range\0interval\0link\0cfg\0units";
+#define STATUS_KEYS 8
+
 static __attribute__((noinline)) uint8_t step_status(uint8_t step)
 {
-  switch (step) {
-  case 0:
+  uint8_t k = (uint8_t)(step - 1);
+  if (step == 0) {
     proto_begin();
-    proto_puts_P(adc_running() ? PSTR("ok status run=1") : PSTR("ok status run=0"));
-    break;
-  case 1:
-    put_key_u32(PSTR(" fs="), adc_rate());
-    proto_puts_P(PSTR(" mode="));
-    break;
-  case 2:
-    proto_puts_P(vocab_word(vocab_modes, settings.mode));
-    proto_puts_P(PSTR(" range="));
-    proto_puts_P(vocab_word(vocab_ranges, settings.range));
-    break;
-  case 3:
-    put_key_u32(PSTR(" interval="), settings.interval_s);
-    break;
-  case 4:
-    put_key_u32(PSTR(" link="), link_percent(settings.mode, adc_rate(), BAUD));
-    proto_puts_P(PSTR(" cfg="));
-    break;
-  case 5:
-    proto_puts_P(vocab_word(vocab_sources, settings_source));
-    break;
-  case 6:
-    proto_puts_P(PSTR(" units="));
-    proto_puts_P(vocab_word(vocab_units, settings.counts));
-    break;
-  default:
+    proto_puts_P(PSTR("ok status"));
+  } else if (k < STATUS_KEYS) {
+    uint16_t n = 0; /* every value fits */
+    const char *list = 0; /* a word of this list, at n */
+    proto_putc(' ');
+    proto_puts_P(vocab_word(status_keys_P, k));
+    proto_putc('=');
+    switch (k) {
+    case 0:
+      n = adc_running();
+      break;
+    case 1:
+      n = adc_rate();
+      break;
+    case 2:
+      list = vocab_modes;
+      n = settings.mode;
+      break;
+    case 3:
+      list = vocab_ranges;
+      n = settings.range;
+      break;
+    case 4:
+      n = settings.interval_s;
+      break;
+    case 5:
+      n = link_percent_here(settings.mode, adc_rate());
+      break;
+    case 6:
+      list = vocab_sources;
+      n = settings_source;
+      break;
+    default:
+      list = vocab_units;
+      n = settings.counts;
+      break;
+    }
+    if (list)
+      proto_puts_P(vocab_word(list, (uint8_t)n));
+    else
+      proto_u32(n);
+  } else {
     proto_end();
-    return 1;
+    return REPLY_DONE;
   }
-  return 0;
+  return REPLY_MORE;
 }
 
 /* `ok help <command><arguments>`, one line per command. */
 static __attribute__((noinline)) uint8_t step_help(uint8_t step)
 {
-  uint8_t id = rpl.tail_value.help.id;
+  uint8_t id = (uint8_t)(CMD_REPORT + rpl.tail);
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("ok help "));
     proto_puts_P(command_word(id));
-    rpl.tail_value.help.k = 0;
-  } else if (put_allowed(command_arg_kind(id), rpl.tail_value.help.k++, 0)) {
+  } else if (put_allowed(command_arg_kind(id), (uint8_t)(step - 1), 0)) {
     proto_end();
-    rpl.tail_value.help.id = ++id;
-    return id < CMD_REPORT + CMD_COUNT ? REPLY_LINE_DONE : REPLY_DONE;
+    return ++rpl.tail < CMD_COUNT ? REPLY_LINE_DONE : REPLY_DONE;
   }
   return REPLY_MORE;
 }
 
+/* Each step function returns REPLY_MORE, REPLY_LINE_DONE or REPLY_DONE. */
 uint8_t reply_step(uint8_t step)
 {
   if (rpl.code == REPLY_HELP)
     return step_help(step);
   if (rpl.code == REPLY_STATUS)
-    return step_status(step) ? REPLY_DONE : REPLY_MORE;
+    return step_status(step);
   if (rpl.code != REPLY_OK)
-    return step_error(step) ? REPLY_DONE : REPLY_MORE;
-  return step_plain(step) ? REPLY_DONE : REPLY_MORE;
+    return step_error(step);
+  return step_plain(step);
 }

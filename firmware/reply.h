@@ -22,19 +22,19 @@ enum { REPLY_TAIL_NONE, REPLY_TAIL_NUM, REPLY_TAIL_WORD };
 
 /* The next reply (texts and words in flash; text may be 0 for a bare
  * `ok`): `ok <text>` or `error:<code> <text>`, also REPLY_STATUS and
- * REPLY_HELP; `ok <text><n>`; `ok <text><word>`. */
+ * REPLY_HELP; `ok <text><n>`; `ok <text><word>`, word n of a word list. */
 void reply_set_plain(uint8_t code, const char *text_P);
 void reply_set(uint8_t code, const char *text_P, uint32_t n);
-void reply_set_word(const char *text_P, const char *word_P);
+void reply_set_word(const char *text_P, const char *list_P, uint8_t n);
 
 /* `error:<code> <command>: <what>; <allowed>` (docs/protocol.md).  The
  * command is command_word(id), or for id CMD_NONE (an unknown word, a
  * line too long or with bytes lost) the first word of the line `quote`,
  * copied (6 characters at most), and the texts follow from the code.
- * allowed_P: a flash text starting "; ", or REPLY_ALLOWED_ARGS for the
- * command's own arguments as help shows them. */
-#define REPLY_ALLOWED_ARGS ((const char *)0)
-void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *what_P, const char *allowed_P);
+ * text_P: two words in flash, what is wrong and what is allowed
+ * ("too long\0" "0..3600"); an empty second word (a text ending "\0")
+ * lists the command's own arguments, as help shows them. */
+void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *text_P);
 
 /* One step of the reply: REPLY_MORE (call again with step + 1),
  * REPLY_LINE_DONE (a line of a multi-line reply is out: the next starts

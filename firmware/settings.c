@@ -81,7 +81,7 @@ uint8_t settings_load(void)
   } else if (rec[0] != SETTINGS_VERSION || rec[RECORD_BYTES - 2u] != (uint8_t)(crc >> 8) ||
              rec[RECORD_BYTES - 1u] != (uint8_t)crc || !valid(&s)) {
     settings_source = CFG_CORRUPT;
-  } else if (!link_fits(s.mode, s.rate_hz, BAUD)) {
+  } else if (!link_fits_here(s.mode, s.rate_hz)) {
     settings_source = CFG_INFEASIBLE; /* refused like `rate` and `mode` would be */
   } else {
     settings = s;

@@ -70,8 +70,10 @@ static void set_written(void)
   st.line = st.rows % LINK_COUNT_EVERY == 0 ? LINE_COUNT_DUE : LINE_NONE;
 }
 
+/* The step functions below return 1 (they wrote), stream_step's result. */
+
 /* `$C,<rows>,<drops>,<crc>` in three steps; the CRC restarts after it. */
-static __attribute__((noinline)) void step_count_line(void)
+static __attribute__((noinline)) uint8_t step_count_line(void)
 {
   if (st.line == LINE_COUNT_DUE) {
     proto_begin();
@@ -89,69 +91,60 @@ static __attribute__((noinline)) void step_count_line(void)
     st.crc = CRC16_MODBUS_INIT;
     st.line = LINE_NONE;
   }
+  return 1;
 }
 
 /* A raw thesis row of the oldest set, in two steps of at most 20
  * characters: codes 0..3, then 4..6 and the line end. */
-static __attribute__((noinline)) void step_raw_row(void)
+static __attribute__((noinline)) uint8_t step_raw_row(void)
 {
-  uint16_t code[ADC_COLUMNS];
   char buf[10];
-  uint8_t i, n, second = st.line == LINE_ROW_HALF;
-  adc_peek(code);
-  for (i = second ? 4 : 0; i < (second ? ADC_COLUMNS : 4); i++) {
-    uint8_t j;
-    n = fmt_u32(buf, code[i]);
+  uint8_t second = st.line == LINE_ROW_HALF;
+  uint8_t i = second ? 4 : 0, end = second ? ADC_COLUMNS : 4;
+  for (; i < end; i++) {
+    uint8_t j, n = fmt_u32(buf, adc_oldest(i));
     for (j = 0; j < n; j++)
       put((uint8_t)buf[j]);
-    if (i + 1 < ADC_COLUMNS)
-      put('\t');
+    put(i + 1 < ADC_COLUMNS ? '\t' : '\r');
   }
   if (!second) {
     st.line = LINE_ROW_HALF;
-    return;
+    return 1;
   }
-  put('\r');
   put('\n');
   set_written();
+  return 1;
 }
 
 /* One 13-byte binary frame of the oldest set; its sequence number is the
  * low byte of the frame count. */
-static __attribute__((noinline)) void step_frame(void)
+static __attribute__((noinline)) uint8_t step_frame(void)
 {
   uint8_t b[PROTO_FRAME_BYTES], i;
   adc_peek_packed(b + 2); /* the payload lands where the frame wants it */
-  proto_frame(b, (uint8_t)st.rows, b + 2);
+  proto_frame(b, (uint8_t)st.rows);
   for (i = 0; i < PROTO_FRAME_BYTES; i++)
     put(b[i]);
   if (st.line == LINE_COUNT_DUE) { /* a frame may come before a due count line */
     st.set_done = 1;
     st.rows++;
-    return;
+    return 1;
   }
   set_written();
+  return 1;
 }
 
 uint8_t stream_step(uint8_t at_boundary, uint8_t held)
 {
-  if (st.line == LINE_ROW_HALF) {
-    step_raw_row();
-    return 1;
-  }
-  if (st.line >= LINE_COUNT_HALF || (st.line == LINE_COUNT_DUE && at_boundary)) {
-    step_count_line();
-    return 1;
-  }
+  if (st.line == LINE_ROW_HALF)
+    return step_raw_row();
+  if (st.line >= LINE_COUNT_HALF || (st.line == LINE_COUNT_DUE && at_boundary))
+    return step_count_line();
   if (settings.mode == MODE_ALLAN || st.set_done || held || !adc_pending())
     return 0;
-  if (settings.mode == MODE_BINARY) {
-    step_frame();
-    return 1;
-  }
-  if (st.line == LINE_NONE && at_boundary) {
-    step_raw_row();
-    return 1;
-  }
+  if (settings.mode == MODE_BINARY)
+    return step_frame();
+  if (st.line == LINE_NONE && at_boundary)
+    return step_raw_row();
   return 0;
 }

@@ -101,27 +101,27 @@ void tx_ok(const char *text_P)
   plain(REPLY_OK, text_P);
 }
 
-void tx_ok_n(const char *text_P, uint32_t n)
+__attribute__((noinline)) void tx_ok_n(const char *text_P, uint32_t n)
 {
   reply_set(REPLY_OK, text_P, n);
   start(JOB_REPLY);
 }
 
-void tx_ok_word(const char *text_P, const char *word_P)
+__attribute__((noinline)) void tx_ok_word(const char *text_P, const char *list_P, uint8_t n)
 {
-  reply_set_word(text_P, word_P);
+  reply_set_word(text_P, list_P, n);
   start(JOB_REPLY);
 }
 
-void tx_error(uint8_t code, uint8_t id, const char *what_P, const char *allowed_P)
+void tx_error(uint8_t code, uint8_t id, const char *text_P)
 {
-  reply_set_error(code, id, 0, what_P, allowed_P);
+  reply_set_error(code, id, 0, text_P);
   start(JOB_REPLY);
 }
 
 void tx_refuse(uint8_t code, const char *line)
 {
-  reply_set_error(code, CMD_NONE, line, 0, 0);
+  reply_set_error(code, CMD_NONE, line, 0);
   start(JOB_REPLY);
 }
 
@@ -148,7 +148,7 @@ void tx_new_run(void)
   report_new_run();
 }
 
-void tx_restart_rows(void)
+__attribute__((noinline)) void tx_restart_rows(void)
 {
   stream_restart();
   tx.flags |= HOLD_ROWS; /* released when the next reply is written */

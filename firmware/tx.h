@@ -24,13 +24,12 @@ void tx_boot(void);
 void tx_report(void);                                  /* a whole report, after the current job */
 void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */
 void tx_ok_n(const char *text_P, uint32_t n);          /* `ok <text><n>` */
-void tx_ok_word(const char *text_P, const char *word_P); /* `ok <text><word>` */
-/* `error:<code> <command>: <what>; <allowed>`: see reply_set_error();
- * TX_ALLOWED_ARGS: the allowed part lists the command's arguments.
+void tx_ok_word(const char *text_P, const char *list_P, uint8_t n); /* `ok <text><word n of list>` */
+/* `error:<code> <command>: <what>; <allowed>`: see reply_set_error(),
+ * whose text_P says what is wrong and what is allowed.
  * tx_refuse: a line refused before any command is known (unknown word,
  * too long, bytes lost), naming its first word. */
-#define TX_ALLOWED_ARGS ((const char *)0)
-void tx_error(uint8_t code, uint8_t id, const char *what_P, const char *allowed_P);
+void tx_error(uint8_t code, uint8_t id, const char *text_P);
 void tx_refuse(uint8_t code, const char *line);
 void tx_status(void);                                  /* `ok status ...` */
 void tx_help(void);                                    /* `ok help <command> <args>`, a line each */

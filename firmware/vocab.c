@@ -39,7 +39,13 @@ uint8_t vocab_find(const char *list, uint8_t count, const char *p, uint16_t len)
   return count;
 }
 
-uint8_t vocab_rate_ok(uint32_t hz)
+#define RATE_ITEM(a, hz) hz,
+const uint16_t vocab_rates[] PROGMEM = {VOCAB_RATES(RATE_ITEM, 0)};
+
+uint8_t vocab_rate_index(uint32_t hz)
 {
-  return VOCAB_RATE_OK(hz);
+  uint8_t i;
+  for (i = 0; i < VOCAB_RATE_COUNT && pgm_read_word(&vocab_rates[i]) != hz; i++)
+    ;
+  return i;
 }

@@ -28,14 +28,19 @@
 #define RANGE_6G  3
 #define VOCAB_RANGES 4
 
-/* The supported sample rates in Hz.  A macro so config.h can check its
- * default with the preprocessor; vocab_rate_ok() is the run-time test.
+/* The supported sample rates in Hz, ascending: the one list (an X-macro:
+ * X(a, hz) for each rate, `a` passed through), from which come
+ * VOCAB_RATE_OK (config.h checks its default with the preprocessor),
+ * vocab_rates[] (the run-time test, help and errors) and the link
+ * budget's table (link.c).
  * 1500 is the highest the 7-column ADC scan (0.64 ms) fits; its Timer1
  * period is exact on average only, dithered by one CPU cycle (adc.c,
  * docs/firmware.md). */
-#define VOCAB_RATE_OK(hz) ((hz) == 50 || (hz) == 100 || (hz) == 200 || \
-                           (hz) == 250 || (hz) == 500 || (hz) == 1000 || \
-                           (hz) == 1250 || (hz) == 1500)
+#define VOCAB_RATES(X, a) X(a, 50) X(a, 100) X(a, 200) X(a, 250) X(a, 500) X(a, 1000) X(a, 1250) X(a, 1500)
+#define VOCAB_RATE_EQ_(hz, r) || (hz) == (r)
+#define VOCAB_RATE_OK(hz) (0 VOCAB_RATES(VOCAB_RATE_EQ_, hz))
+#define VOCAB_RATE_ONE_(a, r) +1
+#define VOCAB_RATE_COUNT (0 VOCAB_RATES(VOCAB_RATE_ONE_, 0))
 
 /* Longest report interval in seconds (`interval`, REPORT, the EEPROM). */
 #define VOCAB_INTERVAL_MAX_S 3600
@@ -63,7 +68,13 @@ const char *vocab_word(const char *list, uint8_t n);
  * ignoring ASCII case; `count` when absent. */
 uint8_t vocab_find(const char *list, uint8_t count, const char *p, uint16_t len);
 
+/* The supported rates (flash), VOCAB_RATE_COUNT of them. */
+extern const uint16_t vocab_rates[];
+
+/* Index of hz in vocab_rates, or VOCAB_RATE_COUNT when it is not one. */
+uint8_t vocab_rate_index(uint32_t hz);
+
 /* 1 when hz is a supported sample rate. */
-uint8_t vocab_rate_ok(uint32_t hz);
+#define vocab_rate_ok(hz) (vocab_rate_index(hz) < VOCAB_RATE_COUNT)
 
 #endif /* VOCAB_H */

@@ -305,7 +305,9 @@ static void test_proto_binary_frame(void)
   uint8_t f[PROTO_FRAME_BYTES], body[10];
   body[0] = 0x2A;
   memcpy(body + 1, packed, 9);
-  proto_frame(f, 0x2A, packed);
+  memset(f, 0, sizeof f);
+  memcpy(f + 2, packed, 9); /* the caller's payload */
+  proto_frame(f, 0x2A);
   TEST_ASSERT_EQUAL_HEX8(0xA5, f[0]);
   TEST_ASSERT_EQUAL_HEX8(0x2A, f[1]);
   TEST_ASSERT_EQUAL_MEMORY(packed, f + 2, 9);
@@ -436,6 +438,30 @@ static void test_link_budget(void)
   TEST_ASSERT_EQUAL_UINT16(79, link_percent(MODE_RAW, 250, b)); /* 9090 / 11520 = 78.9 % */
 }
 
+/* The device's table (link_*_here, at this build's BAUD) gives what the
+ * rules give for every supported rate and mode, in vocab_rates' order;
+ * a rate that is not supported never fits. */
+static void test_link_table_agrees_with_the_rules_at_baud(void)
+{
+  uint8_t i, mode;
+  TEST_ASSERT_EQUAL_UINT32(115200, BAUD);
+  for (i = 0; i < VOCAB_RATE_COUNT; i++) {
+    uint16_t hz = vocab_rates[i];
+    for (mode = 0; mode < VOCAB_MODES; mode++) {
+      TEST_ASSERT_EQUAL_UINT8(link_fits(mode, hz, BAUD), link_fits_here(mode, hz));
+      TEST_ASSERT_EQUAL_UINT16(link_percent(mode, hz, BAUD), link_percent_here(mode, hz));
+    }
+  }
+  TEST_ASSERT_TRUE(link_fits_here(MODE_RAW, 100) && !link_fits_here(MODE_RAW, 200));
+  TEST_ASSERT_TRUE(link_fits_here(MODE_BINARY, 500) && !link_fits_here(MODE_BINARY, 1000));
+  TEST_ASSERT_EQUAL_UINT16(79, link_percent_here(MODE_RAW, 250));
+  TEST_ASSERT_EQUAL_UINT16(145, link_percent_here(MODE_BINARY, 1250)); /* 16250 + 450 B/s of 11520 */
+  TEST_ASSERT_FALSE(link_fits_here(MODE_ALLAN, 300));
+  TEST_ASSERT_EQUAL_UINT16(0, link_percent_here(MODE_RAW, 300));
+  TEST_ASSERT_EQUAL_UINT8(VOCAB_RATE_COUNT, vocab_rate_index(1500));
+  TEST_ASSERT_EQUAL_UINT8(6, vocab_rate_index(1250));
+}
+
 int main(void)
 {
   UNITY_BEGIN();
@@ -451,5 +477,6 @@ int main(void)
   RUN_TEST(test_command_words_and_arguments);
   RUN_TEST(test_command_settings_words);
   RUN_TEST(test_link_budget);
+  RUN_TEST(test_link_table_agrees_with_the_rules_at_baud);
   return UNITY_END();
 }
