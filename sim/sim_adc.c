@@ -158,7 +158,10 @@ static void adc_trigger(avr_irq_t *irq, uint32_t value, void *param)
            (unsigned)e.mux.kind, (unsigned)e.mux.src);
     }
     code = 0;
-  } else if (!g.armed) {
+  } else if (!g.armed || !avr_regbit_get(avr, p->adc.enable)) {
+    /* Before the harness arms, or a conversion started with the ADC
+     * interrupt off: not a scan's (the firmware's start-up conversion,
+     * the 25-clock first one after ADEN, is polled and thrown away). */
     g.neutral_conv++;
     code = NEUTRAL_CODE;
   } else {

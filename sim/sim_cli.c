@@ -24,6 +24,8 @@ static const char usage_run[] =
 "  2. After the device's boot line ($B) the harness sends 'stop' and waits\n"
 "     for its '$ok'; from then on the i-th conversion of ADC mux channel j\n"
 "     reads column j of row i, exactly (j = 0..6: ax ay az gx gy gz temp).\n"
+"     Conversions started with the ADC interrupt off (the firmware's\n"
+"     start-up conversion) are not a scan's: they read 512 and take no row.\n"
 "  3. It sends 'rate HZ' (with --fs), 'reset' and 'start R', R being the\n"
 "     number of rows, each after the previous one's '$ok'.\n"
 "  4. Once mux 6 of the last row was converted, it sends 'report', waits\n"
