@@ -230,6 +230,26 @@ def longdouble_dev(x: np.ndarray, ms: np.ndarray, overlapping: bool) -> np.ndarr
     return np.array(out)
 
 
+
+def _write_npy(path, dtype, m: int, draw) -> None:
+    """An .npy of m samples written 1e7 at a time (draw(rng, k) gives k), never all in memory."""
+    arr = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=(m,))
+    for i in range(0, m, 10**7):
+        k = min(10**7, m - i)
+        arr[i:i + k] = draw(np.random.default_rng(i), k)
+    del arr
+
+
+def _time_mapped(path, runs: int = 3):
+    """allan.octave_mapped over the memory-mapped file, timed ``runs`` times: (result, seconds)."""
+    from imu_allan.stats import allan
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        out = allan.octave_mapped(np.load(path, mmap_mode="r"))
+        times.append(time.perf_counter() - t)
+    return out, times
+
 def host(tmp: Path, quick: bool) -> dict:
     import allantools
 
@@ -312,16 +332,8 @@ def host(tmp: Path, quick: bool) -> dict:
     m = 10**7 if quick else 10**8
     path = tmp / "big.npy"
     if not path.exists():
-        arr = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=(m,))
-        for i in range(0, m, 10**7):
-            k = min(10**7, m - i)
-            arr[i:i + k] = np.random.default_rng(i).standard_normal(k)
-        del arr
-    times = []
-    for _ in range(3):
-        t = time.perf_counter()
-        out = allan.octave_mapped(np.load(path, mmap_mode="r"))
-        times.append(time.perf_counter() - t)
+        _write_npy(path, np.float64, m, lambda rng, k: rng.standard_normal(k))
+    out, times = _time_mapped(path)
     if out.n != m or not np.isfinite(out.oavar[0, 0]) or abs(out.oavar[0, 0] - 1.0) > 0.01:
         raise SystemExit(f"bench: the streamed analysis saw {out.n} samples, oavar(1) {out.oavar[0, 0]}")
     r["host_stream_samples"] = m
@@ -332,16 +344,8 @@ def host(tmp: Path, quick: bool) -> dict:
     path.unlink()
     # The same for 10-bit ADC codes as int16 (200 MB): exact integer sums.
     path = tmp / "codes.npy"
-    arr = np.lib.format.open_memmap(path, mode="w+", dtype=np.int16, shape=(m,))
-    for i in range(0, m, 10**7):
-        k = min(10**7, m - i)
-        arr[i:i + k] = np.random.default_rng(i).integers(480, 544, k)
-    del arr
-    times = []
-    for _ in range(3):
-        t = time.perf_counter()
-        out = allan.octave_mapped(np.load(path, mmap_mode="r"))
-        times.append(time.perf_counter() - t)
+    _write_npy(path, np.int16, m, lambda rng, k: rng.integers(480, 544, k))
+    out, times = _time_mapped(path)
     r["host_stream_codes_1e8_s"] = round(float(np.median(times)), 2)
     r["host_stream_codes_exact_levels"] = int(np.sum(out.stride == 1))
     return r
