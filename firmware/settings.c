@@ -23,7 +23,8 @@
 settings_t settings;
 uint8_t settings_source;
 
-static uint8_t save_pos = 0xFF; /* next record byte to write; 0xFF: idle */
+/* Record bytes still to write; 0: idle (in .bss: no .data to copy at boot). */
+static uint8_t save_left;
 
 /* Byte i of the record for the current settings (crc: of bytes 0..7). */
 static uint8_t record_byte(uint8_t i, uint16_t crc)
@@ -92,26 +93,25 @@ uint8_t settings_load(void)
 
 void settings_save(void)
 {
-  save_pos = 0;
+  save_left = RECORD_BYTES;
 }
 
 uint8_t settings_saving(void)
 {
-  return save_pos != 0xFF;
+  return save_left != 0;
 }
 
 uint8_t settings_poll(void)
 {
-  if (save_pos == 0xFF || !eeprom_is_ready())
+  uint8_t pos = (uint8_t)(RECORD_BYTES - save_left);
+  if (!save_left || !eeprom_is_ready())
     return 0;
   /* update: a byte already holding its value is not rewritten (wear). */
   /* The CRC is worked out again for each byte rather than kept: RAM is
    * scarcer than the few hundred cycles this costs. */
-  eeprom_update_byte((uint8_t *)(uintptr_t)save_pos,
-                     record_byte(save_pos, save_pos > sizeof(settings_t) ? record_crc() : 0));
-  if (++save_pos < RECORD_BYTES)
+  eeprom_update_byte((uint8_t *)(uintptr_t)pos, record_byte(pos, pos > sizeof(settings_t) ? record_crc() : 0));
+  if (--save_left)
     return 0;
-  save_pos = 0xFF;
   settings_source = CFG_SAVED;
   return 1;
 }
