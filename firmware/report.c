@@ -163,22 +163,16 @@ uint8_t report_boot_step(uint8_t step)
 /* `<mean>:<min>:<max>` of the temperature over the report's interval, in
  * one step (at most 16 characters: `1023.0:1023:1023`), so that no sample
  * can come between the mean and the extremes; `-` when the interval holds
- * no sample.  The mean to one decimal without overflowing 32 bits.  The
- * next report's interval starts here. */
+ * no sample.  The mean to one decimal (fmt_mean: exact over the longest
+ * interval).  The next report's interval starts here. */
 static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
   if (n) {
-    uint32_t q = sample_stats.temp_sum / n;
-    uint32_t r = sample_stats.temp_sum % n;
-    uint32_t tenth = (r * 10u + n / 2u) / n;
-    if (tenth == 10) {
-      q++;
-      tenth = 0;
-    }
-    proto_u32(q);
+    uint16_t mean = fmt_mean(n, sample_stats.temp_sum, sample_stats.temp_sum_hi);
+    proto_u32(mean >> 4);
     proto_putc('.');
-    proto_u32(tenth);
+    proto_putc((char)('0' + (mean & 15u)));
     put_key_u32(PSTR(":"), sample_stats.temp_min);
     put_key_u32(PSTR(":"), sample_stats.temp_max);
   } else {
