@@ -36,12 +36,13 @@ static uint8_t record_byte(uint8_t i, uint16_t crc)
   return i == sizeof(settings_t) + 1u ? (uint8_t)(crc >> 8) : (uint8_t)crc;
 }
 
-static uint16_t record_crc(void)
+/* The CRC of a record's first bytes: its version and settings s. */
+static uint16_t record_crc(uint8_t version, const settings_t *s)
 {
-  uint16_t crc = CRC16_MODBUS_INIT;
+  uint16_t crc = crc16_modbus_update(CRC16_MODBUS_INIT, version);
   uint8_t i;
-  for (i = 0; i <= sizeof(settings_t); i++)
-    crc = crc16_modbus_update(crc, record_byte(i, 0));
+  for (i = 0; i < sizeof(settings_t); i++)
+    crc = crc16_modbus_update(crc, ((const uint8_t *)s)[i]);
   return crc;
 }
 
@@ -65,17 +66,16 @@ void settings_defaults(void)
 uint8_t settings_load(void)
 {
   uint8_t rec[RECORD_BYTES], i, blank = 1;
-  uint16_t crc = 0xFFFF;
+  uint16_t crc;
   settings_t s;
 
   eeprom_read_block(rec, (const void *)0, RECORD_BYTES);
   for (i = 0; i < RECORD_BYTES; i++)
     if (rec[i] != 0xFF)
       blank = 0;
-  for (i = 0; i < RECORD_BYTES - 2u; i++)
-    crc = crc16_modbus_update(crc, rec[i]);
   for (i = 0; i < sizeof s; i++)
     ((uint8_t *)&s)[i] = rec[1 + i];
+  crc = record_crc(rec[0], &s);
   settings_defaults();
   if (blank) {
     settings_source = CFG_BLANK;
@@ -109,7 +109,7 @@ uint8_t settings_poll(void)
   /* update: a byte already holding its value is not rewritten (wear). */
   /* The CRC is worked out again for each byte rather than kept: RAM is
    * scarcer than the few hundred cycles this costs. */
-  eeprom_update_byte((uint8_t *)(uintptr_t)pos, record_byte(pos, pos > sizeof(settings_t) ? record_crc() : 0));
+  eeprom_update_byte((uint8_t *)(uintptr_t)pos, record_byte(pos, pos > sizeof(settings_t) ? record_crc(SETTINGS_VERSION, &settings) : 0));
   if (--save_left)
     return 0;
   settings_source = CFG_SAVED;
