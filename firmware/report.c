@@ -181,6 +181,10 @@ static __attribute__((noinline)) void put_temp(void)
   sample_interval_restart();
 }
 
+/* config.h's numbers as text (plain integer literals there). */
+#define REP_STR_(x) #x
+#define REP_STR(x) REP_STR_(x)
+
 static __attribute__((noinline)) uint8_t step_header(uint8_t step)
 {
   const uint8_t clip0 = 12, temp = clip0 + ADC_COLUMNS;
@@ -197,8 +201,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
   } else if (step == 7) {
     put_key_u32(PSTR(",fs="), adc_rate());
   } else if (step == 8) {
-    put_key_u32(PSTR(",levels="), ALLAN_LEVELS);
-    put_key_u32(PSTR(",acc48="), ALLAN_ACC48_FROM);
+    proto_puts_P(PSTR(",levels=" REP_STR(ALLAN_LEVELS) ",acc48=" REP_STR(ALLAN_ACC48_FROM)));
   } else if (step == 9) {
     put_key_u32(PSTR(",n="), sample_engine.n);
   } else if (step == 10) {
