@@ -134,7 +134,9 @@ int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs
   /* a: the accumulator's top 32 bits; p: pairs' top 16 bits. */
   if (acc_hi) {
     while (acc_hi) {
-      a = (a >> 1) | ((uint32_t)(acc_hi & 1u) << 31);
+      a >>= 1;
+      if (acc_hi & 1u)
+        a |= 0x80000000ul;
       acc_hi >>= 1;
       e++;
     }
