@@ -99,7 +99,7 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
   if (j > 5) {
     buf[n++] = 'e';
     buf[n++] = '-';
-    n = (uint8_t)(n + fmt_u32(buf + n, (uint32_t)(j - 2)));
+    n = (uint8_t)(n + fmt_u32(buf + n, (uint8_t)(j - 2)));
   }
   buf[n] = 0;
   return n;
