@@ -368,11 +368,13 @@ static __attribute__((noinline)) uint8_t step_check(uint8_t step)
  * among those with pairs (levels 0 up to some level have them). */
 static uint8_t terms_n_level(void)
 {
-  uint16_t fs = adc_rate();
+  uint16_t fs = adc_rate(), p = 1;
   uint8_t l = 0;
-  while ((2u << l) <= fs)
-    l++; /* 2^l <= fs < 2^(l+1) */
-  if (fs - (1u << l) > (2u << l) - fs)
+  while (2u * p <= fs) { /* p = 2^l <= fs < 2^(l+1) */
+    p *= 2u;
+    l++;
+  }
+  if (fs - p > 2u * p - fs)
     l++;
   while (l && !pairs_at(l))
     l--;
