@@ -63,12 +63,15 @@ $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS
 # And for some of them one or two passes more, each measured on its own
 # module (bytes saved alone: report -fno-ivopts 14, -fno-tree-dominator-opts
 # 10; stream -fno-ivopts 18, -fno-expensive-optimizations 4; fmt
-# -fno-tree-fre 8; control -fno-tree-coalesce-vars 4).
+# -fno-tree-fre 8; control -fno-tree-coalesce-vars 4; main -fno-ivopts 4,
+# -fno-expensive-optimizations 6; reply -fno-tree-ter 2).
 FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts
 FW_MORE_stream := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_fmt := -fno-tree-fre
 FW_MORE_control := -fno-tree-coalesce-vars
-$(foreach m,report stream fmt control,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
+FW_MORE_main := -fno-ivopts -fno-expensive-optimizations
+FW_MORE_reply := -fno-tree-ter
+$(foreach m,report stream fmt control main reply,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP
