@@ -374,7 +374,7 @@ static uint8_t terms_n_level(void)
     p *= 2u;
     l++;
   }
-  if (fs - p > 2u * p - fs)
+  if ((uint16_t)(fs - p) > (uint16_t)(2u * p - fs))
     l++;
   while (l && !pairs_at(l))
     l--;
