@@ -166,7 +166,7 @@ int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs
   return (int8_t)(e / 2 - (int8_t)level);
 }
 
-uint16_t fmt_mean(uint32_t n, uint32_t lo, uint8_t hi)
+uint32_t fmt_mean(uint32_t n, uint32_t lo, uint8_t hi)
 {
   uint32_t r = 0;
   uint8_t i = 40;
@@ -201,7 +201,7 @@ uint16_t fmt_mean(uint32_t n, uint32_t lo, uint8_t hi)
     lo++;
     r = 0;
   }
-  return (uint16_t)((uint16_t)lo << 4 | r);
+  return (uint16_t)lo | r << 16;
 }
 
 int8_t fmt_tau(uint32_t *mant, uint8_t level, uint16_t fs)

@@ -169,10 +169,10 @@ static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
   if (n) {
-    uint16_t mean = fmt_mean(n, sample_stats.temp_sum, sample_stats.temp_sum_hi);
-    proto_u32(mean >> 4);
+    uint32_t mean = fmt_mean(n, sample_stats.temp_sum, sample_stats.temp_sum_hi);
+    proto_u32((uint16_t)mean);
     proto_putc('.');
-    proto_putc((char)('0' + (mean & 15u)));
+    proto_putc((char)('0' + (uint8_t)(mean >> 16)));
     put_key_u32(PSTR(":"), sample_stats.temp_min);
     put_key_u32(PSTR(":"), sample_stats.temp_max);
   } else {

@@ -246,16 +246,18 @@ static void test_units_scale_matches_float_on_random_reports(void)
 }
 
 /* fmt_mean against 64-bit arithmetic: (10 sum + n / 2) / n tenths. */
-static uint16_t mean_ref(uint64_t sum, uint32_t n)
+static uint32_t mean_ref(uint64_t sum, uint32_t n)
 {
   uint64_t t = (10u * sum + n / 2u) / n;
-  return (uint16_t)((t / 10u) << 4 | (t % 10u));
+  return (uint32_t)(t / 10u) | (uint32_t)(t % 10u) << 16;
 }
 
-static uint16_t mean_of(uint64_t sum, uint32_t n)
+static uint32_t mean_of(uint64_t sum, uint32_t n)
 {
   return fmt_mean(n, (uint32_t)sum, (uint8_t)(sum >> 32));
 }
+
+#define MEAN(whole, tenth) ((uint32_t)(whole) | (uint32_t)(tenth) << 16)
 
 /* The report header's temperature mean over the longest interval (3600 s
  * at 1500 Hz: 5.4e6 sets of codes up to 1023, a sum of 5.5e9 > 2^32), at
@@ -265,17 +267,17 @@ static void test_fmt_mean_is_exact_over_an_hour_at_1500_hz(void)
   const uint32_t n = 3600u * 1500u;
   char msg[80];
   TEST_ASSERT_TRUE((uint64_t)1023u * n > 0xFFFFFFFFull);
-  TEST_ASSERT_EQUAL_HEX16(1023u << 4, mean_of((uint64_t)1023u * n, n));
-  TEST_ASSERT_EQUAL_HEX16(1022u << 4 | 9u, mean_of((uint64_t)1023u * n - n / 20u - 1u, n)); /* 1022.95 - */
-  TEST_ASSERT_EQUAL_HEX16(1023u << 4, mean_of((uint64_t)1023u * n - n / 20u, n));           /* 1022.95 */
-  TEST_ASSERT_EQUAL_HEX16(512u << 4 | 5u, mean_of((uint64_t)512u * n + n / 2u, n));
-  TEST_ASSERT_EQUAL_HEX16(0, mean_of(0, n));
-  TEST_ASSERT_EQUAL_HEX16(7u << 4, mean_of(7, 1));
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1023, 0), mean_of((uint64_t)1023u * n, n));
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1022, 9), mean_of((uint64_t)1023u * n - n / 20u - 1u, n)); /* just under 1022.95 */
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1023, 0), mean_of((uint64_t)1023u * n - n / 20u, n));      /* 1022.95 */
+  TEST_ASSERT_EQUAL_HEX32(MEAN(512, 5), mean_of((uint64_t)512u * n + n / 2u, n));
+  TEST_ASSERT_EQUAL_HEX32(MEAN(0, 0), mean_of(0, n));
+  TEST_ASSERT_EQUAL_HEX32(MEAN(7, 0), mean_of(7, 1));
   for (int i = 0; i < 200000; i++) {
     uint32_t m = 1u + (uint32_t)(next() % (i & 1 ? n : (1u << 28) - 1u));
     uint64_t sum = next() % ((uint64_t)1023u * m + 1u);
     snprintf(msg, sizeof msg, "sum %llu n %lu", (unsigned long long)sum, (unsigned long)m);
-    TEST_ASSERT_EQUAL_HEX16_MESSAGE(mean_ref(sum, m), mean_of(sum, m), msg);
+    TEST_ASSERT_EQUAL_HEX32_MESSAGE(mean_ref(sum, m), mean_of(sum, m), msg);
   }
 }
 
