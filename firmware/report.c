@@ -117,6 +117,9 @@ static void put_key_u32(const char *key_P, uint32_t v)
   proto_u32(v);
 }
 
+/* The boot line's and the header's (one copy in flash). */
+static const char reset_key_P[] PROGMEM = ",reset=";
+
 static void put_causes(void)
 {
   uint8_t bit, any = 0;
@@ -150,7 +153,7 @@ uint8_t report_boot_step(uint8_t step)
   } else if (step <= 3) {
     step_identity((uint8_t)(step - 1));
   } else if (step == 4) {
-    proto_puts_P(PSTR(",reset="));
+    proto_puts_P(reset_key_P);
   } else if (step == 5) {
     put_causes();
   } else {
@@ -228,7 +231,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
     proto_puts_P(PSTR(",cfg="));
   } else if (step == temp + 4) {
     proto_puts_P(vocab_word(vocab_sources, settings_source));
-    proto_puts_P(PSTR(",reset="));
+    proto_puts_P(reset_key_P);
   } else if (step == temp + 5) {
     put_causes();
   } else {
