@@ -203,7 +203,7 @@ def test_typing_in_raw_100_hz_costs_no_sample(run, tmp_path: Path) -> None:
     assert b"\r\n> sto\r\n" in text and text.count(b"ok stopped") == 1  # Ctrl-C dropped it (1: the harness's)
     assert b"\r\n> help\r\n" in text and text.count(b"$ok help ") == 15
     assert b"\r\n> rate 9\r\n" in text
-    assert b"$error:2 rate: unsupported; 50|100|200|250|500|1000|1250 (Hz)*" in text
+    assert b"$error:2 rate: unsupported; 50|100|200|250|500|1000|1250|1500 (Hz)*" in text
     _assert_rows_from_switch_to_switch_back(r, tmp_path, n)
 
 

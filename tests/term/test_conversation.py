@@ -67,7 +67,7 @@ def test_typed_text_is_echoed_and_edited(tmp_path: Path) -> None:
 
 
 ERRORS = {
-    "rate 333": "error:2 rate: unsupported; 50|100|200|250|500|1000|1250 (Hz)",
+    "rate 333": "error:2 rate: unsupported; 50|100|200|250|500|1000|1250|1500 (Hz)",
     "range 8": "error:2 range: bad argument; 1.5|2|4|6 (g)",
     "interval 4000": "error:2 interval: too long; 0..3600 s",
     "mode fast": "error:2 mode: bad argument; allan|raw|binary|both",
