@@ -47,11 +47,39 @@ HEX      := $(FW_BUILD)/imu-allan.hex
 FW_OPT := -Os -flto -mcall-prologues -mrelax -mstrict-X -fno-move-loop-invariants -fno-inline-small-functions \
           -fno-tree-forwprop
 # -fno-gcse also, but only for these modules: about 55 bytes for no cycles
-# the loop spends (imu-sim at 1 kHz: the same busy fraction); in the
-# engine, the loop and the receiver it costs cycles (and in the report's
-# number formatting 2 bytes of the stack's 64-byte floor), so not there.
+# the loop spends (imu-sim at 1 kHz: the same busy fraction).  In the
+# receiver and the ADC it is not used; in the engine and the sampling loop
+# only as FW_MORE_allan and FW_MORE_sample below, where it was measured.
 FW_COLD := stream proto reply command vocab link reset tx
 $(foreach m,$(FW_COLD),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += -fno-gcse))
+# The modules that run between sets, never per sample (the report, the
+# settings, the commands, the start-up in main): without these passes
+# they are 132 bytes smaller (15650 -> 15518; issue 12's flash budget).
+# Each flag measured alone on them: -fno-tree-pre 30, -fno-tree-tail-merge
+# 30, -fno-tree-sink 26, then -fno-tree-loop-ivcanon 56, -fno-tree-fre
+# 12.  make bench measures what they cost in cycles and stack.
+FW_SMALL := report settings control cmdline stream reply vocab reset main
+FW_SMALL_FLAGS := -fno-gcse -fno-tree-pre -fno-tree-tail-merge -fno-tree-sink -fno-tree-loop-ivcanon -fno-tree-fre
+$(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS)))
+# And for some of them one or two passes more, each measured on its own
+# module (bytes saved alone: report -fno-ivopts 14, -fno-tree-dominator-opts
+# 10; stream -fno-ivopts 18, -fno-expensive-optimizations 4; fmt
+# -fno-tree-fre 8; control -fno-tree-coalesce-vars 4; main -fno-ivopts 4,
+# -fno-expensive-optimizations 6; reply -fno-tree-ter 2).
+FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts
+FW_MORE_stream := -fno-ivopts -fno-expensive-optimizations
+FW_MORE_fmt := -fno-tree-fre
+FW_MORE_control := -fno-tree-coalesce-vars
+FW_MORE_main := -fno-ivopts -fno-expensive-optimizations
+FW_MORE_reply := -fno-tree-ter
+# In the engine and the sampling loop too, where imu-sim measured no
+# slower sets (1 and 1.25 kHz: the worst set 3884 -> 3807 and 3897 ->
+# 3803 cycles, the mean the same, the engine's mean per channel-sample
+# 205.8 -> 204.1): allan -fno-tree-dominator-opts 68 bytes, -fno-gcse 18
+# more; sample -fno-gcse 36.
+FW_MORE_allan := -fno-tree-dominator-opts -fno-gcse
+FW_MORE_sample := -fno-gcse
+$(foreach m,report stream fmt control main reply allan sample,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP

@@ -99,7 +99,7 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
   if (j > 5) {
     buf[n++] = 'e';
     buf[n++] = '-';
-    n = (uint8_t)(n + fmt_u32(buf + n, (uint32_t)(j - 2)));
+    n = (uint8_t)(n + fmt_u32(buf + n, (uint8_t)(j - 2)));
   }
   buf[n] = 0;
   return n;
@@ -134,7 +134,9 @@ int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs
   /* a: the accumulator's top 32 bits; p: pairs' top 16 bits. */
   if (acc_hi) {
     while (acc_hi) {
-      a = (a >> 1) | ((uint32_t)(acc_hi & 1u) << 31);
+      a >>= 1;
+      if (acc_hi & 1u)
+        a |= 0x80000000ul;
       acc_hi >>= 1;
       e++;
     }
@@ -162,6 +164,44 @@ int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs
   }
   *mant = isqrt32(q);
   return (int8_t)(e / 2 - (int8_t)level);
+}
+
+uint32_t fmt_mean(uint32_t n, uint32_t lo, uint8_t hi)
+{
+  uint32_t r = 0;
+  uint8_t i = 40;
+  /* Long division, a bit at a time: hi:lo shifts into r (r < n, so r * 2
+   * + 1 needs 33 bits: the carry) and takes the quotient's bits in at its
+   * bottom; after 40 steps lo holds the quotient (below 2^10). */
+#ifdef __AVR__
+  __asm__("1: lsl %A[lo]\n\trol %B[lo]\n\trol %C[lo]\n\trol %D[lo]\n\trol %[hi]\n\t"
+          "rol %A[r]\n\trol %B[r]\n\trol %C[r]\n\trol %D[r]\n\t"
+          "brcs 2f\n\t"
+          "cp %A[r], %A[n]\n\tcpc %B[r], %B[n]\n\tcpc %C[r], %C[n]\n\tcpc %D[r], %D[n]\n\t"
+          "brcs 3f\n"
+          "2: sub %A[r], %A[n]\n\tsbc %B[r], %B[n]\n\tsbc %C[r], %C[n]\n\tsbc %D[r], %D[n]\n\t"
+          "inc %A[lo]\n"
+          "3: dec %[i]\n\tbrne 1b"
+          : [lo] "+r"(lo), [hi] "+r"(hi), [r] "+r"(r), [i] "+r"(i)
+          : [n] "r"(n));
+#else
+  for (; i; i--) {
+    uint8_t carry = (uint8_t)(r >> 31);
+    r = (r << 1) | (uint8_t)(hi >> 7);
+    hi = (uint8_t)((hi << 1) | (uint8_t)(lo >> 31));
+    lo <<= 1;
+    if (carry || r >= n) {
+      r -= n;
+      lo++;
+    }
+  }
+#endif
+  r = (r * 10u + (n >> 1)) / n; /* the tenth, rounded half up (r < n < 2^28) */
+  if (r == 10u) {               /* x.95 and up */
+    lo++;
+    r = 0;
+  }
+  return (uint16_t)lo | r << 16;
 }
 
 int8_t fmt_tau(uint32_t *mant, uint8_t level, uint16_t fs)

@@ -30,4 +30,12 @@ int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs
 /* tau = 2^level / fs seconds, as mant * 2^exp (returned). fs > 0. */
 int8_t fmt_tau(uint32_t *mant, uint8_t level, uint16_t fs);
 
+/* The mean sum / n of 10-bit codes (sum = hi * 2^32 + lo, below 1024 n:
+ * 40 bits hold an hour at 1500 Hz of codes up to 1023, 5.5e9) to one
+ * decimal, rounded half up, as whole part + tenth * 2^16 (both come
+ * back in registers of their own).  Exact for any n
+ * below 2^28 (49 hours at 1500 Hz; the longest report interval, an hour,
+ * is 5.4e6 sets), without 64-bit arithmetic. */
+uint32_t fmt_mean(uint32_t n, uint32_t lo, uint8_t hi);
+
 #endif /* FMT_H */

@@ -117,6 +117,9 @@ static void put_key_u32(const char *key_P, uint32_t v)
   proto_u32(v);
 }
 
+/* The boot line's and the header's (one copy in flash). */
+static const char reset_key_P[] PROGMEM = ",reset=";
+
 static void put_causes(void)
 {
   uint8_t bit, any = 0;
@@ -150,7 +153,7 @@ uint8_t report_boot_step(uint8_t step)
   } else if (step <= 3) {
     step_identity((uint8_t)(step - 1));
   } else if (step == 4) {
-    proto_puts_P(PSTR(",reset="));
+    proto_puts_P(reset_key_P);
   } else if (step == 5) {
     put_causes();
   } else {
@@ -163,22 +166,16 @@ uint8_t report_boot_step(uint8_t step)
 /* `<mean>:<min>:<max>` of the temperature over the report's interval, in
  * one step (at most 16 characters: `1023.0:1023:1023`), so that no sample
  * can come between the mean and the extremes; `-` when the interval holds
- * no sample.  The mean to one decimal without overflowing 32 bits.  The
- * next report's interval starts here. */
+ * no sample.  The mean to one decimal (fmt_mean: exact over the longest
+ * interval).  The next report's interval starts here. */
 static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
   if (n) {
-    uint32_t q = sample_stats.temp_sum / n;
-    uint32_t r = sample_stats.temp_sum % n;
-    uint32_t tenth = (r * 10u + n / 2u) / n;
-    if (tenth == 10) {
-      q++;
-      tenth = 0;
-    }
-    proto_u32(q);
+    uint32_t mean = fmt_mean(n, sample_stats.temp_sum, sample_stats.temp_sum_hi);
+    proto_u32((uint16_t)mean);
     proto_putc('.');
-    proto_u32(tenth);
+    proto_putc((char)('0' + (uint8_t)(mean >> 16)));
     put_key_u32(PSTR(":"), sample_stats.temp_min);
     put_key_u32(PSTR(":"), sample_stats.temp_max);
   } else {
@@ -186,6 +183,10 @@ static __attribute__((noinline)) void put_temp(void)
   }
   sample_interval_restart();
 }
+
+/* config.h's numbers as text (plain integer literals there). */
+#define REP_STR_(x) #x
+#define REP_STR(x) REP_STR_(x)
 
 static __attribute__((noinline)) uint8_t step_header(uint8_t step)
 {
@@ -203,8 +204,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
   } else if (step == 7) {
     put_key_u32(PSTR(",fs="), adc_rate());
   } else if (step == 8) {
-    put_key_u32(PSTR(",levels="), ALLAN_LEVELS);
-    put_key_u32(PSTR(",acc48="), ALLAN_ACC48_FROM);
+    proto_puts_P(PSTR(",levels=" REP_STR(ALLAN_LEVELS) ",acc48=" REP_STR(ALLAN_ACC48_FROM)));
   } else if (step == 9) {
     put_key_u32(PSTR(",n="), sample_engine.n);
   } else if (step == 10) {
@@ -231,7 +231,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
     proto_puts_P(PSTR(",cfg="));
   } else if (step == temp + 4) {
     proto_puts_P(vocab_word(vocab_sources, settings_source));
-    proto_puts_P(PSTR(",reset="));
+    proto_puts_P(reset_key_P);
   } else if (step == temp + 5) {
     put_causes();
   } else {
@@ -371,11 +371,13 @@ static __attribute__((noinline)) uint8_t step_check(uint8_t step)
  * among those with pairs (levels 0 up to some level have them). */
 static uint8_t terms_n_level(void)
 {
-  uint16_t fs = adc_rate();
+  uint16_t fs = adc_rate(), p = 1;
   uint8_t l = 0;
-  while ((2u << l) <= fs)
-    l++; /* 2^l <= fs < 2^(l+1) */
-  if (fs - (1u << l) > (2u << l) - fs)
+  while (2u * p <= fs) { /* p = 2^l <= fs < 2^(l+1) */
+    p *= 2u;
+    l++;
+  }
+  if ((uint16_t)(fs - p) > (uint16_t)(2u * p - fs))
     l++;
   while (l && !pairs_at(l))
     l--;

@@ -9,6 +9,24 @@
 allan_t sample_engine;
 sample_stats_t sample_stats;
 
+/* The temperature's 40-bit sum: 32 bits and a byte for the carry. */
+static inline __attribute__((always_inline)) void temp_add(uint16_t code)
+{
+#ifdef __AVR__
+  uint32_t sum = sample_stats.temp_sum;
+  uint8_t hi = sample_stats.temp_sum_hi;
+  __asm__("add %A[s], %A[c]\n\tadc %B[s], %B[c]\n\tadc %C[s], __zero_reg__\n\t"
+          "adc %D[s], __zero_reg__\n\tadc %[h], __zero_reg__"
+          : [s] "+r"(sum), [h] "+r"(hi)
+          : [c] "r"(code));
+  sample_stats.temp_sum = sum;
+  sample_stats.temp_sum_hi = hi;
+#else
+  if ((sample_stats.temp_sum += code) < code)
+    sample_stats.temp_sum_hi++;
+#endif
+}
+
 void sample_feed(void)
 {
   /* In raw and binary modes a set stays in the ring until its row or frame
@@ -41,7 +59,7 @@ void sample_feed(void)
             cmdline_poll();
         }
       } else {
-        sample_stats.temp_sum += code;
+        temp_add(code);
         if (code < sample_stats.temp_min)
           sample_stats.temp_min = code;
         if (code > sample_stats.temp_max)
@@ -68,6 +86,7 @@ void sample_interval_restart(void)
 {
   sample_stats.since_report = 0;
   sample_stats.temp_sum = 0;
+  sample_stats.temp_sum_hi = 0;
   sample_stats.temp_min = 0xFFFF;
   sample_stats.temp_max = 0;
 }

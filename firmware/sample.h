@@ -13,7 +13,8 @@
 typedef struct {
   uint16_t clips[ADC_COLUMNS]; /* codes at 0 or 1023 since the last reset (saturating) */
   uint32_t since_report;       /* sample sets in the current report interval */
-  uint32_t temp_sum;           /* temperature over the current report interval */
+  uint32_t temp_sum;           /* temperature over the current report interval: */
+  uint8_t temp_sum_hi;         /* its bits 32..39 (an hour at 1500 Hz of codes up to 1023: 5.5e9) */
   uint16_t temp_min, temp_max;
 } sample_stats_t;
 

@@ -23,7 +23,8 @@
 settings_t settings;
 uint8_t settings_source;
 
-static uint8_t save_pos = 0xFF; /* next record byte to write; 0xFF: idle */
+/* Record bytes still to write; 0: idle (in .bss: no .data to copy at boot). */
+static uint8_t save_left;
 
 /* Byte i of the record for the current settings (crc: of bytes 0..7). */
 static uint8_t record_byte(uint8_t i, uint16_t crc)
@@ -35,12 +36,13 @@ static uint8_t record_byte(uint8_t i, uint16_t crc)
   return i == sizeof(settings_t) + 1u ? (uint8_t)(crc >> 8) : (uint8_t)crc;
 }
 
-static uint16_t record_crc(void)
+/* The CRC of a record's first bytes: its version and settings s. */
+static uint16_t record_crc(uint8_t version, const settings_t *s)
 {
-  uint16_t crc = CRC16_MODBUS_INIT;
+  uint16_t crc = crc16_modbus_update(CRC16_MODBUS_INIT, version);
   uint8_t i;
-  for (i = 0; i <= sizeof(settings_t); i++)
-    crc = crc16_modbus_update(crc, record_byte(i, 0));
+  for (i = 0; i < sizeof(settings_t); i++)
+    crc = crc16_modbus_update(crc, ((const uint8_t *)s)[i]);
   return crc;
 }
 
@@ -64,17 +66,16 @@ void settings_defaults(void)
 uint8_t settings_load(void)
 {
   uint8_t rec[RECORD_BYTES], i, blank = 1;
-  uint16_t crc = 0xFFFF;
+  uint16_t crc;
   settings_t s;
 
   eeprom_read_block(rec, (const void *)0, RECORD_BYTES);
   for (i = 0; i < RECORD_BYTES; i++)
     if (rec[i] != 0xFF)
       blank = 0;
-  for (i = 0; i < RECORD_BYTES - 2u; i++)
-    crc = crc16_modbus_update(crc, rec[i]);
   for (i = 0; i < sizeof s; i++)
     ((uint8_t *)&s)[i] = rec[1 + i];
+  crc = record_crc(rec[0], &s);
   settings_defaults();
   if (blank) {
     settings_source = CFG_BLANK;
@@ -92,26 +93,25 @@ uint8_t settings_load(void)
 
 void settings_save(void)
 {
-  save_pos = 0;
+  save_left = RECORD_BYTES;
 }
 
 uint8_t settings_saving(void)
 {
-  return save_pos != 0xFF;
+  return save_left != 0;
 }
 
 uint8_t settings_poll(void)
 {
-  if (save_pos == 0xFF || !eeprom_is_ready())
+  uint8_t pos = (uint8_t)(RECORD_BYTES - save_left);
+  if (!save_left || !eeprom_is_ready())
     return 0;
   /* update: a byte already holding its value is not rewritten (wear). */
   /* The CRC is worked out again for each byte rather than kept: RAM is
    * scarcer than the few hundred cycles this costs. */
-  eeprom_update_byte((uint8_t *)(uintptr_t)save_pos,
-                     record_byte(save_pos, save_pos > sizeof(settings_t) ? record_crc() : 0));
-  if (++save_pos < RECORD_BYTES)
+  eeprom_update_byte((uint8_t *)(uintptr_t)pos, record_byte(pos, pos > sizeof(settings_t) ? record_crc(SETTINGS_VERSION, &settings) : 0));
+  if (--save_left)
     return 0;
-  save_pos = 0xFF;
   settings_source = CFG_SAVED;
   return 1;
 }

@@ -42,7 +42,9 @@ static volatile uint8_t tx_buf[UART_TX_SIZE];
 static volatile uint8_t tx_head, tx_tail;
 static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
-static volatile uint8_t rx_gap = 0xFF; /* ring index where bytes went missing; 0xFF: none */
+/* Where bytes went missing: the ring index | UART_RX_SIZE; 0: none (so it
+ * starts in .bss: no .data to copy at boot). */
+static volatile uint8_t rx_gap;
 
 static uint8_t tx_next(uint8_t i)
 {
@@ -86,8 +88,8 @@ int16_t uart_read(void)
   int16_t gap = 0;
   if (rx_head == t)
     return -1;
-  if (t == rx_gap) { /* bytes were lost just before this one */
-    rx_gap = 0xFF;
+  if ((t | UART_RX_SIZE) == rx_gap) { /* bytes were lost just before this one */
+    rx_gap = 0;
     gap = UART_READ_GAP;
   }
   c = rx_buf[t];
@@ -115,8 +117,8 @@ ISR(USART_RX_vect)
   uint8_t c = UDR0;
   uint8_t next = (uint8_t)((rx_head + 1u) & (UART_RX_SIZE - 1u));
   if (next == rx_tail) {
-    if (rx_gap == 0xFF)
-      rx_gap = rx_head; /* the next byte stored there follows a gap */
+    if (!rx_gap)
+      rx_gap = (uint8_t)(rx_head | UART_RX_SIZE); /* the next byte stored there follows a gap */
     return;
   }
   rx_buf[rx_head] = c;

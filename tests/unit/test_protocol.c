@@ -245,6 +245,42 @@ static void test_units_scale_matches_float_on_random_reports(void)
   }
 }
 
+/* fmt_mean against 64-bit arithmetic: (10 sum + n / 2) / n tenths. */
+static uint32_t mean_ref(uint64_t sum, uint32_t n)
+{
+  uint64_t t = (10u * sum + n / 2u) / n;
+  return (uint32_t)(t / 10u) | (uint32_t)(t % 10u) << 16;
+}
+
+static uint32_t mean_of(uint64_t sum, uint32_t n)
+{
+  return fmt_mean(n, (uint32_t)sum, (uint8_t)(sum >> 32));
+}
+
+#define MEAN(whole, tenth) ((uint32_t)(whole) | (uint32_t)(tenth) << 16)
+
+/* The report header's temperature mean over the longest interval (3600 s
+ * at 1500 Hz: 5.4e6 sets of codes up to 1023, a sum of 5.5e9 > 2^32), at
+ * its extremes and its rounding edges, and on random sums. */
+static void test_fmt_mean_is_exact_over_an_hour_at_1500_hz(void)
+{
+  const uint32_t n = 3600u * 1500u;
+  char msg[80];
+  TEST_ASSERT_TRUE((uint64_t)1023u * n > 0xFFFFFFFFull);
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1023, 0), mean_of((uint64_t)1023u * n, n));
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1022, 9), mean_of((uint64_t)1023u * n - n / 20u - 1u, n)); /* just under 1022.95 */
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1023, 0), mean_of((uint64_t)1023u * n - n / 20u, n));      /* 1022.95 */
+  TEST_ASSERT_EQUAL_HEX32(MEAN(512, 5), mean_of((uint64_t)512u * n + n / 2u, n));
+  TEST_ASSERT_EQUAL_HEX32(MEAN(0, 0), mean_of(0, n));
+  TEST_ASSERT_EQUAL_HEX32(MEAN(7, 0), mean_of(7, 1));
+  for (int i = 0; i < 200000; i++) {
+    uint32_t m = 1u + (uint32_t)(next() % (i & 1 ? n : (1u << 28) - 1u));
+    uint64_t sum = next() % ((uint64_t)1023u * m + 1u);
+    snprintf(msg, sizeof msg, "sum %llu n %lu", (unsigned long long)sum, (unsigned long)m);
+    TEST_ASSERT_EQUAL_HEX32_MESSAGE(mean_ref(sum, m), mean_of(sum, m), msg);
+  }
+}
+
 static void test_fmt_tau_every_level_and_rate(void)
 {
   static const uint16_t rates[] = {50, 100, 200, 250, 500, 1000, 1250, 1500};
@@ -471,6 +507,7 @@ int main(void)
   RUN_TEST(test_fmt_u32_and_hex_match_snprintf);
   RUN_TEST(test_fmt_adev_three_significant_digits);
   RUN_TEST(test_units_scale_matches_float_on_random_reports);
+  RUN_TEST(test_fmt_mean_is_exact_over_an_hour_at_1500_hz);
   RUN_TEST(test_fmt_tau_every_level_and_rate);
   RUN_TEST(test_proto_frames_a_line_with_its_crc);
   RUN_TEST(test_proto_never_lets_framing_characters_into_a_body);
