@@ -487,9 +487,20 @@ void allan_settle_level(allan_t *a, uint8_t level)
 
 void allan_settle(allan_t *a)
 {
-  lag_settle(a);
-  while (a->pend)
-    settle(a, lowest_pending(a->pend));
+  while (allan_settle_some(a))
+    ;
+}
+
+uint8_t allan_settle_some(allan_t *a)
+{
+  if (a->depth & ALLAN_LAGGING) {
+    lag_catch_up(a);
+    return 1;
+  }
+  if (!a->pend)
+    return 0;
+  settle(a, lowest_pending(a->pend));
+  return 1;
 }
 
 void allan_acc(allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo)

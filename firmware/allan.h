@@ -153,4 +153,9 @@ void allan_acc(allan_t *a, uint8_t ch, uint8_t level, uint16_t *hi, uint32_t *lo
 void allan_settle_level(allan_t *a, uint8_t level);
 void allan_settle(allan_t *a);
 
+/* One piece of that work (the lagging channels, or the lowest waiting
+ * level): 1 if there was one, 0 once nothing waits.  For a caller that
+ * must give the sampling loop the CPU between pieces (the report). */
+uint8_t allan_settle_some(allan_t *a);
+
 #endif /* ALLAN_H */
