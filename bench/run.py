@@ -52,9 +52,12 @@ def sizes() -> dict:
             "ram_static_bytes": data + sec.get(".bss", 0) + sec.get(".noinit", 0)}
 
 
-def simulate(tmp: Path, name: str, rows: Path, fs: int, uart: str | None = None) -> dict:
+def simulate(tmp: Path, name: str, rows: Path, fs: int, uart: str | None = None,
+             tolerate: bool = False) -> dict:
     """One run of the real ELF in simavr; its --stats, plus whether the
-    device's final report agrees exactly with the float64 reference."""
+    device's final report agrees exactly with the float64 reference.
+    ``tolerate``: a run that failed (e.g. its final report never came: a
+    dropped set) is a result, not an error, when its stats were written."""
     log, stats = tmp / f"{name}.log", tmp / f"{name}.json"
     cmd = [str(SIM), "--adc", str(rows), "--fs", str(fs), "-o", str(log), "--stats-json", str(stats)]
     if uart:
@@ -62,10 +65,12 @@ def simulate(tmp: Path, name: str, rows: Path, fs: int, uart: str | None = None)
         u.write_text(uart)
         cmd += ["--uart-in", str(u)]
     proc = run(cmd + [str(ELF)])
-    if proc.returncode:
+    if proc.returncode and not (tolerate and stats.exists()):
         raise SystemExit(f"bench: imu-sim failed on {name}: {proc.stderr.strip()}")
     s = json.loads(stats.read_text())
-    s["exact"] = imu_allan("check", str(log), str(rows)).returncode == 0
+    s["exact"] = proc.returncode == 0 and imu_allan("check", str(log), str(rows)).returncode == 0
+    if proc.returncode:
+        s["sim_error"] = proc.stderr.strip()[-200:]
     return s
 
 
@@ -128,12 +133,14 @@ def device(tmp: Path, quick: bool) -> dict:
     # (2^16 sets each, reports streaming); every run's worst set counts.
     best, per_rate, first_bad, runs = 0, {}, None, []
     for fs in RATES:
-        s = fast if fs == 1000 else simulate(tmp, f"rate{fs}", gen(tmp, f"r{fs}", n16, fs, seed=fs), fs, uart)
+        s = fast if fs == 1000 else simulate(tmp, f"rate{fs}", gen(tmp, f"r{fs}", n16, fs, seed=fs), fs, uart,
+                                                  tolerate=True)
         runs.append(s)
         per_rate[fs] = {"drops": s["device_drops"], "exact": s["exact"], "sets": s["device_n"],
                         "sample_cycles_max": s["sample_cycles_max"],
-                        "period_cycles": s["f_cpu"] // fs, "cpu_busy_fraction": s["cpu_busy_fraction"]}
-        if s["device_drops"] != 0 or not s["exact"]:
+                        "period_cycles": s["f_cpu"] // fs, "cpu_busy_fraction": s["cpu_busy_fraction"],
+                        **({"sim_error": s["sim_error"]} if "sim_error" in s else {})}
+        if s.get("device_drops") != 0 or not s["exact"]:
             first_bad = fs
             break
         best = fs
