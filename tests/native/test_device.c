@@ -263,18 +263,9 @@ static unsigned ref_crc16_modbus_more(unsigned reg, const uint8_t *p, size_t n)
 
 static unsigned ref_crc16_modbus(const uint8_t *p, size_t n)
 {
-  /* CRC-16/MODBUS (avr-libc's _crc16_update from 0xFFFF), MSB-first on
-   * bit-reversed data: an independent formulation of the same code. */
-  unsigned reg = 0xFFFF, out = 0;
-  for (size_t i = 0; i < n; i++)
-    for (int b = 0; b < 8; b++) {
-      unsigned in = (p[i] >> b) & 1u, low = reg & 1u;
-      reg >>= 1;
-      if (low ^ in)
-        reg ^= 0xA001;
-    }
-  out = reg;
-  return out;
+  /* CRC-16/MODBUS from its definition (reflected 0xA001 from 0xFFFF, a bit
+   * at a time), independent of firmware/crc.c's byte-wise update. */
+  return ref_crc16_modbus_more(0xFFFF, p, n);
 }
 
 static void test_save_writes_a_checked_record_and_load_restores_it(void)

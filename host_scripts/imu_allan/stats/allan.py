@@ -126,26 +126,26 @@ def oavar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple
     Octave grids (every m a power of two) take the cache-blocked cascade of
     kernels.octave_oavar_sums; other grids the compiled phase kernel
     (kernels.any_m_sums) or, without it, the partial sums X."""
-    m_a = np.asarray(list(ms), dtype=np.int64)
-    if _octaves(m_a):
-        return _octave(x, m_a, octave_oavar_sums)
-    r = _any_m(x, m_a, overlapping=True)
-    if r is not None:
-        return r
-    return _second_diff(_prepare(x), m_a, overlapping=True, progress=progress)
+    return _avar_on_grid(x, ms, True, progress)
 
 
 def avar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[np.ndarray, np.ndarray]:
     """Non-overlapping AVAR (floor(n/m) - 1 pairs) at each m; returns (avar, pairs).
 
     Octave grids take the chunked pair-sum cascade of kernels.octave_avar_sums."""
+    return _avar_on_grid(x, ms, False, progress)
+
+
+def _avar_on_grid(x: ArrayLike, ms: Iterable[int], overlapping: bool,
+                  progress: ProgressFn) -> tuple[np.ndarray, np.ndarray]:
+    """The one path of oavar and avar: octave cascade, compiled any-m, or partial sums."""
     m_a = np.asarray(list(ms), dtype=np.int64)
     if _octaves(m_a):
-        return _octave(x, m_a, octave_avar_sums)
-    r = _any_m(x, m_a, overlapping=False)
+        return _octave(x, m_a, octave_oavar_sums if overlapping else octave_avar_sums)
+    r = _any_m(x, m_a, overlapping=overlapping)
     if r is not None:
         return r
-    return _second_diff(_prepare(x), m_a, overlapping=False, progress=progress)
+    return _second_diff(_prepare(x), m_a, overlapping=overlapping, progress=progress)
 
 
 def _one_channel(x: ArrayLike) -> np.ndarray:
