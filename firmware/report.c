@@ -30,7 +30,9 @@ static struct {
   uint8_t part, ch, level;
   uint16_t seq;   /* of the report being written; +1 when one starts */
   uint8_t run_id; /* +1 with every new run (report_new_run) */
-  uint8_t reset_cause; /* MCUSR's PORF EXTRF BORF WDRF; bit 7: REP_COUNTS */
+  uint8_t reset_cause; /* MCUSR's PORF EXTRF BORF WDRF */
+  uint8_t counts; /* the units setting as the report began (in its header): a
+                    `units` typed while it is sent takes effect with the next one */
   union {
     struct { /* an L row's snapshot */
       uint8_t flags;
@@ -60,16 +62,11 @@ void report_new_run(void)
   rep.run_id++;
 }
 
-/* The units setting as the report began (in its header): a `units`
- * typed while it is sent takes effect with the next one. */
-#define REP_COUNTS 0x80u
-#define rep_counts() ((int8_t)rep.reset_cause < 0)
+#define rep_counts() (rep.counts)
 
 void report_begin(void)
 {
-  rep.reset_cause &= (uint8_t)~REP_COUNTS;
-  if (settings.counts)
-    rep.reset_cause |= REP_COUNTS;
+  rep.counts = settings.counts;
   rep.part = PART_HEADER;
   rep.ch = 0;
   rep.level = 0;
