@@ -571,9 +571,10 @@ uint8_t report_step(uint8_t step)
    * steps may leave the level waiting again: settle before each of them. */
   if ((rep.part == PART_ROW && step == 0) || rep.part == PART_SUM_ROW)
     allan_settle_level(&sample_engine, rep.level);
-  else if ((rep.part == PART_TERMS || rep.part >= PART_SUM_CAPTION) && allan_settle_some(&sample_engine))
+  else if ((rep.part == PART_TERMS || rep.part == PART_SUM_TERMS) && allan_settle_some(&sample_engine))
     return REPORT_AGAIN; /* the terms read any level: settled a piece a call,
-                            the loop feeds the engine between pieces */
+                            the loop feeds the engine between pieces (the
+                            caption reads only pair counts, E nothing) */
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
