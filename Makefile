@@ -1,9 +1,12 @@
-# imu-allan: the one entry point.
+# imu-allan: the one entry point.  `make help` lists every target.
 #   make deps      install the toolchain, Unity and the host package
 #   make           build the firmware (MCU, F_CPU, BAUD may be overridden)
 #   make test      every test
 #   make demo      the main job, on a synthetic IMU
 #   make clean
+# A target documents itself: `name: prerequisites ## what it does` (a rule
+# whose name is computed starts its text with `name: `), and make help
+# prints it, file by file.
 
 .DEFAULT_GOAL := all
 
@@ -105,11 +108,23 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all help bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
 
-all: firmware
+all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
-firmware: $(HEX)
+# One line per `## ` comment of a rule, in every makefile read (this one and
+# the fragments it includes), grouped by file.
+help: ## this list: every target, one line each
+	@awk 'FNR == 1 { file = FILENAME } \
+	  /^[^\t#=]+:[^=]*## / { \
+	    text = $$0; sub(/^[^#]*## /, "", text); \
+	    name = $$0; sub(/:.*/, "", name); \
+	    if (name ~ /\$$/ && match(text, /^[^ :]+: /)) { \
+	      name = substr(text, 1, RLENGTH - 2); text = substr(text, RLENGTH + 1) } \
+	    if (file != shown) { printf "%s%s:\n", (shown == "" ? "" : "\n"), file; shown = file } \
+	    printf "  %-22s %s\n", name, text }' $(MAKEFILE_LIST)
+
+firmware: $(HEX) ## build the firmware ELF and hex for MCU at F_CPU and BAUD, and check it fits
 
 # The Makefile too: FW_OPT goes into the objects (LTO).
 $(FW_BUILD)/%.o: $(FW_DIR)/%.c VERSION Makefile | $(FW_BUILD)
@@ -127,55 +142,55 @@ $(FW_BUILD):
 
 -include $(FW_OBJ:.o=.d)
 
-version:
+version: ## write the host package's _version.py from VERSION
 	printf '%s\n' '# Generated from the repository'"'"'s VERSION file by `make version` (the Makefile' \
 	  '# also passes it to the firmware as FW_VERSION); tests/test_version.py checks' \
 	  '# that the two agree. Edit VERSION, not this file.' \
 	  '__version__ = "$(VERSION)"' > host_scripts/imu_allan/_version.py
 
-deps:
+deps: ## install the toolchain, Unity, clang-format and the host package with its test extras
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh
 	$(MAKE) --no-print-directory ext
 
 # The compiled Allan kernels (host_scripts/imu_allan/stats/_ckernels.c) built in
 # place beside kernels.py, as `pip install` builds them; rebuilt when the source
 # changes. Optional: without a C compiler the host package uses its numpy path.
-ext:
+ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke
+test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
-other-mcus:
+other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
 	$(MAKE) --no-print-directory firmware MCU=atmega328p
 
-unit:
+unit: ## the firmware's Unity and native tests (cmake, ctest)
 	cmake -S tests/unit -B $(BUILD)/unit -DUNITY_DIR=$(UNITY_DIR) >/dev/null
 	cmake --build $(BUILD)/unit -j 2
 	cd $(BUILD)/unit && ctest --output-on-failure
 
 # The host tests that drive the real firmware in imu-sim (sweep, the report
 # check line) need both built; without them they would skip.
-pytest: firmware $(IMU_SIM) ext
+pytest: firmware $(IMU_SIM) ext ## the host package's tests (host_scripts/tests)
 	cd host_scripts && $(PYTHON) -m pytest -q
 
 # The simulated device on a pseudo-terminal, driven as a user would.
-term-test: firmware $(IMU_SIM)
+term-test: firmware $(IMU_SIM) ## the simulated device on a pseudo-terminal, driven as a user would
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/term
 
 # make flash with the real avrdude against the real optiboot on the simulated
 # board (make sim-board), and the reset causes with and without it.
-flash-test: firmware $(IMU_SIM) bootloader
+flash-test: firmware $(IMU_SIM) bootloader ## make flash with avrdude and optiboot on the simulated board
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/flash
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
-sim-test: firmware $(IMU_SIM)
+sim-test: firmware $(IMU_SIM) ## the firmware ELF in simavr on synthetic streams, checked exactly
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
 
 # ---- benchmark --------------------------------------------------------------
 # Device, simulator and host side by side; writes bench/results.json.
-bench: firmware $(IMU_SIM) ext
+bench: firmware $(IMU_SIM) ext ## device, simulator and host figures side by side into bench/results.json
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)
 
 # ---- demo ------------------------------------------------------------------
@@ -185,7 +200,7 @@ DEMO_DIR := $(BUILD)/demo
 # This checkout's own package, whatever another checkout installed.
 IMU_ALLAN := PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m imu_allan.cli
 
-demo: firmware $(IMU_SIM)
+demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated device, decoded and checked
 	@mkdir -p $(DEMO_DIR)
 	@$(IMU_ALLAN) gen -n 60000 --fs 100 --seed 1 -o $(DEMO_DIR)/imu.tsv
 	@echo "== simulated device: 60000 samples (10 min at 100 Hz) =="
@@ -208,8 +223,8 @@ $(NATIVE_DEMO): tools/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)
 	mkdir -p $(dir $@)
 	$(HOST_CC) $(HOST_CFLAGS) tools/allan_demo.c $(FW_DIR)/allan.c -lm -o $@
 
-demo-native: $(NATIVE_DEMO)
+demo-native: $(NATIVE_DEMO) ## the Allan engine alone, natively, on 2^20 synthetic samples
 	$(NATIVE_DEMO)
 
-clean:
+clean: ## remove the firmware, unit-test and native builds (build/avr-*, unit, host)
 	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/host
