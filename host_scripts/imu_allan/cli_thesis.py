@@ -7,7 +7,24 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, Callable
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+
+SWEEP_DIR = "imu-allan-sweep"
+"""The sweep's directory when neither -o nor --dir names one."""
+
+
+def default_sweep_dir(cwd: Optional[Path] = None) -> Path:
+    """build/imu-allan-sweep of the imu-allan checkout ``cwd`` is in (its root
+    has the Makefile, firmware/vocab.h and host_scripts/), where the build's
+    other outputs go and git ignores them; ./imu-allan-sweep elsewhere."""
+    here = (cwd or Path.cwd()).resolve()
+    for d in (here, *here.parents):
+        if (d / "Makefile").is_file() and (d / "firmware" / "vocab.h").is_file() \
+                and (d / "host_scripts").is_dir():
+            return d / "build" / SWEEP_DIR
+    return here / SWEEP_DIR
 
 
 def _rates(text: str) -> list[float]:
@@ -57,7 +74,7 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
             "sim'), its ADC fed by the continuous sensor model (docs/thesis-questions.md)\n"
             "sampled at the instants the device's ADC samples at each rate, so noise\n"
             "above Fs/2 aliases as on the bench. --port drives a real board.\n\n"
-            "Resumable: each finished rate is saved in DIR/sweep.json (--dir); the\n"
+            "Resumable: each finished rate is saved in DIR/sweep.json (-o/--dir); the\n"
             "same command again continues with the rates still missing."),
         epilog="exit status: 0 success, 2 usage or input error")
     g = p.add_mutually_exclusive_group(required=True)
@@ -67,8 +84,9 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     p.add_argument("--model", metavar="FILE", help="sensor model (JSON) for --sim (default: thesis-like)")
     p.add_argument("--rates", type=_rates, required=True, metavar="LIST", help="rates in Hz, e.g. 50,100,200,250")
     p.add_argument("--seconds", type=_seconds, required=True, metavar="S", help="seconds of samples per rate")
-    p.add_argument("--dir", default="imu-allan-sweep", metavar="DIR",
-                   help="state and device logs (default ./imu-allan-sweep)")
+    p.add_argument("-o", "--dir", dest="dir", metavar="DIR",
+                   help=f"state and device logs (default: build/{SWEEP_DIR} of the imu-allan checkout "
+                        f"the command runs in, else ./{SWEEP_DIR})")
     p.add_argument("--restart", action="store_true", help="discard a saved sweep in DIR")
     p.add_argument("--profile", choices=("counts", "thesis"), default="counts",
                    help="units: counts (default) or thesis (m/s^2, deg/s)")
@@ -125,7 +143,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     cfg = sweep.SweepConfig(source="sim" if args.sim else f"port:{args.port}", rates=args.rates,
                             seconds=args.seconds, profile=args.profile, model=model, seed=args.seed,
                             average=args.average, fit_from=args.fit_from, terms=args.terms)
-    sw = sweep.open_sweep(cfg, args.dir, restart=args.restart)
+    sw = sweep.open_sweep(cfg, args.dir or str(default_sweep_dir()), restart=args.restart)
     measure = (sweep.sim_measure(sw, args.firmware, args.keep_rows) if args.sim
                else sweep.port_measure(sw, args.port, args.baud))
     sweep.run(sw, measure, sweep.say_stderr)
