@@ -108,7 +108,7 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all help facts bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -147,6 +147,14 @@ version: ## write the host package's _version.py from VERSION
 	  '# also passes it to the firmware as FW_VERSION); tests/test_version.py checks' \
 	  '# that the two agree. Edit VERSION, not this file.' \
 	  '__version__ = "$(VERSION)"' > host_scripts/imu_allan/_version.py
+
+# The facts the host shares with the firmware (rates, code range, column
+# order, the protocol's words), read from firmware/ into the host package,
+# which then works installed on its own; its tests fail when the two part.
+FACTS_PY := host_scripts/imu_allan/_firmware_facts.py
+
+facts: ## write the host package's _firmware_facts.py from the firmware's headers and tables
+	$(PYTHON) scripts/firmware_facts.py -o $(FACTS_PY)
 
 deps: ## install the toolchain, Unity, clang-format and the host package with its test extras
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh

@@ -26,9 +26,12 @@ REPO = Path(__file__).resolve().parents[1]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
 ELF = BUILD / "avr-atmega168" / "imu-allan.elf"
 SIM = BUILD / "host" / "imu-sim"
-RATES = [50, 100, 200, 250, 500, 1000, 1250, 1500]  # the offered rates, ascending
 ENV = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
 sys.path.insert(0, str(REPO / "host_scripts"))
+
+from imu_allan.channels import CODE_MAX, RATES_HZ  # noqa: E402  (this checkout's package, from the path above)
+
+RATES = list(RATES_HZ)  # the offered rates, ascending: the firmware's list
 
 
 def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
@@ -87,7 +90,7 @@ def square(tmp: Path, n: int) -> Path:
     """Full-scale steps every 1024 samples: the engine's widest differences."""
     path = tmp / "square.tsv"
     i = np.arange(n)
-    codes = np.where((i >> 10) & 1, 1023, 0)
+    codes = np.where((i >> 10) & 1, CODE_MAX, 0)
     np.savetxt(path, np.column_stack([codes] * 6 + [np.full(n, 63)]), fmt="%d", delimiter="\t")
     return path
 

@@ -57,6 +57,7 @@ def _temp_scale(text: str) -> tuple[float, float]:
 
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
+    from .channels import RATES_HZ
     from .cliargs import _fs, _positive_int, _seconds
     p = sub.add_parser(
         "sweep", help="on-device Allan results at several sample rates; terms against Fs",
@@ -82,7 +83,8 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     g.add_argument("--sim", action="store_true", help="the firmware in the simulator, fed by the sensor model")
     p.add_argument("--baud", type=_positive_int, default=115200, help="with --port (default 115200)")
     p.add_argument("--model", metavar="FILE", help="sensor model (JSON) for --sim (default: thesis-like)")
-    p.add_argument("--rates", type=_rates, required=True, metavar="LIST", help="rates in Hz, e.g. 50,100,200,250")
+    p.add_argument("--rates", type=_rates, required=True, metavar="LIST",
+                   help=f"rates in Hz, e.g. 100,250,1000 (the device offers {', '.join(map(str, RATES_HZ))})")
     p.add_argument("--seconds", type=_seconds, required=True, metavar="S", help="seconds of samples per rate")
     p.add_argument("-o", "--dir", dest="dir", metavar="DIR",
                    help=f"state and device logs (default: build/{SWEEP_DIR} of the imu-allan checkout "
