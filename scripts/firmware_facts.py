@@ -14,9 +14,11 @@ Each fact is looked up by its C name in every firmware/*.h and *.c, so a
 table that moves to another file is still found; a fact that is missing or
 found twice is an error naming it.
 """
+
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import sys
 from pathlib import Path
@@ -52,8 +54,11 @@ def _define_int(sources: dict[str, str], name: str) -> int:
 
 def _word_table(sources: dict[str, str], name: str) -> tuple[str, ...]:
     """A PROGMEM table of NUL-separated words, as vocab_word() walks it."""
-    m = _one(sources, rf"\bconst\s+char\s+{name}\[\]\s+PROGMEM\s*=\s*((?:\s*\"(?:[^\"\\]|\\.)*\")+)\s*;",
-             f"the word table {name}")
+    m = _one(
+        sources,
+        rf"\bconst\s+char\s+{name}\[\]\s+PROGMEM\s*=\s*((?:\s*\"(?:[^\"\\]|\\.)*\")+)\s*;",
+        f"the word table {name}",
+    )
     text = "".join(re.findall(r"\"((?:[^\"\\]|\\.)*)\"", m.group(1)))
     if re.search(r"\\(?!0)", text):
         raise FactError(f"the word table {name}: an escape other than \\0")
@@ -69,14 +74,17 @@ def parse(root: Path) -> dict[str, Any]:
     letters = _word_table(src, "vocab_channels")
     if len(letters) != 1 or len(letters[0]) % 2:
         raise FactError("vocab_channels: not two letters a channel")
-    channels = tuple(letters[0][i:i + 2] for i in range(0, len(letters[0]), 2))
+    channels = tuple(letters[0][i : i + 2] for i in range(0, len(letters[0]), 2))
     if len(channels) != _define_int(src, "ALLAN_CHANNELS"):
         raise FactError("vocab_channels and ALLAN_CHANNELS disagree")
     columns = _define_int(src, "ADC_COLUMNS")
     if columns != len(channels) + 1:
         raise FactError(f"ADC_COLUMNS {columns}: expected the {len(channels)} channels and the temperature")
-    errors = {m.group(1).lower(): int(m.group(2)) for text in src.values()
-              for m in re.finditer(r"^\s*#\s*define\s+CMD_ERR_(\w+)\s+(\d+)", text, re.M)}
+    errors = {
+        m.group(1).lower(): int(m.group(2))
+        for text in src.values()
+        for m in re.finditer(r"^\s*#\s*define\s+CMD_ERR_(\w+)\s+(\d+)", text, re.M)
+    }
     if not errors:
         raise FactError("no #define CMD_ERR_* error codes")
     return {
@@ -103,7 +111,7 @@ DOCS = {
     "CODE_MAX": "Largest ADC code: a 10-bit converter (config.h ALLAN_CODE_MAX).",
     "CHANNELS": "Sensor channels, in the order of every row, report and table (vocab.c vocab_channels).",
     "COLUMNS": "Columns of a sample set (rows files, raw rows, binary frames): the sensors, then the\n"
-               "temperature (adc.h ADC_COLUMNS of them).",
+    "temperature (adc.h ADC_COLUMNS of them).",
     "MODES": "Output modes, in the order of their numbers (vocab.c vocab_modes).",
     "RANGES_G": "Accelerometer ranges in g, in the order of their numbers (vocab.c vocab_ranges).",
     "UNITS": "The `units` setting's words (vocab.c vocab_units).",
@@ -116,20 +124,45 @@ DOCS = {
 }
 
 
+def _literal(name: str, value: Any) -> str:
+    """``name = value`` as ruff format writes it: double quotes, and a
+    collection too long for one line of 120 one item a line."""
+
+    def one(v: Any) -> str:
+        return json.dumps(v) if isinstance(v, str) else repr(v)
+
+    if isinstance(value, dict):
+        items, ends = [f"{one(k)}: {one(v)}" for k, v in value.items()], "{}"
+    elif isinstance(value, tuple):
+        items, ends = [one(v) for v in value], "()"
+    else:
+        return f"{name} = {one(value)}"
+    line = f"{name} = {ends[0]}{', '.join(items)}{',' if len(items) == 1 and ends == '()' else ''}{ends[1]}"
+    if len(line) <= 120:
+        return line
+    return "\n".join([f"{name} = {ends[0]}", *(f"    {i}," for i in items), ends[1]])
+
+
 def render(facts: dict[str, Any]) -> str:
-    out = ['"""The facts the host shares with the firmware, generated from firmware/ by',
-           "`make facts` (scripts/firmware_facts.py); tests/test_firmware_facts.py fails",
-           'when the firmware and this file part.  Edit the firmware, not this file."""',
-           ""]
+    out = [
+        '"""The facts the host shares with the firmware, generated from firmware/ by',
+        "`make facts` (scripts/firmware_facts.py); tests/test_firmware_facts.py fails",
+        'when the firmware and this file part.  Edit the firmware, not this file."""',
+        "",
+    ]
     for name, value in facts.items():
-        out += [f"{name} = {value!r}", f'"""{DOCS[name]}"""', ""]
+        out += [_literal(name, value), f'"""{DOCS[name]}"""', ""]
     return "\n".join(out[:-1]) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="the host's copy of the firmware's facts")
-    ap.add_argument("root", nargs="?", default=str(Path(__file__).resolve().parents[1]),
-                    help="the repository (default: this script's)")
+    ap.add_argument(
+        "root",
+        nargs="?",
+        default=str(Path(__file__).resolve().parents[1]),
+        help="the repository (default: this script's)",
+    )
     ap.add_argument("-o", "--output", metavar="FILE", help="write the module there (default: stdout)")
     args = ap.parse_args(argv)
     try:

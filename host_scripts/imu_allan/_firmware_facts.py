@@ -11,32 +11,48 @@ RATES_HZ = (50, 100, 200, 250, 500, 1000, 1250, 1500)
 CODE_MAX = 1023
 """Largest ADC code: a 10-bit converter (config.h ALLAN_CODE_MAX)."""
 
-CHANNELS = ('ax', 'ay', 'az', 'gx', 'gy', 'gz')
+CHANNELS = ("ax", "ay", "az", "gx", "gy", "gz")
 """Sensor channels, in the order of every row, report and table (vocab.c vocab_channels)."""
 
-COLUMNS = ('ax', 'ay', 'az', 'gx', 'gy', 'gz', 'temp')
+COLUMNS = ("ax", "ay", "az", "gx", "gy", "gz", "temp")
 """Columns of a sample set (rows files, raw rows, binary frames): the sensors, then the
 temperature (adc.h ADC_COLUMNS of them)."""
 
-MODES = ('allan', 'raw', 'binary', 'both')
+MODES = ("allan", "raw", "binary", "both")
 """Output modes, in the order of their numbers (vocab.c vocab_modes)."""
 
-RANGES_G = ('1.5', '2', '4', '6')
+RANGES_G = ("1.5", "2", "4", "6")
 """Accelerometer ranges in g, in the order of their numbers (vocab.c vocab_ranges)."""
 
-UNITS = ('phys', 'counts')
+UNITS = ("phys", "counts")
 """The `units` setting's words (vocab.c vocab_units)."""
 
-CONFIG_SOURCES = ('saved', 'blank', 'corrupt', 'defaults', 'infeasible')
+CONFIG_SOURCES = ("saved", "blank", "corrupt", "defaults", "infeasible")
 """Where the settings in force came from, `cfg=` (vocab.c vocab_sources)."""
 
-RESET_CAUSES = ('por', 'ext', 'bor', 'wdt')
+RESET_CAUSES = ("por", "ext", "bor", "wdt")
 """Reset causes, `reset=`, MCUSR's PORF EXTRF BORF WDRF (vocab.c vocab_causes)."""
 
-COMMANDS = ('report', 'reset', 'stop', 'start', 'rate', 'status', 'help', 'interval', 'mode', 'range', 'save', 'load', 'defaults', 'echo', 'units')
+COMMANDS = (
+    "report",
+    "reset",
+    "stop",
+    "start",
+    "rate",
+    "status",
+    "help",
+    "interval",
+    "mode",
+    "range",
+    "save",
+    "load",
+    "defaults",
+    "echo",
+    "units",
+)
 """Command words the device accepts (the firmware's cmd_words table)."""
 
-ERROR_CODES = {'unknown': 1, 'arg': 2, 'long': 3, 'state': 4, 'lost': 5, 'byte': 6}
+ERROR_CODES = {"unknown": 1, "arg": 2, "long": 3, "state": 4, "lost": 5, "byte": 6}
 """`error:N` codes of a reply, by cause (the firmware's CMD_ERR_*)."""
 
 INTERVAL_MAX_S = 3600

@@ -10,7 +10,6 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, Optional
 
-
 SWEEP_DIR = "imu-allan-sweep"
 """The sweep's directory when neither -o nor --dir names one."""
 
@@ -171,8 +170,8 @@ def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespa
 def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
     from .errors import InputError
-    from .stats.gen import PARAMS
     from .sensor import load_model, write_rows
+    from .stats.gen import PARAMS
     given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
     if args.kind != "noise" or args.json_params:
         given.append("--kind" if args.kind != "noise" else "--json-params")
@@ -187,9 +186,10 @@ def sim_from_model(args: argparse.Namespace) -> int:
     sampled at the instants the device samples at --fs (default 100 Hz)."""
     import os
     import tempfile
+
+    from .device.simrun import run, sim_command
     from .errors import InputError
     from .sensor import load_model, write_rows
-    from .device.simrun import run, sim_command
     if args.adc and args.model:
         raise InputError("--adc and --model: give one")
     if not args.model:

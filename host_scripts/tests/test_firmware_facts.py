@@ -3,6 +3,7 @@ the code range, the column order, the protocol's words.  The firmware's
 sources are the home; imu_allan/_firmware_facts.py is the host's copy,
 written by `make facts` (scripts/firmware_facts.py).  These tests fail when
 the two part, and when a host module keeps a copy of its own."""
+
 from __future__ import annotations
 
 import importlib.util
@@ -34,8 +35,9 @@ def _generator() -> ModuleType:
 def test_the_host_copy_is_what_the_firmware_says() -> None:
     gen = _generator()
     fresh = gen.render(gen.parse(ROOT))
-    assert (HOST / "imu_allan" / "_firmware_facts.py").read_text() == fresh, \
+    assert (HOST / "imu_allan" / "_firmware_facts.py").read_text() == fresh, (
         "firmware/ and imu_allan/_firmware_facts.py part: run `make facts`"
+    )
 
 
 def test_the_firmware_values_read_independently() -> None:
@@ -49,7 +51,7 @@ def test_the_firmware_values_read_independently() -> None:
     assert '"' + "\\0".join(facts.MODES) + '"' in vocab_c
     config_h = (ROOT / "firmware" / "config.h").read_text()
     assert re.search(rf"#define ALLAN_CODE_MAX {facts.CODE_MAX}u\b", config_h)
-    assert facts.CODE_MAX == 2 ** 10 - 1 and len(facts.COLUMNS) == 7
+    assert facts.CODE_MAX == 2**10 - 1 and len(facts.COLUMNS) == 7
 
 
 def test_a_changed_rate_list_changes_the_host_copy(tmp_path: Path) -> None:
@@ -76,6 +78,9 @@ def test_no_other_copy_of_the_rate_list_in_the_host_or_the_bench() -> None:
     """A literal list of the rates anywhere else would drift from the firmware's."""
     listed = r"\b" + r"\s*,\s*".join(str(r) for r in facts.RATES_HZ[:4]) + r"\b"
     places = list((HOST / "imu_allan").rglob("*.py")) + list((ROOT / "bench").glob("*.py"))
-    copies = [str(p.relative_to(ROOT if ROOT in p.parents else HOST)) for p in places
-              if p.name != "_firmware_facts.py" and p.is_file() and re.search(listed, p.read_text())]
+    copies = [
+        str(p.relative_to(ROOT if ROOT in p.parents else HOST))
+        for p in places
+        if p.name != "_firmware_facts.py" and p.is_file() and re.search(listed, p.read_text())
+    ]
     assert not copies, f"a copy of the rate list in {copies}: import it from imu_allan.channels"

@@ -14,7 +14,6 @@ from typing import Callable, Iterator
 
 import numpy as np
 import pytest
-
 from conftest import bin_frame, line, random_codes, raw_row, report_lines, thesis_like
 
 BOOT = line("B,proto=1,fw=0.2.0,mcu=atmega168,reset=por")

@@ -1,6 +1,7 @@
 """`make help` lists every target of the Makefile and the fragments it
 includes, one line each, from the `## ` comment on the target's own rule: a
 target without one is a target a newcomer cannot find."""
+
 from __future__ import annotations
 
 import re
@@ -32,8 +33,9 @@ def _phony_targets() -> set[str]:
 def _help_lines() -> dict[str, str]:
     if shutil.which("make") is None:
         pytest.skip("no make on this machine")
-    out = subprocess.run(["make", "-s", "--no-print-directory", "help"], cwd=ROOT,
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        ["make", "-s", "--no-print-directory", "help"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout
     listed: dict[str, str] = {}
     for line in out.splitlines():
         if line.startswith("  "):

@@ -3,6 +3,7 @@ otherwise build/imu-allan-sweep of the imu-allan checkout it runs in (with the
 build's other outputs, which git ignores), and ./imu-allan-sweep elsewhere.
 A sweep makes its directory before it opens the device, so a port that does
 not exist shows where it went without any device."""
+
 from __future__ import annotations
 
 import os
@@ -15,9 +16,26 @@ HOST = Path(__file__).resolve().parents[1]
 
 def _sweep(cwd: Path, *extra: str) -> subprocess.CompletedProcess[str]:
     env = dict(os.environ, PYTHONPATH=str(HOST))
-    return subprocess.run([sys.executable, "-m", "imu_allan.cli", "sweep", "--port", str(cwd / "no-such-port"),
-                           "--rates", "100", "--seconds", "1", *extra],
-                          cwd=cwd, env=env, capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "imu_allan.cli",
+            "sweep",
+            "--port",
+            str(cwd / "no-such-port"),
+            "--rates",
+            "100",
+            "--seconds",
+            "1",
+            *extra,
+        ],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def _checkout(root: Path) -> Path:

@@ -9,7 +9,6 @@ from pathlib import Path
 
 from test_sim_term import LINE, SimTerm, built, crc16  # noqa: F401  (built: the fixture)
 
-
 # ---- the terminal conversation (issue 12) ---------------------------------
 
 def _until_quiet(t: SimTerm, quiet_s: float = 0.4) -> bytes:
