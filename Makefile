@@ -108,7 +108,7 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all help facts lint format bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -195,6 +195,28 @@ flash-test: firmware $(IMU_SIM) bootloader ## make flash with avrdude and optibo
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM) ## the firmware ELF in simavr on synthetic streams, checked exactly
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
+
+# ---- lint and format -------------------------------------------------------
+# Python: ruff (ruff.toml: check and format); C: clang-format (.clang-format,
+# refined in sim/ and the host's C kernels); mypy on the host package's public
+# API (host_scripts/pyproject.toml).  `make lint` reports every finding of the
+# four and fails if any; `make format` applies ruff's safe fixes, its
+# formatter and clang-format in place.
+CLANG_FORMAT ?= clang-format
+C_SOURCES = $(shell git ls-files -- '*.c' '*.h' 2>/dev/null || find firmware sim tests tools host_scripts -name build -prune -o -name '*.[ch]' -print)
+
+lint: ## ruff check and ruff format --check (Python), clang-format (C), mypy (host public API)
+	@rc=0; \
+	echo "ruff check"; $(PYTHON) -m ruff check --output-format=concise . || rc=1; \
+	echo "ruff format --check"; $(PYTHON) -m ruff format --check . || rc=1; \
+	echo "clang-format --dry-run"; $(CLANG_FORMAT) --dry-run -Werror $(C_SOURCES) || rc=1; \
+	echo "mypy (host_scripts/pyproject.toml)"; (cd host_scripts && $(PYTHON) -m mypy) || rc=1; \
+	exit $$rc
+
+format: ## apply ruff's safe fixes, ruff format and clang-format to every Python and C file
+	$(PYTHON) -m ruff check --fix --quiet . || true
+	$(PYTHON) -m ruff format .
+	$(CLANG_FORMAT) -i $(C_SOURCES)
 
 # ---- benchmark --------------------------------------------------------------
 # Device, simulator and host side by side; writes bench/results.json.
