@@ -4,7 +4,7 @@
 Every figure is measured in this run (nothing is copied): sizes from
 avr-size, cycles and stack from the real firmware ELF inside simavr
 (imu-sim --stats, probe pins PB0/PB1/PB2), host speed against allantools in
-this process.  Prints a table with the issue's targets and writes
+this process.  Prints a table of the figures against their targets and writes
 bench/results.json.  Targets are reported here, never asserted by tests.
 
 Usage: bench/run.py [--quick] [--out FILE]
@@ -361,8 +361,9 @@ def host(tmp: Path, quick: bool) -> dict:
     return r
 
 
-# (figure, comparison, target, unit, how it is measured).  Targets of
-# issue 14 sit beside the earlier ones; results.json carries both.
+# (figure, comparison, target, unit, how it is measured): the device's
+# size, RAM and cycles, the simulator's speed and the host's kernels;
+# results.json carries each figure with its target.
 TARGETS = [
     ("flash_bytes", "<=", 15360, "bytes", "avr-size -A: .text + .data, ATmega168 (a 512-byte bootloader leaves 15360)"),
     ("ram_static_bytes", "<=", None, "bytes", "avr-size -A: .data + .bss + .noinit"),
