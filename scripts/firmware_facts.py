@@ -87,6 +87,11 @@ def parse(root: Path) -> dict[str, Any]:
     }
     if not errors:
         raise FactError("no #define CMD_ERR_* error codes")
+    commands = _word_table(src, "cmd_words")
+    table = _one(src, r"\bconst\s+uint8_t\s+cmd_arg\[\]\s+PROGMEM\s*=\s*\{([^}]*)\}", "the table cmd_arg")
+    kinds = re.findall(r"\bARG_(\w+)", table.group(1))
+    if len(kinds) != len(commands):
+        raise FactError(f"cmd_arg has {len(kinds)} argument kinds for {len(commands)} command words")
     return {
         "PROTO_VERSION": _define_int(src, "PROTO_VERSION"),
         "RATES_HZ": rates_hz,
@@ -96,9 +101,11 @@ def parse(root: Path) -> dict[str, Any]:
         "MODES": _word_table(src, "vocab_modes"),
         "RANGES_G": _word_table(src, "vocab_ranges"),
         "UNITS": _word_table(src, "vocab_units"),
+        "ONOFF": _word_table(src, "vocab_onoff"),
         "CONFIG_SOURCES": _word_table(src, "vocab_sources"),
         "RESET_CAUSES": _word_table(src, "vocab_causes"),
-        "COMMANDS": _word_table(src, "cmd_words"),
+        "COMMANDS": commands,
+        "COMMAND_ARGS": {word: kind.lower() for word, kind in zip(commands, kinds)},
         "ERROR_CODES": dict(sorted(errors.items(), key=lambda kv: kv[1])),
         "INTERVAL_MAX_S": _define_int(src, "VOCAB_INTERVAL_MAX_S"),
         "COMMAND_LINE_MAX": _define_int(src, "COMMAND_LINE_MAX"),
@@ -115,9 +122,12 @@ DOCS = {
     "MODES": "Output modes, in the order of their numbers (vocab.c vocab_modes).",
     "RANGES_G": "Accelerometer ranges in g, in the order of their numbers (vocab.c vocab_ranges).",
     "UNITS": "The `units` setting's words (vocab.c vocab_units).",
+    "ONOFF": "The `echo` setting's words, off and on (vocab.c vocab_onoff).",
     "CONFIG_SOURCES": "Where the settings in force came from, `cfg=` (vocab.c vocab_sources).",
     "RESET_CAUSES": "Reset causes, `reset=`, MCUSR's PORF EXTRF BORF WDRF (vocab.c vocab_causes).",
     "COMMANDS": "Command words the device accepts (the firmware's cmd_words table).",
+    "COMMAND_ARGS": "The argument each command takes (the firmware's cmd_arg table): none, count, rate,\n"
+    "seconds, mode, range, onoff or units.",
     "ERROR_CODES": "`error:N` codes of a reply, by cause (the firmware's CMD_ERR_*).",
     "INTERVAL_MAX_S": "Longest report interval in seconds (vocab.h VOCAB_INTERVAL_MAX_S).",
     "COMMAND_LINE_MAX": "Longest command line the device keeps, in characters (COMMAND_LINE_MAX).",

@@ -27,6 +27,9 @@ RANGES_G = ("1.5", "2", "4", "6")
 UNITS = ("phys", "counts")
 """The `units` setting's words (vocab.c vocab_units)."""
 
+ONOFF = ("off", "on")
+"""The `echo` setting's words, off and on (vocab.c vocab_onoff)."""
+
 CONFIG_SOURCES = ("saved", "blank", "corrupt", "defaults", "infeasible")
 """Where the settings in force came from, `cfg=` (vocab.c vocab_sources)."""
 
@@ -51,6 +54,26 @@ COMMANDS = (
     "units",
 )
 """Command words the device accepts (the firmware's cmd_words table)."""
+
+COMMAND_ARGS = {
+    "report": "none",
+    "reset": "none",
+    "stop": "none",
+    "start": "count",
+    "rate": "rate",
+    "status": "none",
+    "help": "none",
+    "interval": "seconds",
+    "mode": "mode",
+    "range": "range",
+    "save": "none",
+    "load": "none",
+    "defaults": "none",
+    "echo": "onoff",
+    "units": "units",
+}
+"""The argument each command takes (the firmware's cmd_arg table): none, count, rate,
+seconds, mode, range, onoff or units."""
 
 ERROR_CODES = {"unknown": 1, "arg": 2, "long": 3, "state": 4, "lost": 5, "byte": 6}
 """`error:N` codes of a reply, by cause (the firmware's CMD_ERR_*)."""

@@ -329,6 +329,23 @@ def _add_monitor(sub: Any) -> None:
                    help="exit after the first complete report (for scripts)")
 
 
+def _command_synopsis(width: int = 76) -> str:
+    """The device's commands with their arguments, in its own order and words
+    (the firmware's tables, through _firmware_facts), wrapped to ``width``."""
+    from ._firmware_facts import COMMAND_ARGS, MODES, ONOFF, RANGES_G, UNITS
+    arg = {"none": "", "count": " [count]", "rate": " <hz>", "seconds": " <s>",
+           "mode": f" <{'|'.join(MODES)}>", "range": f" <{'|'.join(RANGES_G)}>",
+           "onoff": f" [{'|'.join(ONOFF)}]", "units": f" [{'|'.join(UNITS)}]"}
+    words = [w + arg[kind] for w, kind in COMMAND_ARGS.items()]
+    lines, line = [], "  "
+    for w in words:
+        if len(line) + len(w) + 2 > width:
+            lines.append(line.rstrip())
+            line = "  "
+        line += w + ", "
+    return "\n".join(lines + [line.rstrip(", ") + "."])
+
+
 def _add_cmd(sub: Any) -> None:
     p = sub.add_parser(
         "cmd", help="send one command to the device and print its reply",
@@ -337,9 +354,8 @@ def _add_cmd(sub: Any) -> None:
             "Send WORDS, joined by spaces, as one command line to the device and\n"
             "print its reply ('ok ...' or 'error:<code> <reason>'); whatever else\n"
             "the device sends meanwhile (reports, raw rows, binary frames) is\n"
-            "ignored. Commands (docs/protocol.md): help, status, report, reset,\n"
-            "stop, start [count], rate <hz>, interval <s>, mode <allan|raw|binary|\n"
-            "both>, range <1.5|2|4|6>, save, load, defaults.\n\n"
+            "ignored. Commands (docs/protocol.md):\n"
+            + _command_synopsis() + "\n\n"
             "example: imu-allan cmd --port /dev/ttyUSB0 rate 250"),
         epilog="a line answered 'error:5 input lost' (the device lost some of its bytes and ran "
                "nothing) is sent again, 3 times in all.\n"

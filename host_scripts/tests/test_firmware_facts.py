@@ -6,6 +6,7 @@ the two part, and when a host module keeps a copy of its own."""
 
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import re
 import shutil
@@ -52,6 +53,24 @@ def test_the_firmware_values_read_independently() -> None:
     config_h = (ROOT / "firmware" / "config.h").read_text()
     assert re.search(rf"#define ALLAN_CODE_MAX {facts.CODE_MAX}u\b", config_h)
     assert facts.CODE_MAX == 2**10 - 1 and len(facts.COLUMNS) == 7
+    sources = "".join(p.read_text() for p in (ROOT / "firmware").glob("*.c"))
+    assert '"' + "\\0".join(facts.COMMANDS) + '"' in sources
+    assert list(facts.COMMAND_ARGS) == list(facts.COMMANDS)
+    assert facts.COMMAND_ARGS["rate"] == "rate" and facts.COMMAND_ARGS["save"] == "none"
+
+
+def test_cmd_help_names_every_command_of_the_firmware() -> None:
+    """`imu-allan cmd --help` lists the device's commands from the firmware's table
+    (it once missed `echo` and `units`, added to the firmware after it was written)."""
+    from imu_allan.cliargs import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    text = sub.choices["cmd"].format_help()
+    for word in facts.COMMANDS:
+        assert re.search(rf"\b{word}\b", text), word
+    assert "mode <" + "|".join(facts.MODES) + ">" in text
+    assert "units [" + "|".join(facts.UNITS) + "]" in text
 
 
 def test_a_changed_rate_list_changes_the_host_copy(tmp_path: Path) -> None:
