@@ -368,7 +368,8 @@ TARGETS = [
     ("flash_bytes", "<=", 15360, "bytes", "avr-size -A: .text + .data, ATmega168 (a 512-byte bootloader leaves 15360)"),
     ("ram_static_bytes", "<=", None, "bytes", "avr-size -A: .data + .bss + .noinit"),
     ("stack_free_bytes", ">=", 64, "bytes",
-     "SRAM painted 0xA5 by imu-sim, bytes never touched between .bss and the deepest stack, least over all scenarios"),
+     "SRAM painted 0xA5 by imu-sim, bytes never touched between .bss and the deepest stack, "
+     "least over all scenarios"),
     ("allan_octaves", ">=", 15, "", "levels in the device's report header"),
     ("allan_channels", ">=", 6, "", "channels in the device's report rows"),
     ("cycles_per_sample_mean", "<=", None, "cycles",
@@ -391,7 +392,8 @@ TARGETS = [
      "peak RSS growth / input bytes, own process, allan.oavar octave, 1e7 float64"),
     ("host_stream_1e8_s", "<=", 10, "s",
      "allan.octave_mapped on np.load(mmap_mode='r') of a 1e8 float64 .npy (800 MB) written just before "
-     "(page cache warm, not dropped): overlapping + non-overlapping, every octave exact (stride 1), median of 3 runs"),
+     "(page cache warm, not dropped): overlapping + non-overlapping, every octave exact (stride 1), "
+     "median of 3 runs"),
     ("host_stream_exact_levels", ">=", None, "", "octaves computed at every offset (stride 1), of host_stream_levels"),
     ("host_stream_codes_1e8_s", "<=", 10, "s",
      "as host_stream_1e8_s, 1e8 int16 ADC codes (200 MB .npy): exact integer sums (int64 differences, "
