@@ -56,8 +56,14 @@ def _temp_scale(text: str) -> tuple[float, float]:
 
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
+    _add_sweep(sub)
+    _add_thermal(sub)
+    return {"sweep": cmd_sweep, "thermal": cmd_thermal}
+
+
+def _add_sweep(sub: Any) -> None:
     from .channels import RATES_HZ
-    from .cliargs import _fs, _positive_int, _seconds
+    from .cliargs import _positive_int, _seconds
     p = sub.add_parser(
         "sweep", help="on-device Allan results at several sample rates; terms against Fs",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -104,6 +110,9 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     p.add_argument("--json", action="store_true", help="print JSON: {rates, dependence, ...}")
     p.add_argument("--plot", metavar="DIR", help="write terms-vs-fs.png to DIR")
 
+
+def _add_thermal(sub: Any) -> None:
+    from .cliargs import _fs, _positive_int
     p = sub.add_parser(
         "thermal", help="bias against temperature; noise terms before and after removing it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -129,7 +138,6 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
                    help="N and B in K consecutive segments against their temperature (default 3; 1: off)")
     p.add_argument("--json", action="store_true", help="print JSON: {channels: {gx: {tempco, ...}}}")
     p.add_argument("--plot", metavar="DIR", help="write thermal.png to DIR")
-    return {"sweep": cmd_sweep, "thermal": cmd_thermal}
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
