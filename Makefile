@@ -43,13 +43,12 @@ HEX      := $(FW_BUILD)/imu-allan.hex
 # optiboot's 512 bytes leave; this flag took 100 bytes off (make bench: no
 # drops at any offered rate).
 # -fno-tree-forwprop (for make bench's 15,360-byte flash target): about
-# 130 bytes, most of
-# them in the engine's accumulator reads; measured in imu-sim at 1 kHz, the
-# engine's cycles per channel and the cycles per set do not get worse (they
-# drop a little), the loop's idle passes cost a few cycles more (a 0.6 %
-# larger busy fraction).  -fno-gcse would give 110 bytes more but costs 2
-# bytes of the stack's 64-byte floor (the report's deepest path) and 5 %
-# more CPU at 1 kHz: not used.
+# 130 bytes, most of them in the engine's accumulator reads; measured in
+# imu-sim at 1 kHz, the engine's cycles per channel and the cycles per set
+# do not get worse (they drop a little), the loop's idle passes cost a few
+# cycles more (a 0.6 % larger busy fraction).  -fno-gcse would give 110
+# bytes more but costs 2 bytes of the stack's 64-byte floor (the report's
+# deepest path) and 5 % more CPU at 1 kHz: not used.
 FW_OPT := -Os -flto -mcall-prologues -mrelax -mstrict-X -fno-move-loop-invariants -fno-inline-small-functions \
           -fno-tree-forwprop
 # -fno-gcse also, but only for these modules: about 55 bytes for no cycles
