@@ -441,6 +441,12 @@ def _add_analyze(sub: Any) -> None:
                    help="skip the thesis model's simulation and FIT%% (faster)")
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S",
                    help="random seed of the model simulation (default 1)")
+    p.add_argument("--outliers", choices=("replace", "keep"), default="replace",
+                   help="spikes and bursts (a knock on the bench), found on the sample-to-sample "
+                        "jumps: replace (default; the line between their neighbours, so they stay "
+                        "out of the statistics, and the summary says how much N and B would move) "
+                        "or keep (counted and listed only); a recording that is mostly spikes is "
+                        "refused unless kept")
     p.add_argument("--memory", type=_megabytes, default=1024, metavar="MB",
                    help="samples kept in memory for the non-octave statistics (default 1024 MB); "
                         "larger files are streamed: octave Allan deviations and PSD only")
