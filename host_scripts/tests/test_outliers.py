@@ -270,3 +270,28 @@ def test_outliers_keep_keeps_them_and_n_moves_by_them() -> None:
     assert o["effect"]["N"]["with_outliers"] == n_kept
     assert o["effect"]["N"]["without_outliers"] == pytest.approx(n_repl)
     assert kept["channels"]["gx"]["outliers"]["count"] == 0
+
+
+def test_thermal_finds_a_knock_before_its_regression(tmp_path: Path, run_cli) -> None:
+    """A thermal cycle with a knock in it: one event, replaced before the
+    bias-against-temperature regression, which still holds the true tempco."""
+    from imu_allan import thermal
+    fs, n, t0 = 50.0, 50 * 600, 50 * 350
+    rng = np.random.default_rng(12)
+    temp = np.rint(300 + 20 * np.sin(2 * np.pi * np.arange(n) / (fs * 300)))
+    x = 512 + 2.0 * rng.standard_normal((6, n)) + 0.15 * (temp - 300)
+    t = np.arange(50) / fs
+    x[:, t0:t0 + 50] += 150 * np.exp(-t / 0.25) * np.sin(2 * np.pi * 7 * t + 1)
+    rows = np.vstack([np.rint(x), temp]).T.astype(int)
+    path = write_rows(tmp_path / "cycle.txt", rows)
+    doc = thermal.study(str(path), fs=fs, segments=1)
+    assert doc["outliers"]["mode"] == "replace"
+    assert doc["outliers"]["times_s"] == pytest.approx([t0 / fs], abs=1.5 / fs)
+    assert all(doc["outliers"]["count"][ch] > 0 for ch in CHANNELS)
+    tc = doc["channels"]["gx"]["tempco"]
+    assert tc["low"] <= 0.15 <= tc["high"], tc
+    rc, out, err = run_cli("thermal", path, "--fs", 50, "--segments", 1, "--outliers", "keep", "--json")
+    assert rc == 0, err
+    kept = json.loads(out)
+    assert kept["outliers"]["mode"] == "keep" and kept["outliers"]["count"] == doc["outliers"]["count"]
+    assert any("kept" in note for note in kept["notes"])
