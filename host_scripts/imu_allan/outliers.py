@@ -24,13 +24,13 @@ in process modeling and identification", IEEE Trans. Control Syst. Technol.
    difference (design: at most 1e-10); the threshold is set that high by real
    sensors, not by the Gaussian: quantized MEMS noise has heavier tails (the
    ADIS16405's y accelerometer, kurtosis 3.9, reaches 9.4 s in 1e6 samples,
-   isolated single-code blips that are its noise, not disturbances). A spike
-   that escapes it (below 12 s) moves the variance at tau0 by at most
-   2 * 144 / n per spike: 100 of them in 1e6 samples, 3 % at tau0, < 1.5 % on N.
+   isolated blips of 8-11 codes that are its noise, not disturbances). A
+   spike that escapes it (below 12 s) moves the variance at tau0 by at most
+   2 * 144 / n of itself: 100 of them in 1e6 samples, 3 % at tau0, < 1.5 % on N.
 3. Hysteresis: the run of neighbouring differences above ``EXTEND_SIGMA`` * s
    around a core belongs to it (a spike's second difference, a burst's
-   shoulders). Runs on the same channel closer than ``MERGE_S`` seconds are one
-   group (a knock's decaying swings dip under the threshold between peaks).
+   shoulders). Runs on the same channel closer than ``BRIDGE_S`` seconds are one
+   group (a knock's swings dip under the threshold between their peaks).
 4. Groups of every channel closer than ``MERGE_S`` are one *event* (a knock
    hits every axis at once). Its time is its first disturbed sample.
 5. A group of differences i = a .. b disturbs samples a+1 .. b: they are
@@ -41,10 +41,12 @@ in process modeling and identification", IEEE Trans. Control Syst. Technol.
 
 What it cannot tell: a spike in the first or last sample (one difference only:
 a step); spikes smaller than 12 s (they are noise to it); a burst of slow swings
-whose differences stay under 12 s; a recording where more than about a quarter
-of the samples are spikes (the median then sees them as the noise: such a
-recording is refused, see ``mostly_spikes``); what the sensor did during a
-burst (the line between its ends is no measurement).
+whose differences stay under 12 s; a recording whose samples are mostly
+spikes (spikes on about an eighth to a half of the samples: refused, see
+``mostly_spikes``; more, and they are the noise as far as any median can
+tell); dense spikes one by one (closer than ``BRIDGE_S`` they are replaced
+as one span, the good samples between them with them); what the sensor did
+during a burst (the line between its ends is no measurement).
 """
 from __future__ import annotations
 
@@ -127,10 +129,12 @@ class OutlierScan:
         return sum(c.count for c in self.channels)
 
     def channel_events(self, c: int) -> list[Event]:
-        return [e for e in self.events if c in e.channels and not e.step]
+        """The events in which channel ``c`` had samples replaced."""
+        return [e for e in self.events if c in e.channels and self.samples_in(c, e)]
 
     def channel_steps(self, c: int) -> list[Event]:
-        return [e for e in self.events if c in e.channels and e.step]
+        """The events in which channel ``c`` only jumped (a level shift, kept)."""
+        return [e for e in self.events if c in e.channels and not self.samples_in(c, e)]
 
     def samples_in(self, c: int, e: Event) -> int:
         """Samples of channel ``c`` replaced within event ``e``."""
