@@ -123,8 +123,7 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
     for c_i, ch in enumerate(chans):
         doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report,
                                                                  opts, notes)
-    if host is not None:
-        doc["outliers"] = outliers_doc(host.outliers, chans, opts.outliers)
+    doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
     if opts.model:
         _model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
     return Analysis(_jsonable(doc), fits)
@@ -303,8 +302,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
             extra[name] = _points(cv, fs, k2, fit, d=d, modified=mod)
     if extra:
         out["curves"] = extra
-    if host is not None:
-        out["outliers"] = outliers_json(host.outliers, c_i, fs, k2, efn, fit)
+    out["outliers"] = outliers_json(host.outliers if host is not None else None, c_i, fs, k2, efn, fit)
     if dev is not None and host is not None:
         out["device"] = _device_json(dev, fs, k2, fit, main)
     if host is not None:

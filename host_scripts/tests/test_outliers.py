@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import write_rows
+from conftest import report_lines, thesis_like, write_rows
 from test_real_recording import NAME, REPO, _find
 
 from imu_allan import outliers
@@ -295,3 +295,21 @@ def test_thermal_finds_a_knock_before_its_regression(tmp_path: Path, run_cli) ->
     kept = json.loads(out)
     assert kept["outliers"]["mode"] == "keep" and kept["outliers"]["count"] == doc["outliers"]["count"]
     assert any("kept" in note for note in kept["notes"])
+
+
+def test_where_no_samples_are_held_it_says_they_were_not_checked(tmp_path: Path, run_cli) -> None:
+    """A device log alone (no samples) and a file streamed past --memory."""
+    rows = thesis_like(4096, 2)
+    log = tmp_path / "device.log"
+    log.write_bytes(b"".join(report_lines(rows, 12)))
+    rc, out, err = run_cli("analyze", log, "--json", "--no-model")
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert doc["outliers"]["checked"] is False
+    assert doc["channels"]["gx"]["outliers"] == {"checked": False, "count": None, "times_s": []}
+    big = write_rows(tmp_path / "big.txt", thesis_like(30_000, 3))  # 1.4 MB of float64 samples
+    rc, out, err = run_cli("analyze", big, "--fs", 100, "--json", "--no-model", "--memory", 1)
+    assert rc == 0, err
+    doc = json.loads(out)
+    assert doc["channels"]["gx"]["outliers"]["checked"] is False
+    assert any(n.startswith("outliers not checked") for n in doc["notes"])
