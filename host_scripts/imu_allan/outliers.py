@@ -78,6 +78,9 @@ MAD_TO_SIGMA = 1.482602218505602
 Q1_TO_SIGMA = 1.0 / 0.31863936396437514
 """1 / Phi^-1(5/8): the lower quartile of |d| to the standard deviation of a Gaussian."""
 MODES = ("replace", "keep")
+GRID_MAX = 1 << 16
+"""Quantized differences are counted up to this many steps (wilder ones count as
+this many: only the lower half of the counts is read)."""
 
 
 @dataclass(frozen=True)
@@ -150,39 +153,44 @@ def scale_of_differences(d: np.ndarray) -> tuple[float, float, float, float]:
     lower quartile of |d - median|."""
     if d.size == 0:
         return 0.0, 0.0, 0.0, 1.0
-    nz = np.abs(d[d != 0])
+    # the grid: read on up to 2^16 differences spread over the record (all of them on a
+    # channel too quiet to show 100 nonzero ones there); a few odd values (a glitch
+    # between codes) allowed
+    sub = d[:: max(d.size >> 16, 1)]
+    nz = np.abs(sub[sub != 0])
+    if nz.size < 100:
+        nz = np.abs(d[d != 0])
     q = float(nz.min()) if nz.size else 0.0
-    med = float(np.median(d))
+    quantized = False
     if q > 0:
-        # on a grid of step q? (read on up to 2^16 differences spread over the record;
-        # a few odd values, e.g. a glitch between codes, allowed)
-        k = d[:: max(d.size >> 16, 1)] / q
+        k = sub / q
         kr = np.rint(k)
-        quantized = (float(np.mean(np.abs(k - kr) < 1e-6)) > 0.999
-                     and float(np.median(np.abs(kr))) < 1 << 16)
-    else:
-        quantized = False
+        quantized = float(np.mean(np.abs(k - kr) < 1e-6)) > 0.999 and float(np.median(np.abs(kr))) < GRID_MAX
     if quantized:
-        med = q * round(med / q)
-        # capped: only the lower half matters, and a wild value must not size the bincount
-        a = np.minimum(np.abs(np.rint((d - med) / q)), 1 << 17).astype(np.int64)
-        mad = q * _grouped_quantile(a, 0.5)
-        q1 = q * _grouped_quantile(a, 0.25)
+        cnt = np.bincount(np.clip(np.rint(d / q), -GRID_MAX, GRID_MAX).astype(np.int64) + GRID_MAX,
+                          minlength=2 * GRID_MAX + 1)
+        mid = int(np.searchsorted(np.cumsum(cnt), d.size / 2))  # the median's cell
+        med = q * (mid - GRID_MAX)
+        folded = cnt[mid:].copy()  # counts of |k - median| = 0, 1, 2 ...
+        left = cnt[:mid + 1][::-1]
+        folded[1:left.size] += left[1:folded.size]
+        mad = q * _grouped_quantile(folded, 0.5)
+        q1 = q * _grouped_quantile(folded, 0.25)
     else:
-        a_f = np.abs(d - med)
-        mad, q1 = (float(v) for v in np.quantile(a_f, [0.5, 0.25]))
+        med = float(np.median(d))
+        mad, q1 = (float(v) for v in np.quantile(np.abs(d - med), [0.5, 0.25]))
     s = max(MAD_TO_SIGMA * mad, q / 2)
     s1 = max(Q1_TO_SIGMA * q1, q / 2)
     return float(med), float(s), (q if quantized else 0.0), float(s / s1) if s1 > 0 else 1.0
 
 
-def _grouped_quantile(a: np.ndarray, p: float) -> float:
-    """Quantile p of non-negative integers |k| read as a grouped distribution:
-    |k| = 0 stands for [0, 0.5), |k| = j >= 1 for [j - 0.5, j + 0.5), the
-    values spread evenly in their cell (the textbook grouped median)."""
-    cnt = np.bincount(a)
+def _grouped_quantile(cnt: np.ndarray, p: float) -> float:
+    """Quantile p of non-negative integers |k| given by their counts, read as a
+    grouped distribution: |k| = 0 stands for [0, 0.5), |k| = j >= 1 for
+    [j - 0.5, j + 0.5), the values spread evenly in their cell (the textbook
+    grouped median)."""
     F = np.cumsum(cnt)
-    target = p * a.size
+    target = p * F[-1]
     j = int(np.searchsorted(F, target))
     below = F[j] - cnt[j]
     lo, width = (0.0, 0.5) if j == 0 else (j - 0.5, 1.0)
@@ -225,12 +233,12 @@ def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
         if s <= 0 or not np.isfinite(s):
             chans.append(ChannelScan(float(s), q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), 0.0, ratio))
             continue
+        zmax = max(float(d.max()) - med, med - float(d.min())) / s
+        if zmax <= spike_sigma:  # no core: nothing to flag (the common case, one pass)
+            chans.append(ChannelScan(s, q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), zmax, ratio))
+            continue
         z = np.abs(d - med) / s
         core = z > spike_sigma
-        if not core.any():
-            chans.append(ChannelScan(s, q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64),
-                                     float(z.max()), ratio))
-            continue
         a, b = _runs(z > extend_sigma)
         cc = np.concatenate(([0], np.cumsum(core)))
         keep = cc[b] - cc[a] > 0
@@ -242,7 +250,7 @@ def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
         peak = np.maximum.reduceat(z, ga)
         spans = np.stack([ga + 1, gb], axis=1).astype(np.int64)
         step = spans[:, 1] == spans[:, 0]
-        chans.append(ChannelScan(s, q, spans[~step], spans[step, 0], float(z.max()), ratio))
+        chans.append(ChannelScan(s, q, spans[~step], spans[step, 0], zmax, ratio))
         g_start.append(ga + 1)
         g_stop.append(gb)
         g_chan.append(np.full(ga.size, c))
