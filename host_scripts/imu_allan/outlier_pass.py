@@ -63,9 +63,9 @@ def outliers_json(op: Optional[OutlierPass], c_i: int, fs: float, k2: float, efn
     ch = op.scan.channels[c_i]
     ev = op.scan.channel_events(c_i)
     out: dict[str, Any] = {
-        "checked": True, "mode": op.mode, "count": ch.count, "times_s": [e.start / fs for e in ev],
+        "checked": True, "mode": op.mode, "count": ch.count, "times_s": [e.start / fs for e, _ in ev],
         "events": [{"start_s": e.start / fs, "duration_s": (e.stop - e.start) / fs,
-                    "samples": op.scan.samples_in(c_i, e), "peak_sigma": e.peak} for e in ev],
+                    "samples": k, "peak_sigma": e.peak} for e, k in ev],
         "steps_s": [e.start / fs for e in op.scan.channel_steps(c_i)],
         "scale": ch.scale * math.sqrt(k2),
         "threshold_sigma": outliers.SPIKE_SIGMA,

@@ -131,19 +131,22 @@ class OutlierScan:
     def count(self) -> int:
         return sum(c.count for c in self.channels)
 
-    def channel_events(self, c: int) -> list[Event]:
-        """The events in which channel ``c`` had samples replaced."""
-        return [e for e in self.events if c in e.channels and self.samples_in(c, e)]
+    def event_samples(self, c: int) -> np.ndarray:
+        """Samples of channel ``c`` replaced in each event (events in time order)."""
+        starts = np.array([e.start for e in self.events], dtype=np.int64)
+        sp = self.channels[c].spans
+        idx = np.searchsorted(starts, sp[:, 0], side="right") - 1
+        return np.bincount(idx, weights=sp[:, 1] - sp[:, 0], minlength=starts.size).astype(np.int64)
+
+    def channel_events(self, c: int) -> list[tuple[Event, int]]:
+        """The events in which channel ``c`` had samples replaced, with how many."""
+        k = self.event_samples(c)
+        return [(self.events[i], int(k[i])) for i in np.flatnonzero(k)]
 
     def channel_steps(self, c: int) -> list[Event]:
         """The events in which channel ``c`` only jumped (a level shift, kept)."""
-        return [e for e in self.events if c in e.channels and not self.samples_in(c, e)]
-
-    def samples_in(self, c: int, e: Event) -> int:
-        """Samples of channel ``c`` replaced within event ``e``."""
-        sp = self.channels[c].spans
-        inside = (sp[:, 0] >= e.start) & (sp[:, 1] <= e.stop)
-        return int((sp[inside, 1] - sp[inside, 0]).sum())
+        k = self.event_samples(c)
+        return [e for i, e in enumerate(self.events) if c in e.channels and not k[i]]
 
 
 def scale_of_differences(d: np.ndarray) -> tuple[float, float, float, float]:
@@ -239,6 +242,9 @@ def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
             continue
         z = np.abs(d - med) / s
         core = z > spike_sigma
+        if not core.any():  # only a non-finite value got here
+            chans.append(ChannelScan(s, q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), zmax, ratio))
+            continue
         a, b = _runs(z > extend_sigma)
         cc = np.concatenate(([0], np.cumsum(core)))
         keep = cc[b] - cc[a] > 0
@@ -259,12 +265,15 @@ def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
     if g_start:
         st, sp, ch, pk = (np.concatenate(v) for v in (g_start, g_stop, g_chan, g_peak))
         es, et, grp = _merge(st, sp, gap)
+        order = np.argsort(grp, kind="stable")
+        first = np.flatnonzero(np.diff(np.concatenate(([-1], grp[order]))))
+        peaks = np.maximum.reduceat(pk[order], first)
+        moved = np.logical_or.reduceat((sp > st)[order], first)  # a step only when every member is one
+        masks = np.bitwise_or.reduceat(np.left_shift(1, ch[order].astype(np.int64)), first)
         for e in range(es.size):
-            mine = grp == e
-            members = tuple(sorted(set(int(v) for v in ch[mine])))
-            # an event is a step only when every member is one
-            stop = int(et[e]) if np.any(sp[mine] > st[mine]) else int(es[e])
-            res.events.append(Event(int(es[e]), stop, members, float(pk[mine].max())))
+            members = tuple(c for c in range(C) if int(masks[e]) >> c & 1)
+            res.events.append(Event(int(es[e]), int(et[e]) if moved[e] else int(es[e]), members,
+                                    float(peaks[e])))
     return res
 
 
