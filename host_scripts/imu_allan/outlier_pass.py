@@ -40,7 +40,7 @@ def outlier_pass(name: str, data: np.ndarray, res: allan.OctaveResult, chans: li
         notes.append(f"{why}: kept as asked (--outliers keep); its statistics describe the spikes")
     if found.count == 0:
         return data, res, OutlierPass(found, mode, None)
-    cleaned = outliers.replace(data, found)
+    cleaned = outliers.replace(data, found, inplace=mode == "replace")  # the raw copy only when kept
     eng = allan.OctaveEngine(data.shape[0], exact_max=exact_max)
     eng.push(cleaned)
     res_clean = eng.finish()

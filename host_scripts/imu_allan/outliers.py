@@ -277,10 +277,11 @@ def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
     return res
 
 
-def replace(data: np.ndarray, found: OutlierScan) -> np.ndarray:
-    """A copy of ``data`` with every disturbed span replaced by the straight
-    line between the good samples on either side of it."""
-    out = np.array(data, dtype=np.float64, copy=True)
+def replace(data: np.ndarray, found: OutlierScan, inplace: bool = False) -> np.ndarray:
+    """``data`` (a copy, or itself when ``inplace`` and float64) with every
+    disturbed span replaced by the straight line between the good samples on
+    either side of it."""
+    out = data if inplace and data.dtype == np.float64 else np.array(data, dtype=np.float64, copy=True)
     for c, ch in enumerate(found.channels):
         if ch.spans.size == 0:
             continue
