@@ -46,12 +46,16 @@ def outlier_pass(name: str, data: np.ndarray, res: allan.OctaveResult, chans: li
     res_clean = eng.finish()
     ev = [e for e in found.events if not e.step]
     if mode == "replace":
-        notes.append(f"outliers: {found.count} samples in {len(ev)} spikes or bursts replaced by the line "
+        notes.append(f"outliers: {found.count} samples in {_events(len(ev))} replaced by the line "
                      "between their neighbours before the statistics (--outliers keep keeps them)")
         return cleaned, res_clean, OutlierPass(found, "replace", res)
-    notes.append(f"outliers: {found.count} samples in {len(ev)} spikes or bursts kept in the statistics "
+    notes.append(f"outliers: {found.count} samples in {_events(len(ev))} kept in the statistics "
                  "(--outliers keep)")
     return data, res, OutlierPass(found, "keep", res_clean)
+
+
+def _events(k: int) -> str:
+    return f"{k} event{'s' * (k != 1)} (spikes, bursts)"
 
 
 def outliers_json(op: Optional[OutlierPass], c_i: int, fs: float, k2: float, efn: Any,

@@ -27,10 +27,10 @@ in process modeling and identification", IEEE Trans. Control Syst. Technol.
    isolated blips of 8-11 codes that are its noise, not disturbances). A
    spike that escapes it (below 12 s) moves the variance at tau0 by at most
    2 * 144 / n of itself: 100 of them in 1e6 samples, 3 % at tau0, < 1.5 % on N.
-3. Hysteresis: the run of neighbouring differences above ``EXTEND_SIGMA`` * s
-   around a core belongs to it (a spike's second difference, a burst's
-   shoulders). Runs on the same channel closer than ``BRIDGE_S`` seconds are one
-   group (a knock's swings dip under the threshold between their peaks).
+3. Hysteresis: the runs of differences above ``EXTEND_SIGMA`` * s, merged
+   when closer than ``BRIDGE_S`` seconds on the same channel (a knock's swings
+   dip under any threshold between their peaks), are one group when they hold
+   a core (a spike's second difference, a burst's decaying tail).
 4. Groups of every channel closer than ``MERGE_S`` are one *event* (a knock
    hits every axis at once). Its time is its first disturbed sample.
 5. A group of differences i = a .. b disturbs samples a+1 .. b: they are
@@ -245,12 +245,12 @@ def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
         if not core.any():  # only a non-finite value got here
             chans.append(ChannelScan(s, q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), zmax, ratio))
             continue
-        a, b = _runs(z > extend_sigma)
+        # runs above the hysteresis level, merged on this channel when closer than the
+        # bridge, kept when they hold a core; differences [a, b) disturb samples a+1 .. b-1
+        ga, gb, _ = _merge(*_runs(z > extend_sigma), bridge)
         cc = np.concatenate(([0], np.cumsum(core)))
-        keep = cc[b] - cc[a] > 0
-        a, b = a[keep], b[keep]
-        # a run of differences [a, b) disturbs samples a+1 .. b-1; merged on this channel
-        ga, gb, _ = _merge(a, b, bridge)
+        keep = cc[gb] - cc[ga] > 0
+        ga, gb = ga[keep], gb[keep]
         # each group's largest z: reduceat runs on to the next group's start, but
         # nothing between groups exceeds the core threshold, which each group does
         peak = np.maximum.reduceat(z, ga)

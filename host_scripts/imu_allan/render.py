@@ -303,7 +303,8 @@ def outlier_lines(c: dict[str, Any]) -> list[str]:
         at = ", ".join(g(t, 6) for t in times[:5]) + (f" ... ({len(times)} in all)" if len(times) > 5 else "")
         how = ("replaced by the line between their neighbours" if o["mode"] == "replace"
                else "kept in the statistics (--outliers keep)")
-        out.append(f"  outliers: {o['count']} samples in {len(times)} spikes or bursts at {at} s: {how}")
+        out.append(f"  outliers: {o['count']} samples in {len(times)} event{'s' * (len(times) != 1)} "
+                   f"(spikes, bursts) at {at} s: {how}")
         eff = o.get("effect") or {}
         parts = [f"{k} {v['change_pct']:+.3g} % ({g(v['without_outliers'])} -> {g(v['with_outliers'])})"
                  for k, v in eff.items() if v.get("change_pct") is not None]

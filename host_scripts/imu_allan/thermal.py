@@ -239,7 +239,7 @@ def _outliers(path: str, x: np.ndarray, fs: float, mode: str, notes: list[str]
         raise InputError(f"'{path}': refused: {why}; --outliers keep studies it as it is")
     ev = [e for e in found.events if not e.step]
     if found.count:
-        notes.append(f"outliers: {found.count} samples in {len(ev)} spikes or bursts "
+        notes.append(f"outliers: {found.count} samples in {len(ev)} event{'s' * (len(ev) != 1)} (spikes, bursts) "
                      + ("replaced by the line between their neighbours" if mode == "replace"
                         else "kept (--outliers keep)"))
     summary = {"mode": mode, "count": {ch: found.channels[c].count for c, ch in enumerate(CHANNELS)},
