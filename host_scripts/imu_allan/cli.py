@@ -193,7 +193,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         scales = scales_for_input(src.name, samples.channels, samples.integer, samples.units, scales)
     profile = build_profile(args.profile, scales, range_g)
     opts = Options(fs=args.fs, taus=args.taus, channels=args.channels, model=not args.no_model,
-                   seed=args.seed, memory_budget=args.memory * 2**20)
+                   seed=args.seed, memory_budget=args.memory * 2**20, outliers=args.outliers)
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
     written = []

@@ -136,6 +136,9 @@ def _add_thermal(sub: Any) -> None:
                    help="units: counts (default) or thesis (m/s^2, deg/s)")
     p.add_argument("--segments", type=_positive_int, default=3, metavar="K",
                    help="N and B in K consecutive segments against their temperature (default 3; 1: off)")
+    p.add_argument("--outliers", choices=("replace", "keep"), default="replace",
+                   help="spikes and bursts: replace (default; before the regression and the terms) "
+                        "or keep (counted only); see imu-allan analyze --help")
     p.add_argument("--json", action="store_true", help="print JSON: {channels: {gx: {tempco, ...}}}")
     p.add_argument("--plot", metavar="DIR", help="write thermal.png to DIR")
 
@@ -162,7 +165,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_thermal(args: argparse.Namespace) -> int:
     from . import thermal
     doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile,
-                        segments=max(args.segments, 1))
+                        segments=max(args.segments, 1), outliers_mode=args.outliers)
     return _emit("thermal", doc, thermal, args)
 
 

@@ -385,6 +385,12 @@ def _megabytes(text: str) -> int:
     return v
 
 
+OUTLIERS_HELP = ("spikes and bursts (a knock on the bench), found on the sample-to-sample jumps: "
+                 "replace (default; by the line between their neighbours, so they stay out of the "
+                 "statistics; the summary says how much N and B would move) or keep (counted and "
+                 "listed only); a recording that is mostly spikes is refused unless kept")
+
+
 def _add_analyze(sub: Any) -> None:
     from .stats.options import TAU_KINDS
     from .profiles import PROFILES, RANGES
@@ -457,6 +463,7 @@ def _add_analyze(sub: Any) -> None:
                    help="skip the thesis model's simulation and FIT%% (faster)")
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S",
                    help="random seed of the model simulation (default 1)")
+    p.add_argument("--outliers", choices=("replace", "keep"), default="replace", help=OUTLIERS_HELP)
     p.add_argument("--memory", type=_megabytes, default=1024, metavar="MB",
                    help="samples kept in memory for the non-octave statistics (default 1024 MB); "
                         "larger files are streamed: octave Allan deviations and PSD only")
