@@ -8,7 +8,7 @@ import contextlib
 import errno
 import os
 import sys
-from typing import BinaryIO, Iterator, Optional
+from typing import Any, BinaryIO, Iterator, Optional
 
 from .channels import CHANNELS
 from .cli_thesis import add_subcommands
@@ -267,7 +267,11 @@ class _ClosedStream:
 
 def main(argv: Optional[list[str]] = None) -> int:
     handlers = dict(COMMANDS)
-    parser = build_parser(lambda sub: handlers.update(add_subcommands(sub)))  # sweep, thermal
+    def more(sub: Any) -> None:
+        handlers.update(add_subcommands(sub))  # sweep, thermal
+        from .cli_dynamic import add_subcommands as add_dynamic
+        handlers.update(add_dynamic(sub))  # dynamic
+    parser = build_parser(more)
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)

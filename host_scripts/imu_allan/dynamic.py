@@ -294,14 +294,15 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
     for c in range(C):
         K = int(tested[:, c].sum())
         thr[c] = 1.0 - level ** (1.0 / K) if K else 0.0
-        ref = (ws.t0 + ws.t1) / 2 >= mid  # start from the later half: a sensor settles, it does not unsettle
+        later = (ws.t0 + ws.t1) / 2 >= mid  # the reference: the later half (a sensor settles, it does
+        ref = later                          # not unsettle), less the windows of it that depart
         for it in range(20):
             iterations = max(iterations, it + 1)
             for w in range(W):
                 _test_window(ws, w, c, ref, tested, p, ref_var)
             dep = np.array([bool(np.any(p[w, c][tested[w, c]] < thr[c])) for w in range(W)], dtype=bool)
             departs[:, c] = dep
-            new = ~dep
+            new = later & ~dep
             if not new.any() or np.array_equal(new, ref):
                 break
             ref = new
