@@ -81,12 +81,18 @@ def load_windows(path: str, source: str = "auto", fs: Optional[float] = None,
                  channels: Optional[list[str]] = None, window_s: Optional[float] = None,
                  step_s: Optional[float] = None) -> tuple[Any, list[str]]:
     """The windows of ``path`` (dynamic.Windows) and notes about the choice."""
+    from .sources import load
+    return windows_of(load(path), path, source, fs, channels, window_s, step_s)
+
+
+def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = None,
+               channels: Optional[list[str]] = None, window_s: Optional[float] = None,
+               step_s: Optional[float] = None) -> tuple[Any, list[str]]:
+    """``load_windows`` for a source already loaded (sources.load)."""
     from . import dynamic
     from .channels import CHANNELS
     from .device.records import decode_bytes
-    from .sources import load
     notes: list[str] = []
-    src = load(path)
     reports = []
     if source in ("auto", "reports") and path != "-":
         with open(path, "rb") as f:
