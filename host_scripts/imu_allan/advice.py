@@ -60,20 +60,47 @@ def term_interval_pct(term: dict[str, Any]) -> Optional[float]:
     return 100.0 * (hi - lo) / (2.0 * v)
 
 
+NEIGHBOUR_CORR = 0.5
+"""Correlation taken between the estimates of neighbouring octaves (measured
+0.35-0.68 by simulation, docs/analysis.md section 5); with 0.5 the interval
+predicted from the points' EDFs matches the one the fit gives, on white noise
+(N) and on white plus flicker noise (B), within about 10 %."""
+
+
+def term_edf(curve: list[dict[str, Any]], tau_range: Optional[list[float]], term: str,
+             overlapping: bool) -> Optional[float]:
+    """The degrees of freedom behind a term: the EDFs of the fitted octave points
+    in its tau range, summed, times (1 - r) / (1 + r) for the correlation r of
+    neighbouring octaves (the number of independent points in a chain of them)."""
+    if not tau_range:
+        return None
+    lo, hi = tau_range[0] * (1 - 1e-9), tau_range[1] * (1 + 1e-9)
+    edfs = [p["edf"] for p in curve if p.get("used") and p.get("edf") and lo <= p["tau_s"] <= hi]
+    if not edfs:
+        return None
+    r = NEIGHBOUR_CORR
+    return sum(edfs) * (1 - r) / (1 + r) if len(edfs) > 1 else edfs[0]
+
+
 def add_to_analysis(doc: dict[str, Any], level: float = LEVEL) -> None:
-    """Adds to every identified term of ``analyze``'s document ``interval_pct``,
-    ``record_s_for_10pct`` and ``record_s_for_25pct`` (s from the start of the record)."""
+    """Adds to every identified term of ``analyze``'s document ``interval_pct`` (its
+    interval now), ``edf`` (the degrees of freedom of the points that carry it),
+    ``expected_pct`` (the half-width those give) and ``record_s_for_10pct``,
+    ``record_s_for_25pct``: the recording time (s from the start) after which they
+    give +-10 % and +-25 %, each point's EDF growing in proportion to the time."""
     duration = (doc.get("source") or {}).get("duration_s")
     for ch in doc.get("channels", {}).values():
-        for term in (ch.get("terms") or {}).values():
+        overlapping = (ch.get("fit") or {}).get("statistic") == "oadev"
+        for name, term in (ch.get("terms") or {}).items():
             if not term:
                 continue
-            pct = term_interval_pct(term)
-            term["interval_pct"] = pct
+            term["interval_pct"] = term_interval_pct(term)
+            nu = term_edf(ch.get("curve") or [], term.get("tau_range_s"), name, overlapping)
+            term["edf"] = nu
+            term["expected_pct"] = 100 * halfwidth(nu, level) if nu else None
             for target in TARGETS_PCT:
-                key = f"record_s_for_{target}pct"
-                term[key] = (record_for(pct, duration, target, level)
-                             if pct and pct > 0 and duration else None)
+                term[f"record_s_for_{target}pct"] = (
+                    duration * edf_for(target / 100, level) / nu if nu and duration else None)
 
 
 def fmt_time(s: Optional[float]) -> str:
@@ -100,6 +127,7 @@ def analysis_text(doc: dict[str, Any]) -> str:
                 continue
             pct, t10, t25 = term["interval_pct"], term["record_s_for_10pct"], term["record_s_for_25pct"]
             part = f"{k} +-{pct:.2g} % now"
+            pct = term.get("expected_pct") or pct
             for tgt, t in ((25, t25), (10, t10)):
                 if t is not None and pct > tgt:
                     part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
@@ -125,14 +153,19 @@ def device_advice(report: Any) -> dict[str, dict[str, dict[str, Any]]]:
     fs = float(h.fs_hz)
     rows = {(r.channel, r.level): r for r in report.rows}
     out: dict[str, dict[str, dict[str, Any]]] = {}
-    for ch, t in report.terms.items():
+    levels = {ch: {k: getattr(t, k).level for k in ("N", "B")} for ch, t in report.terms.items()}
+    if not levels:  # no T lines (an older firmware, or the host's emulation): the device's rule
+        from .check import expected_terms
+        for ch in sorted({r.channel for r in report.rows}):
+            levels[ch] = {k: (v[0] if v else None) for k, v in expected_terms(report, ch).items()}
+    for ch, lv in levels.items():
         out[ch] = {}
         for name in ("N", "B"):
-            term = getattr(t, name)
-            row = rows.get((ch, term.level)) if term.level is not None else None
+            level = lv[name]
+            row = rows.get((ch, level)) if level is not None else None
             if row is None or row.pairs < 1:
                 continue
-            item = {"level": term.level, "tau_s": row.m / fs, "pairs": row.pairs,
+            item = {"level": level, "tau_s": row.m / fs, "pairs": row.pairs,
                     "pct": 100.0 / math.sqrt(2 * row.pairs), "now_s": h.n / fs}
             for target in TARGETS_PCT:
                 item[f"record_s_for_{target}pct"] = (pairs_for(target) + 1) * row.m / fs
@@ -143,7 +176,7 @@ def device_advice(report: Any) -> dict[str, dict[str, dict[str, Any]]]:
 def monitor_line(report: Any, columns: int = 80) -> str:
     """One line for the monitor: the worst channel's B (and N) now, and the time
     still needed for +-10 %: 'record: B +-23 % now (gx); +-10 % after about 2.4 h more'."""
-    adv = device_advice(report) if report is not None and report.terms else {}
+    adv = device_advice(report) if report is not None else {}
     worst = max(((ch, a["B"]) for ch, a in adv.items() if "B" in a), key=lambda x: x[1]["pct"], default=None)
     if worst is None:
         return "record: no noise terms yet (the device sends them once level 0 has 8 pairs)"[:columns]
