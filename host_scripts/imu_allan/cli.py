@@ -186,7 +186,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     scales = parse_scales(args.scale)
     src = load(args.file)
     from .warmup import skipped, warmup_section, warmup_text
-    src, skip_note = skipped(src, args.file, args.skip or 0.0)
+    src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
     if skip_note:
         src.notes.append(skip_note)
     device = load_device_report(args.device) if args.device else None

@@ -42,12 +42,12 @@ def report_since(reports: list[DeviceReport], n_from: int) -> DeviceReport:
     return DeviceReport(last.seq, head, rows)
 
 
-def skipped(src: Any, path: str, skip_s: float) -> tuple[Any, str]:
+def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> tuple[Any, str]:
     """``src`` without its first ``skip_s`` seconds, and a note saying so."""
     if skip_s <= 0:
         return src, ""
     if src.samples is not None:
-        fs = src.samples.fs or (float(src.report.header.fs_hz) if src.report else None)
+        fs = src.samples.fs or (float(src.report.header.fs_hz) if src.report else None) or fs
         if fs is None:
             raise InputError("--skip needs the sample rate: give --fs HZ")
         k = int(round(skip_s * fs))
@@ -95,7 +95,7 @@ def warmup_section(doc: dict[str, Any], src: Any, path: str, fs: Optional[float]
     if warm:
         cut = max(warm)
         try:
-            other, note = skipped(src, path, cut)
+            other, note = skipped(src, path, cut, fs or doc["source"].get("fs_hz"))
             without = rerun(other)
             out["without_warmup"] = {"skip_s": cut, "note": note,
                                      "terms": {ch: c.get("terms") for ch, c in without["channels"].items()}}
