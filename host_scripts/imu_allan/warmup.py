@@ -91,6 +91,11 @@ def warmup_section(doc: dict[str, Any], src: Any, path: str, fs: Optional[float]
         "stationary": {ch: v.stationary[ch] for ch in ws.channels},
         "tau_range_s": {ch: (list(v.tau_range_s[ch]) if v.tau_range_s[ch] else None) for ch in ws.channels},
         "notes": notes}
+    from .dynamic_render import _devs
+    out["temp_move_codes"] = dynamic.TEMP_MOVE
+    out["temp_bins"] = [{"temp": b["temp"], "windows": b["windows"],
+                         "adev": {ch: _devs(b["var"][c]) for c, ch in enumerate(ws.channels)}}
+                        for b in dynamic.temperature_bins(ws)]
     warm = [w for w in v.warmup_s.values() if w is not None]
     if warm:
         cut = max(warm)
@@ -118,6 +123,10 @@ def warmup_text(doc: dict[str, Any]) -> str:
             tr = w["tau_range_s"][ch]
             text += "; NOT stationary" + (f" (windows depart at tau {tr[0]:.3g}-{tr[1]:.3g} s)" if tr else "")
         lines.append(text)
+    if w.get("temp_bins"):
+        b = w["temp_bins"]
+        lines.append(f"  temperature moved > {w['temp_move_codes']:g} codes: {len(b)} bins "
+                     f"({b[0]['temp'][0]:g}-{b[-1]['temp'][1]:g}), a curve each in --json (warmup.temp_bins)")
     wo = w.get("without_warmup")
     if wo and "terms" in wo:
         lines.append(f"  terms without the first {wo['skip_s']:.0f} s:")
