@@ -41,8 +41,8 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV")
     p.add_argument("--fs", type=_fs, metavar="HZ", help="sample rate of a rows file or CSV without time column")
     p.add_argument("--from", dest="source", choices=("auto", "reports", "samples"), default="auto",
-                   help="windows from the device's reports or from the samples (default: reports when "
-                        "the file has two or more of one run, else samples)")
+                   help="windows from the device's reports or from the samples (default: the reports "
+                        "of a device log, the samples of a capture, rows file or CSV)")
     p.add_argument("--window", type=_positive_seconds, metavar="S",
                    help="raw samples: window length, s (default: a sixteenth of the record)")
     p.add_argument("--step", type=_positive_seconds, metavar="S",
@@ -94,7 +94,9 @@ def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = 
     from .device.records import decode_bytes
     notes: list[str] = []
     reports = []
-    if source in ("auto", "reports") and path != "-":
+    # a device log (no samples) is read again for all its reports; a capture's
+    # samples are used unless the reports are asked for (it is read once)
+    if (source == "reports" or (source == "auto" and src.samples is None)) and path != "-":
         with open(path, "rb") as f:
             reports = decode_bytes(f.read()).reports
     runs = dynamic.runs(reports)

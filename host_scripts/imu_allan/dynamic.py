@@ -44,6 +44,8 @@ MIN_EDF = 4.0
 """... and any window's tau only with at least this EDF."""
 RAW_WINDOWS = 16
 """Default raw window: the record split in this many windows, slid by half a window."""
+MAX_WINDOWS = 2000
+"""At most this many raw windows (each costs a pass over its samples)."""
 TEMP_MOVE = 2.0
 """Temperature-binned curves when the windows' mean temperature codes span more than this."""
 
@@ -176,7 +178,11 @@ def from_samples(data: np.ndarray, fs: float, channels: Sequence[str], window_s:
     C, n = data.shape
     size = int(round(window_s * fs)) if window_s else n // RAW_WINDOWS
     size = min(max(size, 32), n)
-    step = int(round(step_s * fs)) if step_s else max(size // 2, 1)
+    step = max(int(round(step_s * fs)), 1) if step_s else max(size // 2, 1)
+    if (n - size) // step + 1 > MAX_WINDOWS:
+        from .errors import InputError
+        raise InputError(f"{(n - size) // step + 1} windows: more than {MAX_WINDOWS}; "
+                         "give a longer --window or --step")
     starts = list(range(0, n - size + 1, step)) or [0]
     ms = np.array([1 << k for k in range(40) if (1 << k) * 10 <= size], dtype=np.int64)
     W, L = len(starts), ms.size
