@@ -10,6 +10,9 @@ import numpy as np
 
 from .errors import InputError
 
+MEMORY = 1 << 30
+"""Bytes of float64 samples the raw windows may hold (the default of analyze's --memory)."""
+
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     from .cliargs import _channel_list, _fs
@@ -116,7 +119,14 @@ def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = 
     if rate is None:
         raise InputError("the sample rate is unknown: give --fs HZ")
     sel = [i for i, c in enumerate(src.samples.channels) if channels is None or c in channels]
-    data = np.concatenate([b[sel] for b in src.samples.open_blocks()], axis=1).astype(np.float64)
+    blocks, size = [], 0
+    for b in src.samples.open_blocks():
+        blocks.append(b[sel])
+        size += b.shape[1] * len(sel) * 8
+        if size > MEMORY:
+            raise InputError(f"'{src.name}': more than {MEMORY >> 20} MB of samples: too large for "
+                             "windows in memory (cut the file, or record with periodic device reports)")
+    data = np.concatenate(blocks, axis=1).astype(np.float64)
     temp = None
     if src.samples.open_temperature is not None:
         temp = np.concatenate(list(src.samples.open_temperature())).astype(np.float64).ravel()

@@ -46,6 +46,11 @@ RAW_WINDOWS = 16
 """Default raw window: the record split in this many windows, slid by half a window."""
 MAX_WINDOWS = 2000
 """At most this many raw windows (each costs a pass over its samples)."""
+MIN_EFFECT = 0.05
+"""A point departs only when its deviation also differs from the reference's by
+more than this fraction: with 1e5 degrees of freedom a 1 % change is
+significant, but it does not matter to any term (real sensors show such drifts
+at short tau all along; a warm-up is larger)."""
 TEMP_MOVE = 2.0
 """Temperature-binned curves when the windows' mean temperature codes span more than this."""
 
@@ -276,6 +281,7 @@ class Verdict:
     level: float
     p: np.ndarray               # (W, C, L) two-sided p-values, nan where untested
     threshold: np.ndarray       # (C,) the per-point level (Sidak over the points tested)
+    hit: np.ndarray             # (W, C, L) the points that depart (p below it, effect above MIN_EFFECT)
     departs: np.ndarray         # (W, C) bool
     ref_var: np.ndarray         # (W, C, L) the pooled reference each window was tested against
     warmup_s: dict[str, Optional[float]]
@@ -292,6 +298,7 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
     ref_var = np.full((W, C, L), np.nan)
     departs = np.zeros((W, C), dtype=bool)
     thr = np.zeros(C)
+    hit = np.zeros((W, C, L), dtype=bool)
     tested = np.isfinite(ws.var) & (ws.edf >= MIN_EDF)
     if ws.source == "device reports":
         tested &= ws.weight >= MIN_PAIRS
@@ -306,7 +313,10 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
             iterations = max(iterations, it + 1)
             for w in range(W):
                 _test_window(ws, w, c, ref, tested, p, ref_var)
-            dep = np.array([bool(np.any(p[w, c][tested[w, c]] < thr[c])) for w in range(W)], dtype=bool)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                big = np.abs(np.log(ws.var[:, c] / ref_var[:, c])) > 2 * math.log1p(MIN_EFFECT)
+            hit[:, c] = tested[:, c] & (np.nan_to_num(p[:, c], nan=1.0) < thr[c]) & big
+            dep = hit[:, c].any(axis=1)
             departs[:, c] = dep
             new = later & ~dep
             if not new.any() or np.array_equal(new, ref):
@@ -314,8 +324,8 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
             ref = new
     warm, stat, taus = {}, {}, {}
     for c, ch in enumerate(ws.channels):
-        warm[ch], stat[ch], taus[ch] = _warmup(ws, departs[:, c], p[:, c], thr[c])
-    return Verdict(level, p, thr, departs, ref_var, warm, stat, taus, iterations)
+        warm[ch], stat[ch], taus[ch] = _warmup(ws, departs[:, c], hit[:, c])
+    return Verdict(level, p, thr, hit, departs, ref_var, warm, stat, taus, iterations)
 
 
 def _test_window(ws: Windows, w: int, c: int, ref: np.ndarray, tested: np.ndarray,
@@ -342,7 +352,7 @@ def _test_window(ws: Windows, w: int, c: int, ref: np.ndarray, tested: np.ndarra
     p[w, c] = out
 
 
-def _warmup(ws: Windows, dep: np.ndarray, p: np.ndarray, thr: float
+def _warmup(ws: Windows, dep: np.ndarray, hits: np.ndarray
             ) -> tuple[Optional[float], bool, Optional[tuple[float, float]]]:
     """The leading stretch of departing windows (one calm window inside it
     bridged): its end, in s; whether nothing departs after it; the taus at
@@ -369,7 +379,7 @@ def _warmup(ws: Windows, dep: np.ndarray, p: np.ndarray, thr: float
     if after:
         hit = np.zeros(ws.ms.size, dtype=bool)
         for w in after:
-            hit |= np.nan_to_num(p[w], nan=1.0) < thr
+            hit |= hits[w]
         if hit.any():
             t = ws.taus[hit]
             taus = (float(t.min()), float(t.max()))

@@ -11,7 +11,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .dynamic import Verdict, Windows, temperature_bins
+from .dynamic import MIN_EFFECT, Verdict, Windows, temperature_bins
 from .stats.edf import chi2_interval
 
 
@@ -38,7 +38,7 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
             "temp": t["mean"] if t else None,
             "temp_range": [t["min"], t["max"]] if t else None,
             "taus_s": taus, "adev": {}, "low": {}, "high": {}, "edf": {}, "p": {},
-            "departs": {}, "p_min": {}}
+            "departs": {}, "departs_at": {}, "p_min": {}}
         for c, ch in enumerate(ws.channels):
             low, high = chi2_interval(ws.var[w, c], ws.edf[w, c], v.level)
             item["adev"][ch] = _devs(ws.var[w, c])
@@ -46,6 +46,7 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
             item["edf"][ch] = [_num(e) for e in ws.edf[w, c]]
             item["p"][ch] = [_num(p) for p in v.p[w, c]]
             item["departs"][ch] = bool(v.departs[w, c])
+            item["departs_at"][ch] = [bool(h) for h in v.hit[w, c]]
             item["p_min"][ch] = _num(np.nanmin(v.p[w, c])) if np.isfinite(v.p[w, c]).any() else None
         if ws.pairs is not None:
             item["pairs"] = {ch: [int(p) for p in ws.pairs[w, c]] for c, ch in enumerate(ws.channels)}
@@ -65,8 +66,9 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
                             "windows that do not depart (none overlapping it): F test with "
                             "Greenhall's EDFs, two-sided; a window departs when a tau's p-value is "
                             "below the per-point level, Sidak-corrected over every window and tau "
-                            "tested, so that a stationary channel is flagged with probability at "
-                            f"most {1 - v.level:.2g}"),
+                            f"tested and its deviation differs by more than {MIN_EFFECT:.0%}: a "
+                            f"stationary channel is flagged with probability at most {1 - v.level:.2g}"),
+                 "min_effect": MIN_EFFECT,
                  "per_point_level": {ch: float(v.threshold[c]) for c, ch in enumerate(ws.channels)}},
         "taus_s": taus,
         "whole": {"adev": {ch: _devs(ws.whole[c]) for c, ch in enumerate(ws.channels)}},
@@ -182,10 +184,9 @@ def plot(doc: dict[str, Any], path: str) -> str:
             with np.errstate(invalid="ignore", divide="ignore"):
                 z[:, w] = np.log2(a / whole)
         mesh = ax.pcolormesh(t_edges, tau_edges, np.clip(z, -1, 1), cmap="RdBu_r", norm=norm, shading="flat")
-        thr = doc["test"]["per_point_level"][ch]
         centres = (t_edges[:-1] + t_edges[1:]) / 2
         for w, win in enumerate(doc["windows"]):
-            hit = [k for k, p in enumerate(win["p"][ch]) if p is not None and p < thr]
+            hit = [k for k, h in enumerate(win["departs_at"][ch]) if h]
             if hit:
                 ax.plot([centres[w]] * len(hit), taus[hit], "kx", ms=5)
         warm = doc["warmup_s"][ch]
