@@ -70,7 +70,7 @@ def test_false_alarms_at_most_the_stated_level(verdicts) -> None:
     at most 1 - LEVEL = 5 % per channel.  Over 10 seeds x (4 + 6) channels x 2
     sources = 200 trials, 10 expected at the bound; 18 or more would have
     probability about 1 % if the rate were 5 %.  (Measured over 30 seeds of
-    the stationary run: 8 of 180 from reports, 6 of 180 from raw windows.)"""
+    the stationary run: 8 of 180 from reports, 5 of 180 from raw windows.)"""
     alarms = trials = 0
     for (s, warm), vs in verdicts.items():
         for v in vs:
