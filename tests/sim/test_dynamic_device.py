@@ -121,3 +121,20 @@ def test_monitor_shows_the_advice_line_at_every_report(device_runs) -> None:
         seen.append((mon.report.seq, advice[0]))
     assert len({s for s, _ in seen}) >= SECONDS // INTERVAL - 1
     assert len({a for _, a in seen}) > 3  # it moves with the reports
+
+
+def test_analyze_of_the_device_log_reports_the_warm_up_and_cuts_it_at_a_report(device_runs) -> None:
+    """`analyze LOG` (the device's results alone) finds the same warm-up, gives
+    the terms from the device's sums after it, and `--skip` cuts the sums at
+    the first report after the time asked (its last report minus that one)."""
+    _, log = device_runs["warm"]
+    doc = json.loads(cli("analyze", str(log), "--json", "--no-model").stdout)
+    w = doc["warmup"]
+    assert w["from"] == "device reports" and abs(w["warmup_s"]["gx"] - WARM) <= 0.3 * WARM
+    assert w["without_warmup"]["skip_s"] == max(v for v in w["warmup_s"].values() if v is not None)
+    assert doc["channels"]["gy"]["terms"]["N"]["record_s_for_10pct"] is not None
+    reports = runs(decode_bytes(log.read_bytes()).reports)[-1]
+    cut = next(r for r in reports if r.header.n >= 200 * FS)
+    skipped = json.loads(cli("analyze", str(log), "--json", "--no-model", "--no-warmup", "--skip", "200").stdout)
+    assert skipped["source"]["n"] == reports[-1].header.n - cut.header.n
+    assert any("--skip 200" in n for n in skipped["notes"])
