@@ -6,8 +6,6 @@ import argparse
 import sys
 from typing import Any, Callable, Optional
 
-import numpy as np
-
 from .errors import InputError
 
 MEMORY = 1 << 30
@@ -92,6 +90,7 @@ def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = 
                channels: Optional[list[str]] = None, window_s: Optional[float] = None,
                step_s: Optional[float] = None) -> tuple[Any, list[str]]:
     """``load_windows`` for a source already loaded (sources.load)."""
+    import numpy as np
     from . import dynamic
     from .channels import CHANNELS
     from .device.records import decode_bytes
