@@ -370,6 +370,16 @@ def _add_cmd(sub: Any) -> None:
 
 
 
+def _nonnegative_seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0 <= v < 1e9:
+        raise argparse.ArgumentTypeError(f"must be 0 s or more: {text!r}")
+    return v
+
+
 def _channel_list(text: str) -> list[str]:
     chans = [c.strip() for c in text.split(",")]
     bad = [c for c in chans if c not in CHANNELS]
@@ -461,6 +471,11 @@ def _add_analyze(sub: Any) -> None:
                    help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)")
     p.add_argument("--no-model", action="store_true",
                    help="skip the thesis model's simulation and FIT%% (faster)")
+    p.add_argument("--skip", type=_nonnegative_seconds, metavar="SECONDS",
+                   help="leave out the first SECONDS of the record (a warm-up); a device log alone is cut "
+                        "at its first report after them (its report minus that one)")
+    p.add_argument("--no-warmup", action="store_true",
+                   help="do not test the record's windows for a warm-up (see imu-allan dynamic)")
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S",
                    help="random seed of the model simulation (default 1)")
     p.add_argument("--outliers", choices=("replace", "keep"), default="replace", help=OUTLIERS_HELP)
