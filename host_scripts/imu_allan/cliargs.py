@@ -401,43 +401,47 @@ OUTLIERS_HELP = ("spikes and bursts (a knock on the bench), found on the sample-
                  "listed only); a recording that is mostly spikes is refused unless kept")
 
 
+ANALYZE_DESCRIPTION = (
+    "Characterize an IMU from a recording at rest. FILE is any of (found by content):\n"
+    "  - a device log (imu-allan sim / monitor): the on-device Allan results;\n"
+    "  - a raw capture or rows file (thesis rows: 7 ADC codes per line);\n"
+    "  - a CSV with a header naming the columns (t, ax, ..., gz; also acc_x,\n"
+    "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used).\n\n"
+    "It computes, in float64: the overlapping Allan deviation (and the\n"
+    "non-overlapping one the device computes, modified Allan and Hadamard\n"
+    "deviations) with 95 % confidence intervals (Greenhall's equivalent\n"
+    "degrees of freedom, NIST SP 1065); fits the IEEE 952 noise terms to the\n"
+    "whole curve, each with an interval and the tau range where it dominates,\n"
+    "saying plainly when a term is not identifiable from the data:\n"
+    "  N random walk (ARW / VRW)   B bias instability   K rate random walk\n"
+    "  Q quantization              R rate ramp\n"
+    "plus the PSD (Welch), and the thesis' noise model (Gauss-Markov bias +\n"
+    "rate random walk + white noise) simulated from the terms, with its FIT%.\n"
+    "Given a device log too (--device, or a capture in mode 'both'), the\n"
+    "device's points are checked against the host's curve.\n\n"
+    "Units: rates in m/s^2 (accelerometers) and deg/s (gyros). In --json, with u\n"
+    "the rate unit: Q in u*s, N in u*sqrt(s), B in u, K in u/sqrt(s), R in u/s;\n"
+    "the table also shows deg/sqrt(h), deg/h, m/s/sqrt(h), ug ... The thesis\n"
+    "profile converts ADC codes (MMA7260Q at --range, LISY300AL, Vref 3.3 V);\n"
+    "--scale gives your own sensor's scale per channel. Every conversion is\n"
+    "written out in docs/analysis.md.")
+
+ANALYZE_EPILOG = (
+    "examples:\n"
+    "  imu-allan analyze device.log                      # on-device results only\n"
+    "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
+    "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
+    "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
+    "exit status: 0 success, 2 usage, input or output error (one line on stderr)")
+
+
 def _add_analyze(sub: Any) -> None:
     from .stats.options import TAU_KINDS
     from .profiles import PROFILES, RANGES
     p = sub.add_parser(
         "analyze", help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        description=(
-            "Characterize an IMU from a recording at rest. FILE is any of (found by content):\n"
-            "  - a device log (imu-allan sim / monitor): the on-device Allan results;\n"
-            "  - a raw capture or rows file (thesis rows: 7 ADC codes per line);\n"
-            "  - a CSV with a header naming the columns (t, ax, ..., gz; also acc_x,\n"
-            "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used).\n\n"
-            "It computes, in float64: the overlapping Allan deviation (and the\n"
-            "non-overlapping one the device computes, modified Allan and Hadamard\n"
-            "deviations) with 95 % confidence intervals (Greenhall's equivalent\n"
-            "degrees of freedom, NIST SP 1065); fits the IEEE 952 noise terms to the\n"
-            "whole curve, each with an interval and the tau range where it dominates,\n"
-            "saying plainly when a term is not identifiable from the data:\n"
-            "  N random walk (ARW / VRW)   B bias instability   K rate random walk\n"
-            "  Q quantization              R rate ramp\n"
-            "plus the PSD (Welch), and the thesis' noise model (Gauss-Markov bias +\n"
-            "rate random walk + white noise) simulated from the terms, with its FIT%.\n"
-            "Given a device log too (--device, or a capture in mode 'both'), the\n"
-            "device's points are checked against the host's curve.\n\n"
-            "Units: rates in m/s^2 (accelerometers) and deg/s (gyros). In --json, with u\n"
-            "the rate unit: Q in u*s, N in u*sqrt(s), B in u, K in u/sqrt(s), R in u/s;\n"
-            "the table also shows deg/sqrt(h), deg/h, m/s/sqrt(h), ug ... The thesis\n"
-            "profile converts ADC codes (MMA7260Q at --range, LISY300AL, Vref 3.3 V);\n"
-            "--scale gives your own sensor's scale per channel. Every conversion is\n"
-            "written out in docs/analysis.md."),
-        epilog=(
-            "examples:\n"
-            "  imu-allan analyze device.log                      # on-device results only\n"
-            "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
-            "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
-            "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
-            "exit status: 0 success, 2 usage, input or output error (one line on stderr)"))
+        description=ANALYZE_DESCRIPTION, epilog=ANALYZE_EPILOG)
     p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
     p.add_argument("--fs", type=_fs, metavar="HZ",
                    help="sample rate, Hz: required for rows files and CSV without a time column "
