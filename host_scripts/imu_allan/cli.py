@@ -17,7 +17,7 @@ from .errors import InputError
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    from . import render
+    from .render import text as render
     from .device.files import read_all
     from .device.records import decode_bytes
     res = decode_bytes(read_all(args.log))
@@ -45,7 +45,7 @@ def _refused(reasons: list[str]) -> str:
 
 
 def cmd_reference(args: argparse.Namespace) -> int:
-    from . import render
+    from .render import text as render
     from .device.rows import iter_blocks
     from .stats.reference import OctaveCascade
     cascade = OctaveCascade(args.levels, len(CHANNELS))
@@ -179,7 +179,7 @@ CMD_TRIES = 3
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from . import render
+    from .render import text as render
     from .analysis import Options, analyze
     from .profiles import build_profile, parse_scales, resolve_range, scales_for_input
     from .sources import load, load_device_report
@@ -204,7 +204,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if args.imu_utils:
         written.append(_write_text(args.imu_utils, render.imu_utils_yaml(doc)))
     if args.plot:
-        from .plots import write_plots
+        from .render.plots import write_plots
         written += write_plots(doc, args.plot)
     if args.json:
         sys.stdout.write(render.to_json(doc))

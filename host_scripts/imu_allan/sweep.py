@@ -505,7 +505,7 @@ PLOTTED = ("N", "N_tau0", "B", "K", "sigma_sensor", "sigma_BIAS")
 
 def write_plot(doc: dict[str, Any], directory: str) -> str:
     """terms-vs-fs.png: one panel per quantity, one series per channel, the fitted power laws."""
-    from .plots import pyplot_for
+    from .render.plots import pyplot_for
     plt = pyplot_for(directory)
     keys = list(doc["rates"])
     fig, axes = plt.subplots(2, 3, figsize=(14, 8))

@@ -400,7 +400,7 @@ def text(doc: dict[str, Any]) -> str:
 
 
 def write_plot(doc: dict[str, Any], directory: str) -> str:
-    from .plots import pyplot_for
+    from .render.plots import pyplot_for
     plt = pyplot_for(directory)
     fig, axes = plt.subplots(2, 3, figsize=(14, 8))
     for ax, (ch, c) in zip(axes.flat, doc["channels"].items()):
