@@ -30,7 +30,7 @@ from .device.records import DeviceReport, flag_names
 from .errors import InputError
 from .profiles import Profile, term_unit, to_si_rad
 from .progress import Progress
-from .sources import SampleSource, Source
+from .sources.detect import SampleSource, Source
 
 LEVEL = 0.95
 

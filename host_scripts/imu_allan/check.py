@@ -26,7 +26,7 @@ import numpy as np
 from .channels import CHANNELS
 from .device.files import PathLike
 from .device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
-from .device.rows import iter_blocks
+from .sources.rows import iter_blocks
 from .device.summary import parse_terms as parse_summary_terms
 from .device.summary import scales, summary_units
 from .stats.reference import OctaveCascade

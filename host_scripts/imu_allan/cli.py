@@ -46,7 +46,7 @@ def _refused(reasons: list[str]) -> str:
 
 def cmd_reference(args: argparse.Namespace) -> int:
     from .render import text as render
-    from .device.rows import iter_blocks
+    from .sources.rows import iter_blocks
     from .stats.reference import OctaveCascade
     cascade = OctaveCascade(args.levels, len(CHANNELS))
     for block in iter_blocks(args.file):
@@ -84,7 +84,7 @@ def cmd_gen(args: argparse.Namespace) -> int:
     if args.model:
         from .cli_thesis import gen_from_model
         return gen_from_model(args)
-    from .device.rows import format_rows
+    from .sources.rows import format_rows
     from .stats.gen import PARAMS, generate, make_params
     params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
                          profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
@@ -112,7 +112,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
 def cmd_rows(args: argparse.Namespace) -> int:
     from .device.capture import decode_chunks
     from .device.files import input_name, read_blocks
-    from .device.rows import format_rows
+    from .sources.rows import format_rows
     from .device.stream import LOSS_KEYS, StreamDecoder
     name = input_name(args.log)
     dec = StreamDecoder(verified_only=True)
@@ -182,7 +182,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from .render import text as render
     from .analysis import Options, analyze
     from .profiles import build_profile, parse_scales, resolve_range, scales_for_input
-    from .sources import load, load_device_report
+    from .sources.detect import load, load_device_report
     scales = parse_scales(args.scale)
     src = load(args.file)
     device = load_device_report(args.device) if args.device else None

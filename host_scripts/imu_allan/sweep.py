@@ -145,7 +145,7 @@ def analyze_log(log: str, fs: float, profile_name: str, seed: int,
     with ``fit_from`` (s), the terms are fitted only to the points at tau >= fit_from."""
     from .analysis import Options, analyze
     from .profiles import build_profile
-    from .sources import load
+    from .sources.detect import load
     src = load(log)
     rep = src.report
     if rep is None:
@@ -355,7 +355,7 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
     """Each rate: rows from the sensor model at that rate's ADC instants, the real
     firmware in imu-sim on them (rate set as after 'rate'), its log."""
     from .sensor import Board, SensorModel
-    from .device.rows import format_rows
+    from .sources.rows import format_rows
     from .device.simrun import sim_command
     cfg = sw.config
     model = SensorModel(cfg.model)  # type: ignore[arg-type]

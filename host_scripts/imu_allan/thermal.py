@@ -59,7 +59,7 @@ def read_with_temperature(path: str) -> tuple[np.ndarray, Optional[float], str]:
 
     Read through the one file reader (sources.load); only the sources that
     carry the temperature column (rows files, captures with samples) qualify."""
-    from .sources import load
+    from .sources.detect import load
     src = load(path)
     s = src.samples
     if s is None:
@@ -151,7 +151,7 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
           profile: str = "counts", segments: int = SEGMENTS) -> dict[str, Any]:
     from .analysis import Options, analyze
     from .profiles import build_profile
-    from .sources import SampleSource, Source
+    from .sources.detect import SampleSource, Source
     codes, fs_file, kind = read_with_temperature(path)
     if fs is None:
         fs = fs_file
@@ -231,7 +231,7 @@ def _before_after(chans: dict[str, Any], path: str, kind: str, x: np.ndarray, co
     """The Allan deviation, terms and FIT% of each channel before and after removing
     its thermal bias, into ``chans``."""
     from .analysis import Options, analyze
-    from .sources import SampleSource, Source
+    from .sources.detect import SampleSource, Source
     n = x.shape[1]
     docs = {}
     for name, data in (("before", x), ("after", corrected)):
@@ -278,7 +278,7 @@ def _terms_by_temperature(chans: dict[str, Any], data: np.ndarray, T: np.ndarray
     """N and B of the thermally corrected series in consecutive segments (each at its own
     mean temperature), and the slope of each against temperature with its 95 % interval."""
     from .analysis import Options, analyze
-    from .sources import SampleSource, Source
+    from .sources.detect import SampleSource, Source
     n = data.shape[1]
     L = n // segments
     temps, docs = [], []
