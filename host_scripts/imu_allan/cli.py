@@ -64,7 +64,7 @@ def cmd_reference(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from .check import check_report, summary
+    from .analysis.check import check_report, summary
     from .device.files import read_all
     from .device.records import decode_bytes
     if args.log == "-" and args.file == "-":
@@ -180,7 +180,7 @@ CMD_TRIES = 3
 
 def cmd_analyze(args: argparse.Namespace) -> int:
     from .render import text as render
-    from .analysis import Options, analyze
+    from .analysis.pipeline import Options, analyze
     from .profiles import build_profile, parse_scales, resolve_range, scales_for_input
     from .sources.detect import load, load_device_report
     scales = parse_scales(args.scale)

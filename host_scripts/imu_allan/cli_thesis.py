@@ -141,7 +141,7 @@ def _add_thermal(sub: Any) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from . import sweep
+    from .analysis import sweep
     from .errors import InputError
     if args.port and (args.model or args.average != 1 or args.keep_rows):
         raise InputError("--model, --average and --keep-rows go with --sim")
@@ -160,7 +160,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_thermal(args: argparse.Namespace) -> int:
-    from . import thermal
+    from .analysis import thermal
     doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile,
                         segments=max(args.segments, 1))
     return _emit("thermal", doc, thermal, args)

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from conftest import line
-from imu_allan import analysis, profiles, thesis
+from imu_allan import profiles, thesis
+from imu_allan.analysis import pipeline as analysis
 from imu_allan.sources import detect as sources
 from imu_allan.stats import gen
 

@@ -23,14 +23,14 @@ from typing import Any, Optional
 
 import numpy as np
 
-from . import __version__
-from .channels import CHANNELS, CODE_MAX
-from .stats import allan, edf, identify, model, psd, terms
-from .device.records import DeviceReport, flag_names
-from .errors import InputError
-from .profiles import Profile, term_unit, to_si_rad
-from .progress import Progress
-from .sources.detect import SampleSource, Source
+from .. import __version__
+from ..channels import CHANNELS, CODE_MAX
+from ..stats import allan, edf, identify, model, psd, terms
+from ..device.records import DeviceReport, flag_names
+from ..errors import InputError
+from ..profiles import Profile, term_unit, to_si_rad
+from ..progress import Progress
+from ..sources.detect import SampleSource, Source
 
 LEVEL = 0.95
 
