@@ -23,7 +23,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..channels import CHANNELS, CODE_MAX
 from ..stats import allan, edf, identify, model, psd, terms
 from ..device.records import DeviceReport, flag_names
