@@ -177,9 +177,9 @@ other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still comp
 	$(MAKE) --no-print-directory firmware MCU=atmega328p
 
 unit: ## the firmware's Unity and native tests (cmake, ctest)
-	cmake -S tests/unit -B $(BUILD)/unit -DUNITY_DIR=$(UNITY_DIR) >/dev/null
-	cmake --build $(BUILD)/unit -j 2
-	cd $(BUILD)/unit && ctest --output-on-failure
+	cmake -S tests/firmware/unit -B $(BUILD)/firmware-test -DUNITY_DIR=$(UNITY_DIR) >/dev/null
+	cmake --build $(BUILD)/firmware-test -j 2
+	cd $(BUILD)/firmware-test && ctest --output-on-failure
 
 # The host tests that drive the real firmware in imu-sim (sweep, the report
 # check line) need both built; without them they would skip.
@@ -260,4 +260,4 @@ demo-native: $(NATIVE_DEMO) ## the Allan engine alone, natively, on 2^20 synthet
 	$(NATIVE_DEMO)
 
 clean: ## remove the firmware, unit-test and native builds (build/avr-*, unit, host)
-	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/host
+	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/firmware-test $(BUILD)/host
