@@ -107,7 +107,7 @@ HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
 # The simulator harness imu-sim (defines IMU_SIM, used by rules below), and
 # the fuzzers of the pure firmware modules (make fuzz, fuzz-smoke).
 include sim/sim.mk
-include tests/fuzz/fuzz.mk
+include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
