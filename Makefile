@@ -197,7 +197,7 @@ flash-test: firmware $(IMU_SIM) bootloader ## make flash with avrdude and optibo
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM) ## the firmware ELF in simavr on synthetic streams, checked exactly
-	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/system/sim
 
 # ---- lint and format -------------------------------------------------------
 # Python: ruff (ruff.toml: check and format); C: clang-format (.clang-format,
