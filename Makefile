@@ -188,7 +188,7 @@ pytest: firmware $(IMU_SIM) ext ## the host package's tests (host_scripts/tests)
 
 # The simulated device on a pseudo-terminal, driven as a user would.
 term-test: firmware $(IMU_SIM) ## the simulated device on a pseudo-terminal, driven as a user would
-	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/term
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/system/term
 
 # make flash with the real avrdude against the real optiboot on the simulated
 # board (make sim-board), and the reset causes with and without it.
