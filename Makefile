@@ -193,7 +193,7 @@ term-test: firmware $(IMU_SIM) ## the simulated device on a pseudo-terminal, dri
 # make flash with the real avrdude against the real optiboot on the simulated
 # board (make sim-board), and the reset causes with and without it.
 flash-test: firmware $(IMU_SIM) bootloader ## make flash with avrdude and optiboot on the simulated board
-	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/flash
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/system/flash
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM) ## the firmware ELF in simavr on synthetic streams, checked exactly
