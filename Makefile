@@ -111,7 +111,7 @@ include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts lint format bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all help facts lint format bench ext firmware other-mcus deps test firmware-test unit pytest sim-test term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -170,13 +170,13 @@ ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
+test: firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
 	$(MAKE) --no-print-directory firmware MCU=atmega328p
 
-unit: ## the firmware's Unity and native tests (cmake, ctest)
+firmware-test unit: ## the firmware's Unity and native tests (cmake, ctest); unit: its former name
 	cmake -S tests/firmware/unit -B $(BUILD)/firmware-test -DUNITY_DIR=$(UNITY_DIR) >/dev/null
 	cmake --build $(BUILD)/firmware-test -j 2
 	cd $(BUILD)/firmware-test && ctest --output-on-failure
@@ -259,5 +259,5 @@ $(NATIVE_DEMO): tools/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)
 demo-native: $(NATIVE_DEMO) ## the Allan engine alone, natively, on 2^20 synthetic samples
 	$(NATIVE_DEMO)
 
-clean: ## remove the firmware, unit-test and native builds (build/avr-*, unit, host)
+clean: ## remove the firmware, firmware-test and native builds (build/avr-*, firmware-test, host)
 	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/firmware-test $(BUILD)/host
