@@ -94,7 +94,7 @@ def _add_format(p: argparse.ArgumentParser) -> None:
 
 def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.ArgumentParser:
     """The whole command line; ``more(subparsers)`` may add subcommands (cli.py adds
-    sweep and thermal from cli_thesis.py)."""
+    sweep and thermal from study.py)."""
     parser = _Parser(
         prog="imu-allan",
         formatter_class=argparse.RawDescriptionHelpFormatter,
