@@ -107,11 +107,11 @@ HOST_CFLAGS := -std=gnu99 -O2 -Wall -Wextra -Werror -I$(FW_DIR)
 # The simulator harness imu-sim (defines IMU_SIM, used by rules below), and
 # the fuzzers of the pure firmware modules (make fuzz, fuzz-smoke).
 include sim/sim.mk
-include tests/fuzz/fuzz.mk
+include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts lint format bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all help facts lint format bench ext firmware other-mcus deps test firmware-test unit pytest sim-test term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -170,16 +170,16 @@ ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
+test: firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
 	$(MAKE) --no-print-directory firmware MCU=atmega328p
 
-unit: ## the firmware's Unity and native tests (cmake, ctest)
-	cmake -S tests/unit -B $(BUILD)/unit -DUNITY_DIR=$(UNITY_DIR) >/dev/null
-	cmake --build $(BUILD)/unit -j 2
-	cd $(BUILD)/unit && ctest --output-on-failure
+firmware-test unit: ## the firmware's Unity and native tests (cmake, ctest); unit: its former name
+	cmake -S tests/firmware/unit -B $(BUILD)/firmware-test -DUNITY_DIR=$(UNITY_DIR) >/dev/null
+	cmake --build $(BUILD)/firmware-test -j 2
+	cd $(BUILD)/firmware-test && ctest --output-on-failure
 
 # The host tests that drive the real firmware in imu-sim (sweep, the report
 # check line) need both built; without them they would skip.
@@ -188,16 +188,16 @@ pytest: firmware $(IMU_SIM) ext ## the host package's tests (host_scripts/tests)
 
 # The simulated device on a pseudo-terminal, driven as a user would.
 term-test: firmware $(IMU_SIM) ## the simulated device on a pseudo-terminal, driven as a user would
-	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/term
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/system/term
 
 # make flash with the real avrdude against the real optiboot on the simulated
 # board (make sim-board), and the reset causes with and without it.
 flash-test: firmware $(IMU_SIM) bootloader ## make flash with avrdude and optiboot on the simulated board
-	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/flash
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/system/flash
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
 sim-test: firmware $(IMU_SIM) ## the firmware ELF in simavr on synthetic streams, checked exactly
-	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/system/sim
 
 # ---- lint and format -------------------------------------------------------
 # Python: ruff (ruff.toml: check and format); C: clang-format (.clang-format,
@@ -259,5 +259,5 @@ $(NATIVE_DEMO): tools/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)
 demo-native: $(NATIVE_DEMO) ## the Allan engine alone, natively, on 2^20 synthetic samples
 	$(NATIVE_DEMO)
 
-clean: ## remove the firmware, unit-test and native builds (build/avr-*, unit, host)
-	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/host
+clean: ## remove the firmware, firmware-test and native builds (build/avr-*, firmware-test, host)
+	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/firmware-test $(BUILD)/host

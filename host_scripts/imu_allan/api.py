@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from .device.capture import Capture, read_capture
 from .device.files import PathLike, read_all
 from .device.records import DeviceReport, decode_bytes
-from .device.rows import read_rows
+from .sources.rows import read_rows
 from .stats import allan, edf, terms
 
 Taus = Union[str, ArrayLike]

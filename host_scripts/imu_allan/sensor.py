@@ -353,7 +353,7 @@ class Board:
 
 def write_rows(path: str, model: SensorModel, fs: float, n: int, seed: int = 1, average: int = 1) -> None:
     """A rows file (thesis format) of the board sampled at fs."""
-    from .device.rows import format_rows
+    from .sources.rows import format_rows
     import sys
     board = Board(model, fs, n, seed=seed, average=average)
     try:

@@ -81,7 +81,7 @@ def thesis_like(n: int, seed: int) -> np.ndarray:
 
 @pytest.fixture
 def run_cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str, str]]:
-    from imu_allan.cli import main
+    from imu_allan.cli.main import main
 
     def run(*argv: str) -> tuple[int, str, str]:
         try:

@@ -178,7 +178,7 @@ def test_rows_tells_lost_from_failed(tmp_path: Path, run_cli) -> None:
 
 @pytest.mark.parametrize("text,want", [("250", 250), ("0250", 250), ("1000", 1000), ("50", 50)])
 def test_sim_rate_is_one_of_the_device_rates(text: str, want: int) -> None:
-    from imu_allan.cliargs import build_parser
+    from imu_allan.cli.args import build_parser
     args = build_parser().parse_args(["sim", "--adc", "x.txt", "--fs", text, "-o", "y.log"])
     assert args.fs == want  # decimal, never octal
 

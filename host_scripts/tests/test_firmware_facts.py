@@ -64,7 +64,7 @@ def test_the_firmware_values_read_independently() -> None:
 def test_cmd_help_names_every_command_of_the_firmware() -> None:
     """`imu-allan cmd --help` lists the device's commands from the firmware's table
     (it once missed `echo` and `units`, added to the firmware after it was written)."""
-    from imu_allan.cliargs import build_parser
+    from imu_allan.cli.args import build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))

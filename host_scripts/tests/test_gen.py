@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from imu_allan.stats.gen import THESIS, generate, make_params
-from imu_allan.device.rows import read_rows
+from imu_allan.sources.rows import read_rows
 
 
 def _gen(run_cli, path: Path, *args) -> np.ndarray:

@@ -35,7 +35,8 @@ def test_b_line_and_log_grid_limits(tmp_path: Path, monkeypatch) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from imu_allan import cli, plots
+    from imu_allan.cli import main as cli
+    from imu_allan.render import plots
     seen: list = []
     real_save = plots._save
 

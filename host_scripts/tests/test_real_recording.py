@@ -49,7 +49,7 @@ def _analyze(run_cli, path: Path, *extra: str) -> dict:
 
 @pytest.fixture(scope="module")
 def doc(recording: Path) -> dict:
-    from imu_allan.cli import main
+    from imu_allan.cli.main import main
     import contextlib
     import io
     buf = io.StringIO()

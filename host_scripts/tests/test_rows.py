@@ -6,7 +6,7 @@ import pytest
 
 from conftest import thesis_like, write_rows
 from imu_allan.errors import InputError
-from imu_allan.device.rows import format_rows, iter_blocks, read_rows
+from imu_allan.sources.rows import format_rows, iter_blocks, read_rows
 
 
 def test_reads_comments_blank_lines_crlf_and_spaces(tmp_path: Path) -> None:

@@ -155,7 +155,7 @@ def test_gen_model_writes_the_model_rows(tmp_path):
     p = subprocess.run([sys.executable, "-m", "imu_allan.cli", "gen", "--model", str(mf), "--fs", "250",
                         "-n", "3000", "--seed", "4", "-o", str(out)], capture_output=True, text=True, env=env)
     assert p.returncode == 0, p.stderr
-    from imu_allan.device.rows import read_rows
+    from imu_allan.sources.rows import read_rows
     got = read_rows(str(out))
     want = sensor.Board(sensor.load_model(str(mf)), 250.0, 3000, seed=4).codes(0, 3000)
     assert np.array_equal(got, want)

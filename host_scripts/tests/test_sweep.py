@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan import sensor, sweep
+from imu_allan import sensor
+from imu_allan.analysis import sweep
 
 REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))

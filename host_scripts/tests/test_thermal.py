@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan import sensor, thermal
+from imu_allan import sensor
+from imu_allan.analysis import thermal
 
 REPO = Path(__file__).resolve().parents[2]
 TEMPCO = {"ax": 0.3, "ay": -0.2, "az": 0.0, "gx": 0.15, "gy": 0.05, "gz": -0.1}

@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 from conftest import line
-from imu_allan import analysis, profiles, sources, thesis
+from imu_allan import profiles, thesis
+from imu_allan.analysis import pipeline as analysis
+from imu_allan.sources import detect as sources
 from imu_allan.stats import gen
 
 CH = ("ax", "ay", "az", "gx", "gy", "gz")
@@ -98,7 +100,7 @@ def test_device_and_rows_agree(codes: np.ndarray, tmp_path: Path, run_cli) -> No
     short = codes[:, : 1 << 17]
     rows = tmp_path / "imu.txt"
     with open(rows, "wb") as f:
-        from imu_allan.device.rows import format_rows
+        from imu_allan.sources.rows import format_rows
         f.write(b"# thesis parameters\n" + format_rows(short))
     log = _device_log(short, tmp_path / "device.log", levels=15)
     rc, out, err = run_cli("analyze", rows, "--fs", "100", "--device", log, "--json", "--no-model")

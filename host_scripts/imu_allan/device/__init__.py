@@ -4,5 +4,5 @@ framing.py  the CRC-16 and both frame formats (text lines, binary sample frames)
 records.py  the protocol's records (B H L S E C ok error) and whole device reports
 stream.py   the one stream decoder of mixed captures (lines, raw rows, frames)
 capture.py  a capture decoded once; files.py the one way a file is read
-rows.py     the thesis rows file; monitor.py, simrun.py the serial port and imu-sim
+monitor.py  the serial port and the live view; simrun.py imu-sim as a child process
 """

@@ -167,7 +167,7 @@ class Monitor:
         return "not used: " + (", ".join(bad) if bad else "nothing")
 
     def report_text(self) -> str:
-        from .. import render
+        from ..render import text as render
         if self.report is None:
             return "no complete report yet\n"
         doc = render.report_doc(self.report)
@@ -287,7 +287,7 @@ def _run_terminal(ser: Any, mon: Monitor, log: IO[bytes], out: IO[str], once: bo
     propagates), --once, or raises PortError."""
     from contextlib import nullcontext
 
-    from ..terminal import Keys, LineEditor, Screen
+    from ..render.terminal import Keys, LineEditor, Screen
     reader = _PortReader(ser, mon.port)
     editor = LineEditor()
     scroll = 0
@@ -361,7 +361,7 @@ def run_monitor(port: str, baud: int, log_path: Optional[str], once: bool,
     terminal, taking commands typed on stdin when that is a terminal too;
     plain lines otherwise.  Returns the exit status (0, or 1 when the port
     or the log fails)."""
-    from ..terminal import stdin_is_terminal
+    from ..render.terminal import stdin_is_terminal
     out = out or sys.stdout
     err = err or sys.stderr
     log_path = log_path or default_log_name()

@@ -43,8 +43,8 @@ import numpy as np
 from scipy import stats
 from scipy.linalg import solve_triangular
 
-from .channels import CHANNELS
-from .errors import InputError
+from ..channels import CHANNELS
+from ..errors import InputError
 
 Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
@@ -59,7 +59,7 @@ def read_with_temperature(path: str) -> tuple[np.ndarray, Optional[float], str]:
 
     Read through the one file reader (sources.load); only the sources that
     carry the temperature column (rows files, captures with samples) qualify."""
-    from .sources import load
+    from ..sources.detect import load
     src = load(path)
     s = src.samples
     if s is None:
@@ -149,9 +149,9 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
 
 def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[float, float]] = None,
           profile: str = "counts", segments: int = SEGMENTS, outliers_mode: str = "replace") -> dict[str, Any]:
-    from .analysis import Options, analyze
-    from .profiles import build_profile
-    from .sources import SampleSource, Source
+    from .pipeline import Options, analyze
+    from ..profiles import build_profile
+    from ..sources.detect import SampleSource, Source
     codes, fs_file, kind = read_with_temperature(path)
     if fs is None:
         fs = fs_file
@@ -252,8 +252,8 @@ def _before_after(chans: dict[str, Any], path: str, kind: str, x: np.ndarray, co
                   T_smooth: np.ndarray, fs: float, prof: Any) -> None:
     """The Allan deviation, terms and FIT% of each channel before and after removing
     its thermal bias, into ``chans``."""
-    from .analysis import Options, analyze
-    from .sources import SampleSource, Source
+    from .pipeline import Options, analyze
+    from ..sources.detect import SampleSource, Source
     n = x.shape[1]
     docs = {}
     for name, data in (("before", x), ("after", corrected)):
@@ -299,8 +299,8 @@ def _terms_by_temperature(chans: dict[str, Any], data: np.ndarray, T: np.ndarray
                           path: str, kind: str, prof: Any, t_unit: str) -> None:
     """N and B of the thermally corrected series in consecutive segments (each at its own
     mean temperature), and the slope of each against temperature with its 95 % interval."""
-    from .analysis import Options, analyze
-    from .sources import SampleSource, Source
+    from .pipeline import Options, analyze
+    from ..sources.detect import SampleSource, Source
     n = data.shape[1]
     L = n // segments
     temps, docs = [], []
@@ -345,15 +345,15 @@ def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Option
 
 
 def _fit(s: np.ndarray, m: np.ndarray) -> Optional[float]:
-    from .stats.model import fit_percent
+    from ..stats.model import fit_percent
     return fit_percent(s, m)
 
 
 def _with_thermal(after: dict[str, Any], before: dict[str, Any], ch: dict[str, Any], T: np.ndarray,
                   fs: float, k: float) -> Optional[float]:
     """FIT% (log10 ADEV) of noise model + thermal term against the raw series' curve."""
-    from .stats import model
-    from .stats.allan import oadev_octave
+    from ..stats import model
+    from ..stats.allan import oadev_octave
     mp = (after.get("model") or {}).get("params")
     if not mp:
         return None
@@ -423,7 +423,7 @@ def text(doc: dict[str, Any]) -> str:
 
 
 def write_plot(doc: dict[str, Any], directory: str) -> str:
-    from .plots import pyplot_for
+    from ..render.plots import pyplot_for
     plt = pyplot_for(directory)
     fig, axes = plt.subplots(2, 3, figsize=(14, 8))
     for ax, (ch, c) in zip(axes.flat, doc["channels"].items()):

@@ -23,13 +23,13 @@ from typing import Optional
 
 import numpy as np
 
-from .channels import CHANNELS
-from .device.files import PathLike
-from .device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
-from .device.rows import iter_blocks
-from .device.summary import parse_terms as parse_summary_terms
-from .device.summary import scales, summary_units
-from .stats.reference import OctaveCascade
+from ..channels import CHANNELS
+from ..device.files import PathLike
+from ..device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
+from ..sources.rows import iter_blocks
+from ..device.summary import parse_terms as parse_summary_terms
+from ..device.summary import scales, summary_units
+from ..stats.reference import OctaveCascade
 
 REL_TOL = 1e-12
 TERM_REL = 2e-4

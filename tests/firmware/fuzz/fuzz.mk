@@ -1,4 +1,4 @@
-# tests/fuzz/fuzz.mk - libFuzzer targets for the firmware's pure modules,
+# tests/firmware/fuzz/fuzz.mk - libFuzzer targets for the firmware's pure modules,
 # built natively with clang (Debian's clang-14 + libclang-rt-14-dev) under
 # AddressSanitizer and UndefinedBehaviorSanitizer, any finding fatal.
 #
@@ -8,7 +8,7 @@
 #   make fuzz-smoke              the short run of `make test` (3 s a target)
 #   make fuzz-clean              remove $(BUILD)/fuzz
 #
-# Targets (tests/fuzz/<target>.c; seeds in tests/fuzz/corpus/<target>/):
+# Targets (tests/firmware/fuzz/<target>.c; seeds in tests/firmware/fuzz/corpus/<target>/):
 #   fuzz_command   command_parse() on arbitrary lines, up to FUZZ_COMMAND_MAX_LEN
 #                  bytes: result codes, blank lines, case, blanks, determinism
 #   fuzz_proto     proto_* framing, crc16, fmt_u32/fmt_hex vs an independent
@@ -25,7 +25,7 @@
 # with `$(BUILD)/fuzz/<target> FILE`.
 #
 # Included by the top-level Makefile (which defines BUILD and FW_DIR); on its
-# own: make -f tests/fuzz/fuzz.mk fuzz
+# own: make -f tests/firmware/fuzz/fuzz.mk fuzz
 
 # Keep the including Makefile's default goal.
 FUZZ_SAVED_GOAL := $(.DEFAULT_GOAL)
@@ -44,7 +44,7 @@ FUZZ_FLAGS ?=
 FUZZ_COMMAND_MAX_LEN ?= 300
 
 FUZZ_CC ?= $(shell command -v clang-14 || command -v clang)
-FUZZ_DIR := tests/fuzz
+FUZZ_DIR := tests/firmware/fuzz
 FUZZ_OUT := $(BUILD)/fuzz
 FUZZ_CFLAGS := -std=gnu99 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
                -Wall -Wextra -Werror -I $(FW_DIR) -I $(FUZZ_DIR)

@@ -16,7 +16,7 @@ from typing import Callable, Iterator
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
 ELF = Path(os.environ.get("IMU_ELF", BUILD / "avr-atmega168" / "imu-allan.elf"))
 SIM = Path(os.environ.get("IMU_SIM", BUILD / "host" / "imu-sim"))

@@ -1,6 +1,6 @@
 """The ``imu-allan`` command line: each command reads with the device layer,
-computes with the stats layer (or analysis.py) and prints with render.py.
-No domain logic lives here; the parser and every --help text are in cliargs.py."""
+computes with the stats layer (or analysis/) and prints with render/.
+No domain logic lives here; the parser and every --help text are in args.py."""
 from __future__ import annotations
 
 import argparse
@@ -10,16 +10,16 @@ import os
 import sys
 from typing import Any, BinaryIO, Iterator, Optional
 
-from .channels import CHANNELS
-from .cli_thesis import add_subcommands
-from .cliargs import EXIT_LOST, build_parser
-from .errors import InputError
+from ..channels import CHANNELS
+from .study import add_subcommands
+from .args import EXIT_LOST, build_parser
+from ..errors import InputError
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    from . import render
-    from .device.files import read_all
-    from .device.records import decode_bytes
+    from ..render import text as render
+    from ..device.files import read_all
+    from ..device.records import decode_bytes
     res = decode_bytes(read_all(args.log))
     if not res.reports:
         lost = ", ".join(f"{k} {v}" for k, v in res.errors.items() if v) or "the log is empty"
@@ -45,9 +45,9 @@ def _refused(reasons: list[str]) -> str:
 
 
 def cmd_reference(args: argparse.Namespace) -> int:
-    from . import render
-    from .device.rows import iter_blocks
-    from .stats.reference import OctaveCascade
+    from ..render import text as render
+    from ..sources.rows import iter_blocks
+    from ..stats.reference import OctaveCascade
     cascade = OctaveCascade(args.levels, len(CHANNELS))
     for block in iter_blocks(args.file):
         cascade.push(block[: len(CHANNELS)])
@@ -64,9 +64,9 @@ def cmd_reference(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from .check import check_report, summary
-    from .device.files import read_all
-    from .device.records import decode_bytes
+    from ..analysis.check import check_report, summary
+    from ..device.files import read_all
+    from ..device.records import decode_bytes
     if args.log == "-" and args.file == "-":
         raise InputError("LOG and FILE cannot both be stdin")
     res = decode_bytes(read_all(args.log))
@@ -82,10 +82,10 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_gen(args: argparse.Namespace) -> int:
     if args.model:
-        from .cli_thesis import gen_from_model
+        from .study import gen_from_model
         return gen_from_model(args)
-    from .device.rows import format_rows
-    from .stats.gen import PARAMS, generate, make_params
+    from ..sources.rows import format_rows
+    from ..stats.gen import PARAMS, generate, make_params
     params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
                          profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
     head = (f"# {params.command()}\n"
@@ -101,19 +101,19 @@ def cmd_gen(args: argparse.Namespace) -> int:
 
 def cmd_sim(args: argparse.Namespace) -> int:
     if args.model or not args.adc:
-        from .cli_thesis import sim_from_model
+        from .study import sim_from_model
         return sim_from_model(args)
-    from .device.simrun import run, sim_command
+    from ..device.simrun import run, sim_command
     return run(sim_command(args.adc, args.output, fs=args.fs, uart_in=args.uart_in,
                            firmware=args.firmware, stats=args.stats), adc=args.adc,
                fs=args.fs)
 
 
 def cmd_rows(args: argparse.Namespace) -> int:
-    from .device.capture import decode_chunks
-    from .device.files import input_name, read_blocks
-    from .device.rows import format_rows
-    from .device.stream import LOSS_KEYS, StreamDecoder
+    from ..device.capture import decode_chunks
+    from ..device.files import input_name, read_blocks
+    from ..sources.rows import format_rows
+    from ..device.stream import LOSS_KEYS, StreamDecoder
     name = input_name(args.log)
     dec = StreamDecoder(verified_only=True)
     written = frames = 0
@@ -148,12 +148,12 @@ def cmd_rows(args: argparse.Namespace) -> int:
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
-    from .device.monitor import run_monitor
+    from ..device.monitor import run_monitor
     return run_monitor(args.port, args.baud, args.log, args.once)
 
 
 def cmd_cmd(args: argparse.Namespace) -> int:
-    from .device.monitor import PortError, command_line, open_port, send_command
+    from ..device.monitor import PortError, command_line, open_port, send_command
     line = command_line(args.words)
     ser = open_port(args.port, args.baud)
     try:
@@ -179,10 +179,10 @@ CMD_TRIES = 3
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from . import render
-    from .analysis import Options, analyze
-    from .profiles import build_profile, parse_scales, resolve_range, scales_for_input
-    from .sources import load, load_device_report
+    from ..render import text as render
+    from ..analysis.pipeline import Options, analyze
+    from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
+    from ..sources.detect import load, load_device_report
     scales = parse_scales(args.scale)
     src = load(args.file)
     from .warmup import skipped, warmup_section, warmup_text
@@ -213,7 +213,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if args.imu_utils:
         written.append(_write_text(args.imu_utils, render.imu_utils_yaml(doc)))
     if args.plot:
-        from .plots import write_plots
+        from ..render.plots import write_plots
         written += write_plots(doc, args.plot)
     if args.json:
         sys.stdout.write(render.to_json(doc))

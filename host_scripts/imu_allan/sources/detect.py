@@ -27,14 +27,14 @@ from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-from .channels import CHANNELS
-from .device.capture import Capture, read_capture
-from .device.files import BLOCK_BYTES, input_name, read_blocks
-from .device.framing import split_frames
-from .device.records import DeviceHeader, DeviceReport
-from .device.rows import iter_blocks
-from .device.stream import LOSS_KEYS, StreamDecoder
-from .errors import InputError
+from ..channels import CHANNELS
+from ..device.capture import Capture, read_capture
+from ..device.files import BLOCK_BYTES, input_name, read_blocks
+from ..device.framing import split_frames
+from ..device.records import DeviceHeader, DeviceReport
+from .rows import iter_blocks
+from ..device.stream import LOSS_KEYS, StreamDecoder
+from ..errors import InputError
 
 SNIFF_BYTES = 1 << 16
 

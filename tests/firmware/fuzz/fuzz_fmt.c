@@ -8,7 +8,7 @@
  *     0..22: the string is NUL-terminated, its length is what fmt_sig3
  *     returned and below FMT_SIG3_MAX (written into a heap block of exactly
  *     FMT_SIG3_MAX bytes), "0" when acc or pairs is 0, else it satisfies
- *     the acceptance rule of tests/unit/test_protocol.c (assert_sig3):
+ *     the acceptance rule of tests/firmware/unit/test_protocol.c (assert_sig3):
  *     3 significant digits (r and zeros from 1000 up), `e-` notation below
  *     0.001 (either notation for values that round up to 0.00100), and |printed - true| <= half a unit of the 3rd
  *     significant digit (x 1.000001) + 1e-4 * true;

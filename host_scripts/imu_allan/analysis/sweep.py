@@ -41,9 +41,9 @@ from typing import Any, Callable, Optional
 import numpy as np
 from scipy import stats
 
-from .channels import CHANNELS
-from .errors import InputError
-from .progress import Progress
+from ..channels import CHANNELS
+from ..errors import InputError
+from ..progress import Progress
 
 STATE = "sweep.json"
 STATE_VERSION = 1
@@ -143,9 +143,9 @@ def analyze_log(log: str, fs: float, profile_name: str, seed: int,
                 fit_from: Optional[float] = None, allowed: Optional[tuple[str, ...]] = None) -> dict[str, Any]:
     """Terms and the thesis' figures from the last complete report of ``log``;
     with ``fit_from`` (s), the terms are fitted only to the points at tau >= fit_from."""
-    from .analysis import Options, analyze
-    from .profiles import build_profile
-    from .sources import load
+    from .pipeline import Options, analyze
+    from ..profiles import build_profile
+    from ..sources.detect import load
     src = load(log)
     rep = src.report
     if rep is None:
@@ -181,8 +181,8 @@ def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from
           allowed: Optional[tuple[str, ...]] = None) -> None:
     """The IEEE 952 fit of the device curve restricted to tau >= fit_from and to the
     ``allowed`` terms (replaces the terms)."""
-    from .stats import edf, terms
-    from .analysis import device_curve, term_json
+    from ..stats import edf, terms
+    from .pipeline import device_curve, term_json
     cv = device_curve(rep, ch)
     tau = cv.ms / fs
     mask = np.array([not f for f in cv.flags], dtype=bool) & (tau >= fit_from * (1 - 1e-9))
@@ -354,9 +354,9 @@ def say_stderr(msg: str) -> None:
 def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = False) -> Measure:
     """Each rate: rows from the sensor model at that rate's ADC instants, the real
     firmware in imu-sim on them (rate set as after 'rate'), its log."""
-    from .sensor import Board, SensorModel
-    from .device.rows import format_rows
-    from .device.simrun import sim_command
+    from ..sensor import Board, SensorModel
+    from ..sources.rows import format_rows
+    from ..device.simrun import sim_command
     cfg = sw.config
     model = SensorModel(cfg.model)  # type: ignore[arg-type]
 
@@ -392,7 +392,7 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
             os.unlink(rows)
         mean = s1 / n
         std = np.sqrt(np.maximum(s2 / n - mean * mean, 0.0))
-        from .sensor import aliased_n, SENSORS
+        from ..sensor import aliased_n, SENSORS
         law = {ch: aliased_n(model.channel(ch)["N"], model.channel(ch)["bandwidth_hz"], fs,
                              average=cfg.average) for ch in SENSORS}
         return {"sim": {"series_std": dict(zip(CHANNELS, std[:6].tolist())), "N_law": law,
@@ -402,7 +402,7 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
 
 def port_measure(sw: Sweep, port: str, baud: int) -> Measure:
     """Each rate on a real board: rate, reset, wait, report; every byte logged."""
-    from .device.monitor import open_port
+    from ..device.monitor import open_port
     cfg = sw.config
 
     def measure(fs: float, log: str) -> dict[str, Any]:
@@ -429,7 +429,7 @@ class _Link:
     """A serial link whose bytes all go to a log; replies and reports decoded on the way."""
 
     def __init__(self, ser: Any, log: Any) -> None:
-        from .device.stream import StreamDecoder
+        from ..device.stream import StreamDecoder
         self.ser, self.log, self.dec = ser, log, StreamDecoder()
         self.replies: list[str] = []
         self.reports: list[Any] = []
@@ -505,7 +505,7 @@ PLOTTED = ("N", "N_tau0", "B", "K", "sigma_sensor", "sigma_BIAS")
 
 def write_plot(doc: dict[str, Any], directory: str) -> str:
     """terms-vs-fs.png: one panel per quantity, one series per channel, the fitted power laws."""
-    from .plots import pyplot_for
+    from ..render.plots import pyplot_for
     plt = pyplot_for(directory)
     keys = list(doc["rates"])
     fig, axes = plt.subplots(2, 3, figsize=(14, 8))

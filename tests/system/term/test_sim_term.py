@@ -3,7 +3,7 @@ a user or a host program drives the real board, through pyserial.
 
 Every device line is checked on its own (framing and CRC-16/CCITT-FALSE via
 binascii.crc_hqx, independent of the firmware and of the host package).
-Run with `python3 -m pytest -q tests/term` after `make` and `make sim`
+Run with `python3 -m pytest -q tests/system/term` after `make` and `make sim`
 (BUILD=, IMU_ELF=, IMU_SIM= point elsewhere)."""
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 import serial
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
 ELF = Path(os.environ.get("IMU_ELF", BUILD / "avr-atmega168" / "imu-allan.elf"))
 SIM = Path(os.environ.get("IMU_SIM", BUILD / "host" / "imu-sim"))

@@ -18,7 +18,7 @@ from typing import Iterator, Optional
 import numpy as np
 
 from ..errors import InputError
-from .files import BLOCK_BYTES, PathLike, input_name, read_blocks
+from ..device.files import BLOCK_BYTES, PathLike, input_name, read_blocks
 from ..channels import CODE_MAX, COLUMNS
 _COMMENT = re.compile(rb"#[^\n]*")
 _PROTOCOL_LINE = re.compile(rb"^\$[^\n]*", re.MULTILINE)

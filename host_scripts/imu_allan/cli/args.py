@@ -1,12 +1,12 @@
 """The ``imu-allan`` argument parser: every word, option and --help text
-(cli.py runs the commands)."""
+(main.py runs the commands)."""
 from __future__ import annotations
 
 import argparse
 from typing import Any, Callable, NoReturn, Optional
 
-from ._version import __version__
-from .channels import CHANNELS, RATES_HZ
+from .._version import __version__
+from ..channels import CHANNELS, RATES_HZ
 
 EXIT_LOST = 3
 """Exit status of a command that did its work but found data lost on the way."""
@@ -94,7 +94,7 @@ def _add_format(p: argparse.ArgumentParser) -> None:
 
 def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.ArgumentParser:
     """The whole command line; ``more(subparsers)`` may add subcommands (cli.py adds
-    sweep and thermal from cli_thesis.py)."""
+    sweep and thermal from study.py)."""
     parser = _Parser(
         prog="imu-allan",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -200,7 +200,7 @@ def _add_check(sub: Any) -> None:
 
 
 def _add_gen(sub: Any) -> None:
-    from .stats.options import HELP, KINDS, PROFILES, UNITS
+    from ..stats.options import HELP, KINDS, PROFILES, UNITS
     p = sub.add_parser(
         "gen", help="write a synthetic IMU rows file (thesis noise model)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -332,7 +332,7 @@ def _add_monitor(sub: Any) -> None:
 def _command_synopsis(width: int = 76) -> str:
     """The device's commands with their arguments, in its own order and words
     (the firmware's tables, through _firmware_facts), wrapped to ``width``."""
-    from ._firmware_facts import COMMAND_ARGS, MODES, ONOFF, RANGES_G, UNITS
+    from .._firmware_facts import COMMAND_ARGS, MODES, ONOFF, RANGES_G, UNITS
     arg = {"none": "", "count": " [count]", "rate": " <hz>", "seconds": " <s>",
            "mode": f" <{'|'.join(MODES)}>", "range": f" <{'|'.join(RANGES_G)}>",
            "onoff": f" [{'|'.join(ONOFF)}]", "units": f" [{'|'.join(UNITS)}]"}
@@ -436,8 +436,8 @@ ANALYZE_EPILOG = (
 
 
 def _add_analyze(sub: Any) -> None:
-    from .stats.options import TAU_KINDS
-    from .profiles import PROFILES, RANGES
+    from ..stats.options import TAU_KINDS
+    from ..profiles import PROFILES, RANGES
     p = sub.add_parser(
         "analyze", help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",
         formatter_class=argparse.RawDescriptionHelpFormatter,

@@ -62,8 +62,8 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
 
 
 def _add_sweep(sub: Any) -> None:
-    from .channels import RATES_HZ
-    from .cliargs import _positive_int, _seconds
+    from ..channels import RATES_HZ
+    from .args import _positive_int, _seconds
     p = sub.add_parser(
         "sweep", help="on-device Allan results at several sample rates; terms against Fs",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -112,7 +112,7 @@ def _add_sweep(sub: Any) -> None:
 
 
 def _add_thermal(sub: Any) -> None:
-    from .cliargs import _fs, _positive_int
+    from .args import _fs, _positive_int
     p = sub.add_parser(
         "thermal", help="bias against temperature; noise terms before and after removing it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -144,13 +144,13 @@ def _add_thermal(sub: Any) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from . import sweep
-    from .errors import InputError
+    from ..analysis import sweep
+    from ..errors import InputError
     if args.port and (args.model or args.average != 1 or args.keep_rows):
         raise InputError("--model, --average and --keep-rows go with --sim")
     model = None
     if args.sim:
-        from .sensor import load_model
+        from ..sensor import load_model
         model = load_model(args.model).doc
     cfg = sweep.SweepConfig(source="sim" if args.sim else f"port:{args.port}", rates=args.rates,
                             seconds=args.seconds, profile=args.profile, model=model, seed=args.seed,
@@ -163,7 +163,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_thermal(args: argparse.Namespace) -> int:
-    from . import thermal
+    from ..analysis import thermal
     doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile,
                         segments=max(args.segments, 1), outliers_mode=args.outliers)
     return _emit("thermal", doc, thermal, args)
@@ -180,9 +180,9 @@ def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespa
 
 def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
-    from .errors import InputError
-    from .sensor import load_model, write_rows
-    from .stats.gen import PARAMS
+    from ..errors import InputError
+    from ..sensor import load_model, write_rows
+    from ..stats.gen import PARAMS
     given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
     if args.kind != "noise" or args.json_params:
         given.append("--kind" if args.kind != "noise" else "--json-params")
@@ -198,9 +198,9 @@ def sim_from_model(args: argparse.Namespace) -> int:
     import os
     import tempfile
 
-    from .device.simrun import run, sim_command
-    from .errors import InputError
-    from .sensor import load_model, write_rows
+    from ..device.simrun import run, sim_command
+    from ..errors import InputError
+    from ..sensor import load_model, write_rows
     if args.adc and args.model:
         raise InputError("--adc and --model: give one")
     if not args.model:

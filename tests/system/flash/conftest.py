@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 import serial
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
 MCU = "atmega168"
 FLASH_BYTES = 16384

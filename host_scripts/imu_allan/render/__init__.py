@@ -1,0 +1,6 @@
+"""The rendering layer: finished documents and live states into what a person reads.
+
+text.py      the text tables and summaries, and the JSON, CSV and YAML documents
+plots.py     the figures (matplotlib, loaded only when a figure is asked for)
+terminal.py  the terminal itself: screen size, alternate screen, raw keys, line editing
+"""
