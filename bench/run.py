@@ -263,7 +263,7 @@ def _time_mapped(path, runs: int = 3):
 def outlier_scan() -> dict:
     """Spikes and bursts found before the statistics (outliers.scan): 6 channels x 1e6
     ADC codes of white noise (1.5 to 10 codes, like the ADIS16405 at rest), 100 spikes."""
-    from imu_allan import outliers
+    from imu_allan.analysis import outliers
     rng = np.random.default_rng(5)
     sd = np.array([1.0, 0.8, 1.1, 6.0, 6.5, 7.5])[:, None]
     x = np.rint(512 + sd * rng.standard_normal((6, 10**6)))

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan import advice, dynamic
+from imu_allan.analysis import advice, dynamic
 from imu_allan.stats.edf import chi2_interval
 
 HOST = Path(__file__).resolve().parents[1]

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan import dynamic
+from imu_allan.analysis import dynamic
 from imu_allan.channels import CHANNELS
 
 FS = 100

@@ -29,6 +29,7 @@ LAYERS: tuple[tuple[int, str, tuple[str, ...]], ...] = (
 ALLOWED = {
     ("imu_allan.device.monitor", "imu_allan.render.text"): "until monitor splits into device/link + render/screen",
     ("imu_allan.device.monitor", "imu_allan.render.terminal"): "until monitor splits into device/link + render/screen",
+    ("imu_allan.device.monitor", "imu_allan.analysis.advice"): "until monitor splits into device/link + render/screen",
     ("imu_allan.analysis.sweep", "imu_allan.render.plots"): "until sweep's figure moves to render/plots",
     ("imu_allan.analysis.thermal", "imu_allan.render.plots"): "until thermal's figure moves to render/plots",
     ("imu_allan.sensor", "imu_allan.sources.rows"): "until the noise catalogue merge",

@@ -13,11 +13,11 @@ import pytest
 from conftest import report_lines, thesis_like, write_rows
 from test_real_recording import NAME, REPO, _find
 
-from imu_allan import outliers
-from imu_allan.analysis import Options, analyze
+from imu_allan.analysis import outliers
+from imu_allan.analysis.pipeline import Options, analyze
 from imu_allan.channels import CHANNELS
 from imu_allan.profiles import build_profile
-from imu_allan.sources import SampleSource, Source, load
+from imu_allan.sources.detect import SampleSource, Source, load
 
 FS = 100.0
 
@@ -275,7 +275,7 @@ def test_outliers_keep_keeps_them_and_n_moves_by_them() -> None:
 def test_thermal_finds_a_knock_before_its_regression(tmp_path: Path, run_cli) -> None:
     """A thermal cycle with a knock in it: one event, replaced before the
     bias-against-temperature regression, which still holds the true tempco."""
-    from imu_allan import thermal
+    from imu_allan.analysis import thermal
     fs, n, t0 = 50.0, 50 * 600, 50 * 350
     rng = np.random.default_rng(12)
     temp = np.rint(300 + 20 * np.sin(2 * np.pi * np.arange(n) / (fs * 300)))

@@ -26,7 +26,7 @@ import numpy as np
 from .._version import __version__
 from ..channels import CHANNELS, CODE_MAX
 from ..stats import allan, edf, identify, model, psd, terms
-from ..outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
+from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 from ..device.records import DeviceReport, flag_names
 from ..errors import InputError
 from ..profiles import Profile, term_unit, to_si_rad

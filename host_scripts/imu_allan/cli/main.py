@@ -185,7 +185,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from ..sources.detect import load, load_device_report
     scales = parse_scales(args.scale)
     src = load(args.file)
-    from .warmup import skipped, warmup_section, warmup_text
+    from ..analysis.warmup import skipped, warmup_section, warmup_text
     src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
     if skip_note:
         src.notes.append(skip_note)
@@ -200,7 +200,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
                    seed=args.seed, memory_budget=args.memory * 2**20, outliers=args.outliers)
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
-    from . import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
+    from ..analysis import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
     if not args.no_warmup:
         quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
         warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
@@ -278,7 +278,7 @@ def main(argv: Optional[list[str]] = None) -> int:
     handlers = dict(COMMANDS)
     def more(sub: Any) -> None:
         handlers.update(add_subcommands(sub))  # sweep, thermal
-        from .cli_dynamic import add_subcommands as add_dynamic
+        from .dynamic import add_subcommands as add_dynamic
         handlers.update(add_dynamic(sub))  # dynamic
     parser = build_parser(more)
     args = parser.parse_args(argv)

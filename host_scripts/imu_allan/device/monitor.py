@@ -192,7 +192,7 @@ class Monitor:
 
     def advice_line(self, columns: int = 80) -> str:
         """How long to record, from the last report alone (advice.py); updated at every report."""
-        from ..advice import monitor_line
+        from ..analysis.advice import monitor_line
         return monitor_line(self.report, columns) if self.report is not None else ""
 
     def render(self) -> str:

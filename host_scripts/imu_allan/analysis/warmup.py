@@ -8,8 +8,8 @@ from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
 
-from .device.records import DeviceReport, LRow
-from .errors import InputError
+from ..device.records import DeviceReport, LRow
+from ..errors import InputError
 
 
 def _skip_blocks(blocks: Iterator[np.ndarray], k: int) -> Iterator[np.ndarray]:
@@ -58,7 +58,7 @@ def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> t
             n_hint=max(src.samples.n_hint - k, 0) if src.samples.n_hint else None)
         return (dataclasses.replace(src, samples=samples),
                 f"the first {skip_s:g} s ({k} samples) left out (--skip)")
-    from .device.records import decode_bytes
+    from ..device.records import decode_bytes
     with open(path, "rb") as f:
         reports = decode_bytes(f.read()).reports
     fs = float(src.report.header.fs_hz)
@@ -74,7 +74,7 @@ def warmup_section(doc: dict[str, Any], src: Any, path: str, fs: Optional[float]
     """Adds ``doc["warmup"]``: the windows' test (dynamic.py) on the same data,
     the warm-up per channel, stationarity, and the terms without the warm-up."""
     from . import dynamic
-    from .cli_dynamic import windows_of
+    from .windows import windows_of
     chans = list(doc.get("channels", {}))
     try:
         ws, notes = windows_of(src, path, "auto", fs or doc["source"].get("fs_hz"), chans)
@@ -91,7 +91,7 @@ def warmup_section(doc: dict[str, Any], src: Any, path: str, fs: Optional[float]
         "stationary": {ch: v.stationary[ch] for ch in ws.channels},
         "tau_range_s": {ch: (list(v.tau_range_s[ch]) if v.tau_range_s[ch] else None) for ch in ws.channels},
         "notes": notes}
-    from .dynamic_render import _devs
+    from .windows import adev_list as _devs
     out["temp_move_codes"] = dynamic.TEMP_MOVE
     out["temp_bins"] = [{"temp": b["temp"], "windows": b["windows"],
                          "adev": {ch: _devs(b["var"][c]) for c, ch in enumerate(ws.channels)}}

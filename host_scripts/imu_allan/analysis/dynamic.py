@@ -32,9 +32,9 @@ from typing import Optional, Sequence
 import numpy as np
 from scipy import stats as sps
 
-from .channels import CHANNELS
-from .device.records import FLAG_RANGE, FLAG_SAT, DeviceReport, LRow
-from .stats import allan, edf
+from ..channels import CHANNELS
+from ..device.records import FLAG_RANGE, FLAG_SAT, DeviceReport, LRow
+from ..stats import allan, edf
 
 LEVEL = 0.95
 """Confidence of the departure test, per channel over the whole record (family-wise)."""
@@ -185,7 +185,7 @@ def from_samples(data: np.ndarray, fs: float, channels: Sequence[str], window_s:
     size = min(max(size, 32), n)
     step = max(int(round(step_s * fs)), 1) if step_s else max(size // 2, 1)
     if (n - size) // step + 1 > MAX_WINDOWS:
-        from .errors import InputError
+        from ..errors import InputError
         raise InputError(f"{(n - size) // step + 1} windows: more than {MAX_WINDOWS}; "
                          "give a longer --window or --step")
     starts = list(range(0, n - size + 1, step)) or [0]
@@ -217,8 +217,8 @@ def device_reports_from_rows(codes: np.ndarray, fs: float, every: int, levels: i
     """The reports the device would send every ``every`` samples of (channels, n)
     integer codes, with the exact cumulative ``acc`` and ``pairs`` of its
     ``L`` rows (no flags): the host's emulation, for tests and the docs."""
-    from .device.records import DeviceHeader
-    from .stats.kernels import exact_sumsq
+    from ..device.records import DeviceHeader
+    from ..stats.kernels import exact_sumsq
     codes = np.asarray(codes, dtype=np.int64)
     C, n = codes.shape
     csum = np.concatenate((np.zeros((C, 1), np.int64), np.cumsum(codes, axis=1)), axis=1)

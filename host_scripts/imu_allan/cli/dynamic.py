@@ -6,14 +6,13 @@ import argparse
 import sys
 from typing import Any, Callable, Optional
 
-from .errors import InputError
+from ..errors import InputError
 
-MEMORY = 1 << 30
 """Bytes of float64 samples the raw windows may hold (the default of analyze's --memory)."""
 
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
-    from .cliargs import _channel_list, _fs
+    from .args import _channel_list, _fs
     p = sub.add_parser(
         "dynamic", help="Allan deviation window by window: is the sensor settled? (warm-up, stationarity)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -78,65 +77,11 @@ def _level(text: str) -> float:
     return v
 
 
-def load_windows(path: str, source: str = "auto", fs: Optional[float] = None,
-                 channels: Optional[list[str]] = None, window_s: Optional[float] = None,
-                 step_s: Optional[float] = None) -> tuple[Any, list[str]]:
-    """The windows of ``path`` (dynamic.Windows) and notes about the choice."""
-    from .sources import load
-    return windows_of(load(path), path, source, fs, channels, window_s, step_s)
-
-
-def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = None,
-               channels: Optional[list[str]] = None, window_s: Optional[float] = None,
-               step_s: Optional[float] = None) -> tuple[Any, list[str]]:
-    """``load_windows`` for a source already loaded (sources.load)."""
-    import numpy as np
-    from . import dynamic
-    from .channels import CHANNELS
-    from .device.records import decode_bytes
-    notes: list[str] = []
-    reports = []
-    # a device log (no samples) is read again for all its reports; a capture's
-    # samples are used unless the reports are asked for (it is read once)
-    if (source == "reports" or (source == "auto" and src.samples is None)) and path != "-":
-        with open(path, "rb") as f:
-            reports = decode_bytes(f.read()).reports
-    runs = dynamic.runs(reports)
-    use_reports = source == "reports" or (source == "auto" and runs and len(runs[-1]) >= 2)
-    if use_reports:
-        if not runs:
-            raise InputError(f"'{src.name}': no complete device report in it")
-        if len(runs) > 1:
-            notes.append(f"{len(runs)} runs (a reset between reports): the last one used, "
-                         f"{len(runs[-1])} reports")
-        chans = [c for c in CHANNELS if channels is None or c in channels]
-        return dynamic.from_reports(runs[-1], chans), notes
-    if src.samples is None:
-        raise InputError(f"'{src.name}': a single device report and no samples: nothing to split in "
-                         "windows (record with periodic reports: 'interval 60')")
-    rate = src.samples.fs or fs or (float(src.report.header.fs_hz) if src.report else None)
-    if rate is None:
-        raise InputError("the sample rate is unknown: give --fs HZ")
-    sel = [i for i, c in enumerate(src.samples.channels) if channels is None or c in channels]
-    blocks, size = [], 0
-    for b in src.samples.open_blocks():
-        blocks.append(b[sel])
-        size += b.shape[1] * len(sel) * 8
-        if size > MEMORY:
-            raise InputError(f"'{src.name}': more than {MEMORY >> 20} MB of samples: too large for "
-                             "windows in memory (cut the file, or record with periodic device reports)")
-    data = np.concatenate(blocks, axis=1).astype(np.float64)
-    temp = None
-    if src.samples.open_temperature is not None:
-        temp = np.concatenate(list(src.samples.open_temperature())).astype(np.float64).ravel()
-    if data.shape[1] < 64:
-        raise InputError(f"'{src.name}': {data.shape[1]} samples: too few for windows")
-    chans = [src.samples.channels[i] for i in sel]
-    return dynamic.from_samples(data, rate, chans, window_s, step_s, temp), notes
-
-
 def cmd_dynamic(args: argparse.Namespace) -> int:
-    from . import __version__, dynamic, dynamic_render
+    from .._version import __version__
+    from ..analysis import dynamic
+    from ..analysis.windows import load_windows
+    from ..render import dynamic as dynamic_render
     ws, notes = load_windows(args.file, args.source, args.fs, args.channels, args.window, args.step)
     verdict = dynamic.assess(ws, args.level)
     doc = dynamic_render.build_doc(ws, verdict, args.file, f"imu-allan dynamic {__version__}", notes)
@@ -147,7 +92,7 @@ def cmd_dynamic(args: argparse.Namespace) -> int:
             raise InputError(f"cannot write '{args.plot}': {exc.strerror or exc}") from None
         print(f"imu-allan dynamic: wrote {args.plot}", file=sys.stderr)
     if args.json:
-        from .render import to_json
+        from ..render.text import to_json
         sys.stdout.write(to_json(doc))
     elif args.csv:
         sys.stdout.write(dynamic_render.csv(doc))

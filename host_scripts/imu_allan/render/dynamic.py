@@ -11,20 +11,9 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .dynamic import MIN_EFFECT, Verdict, Windows, temperature_bins
-from .stats.edf import chi2_interval
-
-
-def _num(v: Any) -> Optional[float]:
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
-
-
-def _devs(var: np.ndarray) -> list[Optional[float]]:
-    return [_num(math.sqrt(v)) if _num(v) is not None and v >= 0 else None for v in var]
+from ..analysis.dynamic import MIN_EFFECT, Verdict, Windows, temperature_bins
+from ..analysis.windows import adev_list as _devs, json_num as _num
+from ..stats.edf import chi2_interval
 
 
 def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -> dict[str, Any]:

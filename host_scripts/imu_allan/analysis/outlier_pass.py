@@ -13,8 +13,8 @@ from typing import Any, Optional
 import numpy as np
 
 from . import outliers
-from .errors import InputError
-from .stats import allan, identify, terms
+from ..errors import InputError
+from ..stats import allan, identify, terms
 
 
 @dataclass

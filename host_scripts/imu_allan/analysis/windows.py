@@ -1,0 +1,86 @@
+"""The windows of a recording for the dynamic Allan variance (dynamic.py):
+from a device log's successive reports or from a raw recording's samples,
+read through sources; shared by `imu-allan dynamic` and analyze's warm-up test."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Optional
+
+import numpy as np
+
+from ..errors import InputError
+
+MEMORY = 1 << 30  # bytes of samples held for raw windows (they are computed in memory)
+
+
+def json_num(v: Any) -> Optional[float]:
+    """A float for JSON: None for what is not a finite number."""
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+def adev_list(var: np.ndarray) -> list[Optional[float]]:
+    """Deviations from variances, None where a variance is missing or negative."""
+    return [json_num(math.sqrt(v)) if json_num(v) is not None and v >= 0 else None for v in var]
+
+
+
+def load_windows(path: str, source: str = "auto", fs: Optional[float] = None,
+                 channels: Optional[list[str]] = None, window_s: Optional[float] = None,
+                 step_s: Optional[float] = None) -> tuple[Any, list[str]]:
+    """The windows of ``path`` (dynamic.Windows) and notes about the choice."""
+    from ..sources.detect import load
+    return windows_of(load(path), path, source, fs, channels, window_s, step_s)
+
+
+def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = None,
+               channels: Optional[list[str]] = None, window_s: Optional[float] = None,
+               step_s: Optional[float] = None) -> tuple[Any, list[str]]:
+    """``load_windows`` for a source already loaded (sources.load)."""
+    import numpy as np
+    from . import dynamic
+    from ..channels import CHANNELS
+    from ..device.records import decode_bytes
+    notes: list[str] = []
+    reports = []
+    # a device log (no samples) is read again for all its reports; a capture's
+    # samples are used unless the reports are asked for (it is read once)
+    if (source == "reports" or (source == "auto" and src.samples is None)) and path != "-":
+        with open(path, "rb") as f:
+            reports = decode_bytes(f.read()).reports
+    runs = dynamic.runs(reports)
+    use_reports = source == "reports" or (source == "auto" and runs and len(runs[-1]) >= 2)
+    if use_reports:
+        if not runs:
+            raise InputError(f"'{src.name}': no complete device report in it")
+        if len(runs) > 1:
+            notes.append(f"{len(runs)} runs (a reset between reports): the last one used, "
+                         f"{len(runs[-1])} reports")
+        chans = [c for c in CHANNELS if channels is None or c in channels]
+        return dynamic.from_reports(runs[-1], chans), notes
+    if src.samples is None:
+        raise InputError(f"'{src.name}': a single device report and no samples: nothing to split in "
+                         "windows (record with periodic reports: 'interval 60')")
+    rate = src.samples.fs or fs or (float(src.report.header.fs_hz) if src.report else None)
+    if rate is None:
+        raise InputError("the sample rate is unknown: give --fs HZ")
+    sel = [i for i, c in enumerate(src.samples.channels) if channels is None or c in channels]
+    blocks, size = [], 0
+    for b in src.samples.open_blocks():
+        blocks.append(b[sel])
+        size += b.shape[1] * len(sel) * 8
+        if size > MEMORY:
+            raise InputError(f"'{src.name}': more than {MEMORY >> 20} MB of samples: too large for "
+                             "windows in memory (cut the file, or record with periodic device reports)")
+    data = np.concatenate(blocks, axis=1).astype(np.float64)
+    temp = None
+    if src.samples.open_temperature is not None:
+        temp = np.concatenate(list(src.samples.open_temperature())).astype(np.float64).ravel()
+    if data.shape[1] < 64:
+        raise InputError(f"'{src.name}': {data.shape[1]} samples: too few for windows")
+    chans = [src.samples.channels[i] for i in sel]
+    return dynamic.from_samples(data, rate, chans, window_s, step_s, temp), notes
