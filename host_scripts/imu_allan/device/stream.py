@@ -159,6 +159,36 @@ def _text(chunk: bytes) -> int:
     return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
 
 
+def _cr_line_ends(res: bytes, final: bool) -> tuple[bytes, np.ndarray]:
+    """A CR not followed by LF ends a line as LF does (a capture saved with
+    CR-only line ends reads as one with CR LF): the text with those CRs made
+    LF (same length: frame positions hold), and where they were.  A CR at the
+    end of unfinished text waits for the next byte."""
+    if b"\r" not in res:
+        return res, np.zeros(0, dtype=np.int64)
+    r = np.frombuffer(res, dtype=np.uint8)
+    cr = np.flatnonzero(r == 0x0D)
+    after = np.append(r, 0x0A if not final else 0)[cr + 1]
+    lone = cr[after != 0x0A] if final else cr[(after != 0x0A) & (cr + 1 < r.size)]
+    if lone.size == 0:
+        return res, lone
+    out = bytearray(res)
+    np.frombuffer(out, dtype=np.uint8)[lone] = 0x0A
+    return bytes(out), lone
+
+
+def _row_bytes(res: bytes, ls: np.ndarray, lf: np.ndarray, rows_at: np.ndarray,
+               lone: np.ndarray) -> list[bytes]:
+    """Each raw row's bytes for its block CRC, as received from its first digit
+    through its LF; a row ended by a CR alone is taken with the CR LF the
+    device sent."""
+    if lone.size == 0:
+        return [res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()]
+    ends = set(lone.tolist())
+    return [res[int(ls[i]): int(lf[i])] + b"\r\n" if int(lf[i]) in ends else res[int(ls[i]): int(lf[i]) + 1]
+            for i in rows_at.tolist()]
+
+
 ECHO = 0x3E
 """'>': the device's echo of a typed command line starts with "> " (docs/protocol.md)."""
 
@@ -264,6 +294,7 @@ class StreamDecoder:
     def _process(self, buf: bytes, final: bool) -> Chunk:
         c = self.counts
         res, fpos, fseq, fcodes, fbytes = self._cut_frames(buf, final)
+        res, lone = _cr_line_ends(res, final)
 
         r = np.frombuffer(res, dtype=np.uint8)
         lf = np.flatnonzero(r == 0x0A)
@@ -326,7 +357,7 @@ class StreamDecoder:
                     from_frame=np.concatenate((np.zeros(rows_at.size, dtype=bool),
                                                np.ones(fpos.size, dtype=bool)))[order])
         skeys = keys[order]
-        self._hold([res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()] + fbytes, order, out)
+        self._hold(_row_bytes(res, ls, lf, rows_at, lone) + fbytes, order, out)
         self._frame_gaps(fkey, fseq, [k for k, body in bodies if restarts_output(body)])
         released: list[tuple[np.ndarray, np.ndarray]] = []
         self._records(bodies, skeys, out, released)
@@ -451,12 +482,14 @@ class StreamDecoder:
         if not carry:
             return
         c = self.counts
-        parts = carry.split(b"$")
-        c["garbage_bytes"] += _text(parts[0]) if len(parts) > 1 or not ended else 0
-        c["restarted"] += max(len(parts) - 2, 0)
-        if ended and (len(parts) > 1 or _text(parts[0])):
+        first = carry.find(b"$")  # counted, not split: a carry of a million '$' stays cheap
+        dollars = carry.count(b"$")
+        head = carry if first < 0 else carry[:first]
+        c["garbage_bytes"] += _text(head) if dollars or not ended else 0
+        c["restarted"] += max(dollars - 1, 0)
+        if ended and (dollars or _text(head)):
             c["truncated"] += 1
-        elif not ended and len(parts) > 1:
+        elif not ended and dollars:
             c["malformed"] += 1  # a line that never ended
 
     def _dollar_line(self, line: bytes, at: int, found: list[tuple[int, bytes, int]]) -> None:
