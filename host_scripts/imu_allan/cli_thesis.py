@@ -11,13 +11,20 @@ from typing import Any, Callable
 
 
 def _rates(text: str) -> list[float]:
+    from .channels import RATES_HZ
     try:
         out = [float(x) for x in text.replace(" ", "").split(",") if x]
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a list of rates in Hz: {text!r} (e.g. 50,100,200)") from None
     if not out or any(not (0 < r < float("inf")) for r in out):
         raise argparse.ArgumentTypeError(f"rates must be positive numbers of Hz: {text!r}")
-    return sorted(set(out))
+    other = [r for r in out if r not in RATES_HZ]
+    if other:  # the device (and the firmware in the simulator) takes only its own rates
+        raise argparse.ArgumentTypeError(f"{other[0]:g} Hz is not a rate of the device "
+                                         f"({', '.join(map(str, RATES_HZ))} Hz)")
+    if len(set(out)) < len(out):
+        raise argparse.ArgumentTypeError(f"a rate given twice: {text!r}")
+    return sorted(out)
 
 
 def _terms(text: str) -> tuple[str, ...]:
@@ -34,9 +41,17 @@ def _temp_scale(text: str) -> tuple[float, float]:
         scale, offset = float(a), float(b or 0.0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected C_PER_COUNT,OFFSET_C, e.g. 0.3223,0: {text!r}") from None
-    if not scale > 0:
-        raise argparse.ArgumentTypeError("C_PER_COUNT must be positive")
+    if not 0 < scale <= TEMP_SCALE_MAX or not abs(offset) <= TEMP_OFFSET_MAX:
+        raise argparse.ArgumentTypeError(
+            f"C_PER_COUNT must be in (0, {TEMP_SCALE_MAX:g}] and OFFSET_C within "
+            f"+-{TEMP_OFFSET_MAX:g}: {text!r}")
     return scale, offset
+
+
+TEMP_SCALE_MAX = 1e3
+TEMP_OFFSET_MAX = 1e4
+"""Bounds of --temp-scale: far beyond any sensor (a 10-bit code spans at most
+a million degrees), and finite, so that temperatures stay numbers."""
 
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:

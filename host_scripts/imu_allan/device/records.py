@@ -19,7 +19,7 @@ import re
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Iterable, Optional
 
-from ..channels import CHANNELS
+from ..channels import CHANNELS, FS_LIMITS_HZ
 from .consistency import problem
 from .termcheck import sig3_problem, summary_terms_problems, term_problems
 from .summary import TERM_ROWS
@@ -48,6 +48,8 @@ reset whose boot line was lost): file order is then not the device's order."""
 CLIP_KEYS = CHANNELS + ("temp",)
 _UINT = re.compile(r"\d+")
 _SEQ_MAX = 65535
+_COUNT_MAX = (1 << 32) - 1
+"""The engine's sample count is 32 bits (docs/protocol.md, ``drops``)."""
 
 
 class BodyError(ValueError):
@@ -238,8 +240,8 @@ def parse_header(seq: int, items: list[str]) -> DeviceHeader:
         raise BodyError(f"protocol version {version} (this reader knows {PROTO})")
     levels = _uint(kv["levels"], "levels", 32)
     fs = _number(kv["fs"], "fs")
-    if levels < 1 or fs <= 0:
-        raise BodyError("levels and fs must be positive")
+    if levels < 1 or not FS_LIMITS_HZ[0] <= fs <= FS_LIMITS_HZ[1]:
+        raise BodyError(f"levels must be positive and fs within {FS_LIMITS_HZ[0]:g} .. {FS_LIMITS_HZ[1]:g} Hz")
 
     def opt_uint(key: str) -> Optional[int]:
         return _uint(kv[key], key) if key in kv else None
@@ -265,7 +267,7 @@ def parse_header(seq: int, items: list[str]) -> DeviceHeader:
     return DeviceHeader(
         version=version, fw=kv.get("fw"), mcu=kv.get("mcu"), fcpu_hz=opt_uint("fcpu"),
         baud=opt_uint("baud"), fs_hz=fs, levels=levels, acc48_from=opt_uint("acc48"),
-        n=_uint(kv["n"], "n"), drops=opt_uint("drops"), clips=clips, temp=temp, running=running,
+        n=_uint(kv["n"], "n", _COUNT_MAX), drops=opt_uint("drops"), clips=clips, temp=temp, running=running,
         mode=kv.get("mode"), range_g=kv.get("range"), cfg=kv.get("cfg"),
         reset_cause=_reset(kv["reset"]) if "reset" in kv else None, seq=seq,
         extra={k: v for k, v in kv.items() if k not in _HEADER_KEYS})
