@@ -504,7 +504,7 @@ class Assembler:
         if bad:  # the caption and the rows under it
             at = next(i for i, t in enumerate(summary) if t.startswith("N at "))
             summary = summary[:at] + summary[at + 1 + len(TERM_ROWS):]
-            refused.append(f"the summary's terms rows ({'; '.join(bad)})")
+            refused.append(f"summary's terms rows ({'; '.join(bad)})")
         rep.summary = summary
         for why in refused:
             self.errors["inconsistent_lines"] += 1
