@@ -41,13 +41,14 @@ def _temp_scale(text: str) -> tuple[float, float]:
         scale, offset = float(a), float(b or 0.0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected C_PER_COUNT,OFFSET_C, e.g. 0.3223,0: {text!r}") from None
-    if not 0 < scale <= TEMP_SCALE_MAX or not abs(offset) <= TEMP_OFFSET_MAX:
+    if not TEMP_SCALE_MIN <= scale <= TEMP_SCALE_MAX or not abs(offset) <= TEMP_OFFSET_MAX:
         raise argparse.ArgumentTypeError(
-            f"C_PER_COUNT must be in (0, {TEMP_SCALE_MAX:g}] and OFFSET_C within "
+            f"C_PER_COUNT must be in {TEMP_SCALE_MIN:g} .. {TEMP_SCALE_MAX:g} and OFFSET_C within "
             f"+-{TEMP_OFFSET_MAX:g}: {text!r}")
     return scale, offset
 
 
+TEMP_SCALE_MIN = 1e-6
 TEMP_SCALE_MAX = 1e3
 TEMP_OFFSET_MAX = 1e4
 """Bounds of --temp-scale: far beyond any sensor (a 10-bit code spans at most
@@ -135,8 +136,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise InputError("--model, --average and --keep-rows go with --sim")
     model = None
     if args.sim:
-        from .sensor import load_model
-        model = load_model(args.model).doc
+        model = _load_model(args.model).doc
     cfg = sweep.SweepConfig(source="sim" if args.sim else f"port:{args.port}", rates=args.rates,
                             seconds=args.seconds, profile=args.profile, model=model, seed=args.seed,
                             average=args.average, fit_from=args.fit_from, terms=args.terms)
@@ -163,17 +163,29 @@ def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespa
     return 0
 
 
+def _load_model(path: Any) -> Any:
+    """``sensor.load_model``, a file that is not a model's JSON (binary bytes, a
+    section that is not an object) refused in one line like its other errors."""
+    from .errors import InputError
+    from .sensor import load_model
+    try:
+        return load_model(path)
+    except (UnicodeDecodeError, AttributeError, TypeError) as exc:
+        raise InputError(f"'{path}': not a sensor model (a JSON object of objects: "
+                         f"{type(exc).__name__})") from None
+
+
 def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
     from .errors import InputError
     from .stats.gen import PARAMS
-    from .sensor import load_model, write_rows
+    from .sensor import write_rows
     given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
     if args.kind != "noise" or args.json_params:
         given.append("--kind" if args.kind != "noise" else "--json-params")
     if given:
         raise InputError(f"--model sets every parameter (in its file): {', '.join(given)} not allowed with it")
-    write_rows(args.output, load_model(args.model), float(args.fs), args.n, seed=args.seed)
+    write_rows(args.output, _load_model(args.model), float(args.fs), args.n, seed=args.seed)
     return 0
 
 
@@ -183,7 +195,7 @@ def sim_from_model(args: argparse.Namespace) -> int:
     import os
     import tempfile
     from .errors import InputError
-    from .sensor import load_model, write_rows
+    from .sensor import write_rows
     from .device.simrun import run, sim_command
     if args.adc and args.model:
         raise InputError("--adc and --model: give one")
@@ -193,7 +205,7 @@ def sim_from_model(args: argparse.Namespace) -> int:
     fd, rows = tempfile.mkstemp(prefix="imu-allan-model-", suffix=".tsv")
     os.close(fd)
     try:
-        write_rows(rows, load_model(args.model), fs, int(round(args.seconds * fs)))
+        write_rows(rows, _load_model(args.model), fs, int(round(args.seconds * fs)))
         return run(sim_command(rows, args.output, fs=f"{fs:g}", uart_in=args.uart_in,
                                firmware=args.firmware, stats=args.stats))
     finally:
