@@ -173,10 +173,11 @@ def test_seq_going_backwards_without_a_boot_line_is_said(tmp_path: Path, run_cli
     doc = json.loads(out)
     assert rc == 0 and doc["header"]["seq"] == 3 and doc["errors"]["seq_backwards"] == 1
     assert doc["warnings"] == res.warnings and "warning: report seq 3 comes after seq 7" in err
-    dec = StreamDecoder(line_start=True)  # the monitor's decoder counts it too
-    dec.feed(b"".join(newer + older))
-    dec.finish()
-    assert dec.counts["seq_backwards"] == 1
+    from imu_allan.device.monitor import Monitor
+    mon = Monitor("port", 115200, str(tmp_path / "m.log"))  # the monitor's decoder says it too
+    mon.decoder.feed(b"".join(newer + older))
+    assert mon.decoder.counts["seq_backwards"] == 1
+    assert "seq_backwards 1; warning: report seq 3 comes after seq 7" in mon.errors_line()
 
 
 @pytest.mark.parametrize("end", [b"\n", b"\r", b"\r\n"])
@@ -224,3 +225,17 @@ def test_a_line_without_end_is_dropped_at_max_line() -> None:
     assert len(garbage._carry) <= MAX_LINE and garbage.errors["garbage_bytes"] == 3 * MAX_LINE
     garbage.feed(b"y" * MAX_LINE)  # the open line grows beyond MAX_LINE: dropped, counted
     assert garbage._carry == b"" and garbage.errors["malformed"] == 1
+
+
+def test_the_console_firmware_rx_counters_are_read_and_older_headers_still(tmp_path: Path, run_cli) -> None:
+    rows = thesis_like(40, 15)
+    new, old = tmp_path / "new.log", tmp_path / "old.log"
+    new.write_bytes(b"".join(report_lines(rows, 3, extra=",rx=1:2:3:65535")))
+    old.write_bytes(b"".join(report_lines(rows, 3)))
+    rc, out, _ = run_cli("decode", new)
+    assert rc == 0 and ("link since power-up: 1 UART overruns, 2 bytes lost to the full receive ring, "
+                        "3 command lines refused (error:5), 65535 timed out (error:7)") in out
+    rc, doc, _ = run_cli("decode", "--json", new)
+    assert json.loads(doc)["header"]["extra"] == {"rx": "1:2:3:65535"}
+    rc, out, _ = run_cli("decode", old)
+    assert rc == 0 and "link since power-up" not in out and "rx=" not in out

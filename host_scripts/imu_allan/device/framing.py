@@ -19,8 +19,9 @@ import numpy as np
 
 from ..channels import CODE_MAX, COLUMNS
 
-MAX_BODY = 256
-"""Longest body a frame may carry (characters)."""
+MAX_BODY = 320
+"""Longest body a frame may carry (characters): docs/protocol.md's limit, which
+holds a header with every count at its maximum and the ``rx=`` counters (303)."""
 
 
 def _crc_table() -> tuple[int, ...]:
@@ -131,7 +132,7 @@ class Frames:
 
 MAX_LINE = 4096
 """Bytes of text without a line end kept waiting for it.  The longest line the
-device sends is 263 bytes (``$``, a 256-character body, ``*CRC``, CR LF); a line
+device sends is 327 bytes (``$``, a ``MAX_BODY`` body, ``*CRC``, CR LF); a line
 still open after this many bytes is dropped and counted (``malformed``, or
 ``garbage_bytes`` outside a line), so that no input, however long its lines,
 costs memory beyond it."""

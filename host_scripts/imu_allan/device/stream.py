@@ -276,6 +276,12 @@ class StreamDecoder:
     def samples(self) -> int:
         return self._samples
 
+    @property
+    def warnings(self) -> list[str]:
+        """What must be said next to the reports (``records.Assembler.warnings``):
+        a refused T line, seq going backwards without a boot line."""
+        return self._asm.warnings
+
     def feed(self, data: bytes) -> Chunk:
         if self._done:
             raise ValueError("feed() after finish()")
