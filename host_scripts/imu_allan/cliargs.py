@@ -162,7 +162,11 @@ def _add_decode(sub: Any) -> None:
             "bound; range: too wide a code range to be exact at that level).\n\n"
             "Only intact lines (CRC checked) of complete reports are used. Lines\n"
             "with a bad CRC, cut short, malformed or out of place are counted and\n"
-            "listed at the end, never used."),
+            "listed at the end, never used. The noise terms (T lines, the summary's\n"
+            "terms rows) are held to the report's rows: one they contradict is left\n"
+            "out, counted and said in a warning on stderr, as is a report whose seq\n"
+            "goes backwards without a boot line (an older report replayed). Lines\n"
+            "may end in LF, CR LF or CR."),
         epilog=EPILOG_EXIT.format(one="no complete report in the log"))
     p.add_argument("log", metavar="LOG", help="device log file, or - for stdin")
     _add_format(p)

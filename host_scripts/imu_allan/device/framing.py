@@ -136,7 +136,7 @@ device sends is 327 bytes (``$``, a ``MAX_BODY`` body, ``*CRC``, CR LF); a line
 still open after this many bytes is dropped and counted (``malformed``, or
 ``garbage_bytes`` outside a line), so that no input, however long its lines,
 costs memory beyond it."""
-SPLIT_BYTES = 1 << 20
+SPLIT_BYTES = 1 << 18
 """Bytes split into lines at a time (bounds the per-line index arrays)."""
 _CHECK_BATCH = 4096
 """Candidate lines matched and CRC-checked at a time (bounds crc16_many's grid)."""

@@ -104,6 +104,24 @@ HOLD_MAX = 1000
 the oldest are given up as unverified (or, before any block CRC was seen,
 returned unverified as older firmware's were)."""
 
+FEED_BYTES = 1 << 18
+"""Bytes decoded in one step (a larger ``feed`` is cut into such steps): bounds
+the per-line index arrays whatever the input (a block of nothing but line ends
+held some 60 bytes of them per byte)."""
+
+
+def _joined(parts: list["Chunk"]) -> "Chunk":
+    """The chunks of consecutive steps as one."""
+    out = Chunk(samples=np.concatenate([p.samples for p in parts], axis=1),
+                from_frame=np.concatenate([p.from_frame for p in parts]))
+    for p in parts:
+        out.reports += p.reports
+        out.replies += p.replies
+        out.boots += p.boots
+        out.counts += p.counts
+    return out
+
+
 _CLASS = np.zeros(256, dtype=np.uint8)  # 0 other, 1 digit, 2 tab, 3 LF, 4 CR
 _CLASS[0x30:0x3A] = 1
 _CLASS[0x09] = 2
@@ -285,7 +303,12 @@ class StreamDecoder:
     def feed(self, data: bytes) -> Chunk:
         if self._done:
             raise ValueError("feed() after finish()")
-        return self._process(self._pending + bytes(data), final=False)
+        data = bytes(data)
+        if len(data) <= FEED_BYTES:
+            return self._process(self._pending + data, final=False)
+        parts = [self._process(self._pending + data[at:at + FEED_BYTES], final=False)
+                 for at in range(0, len(data), FEED_BYTES)]
+        return _joined(parts)
 
     def finish(self) -> Chunk:
         if self._done:
