@@ -78,7 +78,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, SYNC, crc16_many,
+from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, MAX_BODY, SYNC, crc16_many,
                       crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
 from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
                       parse_count_block, resets_run, restarts_output)
@@ -104,6 +104,8 @@ HOLD_MAX = 1000
 the oldest are given up as unverified (or, before any block CRC was seen,
 returned unverified as older firmware's were)."""
 
+_CRC_BATCH = 4096
+"""Lines whose CRC is computed at a time (bounds crc16_many's grid)."""
 FEED_BYTES = 1 << 18
 """Bytes decoded in one step (a larger ``feed`` is cut into such steps): bounds
 the per-line index arrays whatever the input (a block of nothing but line ends
@@ -344,9 +346,7 @@ class StreamDecoder:
         rkey = 2 * lf[rows_at] + 1
 
         # framed text lines: a loop over the lines holding a '$' (few)
-        found: list[tuple[int, bytes, int]] = []
-        for k in dline.tolist():
-            self._dollar_line(res[int(ls[k]): int(lf[k])], int(ls[k]), found)
+        found = self._dollar_lines(res, r, ls[dline], lf[dline], dollars)
         carry = res[end:]
         if final:
             self._give_up(carry, ended=True)
@@ -373,7 +373,8 @@ class StreamDecoder:
 
         bodies: list[tuple[int, str]] = []
         if found:
-            crcs = crc16_many([body for _, body, _ in found]).tolist()
+            crcs = [v for at in range(0, len(found), _CRC_BATCH)
+                    for v in crc16_many([body for _, body, _ in found[at:at + _CRC_BATCH]]).tolist()]
             bodies = [(key, body.decode("ascii")) for (key, body, sent), got in zip(found, crcs)
                       if sent == got]
             c["bad_crc"] += len(found) - len(bodies)
@@ -521,18 +522,33 @@ class StreamDecoder:
         elif not ended and dollars:
             c["malformed"] += 1  # a line that never ended
 
-    def _dollar_line(self, line: bytes, at: int, found: list[tuple[int, bytes, int]]) -> None:
-        """A whole line (without its LF) that holds a '$'."""
+    def _dollar_lines(self, res: bytes, r: np.ndarray, starts: np.ndarray, ends: np.ndarray,
+                      dollars: np.ndarray) -> list[tuple[int, bytes, int]]:
+        """The whole lines [starts, ends) (ends: their LF) that hold a '$':
+        garbage before the first '$', restarts, and, from the last '$' on, the
+        candidates (key, body, sent CRC) of lines shaped ``body*XXXX`` (the
+        shape is checked vectorized first: a flood of '$' lines stays cheap)."""
         c = self.counts
-        first = line.find(b"$")
-        c["garbage_bytes"] += _text(line[:first])
-        last = line.rfind(b"$")
-        c["restarted"] += line.count(b"$", first, last)
-        m = LINE.fullmatch(line, last + 1)
-        if m is None:
-            c["malformed"] += 1
-        else:
-            found.append((2 * (at + last) + 1, m.group(1), int(m.group(2), 16)))
+        if starts.size == 0:
+            return []
+        k_first = np.searchsorted(dollars, starts)
+        k_end = np.searchsorted(dollars, ends)
+        first, last = dollars[k_first], dollars[k_end - 1]
+        c["garbage_bytes"] += int((first - starts).sum())
+        c["restarted"] += int((k_end - k_first - 1).sum())
+        stop = ends - (r[np.maximum(ends - 1, 0)] == 0x0D)  # a CR before the LF is the line's end
+        length = stop - (last + 1)
+        shaped = (length >= 5) & (length - 5 <= MAX_BODY)
+        shaped[shaped] = r[stop[shaped] - 5] == 0x2A  # '*' before the 4 CRC digits
+        c["malformed"] += int(np.count_nonzero(~shaped))
+        found: list[tuple[int, bytes, int]] = []
+        for s, e in zip((last[shaped] + 1).tolist(), stop[shaped].tolist()):
+            m = LINE.fullmatch(res, s, e)
+            if m is None:
+                c["malformed"] += 1
+            else:
+                found.append((2 * s - 1, m.group(1), int(m.group(2), 16)))
+        return found
 
     def _frame_gaps(self, fkey: np.ndarray, fseq: np.ndarray, marks: list[int]) -> None:
         if fkey.size == 0:
