@@ -257,6 +257,24 @@ class LineSplitter:
         err[last] += 1
 
 
+def cr_line_ends(res: bytes, final: bool) -> tuple[bytes, np.ndarray]:
+    """A CR not followed by LF ends a line as LF does (a capture saved with
+    CR-only line ends reads as one with CR LF): the text with those CRs made
+    LF (same length: frame positions hold), and where they were.  A CR at the
+    end of unfinished text waits for the next byte."""
+    if b"\r" not in res:
+        return res, np.zeros(0, dtype=np.int64)
+    r = np.frombuffer(res, dtype=np.uint8)
+    cr = np.flatnonzero(r == 0x0D)
+    after = np.append(r, 0x0A if not final else 0)[cr + 1]
+    lone = cr[after != 0x0A] if final else cr[(after != 0x0A) & (cr + 1 < r.size)]
+    if lone.size == 0:
+        return res, lone
+    out = bytearray(res)
+    np.frombuffer(out, dtype=np.uint8)[lone] = 0x0A
+    return bytes(out), lone
+
+
 # ---- binary sample frames -------------------------------------------------------------
 
 SYNC = 0xA5

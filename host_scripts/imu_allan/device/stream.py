@@ -78,8 +78,8 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, MAX_BODY, SYNC, crc16_many,
-                      crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
+from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, MAX_BODY, SYNC, cr_line_ends,
+                      crc16_many, crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
 from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
                       parse_count_block, resets_run, restarts_output)
 
@@ -177,24 +177,6 @@ def _frames(b: np.ndarray, final: bool) -> tuple[np.ndarray, int, int]:
 
 def _text(chunk: bytes) -> int:
     return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
-
-
-def _cr_line_ends(res: bytes, final: bool) -> tuple[bytes, np.ndarray]:
-    """A CR not followed by LF ends a line as LF does (a capture saved with
-    CR-only line ends reads as one with CR LF): the text with those CRs made
-    LF (same length: frame positions hold), and where they were.  A CR at the
-    end of unfinished text waits for the next byte."""
-    if b"\r" not in res:
-        return res, np.zeros(0, dtype=np.int64)
-    r = np.frombuffer(res, dtype=np.uint8)
-    cr = np.flatnonzero(r == 0x0D)
-    after = np.append(r, 0x0A if not final else 0)[cr + 1]
-    lone = cr[after != 0x0A] if final else cr[(after != 0x0A) & (cr + 1 < r.size)]
-    if lone.size == 0:
-        return res, lone
-    out = bytearray(res)
-    np.frombuffer(out, dtype=np.uint8)[lone] = 0x0A
-    return bytes(out), lone
 
 
 def _row_bytes(res: bytes, ls: np.ndarray, lf: np.ndarray, rows_at: np.ndarray,
@@ -325,7 +307,7 @@ class StreamDecoder:
     def _process(self, buf: bytes, final: bool) -> Chunk:
         c = self.counts
         res, fpos, fseq, fcodes, fbytes = self._cut_frames(buf, final)
-        res, lone = _cr_line_ends(res, final)
+        res, lone = cr_line_ends(res, final)
 
         r = np.frombuffer(res, dtype=np.uint8)
         lf = np.flatnonzero(r == 0x0A)
