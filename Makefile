@@ -1,9 +1,12 @@
-# imu-allan: the one entry point.
+# imu-allan: the one entry point.  `make help` lists every target.
 #   make deps      install the toolchain, Unity and the host package
 #   make           build the firmware (MCU, F_CPU, BAUD may be overridden)
 #   make test      every test
 #   make demo      the main job, on a synthetic IMU
 #   make clean
+# A target documents itself: `name: prerequisites ## what it does` (a rule
+# whose name is computed starts its text with `name: `), and make help
+# prints it, file by file.
 
 .DEFAULT_GOAL := all
 
@@ -33,17 +36,19 @@ HEX      := $(FW_BUILD)/imu-allan.hex
 # and a cycle less).  -mstrict-X, -fno-move-loop-invariants: about 170
 # bytes more; loop invariants are then recomputed in the loop (a few
 # cycles in the engine's cascade: bench/run.py).  Together these keep
-# the issue 10 and 12 features under the bootloader.
-# -fno-inline-small-functions: with the issue 12-14 features the ATmega168
-# build was 15910 bytes, 38 over what optiboot's 512 bytes leave; this flag
-# brings it to 15810 (make bench: no drops at any offered rate).
-# -fno-tree-forwprop (issue 12's flash budget): about 130 bytes, most of
-# them in the engine's accumulator reads; measured in imu-sim at 1 kHz, the
-# engine's cycles per channel and the cycles per set do not get worse (they
-# drop a little), the loop's idle passes cost a few cycles more (a 0.6 %
-# larger busy fraction).  -fno-gcse would give 110 bytes more but costs 2
-# bytes of the stack's 64-byte floor (the report's deepest path) and 5 %
-# more CPU at 1 kHz: not used.
+# the command line, its replies and the terminal conversation under the
+# bootloader.
+# -fno-inline-small-functions: with the terminal conversation, the noise
+# terms and the summary the ATmega168 build was 15910 bytes, 38 over what
+# optiboot's 512 bytes leave; this flag took 100 bytes off (make bench: no
+# drops at any offered rate).
+# -fno-tree-forwprop (for make bench's 15,360-byte flash target): about
+# 130 bytes, most of them in the engine's accumulator reads; measured in
+# imu-sim at 1 kHz, the engine's cycles per channel and the cycles per set
+# do not get worse (they drop a little), the loop's idle passes cost a few
+# cycles more (a 0.6 % larger busy fraction).  -fno-gcse would give 110
+# bytes more but costs 2 bytes of the stack's 64-byte floor (the report's
+# deepest path) and 5 % more CPU at 1 kHz: not used.
 FW_OPT := -Os -flto -mcall-prologues -mrelax -mstrict-X -fno-move-loop-invariants -fno-inline-small-functions \
           -fno-tree-forwprop
 # -fno-gcse also, but only for these modules: about 55 bytes for no cycles
@@ -54,7 +59,8 @@ FW_COLD := stream proto reply command vocab link reset tx
 $(foreach m,$(FW_COLD),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += -fno-gcse))
 # The modules that run between sets, never per sample (the report, the
 # settings, the commands, the start-up in main): without these passes
-# they are 132 bytes smaller (15650 -> 15518; issue 12's flash budget).
+# they are 132 bytes smaller (15650 -> 15518 when measured), toward make
+# bench's 15,360-byte flash target.
 # Each flag measured alone on them: -fno-tree-pre 30, -fno-tree-tail-merge
 # 30, -fno-tree-sink 26, then -fno-tree-loop-ivcanon 56, -fno-tree-fre
 # 12.  make bench measures what they cost in cycles and stack.
@@ -105,11 +111,23 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all help facts lint format bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
 
-all: firmware
+all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
-firmware: $(HEX)
+# One line per `## ` comment of a rule, in every makefile read (this one and
+# the fragments it includes), grouped by file.
+help: ## this list: every target, one line each
+	@awk 'FNR == 1 { file = FILENAME } \
+	  /^[^\t#=]+:[^=]*## / { \
+	    text = $$0; sub(/^[^#]*## /, "", text); \
+	    name = $$0; sub(/:.*/, "", name); \
+	    if (name ~ /\$$/ && match(text, /^[^ :]+: /)) { \
+	      name = substr(text, 1, RLENGTH - 2); text = substr(text, RLENGTH + 1) } \
+	    if (file != shown) { printf "%s%s:\n", (shown == "" ? "" : "\n"), file; shown = file } \
+	    printf "  %-22s %s\n", name, text }' $(MAKEFILE_LIST)
+
+firmware: $(HEX) ## build the firmware ELF and hex for MCU at F_CPU and BAUD, and check it fits
 
 # The Makefile too: FW_OPT goes into the objects (LTO).
 $(FW_BUILD)/%.o: $(FW_DIR)/%.c VERSION Makefile | $(FW_BUILD)
@@ -127,55 +145,85 @@ $(FW_BUILD):
 
 -include $(FW_OBJ:.o=.d)
 
-version:
+version: ## write the host package's _version.py from VERSION
 	printf '%s\n' '# Generated from the repository'"'"'s VERSION file by `make version` (the Makefile' \
 	  '# also passes it to the firmware as FW_VERSION); tests/test_version.py checks' \
 	  '# that the two agree. Edit VERSION, not this file.' \
 	  '__version__ = "$(VERSION)"' > host_scripts/imu_allan/_version.py
 
-deps:
+# The facts the host shares with the firmware (rates, code range, column
+# order, the protocol's words), read from firmware/ into the host package,
+# which then works installed on its own; its tests fail when the two part.
+FACTS_PY := host_scripts/imu_allan/_firmware_facts.py
+
+facts: ## write the host package's _firmware_facts.py from the firmware's headers and tables
+	$(PYTHON) scripts/firmware_facts.py -o $(FACTS_PY)
+
+deps: ## install the toolchain, Unity, clang-format and the host package with its test extras
 	BUILD=$(CURDIR)/$(BUILD) PYTHON=$(PYTHON) bash scripts/deps.sh
 	$(MAKE) --no-print-directory ext
 
 # The compiled Allan kernels (host_scripts/imu_allan/stats/_ckernels.c) built in
 # place beside kernels.py, as `pip install` builds them; rebuilt when the source
 # changes. Optional: without a C compiler the host package uses its numpy path.
-ext:
+ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke
+test: firmware other-mcus unit pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
-other-mcus:
+other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
 	$(MAKE) --no-print-directory firmware MCU=atmega328p
 
-unit:
+unit: ## the firmware's Unity and native tests (cmake, ctest)
 	cmake -S tests/unit -B $(BUILD)/unit -DUNITY_DIR=$(UNITY_DIR) >/dev/null
 	cmake --build $(BUILD)/unit -j 2
 	cd $(BUILD)/unit && ctest --output-on-failure
 
 # The host tests that drive the real firmware in imu-sim (sweep, the report
 # check line) need both built; without them they would skip.
-pytest: firmware $(IMU_SIM) ext
+pytest: firmware $(IMU_SIM) ext ## the host package's tests (host_scripts/tests)
 	cd host_scripts && $(PYTHON) -m pytest -q
 
 # The simulated device on a pseudo-terminal, driven as a user would.
-term-test: firmware $(IMU_SIM)
+term-test: firmware $(IMU_SIM) ## the simulated device on a pseudo-terminal, driven as a user would
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q tests/term
 
 # make flash with the real avrdude against the real optiboot on the simulated
 # board (make sim-board), and the reset causes with and without it.
-flash-test: firmware $(IMU_SIM) bootloader
+flash-test: firmware $(IMU_SIM) bootloader ## make flash with avrdude and optiboot on the simulated board
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/flash
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
-sim-test: firmware $(IMU_SIM)
+sim-test: firmware $(IMU_SIM) ## the firmware ELF in simavr on synthetic streams, checked exactly
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
+
+# ---- lint and format -------------------------------------------------------
+# Python: ruff (ruff.toml: check and format); C: clang-format (.clang-format,
+# refined in sim/ and the host's C kernels); mypy on the host package's public
+# API (host_scripts/pyproject.toml).  `make lint` reports every finding of the
+# four and fails if any; `make format` applies ruff's safe fixes, its
+# formatter and clang-format in place.
+CLANG_FORMAT ?= clang-format
+C_SOURCES = $(shell git ls-files -- '*.c' '*.h' 2>/dev/null || find firmware sim tests tools host_scripts -name build -prune -o -name '*.[ch]' -print)
+
+lint: ## ruff check and ruff format --check (Python), clang-format (C), mypy (host public API)
+	@rc=0; \
+	echo "ruff check"; $(PYTHON) -m ruff check --output-format=concise . || rc=1; \
+	echo "ruff format --check"; $(PYTHON) -m ruff format --check . || rc=1; \
+	echo "clang-format --dry-run"; $(CLANG_FORMAT) --dry-run -Werror $(C_SOURCES) || rc=1; \
+	echo "mypy (host_scripts/pyproject.toml)"; (cd host_scripts && $(PYTHON) -m mypy) || rc=1; \
+	exit $$rc
+
+format: ## apply ruff's safe fixes, ruff format and clang-format to every Python and C file
+	$(PYTHON) -m ruff check --fix --quiet . || true
+	$(PYTHON) -m ruff format .
+	$(CLANG_FORMAT) -i $(C_SOURCES)
 
 # ---- benchmark --------------------------------------------------------------
 # Device, simulator and host side by side; writes bench/results.json.
-bench: firmware $(IMU_SIM) ext
+bench: firmware $(IMU_SIM) ext ## device, simulator and host figures side by side into bench/results.json
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)
 
 # ---- demo ------------------------------------------------------------------
@@ -185,7 +233,7 @@ DEMO_DIR := $(BUILD)/demo
 # This checkout's own package, whatever another checkout installed.
 IMU_ALLAN := PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m imu_allan.cli
 
-demo: firmware $(IMU_SIM)
+demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated device, decoded and checked
 	@mkdir -p $(DEMO_DIR)
 	@$(IMU_ALLAN) gen -n 60000 --fs 100 --seed 1 -o $(DEMO_DIR)/imu.tsv
 	@echo "== simulated device: 60000 samples (10 min at 100 Hz) =="
@@ -208,8 +256,8 @@ $(NATIVE_DEMO): tools/allan_demo.c $(FW_DIR)/allan.c $(FW_DIR)/allan.h $(FW_DIR)
 	mkdir -p $(dir $@)
 	$(HOST_CC) $(HOST_CFLAGS) tools/allan_demo.c $(FW_DIR)/allan.c -lm -o $@
 
-demo-native: $(NATIVE_DEMO)
+demo-native: $(NATIVE_DEMO) ## the Allan engine alone, natively, on 2^20 synthetic samples
 	$(NATIVE_DEMO)
 
-clean:
+clean: ## remove the firmware, unit-test and native builds (build/avr-*, unit, host)
 	rm -rf $(BUILD)/avr-* $(BUILD)/unit $(BUILD)/host

@@ -128,7 +128,7 @@ $(OPTIBOOT_HEX): $(OPTIBOOT_DIR)/optiboot.c boards.mk
 # room left and refuses (deleting the hex, so nothing overlapping can be
 # flashed) a firmware that would overwrite the bootloader.
 firmware: flash-room
-flash-room: $(HEX)
+flash-room: $(HEX) ## the firmware's flash against the room the bootloader leaves (part of make firmware)
 	@if [ -z "$(FLASH_BYTES)" ]; then echo "boards.mk: flash size of $(MCU) unknown: no room check"; exit 0; fi; \
 	used=$$($(AVR_SIZE) --target=ihex $(HEX) | awk 'NR==2{print $$2}'); \
 	room=$$(( $(APP_MAX_BYTES) - used )); \
@@ -136,7 +136,7 @@ flash-room: $(HEX)
 	  echo "boards.mk: the firmware is $$used bytes, $$(( -room )) more than the $(APP_MAX_BYTES) that BOOTLOADER=$(BOOTLOADER) leaves on the $(MCU): it would overwrite the bootloader" >&2; exit 1; fi; \
 	echo "flash: $$used of $(APP_MAX_BYTES) bytes (BOOTLOADER=$(BOOTLOADER)), $$room left"
 
-bootloader: $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX))
+bootloader: $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX)) ## build optiboot for this board into build/optiboot/
 	@if [ -z "$(BOOTLOADER_HEX)" ]; then echo "boards.mk: BOOTLOADER=$(BOOTLOADER) has no bootloader hex: give BOOTLOADER_HEX=" >&2; exit 1; fi
 	@echo "bootloader: $(BOOTLOADER_HEX)"
 
@@ -252,11 +252,11 @@ endif
 # ---- targets ---------------------------------------------------------------
 .PHONY: flash flash-dryrun fuses fuses-dryrun flash-room bootloader bootloader-flash sim-board
 
-flash: $(if $(PRINT),,firmware $(if $(filter-out $(BOOTLOADER_PROGRAMMERS),$(PROGRAMMER)),$(BOOTLOADER_HEX)))
+flash: $(if $(PRINT),,firmware $(if $(filter-out $(BOOTLOADER_PROGRAMMERS),$(PROGRAMMER)),$(BOOTLOADER_HEX))) ## put the firmware on a board with avrdude: PORT=/dev/ttyUSB0 (or PROGRAMMER=usbasp)
 	$(if $(PRINT),@echo '$(FLASH_CMD)',$(FLASH_CMD))
 
 # The bootloader alone onto a chip, through ISP (erases the chip).
-bootloader-flash: bootloader
+bootloader-flash: bootloader ## put the bootloader on a chip through ISP (PROGRAMMER=... CONFIRM=yes; erases it)
 	@if [ "$(CONFIRM)" != yes ]; then echo '$(AVRDUDE_CMD) -U flash:w:$(BOOTLOADER_HEX):i'; \
 	  echo "boards.mk: nothing written: this erases the chip (firmware, and EEPROM unless EESAVE); then: make bootloader-flash PROGRAMMER=$(PROGRAMMER) CONFIRM=yes, and make fuses" >&2; exit 1; fi
 	$(AVRDUDE_CMD) -U flash:w:$(BOOTLOADER_HEX):i
@@ -271,7 +271,7 @@ SIM_BOARD ?= $(BUILD)/board-$(MCU)
 SIM_BOARD_LINK ?= $(BUILD)/imu-board
 SIM_BOARD_OPTS ?= --synthetic
 
-sim-board: $(IMU_SIM) $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX),firmware)
+sim-board: $(IMU_SIM) $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX),firmware) ## the simulated board with optiboot on build/imu-board, for make flash
 	@echo "sim-board: the simulated $(MCU) with $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX),no bootloader) is on $(SIM_BOARD_LINK) (Ctrl-C here ends it);"
 	@echo "its flash and EEPROM are kept in $(SIM_BOARD).flash and .eeprom. In another shell:"
 	@echo "    $(if $(BOOTLOADER_HEX),make flash PORT=$(SIM_BOARD_LINK),(no bootloader: the firmware was written as by ISP; make flash needs one))"
@@ -280,10 +280,10 @@ sim-board: $(IMU_SIM) $(if $(BOOTLOADER_HEX),$(BOOTLOADER_HEX),firmware)
 	  --bootloader $(or $(BOOTLOADER_HEX),none)$(if $(BOOTLOADER_HEX),, --flash $(HEX)) \
 	  --link $(SIM_BOARD_LINK) $(SIM_BOARD_OPTS)
 
-flash-dryrun:
+flash-dryrun: ## print make flash's avrdude command, run nothing
 	@echo '$(FLASH_CMD)'
 
-fuses fuses-dryrun:
+fuses fuses-dryrun: ## set the board's fuses through ISP (CONFIRM=yes); fuses-dryrun prints the command
 	@echo "fuses for $(MCU) at F_CPU=$(F_CPU) on a 3.3 V board (see boards.mk):"
 	@for l in $(FUSES_TEXT_$(MCU)); do echo "$$l"; done
 	@if [ -n "$(PRINT)" ] || [ "$@" = fuses-dryrun ]; then echo '$(FUSES_CMD)'; exit 0; fi; \

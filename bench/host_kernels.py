@@ -1,4 +1,4 @@
-"""Host kernels against allantools, side by side (issue 14's host figures).
+"""Host kernels against allantools, side by side (the host figures of make bench).
 
     PYTHONPATH=host_scripts python bench/host_kernels.py [--n 1e7] [--pairs 7] [--json out.json]
 

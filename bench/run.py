@@ -4,7 +4,7 @@
 Every figure is measured in this run (nothing is copied): sizes from
 avr-size, cycles and stack from the real firmware ELF inside simavr
 (imu-sim --stats, probe pins PB0/PB1/PB2), host speed against allantools in
-this process.  Prints a table with the issue's targets and writes
+this process.  Prints a table of the figures against their targets and writes
 bench/results.json.  Targets are reported here, never asserted by tests.
 
 Usage: bench/run.py [--quick] [--out FILE]
@@ -26,9 +26,12 @@ REPO = Path(__file__).resolve().parents[1]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
 ELF = BUILD / "avr-atmega168" / "imu-allan.elf"
 SIM = BUILD / "host" / "imu-sim"
-RATES = [50, 100, 200, 250, 500, 1000, 1250, 1500]  # the offered rates, ascending
 ENV = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
 sys.path.insert(0, str(REPO / "host_scripts"))
+
+from imu_allan.channels import CODE_MAX, RATES_HZ  # noqa: E402  (this checkout's package, from the path above)
+
+RATES = list(RATES_HZ)  # the offered rates, ascending: the firmware's list
 
 
 def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
@@ -87,7 +90,7 @@ def square(tmp: Path, n: int) -> Path:
     """Full-scale steps every 1024 samples: the engine's widest differences."""
     path = tmp / "square.tsv"
     i = np.arange(n)
-    codes = np.where((i >> 10) & 1, 1023, 0)
+    codes = np.where((i >> 10) & 1, CODE_MAX, 0)
     np.savetxt(path, np.column_stack([codes] * 6 + [np.full(n, 63)]), fmt="%d", delimiter="\t")
     return path
 
@@ -224,7 +227,7 @@ def longdouble_dev(x: np.ndarray, ms: np.ndarray, overlapping: bool) -> np.ndarr
     X = np.zeros(x.size + 1, dtype=np.longdouble)
     np.cumsum(xl - xl[:1 << 16].mean(), out=X[1:])
     del xl
-    n, out = x.size, []
+    out = []
     for m in ms.tolist():
         P, s = (X, m) if overlapping else (X[::m], 1)
         c = P.size - 2 * s
@@ -256,6 +259,24 @@ def _time_mapped(path, runs: int = 3):
         out = allan.octave_mapped(np.load(path, mmap_mode="r"))
         times.append(time.perf_counter() - t)
     return out, times
+
+def outlier_scan() -> dict:
+    """Spikes and bursts found before the statistics (outliers.scan): 6 channels x 1e6
+    ADC codes of white noise (1.5 to 10 codes, like the ADIS16405 at rest), 100 spikes."""
+    from imu_allan import outliers
+    rng = np.random.default_rng(5)
+    sd = np.array([1.0, 0.8, 1.1, 6.0, 6.5, 7.5])[:, None]
+    x = np.rint(512 + sd * rng.standard_normal((6, 10**6)))
+    x[rng.integers(0, 6, 100), rng.integers(1, 10**6 - 1, 100)] += 400
+    times = []
+    for _ in range(5):
+        t = time.perf_counter()
+        found = outliers.scan(x, 100.0)
+        times.append(time.perf_counter() - t)
+    return {"host_outlier_scan_1e6_s": round(float(np.median(times)), 3),
+            "host_outlier_scan_1e6_runs_s": [round(v, 3) for v in times],
+            "host_outlier_scan_found": found.count}
+
 
 def host(tmp: Path, quick: bool) -> dict:
     import allantools
@@ -358,34 +379,45 @@ def host(tmp: Path, quick: bool) -> dict:
     return r
 
 
-# (figure, comparison, target, unit, how it is measured).  Targets of
-# issue 14 sit beside the earlier ones; results.json carries both.
+# (figure, comparison, target, unit, how it is measured): the device's
+# size, RAM and cycles, the simulator's speed and the host's kernels;
+# results.json carries each figure with its target.
 TARGETS = [
     ("flash_bytes", "<=", 15360, "bytes", "avr-size -A: .text + .data, ATmega168 (a 512-byte bootloader leaves 15360)"),
     ("ram_static_bytes", "<=", None, "bytes", "avr-size -A: .data + .bss + .noinit"),
     ("stack_free_bytes", ">=", 64, "bytes",
-     "SRAM painted 0xA5 by imu-sim, bytes never touched between .bss and the deepest stack, least over all scenarios"),
+     "SRAM painted 0xA5 by imu-sim, bytes never touched between .bss and the deepest stack, "
+     "least over all scenarios"),
     ("allan_octaves", ">=", 15, "", "levels in the device's report header"),
     ("allan_channels", ">=", 6, "", "channels in the device's report rows"),
-    ("cycles_per_sample_mean", "<=", None, "cycles", "PB0 high while the main loop handles one set, 1 kHz, reports streaming"),
-    ("cycles_per_sample_max", "<=", 4000, "cycles", "worst PB0 pulse over every rate run (2^16 sets each), ISRs inside included"),
+    ("cycles_per_sample_mean", "<=", None, "cycles",
+     "PB0 high while the main loop handles one set, 1 kHz, reports streaming"),
+    ("cycles_per_sample_max", "<=", 4000, "cycles",
+     "worst PB0 pulse over every rate run (2^16 sets each), ISRs inside included"),
     ("allan_cycles_per_channel_sample", "<=", 250, "cycles", "PB2 (around each engine call) total / (sets * 6), 1 kHz"),
     ("isr_cycles_max", "<=", None, "cycles", "ADC ISR from the jump to its vector to the end of reti (imu-sim, PC/SP)"),
     ("scan_us", "<=", None, "us", "7 conversions: ADSC delays measured in imu-sim + the datasheet's clock-edge rule"),
     ("max_fs_zero_drop_hz", ">=", 1500, "Hz",
      "offered rates in turn up to the first that drops, 2^16 sets, reports streaming, imu-allan check exact"),
     ("sim_speed_x", ">=", 60, "x", "simulated s per wall s, 100 Hz"),
-    ("host_speedup_vs_allantools", ">=", 10, "x", "octave overlapping vs allantools.oadev(taus='octave'), 1e7, median of 7 A/B pairs"),
-    ("host_speedup_nonoverlapping", ">=", 5, "x", "octave non-overlapping vs allantools.adev(taus='octave'), median of 7 A/B pairs"),
-    ("host_speedup_dense", ">=", 3, "x", "log grid 10/decade, overlapping vs allantools.oadev, 1e6, median of 7 A/B pairs"),
-    ("host_peak_mem_ratio", "<=", 1.1, "x", "peak RSS growth / input bytes, own process, allan.oavar octave, 1e7 float64"),
+    ("host_speedup_vs_allantools", ">=", 10, "x",
+     "octave overlapping vs allantools.oadev(taus='octave'), 1e7, median of 7 A/B pairs"),
+    ("host_speedup_nonoverlapping", ">=", 5, "x",
+     "octave non-overlapping vs allantools.adev(taus='octave'), median of 7 A/B pairs"),
+    ("host_speedup_dense", ">=", 3, "x",
+     "log grid 10/decade, overlapping vs allantools.oadev, 1e6, median of 7 A/B pairs"),
+    ("host_peak_mem_ratio", "<=", 1.1, "x",
+     "peak RSS growth / input bytes, own process, allan.oavar octave, 1e7 float64"),
     ("host_stream_1e8_s", "<=", 10, "s",
      "allan.octave_mapped on np.load(mmap_mode='r') of a 1e8 float64 .npy (800 MB) written just before "
-     "(page cache warm, not dropped): overlapping + non-overlapping, every octave exact (stride 1), median of 3 runs"),
+     "(page cache warm, not dropped): overlapping + non-overlapping, every octave exact (stride 1), "
+     "median of 3 runs"),
     ("host_stream_exact_levels", ">=", None, "", "octaves computed at every offset (stride 1), of host_stream_levels"),
     ("host_stream_codes_1e8_s", "<=", 10, "s",
      "as host_stream_1e8_s, 1e8 int16 ADC codes (200 MB .npy): exact integer sums (int64 differences, "
      "128-bit sums of squares), median of 3 runs, page cache warm"),
+    ("host_outlier_scan_1e6_s", "<=", 1.0, "s",
+     "outliers.scan of 6 channels x 1e6 ADC codes (white noise, 100 spikes), median of 5 runs"),
 ]
 
 
@@ -403,6 +435,7 @@ def main() -> int:
         tmp = Path(tmpname)
         res.update(device(tmp, args.quick))
         res.update(host(tmp, args.quick))
+        res.update(outlier_scan())
     res["quick"] = args.quick
     res["targets"] = {key: f"{op} {target}" for key, op, target, _, _ in TARGETS if target is not None}
     res["how"] = {key: how for key, _, _, _, how in TARGETS}

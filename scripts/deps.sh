@@ -5,7 +5,9 @@
 #   - optiboot's source (Debian's arduino-core-avr: make bootloader builds
 #     it for the board into build/optiboot; nothing of it is committed);
 #   - Unity 2.5 from Debian's ntpsec source package (or UNITY_DIR=);
-#   - the host Python package (host_scripts/) with its test extras.
+#   - the host Python package (host_scripts/) with its test extras (pytest,
+#     allantools, hypothesis, and make lint's ruff and mypy); make lint's
+#     clang-format is one of the Debian packages.
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -22,7 +24,7 @@ die() { printf 'deps: error: %s\n' "$*" >&2; exit 1; }
 # ---- Debian packages ------------------------------------------------------
 APT_PKGS=(gcc-avr avr-libc binutils-avr avrdude simavr libsimavr-dev libelf-dev
           cmake make gcc pkg-config xz-utils clang libclang-rt-14-dev tmux
-          arduino-core-avr)
+          arduino-core-avr clang-format)
 APT_UPDATED=0
 apt_update() {
   if [ "$APT_UPDATED" = 0 ]; then
@@ -129,7 +131,7 @@ fi
 
 # ---- Python host package ----------------------------------------------------
 stamp="$BUILD/.pydeps-$(sha256sum "$ROOT/host_scripts/pyproject.toml" | cut -c1-16)"
-if [ -f "$stamp" ] && "$PYTHON" -c 'import imu_allan, numpy, scipy, matplotlib, serial, allantools, pytest, hypothesis' 2>/dev/null; then
+if [ -f "$stamp" ] && "$PYTHON" -c 'import imu_allan, numpy, scipy, matplotlib, serial, allantools, pytest, hypothesis, ruff, mypy' 2>/dev/null; then
   say "Python package present"
 else
   say "installing the host package (host_scripts) with its test extras"

@@ -51,13 +51,13 @@ SIM_TERM_OPTS ?= --synthetic
 
 .PHONY: sim sim-term
 
-sim: $(IMU_SIM)
+sim: $(IMU_SIM) ## build imu-sim, the simavr harness that runs the firmware ELF
 
 $(IMU_SIM): $(IMU_SIM_SRC) $(IMU_SIM_HDR) sim/sim.mk
 	mkdir -p $(dir $@)
 	$(HOST_CC) $(IMU_SIM_CFLAGS) $(IMU_SIM_SRC) $(IMU_SIM_LIBS) -o $@
 
-sim-term: firmware $(IMU_SIM)
+sim-term: firmware $(IMU_SIM) ## the simulated device on a pseudo-terminal (build/imu-tty) for a terminal or the host
 	@echo "sim-term: the simulated device is on $(SIM_TERM_LINK) (Ctrl-C here ends it); in another shell:"
 	@echo "    picocom -b $(BAUD) $(SIM_TERM_LINK)     (Ctrl-A Ctrl-X quits picocom)"
 	@echo "    imu-allan monitor --port $(SIM_TERM_LINK)"

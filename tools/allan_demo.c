@@ -14,7 +14,9 @@
 static uint64_t rng = 0x853c49e6748fea9bull;
 static double uniform(void)
 {
-  rng ^= rng >> 12; rng ^= rng << 25; rng ^= rng >> 27;
+  rng ^= rng >> 12;
+  rng ^= rng << 25;
+  rng ^= rng >> 27;
   return ((rng * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
 }
 static double gauss(void)
@@ -81,7 +83,7 @@ int main(int argc, char **argv)
     }
     printf("\n");
   }
-  printf("\nengine state: %u bytes (%u per channel-level)\n",
-         (unsigned)sizeof eng, (unsigned)sizeof(allan_cell_t));
+  printf("\nengine state: %u bytes (%u per channel-level)\n", (unsigned)sizeof eng,
+         (unsigned)sizeof(allan_cell_t));
   return 0;
 }

@@ -26,6 +26,7 @@ import numpy as np
 from . import __version__
 from .channels import CHANNELS, CODE_MAX
 from .stats import allan, edf, identify, model, psd, terms
+from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 from .device.records import DeviceReport, flag_names
 from .errors import InputError
 from .profiles import Profile, term_unit, to_si_rad
@@ -49,6 +50,9 @@ class Options:
     exact_max: int = 1 << 21
     """Octave levels exact up to this m; above it (streams longer than 2^22
     samples) strided (allan.py). Bounds the ring buffers to ~32 MB per channel."""
+    outliers: str = "replace"
+    """Spikes and bursts (outliers.py): replace (interpolated, left out of the
+    statistics) or keep (counted and listed only)."""
 
 
 @dataclass
@@ -64,6 +68,8 @@ class HostPass:
     """The tau grid of the curves: the one asked, or octave when streamed."""
     clipped: Optional[np.ndarray] = None
     """Samples at code 0 or 1023 per channel (ADC codes only)."""
+    outliers: Optional[OutlierPass] = None
+    """The spikes and bursts found (None when the samples were streamed)."""
 
 
 @dataclass
@@ -117,6 +123,7 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
     for c_i, ch in enumerate(chans):
         doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report,
                                                                  opts, notes)
+    doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
     if opts.model:
         _model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
     return Analysis(_jsonable(doc), fits)
@@ -180,6 +187,12 @@ def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options
         raise InputError(f"'{samples.name}': {n} samples: too few for any statistic")
     res = eng.finish()
     data = np.concatenate(kept, axis=1) if kept is not None else None
+    found = None
+    if data is not None:
+        data, res, found = outlier_pass(samples.name, data, res, chans, fs, opts.outliers,
+                                        opts.exact_max, notes)
+    else:
+        notes.append("outliers not checked: the samples were streamed (more than --memory allows)")
     welch = psd.Welch(C, fs, psd.segment_length(n))  # pwelch's segments need n: a second pass if streamed
     if data is None:
         with Progress("PSD", n, unit=" samples") as bar:
@@ -193,7 +206,7 @@ def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options
     if opts.taus != "octave" and data is None:
         notes.append(f"--taus {opts.taus} needs the samples in memory: octave taus used instead")
     return HostPass(n, res, data, welch.result(), opts.taus if data is not None else "octave",
-                    clipped if samples.integer else None)
+                    clipped if samples.integer else None, found)
 
 
 def _host_curves(host: HostPass, c_i: int, extra: bool = True) -> dict[str, _Curve]:
@@ -289,6 +302,7 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
             extra[name] = _points(cv, fs, k2, fit, d=d, modified=mod)
     if extra:
         out["curves"] = extra
+    out["outliers"] = outliers_json(host.outliers if host is not None else None, c_i, fs, k2, efn, fit)
     if dev is not None and host is not None:
         out["device"] = _device_json(dev, fs, k2, fit, main)
     if host is not None:

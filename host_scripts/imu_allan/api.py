@@ -20,7 +20,7 @@ the IEEE 952 terms (IEEE Std 952-1997 annex C: Q, N, B, K, R).
 """
 from __future__ import annotations
 
-from typing import NamedTuple, Optional, Union
+from typing import Callable, NamedTuple, Union
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,6 +32,8 @@ from .device.rows import read_rows
 from .stats import allan, edf, terms
 
 Taus = Union[str, ArrayLike]
+Variance = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+"""A statistic of stats/allan.py: (samples, cluster sizes) -> (variances, terms)."""
 
 __all__ = ["Deviation", "adev", "oadev", "mdev", "hdev", "noise_terms", "read_capture",
            "device_reports", "read_rows", "Capture", "DeviceReport"]
@@ -92,7 +94,7 @@ def device_reports(path: PathLike) -> list[DeviceReport]:
     return decode_blocks(read_blocks(path)).reports
 
 
-def _deviation(data: ArrayLike, rate: float, taus: Taus, fn, stat: str, d: int,
+def _deviation(data: ArrayLike, rate: float, taus: Taus, fn: Variance, stat: str, d: int,
                overlapping: bool, modified: bool = False) -> Deviation:
     x, ms = _grid(data, rate, taus, stat)
     var, ns = fn(x, ms)

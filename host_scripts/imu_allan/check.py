@@ -24,13 +24,13 @@ from typing import Optional
 import numpy as np
 
 from .channels import CHANNELS
-from .device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
-from .stats.reference import OctaveCascade
 from .device.files import PathLike
+from .device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
 from .device.rows import iter_blocks
 from .device.summary import summary_units
 from .device.termcheck import (B_MIN_PAIRS, TERM_REL, expected_terms, printed_tol,  # noqa: F401
                                summary_terms_problems, term_problems)
+from .stats.reference import OctaveCascade
 
 REL_TOL = 1e-12
 SAT_VALUES = ((1 << 40) - 1, ACC_MAX)
@@ -106,7 +106,7 @@ def check_report(report: DeviceReport, rows_path: PathLike, fs_hz: Optional[floa
             if r.acc not in SAT_VALUES or true < r.acc or (acc48 is not None and r.acc != width_max):
                 bad(f"{where}: SAT flag set with acc {r.acc} (0x{r.acc:012X}) but the exact "
                     f"sum is {true} (0x{true:012X})" + (
-                        "" if r.acc in SAT_VALUES else f"; a saturated acc is 2^40-1 or 2^48-1"))
+                        "" if r.acc in SAT_VALUES else "; a saturated acc is 2^40-1 or 2^48-1"))
             else:
                 res.flagged.append(f"{where} sat")
             continue

@@ -8,7 +8,7 @@ import contextlib
 import errno
 import os
 import sys
-from typing import BinaryIO, Iterator, Optional
+from typing import Any, BinaryIO, Iterator, Optional
 
 from .channels import CHANNELS
 from .cli_thesis import add_subcommands
@@ -202,6 +202,10 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from .sources import load, load_device_report
     scales = parse_scales(args.scale)
     src = load(args.file)
+    from .warmup import skipped, warmup_section, warmup_text
+    src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
+    if skip_note:
+        src.notes.append(skip_note)
     device = load_device_report(args.device) if args.device else None
     report = device or src.report
     range_g = resolve_range(args.range, report.header.range_g if report is not None else None)
@@ -210,9 +214,14 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         scales = scales_for_input(src.name, samples.channels, samples.integer, samples.units, scales)
     profile = build_profile(args.profile, scales, range_g)
     opts = Options(fs=args.fs, taus=args.taus, channels=args.channels, model=not args.no_model,
-                   seed=args.seed, memory_budget=args.memory * 2**20)
+                   seed=args.seed, memory_budget=args.memory * 2**20, outliers=args.outliers)
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
+    from . import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
+    if not args.no_warmup:
+        quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
+        warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
+    advice.add_to_analysis(doc)
     written = []
     if args.curves:
         written.append(_write_text(args.curves, render.curves_csv(doc)))
@@ -228,7 +237,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     elif args.csv:
         sys.stdout.write(render.terms_csv(doc))
     else:
-        sys.stdout.write(render.text(doc))
+        sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc))
     for path in written:
         print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
     return 0
@@ -284,7 +293,11 @@ class _ClosedStream:
 
 def main(argv: Optional[list[str]] = None) -> int:
     handlers = dict(COMMANDS)
-    parser = build_parser(lambda sub: handlers.update(add_subcommands(sub)))  # sweep, thermal
+    def more(sub: Any) -> None:
+        handlers.update(add_subcommands(sub))  # sweep, thermal
+        from .cli_dynamic import add_subcommands as add_dynamic
+        handlers.update(add_dynamic(sub))  # dynamic
+    parser = build_parser(more)
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)

@@ -7,7 +7,23 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any, Callable
+from pathlib import Path
+from typing import Any, Callable, Optional
+
+SWEEP_DIR = "imu-allan-sweep"
+"""The sweep's directory when neither -o nor --dir names one."""
+
+
+def default_sweep_dir(cwd: Optional[Path] = None) -> Path:
+    """build/imu-allan-sweep of the imu-allan checkout ``cwd`` is in (its root
+    has the Makefile, firmware/vocab.h and host_scripts/), where the build's
+    other outputs go and git ignores them; ./imu-allan-sweep elsewhere."""
+    here = (cwd or Path.cwd()).resolve()
+    for d in (here, *here.parents):
+        if (d / "Makefile").is_file() and (d / "firmware" / "vocab.h").is_file() \
+                and (d / "host_scripts").is_dir():
+            return d / "build" / SWEEP_DIR
+    return here / SWEEP_DIR
 
 
 def _rates(text: str) -> list[float]:
@@ -56,7 +72,14 @@ a million degrees), and finite, so that temperatures stay numbers."""
 
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
-    from .cliargs import _fs, _positive_int, _seconds
+    _add_sweep(sub)
+    _add_thermal(sub)
+    return {"sweep": cmd_sweep, "thermal": cmd_thermal}
+
+
+def _add_sweep(sub: Any) -> None:
+    from .channels import RATES_HZ
+    from .cliargs import _positive_int, _seconds
     p = sub.add_parser(
         "sweep", help="on-device Allan results at several sample rates; terms against Fs",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -73,7 +96,7 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
             "sim'), its ADC fed by the continuous sensor model (docs/thesis-questions.md)\n"
             "sampled at the instants the device's ADC samples at each rate, so noise\n"
             "above Fs/2 aliases as on the bench. --port drives a real board.\n\n"
-            "Resumable: each finished rate is saved in DIR/sweep.json (--dir); the\n"
+            "Resumable: each finished rate is saved in DIR/sweep.json (-o/--dir); the\n"
             "same command again continues with the rates still missing."),
         epilog="exit status: 0 success, 2 usage or input error")
     g = p.add_mutually_exclusive_group(required=True)
@@ -81,10 +104,12 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     g.add_argument("--sim", action="store_true", help="the firmware in the simulator, fed by the sensor model")
     p.add_argument("--baud", type=_positive_int, default=115200, help="with --port (default 115200)")
     p.add_argument("--model", metavar="FILE", help="sensor model (JSON) for --sim (default: thesis-like)")
-    p.add_argument("--rates", type=_rates, required=True, metavar="LIST", help="rates in Hz, e.g. 50,100,200,250")
+    p.add_argument("--rates", type=_rates, required=True, metavar="LIST",
+                   help=f"rates in Hz, e.g. 100,250,1000 (the device offers {', '.join(map(str, RATES_HZ))})")
     p.add_argument("--seconds", type=_seconds, required=True, metavar="S", help="seconds of samples per rate")
-    p.add_argument("--dir", default="imu-allan-sweep", metavar="DIR",
-                   help="state and device logs (default ./imu-allan-sweep)")
+    p.add_argument("-o", "--dir", dest="dir", metavar="DIR",
+                   help=f"state and device logs (default: build/{SWEEP_DIR} of the imu-allan checkout "
+                        f"the command runs in, else ./{SWEEP_DIR})")
     p.add_argument("--restart", action="store_true", help="discard a saved sweep in DIR")
     p.add_argument("--profile", choices=("counts", "thesis"), default="counts",
                    help="units: counts (default) or thesis (m/s^2, deg/s)")
@@ -101,6 +126,9 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     p.add_argument("--json", action="store_true", help="print JSON: {rates, dependence, ...}")
     p.add_argument("--plot", metavar="DIR", help="write terms-vs-fs.png to DIR")
 
+
+def _add_thermal(sub: Any) -> None:
+    from .cliargs import _fs, _positive_int
     p = sub.add_parser(
         "thermal", help="bias against temperature; noise terms before and after removing it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -124,9 +152,11 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
                    help="units: counts (default) or thesis (m/s^2, deg/s)")
     p.add_argument("--segments", type=_positive_int, default=3, metavar="K",
                    help="N and B in K consecutive segments against their temperature (default 3; 1: off)")
+    p.add_argument("--outliers", choices=("replace", "keep"), default="replace",
+                   help="spikes and bursts: replace (default; before the regression and the terms) "
+                        "or keep (counted only); see imu-allan analyze --help")
     p.add_argument("--json", action="store_true", help="print JSON: {channels: {gx: {tempco, ...}}}")
     p.add_argument("--plot", metavar="DIR", help="write thermal.png to DIR")
-    return {"sweep": cmd_sweep, "thermal": cmd_thermal}
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -140,7 +170,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     cfg = sweep.SweepConfig(source="sim" if args.sim else f"port:{args.port}", rates=args.rates,
                             seconds=args.seconds, profile=args.profile, model=model, seed=args.seed,
                             average=args.average, fit_from=args.fit_from, terms=args.terms)
-    sw = sweep.open_sweep(cfg, args.dir, restart=args.restart)
+    sw = sweep.open_sweep(cfg, args.dir or str(default_sweep_dir()), restart=args.restart)
     measure = (sweep.sim_measure(sw, args.firmware, args.keep_rows) if args.sim
                else sweep.port_measure(sw, args.port, args.baud))
     sweep.run(sw, measure, sweep.say_stderr)
@@ -150,7 +180,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_thermal(args: argparse.Namespace) -> int:
     from . import thermal
     doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile,
-                        segments=max(args.segments, 1))
+                        segments=max(args.segments, 1), outliers_mode=args.outliers)
     return _emit("thermal", doc, thermal, args)
 
 
@@ -178,8 +208,8 @@ def _load_model(path: Any) -> Any:
 def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
     from .errors import InputError
-    from .stats.gen import PARAMS
     from .sensor import write_rows
+    from .stats.gen import PARAMS
     given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
     if args.kind != "noise" or args.json_params:
         given.append("--kind" if args.kind != "noise" else "--json-params")
@@ -194,9 +224,10 @@ def sim_from_model(args: argparse.Namespace) -> int:
     sampled at the instants the device samples at --fs (default 100 Hz)."""
     import os
     import tempfile
+
+    from .device.simrun import run, sim_command
     from .errors import InputError
     from .sensor import write_rows
-    from .device.simrun import run, sim_command
     if args.adc and args.model:
         raise InputError("--adc and --model: give one")
     if not args.model:

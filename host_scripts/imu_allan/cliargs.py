@@ -344,6 +344,23 @@ def _add_monitor(sub: Any) -> None:
                    help="exit after the first complete report (for scripts)")
 
 
+def _command_synopsis(width: int = 76) -> str:
+    """The device's commands with their arguments, in its own order and words
+    (the firmware's tables, through _firmware_facts), wrapped to ``width``."""
+    from ._firmware_facts import COMMAND_ARGS, MODES, ONOFF, RANGES_G, UNITS
+    arg = {"none": "", "count": " [count]", "rate": " <hz>", "seconds": " <s>",
+           "mode": f" <{'|'.join(MODES)}>", "range": f" <{'|'.join(RANGES_G)}>",
+           "onoff": f" [{'|'.join(ONOFF)}]", "units": f" [{'|'.join(UNITS)}]"}
+    words = [w + arg[kind] for w, kind in COMMAND_ARGS.items()]
+    lines, line = [], "  "
+    for w in words:
+        if len(line) + len(w) + 2 > width:
+            lines.append(line.rstrip())
+            line = "  "
+        line += w + ", "
+    return "\n".join(lines + [line.rstrip(", ") + "."])
+
+
 def _add_cmd(sub: Any) -> None:
     p = sub.add_parser(
         "cmd", help="send one command to the device and print its reply",
@@ -352,9 +369,8 @@ def _add_cmd(sub: Any) -> None:
             "Send WORDS, joined by spaces, as one command line to the device and\n"
             "print its reply ('ok ...' or 'error:<code> <reason>'); whatever else\n"
             "the device sends meanwhile (reports, raw rows, binary frames) is\n"
-            "ignored. Commands (docs/protocol.md): help, status, report, reset,\n"
-            "stop, start [count], rate <hz>, interval <s>, mode <allan|raw|binary|\n"
-            "both>, range <1.5|2|4|6>, save, load, defaults.\n\n"
+            "ignored. Commands (docs/protocol.md):\n"
+            + _command_synopsis() + "\n\n"
             "example: imu-allan cmd --port /dev/ttyUSB0 rate 250"),
         epilog="a line answered 'error:5 input lost' (the device lost some of its bytes and ran "
                "nothing) is sent again, 3 times in all.\n"
@@ -367,6 +383,16 @@ def _add_cmd(sub: Any) -> None:
                         "a report is being sent)")
     p.add_argument("words", nargs="+", metavar="WORDS", help="the command and its argument")
 
+
+
+def _nonnegative_seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not 0 <= v < 1e9:
+        raise argparse.ArgumentTypeError(f"must be 0 s or more: {text!r}")
+    return v
 
 
 def _channel_list(text: str) -> list[str]:
@@ -386,6 +412,12 @@ def _megabytes(text: str) -> int:
     if v < 1:
         raise argparse.ArgumentTypeError("must be at least 1 MB")
     return v
+
+
+OUTLIERS_HELP = ("spikes and bursts (a knock on the bench), found on the sample-to-sample jumps: "
+                 "replace (default; by the line between their neighbours, so they stay out of the "
+                 "statistics; the summary says how much N and B would move) or keep (counted and "
+                 "listed only); a recording that is mostly spikes is refused unless kept")
 
 
 def _add_analyze(sub: Any) -> None:
@@ -458,8 +490,14 @@ def _add_analyze(sub: Any) -> None:
                    help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)")
     p.add_argument("--no-model", action="store_true",
                    help="skip the thesis model's simulation and FIT%% (faster)")
+    p.add_argument("--skip", type=_nonnegative_seconds, metavar="SECONDS",
+                   help="leave out the first SECONDS of the record (a warm-up); a device log alone is cut "
+                        "at its first report after them (its report minus that one)")
+    p.add_argument("--no-warmup", action="store_true",
+                   help="do not test the record's windows for a warm-up (see imu-allan dynamic)")
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S",
                    help="random seed of the model simulation (default 1)")
+    p.add_argument("--outliers", choices=("replace", "keep"), default="replace", help=OUTLIERS_HELP)
     p.add_argument("--memory", type=_megabytes, default=1024, metavar="MB",
                    help="samples kept in memory for the non-octave statistics (default 1024 MB); "
                         "larger files are streamed: octave Allan deviations and PSD only")

@@ -23,16 +23,18 @@ import re
 from dataclasses import dataclass, field
 from typing import Optional
 
-from .channels import CHANNELS
+from ._firmware_facts import RANGES_G
+from .channels import CHANNELS, CODE_MAX
 from .errors import InputError
 
 G0 = 9.80665
 VREF = 3.3
-ADC_STEPS = 1024
+ADC_STEPS = CODE_MAX + 1
 ACC_SENSITIVITY_V_PER_G = {"1.5": 0.800, "2": 0.600, "4": 0.300, "6": 0.200}
 GYRO_SENSITIVITY_V_PER_DPS = 0.0033
 PROFILES = ("thesis", "counts")
-RANGES = tuple(ACC_SENSITIVITY_V_PER_G)
+RANGES = RANGES_G
+"""The accelerometer ranges the device offers (g), in its order; each has a sensitivity above."""
 
 KIND = {"ax": "acc", "ay": "acc", "az": "acc", "gx": "gyro", "gy": "gyro", "gz": "gyro"}
 RATE_UNIT = {"acc": "m/s^2", "gyro": "deg/s"}

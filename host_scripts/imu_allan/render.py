@@ -256,6 +256,7 @@ def text(doc: dict[str, Any]) -> str:
     for ch, c in doc["channels"].items():
         lines.append("")
         lines.append(f"{ch} [{c['unit']}]")
+        lines += outlier_lines(c)
         for k in ("N", "B", "K", "Q", "R"):
             t = c["terms"][k]
             lu, lf = _lit(c, k)
@@ -305,6 +306,30 @@ def text(doc: dict[str, Any]) -> str:
     lines.append("")
     lines.append(adev_table(doc))
     return "\n".join(lines) + "\n"
+
+
+def outlier_lines(c: dict[str, Any]) -> list[str]:
+    """The channel's spikes and bursts, next to the terms they would move."""
+    o = c.get("outliers")
+    if not o or not o.get("checked") or not (o["count"] or o.get("steps_s")):
+        return []
+    out = []
+    if o["count"]:
+        times = o["times_s"]
+        at = ", ".join(g(t, 6) for t in times[:5]) + (f" ... ({len(times)} in all)" if len(times) > 5 else "")
+        how = ("replaced by the line between their neighbours" if o["mode"] == "replace"
+               else "kept in the statistics (--outliers keep)")
+        out.append(f"  outliers: {o['count']} samples in {len(times)} event{'s' * (len(times) != 1)} "
+                   f"(spikes, bursts) at {at} s: {how}")
+        eff = o.get("effect") or {}
+        parts = [f"{k} {v['change_pct']:+.3g} % ({g(v['without_outliers'])} -> {g(v['with_outliers'])})"
+                 for k, v in eff.items() if v.get("change_pct") is not None]
+        if parts:
+            out.append("            with them in, " + ", ".join(parts))
+    if o.get("steps_s"):
+        out.append(f"  level shifts (kept): {len(o['steps_s'])} at "
+                   + ", ".join(g(t, 6) for t in o["steps_s"][:5]) + " s")
+    return out
 
 
 def adev_table(doc: dict[str, Any]) -> str:

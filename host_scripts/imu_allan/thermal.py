@@ -152,7 +152,7 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
 
 
 def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[float, float]] = None,
-          profile: str = "counts", segments: int = SEGMENTS) -> dict[str, Any]:
+          profile: str = "counts", segments: int = SEGMENTS, outliers_mode: str = "replace") -> dict[str, Any]:
     from .analysis import Options, analyze
     from .profiles import build_profile
     from .sources import SampleSource, Source
@@ -191,6 +191,7 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
         if n and x[c].min() == x[c].max():
             notes.append(f"{ch}: every sample is {x[c][0]:g}: a stuck channel (no noise, no "
                          "temperature dependence can be measured); its tempco is 0 by construction")
+    x, spikes = _outliers(path, x, fs, outliers_mode, notes)  # before the block means and the terms
     xb = x[:, :nb * L].reshape(6, nb, L).mean(axis=2)
     t_s = centres / fs
     D = L / fs
@@ -207,7 +208,8 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
         src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda: iter([data]), False, fs=fs,
                                         n_hint=n), None)
         doc = analyze(src, build_profile("counts", {}, None),
-                             Options(fs=fs, extra_curves=False, model=False)).doc
+                             Options(fs=fs, extra_curves=False, model=False,
+                                                    outliers="keep")).doc
         # a term the data cannot pin down still moves the bias: its 95 % upper bound
         # stands for it (conservative intervals rather than too narrow ones)
         return {ch: {k: (v or {}).get("value") or c["upper_bounds"].get(k) for k, v in c["terms"].items()
@@ -229,9 +231,29 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
             "temperature": {"unit": t_unit, "min": float(Tb.min()), "max": float(Tb.max()),
                             "mean": float(T.mean()), "one_way": mono,
                             "scale": {"c_per_count": scale, "offset_c": off} if temp_scale else None},
-            "profile": profile, "channels": chans, "notes": notes}
+            "profile": profile, "channels": chans, "outliers": spikes, "notes": notes}
 
 
+
+
+def _outliers(path: str, x: np.ndarray, fs: float, mode: str, notes: list[str]
+              ) -> tuple[np.ndarray, dict[str, Any]]:
+    """Spikes and bursts (outliers.py) found once, before the regression and the
+    terms (whose own analyses then keep what they are given): replaced, or kept."""
+    from . import outliers
+    found = outliers.scan(x, fs)
+    why = outliers.mostly_spikes(found, list(CHANNELS))
+    if why and mode == "replace":
+        raise InputError(f"'{path}': refused: {why}; --outliers keep studies it as it is")
+    ev = [e for e in found.events if not e.step]
+    if found.count:
+        notes.append(f"outliers: {found.count} samples in {len(ev)} event{'s' * (len(ev) != 1)} (spikes, bursts) "
+                     + ("replaced by the line between their neighbours" if mode == "replace"
+                        else "kept (--outliers keep)"))
+    summary = {"mode": mode, "count": {ch: found.channels[c].count for c, ch in enumerate(CHANNELS)},
+               "times_s": [e.start / fs for e in ev],
+               "channels": [[CHANNELS[c] for c in e.channels] for e in ev]}
+    return (outliers.replace(x, found) if mode == "replace" and found.count else x), summary
 
 
 def _before_after(chans: dict[str, Any], path: str, kind: str, x: np.ndarray, corrected: np.ndarray,
@@ -245,7 +267,7 @@ def _before_after(chans: dict[str, Any], path: str, kind: str, x: np.ndarray, co
     for name, data in (("before", x), ("after", corrected)):
         src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda d=data: iter([d]), False, fs=fs,
                                         n_hint=n), None)
-        docs[name] = analyze(src, prof, Options(fs=fs, extra_curves=False, seed=1)).doc
+        docs[name] = analyze(src, prof, Options(fs=fs, extra_curves=False, seed=1, outliers="keep")).doc
     for ch in CHANNELS:
         b, a = docs["before"]["channels"][ch], docs["after"]["channels"][ch]
         chans[ch]["terms_before"] = b["terms"]
@@ -294,7 +316,8 @@ def _terms_by_temperature(chans: dict[str, Any], data: np.ndarray, T: np.ndarray
         seg = data[:, i * L:(i + 1) * L]
         src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda d=seg: iter([d]), False, fs=fs,
                                         n_hint=L), None)
-        docs.append(analyze(src, prof, Options(fs=fs, extra_curves=False, model=False)).doc)
+        docs.append(analyze(src, prof, Options(fs=fs, extra_curves=False, model=False,
+                                                    outliers="keep")).doc)
         temps.append(float(T[i * L:(i + 1) * L].mean()))
     for ch in CHANNELS:
         out: dict[str, Any] = {"temperature": temps, "unit": t_unit, "segment_s": L / fs}

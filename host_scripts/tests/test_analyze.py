@@ -270,7 +270,7 @@ def test_kalibr_needs_physical_units(run_cli, files) -> None:
 
 @pytest.mark.filterwarnings("error::UserWarning")  # matplotlib's "cannot be log-scaled" included
 def test_a_constant_channel_is_analyzed_and_plotted_with_a_note(tmp_path: Path, run_cli) -> None:
-    """A stuck gyro (issue 10: TypeError in the plot): the others are analyzed,
+    """A stuck gyro (a constant channel once broke the plot): the others are analyzed,
     the figure is written, and a note says why gx has no terms."""
     rng = np.random.default_rng(1)
     codes = np.clip(np.rint(rng.normal(500, 2, (20000, 7))), 0, 1023).astype(int)
@@ -326,7 +326,7 @@ def _csv_with_time(path: Path, head: str, t: np.ndarray) -> Path:
     ("time_ms", 5 * np.arange(3000)),
 ])
 def test_csv_time_column_in_any_unit(head: str, t: np.ndarray, tmp_path: Path, run_cli) -> None:
-    """issue 9: integer ns, us, ms or s, from the name or the magnitude: 200 Hz every time."""
+    """A CSV time column in integer ns, us, ms or s, told from its name or its magnitude: 200 Hz every time."""
     path = _csv_with_time(tmp_path / "imu.csv", head, t)
     rc, out, err = run_cli("analyze", path, "--no-model", "--json")
     assert rc == 0, err
@@ -343,7 +343,7 @@ def test_csv_time_column_giving_an_absurd_rate_is_refused(tmp_path: Path, run_cl
 
 
 def test_clipped_codes_are_counted_and_the_terms_say_so(tmp_path: Path, run_cli) -> None:
-    """issue 9: codes at 0 or 1023 counted per channel and warned about."""
+    """Codes at 0 or 1023 (a clipped sensor misleads every term) counted per channel and warned about."""
     rng = np.random.default_rng(5)
     codes = np.clip(np.rint(rng.normal(500, 3, (20000, 7))), 0, 1023).astype(int)
     hits = rng.choice(20000, 37, replace=False)
@@ -363,7 +363,7 @@ def test_clipped_codes_are_counted_and_the_terms_say_so(tmp_path: Path, run_cli)
 
 
 def test_a_capture_is_read_once(tmp_path: Path, run_cli, monkeypatch) -> None:
-    """issue 11: a capture was opened to peek, decoded to count, decoded again and
+    """A capture was once opened to peek, decoded to count, decoded again and
     read a third time for the PSD; now its bytes are read in one pass."""
     import builtins
     rows = [raw_row([500 + (i * 7) % 13, 1, 2, 3 + i % 5, 4, 5, 6]) for i in range(3000)]

@@ -5,7 +5,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import exact_acc, report_lines, thesis_like, write_rows
 
 

@@ -111,7 +111,7 @@ def test_default_paths_point_into_the_checkout() -> None:
     assert os.path.basename(simrun.DEFAULT_ELF) == "imu-allan.elf"
 
 
-# ---- output errors: one line, exit 2 (issue 10) -----------------------------------------
+# ---- output errors: one line, exit 2 (a full disk or a closed pipe is no crash) ---------
 
 def _run(args: list[str], stdout: object, tmp: Path) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))

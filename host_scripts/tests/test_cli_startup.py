@@ -32,7 +32,7 @@ def test_building_the_parser_imports_no_numerical_stack() -> None:
     assert "imu_allan.cliargs" in got["ours"]  # the probe really built it
 
 
-@pytest.mark.parametrize("words", [["--help"], ["gen", "--help"], ["analyze", "--help"],
+@pytest.mark.parametrize("words", [["--help"], ["gen", "--help"], ["analyze", "--help"], ["dynamic", "--help"],
                                    ["monitor", "--help"], ["--version"]])
 def test_help_texts_import_no_numerical_stack(words: list[str]) -> None:
     code = ("from imu_allan.cli import main\n"

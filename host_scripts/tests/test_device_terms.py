@@ -8,7 +8,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-
 from conftest import CH, exact_acc, line, report_lines, thesis_like, write_rows
 
 FS = 100

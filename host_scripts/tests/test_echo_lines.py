@@ -3,6 +3,7 @@ neither data nor garbage for the decoders, in report logs and raw captures."""
 from __future__ import annotations
 
 from conftest import line, raw_row, report_lines, thesis_like
+
 from imu_allan.device.records import decode_bytes
 from imu_allan.device.stream import StreamDecoder
 

@@ -1,4 +1,4 @@
-"""The decoder's second line of defence (issue 10): a line whose CRC-16 still
+"""The decoder's second line of defence behind the CRC-16: a line whose CRC-16 still
 matches after a change, and a report spliced from lines of two runs, are never
 accepted as something the device did not send.
 
@@ -128,7 +128,7 @@ def _assert_within_the_summary(got: dict, truth: dict, body: bytes, running: boo
 def _log_with_resets() -> tuple[list[bytes], list[list[bytes]]]:
     """Four runs of very different length separated by resets; the reports of
     the first and third are cut off by the reset, so the next run's report
-    reuses their seq (it advances only at E): the splice of issue 10."""
+    reuses their seq (it advances only at E): a splice of two runs waiting to happen."""
     a, b, c, d = (thesis_like(n, s) for n, s in ((5010, 1), (510, 2), (2500, 3), (9000, 4)))
     boot = [line("B,proto=1,fw=0.1.0,mcu=atmega168,reset=por")]
     cut_a = _report(a, 5, seq=0)[:26] + [line("ok reset")]
@@ -168,7 +168,7 @@ def test_deleted_duplicated_and_spliced_line_runs_never_splice_runs() -> None:
     print(f"{trial + 1} mutated logs: {accepted} reports accepted (each an original), {refused} refused")
 
 
-def test_the_splice_of_issue_10_is_refused() -> None:
+def test_a_report_spliced_from_two_runs_is_refused() -> None:
     """A report cut off by a reset, the reset's reply lost, and the next run's
     H and first rows lost: the rest of that run's report completes the first."""
     lines, _ = _log_with_resets()

@@ -1,4 +1,4 @@
-"""The second line of defence on logs of the real firmware (issue 10): the
+"""The second line of defence behind the CRC-16, on logs of the real firmware: the
 report's ``V`` check line (run identity and CRC-16/MODBUS of the H and L
 bodies) and the count lines' block CRC over raw rows and binary frames.
 
@@ -151,7 +151,7 @@ def test_runs_spliced_across_a_reset_are_refused(logs) -> None:
     assert 0 < len(cut) < 90 and b"ok reset" in first  # the first report was cut by the reset
     intact = decode_bytes(log)
     assert [r.seq for r in intact.reports] == [1, 2]
-    # the issue's splice: the second header and the rows after it lost
+    # a splice of two runs: the second header and the rows after it lost
     rest = [b for b in second[1 + len(cut):]]
     spliced = b"".join(_line(b) for b in bodies[: h[0]] + [first[0]] + cut + rest)
     assert decode_bytes(spliced).reports == []

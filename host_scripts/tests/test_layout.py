@@ -9,7 +9,7 @@ from pathlib import Path
 PKG = Path(__file__).resolve().parents[1] / "imu_allan"
 MAX_FILE_LINES = 600
 MAX_FUNCTION_LINES = 80
-KNOWN_LONG = {("terms.py", "fit_terms"): "the IEEE 952 fit: rewritten by issue 9, split there"}
+KNOWN_LONG = {("terms.py", "fit_terms"): "the IEEE 952 iterated weighted fit in one piece, until the noise fitter"}
 
 
 def _module_name(path: Path) -> str:

@@ -14,7 +14,6 @@ from typing import Callable, Iterator
 
 import numpy as np
 import pytest
-
 from conftest import bin_frame, line, random_codes, raw_row, report_lines, thesis_like
 
 BOOT = line("B,proto=1,fw=0.2.0,mcu=atmega168,reset=por")
@@ -268,7 +267,8 @@ def test_cmd_port_lost(device, run_cli) -> None:
 
 
 def test_rows_says_the_drops_of_the_count_lines(tmp_path: Path, run_cli) -> None:
-    """issue 9: count lines said drops=5 while rows printed 'rows lost 0'."""
+    """The device's own drops, from its count lines, are said beside the rows lost on the way
+    (count lines once said drops=5 while rows printed 'rows lost 0')."""
     rows = [b"%d\t1\t2\t3\t4\t5\t6\r\n" % i for i in range(300)]
     cap = tmp_path / "cap.log"
     cap.write_bytes(line("ok mode=raw") + b"".join(rows[:100]) + line("C,100,2")
@@ -282,7 +282,7 @@ def test_rows_says_the_drops_of_the_count_lines(tmp_path: Path, run_cli) -> None
 
 
 def test_cmd_sends_again_a_line_whose_bytes_were_lost(device, run_cli) -> None:
-    """issue 10: 'error:5 input lost' means nothing ran: cmd tries again (3 times in all)."""
+    """'error:5 input lost' means nothing ran: cmd tries again (3 times in all)."""
     answers = iter([line("error:5 input lost"), line("ok interval=3600")])
     dev = device(lambda c: next(answers))
     rc, out, err = run_cli("cmd", "--port", dev.path, "--timeout", "2", "interval", "3600")

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import report_lines, thesis_like, write_rows
 
 
@@ -35,6 +34,7 @@ def test_b_line_and_log_grid_limits(tmp_path: Path, monkeypatch) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     from imu_allan import cli, plots
     seen: list = []
     real_save = plots._save

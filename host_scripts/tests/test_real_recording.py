@@ -38,7 +38,7 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     if src is None:
         pytest.skip(f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} "
                     "and $IMU_ALLAN_DATA")
-    return src  # read as shipped, gzip and all, as the command line does
+    return src  # read as shipped, gzip and all, as a user's command line does
 
 
 def _analyze(run_cli, path: Path, *extra: str) -> dict:

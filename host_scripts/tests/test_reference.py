@@ -34,6 +34,7 @@ import json  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from conftest import CH, exact_acc, thesis_like, write_rows  # noqa: E402
+
 from imu_allan.stats.reference import OctaveCascade  # noqa: E402
 
 

@@ -87,7 +87,7 @@ def test_format_round_trip(tmp_path: Path) -> None:
 
 
 def test_a_gzip_file_reads_like_the_plain_one(tmp_path, run_cli) -> None:
-    """The real recording of issue 9 ships as .tsv.gz: read decompressed, by its magic bytes."""
+    """The real recording ships as .tsv.gz: read decompressed, by its magic bytes."""
     import gzip
     import json
     plain = tmp_path / "imu.txt"

@@ -55,3 +55,35 @@ def test_the_makefile_gives_it_to_the_firmware() -> None:
     assert "-DFW_VERSION='\"$(VERSION)\"'" in make
     config = (ROOT / "firmware" / "config.h").read_text()
     assert not re.search(r'#\s*define FW_VERSION "\d', config), "a version number in config.h"
+
+
+def test_the_firmware_says_it_in_its_boot_line_and_headers(tmp_path: Path) -> None:
+    """The built firmware, run in imu-sim, says fw=<VERSION> in its boot line and
+    every report header: the device, `imu-allan --version` and the package agree."""
+    import os
+
+    build = Path(os.environ.get("BUILD", ROOT / "build"))
+    elf, sim = build / "avr-atmega168" / "imu-allan.elf", build / "host" / "imu-sim"
+    if not (elf.is_file() and sim.is_file()):
+        pytest.skip(f"{elf.name} or imu-sim not built (run 'make firmware sim')")
+    version = _version_file()
+    rows = tmp_path / "adc.tsv"
+    rows.write_text("".join(f"{500 + i % 3}\t500\t500\t500\t500\t500\t300\n" for i in range(256)))
+    log = tmp_path / "device.log"
+    run = subprocess.run([str(sim), "--adc", str(rows), "-o", str(log), str(elf)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    said = re.findall(rb"^\$([BH]),.*?\bfw=([^,*]+)", log.read_bytes(), re.M)
+    assert {kind for kind, _ in said} == {b"B", b"H"}, said
+    assert {fw.decode() for _, fw in said} == {version}
+    import imu_allan
+    assert imu_allan.__version__ == version
+
+
+def test_the_changelog_has_the_version() -> None:
+    """A version is released with its CHANGELOG.md entry (Keep a Changelog)."""
+    log = ROOT / "CHANGELOG.md"
+    assert log.is_file(), "CHANGELOG.md is missing"
+    heads = re.findall(r"^## \[([^\]]+)\]", log.read_text(), re.M)
+    assert heads and heads[0] in ("Unreleased", _version_file()), heads[:2]
+    assert _version_file() in heads, f"VERSION {_version_file()} has no '## [{_version_file()}]' entry"

@@ -116,7 +116,7 @@ class Board:
         """What the simulator said (-v: opens, resets, hangs), without
         simavr's timer noise."""
         text = self.err.read_text(errors="replace") if self.err.exists() else ""
-        return "\n".join(l for l in text.splitlines() if "avr_timer_write_ocr" not in l)[-3000:]
+        return "\n".join(line for line in text.splitlines() if "avr_timer_write_ocr" not in line)[-3000:]
 
     def output(self) -> bytes:
         return self.log.read_bytes() if self.log.exists() else b""

@@ -8,7 +8,6 @@ import re
 import subprocess
 
 import pytest
-
 from conftest import BUILD, REPO
 
 SMALLEST = {"atmega168": 256, "atmega328p": 512}

@@ -11,7 +11,6 @@ import signal
 import time
 
 import pytest
-
 from conftest import HEX, Board, boots
 
 EXPECTED = {

@@ -82,9 +82,9 @@ FUZZ_SMOKES := $(addprefix fuzz-smoke-,$(FUZZ_TARGETS))
 
 .PHONY: fuzz fuzz-smoke fuzz-build fuzz-clean $(FUZZ_RUNS) $(FUZZ_SMOKES)
 
-fuzz: $(FUZZ_RUNS)
-fuzz-smoke: $(FUZZ_SMOKES)
-fuzz-build: $(FUZZ_BINS)
+fuzz: $(FUZZ_RUNS) ## run every fuzzer FUZZ_SECONDS (default 10) under ASan and UBSan
+fuzz-smoke: $(FUZZ_SMOKES) ## every fuzzer 3 s from its seeds (part of make test)
+fuzz-build: $(FUZZ_BINS) ## build the fuzzers into build/fuzz/
 
 define fuzz_bin_rule
 $(FUZZ_OUT)/$(1): $(call fuzz_main,$(1)) $(addprefix $(FW_DIR)/,$(FUZZ_SRC_$(1))) $(FUZZ_DEPS)
@@ -112,13 +112,13 @@ define fuzz_run
 	  "$$(sed -n 's/^stat::average_exec_per_sec: *//p' $$log)" "$$(ls $$dir | wc -l)"
 endef
 
-$(FUZZ_RUNS): fuzz-run-%: $(FUZZ_OUT)/%
+$(FUZZ_RUNS): fuzz-run-%: $(FUZZ_OUT)/% ## fuzz-run-<target>: one fuzzer (e.g. fuzz-run-fuzz_proto) FUZZ_SECONDS
 	$(call fuzz_run,$*,$(FUZZ_SECONDS),corpus-$*,0)
 
-$(FUZZ_SMOKES): fuzz-smoke-%: $(FUZZ_OUT)/%
+$(FUZZ_SMOKES): fuzz-smoke-%: $(FUZZ_OUT)/% ## fuzz-smoke-<target>: one fuzzer's short run from its seeds
 	$(call fuzz_run,$*,$(FUZZ_SMOKE_SECONDS),smoke-corpus-$*,1)
 
-fuzz-clean:
+fuzz-clean: ## remove build/fuzz (the fuzzers and the corpora they grew)
 	rm -rf $(FUZZ_OUT)
 
 .DEFAULT_GOAL := $(FUZZ_SAVED_GOAL)

@@ -1,4 +1,4 @@
-"""A person at a serial terminal (issue 12), through the real pty of
+"""A person at a serial terminal, through the real pty of
 `imu-sim --pty` with pyserial: the first command after the port opens,
 echo and line editing, error texts, help, and the summary screen."""
 from __future__ import annotations
@@ -9,8 +9,7 @@ from pathlib import Path
 
 from test_sim_term import LINE, SimTerm, built, crc16  # noqa: F401  (built: the fixture)
 
-
-# ---- the terminal conversation (issue 12) ---------------------------------
+# ---- the terminal conversation -------------------------------------------
 
 def _until_quiet(t: SimTerm, quiet_s: float = 0.4) -> bytes:
     """Everything the device sends until it is quiet for quiet_s."""

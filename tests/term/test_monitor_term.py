@@ -220,3 +220,16 @@ def test_a_second_program_gets_port_busy_and_the_monitor_lives_on(monitor: Tmux,
     monitor.keys("status", "Enter")
     monitor.wait(lambda s: any(x.startswith("replies: ok status") for x in s),
                  "the monitor still answering")
+
+
+def test_advice_line_fits_80x24_and_follows_every_report(monitor: Tmux) -> None:
+    """The recording advice (docs/dynamic.md) is the second line of the view,
+    recomputed from each new report: periodic reports every 2 s."""
+    monitor.keys("interval 2", "Enter")
+    first = monitor.wait(lambda s: s[1].startswith("report seq") and s[2].startswith("record: B +-"),
+                         "a report with its advice line")
+    seq = first[1].split()[2]
+    later = monitor.wait(lambda s: s[1].startswith("report seq") and s[1].split()[2] != seq
+                         and s[2].startswith("record: B +-"), "the next report and its advice")
+    assert len(later) == 24 and all(len(x) <= 80 for x in first + later)
+    assert later[2] != first[2]  # the time still needed moves with each report

@@ -91,7 +91,7 @@ class SimTerm:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
-                raise AssertionError("imu-sim ignored the signal")
+                raise AssertionError("imu-sim ignored the signal") from None
         return self.proc.returncode
 
     def line(self, timeout: float = 5.0, strict: bool = True) -> bytes:
@@ -324,7 +324,7 @@ def test_report(dev: SimTerm) -> None:
         assert int(pairs) == max(n // m - 1, 0), (ch, level, pairs, n)
         assert len(acc) == 12 and flags == "00", (ch, level, acc, flags)
     # the synthetic IMU's white noise: adev(tau0) ~ sqrt(sigma^2 + 1/12)
-    for (ch, level, pairs, acc, flags), sigma in zip(rows[::LEVELS], SYNTH_SIGMA):
+    for (ch, _level, pairs, acc, _flags), sigma in zip(rows[::LEVELS], SYNTH_SIGMA):
         adev = (int(acc, 16) / (2 * int(pairs))) ** 0.5
         expect = (sigma ** 2 + 1 / 12) ** 0.5
         assert 0.85 * expect < adev < 1.15 * expect, (ch, adev, expect)
@@ -383,7 +383,7 @@ def test_adc_file_loops_and_skips_protocol_lines(tmp_path: Path) -> None:
         sample(d, n)
         head, rows_l, count = d.report()
         assert int(head["n"]) == n and count == 90
-        for ch, level, pairs, acc, flags in rows_l:
+        for ch, level, pairs, acc, _flags in rows_l:
             i = CHANNELS.index(ch)
             want = int(pairs) * (a[i] - b[i]) ** 2 if level == "0" else 0
             assert int(acc, 16) == want, (ch, level, pairs, acc)
@@ -419,16 +419,16 @@ def test_raw_capture_replays(tmp_path: Path) -> None:
         d.stop()
     lines = capture.split(b"\r\n")
     assert b"> start 300" in lines          # the echo, a line of its own
-    data = [list(map(int, l.split(b"\t"))) for l in lines if l and not l.startswith((b"$", b"> "))]
+    data = [list(map(int, line.split(b"\t"))) for line in lines if line and not line.startswith((b"$", b"> "))]
     assert len(data) == 300
     start = table.index(data[0])
     assert data == [table[(start + i) % 7] for i in range(300)]
-    counts = [l for l in lines if l.startswith(b"$C,")]
-    for l in counts:
-        m = LINE.match(l + b"\r\n")
-        assert m and int(m.group(2), 16) == crc16(m.group(1)), l
+    counts = [line for line in lines if line.startswith(b"$C,")]
+    for line in counts:
+        m = LINE.match(line + b"\r\n")
+        assert m and int(m.group(2), 16) == crc16(m.group(1)), line
     # $C,<rows>,<drops>
-    assert [l[3:].split(b"*")[0].split(b",")[:2] for l in counts] == \
+    assert [c[3:].split(b"*")[0].split(b",")[:2] for c in counts] == \
         [[b"100", b"0"], [b"200", b"0"], [b"300", b"0"]], counts
     assert b"$ok started*" in capture
     cap = tmp_path / "capture.tsv"
@@ -436,7 +436,7 @@ def test_raw_capture_replays(tmp_path: Path) -> None:
     proc = subprocess.run([str(SIM), "--adc", str(cap), str(ELF)],
                           capture_output=True, timeout=60)
     assert proc.returncode == 0, proc.stderr.decode()
-    heads = [l for l in proc.stdout.split(b"\r\n") if l.startswith(b"$H,")]
+    heads = [line for line in proc.stdout.split(b"\r\n") if line.startswith(b"$H,")]
     assert heads and b",n=300," in heads[-1], heads
 
 
@@ -499,5 +499,5 @@ def test_replays_raw_capture_in_batch_mode(tmp_path: Path) -> None:
     proc = subprocess.run([str(SIM), "--adc", str(rows), str(ELF)],
                           capture_output=True, timeout=60)
     assert proc.returncode == 0, proc.stderr.decode()
-    heads = [l for l in proc.stdout.split(b"\r\n") if l.startswith(b"$H,")]
+    heads = [line for line in proc.stdout.split(b"\r\n") if line.startswith(b"$H,")]
     assert heads and b",n=250," in heads[-1], heads

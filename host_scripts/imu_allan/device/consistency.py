@@ -1,5 +1,5 @@
 """Cross-checks a whole device report must pass before it is accepted: the
-second line of defence behind the CRC-16 of each line (issue 10).
+second line of defence behind the CRC-16 of each line.
 
 A CRC-16 lets about one corrupted line in 65,536 through, and a report whose
 lines were lost may splice two runs into one.  The numbers of one report are

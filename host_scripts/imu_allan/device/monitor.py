@@ -176,6 +176,7 @@ class Monitor:
         doc = render.report_doc(self.report)
         return (f"report seq {self.report.seq} (received {self.report_time}; "
                 f"{self.reports} complete so far)\n"
+                + self.advice_line() + "\n"
                 + render.device_header_text(doc["header"])
                 + "Allan deviation, ADC counts (! flagged: saturated or range):\n"
                 + render.device_adev_table(doc["rows"], CHANNELS))
@@ -191,6 +192,11 @@ class Monitor:
         while columns and len(shown) > 1 and len("replies: " + " | ".join(shown)) > columns:
             shown.pop(0)
         return "replies: " + (" | ".join(shown) if shown else "none")
+
+    def advice_line(self, columns: int = 80) -> str:
+        """How long to record, from the last report alone (advice.py); updated at every report."""
+        from ..advice import monitor_line
+        return monitor_line(self.report, columns) if self.report is not None else ""
 
     def render(self) -> str:
         """The whole view as text (a pipe, or a test)."""

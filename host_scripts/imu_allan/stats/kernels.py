@@ -82,7 +82,7 @@ def exact_sumsq(d: np.ndarray) -> list[int]:
         sq = (d * d).view(np.uint64)  # < 2^62, exact
         lo = (sq & np.uint64(0xFFFFFFFF)).sum(axis=1, dtype=np.uint64)  # < 2^32 per term
         hi = (sq >> np.uint64(32)).sum(axis=1, dtype=np.uint64)
-        return [(int(h) << 32) + int(l) for h, l in zip(hi, lo)]
+        return [(int(h) << 32) + int(low) for h, low in zip(hi, lo)]
     return [sum(int(v) * int(v) for v in row) for row in d.tolist()]
 
 

@@ -1,0 +1,192 @@
+"""How long to record: the interval each noise term has now, and the recording
+time after which it would be +-10 % and +-25 % (docs/dynamic.md).
+
+An estimate under stated assumptions: the sensor stays as it was (the fitted
+model holds), and every point that carries a term gains degrees of freedom in
+proportion to the recording time (true of both Allan estimators at a fixed
+tau once the record is many taus long).  A term's interval is read as that of
+a deviation with some equivalent EDF nu (the chi-squared interval of NIST SP
+1065 eq. 45, whose relative half-width falls as about 1/sqrt(2 nu)); the time
+for a target half-width is the time now times nu(target) / nu(now).
+
+On the device alone (``device_advice``) the terms are the device's N and B
+with the summary's uncertainty 100 / sqrt(2 pairs) % (docs/protocol.md), and
+a level has pairs = floor(n / m) - 1 after n samples: the time after which the
+level of each term holds enough pairs is exact, given that the term stays at
+the same level.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Optional
+
+from scipy import optimize
+from scipy import stats as sps
+
+LEVEL = 0.95
+TARGETS_PCT = (10, 25)
+
+
+def halfwidth(nu: float, level: float = LEVEL) -> float:
+    """Relative half-width of the ``level`` interval of a deviation estimated
+    with ``nu`` degrees of freedom: (sqrt(nu/chi2_lo) - sqrt(nu/chi2_hi)) / 2."""
+    a = 1.0 - level
+    hi = math.sqrt(nu / sps.chi2.ppf(a / 2, nu))
+    lo = math.sqrt(nu / sps.chi2.ppf(1 - a / 2, nu))
+    return (hi - lo) / 2
+
+
+def edf_for(rel_halfwidth: float, level: float = LEVEL) -> float:
+    """The EDF whose interval has this relative half-width (inverse of ``halfwidth``)."""
+    f = lambda lg: math.log(halfwidth(math.exp(lg), level)) - math.log(rel_halfwidth)  # noqa: E731
+    lo, hi = math.log(0.5), math.log(1e13)
+    if f(lo) < 0:
+        return 0.5
+    if f(hi) > 0:
+        return 1e13
+    return math.exp(optimize.brentq(f, lo, hi, xtol=1e-10))
+
+
+def record_for(pct_now: float, duration_s: float, target_pct: float, level: float = LEVEL) -> float:
+    """Recording time (s, from the start) after which a term now +-``pct_now`` % would be +-``target_pct`` %."""
+    return duration_s * edf_for(target_pct / 100, level) / edf_for(pct_now / 100, level)
+
+
+def term_interval_pct(term: dict[str, Any]) -> Optional[float]:
+    """Half the width of a term's interval, in % of its value."""
+    v, lo, hi = term.get("value"), term.get("low"), term.get("high")
+    if not v or lo is None or hi is None or v <= 0 or hi < lo:
+        return None
+    return 100.0 * (hi - lo) / (2.0 * v)
+
+
+NEIGHBOUR_CORR = 0.5
+"""Correlation taken between the estimates of neighbouring octaves (measured
+0.35-0.68 by simulation, docs/analysis.md section 5); with 0.5 the interval
+predicted from the points' EDFs matches the one the fit gives, on white noise
+(N) and on white plus flicker noise (B), within about 10 %."""
+
+
+def term_edf(curve: list[dict[str, Any]], tau_range: Optional[list[float]], term: str,
+             overlapping: bool) -> Optional[float]:
+    """The degrees of freedom behind a term: the EDFs of the fitted octave points
+    in its tau range, summed, times (1 - r) / (1 + r) for the correlation r of
+    neighbouring octaves (the number of independent points in a chain of them)."""
+    if not tau_range:
+        return None
+    lo, hi = tau_range[0] * (1 - 1e-9), tau_range[1] * (1 + 1e-9)
+    edfs = [p["edf"] for p in curve if p.get("used") and p.get("edf") and lo <= p["tau_s"] <= hi]
+    if not edfs:
+        return None
+    r = NEIGHBOUR_CORR
+    return sum(edfs) * (1 - r) / (1 + r) if len(edfs) > 1 else edfs[0]
+
+
+def add_to_analysis(doc: dict[str, Any], level: float = LEVEL) -> None:
+    """Adds to every identified term of ``analyze``'s document ``interval_pct`` (its
+    interval now), ``edf`` (the degrees of freedom of the points that carry it),
+    ``expected_pct`` (the half-width those give) and ``record_s_for_10pct``,
+    ``record_s_for_25pct``: the recording time (s from the start) after which they
+    give +-10 % and +-25 %, each point's EDF growing in proportion to the time."""
+    duration = (doc.get("source") or {}).get("duration_s")
+    for ch in doc.get("channels", {}).values():
+        overlapping = (ch.get("fit") or {}).get("statistic") == "oadev"
+        for name, term in (ch.get("terms") or {}).items():
+            if not term:
+                continue
+            term["interval_pct"] = term_interval_pct(term)
+            nu = term_edf(ch.get("curve") or [], term.get("tau_range_s"), name, overlapping)
+            term["edf"] = nu
+            term["expected_pct"] = 100 * halfwidth(nu, level) if nu else None
+            for target in TARGETS_PCT:
+                term[f"record_s_for_{target}pct"] = (
+                    duration * edf_for(target / 100, level) / nu if nu and duration else None)
+
+
+def fmt_time(s: Optional[float]) -> str:
+    if s is None:
+        return "?"
+    if s >= 2 * 86400:
+        return f"{s / 86400:.1f} d"
+    if s >= 5400:
+        return f"{s / 3600:.1f} h"
+    if s >= 120:
+        return f"{s / 60:.0f} min"
+    return f"{s:.0f} s"
+
+
+def analysis_text(doc: dict[str, Any]) -> str:
+    """The advice block of ``analyze``'s text."""
+    duration = (doc.get("source") or {}).get("duration_s") or 0.0
+    lines = [f"Recording length (estimate: the model holds, each point's EDF grows with time; "
+             f"95 % intervals; recorded {fmt_time(duration)}):"]
+    for name, ch in doc.get("channels", {}).items():
+        parts = []
+        for k, term in (ch.get("terms") or {}).items():
+            if not term or term.get("interval_pct") is None:
+                continue
+            pct, t10, t25 = term["interval_pct"], term["record_s_for_10pct"], term["record_s_for_25pct"]
+            part = f"{k} +-{pct:.2g} % now"
+            pct = term.get("expected_pct") or pct
+            for tgt, t in ((25, t25), (10, t10)):
+                if t is not None and pct > tgt:
+                    part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
+            parts.append(part)
+        if parts:
+            lines.append(f"  {name}: " + "; ".join(parts))
+    return "\n".join(lines) + "\n" if len(lines) > 1 else ""
+
+
+# ---- from the device's reports alone --------------------------------------------------------
+
+
+def pairs_for(pct: float) -> int:
+    """Pairs a level needs for the summary's uncertainty 100 / sqrt(2 pairs) to reach ``pct``."""
+    return math.ceil((100.0 / pct) ** 2 / 2.0 - 1e-9)
+
+
+def device_advice(report: Any) -> dict[str, dict[str, dict[str, Any]]]:
+    """Per channel and term (N, B) of a device report: the level, its pairs, +-% now
+    (100 / sqrt(2 pairs)), and the run time (s since the reset) after which the
+    level holds the pairs for +-10 % and +-25 %: (pairs + 1) m / fs."""
+    h = report.header
+    fs = float(h.fs_hz)
+    rows = {(r.channel, r.level): r for r in report.rows}
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    levels = {ch: {k: getattr(t, k).level for k in ("N", "B")} for ch, t in report.terms.items()}
+    if not levels:  # no T lines (an older firmware, or the host's emulation): the device's rule
+        from .check import expected_terms
+        for ch in sorted({r.channel for r in report.rows}):
+            levels[ch] = {k: (v[0] if v else None) for k, v in expected_terms(report, ch).items()}
+    for ch, lv in levels.items():
+        out[ch] = {}
+        for name in ("N", "B"):
+            level = lv[name]
+            row = rows.get((ch, level)) if level is not None else None
+            if row is None or row.pairs < 1:
+                continue
+            item = {"level": level, "tau_s": row.m / fs, "pairs": row.pairs,
+                    "pct": 100.0 / math.sqrt(2 * row.pairs), "now_s": h.n / fs}
+            for target in TARGETS_PCT:
+                item[f"record_s_for_{target}pct"] = (pairs_for(target) + 1) * row.m / fs
+            out[ch][name] = item
+    return out
+
+
+def monitor_line(report: Any, columns: int = 80) -> str:
+    """One line for the monitor: the worst channel's B (and N) now, and the time
+    still needed for +-10 %: 'record: B +-23 % now (gx); +-10 % after about 2.4 h more'."""
+    adv = device_advice(report) if report is not None else {}
+    worst = max(((ch, a["B"]) for ch, a in adv.items() if "B" in a), key=lambda x: x[1]["pct"], default=None)
+    if worst is None:
+        return "record: no noise terms yet (the device sends them once level 0 has 8 pairs)"[:columns]
+    ch, b = worst
+    more = b["record_s_for_10pct"] - b["now_s"]
+    text = f"record: B +-{b['pct']:.0f} % now (worst {ch}, tau {b['tau_s']:.3g} s); "
+    text += (f"+-10 % after about {fmt_time(more)} more" if more > 0 else "+-10 % reached")
+    n_pct = max((a["N"]["pct"] for a in adv.values() if "N" in a), default=None)
+    if n_pct is not None:
+        tail = f"; N +-{n_pct:.2g} %"
+        if len(text) + len(tail) <= columns:
+            text += tail
+    return text[:columns]
