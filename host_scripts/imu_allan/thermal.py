@@ -151,6 +151,13 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
     return out
 
 
+def _stuck_notes(x: np.ndarray) -> list[str]:
+    """A note per channel whose every sample is the same code (a stuck or railed channel)."""
+    return [f"{ch}: every sample is {x[c][0]:g}: a stuck channel (no noise, no temperature "
+            "dependence can be measured); its tempco is 0 by construction"
+            for c, ch in enumerate(CHANNELS) if x.shape[1] and x[c].min() == x[c].max()]
+
+
 def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[float, float]] = None,
           profile: str = "counts", segments: int = SEGMENTS, outliers_mode: str = "replace") -> dict[str, Any]:
     from .analysis import Options, analyze
@@ -187,10 +194,7 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
                      "down separates them")
     prof = build_profile(profile, {}, None)
     x = codes[:6].astype(np.float64)
-    for c, ch in enumerate(CHANNELS):
-        if n and x[c].min() == x[c].max():
-            notes.append(f"{ch}: every sample is {x[c][0]:g}: a stuck channel (no noise, no "
-                         "temperature dependence can be measured); its tempco is 0 by construction")
+    notes += _stuck_notes(x)
     x, spikes = _outliers(path, x, fs, outliers_mode, notes)  # before the block means and the terms
     xb = x[:, :nb * L].reshape(6, nb, L).mean(axis=2)
     t_s = centres / fs
