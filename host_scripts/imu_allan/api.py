@@ -26,8 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .device.capture import Capture, read_capture
-from .device.files import PathLike, read_all
-from .device.records import DeviceReport, decode_bytes
+from .device.files import PathLike, read_blocks
+from .device.records import DeviceReport, decode_blocks
 from .sources.rows import read_rows
 from .stats import allan, edf, terms
 
@@ -91,7 +91,7 @@ def noise_terms(data: ArrayLike, rate: float = 1.0, taus: Taus = "octave") -> te
 
 def device_reports(path: PathLike) -> list[DeviceReport]:
     """Every complete, CRC-checked report of a device log, in order."""
-    return decode_bytes(read_all(path)).reports
+    return decode_blocks(read_blocks(path)).reports
 
 
 def _deviation(data: ArrayLike, rate: float, taus: Taus, fn: Variance, stat: str, d: int,

@@ -110,10 +110,17 @@ def normalize_range(text: Optional[str]) -> str:
 _SCALE = re.compile(r"^\s*([a-z]{2})\s*=\s*([-+0-9.eE]+)\s*([a-zA-Z/^0-9]*)\s*$")
 
 
+SCALE_LIMITS = (1e-30, 1e30)
+"""Scales --scale takes (rate units per count): beyond any sensor, and such that a
+deviation's square and its variance's stay normal float64 numbers."""
+
+
 def parse_scales(specs: list[str]) -> dict[str, tuple[float, str]]:
     """``["gx=0.05", "ax=0.0039g,ay=0.0039g"]`` -> {channel: (value, unit)}."""
     out: dict[str, tuple[float, str]] = {}
     for spec in specs:
+        if not spec.replace(",", "").strip():
+            raise InputError(f"--scale {spec!r}: names no channel; expected CH=VALUE[UNIT], e.g. gx=0.05")
         for item in spec.split(","):
             if not item.strip():
                 continue
@@ -130,6 +137,10 @@ def parse_scales(specs: list[str]) -> dict[str, tuple[float, str]]:
                 raise InputError(f"--scale {item!r}: {val!r} is not a number") from None
             if not (v > 0 and math.isfinite(v)):
                 raise InputError(f"--scale {item!r}: the scale must be a positive number")
+            if not SCALE_LIMITS[0] <= v <= SCALE_LIMITS[1]:
+                raise InputError(f"--scale {item!r}: outside {SCALE_LIMITS[0]:g} .. {SCALE_LIMITS[1]:g}")
+            if ch in out:
+                raise InputError(f"--scale {item!r}: {ch} has a scale already ({out[ch][0]:g} {out[ch][1]})")
             kind = KIND[ch]
             unit = unit or RATE_UNIT[kind]
             if unit.lower() not in {u.lower() for u in UNIT_FACTORS[kind]}:

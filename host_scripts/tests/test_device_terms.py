@@ -87,16 +87,23 @@ def test_check_fails_a_term_beyond_the_printed_precision(tmp_path: Path, run_cli
     assert rc != 0 and "ax N: device used level" in out
 
 
-def test_a_channel_without_enough_pairs_reads_dash(tmp_path: Path, run_cli) -> None:
+def test_a_term_needs_its_pairs_and_a_dash_only_without_them(tmp_path: Path, run_cli) -> None:
     rows = thesis_like(12, 8)      # 12 samples: level 0 has 11 pairs, level 1 only 5
     lines = report_lines(rows, LEVELS)
-    t = [line(f"T,0,{ch},0,{_sig3(_terms(rows, ch)[1])},0,{_sig3(_terms(rows, ch)[3])}") for ch in CH]
+    t = [line(f"T,0,{ch},{_terms(rows, ch)[0]},{_sig3(_terms(rows, ch)[1])},0,"
+              f"{_sig3(_terms(rows, ch)[3])}") for ch in CH]
     log = tmp_path / "dev.log"
     log.write_bytes(b"".join(lines[:-1] + t + lines[-1:]))
     rc, out, _ = run_cli("decode", "--json", log)
     assert rc == 0
     assert json.loads(out)["terms"]["ax"]["B"]["tau_s"] == 1 / FS
-    t = [line(f"T,0,{ch},0,1,-,-") for ch in CH]
+    # B at level 1 (5 pairs, fewer than 8), and a dash where level 0 has 11 pairs:
+    # both contradict the rows, so both lines are refused, counted and said
+    t = [line(f"T,0,{ch},{_terms(rows, ch)[0]},{_sig3(_terms(rows, ch)[1])},1,1") for ch in CH[:3]]
+    t += [line(f"T,0,{ch},{_terms(rows, ch)[0]},{_sig3(_terms(rows, ch)[1])},-,-") for ch in CH[3:]]
     log.write_bytes(b"".join(lines[:-1] + t + lines[-1:]))
-    rc, out, _ = run_cli("decode", "--json", log)
-    assert json.loads(out)["terms"]["gz"]["B"] is None
+    rc, out, err = run_cli("decode", "--json", log)
+    doc = json.loads(out)
+    assert rc == 0 and "terms" not in doc and doc["errors"]["inconsistent_lines"] == 6
+    assert "refused the T line of ax (ax B: level 1, whose row has 5 pairs (the term needs 8))" in err
+    assert "refused the T line of gz (gz B: device -, but level 0 has 8 pairs or more)" in err

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings, strategies as st
 
 from conftest import crc, line
-from imu_allan.device.framing import crc16, crc16_many, frame, split_frames
+from imu_allan.device.framing import MAX_BODY, crc16, crc16_many, frame, split_frames
 
 
 def test_crc_check_value() -> None:
@@ -50,7 +50,7 @@ def test_split_counts_every_kind_of_loss() -> None:
 
 
 def test_body_limits() -> None:
-    ok = "S,1," + "x" * 252  # 256 characters: the protocol's longest body
+    ok = "S,1," + "x" * (MAX_BODY - 4)  # the protocol's longest body
     assert split_frames(line(ok)).bodies == [ok]
     long = split_frames(line(ok + "x"))
     assert long.bodies == [] and long.errors["malformed"] == 1

@@ -97,7 +97,7 @@ def test_bad_rows_are_counted_and_skipped() -> None:
     good = random_codes(5, 7)
     bad = [b"1\t2\t3\t4\t5\t6\r\n", b"1\t2\t3\t4\t5\t6\t7\t8\r\n", b"1\t2\t3\t4\t5\t6\t1024\r\n",
            b"1\t2\t3\t4\t5\t6\t00001\r\n", b"1 2 3 4 5 6 7\r\n", b"1\t2\t3\tx\t5\t6\t7\r\n",
-           b"1\t2\t3\t4\t5\t6\t7\r\r\n", b"\t1\t2\t3\t4\t5\t6\r\n", b"1\t\t2\t3\t4\t5\t6\r\n"]
+           b"1\t2\t3\t4\t5\t6\t7\x00\r\n", b"\t1\t2\t3\t4\t5\t6\r\n", b"1\t\t2\t3\t4\t5\t6\r\n"]
     data = b"\r\n" + b"".join(raw_row(good[0]) + b + raw_row(good[i % 4 + 1]) for i, b in enumerate(bad))
     res = decode_stream(data + b"\r\n\n")  # empty lines are not rows, nor bad ones
     assert res.counts["bad_rows"] == len(bad) and res.counts["rows"] == 2 * len(bad)

@@ -27,16 +27,12 @@ from ..channels import CHANNELS
 from ..device.files import PathLike
 from ..device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
 from ..sources.rows import iter_blocks
-from ..device.summary import parse_terms as parse_summary_terms
-from ..device.summary import scales, summary_units
+from ..device.summary import summary_units
+from ..device.termcheck import (B_MIN_PAIRS, TERM_REL, expected_terms, printed_tol,  # noqa: F401
+                                summary_terms_problems, term_problems)
 from ..stats.reference import OctaveCascade
 
 REL_TOL = 1e-12
-TERM_REL = 2e-4
-"""Relative error the device's fixed-point deviation may add (fmt_adev: below 1e-4)."""
-B_FACTOR = 0.664
-"""Bias instability: the flicker floor of the Allan deviation is 0.664 B (IEEE 952)."""
-B_MIN_PAIRS = 8
 SAT_VALUES = ((1 << 40) - 1, ACC_MAX)
 
 
@@ -137,131 +133,30 @@ def check_report(report: DeviceReport, rows_path: PathLike, fs_hz: Optional[floa
     return res
 
 
-def expected_terms(report: DeviceReport, channel: str) -> dict[str, Optional[tuple[int, float]]]:
-    """The noise terms as the device defines them (docs/protocol.md, T), from
-    the report's own L rows: N = adev(tau) * sqrt(tau) at the level whose tau
-    is nearest 1 s (ties: the lower) among levels with pairs, in count*sqrt(s);
-    B = min adev / 0.664 over levels with at least 8 pairs, in counts.
-    {"N": (level, value) or None, "B": ...}."""
-    fs = float(report.header.fs_hz)
-    rows = [r for r in report.rows if r.channel == channel and r.pairs]
-    out: dict[str, Optional[tuple[int, float]]] = {"N": None, "B": None}
-    if rows:
-        n = min(rows, key=lambda r: (abs(r.m - fs), r.level))
-        out["N"] = (n.level, float(np.sqrt(n.avar * n.m / fs)))
-    cand = [r for r in rows if r.pairs >= B_MIN_PAIRS]
-    if cand:
-        b = min(cand, key=lambda r: (r.avar, r.level))
-        out["B"] = (b.level, float(np.sqrt(b.avar)) / B_FACTOR)
-    return out
-
-
-def _printed_tol(value: float) -> float:
-    """Half a unit in the third significant digit of value, plus TERM_REL."""
-    if value <= 0:
-        return 1e-300
-    return 0.5 * 10.0 ** (np.floor(np.log10(value)) - 2) * 1.0001 + TERM_REL * value
-
-
 def _check_terms(report: DeviceReport, res: CheckResult) -> None:
-    """Each T record against the terms recomputed from the report's integers.
-    A running device computes its T lines a few samples after its L rows:
-    those are compared only when the header says the run had stopped."""
-    bad = res.mismatches.append
-    if not report.terms or report.header.running is not False:
+    """Each T record against the terms recomputed from the report's integers
+    (device/termcheck.py, which ``decode`` uses too: a line it refused is
+    listed here).  A running device computes its T lines a few samples after
+    its L rows: those are compared only when the header says the run had
+    stopped."""
+    res.mismatches.extend(f"refused by decode: the {why}" for why in report.refused)
+    if report.header.running is not False:
         return
-    for ch, got in report.terms.items():
-        want = expected_terms(report, ch)
-        for name in ("N", "B"):
-            g, w = getattr(got, name), want[name]
-            where = f"{ch} {name}"
-            if w is None or g.level is None:
-                if (w is None) != (g.level is None):
-                    bad(f"{where}: device {'-' if g.level is None else g.value}, "
-                        f"expected {'-' if w is None else w[1]:.4g}")
-                continue
-            res.terms += 1
-            level, value = w
-            rows = {r.level: r for r in report.rows if r.channel == ch}
-            if g.level != level:
-                # a near tie of the minimum may fall either way in fixed point
-                alt = rows.get(g.level)
-                same = alt is not None and name == "B" and alt.pairs >= B_MIN_PAIRS and \
-                    abs(np.sqrt(alt.avar) / B_FACTOR - value) <= TERM_REL * value
-                if not same:
-                    bad(f"{where}: device used level {g.level}, expected {level}")
-                    continue
-            if abs(g.value - value) > _printed_tol(value):
-                bad(f"{where}: device {g.value:g}, recomputed {value:.6g} "
-                    f"(beyond the printed precision)")
-
-
-def expected_summary_terms(report: DeviceReport, channel: str) -> dict[str, tuple[int, float]]:
-    """The summary's terms of a channel in its units (the header's ``units`` and
-    ``range``), from the report's integers: N and B with their levels, and the
-    uncertainty 100 / sqrt(2 pairs) in percent of the level each was read at."""
-    scale = scales(report.header)[channel]
-    want = expected_terms(report, channel)
-    pairs = {r.level: r.pairs for r in report.rows if r.channel == channel}
-    out = {}
-    for name, factor in (("N", scale.N), ("B", scale.B * B_FACTOR)):
-        if want[name] is not None:
-            level, value = want[name]
-            out[name] = (level, value * factor)
-            out[name + "%"] = (level, 100.0 / np.sqrt(2.0 * pairs[level]))
-    return out
+    for ch in sorted(report.terms, key=CHANNELS.index):
+        bad, agreed = term_problems(report, report.terms[ch], moving=False)
+        res.mismatches.extend(bad)
+        res.terms += agreed + len(bad)
 
 
 def _check_summary_terms(report: DeviceReport, res: CheckResult) -> None:
     """The summary's terms (caption and rows, docs/protocol.md) against the
     values recomputed from the report's integers in the header's units, within
     the printed precision (stopped runs, like the T lines)."""
-    bad = res.mismatches.append
     if report.header.running is not False:
         return
-    try:
-        got = parse_summary_terms(report.summary)
-    except ValueError as e:
-        bad(f"summary: {e}")
-        return
-    if got is None:
-        return
-    fs = float(report.header.fs_hz)
-    units = summary_units(report.header)
-
-    def close(shown: float, value: float) -> bool:
-        return abs(shown - value) <= _printed_tol(value)
-    caption_checked = False
-    for ch in CHANNELS:
-        want = expected_summary_terms(report, ch)
-        if "N" not in want or "B" not in want:
-            bad(f"{ch}: the summary shows terms the rows cannot give")
-            continue
-        n_level, n_value = want["N"]
-        if not caption_checked:  # N's level and pairs are every channel's: one caption
-            caption_checked = True
-            if not close(got.n_tau, 2 ** n_level / fs) or not close(got.n_pct, want["N%"][1]):
-                bad(f"summary: N at {got.n_tau:g} s +-{got.n_pct:g}%, the rows give "
-                    f"{2 ** n_level / fs:.4g} s +-{want['N%'][1]:.3g}%")
-        cells = got.rows[ch]
-        level, value = want["B"]
-        tau = 2 ** level / fs
-        if not close(cells["tau_s"], tau):
-            # a near tie of the minimum may fall either way in fixed point (as in T)
-            term = report.terms.get(ch)
-            if term is None or term.B.level is None or not close(cells["tau_s"], 2 ** term.B.level / fs):
-                bad(f"{ch} B: summary at tau {cells['tau_s']:g} s, the rows give {tau:.4g} s")
-                continue
-            level = term.B.level
-            row = next(r for r in report.rows if r.channel == ch and r.level == level)
-            value = float(np.sqrt(row.avar)) * scales(report.header)[ch].B
-            want["B%"] = (level, 100.0 / np.sqrt(2.0 * row.pairs))
-        for name, shown, expect in (("N", cells["N"], n_value), ("B", cells["B"], value),
-                                    ("B +-%", cells["+-%"], want["B%"][1])):
-            if not close(shown, expect):
-                bad(f"{ch} {name}: summary shows {shown:g} ({units}), recomputed {expect:.6g}")
-            else:
-                res.summary_terms += 1
+    bad, agreed = summary_terms_problems(report, report.summary, moving=False)
+    res.mismatches.extend(bad)
+    res.summary_terms += agreed
 
 
 def _check_header(h: DeviceHeader, fs_hz: Optional[float], res: CheckResult) -> None:

@@ -121,11 +121,15 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
     blocks' noise covariance S (identity: ordinary least squares); 95 % intervals."""
     t0 = float(temp.mean())
     dt = temp - t0
-    if S is None:
-        S = np.eye(bias.size) * max(float(np.var(bias)), 1e-30)
+    ols = np.eye(bias.size) * max(float(np.var(bias)), 1e-30)
+    if S is None or not float(np.trace(S)) > 0:  # a stuck channel has no noise: nothing to weigh by
+        S = ols
     X1 = np.stack([np.ones_like(dt), dt], axis=1)
     X2 = np.stack([np.ones_like(dt), dt, dt * dt], axis=1)
-    L = np.linalg.cholesky(S + np.eye(S.shape[0]) * 1e-12 * np.trace(S) / S.shape[0])
+    try:
+        L = np.linalg.cholesky(S + np.eye(S.shape[0]) * 1e-12 * np.trace(S) / S.shape[0])
+    except np.linalg.LinAlgError:  # a covariance the noise terms could not make positive
+        L = np.linalg.cholesky(ols)
     b1, cov1, chi1, dof1 = _gls(X1, bias, L)
     b2, cov2, chi2, dof2 = _gls(X2, bias, L)
 
@@ -145,6 +149,13 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
     else:
         out["coef"] = [float(b1[0]), float(b1[1]), 0.0]
     return out
+
+
+def _stuck_notes(x: np.ndarray) -> list[str]:
+    """A note per channel whose every sample is the same code (a stuck or railed channel)."""
+    return [f"{ch}: every sample is {x[c][0]:g}: a stuck channel (no noise, no temperature "
+            "dependence can be measured); its tempco is 0 by construction"
+            for c, ch in enumerate(CHANNELS) if x.shape[1] and x[c].min() == x[c].max()]
 
 
 def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[float, float]] = None,
@@ -183,6 +194,7 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
                      "down separates them")
     prof = build_profile(profile, {}, None)
     x = codes[:6].astype(np.float64)
+    notes += _stuck_notes(x)
     x, spikes = _outliers(path, x, fs, outliers_mode, notes)  # before the block means and the terms
     xb = x[:, :nb * L].reshape(6, nb, L).mean(axis=2)
     t_s = centres / fs

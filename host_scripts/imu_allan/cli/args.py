@@ -6,7 +6,7 @@ import argparse
 from typing import Any, Callable, NoReturn, Optional
 
 from .._version import __version__
-from ..channels import CHANNELS, RATES_HZ
+from ..channels import CHANNELS, FS_LIMITS_HZ, RATES_HZ
 
 EXIT_LOST = 3
 """Exit status of a command that did its work but found data lost on the way."""
@@ -33,6 +33,9 @@ def _positive_float(text: str, unit: str) -> float:
 
 def _fs(text: str) -> float | int:
     v = _positive_float(text, "Hz")
+    lo, hi = FS_LIMITS_HZ
+    if not lo <= v <= hi:
+        raise argparse.ArgumentTypeError(f"{text!r} Hz is outside {lo:g} .. {hi:g} Hz")
     return int(v) if v.is_integer() else v
 
 
@@ -74,8 +77,16 @@ def _baud(text: str) -> int:
     return v
 
 
+SECONDS_MAX = 1e7
+"""Longest duration an option takes (116 days): a sweep or a model run that
+long already makes more rows than a disk holds."""
+
+
 def _seconds(text: str) -> float:
-    return _positive_float(text, "seconds")
+    v = _positive_float(text, "seconds")
+    if v > SECONDS_MAX:
+        raise argparse.ArgumentTypeError(f"{text!r} s is more than {SECONDS_MAX:g} s")
+    return v
 
 
 def _levels(text: str) -> int:
@@ -151,7 +162,11 @@ def _add_decode(sub: Any) -> None:
             "bound; range: too wide a code range to be exact at that level).\n\n"
             "Only intact lines (CRC checked) of complete reports are used. Lines\n"
             "with a bad CRC, cut short, malformed or out of place are counted and\n"
-            "listed at the end, never used."),
+            "listed at the end, never used. The noise terms (T lines, the summary's\n"
+            "terms rows) are held to the report's rows: one they contradict is left\n"
+            "out, counted and said in a warning on stderr, as is a report whose seq\n"
+            "goes backwards without a boot line (an older report replayed). Lines\n"
+            "may end in LF, CR LF or CR."),
         epilog=EPILOG_EXIT.format(one="no complete report in the log"))
     p.add_argument("log", metavar="LOG", help="device log file, or - for stdin")
     _add_format(p)
@@ -384,7 +399,11 @@ def _channel_list(text: str) -> list[str]:
     chans = [c.strip() for c in text.split(",")]
     bad = [c for c in chans if c not in CHANNELS]
     if bad:
-        raise argparse.ArgumentTypeError(f"unknown channel {bad[0]!r} (channels: {' '.join(CHANNELS)})")
+        what = "an empty channel name" if not bad[0] else f"unknown channel {bad[0]!r}"
+        raise argparse.ArgumentTypeError(f"{what} in {text!r} (channels: {' '.join(CHANNELS)})")
+    twice = [c for i, c in enumerate(chans) if c in chans[:i]]
+    if twice:
+        raise argparse.ArgumentTypeError(f"channel {twice[0]!r} named twice in {text!r}")
     return chans
 
 

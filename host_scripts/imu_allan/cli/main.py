@@ -18,9 +18,10 @@ from ..errors import InputError
 
 def cmd_decode(args: argparse.Namespace) -> int:
     from ..render import text as render
-    from ..device.files import read_all
-    from ..device.records import decode_bytes
-    res = decode_bytes(read_all(args.log))
+    from ..device.files import read_blocks
+    from ..device.records import decode_blocks
+    res = decode_blocks(read_blocks(args.log))
+    _warn("decode", res.warnings)
     if not res.reports:
         lost = ", ".join(f"{k} {v}" for k, v in res.errors.items() if v) or "the log is empty"
         print(f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})"
@@ -29,15 +30,30 @@ def cmd_decode(args: argparse.Namespace) -> int:
     docs = [render.report_doc(r) for r in (res.reports if args.all else res.reports[-1:])]
     if args.json:
         if args.all:
-            sys.stdout.write(render.to_json({"reports": docs, "errors": res.errors}))
+            sys.stdout.write(render.to_json({"reports": docs, "errors": res.errors,
+                                             "warnings": res.warnings}))
         else:
             sys.stdout.write(render.to_json({**docs[0], "errors": res.errors,
-                                             "complete_reports": len(res.reports)}))
+                                             "complete_reports": len(res.reports),
+                                             "warnings": res.warnings}))
     elif args.csv:
         sys.stdout.write(render.to_csv(docs, with_seq=args.all))
     else:
         sys.stdout.write(render.decode_text(docs, len(res.reports), args.log, args.all, res.errors))
     return 0
+
+
+WARNINGS_SHOWN = 10
+"""Warnings printed one per line; the rest are counted in one more line."""
+
+
+def _warn(command: str, warnings: list[str]) -> None:
+    """What the reader must know next to the reports, on stderr, a line each."""
+    for w in warnings[:WARNINGS_SHOWN]:
+        print(f"imu-allan {command}: warning: {w}", file=sys.stderr)
+    if len(warnings) > WARNINGS_SHOWN:
+        print(f"imu-allan {command}: warning: ... and {len(warnings) - WARNINGS_SHOWN} more",
+              file=sys.stderr)
 
 
 def _refused(reasons: list[str]) -> str:
@@ -65,11 +81,12 @@ def cmd_reference(args: argparse.Namespace) -> int:
 
 def cmd_check(args: argparse.Namespace) -> int:
     from ..analysis.check import check_report, summary
-    from ..device.files import read_all
-    from ..device.records import decode_bytes
+    from ..device.files import read_blocks
+    from ..device.records import decode_blocks
     if args.log == "-" and args.file == "-":
         raise InputError("LOG and FILE cannot both be stdin")
-    res = decode_bytes(read_all(args.log))
+    res = decode_blocks(read_blocks(args.log))
+    _warn("check", res.warnings)
     if not res.reports:
         print(f"imu-allan check: no complete report in '{args.log}'" + _refused(res.refused),
               file=sys.stderr)

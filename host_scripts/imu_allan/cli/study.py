@@ -27,13 +27,20 @@ def default_sweep_dir(cwd: Optional[Path] = None) -> Path:
 
 
 def _rates(text: str) -> list[float]:
+    from ..channels import RATES_HZ
     try:
         out = [float(x) for x in text.replace(" ", "").split(",") if x]
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a list of rates in Hz: {text!r} (e.g. 50,100,200)") from None
     if not out or any(not (0 < r < float("inf")) for r in out):
         raise argparse.ArgumentTypeError(f"rates must be positive numbers of Hz: {text!r}")
-    return sorted(set(out))
+    other = [r for r in out if r not in RATES_HZ]
+    if other:  # the device (and the firmware in the simulator) takes only its own rates
+        raise argparse.ArgumentTypeError(f"{other[0]:g} Hz is not a rate of the device "
+                                         f"({', '.join(map(str, RATES_HZ))} Hz)")
+    if len(set(out)) < len(out):
+        raise argparse.ArgumentTypeError(f"a rate given twice: {text!r}")
+    return sorted(out)
 
 
 def _terms(text: str) -> tuple[str, ...]:
@@ -50,9 +57,18 @@ def _temp_scale(text: str) -> tuple[float, float]:
         scale, offset = float(a), float(b or 0.0)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected C_PER_COUNT,OFFSET_C, e.g. 0.3223,0: {text!r}") from None
-    if not scale > 0:
-        raise argparse.ArgumentTypeError("C_PER_COUNT must be positive")
+    if not TEMP_SCALE_MIN <= scale <= TEMP_SCALE_MAX or not abs(offset) <= TEMP_OFFSET_MAX:
+        raise argparse.ArgumentTypeError(
+            f"C_PER_COUNT must be in {TEMP_SCALE_MIN:g} .. {TEMP_SCALE_MAX:g} and OFFSET_C within "
+            f"+-{TEMP_OFFSET_MAX:g}: {text!r}")
     return scale, offset
+
+
+TEMP_SCALE_MIN = 1e-6
+TEMP_SCALE_MAX = 1e3
+TEMP_OFFSET_MAX = 1e4
+"""Bounds of --temp-scale: far beyond any sensor (a 10-bit code spans at most
+a million degrees), and finite, so that temperatures stay numbers."""
 
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
@@ -150,8 +166,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise InputError("--model, --average and --keep-rows go with --sim")
     model = None
     if args.sim:
-        from ..sensor import load_model
-        model = load_model(args.model).doc
+        model = _load_model(args.model).doc
     cfg = sweep.SweepConfig(source="sim" if args.sim else f"port:{args.port}", rates=args.rates,
                             seconds=args.seconds, profile=args.profile, model=model, seed=args.seed,
                             average=args.average, fit_from=args.fit_from, terms=args.terms)
@@ -178,17 +193,29 @@ def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespa
     return 0
 
 
+def _load_model(path: Any) -> Any:
+    """``sensor.load_model``, a file that is not a model's JSON (binary bytes, a
+    section that is not an object) refused in one line like its other errors."""
+    from ..errors import InputError
+    from ..sensor import load_model
+    try:
+        return load_model(path)
+    except (UnicodeDecodeError, AttributeError, TypeError) as exc:
+        raise InputError(f"'{path}': not a sensor model (a JSON object of objects: "
+                         f"{type(exc).__name__})") from None
+
+
 def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
     from ..errors import InputError
-    from ..sensor import load_model, write_rows
+    from ..sensor import write_rows
     from ..stats.gen import PARAMS
     given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
     if args.kind != "noise" or args.json_params:
         given.append("--kind" if args.kind != "noise" else "--json-params")
     if given:
         raise InputError(f"--model sets every parameter (in its file): {', '.join(given)} not allowed with it")
-    write_rows(args.output, load_model(args.model), float(args.fs), args.n, seed=args.seed)
+    write_rows(args.output, _load_model(args.model), float(args.fs), args.n, seed=args.seed)
     return 0
 
 
@@ -200,7 +227,7 @@ def sim_from_model(args: argparse.Namespace) -> int:
 
     from ..device.simrun import run, sim_command
     from ..errors import InputError
-    from ..sensor import load_model, write_rows
+    from ..sensor import write_rows
     if args.adc and args.model:
         raise InputError("--adc and --model: give one")
     if not args.model:
@@ -209,7 +236,7 @@ def sim_from_model(args: argparse.Namespace) -> int:
     fd, rows = tempfile.mkstemp(prefix="imu-allan-model-", suffix=".tsv")
     os.close(fd)
     try:
-        write_rows(rows, load_model(args.model), fs, int(round(args.seconds * fs)))
+        write_rows(rows, _load_model(args.model), fs, int(round(args.seconds * fs)))
         return run(sim_command(rows, args.output, fs=f"{fs:g}", uart_in=args.uart_in,
                                firmware=args.firmware, stats=args.stats))
     finally:

@@ -19,8 +19,9 @@ import numpy as np
 
 from ..channels import CODE_MAX, COLUMNS
 
-MAX_BODY = 256
-"""Longest body a frame may carry (characters)."""
+MAX_BODY = 320
+"""Longest body a frame may carry (characters): docs/protocol.md's limit, which
+holds a header with every count at its maximum and the ``rx=`` counters (303)."""
 
 
 def _crc_table() -> tuple[int, ...]:
@@ -129,6 +130,18 @@ class Frames:
     errors: dict[str, int] = field(default_factory=lambda: dict.fromkeys(LINE_ERRORS, 0))
 
 
+MAX_LINE = 4096
+"""Bytes of text without a line end kept waiting for it.  The longest line the
+device sends is 327 bytes (``$``, a ``MAX_BODY`` body, ``*CRC``, CR LF); a line
+still open after this many bytes is dropped and counted (``malformed``, or
+``garbage_bytes`` outside a line), so that no input, however long its lines,
+costs memory beyond it."""
+SPLIT_BYTES = 1 << 18
+"""Bytes split into lines at a time (bounds the per-line index arrays)."""
+_CHECK_BATCH = 4096
+"""Candidate lines matched and CRC-checked at a time (bounds crc16_many's grid)."""
+
+
 def split_frames(data: bytes) -> Frames:
     """Cut a raw byte stream into frame bodies whose CRC checks.
 
@@ -136,44 +149,130 @@ def split_frames(data: bytes) -> Frames:
       bad_crc        a well-formed line whose CRC does not match its body;
       malformed      a line (ended by LF) with a missing or malformed ``*CRC``,
                      a byte that is not printable ASCII, or a body too long;
+                     a line still open after ``MAX_LINE`` bytes;
       restarted      a line cut short by a ``$`` before its end (the receiver
                      restarts there);
       truncated      a line cut short by the end of the input;
-      garbage_bytes  bytes outside any line (CR and LF not counted).
-    A line ends at LF; the CR before it is optional.
+      garbage_bytes  bytes outside any line (CR and LF not counted; the
+                     device's echo lines, ``> ...``, are not garbage).
+    A line ends at LF, CR LF or CR (a log saved with any of the three reads alike).
     """
-    out = Frames()
-    err = out.errors
-    segments = data.split(b"$")
-    err["garbage_bytes"] += _garbage(segments[0])
-    candidates: list[tuple[bytes, int]] = []
-    last = len(segments) - 1
-    for i, seg in enumerate(segments[1:], start=1):
-        nl = seg.find(b"\n")
-        if nl < 0:
-            err["truncated" if i == last else "restarted"] += 1
-            continue
-        err["garbage_bytes"] += _garbage(seg[nl + 1:])
-        m = LINE.fullmatch(seg, 0, nl)
-        if m is None:
-            err["malformed"] += 1
-            continue
-        candidates.append((m.group(1), int(m.group(2), 16)))
-    if candidates:
-        crcs = crc16_many([body for body, _ in candidates])
-        for (body, sent), got in zip(candidates, crcs.tolist()):
-            if sent == got:
-                out.bodies.append(body.decode("ascii"))
-            else:
-                err["bad_crc"] += 1
-    return out
+    splitter = LineSplitter()
+    bodies = splitter.feed(data) + splitter.finish()
+    return Frames(bodies, splitter.errors)
 
 
-def _garbage(chunk: bytes) -> int:
-    """Bytes outside lines, CR, LF and the device's echo lines ("> ...") aside."""
-    if b">" in chunk:
-        chunk = b"\n".join(ln for ln in chunk.split(b"\n") if not ln.startswith(b"> "))
-    return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
+class LineSplitter:
+    """``split_frames`` over a stream given in pieces of any size, in memory
+    bounded by ``SPLIT_BYTES`` and ``MAX_LINE`` whatever the input (a file of
+    ten million ``$`` costs what a file of ten does)."""
+
+    def __init__(self) -> None:
+        self.errors: dict[str, int] = dict.fromkeys(LINE_ERRORS, 0)
+        self._carry = b""  # text after the last line end, waiting for its end
+
+    def feed(self, data: bytes) -> list[str]:
+        """The bodies of the intact lines that ended in ``data``."""
+        bodies: list[str] = []
+        for at in range(0, len(data), SPLIT_BYTES):
+            bodies += self._step(data[at:at + SPLIT_BYTES])
+        return bodies
+
+    def finish(self) -> list[str]:
+        """The end of the input: a line still open is cut short."""
+        self._tail(self._carry, "truncated")
+        self._carry = b""
+        return []
+
+    def _step(self, data: bytes) -> list[str]:
+        # CR LF and a lone CR end a line as LF does (a CR LF cut between two
+        # pieces gives an empty line, which is nothing); bodies never hold CR
+        buf = (self._carry + data).replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+        b = np.frombuffer(buf, dtype=np.uint8)
+        nl = np.flatnonzero(b == 0x0A)
+        end = int(nl[-1]) + 1 if nl.size else 0
+        bodies = self._lines(buf, b, nl) if nl.size else []
+        rest = buf[end:]
+        if len(rest) > MAX_LINE:
+            last = rest.rfind(b"$")
+            keep = last if last >= 0 and len(rest) - last <= MAX_LINE else len(rest)
+            self._tail(rest[:keep], "restarted" if keep < len(rest) else "malformed")
+            rest = rest[keep:]
+        self._carry = rest
+        return bodies
+
+    def _lines(self, buf: bytes, b: np.ndarray, nl: np.ndarray) -> list[str]:
+        """The whole lines of ``buf`` (each ends at an index of ``nl``)."""
+        err = self.errors
+        ls = np.concatenate(([0], nl[:-1] + 1))
+        d = np.flatnonzero(b[: int(nl[-1])] == 0x24)
+        k_first = np.searchsorted(d, ls)
+        k_end = np.searchsorted(d, nl)  # one past the line's last '$'
+        has = k_end > k_first
+        first = nl.copy()
+        first[has] = d[k_first[has]]
+        echo = (ls + 1 < nl) & (b[ls] == 0x3E) & (b[np.minimum(ls + 1, b.size - 1)] == 0x20)
+        err["garbage_bytes"] += int((first - ls)[~echo].sum())
+        err["restarted"] += int((k_end - k_first)[has].sum()) - int(np.count_nonzero(has))
+        if not d.size:
+            return []
+        start = d[k_end[has] - 1] + 1  # after the line's last '$'
+        stop = nl[has]
+        length = stop - start
+        shaped = (length >= 5) & (length - 5 <= MAX_BODY)
+        shaped[shaped] = b[stop[shaped] - 5] == 0x2A  # '*' before the 4 CRC digits
+        err["malformed"] += int(np.count_nonzero(~shaped))
+        starts, stops = start[shaped].tolist(), stop[shaped].tolist()
+        bodies: list[str] = []
+        for at in range(0, len(starts), _CHECK_BATCH):
+            found = []
+            for s, e in zip(starts[at:at + _CHECK_BATCH], stops[at:at + _CHECK_BATCH]):
+                m = LINE.fullmatch(buf, s, e)
+                if m is None:
+                    err["malformed"] += 1
+                else:
+                    found.append((m.group(1), int(m.group(2), 16)))
+            if found:
+                crcs = crc16_many([body for body, _ in found]).tolist()
+                for (body, sent), got in zip(found, crcs):
+                    if sent == got:
+                        bodies.append(body.decode("ascii"))
+                    else:
+                        err["bad_crc"] += 1
+        return bodies
+
+    def _tail(self, text: bytes, last: str) -> None:
+        """Text without a line end given up: cut by the end of the input, by a
+        later ``$`` or open for more than ``MAX_LINE`` bytes; ``last``: what
+        its last line (from its last ``$``) counts as."""
+        if not text:
+            return
+        err = self.errors
+        first = text.find(b"$")
+        if not text.startswith(b"> "):
+            err["garbage_bytes"] += first if first >= 0 else len(text)
+        if first < 0:
+            return
+        err["restarted"] += text.count(b"$", first + 1)
+        err[last] += 1
+
+
+def cr_line_ends(res: bytes, final: bool) -> tuple[bytes, np.ndarray]:
+    """A CR not followed by LF ends a line as LF does (a capture saved with
+    CR-only line ends reads as one with CR LF): the text with those CRs made
+    LF (same length: frame positions hold), and where they were.  A CR at the
+    end of unfinished text waits for the next byte."""
+    if b"\r" not in res:
+        return res, np.zeros(0, dtype=np.int64)
+    r = np.frombuffer(res, dtype=np.uint8)
+    cr = np.flatnonzero(r == 0x0D)
+    after = np.append(r, 0x0A if not final else 0)[cr + 1]
+    lone = cr[after != 0x0A] if final else cr[(after != 0x0A) & (cr + 1 < r.size)]
+    if lone.size == 0:
+        return res, lone
+    out = bytearray(res)
+    np.frombuffer(out, dtype=np.uint8)[lone] = 0x0A
+    return bytes(out), lone
 
 
 # ---- binary sample frames -------------------------------------------------------------

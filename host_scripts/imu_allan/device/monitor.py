@@ -28,7 +28,8 @@ _REPLIES_SHOWN = 5
 _RATE_WINDOW = 2.0
 _NON_TTY_STATS = 10.0
 _SHOWN_ERRORS = ("bad_crc", "malformed", "restarted", "unparsable", "orphan_lines",
-                 "incomplete_reports", "unknown_records", "garbage_bytes")
+                 "incomplete_reports", "unknown_records", "garbage_bytes", "inconsistent_reports",
+                 "report_check_failed", "inconsistent_lines", "seq_backwards")
 
 
 class PortError(Exception):
@@ -164,7 +165,9 @@ class Monitor:
     def errors_line(self) -> str:
         c = self.decoder.counts
         bad = [f"{k} {c[k]}" for k in _SHOWN_ERRORS if c[k]]
-        return "not used: " + (", ".join(bad) if bad else "nothing")
+        warnings = self.decoder.warnings
+        return ("not used: " + (", ".join(bad) if bad else "nothing")
+                + (f"; warning: {warnings[-1]}" if warnings else ""))
 
     def report_text(self) -> str:
         from ..render import text as render

@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import re
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any, Optional
+from typing import Any, Iterable, Optional
 
-from ..channels import CHANNELS
+from ..channels import CHANNELS, FS_LIMITS_HZ
 from .consistency import problem
-from .framing import LINE_ERRORS, MODBUS_INIT, crc16_modbus, split_frames
+from .termcheck import sig3_problem, summary_terms_problems, term_problems
+from .summary import TERM_ROWS
+from .framing import LINE_ERRORS, MODBUS_INIT, LineSplitter, crc16_modbus
 
 PROTO = 1
 """The sample rates the device accepts (`rate <hz>`, docs/protocol.md)."""
@@ -31,15 +33,23 @@ ACC_MAX = (1 << 48) - 1
 """Saturation value of an accumulator (the SAT flag)."""
 
 ERROR_KEYS = LINE_ERRORS + ("unparsable", "unknown_records", "orphan_lines", "incomplete_reports",
-                            "inconsistent_reports", "missing_reports", "report_check_failed")
+                            "inconsistent_reports", "missing_reports", "report_check_failed",
+                            "inconsistent_lines", "seq_backwards")
 """Keys of ``DecodeResult.errors`` (all always present).  ``report_check_failed``: a
 whole report refused by its ``V`` check line (a missing, repeated or malformed ``V``
 from a firmware that sends them, an ``id`` other than the header's, or a CRC that
-does not match the H and L bodies received)."""
+does not match the H and L bodies received).  ``inconsistent_lines``: a ``T`` line
+(or the summary's terms rows) of a report that its ``L`` rows contradict, refused
+alone (the ``V`` check does not cover them: a line CRC collision, 1 in 65,536, must
+not reach the reader).  ``seq_backwards``: a header whose ``seq`` is behind the
+previous report line's without a boot line between (a replayed older report, or a
+reset whose boot line was lost): file order is then not the device's order."""
 
 CLIP_KEYS = CHANNELS + ("temp",)
 _UINT = re.compile(r"\d+")
 _SEQ_MAX = 65535
+_COUNT_MAX = (1 << 32) - 1
+"""The engine's sample count is 32 bits (docs/protocol.md, ``drops``)."""
 
 
 class BodyError(ValueError):
@@ -137,6 +147,9 @@ class DeviceReport:
     terms: dict[str, DeviceTerms] = field(default_factory=dict)
     summary: list[str] = field(default_factory=list)
     """The text of its ``S`` lines after ``S,<seq>,``, in order (summary.py)."""
+    refused: list[str] = field(default_factory=list)
+    """Why lines of it were refused and left out (a ``T`` line, the summary's
+    terms rows) while its rows passed every check (termcheck.py)."""
 
 
 @dataclass
@@ -148,6 +161,9 @@ class DecodeResult:
     """Bodies of the intact replies (``ok ...``, ``error:<code> ...``), in order."""
     refused: list[str] = field(default_factory=list)
     """Why each whole report that failed the cross-checks was refused."""
+    warnings: list[str] = field(default_factory=list)
+    """What a reader must be told next to the reports: a line of a report
+    refused by its cross-checks, ``seq`` going backwards without a boot line."""
 
 
 def flag_names(flags: int) -> list[str]:
@@ -224,8 +240,8 @@ def parse_header(seq: int, items: list[str]) -> DeviceHeader:
         raise BodyError(f"protocol version {version} (this reader knows {PROTO})")
     levels = _uint(kv["levels"], "levels", 32)
     fs = _number(kv["fs"], "fs")
-    if levels < 1 or fs <= 0:
-        raise BodyError("levels and fs must be positive")
+    if levels < 1 or not FS_LIMITS_HZ[0] <= fs <= FS_LIMITS_HZ[1]:
+        raise BodyError(f"levels must be positive and fs within {FS_LIMITS_HZ[0]:g} .. {FS_LIMITS_HZ[1]:g} Hz")
 
     def opt_uint(key: str) -> Optional[int]:
         return _uint(kv[key], key) if key in kv else None
@@ -251,7 +267,7 @@ def parse_header(seq: int, items: list[str]) -> DeviceHeader:
     return DeviceHeader(
         version=version, fw=kv.get("fw"), mcu=kv.get("mcu"), fcpu_hz=opt_uint("fcpu"),
         baud=opt_uint("baud"), fs_hz=fs, levels=levels, acc48_from=opt_uint("acc48"),
-        n=_uint(kv["n"], "n"), drops=opt_uint("drops"), clips=clips, temp=temp, running=running,
+        n=_uint(kv["n"], "n", _COUNT_MAX), drops=opt_uint("drops"), clips=clips, temp=temp, running=running,
         mode=kv.get("mode"), range_g=kv.get("range"), cfg=kv.get("cfg"),
         reset_cause=_reset(kv["reset"]) if "reset" in kv else None, seq=seq,
         extra={k: v for k, v in kv.items() if k not in _HEADER_KEYS})
@@ -274,10 +290,10 @@ def parse_row(fields: list[str]) -> LRow:
 def _term(level: str, value: str) -> DeviceTerm:
     if level == "-" and value == "-":
         return DeviceTerm(None, None)
-    v = float(value)
-    if not v >= 0 or v == float("inf"):
-        raise BodyError(f"bad term value {value!r}")
-    return DeviceTerm(_uint(level, "level", 63), v)
+    why = sig3_problem(value)
+    if why:
+        raise BodyError(f"bad term value: {why}")
+    return DeviceTerm(_uint(level, "level", 63), float(value))
 
 
 def parse_terms(fields: list[str]) -> DeviceTerms:
@@ -374,6 +390,9 @@ class Assembler:
         self._bound = MODBUS_INIT       # CRC-16/MODBUS of the open report's H and L bodies
         self._check: list[str] = []     # the open report's V line(s), after V,<seq>,
         self._last_seq: Optional[int] = None  # of the last H/L/S/E seen since boot
+        self._doubled: set[str] = set()  # channels of the open report with two T lines
+        self.warnings: list[str] = []
+        """What must be said next to the reports (``DecodeResult.warnings``), in order."""
 
     def _abandon(self) -> None:
         if self._open is not None:
@@ -420,9 +439,10 @@ class Assembler:
         seq = _uint(fields[1], "seq", _SEQ_MAX)
         if kind == "H":
             header = parse_header(seq, fields[2:])
-            self._count_gap(seq)
+            self._count_gap(seq, header=True)
             self._abandon()
             self._open, self._summary, self._moving = DeviceReport(seq, header), [], False
+            self._doubled = set()
             self._bound = crc16_modbus(body.encode("ascii"))
             self._check = []
             return
@@ -445,6 +465,8 @@ class Assembler:
         elif kind == "V":
             self._check.append(",".join(fields[2:]))
         elif term is not None:
+            if term.channel in open_.terms:
+                self._doubled.add(term.channel)
             open_.terms[term.channel] = term
         elif kind == "S":
             self._summary.append(",".join(fields[2:]))
@@ -462,31 +484,73 @@ class Assembler:
                 errors["inconsistent_reports"] += 1
                 self.refused.append(f"report seq {seq}: {why}")
                 return
+            self._check_terms(open_, self._moving or open_.header.running is not False)
             open_.rows.sort(key=lambda r: (CHANNELS.index(r.channel), r.level))
-            open_.summary = self._summary
             self.reports.append(open_)
 
-    def _count_gap(self, seq: int) -> None:
+    def _check_terms(self, rep: DeviceReport, moving: bool) -> None:
+        """Leave out, count and say each T line, and the summary's terms part,
+        that the report's rows contradict (termcheck.py): the V check does not
+        cover them."""
+        refused = []
+        for ch in sorted(rep.terms, key=CHANNELS.index):
+            bad = (["two T lines"] if ch in self._doubled
+                   else term_problems(rep, rep.terms[ch], moving)[0])
+            if bad:
+                del rep.terms[ch]
+                refused.append(f"T line of {ch} ({'; '.join(bad)})")
+        summary = self._summary
+        bad = summary_terms_problems(rep, summary, moving)[0]
+        if bad:  # the caption and the rows under it
+            at = next(i for i, t in enumerate(summary) if t.startswith("N at "))
+            summary = summary[:at] + summary[at + 1 + len(TERM_ROWS):]
+            refused.append(f"summary's terms rows ({'; '.join(bad)})")
+        rep.summary = summary
+        for why in refused:
+            self.errors["inconsistent_lines"] += 1
+            rep.refused.append(why)
+            self.warnings.append(f"report seq {rep.seq}: refused the {why}")
+
+    def _count_gap(self, seq: int, header: bool = False) -> None:
         """Reports that vanished whole: a jump in seq (a report cut off by a
-        reset keeps its seq; a jump of half the range or more is a restart)."""
+        reset keeps its seq; a jump of half the range or more is a restart).
+        A header whose seq is behind the last one's without a boot line between
+        is counted and said (``seq_backwards``): a replayed older report, or a
+        reset whose boot line was lost; in file order it would pass for the
+        latest."""
         last = self._last_seq
         if last is not None:
             gap = (seq - last - 1) % (_SEQ_MAX + 1)
             if 0 < gap < (_SEQ_MAX + 1) // 2 and seq != last:
                 self.errors["missing_reports"] += gap
+            elif header and seq != last and (last - seq) % (_SEQ_MAX + 1) < (_SEQ_MAX + 1) // 2:
+                self.errors["seq_backwards"] += 1
+                self.warnings.append(f"report seq {seq} comes after seq {last} without a boot line: "
+                                     "an older report replayed, or a reset whose boot line was "
+                                     "lost (the reports are in file order)")
         self._last_seq = seq
 
 
 def decode_bytes(data: bytes) -> DecodeResult:
     """Every complete report of a raw log, in order, and the error counts."""
-    frames = split_frames(data)
+    return decode_blocks((data,))
+
+
+def decode_blocks(blocks: Iterable[bytes]) -> DecodeResult:
+    """``decode_bytes`` over a log read in blocks (``files.read_blocks``): the
+    memory it takes is bounded by a block and the reports it keeps, whatever
+    the bytes (lines are cut at ``framing.MAX_LINE``)."""
+    splitter = LineSplitter()
     errors = dict.fromkeys(ERROR_KEYS, 0)
-    errors.update(frames.errors)
     asm = Assembler(errors)
-    for body in frames.bodies:
+    for block in blocks:
+        for body in splitter.feed(block):
+            asm.add(body)
+    for body in splitter.finish():
         asm.add(body)
     asm.finish()
-    return DecodeResult(asm.reports, errors, asm.boots, asm.replies, asm.refused)
+    errors.update(splitter.errors)
+    return DecodeResult(asm.reports, errors, asm.boots, asm.replies, asm.refused, asm.warnings)
 
 
 _CHECK = re.compile(r"id=(\d{1,3}),crc=([0-9A-F]{4})")

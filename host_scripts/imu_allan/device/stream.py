@@ -78,8 +78,8 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, SYNC, crc16_many,
-                      crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
+from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, MAX_BODY, SYNC, cr_line_ends,
+                      crc16_many, crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
 from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
                       parse_count_block, resets_run, restarts_output)
 
@@ -103,6 +103,26 @@ HOLD_MAX = 1000
 """Samples kept waiting for a count line (100 rows or frames apart); beyond,
 the oldest are given up as unverified (or, before any block CRC was seen,
 returned unverified as older firmware's were)."""
+
+_CRC_BATCH = 4096
+"""Lines whose CRC is computed at a time (bounds crc16_many's grid)."""
+FEED_BYTES = 1 << 18
+"""Bytes decoded in one step (a larger ``feed`` is cut into such steps): bounds
+the per-line index arrays whatever the input (a block of nothing but line ends
+held some 60 bytes of them per byte)."""
+
+
+def _joined(parts: list["Chunk"]) -> "Chunk":
+    """The chunks of consecutive steps as one."""
+    out = Chunk(samples=np.concatenate([p.samples for p in parts], axis=1),
+                from_frame=np.concatenate([p.from_frame for p in parts]))
+    for p in parts:
+        out.reports += p.reports
+        out.replies += p.replies
+        out.boots += p.boots
+        out.counts += p.counts
+    return out
+
 
 _CLASS = np.zeros(256, dtype=np.uint8)  # 0 other, 1 digit, 2 tab, 3 LF, 4 CR
 _CLASS[0x30:0x3A] = 1
@@ -157,6 +177,18 @@ def _frames(b: np.ndarray, final: bool) -> tuple[np.ndarray, int, int]:
 
 def _text(chunk: bytes) -> int:
     return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
+
+
+def _row_bytes(res: bytes, ls: np.ndarray, lf: np.ndarray, rows_at: np.ndarray,
+               lone: np.ndarray) -> list[bytes]:
+    """Each raw row's bytes for its block CRC, as received from its first digit
+    through its LF; a row ended by a CR alone is taken with the CR LF the
+    device sent."""
+    if lone.size == 0:
+        return [res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()]
+    ends = set(lone.tolist())
+    return [res[int(ls[i]): int(lf[i])] + b"\r\n" if int(lf[i]) in ends else res[int(ls[i]): int(lf[i]) + 1]
+            for i in rows_at.tolist()]
 
 
 ECHO = 0x3E
@@ -246,10 +278,21 @@ class StreamDecoder:
     def samples(self) -> int:
         return self._samples
 
+    @property
+    def warnings(self) -> list[str]:
+        """What must be said next to the reports (``records.Assembler.warnings``):
+        a refused T line, seq going backwards without a boot line."""
+        return self._asm.warnings
+
     def feed(self, data: bytes) -> Chunk:
         if self._done:
             raise ValueError("feed() after finish()")
-        return self._process(self._pending + bytes(data), final=False)
+        data = bytes(data)
+        if len(data) <= FEED_BYTES:
+            return self._process(self._pending + data, final=False)
+        parts = [self._process(self._pending + data[at:at + FEED_BYTES], final=False)
+                 for at in range(0, len(data), FEED_BYTES)]
+        return _joined(parts)
 
     def finish(self) -> Chunk:
         if self._done:
@@ -264,6 +307,7 @@ class StreamDecoder:
     def _process(self, buf: bytes, final: bool) -> Chunk:
         c = self.counts
         res, fpos, fseq, fcodes, fbytes = self._cut_frames(buf, final)
+        res, lone = cr_line_ends(res, final)
 
         r = np.frombuffer(res, dtype=np.uint8)
         lf = np.flatnonzero(r == 0x0A)
@@ -284,9 +328,7 @@ class StreamDecoder:
         rkey = 2 * lf[rows_at] + 1
 
         # framed text lines: a loop over the lines holding a '$' (few)
-        found: list[tuple[int, bytes, int]] = []
-        for k in dline.tolist():
-            self._dollar_line(res[int(ls[k]): int(lf[k])], int(ls[k]), found)
+        found = self._dollar_lines(res, r, ls[dline], lf[dline], dollars)
         carry = res[end:]
         if final:
             self._give_up(carry, ended=True)
@@ -313,7 +355,8 @@ class StreamDecoder:
 
         bodies: list[tuple[int, str]] = []
         if found:
-            crcs = crc16_many([body for _, body, _ in found]).tolist()
+            crcs = [v for at in range(0, len(found), _CRC_BATCH)
+                    for v in crc16_many([body for _, body, _ in found[at:at + _CRC_BATCH]]).tolist()]
             bodies = [(key, body.decode("ascii")) for (key, body, sent), got in zip(found, crcs)
                       if sent == got]
             c["bad_crc"] += len(found) - len(bodies)
@@ -326,7 +369,7 @@ class StreamDecoder:
                     from_frame=np.concatenate((np.zeros(rows_at.size, dtype=bool),
                                                np.ones(fpos.size, dtype=bool)))[order])
         skeys = keys[order]
-        self._hold([res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()] + fbytes, order, out)
+        self._hold(_row_bytes(res, ls, lf, rows_at, lone) + fbytes, order, out)
         self._frame_gaps(fkey, fseq, [k for k, body in bodies if restarts_output(body)])
         released: list[tuple[np.ndarray, np.ndarray]] = []
         self._records(bodies, skeys, out, released)
@@ -451,26 +494,43 @@ class StreamDecoder:
         if not carry:
             return
         c = self.counts
-        parts = carry.split(b"$")
-        c["garbage_bytes"] += _text(parts[0]) if len(parts) > 1 or not ended else 0
-        c["restarted"] += max(len(parts) - 2, 0)
-        if ended and (len(parts) > 1 or _text(parts[0])):
+        first = carry.find(b"$")  # counted, not split: a carry of a million '$' stays cheap
+        dollars = carry.count(b"$")
+        head = carry if first < 0 else carry[:first]
+        c["garbage_bytes"] += _text(head) if dollars or not ended else 0
+        c["restarted"] += max(dollars - 1, 0)
+        if ended and (dollars or _text(head)):
             c["truncated"] += 1
-        elif not ended and len(parts) > 1:
+        elif not ended and dollars:
             c["malformed"] += 1  # a line that never ended
 
-    def _dollar_line(self, line: bytes, at: int, found: list[tuple[int, bytes, int]]) -> None:
-        """A whole line (without its LF) that holds a '$'."""
+    def _dollar_lines(self, res: bytes, r: np.ndarray, starts: np.ndarray, ends: np.ndarray,
+                      dollars: np.ndarray) -> list[tuple[int, bytes, int]]:
+        """The whole lines [starts, ends) (ends: their LF) that hold a '$':
+        garbage before the first '$', restarts, and, from the last '$' on, the
+        candidates (key, body, sent CRC) of lines shaped ``body*XXXX`` (the
+        shape is checked vectorized first: a flood of '$' lines stays cheap)."""
         c = self.counts
-        first = line.find(b"$")
-        c["garbage_bytes"] += _text(line[:first])
-        last = line.rfind(b"$")
-        c["restarted"] += line.count(b"$", first, last)
-        m = LINE.fullmatch(line, last + 1)
-        if m is None:
-            c["malformed"] += 1
-        else:
-            found.append((2 * (at + last) + 1, m.group(1), int(m.group(2), 16)))
+        if starts.size == 0:
+            return []
+        k_first = np.searchsorted(dollars, starts)
+        k_end = np.searchsorted(dollars, ends)
+        first, last = dollars[k_first], dollars[k_end - 1]
+        c["garbage_bytes"] += int((first - starts).sum())
+        c["restarted"] += int((k_end - k_first - 1).sum())
+        stop = ends - (r[np.maximum(ends - 1, 0)] == 0x0D)  # a CR before the LF is the line's end
+        length = stop - (last + 1)
+        shaped = (length >= 5) & (length - 5 <= MAX_BODY)
+        shaped[shaped] = r[stop[shaped] - 5] == 0x2A  # '*' before the 4 CRC digits
+        c["malformed"] += int(np.count_nonzero(~shaped))
+        found: list[tuple[int, bytes, int]] = []
+        for s, e in zip((last[shaped] + 1).tolist(), stop[shaped].tolist()):
+            m = LINE.fullmatch(res, s, e)
+            if m is None:
+                c["malformed"] += 1
+            else:
+                found.append((2 * s - 1, m.group(1), int(m.group(2), 16)))
+        return found
 
     def _frame_gaps(self, fkey: np.ndarray, fseq: np.ndarray, marks: list[int]) -> None:
         if fkey.size == 0:

@@ -172,9 +172,25 @@ def device_header_text(h: dict[str, Any]) -> str:
     t = h["temp"]
     lines.append("  temp code this interval: " + (
         "-" if t is None else f"mean {t['mean']:g}, min {t['min']}, max {t['max']}"))
-    if h.get("extra"):
-        lines.append("  other keys: " + ", ".join(f"{k}={v}" for k, v in h["extra"].items()))
+    extra = dict(h.get("extra") or {})
+    rx = _rx_counters(extra.get("rx"))
+    if rx is not None:
+        del extra["rx"]
+        lines.append(f"  link since power-up: {rx[0]} UART overruns, {rx[1]} bytes lost to the full "
+                     f"receive ring, {rx[2]} command lines refused (error:5), {rx[3]} timed out (error:7)")
+    if extra:
+        lines.append("  other keys: " + ", ".join(f"{k}={v}" for k, v in extra.items()))
     return "\n".join(lines) + "\n"
+
+
+def _rx_counters(text: Optional[str]) -> Optional[list[int]]:
+    """The header's ``rx=<overruns>:<ringlost>:<lostlines>:<timeouts>`` (firmware with
+    the console's line discipline; docs/protocol.md), or None (absent, or another shape:
+    then shown as an other key)."""
+    parts = (text or "").split(":")
+    if len(parts) != 4 or not all(p.isdigit() and p.isascii() for p in parts):
+        return None
+    return [int(p) for p in parts]
 
 
 def errors_text(errors: dict[str, int]) -> str:

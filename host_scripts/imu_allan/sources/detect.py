@@ -34,7 +34,7 @@ from ..device.framing import split_frames
 from ..device.records import DeviceHeader, DeviceReport
 from .rows import iter_blocks
 from ..device.stream import LOSS_KEYS, StreamDecoder
-from ..errors import InputError
+from ..errors import InputError, quote
 
 SNIFF_BYTES = 1 << 16
 
@@ -226,7 +226,7 @@ def _text(path: str, name: str, head: bytes, size: int) -> Source:
             open_temperature=lambda: (b[len(CHANNELS)] for b in iter_blocks(path, name=name))), None)
     if len(fields) == 7 and all(re.fullmatch(r"[-+]?\d+(\.\d*)?", f) for f in fields):
         bad = next(f for f in fields if not re.fullmatch(r"\d+", f))
-        raise InputError(f"'{name}': line {lineno}: {bad!r} is not a 10-bit ADC code (a rows file "
+        raise InputError(f"'{name}': line {lineno}: {quote(bad)} is not a 10-bit ADC code (a rows file "
                          "has 7 integer codes 0..1023: ax ay az gx gy gz temp)")
     raise InputError(f"'{name}': line {lineno} has {len(fields)} numeric columns and no header: "
                      "a rows file has 7 integer codes (ax ay az gx gy gz temp); for other data "
@@ -317,7 +317,7 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
                     time_factor = _UNITS[unit]
     if not chan_col:
         raise InputError(f"'{name}': line {lineno}: no column named like a sensor channel in "
-                         f"{header!r} (expected ax ay az gx gy gz, acc_x, gyro_x, ...)")
+                         f"{quote(header)} (expected ax ay az gx gy gz, acc_x, gyro_x, ...)")
     chans = [ch for ch in CHANNELS if ch in chan_col]
     use = [chan_col[ch] for ch in chans]
     src = SampleSource("csv", name, chans, lambda: _csv_blocks(path, name, lineno, delim, use,

@@ -38,15 +38,29 @@ def iter_blocks(path: PathLike, block_bytes: int = BLOCK_BYTES,
     line = 1  # file line number of the first line of the next block
     for chunk in read_blocks(path, block_bytes):
         chunk = tail + chunk
+        held = b"\r" if chunk.endswith(b"\r") else b""  # maybe the CR of a CR LF cut in two
+        chunk = line_ends(chunk[: len(chunk) - len(held)])
         cut = chunk.rfind(b"\n") + 1
-        if cut == 0:
-            tail = chunk
-            continue
-        tail = chunk[cut:]
-        yield parse_block(chunk[:cut], name, line, ncol)
-        line += chunk.count(b"\n", 0, cut)
+        tail = chunk[cut:] + held
+        if len(tail) > MAX_ROW_LINE:
+            at = line + chunk.count(b"\n", 0, cut)
+            raise InputError(f"{name}: line {at}: longer than "
+                             f"{MAX_ROW_LINE} bytes without a line end: not a rows file")
+        if cut:
+            yield parse_block(chunk[:cut], name, line, ncol)
+            line += chunk.count(b"\n", 0, cut)
     if tail:
-        yield parse_block(tail, name, line, ncol)
+        yield parse_block(line_ends(tail), name, line, ncol)
+
+
+MAX_ROW_LINE = 1 << 20
+"""Longest line a rows file may have (a row is at most 7 codes and 6 blanks;
+comments may be long, not a megabyte): the memory a line may take."""
+
+
+def line_ends(text: bytes) -> bytes:
+    """CR LF and a lone CR as LF: a rows file saved with any line ends reads alike."""
+    return text.replace(b"\r\n", b"\n").replace(b"\r", b"\n") if b"\r" in text else text
 
 
 def read_rows(path: PathLike, ncol: int = len(COLUMNS)) -> np.ndarray:
