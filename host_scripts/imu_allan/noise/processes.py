@@ -21,13 +21,14 @@ PSDs are one-sided, u^2/Hz, at f in (0, fs/2] (the convention of psd.py).
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import linalg, signal
+from scipy import signal
 
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
 """AVAR of flicker rate noise per unit B^2 (IEEE 952: ADEV floor 0.664 B)."""
@@ -37,11 +38,13 @@ def _m(m: ArrayLike) -> np.ndarray:
     return np.asarray(m, dtype=np.float64)
 
 
-def _geo_sum(m: np.ndarray, p: np.ndarray | complex | float) -> np.ndarray:
+def _geo_sum(m: np.ndarray, p: complex | float) -> np.ndarray:
     """sum_{k=1}^{m-1} (m - k) p^k, vectorized over m (p real or complex, |p| < 1)."""
-    p = np.asarray(p)
-    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-        pm = np.where(m * np.log(np.maximum(np.abs(p), 1e-300)) < -700, 0.0, p ** m)
+    if isinstance(p, complex) or np.iscomplexobj(p):
+        if abs(np.imag(p)) == 0.0:
+            p = float(np.real(p))
+    with np.errstate(under="ignore"):
+        pm = np.power(p, m)
     return p * (m * (1 - p) - (1 - pm)) / (1 - p) ** 2
 
 
@@ -52,7 +55,7 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
     def S(mm: np.ndarray) -> np.ndarray:
         tot = mm * r0
         for ci, pi in zip(c, p):
-            tot = tot + 2.0 * np.real(ci * _geo_sum(mm, pi))
+            tot = tot + 2.0 * np.real(ci * _geo_sum(mm, complex(pi) if np.iscomplexobj(pi) else float(pi)))
         return tot
     return (4.0 * S(m) - S(2.0 * m)) / (2.0 * m * m)
 
@@ -171,28 +174,46 @@ class _White(_Stream):
 def lowpass_filter(fc: float, fs: float, order: int) -> tuple[np.ndarray, np.ndarray]:
     """The discrete low-pass of the LP process: order 1 the sampled RC (a pole at
     exp(-2 pi fc / fs), what an analog one-pole gives the samples); order 2 a
-    digital Butterworth (bilinear, as a sensor's DLPF).  fc at most 0.49 fs."""
+    digital Butterworth (bilinear, as a sensor's DLPF; scipy.signal.butter's
+    coefficients).  fc at most 0.49 fs."""
     fc = min(float(fc), 0.49 * fs)
     if order == 1:
         a1 = math.exp(-2.0 * math.pi * fc / fs)
         return np.array([1.0 - a1]), np.array([1.0, -a1])
     if order == 2:
-        b, a = signal.butter(2, fc, fs=fs)
-        return np.asarray(b, dtype=np.float64), np.asarray(a, dtype=np.float64)
+        k = math.tan(math.pi * fc / fs)
+        g = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
+        b0 = k * k * g
+        return (np.array([b0, 2.0 * b0, b0]),
+                np.array([1.0, 2.0 * (k * k - 1.0) * g, (1.0 - math.sqrt(2.0) * k + k * k) * g]))
     raise ValueError(f"low-pass order must be 1 or 2, got {order}")
 
 
 def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Autocovariance of unit white noise through b/a: r(0) and (c, p) with
-    r(k) = sum c_i p_i^k for k >= 1 (state space, discrete Lyapunov equation)."""
-    A, B, C, D = signal.tf2ss(b, a)
-    P = linalg.solve_discrete_lyapunov(A, B @ B.T)
-    r0 = float((C @ P @ C.T + D @ D.T)[0, 0])
-    g = A @ P @ C.T + B @ D.T                      # r(k) = C A^(k-1) g
-    lam, V = np.linalg.eig(A)
-    cv = (C @ V).ravel()
-    vg = np.linalg.solve(V, g).ravel()
-    return r0, cv * vg / lam, lam
+    """Autocovariance of unit white noise through b/a (len(b) <= len(a), distinct
+    poles): r(0) and (c, p) with r(k) = sum c_i p_i^k for k >= 1, by residues:
+    r(k) = sum_i Res_{p_i} H(z) H(1/z) z^(k-1), plus H(0) H(inf) at k = 0."""
+    na = a.size - 1
+    bp = np.concatenate((b, np.zeros(na + 1 - b.size)))      # numerator in powers of z, degree na
+    p = np.roots(a).astype(np.complex128)
+
+    def H(z: np.ndarray) -> np.ndarray:
+        return np.polyval(bp, z) / np.polyval(a, z)
+    c = np.empty(na, dtype=np.complex128)
+    for i in range(na):  # over the poles (one or two)
+        others = np.prod([p[i] - p[j] for j in range(na) if j != i]) if na > 1 else 1.0
+        c[i] = np.polyval(bp, p[i]) / others * H(1.0 / p[i]) / p[i]
+    h0 = bp[-1] / a[-1]                                         # H(0) (z -> 0 of the z-polynomial form)
+    r0 = float(np.real(h0 * bp[0] + np.sum(c)))
+    return r0, c, p
+
+
+@functools.lru_cache(maxsize=4096)
+def _lp_shape(fc: float, fs: float, order: int) -> tuple:
+    b, a = lowpass_filter(fc, fs, order)
+    r0, c, p = filter_autocov(b, a)
+    dc = float(np.sum(b) / np.sum(a))   # unit white in -> low-frequency gain dc
+    return b, a, r0, c, p, dc
 
 
 @dataclass(repr=False)
@@ -211,11 +232,8 @@ class LP(Process):
     def params(self) -> dict[str, float]:
         return {"N": self.N, "fc": self.fc, "order": self.order}
 
-    def _shape(self, fs: float) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
-        b, a = lowpass_filter(self.fc, fs, self.order)
-        r0, c, p = filter_autocov(b, a)
-        dc = float(np.sum(b) / np.sum(a))   # unit white in -> low-frequency gain dc
-        return b, a, r0, c, p, dc  # type: ignore[return-value]
+    def _shape(self, fs: float) -> tuple:
+        return _lp_shape(float(self.fc), float(fs), int(self.order))
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         b, a, r0, c, p, dc = self._shape(fs)
