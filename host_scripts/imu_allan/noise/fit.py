@@ -48,6 +48,9 @@ from ..stats.terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _n
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp
 
 MAX_GM = 2
+GM_T_MIN = 10.0
+"""A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
+at 1.89 T, four octaves into the curve): a faster one is white noise there."""
 MODEL_ERR = 0.05
 """Largest relative model error granted (ADEV; 0.10 in AVAR)."""
 Z95 = 1.959963984540054
@@ -204,8 +207,8 @@ def _bounds(s: Structure, t: np.ndarray, fs: float) -> list[tuple[float, float]]
     out = []
     if s.lp:
         out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(0.49 * fs)))
-    for _ in range(s.ngm):
-        out.append((math.log(t[0] / 4.0), math.log(t[-1] * 4.0)))
+    for _ in range(s.ngm):  # a faster GM is white noise to these taus: N's, not a GM's
+        out.append((math.log(t[0] * GM_T_MIN), math.log(t[-1] * 4.0)))
     return out
 
 
@@ -218,8 +221,7 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
     theta = np.array(theta0, dtype=np.float64)
 
     def f(th: np.ndarray) -> float:
-        th = np.clip(th, [b[0] for b in bnds], [b[1] for b in bnds])
-        return p.solve(s, th)[1]
+        return p.solve(s, _clip(s, th, bnds))[1]
     if new is not None:
         lo, hi = bnds[new]
         best = (math.inf, theta[new])
@@ -241,8 +243,20 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
                               options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": 40 * theta.size})
         if r.fun <= f(theta):
             theta = np.asarray(r.x)
-    theta = np.clip(theta, [b[0] for b in bnds], [b[1] for b in bnds])
+    theta = _clip(s, theta, bnds)
     return theta, f(theta)
+
+
+GM_LP_FACTOR = 10.0
+"""With a band limit, a GM's T is at least this many of the filter's time constants
+1 / (2 pi fc): a faster GM only reshapes the filter's bend."""
+
+
+def _clip(s: Structure, th: np.ndarray, bnds: list[tuple[float, float]]) -> np.ndarray:
+    th = np.clip(th, [b[0] for b in bnds], [b[1] for b in bnds])
+    if s.lp and s.ngm:
+        th[1:] = np.maximum(th[1:], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
+    return th
 
 
 def _fit_structure(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int],
@@ -375,7 +389,9 @@ def _stepwise(p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...
 def _extend(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float,
             lin: tuple[str, ...]) -> tuple[Structure, np.ndarray, np.ndarray, float]:
     """Band limit, then Gauss-Markov processes, each kept only when the data need it."""
-    base_lin = tuple(k for k in lin if k in s.linear or k == "N")
+    # every allowed term again (a misfit short end may have pushed some out), but Q:
+    # a quantization's rise and a filter's bend would only trade against each other
+    base_lin = tuple(k for k in lin if k != "Q")
     cands = []
     for order in (1, 2):
         s2 = Structure(base_lin, order, 0)
@@ -392,11 +408,23 @@ def _extend(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: f
         th0 = np.concatenate((theta, [math.log(p.t[p.t.size // 2])]))
         th, c2, chi2b = _fit_structure(p, s2, th0, th0.size - 1)
         dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
-        if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2):
+        if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
             s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
         else:
             break
     return s, theta, c, chi2
+
+
+def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bool:
+    """A new Gauss-Markov process is kept only with white noise beside it and where
+    it is at least half of the model somewhere (its hump shows): else it only
+    stands in for the band limit or the white noise."""
+    names = s.names()
+    if "N" not in names or c[names.index("N")] <= 0:
+        return False
+    A = columns(s, theta, p.m, p.fs)
+    part = A[:, -1] * c[-1]
+    return bool(np.any(part >= 0.5 * (A @ c)))
 
 
 def _set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> float:
