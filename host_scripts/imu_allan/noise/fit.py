@@ -47,7 +47,7 @@ from ..stats.edf import alpha_from_slope
 from ..stats.terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp
 
-MAX_GM = 2
+MAX_GM = 3
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
 at 1.89 T, four octaves into the curve): a faster one is white noise there."""
@@ -240,7 +240,7 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
         theta = np.array([r.x]) if r.fun <= f(theta) else theta
     else:
         r = optimize.minimize(f, theta, method="Nelder-Mead",
-                              options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": 40 * theta.size})
+                              options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": 30 * theta.size})
         if r.fun <= f(theta):
             theta = np.asarray(r.x)
     theta = _clip(s, theta, bnds)
@@ -338,8 +338,9 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     p, s, theta = select(keep, 0.0)
     c, chi2, _ = p.solve(s, theta)
     floor = _set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
-    if floor > 0:  # a real sensor: select again with the model error in the weights
-        p, s, theta = select(keep, floor)
+    if floor > 0:  # a real sensor: refit with the model error in the weights, drop what is not needed
+        p = _Problem(t, y, fs, edf_of, kind, floor)
+        s, theta, _, _ = _stepwise(p, s, theta, keep=("N",) if s.lp else ())
     res = _result(p, s, theta, tau, avar, used, fitted, idx, notes)
     return res
 
