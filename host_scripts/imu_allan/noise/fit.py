@@ -36,7 +36,7 @@ the c (never below 0), log-normal for fc and T.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Optional
 
 import numpy as np
@@ -45,9 +45,13 @@ from scipy import optimize, stats
 
 from ..stats.edf import alpha_from_slope
 from ..stats.terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
-from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp
+from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
 
 MAX_GM = 3
+SINE = False
+"""Try a sinusoid (an oscillation's hump, ADEV peak at 0.371 / f0, two octaves or more inside
+the curve) after the GM processes on every curve; otherwise only on curves that need a model
+error (a real sensor): on clean streams it would trade against K and the GM processes."""
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
 at 1.89 T, four octaves into the curve): a faster one is white noise there."""
@@ -63,12 +67,13 @@ class Structure:
     linear: tuple[str, ...] = LINEAR     # which IEEE 952 columns are free
     lp: int = 0                          # 0: white N; 1 or 2: N low-passed (order)
     ngm: int = 0
+    sine: int = 0                        # 1: a sinusoid (amplitude, frequency)
 
     def names(self) -> list[str]:
-        return list(self.linear) + [f"GM{j + 1}" for j in range(self.ngm)]
+        return list(self.linear) + [f"GM{j + 1}" for j in range(self.ngm)] + ["SIN"] * self.sine
 
     def nonlinear(self) -> list[str]:
-        return (["fc"] if self.lp else []) + [f"T{j + 1}" for j in range(self.ngm)]
+        return (["fc"] if self.lp else []) + [f"T{j + 1}" for j in range(self.ngm)] + ["f0"] * self.sine
 
 
 def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.ndarray:
@@ -90,6 +95,8 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
     i = 1 if s.lp else 0
     for j in range(s.ngm):
         cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
+    if s.sine:
+        cols.append(Sine(1.0, math.exp(theta[-1])).avar(m, fs))
     return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
 
 
@@ -112,6 +119,8 @@ def to_model(s: Structure, theta: np.ndarray, c: np.ndarray) -> Model:
     for j in range(s.ngm):
         if vals.get(f"GM{j + 1}", 0) > 0:
             parts.append(AR1(math.sqrt(vals[f"GM{j + 1}"]), math.exp(theta[i + j])))
+    if s.sine and vals.get("SIN", 0) > 0:
+        parts.append(Sine(math.sqrt(vals["SIN"]), math.exp(theta[-1])))
     return Model(parts)
 
 
@@ -140,6 +149,8 @@ class CurveFit(FitResult):
             if name == "GM":
                 gm += 1
                 name = f"GM{gm}"
+            if name == "S":
+                name = "SIN"
             out[name] = p.avar(m, self.fs)
         return out
 
@@ -178,6 +189,7 @@ class _Problem:
         self.edf_of, self.kind = edf_of, kind
         self.floor = floor
         self.robust = np.ones(t.size)
+        self.robust_on = False
         self.set_reference(y)
 
     def set_reference(self, ref: np.ndarray) -> None:
@@ -209,6 +221,8 @@ def _bounds(s: Structure, t: np.ndarray, fs: float) -> list[tuple[float, float]]
         out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(0.49 * fs)))
     for _ in range(s.ngm):  # a faster GM is white noise to these taus: N's, not a GM's
         out.append((math.log(t[0] * GM_T_MIN), math.log(t[-1] * 4.0)))
+    if s.sine:  # its ADEV peaks at 0.371 / f0: inside the measured taus
+        out.append((math.log(0.371 * 4 / t[-1]), math.log(min(0.371 / (4 * t[0]), 0.45 * fs))))
     return out
 
 
@@ -255,7 +269,7 @@ GM_LP_FACTOR = 10.0
 def _clip(s: Structure, th: np.ndarray, bnds: list[tuple[float, float]]) -> np.ndarray:
     th = np.clip(th, [b[0] for b in bnds], [b[1] for b in bnds])
     if s.lp and s.ngm:
-        th[1:] = np.maximum(th[1:], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
+        th[1:1 + s.ngm] = np.maximum(th[1:1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
     return th
 
 
@@ -269,9 +283,10 @@ def _fit_structure(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[
         c, chi2, A = p.solve(s, theta)
         mod = A @ c
         p.set_reference(mod)
-        z = (p.y - mod) / p.gls.sd
-        p.robust = np.maximum(1.0, (z / ROBUST_Z) ** 2)
-        p.set_reference(mod)
+        if p.robust_on:
+            z = (p.y - mod) / p.gls.sd
+            p.robust = np.maximum(1.0, (z / ROBUST_Z) ** 2)
+            p.set_reference(mod)
     c, chi2, _ = p.solve(s, theta)
     return theta, c, chi2
 
@@ -324,12 +339,13 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     lin = tuple(k for k in LINEAR if k in allowed)
     notes: list[str] = []
 
-    def select(sub: np.ndarray, floor: float) -> tuple[_Problem, Structure, np.ndarray]:
+    def select(sub: np.ndarray, floor: float, robust: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
         def edf_sub(alpha: np.ndarray) -> np.ndarray:
             a = np.zeros(t.size, dtype=np.int64)
             a[sub] = alpha
             return edf_of(a)[sub]
         p = _Problem(t[sub], y[sub], fs, edf_sub, kind, floor)
+        p.robust_on = robust
         s, theta, c, chi2 = _stepwise(p, Structure(lin), np.zeros(0))
         if extended and "N" in lin and sub.size >= 4:
             s, theta, c, chi2 = _extend(p, s, theta, c, chi2, lin)
@@ -338,9 +354,8 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     p, s, theta = select(keep, 0.0)
     c, chi2, _ = p.solve(s, theta)
     floor = _set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
-    if floor > 0:  # a real sensor: refit with the model error in the weights, drop what is not needed
-        p = _Problem(t, y, fs, edf_of, kind, floor)
-        s, theta, _, _ = _stepwise(p, s, theta, keep=("N",) if s.lp else ())
+    if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
+        p, s, theta = select(keep, floor, robust=True)
     res = _result(p, s, theta, tau, avar, used, fitted, idx, notes)
     return res
 
@@ -368,7 +383,7 @@ def _stepwise(p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...
         names = s.names()
         zero = [k for k, v in zip(names, c) if v <= 0 and k in s.linear and k not in keep]
         if zero:  # terms at 0 leave without a test
-            s = Structure(tuple(k for k in s.linear if k not in zero), s.lp, s.ngm)
+            s = replace(s, linear=tuple(k for k in s.linear if k not in zero))
             theta, c, chi2 = _fit_structure(p, s, theta, None, rounds=1)
             continue
         active = [k for k, v in zip(names, c) if v > 0 and k in s.linear and k not in keep]
@@ -377,7 +392,7 @@ def _stepwise(p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...
             return s, theta, c, chi2
         best = None
         for k in active:
-            s2 = Structure(tuple(x for x in s.linear if x != k), s.lp, s.ngm)
+            s2 = replace(s, linear=tuple(x for x in s.linear if x != k))
             _, chi2b, _ = p.solve(s2, theta)
             if best is None or chi2b < best[1]:
                 best = (s2, chi2b)
@@ -408,15 +423,23 @@ def _extend(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: f
             break
         th0 = np.concatenate((theta, [math.log(p.t[p.t.size // 2])]))
         th, c2, chi2b = _fit_structure(p, s2, th0, th0.size - 1)
+        c2 = np.concatenate((c2[:-1], [c2[-1]]))
         dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
         if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
             s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
         else:
             break
+    if (SINE or p.robust_on) and p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 2) >= 2:
+        s2 = replace(s, sine=1)
+        th0 = np.concatenate((theta, [math.log(0.371 / p.t[p.t.size // 2])]))
+        th, c2, chi2b = _fit_structure(p, s2, th0, th0.size - 1)
+        dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
+        if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2, 0.2):
+            s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
     return s, theta, c, chi2
 
 
-def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bool:
+def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5) -> bool:
     """A new Gauss-Markov process is kept only with white noise beside it and where
     it is at least half of the model somewhere (its hump shows): else it only
     stands in for the band limit or the white noise."""
@@ -425,7 +448,7 @@ def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> 
         return False
     A = columns(s, theta, p.m, p.fs)
     part = A[:, -1] * c[-1]
-    return bool(np.any(part >= 0.5 * (A @ c)))
+    return bool(np.any(part >= share * (A @ c)))
 
 
 def _set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> float:
@@ -525,6 +548,14 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar:
                 f"its correlation time {T:.3g} s is longer than the curve's last tau: over these taus it "
                 f"acts as a rate random walk K = {math.sqrt(c[k]) * math.sqrt(2.0 / T):.3g}")
         terms[term.name] = term
+    if s.sine and c[names.index("SIN")] > 0:
+        k = names.index("SIN")
+        f0, sdf = math.exp(theta[-1]), sd_th[-1]
+        term = _linear_term("SIN", c[k], sd_c[k], comps.get("SIN"), total, grid)
+        term.extra = {"f0_hz": f0, "f0_low": f0 * math.exp(-Z95 * sdf), "f0_high": f0 * math.exp(Z95 * sdf)}
+        term.note = (term.note + "; " if term.note else "") + (
+            f"an oscillation of {f0:.3g} Hz (period {1 / f0:.3g} s), amplitude {math.sqrt(c[k]):.3g}")
+        terms["SIN"] = term
     res.terms = terms
     res.coef = np.array([c[names.index(k)] if k in names else 0.0 for k in TERMS])
     e = p.edf_of(p.alpha)
@@ -560,8 +591,10 @@ def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total:
             rng = (float(grid[dom][0]), float(grid[dom][-1]))
         else:
             i = int(np.argmax(share))
-            rng = (float(grid[i]), float(grid[i]))
-            note = f"nowhere the larger part of the curve (at most {share[i] * 100:.0f} %, at {grid[i]:.3g} s)"
+            near = share >= 0.5 * share[i]      # where it counts most: within half its largest share
+            rng = (float(grid[near][0]), float(grid[near][-1]))
+            note = (f"nowhere the larger part of the curve (at most {share[i] * 100:.0f} %, at {grid[i]:.3g} s); "
+                    "its range: where its share is at least half that")
     if c < Z95 * sd:
         return Term(k, None, None, None, rng, est, hi,
                     f"not identifiable: its 95 % interval includes 0 (estimate {est:.3g}, at most {hi:.3g})")
@@ -570,7 +603,7 @@ def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total:
 
 def _upper(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, k: str) -> Optional[float]:
     """95 % upper bound of an absent IEEE term: unconstrained LS with it added."""
-    s2 = Structure(tuple(x for x in LINEAR if x in s.linear or x == k), s.lp, s.ngm)
+    s2 = replace(s, linear=tuple(x for x in LINEAR if x in s.linear or x == k))
     A = p.gls.white(columns(s2, theta, p.m, p.fs))
     names = s2.names()
     old = s.names()
