@@ -622,7 +622,7 @@ SLOPE = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}
 
 
 def slope_reading(t: np.ndarray, y: np.ndarray, e: np.ndarray, tol: float = 0.125) -> dict[str, dict]:
-    """The IEEE 952 slope reading: each term read off the longest run of points
+    """The IEEE 952 slope reading: each term read off the longest run (two or more) of points
     where the ADEV slope (to both neighbours) is within ``tol`` of its own (Q -1,
     N -1/2, B 0, K +1/2, R +1), on points with EDF >= 10."""
     adev = np.sqrt(y)
@@ -640,6 +640,8 @@ def slope_reading(t: np.ndarray, y: np.ndarray, e: np.ndarray, tol: float = 0.12
         if ok.any():
             pos = np.flatnonzero(ok)
             run = max(np.split(pos, np.flatnonzero(np.diff(pos) > 1) + 1), key=len)
+            if run.size < 2:  # one point is no slope
+                continue
             vals = read[k](adev[run], t[run])
             v = float(np.min(vals)) if k == "B" else float(np.median(vals))
             out[k] = {"value": v, "tau_s": [float(t[run[0]]), float(t[run[-1]])], "points": int(run.size)}
