@@ -68,9 +68,9 @@ def test_rows_json_contract(run_cli, files, rows) -> None:
     for c in CH:
         ch = doc["channels"][c]
         assert ch["unit"] == ("m/s^2" if c[0] == "a" else "deg/s")
-        # the IEEE 952 five always; a band limit LP and Gauss-Markov processes GM1, GM2... when fitted
+        # the IEEE 952 five always; a band limit LP, Gauss-Markov processes GM1, GM2... and an oscillation SIN when fitted
         assert set(ch["terms"]) >= {"N", "B", "K", "Q", "R"}
-        assert all(k in ("LP",) or re.fullmatch(r"GM\d", k) for k in set(ch["terms"]) - {"N", "B", "K", "Q", "R"})
+        assert all(k in ("LP", "SIN") or re.fullmatch(r"GM\d", k) for k in set(ch["terms"]) - {"N", "B", "K", "Q", "R"})
         for k, t in ch["terms"].items():
             assert t is None or (set(t) >= {"value", "low", "high"} and t["low"] <= t["value"] <= t["high"])
         assert ch["term_units"]["N"] == f"{ch['unit']}*sqrt(s)" and ch["term_units"]["K"] == f"{ch['unit']}/sqrt(s)"

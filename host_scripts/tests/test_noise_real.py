@@ -78,9 +78,7 @@ def test_accelerometer_N_is_the_white_level_the_psd_and_the_flat_line_agree_on(d
     assert n.low <= ref * 1.02 and ref * 0.98 <= n.high, (n, ref)
 
 
-@pytest.mark.parametrize("c", [pytest.param(3, marks=pytest.mark.xfail(strict=True, reason=(
-    "known gap: at 10 Hz the fit of gx takes a band limit at Nyquist instead of flicker and N "
-    "absorbs the slow rise: +3.2 %"))), 4, 5])
+@pytest.mark.parametrize("c", GYROS)
 def test_gyro_N_moves_less_than_3_percent_when_averaged_down_by_10(data, fits, c) -> None:
     x = data[:, c]
     slow = x[: x.size // 10 * 10].reshape(-1, 10).mean(axis=1)

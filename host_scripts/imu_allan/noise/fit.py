@@ -46,12 +46,13 @@ from scipy import optimize, stats
 from ..stats.edf import alpha_from_slope
 from ..stats.terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
+from .reading import _compare, _linear_term, _unexplained, slope_reading
 
-MAX_GM = 3
+MAX_GM = 2
 SINE = False
 """Try a sinusoid (an oscillation's hump, ADEV peak at 0.371 / f0, two octaves or more inside
-the curve) after the GM processes on every curve; otherwise only on curves that need a model
-error (a real sensor): on clean streams it would trade against K and the GM processes."""
+the curve) after the GM processes on every curve; otherwise only where the first fit leaves a
+hump whose excess falls like an oscillation's (elsewhere it would trade against K and the GMs)."""
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
 at 1.89 T, four octaves into the curve): a faster one is white noise there."""
@@ -190,6 +191,7 @@ class _Problem:
         self.floor = floor
         self.robust = np.ones(t.size)
         self.robust_on = False
+        self.sine_on = SINE
         self.set_reference(y)
 
     def set_reference(self, ref: np.ndarray) -> None:
@@ -339,13 +341,14 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     lin = tuple(k for k in LINEAR if k in allowed)
     notes: list[str] = []
 
-    def select(sub: np.ndarray, floor: float, robust: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
+    def select(sub: np.ndarray, floor: float, robust: bool = False,
+               sine: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
         def edf_sub(alpha: np.ndarray) -> np.ndarray:
             a = np.zeros(t.size, dtype=np.int64)
             a[sub] = alpha
             return edf_of(a)[sub]
         p = _Problem(t[sub], y[sub], fs, edf_sub, kind, floor)
-        p.robust_on = robust
+        p.robust_on, p.sine_on = robust, sine or SINE
         s, theta, c, chi2 = _stepwise(p, Structure(lin), np.zeros(0))
         if extended and "N" in lin and sub.size >= 4:
             s, theta, c, chi2 = _extend(p, s, theta, c, chi2, lin)
@@ -355,24 +358,19 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     c, chi2, _ = p.solve(s, theta)
     floor = _set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
     if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
-        p, s, theta = select(keep, floor, robust=True)
+        c, _, A = p.solve(s, theta)   # a sinusoid only where the curve shows an oscillation's hump
+        osc = any(r["kind"] == "oscillation" for r in _unexplained(p, A @ c, p.e))
+        s1, th1 = s, theta
+        p, s, theta = select(keep, floor, robust=True, sine=osc)
+        # the first structure under the same weights: the robust selection may wander off
+        p1 = _Problem(t, y, fs, edf_of, kind, floor)
+        p1.robust_on = True
+        th1, c1, chi1 = _fit_structure(p1, s1, th1, None)
+        c2, chi2_, _ = p.solve(s, theta)
+        if chi1 + 2 * (np.sum(c1 > 0) + th1.size) < chi2_ + 2 * (np.sum(c2 > 0) + theta.size):
+            p, s, theta = p1, s1, th1
     res = _result(p, s, theta, tau, avar, used, fitted, idx, notes)
     return res
-
-
-def _unexplained_all(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) -> list[dict]:
-    from ..stats.identify import _regions
-    k = np.zeros(t.size, dtype=bool)
-    k[keep] = True
-    return _regions(t, y, model, k)
-
-
-def _unexplained(p: _Problem, model: np.ndarray, e: np.ndarray) -> list[dict]:
-    from ..stats.edf import chi2_interval
-    from ..stats.identify import TOL, _regions
-    lo, hi = chi2_interval(p.y, e)
-    keep = (model >= lo / (1 + TOL) ** 2) & (model <= hi * (1 + TOL) ** 2)
-    return _regions(p.t, p.y, model, keep)
 
 
 def _stepwise(p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...] = ()
@@ -429,7 +427,16 @@ def _extend(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: f
             s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
         else:
             break
-    if (SINE or p.robust_on) and p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 2) >= 2:
+    if p.sine_on:
+        s, theta, c, chi2 = _try_sine(p, s, theta, c, chi2)
+    return s, theta, c, chi2
+
+
+def _try_sine(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
+              ) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """A sinusoid, kept when it lowers chi2 by the 95 % point of chi2(2) and is a fifth
+    of the model somewhere."""
+    if not s.sine and p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 2) >= 2:
         s2 = replace(s, sine=1)
         th0 = np.concatenate((theta, [math.log(0.371 / p.t[p.t.size // 2])]))
         th, c2, chi2b = _fit_structure(p, s2, th0, th0.size - 1)
@@ -449,6 +456,23 @@ def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, sha
     A = columns(s, theta, p.m, p.fs)
     part = A[:, -1] * c[-1]
     return bool(np.any(part >= share * (A @ c)))
+
+
+def _upper(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, k: str) -> Optional[float]:
+    """95 % upper bound of an absent IEEE term: unconstrained LS with it added."""
+    s2 = replace(s, linear=tuple(x for x in LINEAR if x in s.linear or x == k))
+    A = p.gls.white(columns(s2, theta, p.m, p.fs))
+    names = s2.names()
+    old = s.names()
+    keep = [i for i, n in enumerate(names) if n == k or (n in old and c[old.index(n)] > 0)]
+    X = A[:, keep]
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    inv = np.linalg.pinv((X / scale).T @ (X / scale))
+    cc = inv @ ((X / scale).T @ p.yw) / scale
+    cov = inv / np.outer(scale, scale)
+    j = keep.index(names.index(k))
+    return math.sqrt(max(float(cc[j]), 0.0) + Z95 * math.sqrt(max(float(cov[j, j]), 0.0)))
 
 
 def _set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> float:
@@ -477,6 +501,27 @@ def _set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof:
     return hi
 
 
+def _covariance(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw: np.ndarray,
+                inflate: float) -> tuple[np.ndarray, np.ndarray]:
+    """sd of every c and every log fc / log T: the inverse of J'J, J the Jacobian of the
+    whitened residuals (active c analytically, fc and T numerically), widened by ``inflate``."""
+    act = np.flatnonzero(c > 0)
+    J = [Aw[:, j] for j in act]
+    for i in range(theta.size):
+        h = 1e-4
+        th = theta.copy()
+        th[i] += h
+        J.append((p.gls.white(columns(s, th, p.m, p.fs)) @ c - Aw @ c) / h)
+    J = np.stack(J, axis=1) if J else np.zeros((p.t.size, 0))
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
+    cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
+    sd_c = np.zeros(c.size)
+    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[:act.size], 0.0))
+    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size:], 0.0))
+    return sd_c, sd_th
+
+
 def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar: np.ndarray,
             used: np.ndarray, fitted: np.ndarray, idx: np.ndarray, notes: list[str]) -> CurveFit:
     c, chi2, A = p.solve(s, theta)
@@ -494,21 +539,7 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar:
         notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
                      "widened accordingly")
     Aw = p.gls.white(A)
-    # Jacobian of the whitened residuals: active c analytically, fc and T numerically
-    act = np.flatnonzero(c > 0)
-    J = [Aw[:, j] for j in act]
-    for i in range(theta.size):
-        h = 1e-4
-        th = theta.copy()
-        th[i] += h
-        J.append((p.gls.white(columns(s, th, p.m, p.fs)) @ c - Aw @ c) / h)
-    J = np.stack(J, axis=1) if J else np.zeros((p.t.size, 0))
-    scale = np.linalg.norm(J, axis=0)
-    scale[scale == 0] = 1.0
-    cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
-    sd_c = np.zeros(c.size)
-    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[:act.size], 0.0))
-    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size:], 0.0))
+    sd_c, sd_th = _covariance(p, s, theta, c, Aw, inflate)
     fitted_model = to_model(s, theta, c)
     grid = np.exp(np.linspace(math.log(p.t[0]), math.log(p.t[-1]), 200))
     res = CurveFit({}, np.zeros(5), np.zeros((5, 5)), chi2_red, fitted, np.zeros(tau.size, np.int64),
@@ -570,91 +601,3 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar:
                      + ", ".join(f"{v:.3g} s" for v in p.t[off]))
     notes.extend(r["text"] for r in res.unexplained)
     return res
-
-
-def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total: np.ndarray,
-                 grid: np.ndarray) -> Term:
-    est = math.sqrt(c)
-    if sd > 0:
-        nu = 2.0 * (c / sd) ** 2
-        q_hi, q_lo = float(stats.chi2.ppf(0.975, nu)), float(stats.chi2.ppf(0.025, nu))
-        lo = math.sqrt(c * nu / q_hi) if q_hi > 0 else 0.0
-        hi = math.sqrt(c * nu / q_lo) if q_lo > 0 else math.inf
-    else:
-        lo = hi = est
-    note = ""
-    rng = None
-    if comp is not None:
-        share = comp / np.where(total > 0, total, 1.0)
-        dom = share >= 0.5
-        if dom.any():
-            rng = (float(grid[dom][0]), float(grid[dom][-1]))
-        else:
-            i = int(np.argmax(share))
-            near = share >= 0.5 * share[i]      # where it counts most: within half its largest share
-            rng = (float(grid[near][0]), float(grid[near][-1]))
-            note = (f"nowhere the larger part of the curve (at most {share[i] * 100:.0f} %, at {grid[i]:.3g} s); "
-                    "its range: where its share is at least half that")
-    if c < Z95 * sd:
-        return Term(k, None, None, None, rng, est, hi,
-                    f"not identifiable: its 95 % interval includes 0 (estimate {est:.3g}, at most {hi:.3g})")
-    return Term(k, est, lo, hi, rng, est, hi, note)
-
-
-def _upper(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, k: str) -> Optional[float]:
-    """95 % upper bound of an absent IEEE term: unconstrained LS with it added."""
-    s2 = replace(s, linear=tuple(x for x in LINEAR if x in s.linear or x == k))
-    A = p.gls.white(columns(s2, theta, p.m, p.fs))
-    names = s2.names()
-    old = s.names()
-    keep = [i for i, n in enumerate(names) if n == k or (n in old and c[old.index(n)] > 0)]
-    X = A[:, keep]
-    scale = np.linalg.norm(X, axis=0)
-    scale[scale == 0] = 1.0
-    inv = np.linalg.pinv((X / scale).T @ (X / scale))
-    cc = inv @ ((X / scale).T @ p.yw) / scale
-    cov = inv / np.outer(scale, scale)
-    j = keep.index(names.index(k))
-    return math.sqrt(max(float(cc[j]), 0.0) + Z95 * math.sqrt(max(float(cov[j, j]), 0.0)))
-
-
-SLOPE = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}
-
-
-def slope_reading(t: np.ndarray, y: np.ndarray, e: np.ndarray, tol: float = 0.125) -> dict[str, dict]:
-    """The IEEE 952 slope reading: each term read off the longest run (two or more) of points
-    where the ADEV slope (to both neighbours) is within ``tol`` of its own (Q -1,
-    N -1/2, B 0, K +1/2, R +1), on points with EDF >= 10."""
-    adev = np.sqrt(y)
-    lt, la = np.log(t), np.log(adev)
-    sl = np.diff(la) / np.diff(lt)
-    out: dict[str, dict] = {}
-    read = {"Q": lambda a, x: a * x / math.sqrt(3), "N": lambda a, x: a * np.sqrt(x),
-            "B": lambda a, x: a / math.sqrt(B_FACTOR), "K": lambda a, x: a * np.sqrt(3 / x),
-            "R": lambda a, x: a * math.sqrt(2) / x}
-    for k, mu in SLOPE.items():
-        ok = np.zeros(t.size, dtype=bool)
-        for i in range(t.size):
-            nb = [sl[j] for j in (i - 1, i) if 0 <= j < sl.size]
-            ok[i] = bool(nb) and all(abs(v - mu) <= tol for v in nb) and e[i] >= 10
-        if ok.any():
-            pos = np.flatnonzero(ok)
-            run = max(np.split(pos, np.flatnonzero(np.diff(pos) > 1) + 1), key=len)
-            if run.size < 2:  # one point is no slope
-                continue
-            vals = read[k](adev[run], t[run])
-            v = float(np.min(vals)) if k == "B" else float(np.median(vals))
-            out[k] = {"value": v, "tau_s": [float(t[run[0]]), float(t[run[-1]])], "points": int(run.size)}
-    return out
-
-
-def _compare(res: CurveFit, notes: list[str]) -> None:
-    for k, r in res.slope.items():
-        t = res.terms.get(k)
-        if t is None or t.value is None:
-            continue
-        ratio = t.value / r["value"]
-        if abs(math.log(ratio)) > math.log(1.25):
-            notes.append(f"{k}: the whole-curve fit gives {t.value:.3g}, the IEEE 952 slope reading "
-                         f"{r['value']:.3g} ({r['tau_s'][0]:.3g} .. {r['tau_s'][1]:.3g} s): the other "
-                         "processes share those points")
