@@ -46,7 +46,7 @@ from scipy import optimize, stats
 from ..stats.edf import alpha_from_slope
 from ..stats.terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
-from .reading import _compare, _linear_term, _unexplained, slope_reading
+from .reading import to_model, _compare, _linear_term, _unexplained, slope_reading
 
 MAX_GM = 2
 SINE = False
@@ -99,30 +99,6 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
     if s.sine:
         cols.append(Sine(1.0, math.exp(theta[-1])).avar(m, fs))
     return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
-
-
-def to_model(s: Structure, theta: np.ndarray, c: np.ndarray) -> Model:
-    """The catalogue model of a structure and its parameters (terms at 0 left out)."""
-    parts = []
-    vals = dict(zip(s.names(), c))
-    if vals.get("Q", 0) > 0:
-        parts.append(QN(math.sqrt(vals["Q"])))
-    if vals.get("N", 0) > 0:
-        n = math.sqrt(vals["N"])
-        parts.append(LP(n, math.exp(theta[0]), s.lp) if s.lp else WN(n))
-    if vals.get("B", 0) > 0:
-        parts.append(Flicker(math.sqrt(vals["B"])))
-    if vals.get("K", 0) > 0:
-        parts.append(RW(math.sqrt(vals["K"])))
-    if vals.get("R", 0) > 0:
-        parts.append(Ramp(math.sqrt(vals["R"])))
-    i = 1 if s.lp else 0
-    for j in range(s.ngm):
-        if vals.get(f"GM{j + 1}", 0) > 0:
-            parts.append(AR1(math.sqrt(vals[f"GM{j + 1}"]), math.exp(theta[i + j])))
-    if s.sine and vals.get("SIN", 0) > 0:
-        parts.append(Sine(math.sqrt(vals["SIN"]), math.exp(theta[-1])))
-    return Model(parts)
 
 
 @dataclass

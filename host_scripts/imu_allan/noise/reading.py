@@ -10,6 +10,7 @@ import numpy as np
 from scipy import stats
 
 from ..stats.terms import B_FACTOR, Term
+from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
 
 Z95 = 1.959963984540054
 
@@ -98,3 +99,27 @@ def _compare(res: Any, notes: list[str]) -> None:
             notes.append(f"{k}: the whole-curve fit gives {t.value:.3g}, the IEEE 952 slope reading "
                          f"{r['value']:.3g} ({r['tau_s'][0]:.3g} .. {r['tau_s'][1]:.3g} s): the other "
                          "processes share those points")
+
+
+def to_model(s: Any, theta: np.ndarray, c: np.ndarray) -> Model:
+    """The catalogue model of a structure and its parameters (terms at 0 left out)."""
+    parts = []
+    vals = dict(zip(s.names(), c))
+    if vals.get("Q", 0) > 0:
+        parts.append(QN(math.sqrt(vals["Q"])))
+    if vals.get("N", 0) > 0:
+        n = math.sqrt(vals["N"])
+        parts.append(LP(n, math.exp(theta[0]), s.lp) if s.lp else WN(n))
+    if vals.get("B", 0) > 0:
+        parts.append(Flicker(math.sqrt(vals["B"])))
+    if vals.get("K", 0) > 0:
+        parts.append(RW(math.sqrt(vals["K"])))
+    if vals.get("R", 0) > 0:
+        parts.append(Ramp(math.sqrt(vals["R"])))
+    i = 1 if s.lp else 0
+    for j in range(s.ngm):
+        if vals.get(f"GM{j + 1}", 0) > 0:
+            parts.append(AR1(math.sqrt(vals[f"GM{j + 1}"]), math.exp(theta[i + j])))
+    if s.sine and vals.get("SIN", 0) > 0:
+        parts.append(Sine(math.sqrt(vals["SIN"]), math.exp(theta[-1])))
+    return Model(parts)
