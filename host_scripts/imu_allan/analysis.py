@@ -368,7 +368,8 @@ def fit_extras(fit: terms.FitResult, tau: np.ndarray) -> dict[str, Any]:
     return {"model": repr(fit.fitted),
             "slope_reading": {k: {"value": _num(v["value"]), "tau_s": v["tau_s"]}
                               for k, v in fit.slope.items()},
-            "components": {"tau_s": _list(grid), "adev": {k: _list(np.sqrt(np.maximum(v, 0.0))) for k, v in parts.items()},
+            "components": {"tau_s": _list(grid),
+                           "adev": {k: _list(np.sqrt(np.maximum(v, 0.0))) for k, v in parts.items()},
                            "total_adev": _list(np.sqrt(fit.model(grid)))}}
 
 
