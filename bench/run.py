@@ -383,6 +383,8 @@ def host(tmp: Path, quick: bool) -> dict:
 # size, RAM and cycles, the simulator's speed and the host's kernels;
 # results.json carries each figure with its target.
 TARGETS = [
+    ("noise_fit_s_per_channel", "<=", 0.5, "s",
+     "CPU seconds of the whole-curve noise fit of one channel of 1e6 samples (bench/run.py noise_fit)"),
     ("flash_bytes", "<=", 15360, "bytes", "avr-size -A: .text + .data, ATmega168 (a 512-byte bootloader leaves 15360)"),
     ("ram_static_bytes", "<=", None, "bytes", "avr-size -A: .data + .bss + .noinit"),
     ("stack_free_bytes", ">=", 64, "bytes",
@@ -421,6 +423,28 @@ TARGETS = [
 ]
 
 
+def noise_fit() -> dict:
+    """Seconds of the whole-curve noise fit (imu_allan.noise.fit) per channel of a
+    1e6-sample recording: a catalogue stream with a band limit, flicker, a rate random
+    walk and a Gauss-Markov process (the curve, its EDF and the fit; the curve itself
+    is the octave engine's, timed elsewhere).  Process CPU time, median of 3."""
+    from imu_allan.noise import AR1, LP, RW, Flicker
+    from imu_allan.noise.fit import fit_curve
+    from imu_allan.stats import allan, edf
+    fs, n = 100.0, 10**6
+    out = []
+    for seed in range(3):
+        x = (LP(0.8, 30.0, 1) + Flicker(0.2) + RW(0.015) + AR1(0.3, 120.0)).simulate(n, fs, seed)
+        ms = allan.tau_grid("octave", allan.max_m("oavar", n))
+        var, _ = allan.oavar(x, ms)
+        t0 = time.process_time()
+        efn = edf.edf_function(ms, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
+        fit_curve(ms / fs, var, efn, fs=fs)
+        out.append(time.process_time() - t0)
+    return {"noise_fit_s_per_channel": round(float(np.median(out)), 3),
+            "noise_fit_s_per_channel_runs": [round(v, 3) for v in out]}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="smaller host inputs (1e6 / 1e7), for a fast look")
@@ -436,6 +460,7 @@ def main() -> int:
         res.update(device(tmp, args.quick))
         res.update(host(tmp, args.quick))
         res.update(outlier_scan())
+        res.update(noise_fit())
     res["quick"] = args.quick
     res["targets"] = {key: f"{op} {target}" for key, op, target, _, _ in TARGETS if target is not None}
     res["how"] = {key: how for key, _, _, _, how in TARGETS}

@@ -79,14 +79,19 @@ def hdev(data: ArrayLike, rate: float = 1.0, taus: Taus = "octave") -> Deviation
 
 
 def noise_terms(data: ArrayLike, rate: float = 1.0, taus: Taus = "octave") -> terms.FitResult:
-    """IEEE 952 noise terms (Q, N, B, K, R) of one channel, fitted to its
-    overlapping Allan variance weighted by Greenhall's EDF (IEEE Std 952-1997
-    annex C; NIST SP 1065 section 5.2).  ``result.terms["N"].value`` etc.,
-    in the unit of the data times s^(1/2) and so on (docs/analysis.md)."""
+    """Noise terms of one channel: the catalogue (imu_allan.noise) fitted to its
+    whole overlapping Allan variance curve, weighted by the estimates'
+    covariance (Greenhall's EDF; IEEE Std 952-1997 annex C; NIST SP 1065
+    section 5.2).  ``result.terms["N"].value`` etc. (Q N B K R, in the unit of
+    the data times s^(1/2) and so on), and when the data need them ``"LP"``
+    (a band limit: ``.extra["fc"]``, ``["order"]``) and ``"GM1"``, ``"GM2"``
+    (Gauss-Markov: value sigma, ``.extra["tau_c"]``); ``result.fitted`` the
+    catalogue model (docs/analysis.md)."""
+    from .noise.fit import fit_curve
     x, ms = _grid(data, rate, taus, "oavar")
     var, _ = allan.oavar(x, ms)
     efn = edf.edf_function(ms, np.full(ms.size, x.size + 1), np.ones(ms.size, dtype=np.int64))
-    return terms.fit_terms(ms / float(rate), var, efn, overlapping=True)
+    return fit_curve(ms / float(rate), var, efn, fs=float(rate), overlapping=True)
 
 
 def device_reports(path: PathLike) -> list[DeviceReport]:

@@ -33,6 +33,7 @@ ALLOWED = {
     ("imu_allan.analysis.sweep", "imu_allan.render.plots"): "until sweep's figure moves to render/plots",
     ("imu_allan.analysis.thermal", "imu_allan.render.plots"): "until thermal's figure moves to render/plots",
     ("imu_allan.sensor", "imu_allan.sources.rows"): "until the noise catalogue merge",
+    ("imu_allan.stats.noise", "imu_allan.noise.processes"): "until stats/noise moves into noise/",
 }
 KNOWN_LONG = {("terms.py", "fit_terms"): "the IEEE 952 iterated weighted fit in one piece, until the noise fitter"}
 

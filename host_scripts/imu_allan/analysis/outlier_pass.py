@@ -14,7 +14,8 @@ import numpy as np
 
 from . import outliers
 from ..errors import InputError
-from ..stats import allan, identify, terms
+from ..noise.fit import fit_curve
+from ..stats import allan, terms
 
 
 @dataclass
@@ -76,7 +77,8 @@ def outliers_json(op: Optional[OutlierPass], c_i: int, fs: float, k2: float, efn
     }
     if op.other is not None and ch.count:
         res = op.other
-        other = identify.identify(res.ms / fs, res.oavar[:, c_i] * k2, efn, overlapping=True)
+        # the same whole-curve fit as the channel's own terms, so the change is the outliers' alone
+        other = fit_curve(res.ms / fs, res.oavar[:, c_i] * k2, efn, fs=fs, overlapping=True)
         clean, raw = (fit, other) if op.mode == "replace" else (other, fit)
         out["effect"] = {k: _change(clean.terms[k].value, raw.terms[k].value) for k in ("N", "B")}
     return out

@@ -25,7 +25,8 @@ import numpy as np
 
 from .._version import __version__
 from ..channels import CHANNELS, CODE_MAX
-from ..stats import allan, edf, identify, model, psd, terms
+from ..noise.fit import fit_curve as fit_noise
+from ..stats import allan, edf, model, psd, terms
 from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 from ..device.records import DeviceReport, flag_names
 from ..errors import InputError
@@ -276,23 +277,25 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         notes.append(f"{ch} is constant (the same code in every sample): Allan deviation 0 at every "
                      "tau, no noise term to fit (a stuck or disconnected sensor?)")
     efn = edf.edf_function(fitc.ms, fitc.N, fitc.stride)
-    fit = identify.identify(fitc.ms / fs, fitc.var * k2, efn, mask=mask, overlapping=overlapping)
+    fit = fit_noise(fitc.ms / fs, fitc.var * k2, efn, fs=fs, mask=mask, overlapping=overlapping)
     used = np.isin(main.ms, fitc.ms[fit.used])
     out: dict[str, Any] = {
         "unit": sc.unit,
         "kind": sc.kind,
         "scale_per_count": sc.per_count,
-        "term_units": {k: term_unit(sc, k) for k in terms.TERMS},
+        "term_units": {**{k: term_unit(sc, k) for k in terms.TERMS},
+                       **{k: ("Hz" if k == "LP" else sc.unit) for k in fit.terms if k not in terms.TERMS}},
         "terms": {k: term_json(t) for k, t in fit.terms.items()},
         "term_notes": _term_notes(fit, _clipping(ch, c_i, host, report, notes)),
-        "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items()},
+        "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items() if k in terms.TERMS},
         "b_classic": _b_classic(fit),
         "fit": {"statistic": stat, "grid": "octave", "chi2_dof": _num(fit.chi2_red),
                 "tau_window_s": ([float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)]
                                  if fit.used.any() else None),
                 "points": int(fit.used.sum()), "notes": fit.notes,
                 "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]}
-                                for r in fit.unexplained]},
+                                for r in fit.unexplained],
+                **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs)},
         "curve": _points(main, fs, k2, fit, d=2, modified=False, used=used),
     }
     extra = {}
@@ -314,7 +317,8 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
                       "terms": {k: _list(v) for k, v in lines.items()}}
     si = to_si_rad(sc)
     out["si"] = {"unit": "rad/s" if sc.unit == "deg/s" else sc.unit,
-                 "terms": {k: (None if v is None else {kk: (vv * si if isinstance(vv, float) else vv)
+                 "terms": {k: (None if v is None else {kk: (vv * si if isinstance(vv, float) and k != "LP"
+                                                            and kk not in NOT_RATE else vv)
                                                        for kk, vv in v.items()})
                            for k, v in out["terms"].items()}}
     fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
@@ -350,12 +354,37 @@ def _term_notes(fit: terms.FitResult, clipped: Optional[str]) -> dict[str, str]:
     return out
 
 
+NOT_RATE = ("tau_c", "tau_c_low", "tau_c_high", "fc", "fc_low", "fc_high", "order", "tau_range_s")
+"""Keys of a term's JSON that are not in the channel's rate unit (not scaled to SI)."""
+
+
 def term_json(t: terms.Term) -> Optional[dict[str, Any]]:
-    """A noise term as the JSON of ``analyze --json`` (None when not identified)."""
+    """A noise term as the JSON of ``analyze --json`` (None when not identified):
+    value, low, high, tau_range_s; a Gauss-Markov process (GM1, GM2, ...) adds
+    tau_c (s) and its interval, the band limit (LP, value = fc) fc (Hz) and order."""
     if t.value is None:
         return None
-    return {"value": t.value, "low": t.low, "high": t.high,
-            "tau_range_s": [t.tau_range[0], t.tau_range[1]] if t.tau_range else None}
+    out = {"value": t.value, "low": t.low, "high": t.high,
+           "tau_range_s": [t.tau_range[0], t.tau_range[1]] if t.tau_range else None}
+    for k, v in t.extra.items():
+        out[k] = _num(v) if isinstance(v, float) else v
+    return out
+
+
+def fit_extras(fit: terms.FitResult, tau: np.ndarray) -> dict[str, Any]:
+    """The whole-curve fit's model, its slope-reading cross-check and each fitted
+    component's ADEV on a grid over the fitted taus (for plots and users)."""
+    comps = getattr(fit, "components", None)
+    if comps is None or tau.size == 0:
+        return {}
+    grid = np.exp(np.linspace(math.log(float(tau.min())), math.log(float(tau.max())), 60))
+    parts = comps(grid)
+    return {"model": repr(fit.fitted),
+            "slope_reading": {k: {"value": _num(v["value"]), "tau_s": v["tau_s"]}
+                              for k, v in fit.slope.items()},
+            "components": {"tau_s": _list(grid),
+                           "adev": {k: _list(np.sqrt(np.maximum(v, 0.0))) for k, v in parts.items()},
+                           "total_adev": _list(np.sqrt(fit.model(grid)))}}
 
 
 def _b_classic(fit: terms.FitResult) -> Optional[dict[str, Any]]:
@@ -368,11 +397,14 @@ def _b_classic(fit: terms.FitResult) -> Optional[dict[str, Any]]:
 
 def _alphas(fit: terms.FitResult, tau: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """Noise type (alpha) and dominant term at each tau, from the fitted model."""
-    A = terms.basis(tau) * fit.coef
-    if not fit.coef.any():
+    comps = fit.components(tau) if hasattr(fit, "components") else {}
+    if not comps:
         return np.zeros(tau.size, dtype=np.int64), ["N"] * tau.size
-    dom = [terms.TERMS[j] for j in np.argmax(A, axis=1)]
-    return np.array([terms.ALPHA[d] for d in dom], dtype=np.int64), dom
+    names = list(comps)
+    A = np.stack([comps[k] for k in names], axis=1)
+    dom = [names[j] for j in np.argmax(A, axis=1)]
+    # a Gauss-Markov process counts as flicker (its hump), the band limit as white
+    return np.array([terms.ALPHA.get(d, -1) for d in dom], dtype=np.int64), dom
 
 
 def _points(cv: _Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modified: bool,

@@ -182,14 +182,16 @@ def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from
     """The IEEE 952 fit of the device curve restricted to tau >= fit_from and to the
     ``allowed`` terms (replaces the terms)."""
     from ..stats import edf, terms
+    from ..noise.fit import fit_curve
     from .pipeline import device_curve, term_json
     cv = device_curve(rep, ch)
     tau = cv.ms / fs
     mask = np.array([not f for f in cv.flags], dtype=bool) & (tau >= fit_from * (1 - 1e-9))
-    fit = terms.fit_terms(tau, cv.var * k2, edf.edf_function(cv.ms, cv.N, cv.stride), mask=mask,
-                          overlapping=False, allowed=tuple(allowed or terms.TERMS))
+    fit = fit_curve(tau, cv.var * k2, edf.edf_function(cv.ms, cv.N, cv.stride), fs=fs, mask=mask,
+                    overlapping=False, allowed=tuple(allowed or terms.TERMS))
     out["terms"] = {k: term_json(t) for k, t in fit.terms.items()}
-    out["upper_bounds"] = {k: (t.upper if math.isfinite(t.upper) else None) for k, t in fit.terms.items()}
+    out["upper_bounds"] = {k: (t.upper if math.isfinite(t.upper) else None) for k, t in fit.terms.items()
+                           if k in terms.TERMS}
     out["chi2_dof"] = fit.chi2_red if math.isfinite(fit.chi2_red) else None
     out["fit_notes"] = fit.notes + [f"terms {','.join(allowed or terms.TERMS)} fitted at tau >= "
                                     f"{fit_from:g} s (FIT% is of the fit of all terms over the whole curve)"]

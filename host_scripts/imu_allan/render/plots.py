@@ -127,7 +127,10 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
         win = c["fit"].get("tau_window_s") or ([float(tau.min()), float(tau.max())] if tau.size else None)
         grid = np.exp(np.linspace(math.log(win[0]), math.log(win[1]), 200)) if win else tau
         coef = _coef(c)
-        if tau.size and coef.any():
+        comp = c["fit"].get("components")
+        if tau.size and comp and comp.get("adev"):
+            _components(ax, c, comp, tau, dev, ok)
+        elif tau.size and coef.any():
             A = basis(grid)
             total = A @ coef
             ax.loglog(grid, np.sqrt(total), color="tab:cyan", lw=2, alpha=0.8, label="fitted model")
@@ -157,6 +160,48 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
     fig.suptitle(f"{group}: {os.path.basename(src['file'])}, {src['n']} samples at {src['fs_hz']:g} Hz")
     fig.tight_layout()
     return _save(plt, fig, os.path.join(directory, f"adev_{group}.png"))
+
+
+COMPONENT_COLORS = {"LP": "tab:blue", "SIN": "tab:olive"}
+
+
+def _components(ax: Any, c: dict[str, Any], comp: dict[str, Any], tau: np.ndarray, dev: np.ndarray,
+                ok: np.ndarray) -> None:
+    """Each fitted process of the whole-curve fit as its own line under the curve, and a
+    residual panel (curve / model) below the axes."""
+    grid = np.array(comp["tau_s"], dtype=np.float64)
+    total = np.array(comp["total_adev"], dtype=np.float64)
+    ax.loglog(grid, total, color="tab:cyan", lw=2, alpha=0.8, label="fitted model")
+    lu_all = LITERATURE[c["kind"]]
+    for k, line in comp["adev"].items():
+        v = np.array(line, dtype=np.float64)
+        v[v < total / 10.0] = np.nan  # only where it matters (> 1/10 of the model's deviation)
+        t = c["terms"].get(k)
+        if k in NAMES and t:
+            lu, lf = lu_all[k]
+            label = f"{k} {NAMES[k]}: {t['value'] * lf:.3g} {lu}"
+            if k == "B":  # the flat line is the deviation B makes, not B
+                label = (f"B {NAMES[k]}: {t['value'] * lf:.3g} {lu}; line at {B_READOFF:.3f} B = "
+                         f"{t['value'] * B_READOFF:.3g} {c['unit']}")
+            if k == "N" and c["terms"].get("LP"):
+                label += f" (through a {c['terms']['LP']['fc']:.3g} Hz low-pass)"
+        elif k.startswith("GM") and t:
+            label = f"{k} Gauss-Markov: sigma {t['value']:.3g} {c['unit']}, tau_c {t['tau_c']:.3g} s"
+        elif k == "SIN" and t:
+            label = f"oscillation {t['f0_hz']:.3g} Hz"
+        else:
+            label = k
+        ax.loglog(grid, v, "--", color=COLORS.get(k, COMPONENT_COLORS.get(k, "tab:gray")), lw=1.2, label=label)
+    from mpl_toolkits.axes_grid1 import make_axes_locatable
+    rax = make_axes_locatable(ax).append_axes("bottom", size="22%", pad=0.08, sharex=ax)
+    sel = ok & (tau >= grid[0] * (1 - 1e-9)) & (tau <= grid[-1] * (1 + 1e-9))
+    model = np.exp(np.interp(np.log(tau[sel]), np.log(grid), np.log(total)))
+    rax.semilogx(tau[sel], dev[sel] / model, "o-", color="k", ms=2.5, lw=0.8)
+    rax.axhline(1.0, color="tab:cyan", lw=1)
+    rax.set_ylabel("curve/model", fontsize=7)
+    rax.tick_params(labelsize=7)
+    rax.grid(True, which="both", alpha=0.3)
+    ax.tick_params(labelbottom=False)
 
 
 def _empty(ax: Any, ch: str, why: str) -> None:

@@ -274,6 +274,7 @@ def text(doc: dict[str, Any]) -> str:
                          + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else ""))
             if c["term_notes"].get(k):  # how it was bounded or where it was read
                 lines.append(f"{'':21}{c['term_notes'][k]}")
+        lines.extend(_process_lines(c))
         bc = c.get("b_classic")
         if bc:
             lu, lf = _lit(c, "B")
@@ -329,6 +330,37 @@ def outlier_lines(c: dict[str, Any]) -> list[str]:
     if o.get("steps_s"):
         out.append(f"  level shifts (kept): {len(o['steps_s'])} at "
                    + ", ".join(g(t, 6) for t in o["steps_s"][:5]) + " s")
+    return out
+
+
+def _process_lines(c: dict[str, Any]) -> list[str]:
+    """The fitted processes beyond the IEEE 952 five: band limit, Gauss-Markov, sinusoid;
+    and the IEEE 952 slope reading beside the whole-curve fit."""
+    out = []
+    for k, t in c["terms"].items():
+        if t is None or k in NAMES:
+            continue
+        if k == "LP":
+            out.append(f"  LP band limit         fc {g(t['fc'])} [{g(t['fc_low'])}, {g(t['fc_high'])}] Hz, "
+                       f"{'one' if t['order'] == 1 else 'two'}-pole: the white noise N reaches the samples "
+                       f"through it (the curve bends under N's line below {g(1 / (2 * math.pi * t['fc']))} s)")
+        elif k.startswith("GM"):
+            out.append(f"  {k:<3} Gauss-Markov      sigma {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['unit']}"
+                       f", tau_c {g(t['tau_c'])} [{g(t['tau_c_low'])}, {g(t['tau_c_high'])}] s")
+        elif k == "SIN":
+            out.append(f"  SIN oscillation       amplitude {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] "
+                       f"{c['unit']} at {g(t['f0_hz'])} Hz")
+        else:
+            continue
+        if c["term_notes"].get(k) and k != "LP":
+            out.append(f"{'':21}{c['term_notes'][k]}")
+    fit = c.get("fit", {})
+    if fit.get("model"):
+        out.append(f"  model: {fit['model']}")
+    sr = fit.get("slope_reading") or {}
+    if sr:
+        out.append("  IEEE 952 slope reading (cross-check): " + ", ".join(
+            f"{k} {g(v['value'])} ({g(v['tau_s'][0])} .. {g(v['tau_s'][1])} s)" for k, v in sr.items()))
     return out
 
 
@@ -423,13 +455,34 @@ def _axis_values(doc: dict[str, Any], axes: tuple[str, ...], term: str
             continue
         t = c["si"]["terms"][term]
         factor = math.pi / 180.0 if c["unit"] == "deg/s" else 1.0
-        if t is not None:
+        slow = _slow_gm_as_k(doc, c) if term == "K" else None
+        if t is not None and slow is not None:
+            out.append((ch, math.hypot(t["value"], slow[0]), True, slow[1]))
+        elif slow is not None:
+            out.append((ch, slow[0], True, slow[1]))
+        elif t is not None:
             out.append((ch, t["value"], True, ""))
         else:
             ub = c["upper_bounds"].get(term)
             if ub is not None:
                 out.append((ch, ub * factor, False, "95 % upper bound: not identifiable"))
     return out
+
+
+def _slow_gm_as_k(doc: dict[str, Any], c: dict[str, Any]) -> Optional[tuple[float, str]]:
+    """A Gauss-Markov process whose correlation time is longer than the record is, to
+    an estimator running over the record, a bias random walk of K = sigma sqrt(2 / T)
+    (its PSD 2 sigma^2 / (T w^2) above 1 / T); in SI units, with the note to say so."""
+    dur = doc["source"].get("duration_s") or 0.0
+    ks = []
+    for k, t in c["si"]["terms"].items():
+        if k.startswith("GM") and t is not None and t.get("tau_c") and t["tau_c"] > dur:
+            ks.append((t["value"] * math.sqrt(2.0 / t["tau_c"]), k, t["tau_c"]))
+    if not ks:
+        return None
+    v = math.sqrt(sum(x[0] ** 2 for x in ks))
+    return v, "includes " + ", ".join(f"{k} (tau_c {T:.3g} s, longer than the record) as K"
+                                      for _, k, T in ks)
 
 
 def _worst(vals: list[tuple[str, float, bool, str]]) -> Optional[tuple[str, float, bool, str]]:

@@ -1,5 +1,5 @@
-"""The one noise simulator: a rate signal made of the IEEE 952 / thesis noise
-processes, sample by sample, independent of how the stream is cut in blocks.
+"""The thesis' noise processes as streams of the noise catalogue (imu_allan.noise),
+sample by sample, independent of how the stream is cut in blocks.
 
 Per sample i (dt = 1/fs), in the unit of the signal:
 
@@ -32,7 +32,6 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-from scipy.signal import lfilter
 
 
 @dataclass
@@ -49,84 +48,60 @@ class NoiseParams:
 
 class NoiseProcess:
     """``add_to(x, start)`` adds samples start .. start + len(x) - 1 of the
-    noise to ``x`` in place; call it on consecutive blocks.  Each process has
-    its own generator (``white_rng`` ...); ``flicker_seed`` spawns the
-    flicker bank's; ``n`` (the record length) sets the bank's slowest time."""
+    noise to ``x`` in place; call it on consecutive blocks.  Each process is a
+    stream of the noise catalogue (imu_allan.noise: WN, AR1, RW, Flicker, QN,
+    Ramp) with its own generator (``white_rng`` ...); ``flicker_seed`` spawns
+    the flicker bank's; ``n`` (the record length) sets the bank's slowest time."""
 
     def __init__(self, p: NoiseParams, fs: float, n: int, white_rng: np.random.Generator,
                  gm_rng: np.random.Generator, rrw_rng: np.random.Generator,
                  quant_rng: Optional[np.random.Generator] = None,
                  flicker_seed: Optional[np.random.SeedSequence] = None) -> None:
+        from ..noise import processes as cat
         self.p, self.fs = p, fs
-        self.dt = 1.0 / fs
-        self._rw, self._rg, self._rk, self._rq = white_rng, gm_rng, rrw_rng, quant_rng
-        self._a = float(np.exp(-self.dt / p.gm_tau)) if p.gm_sigma else 0.0
-        self._b = float(p.gm_sigma * np.sqrt(-np.expm1(-2.0 * self.dt / p.gm_tau))) if p.gm_sigma else 0.0
-        # lfilter's zi: a * (a stationary bias before sample 0)
-        self._gm_state = self._a * p.gm_sigma * gm_rng.standard_normal() if p.gm_sigma else 0.0
-        self._walk = 0.0
-        self._q_prev = quant_rng.standard_normal() if p.quant and quant_rng is not None else 0.0
-        self._flicker = (Flicker(p.flicker, fs, n, flicker_seed)
-                         if p.flicker and flicker_seed is not None else None)
+        self.model = cat.Model()
+        self.streams = []
+        if p.white:
+            self.model += cat.WN(p.white / math.sqrt(fs))
+            self.streams.append(cat._White(p.white, white_rng))
+        if p.gm_sigma:
+            gm = cat.AR1(p.gm_sigma, p.gm_tau)
+            self.model += gm
+            self.streams.append(cat._AR1(p.gm_sigma, gm.phi(fs), gm_rng))
+        if p.rrw:
+            self.model += cat.RW(p.rrw * math.sqrt(fs))
+            self.streams.append(cat._Walk(p.rrw, rrw_rng))
+        if p.flicker and flicker_seed is not None:
+            fl = cat.Flicker(p.flicker)
+            self.model += fl
+            self.streams.append(fl.simulator(fs, n, flicker_seed))
+        if p.quant and quant_rng is not None:
+            self.model += cat.QN(p.quant)
+            self.streams.append(cat._Diff(p.quant * fs, quant_rng))
+        if p.ramp:
+            self.model += cat.Ramp(p.ramp)
+            self.streams.append(cat._Ramp(p.ramp / fs))
+        self.done = 0
 
     def add_to(self, x: np.ndarray, start: int) -> None:
-        p, L = self.p, x.shape[0]
-        if p.white:
-            x += p.white * self._rw.standard_normal(L)
-        if p.gm_sigma:
-            y, zf = lfilter([self._b], [1.0, -self._a], self._rg.standard_normal(L), zi=[self._gm_state])
-            self._gm_state = float(zf[0])
-            x += y
-        if p.rrw:
-            steps = np.cumsum(p.rrw * self._rk.standard_normal(L))
-            x += self._walk + steps
-            self._walk += float(steps[-1])
-        if self._flicker is not None:
-            x += self._flicker.take(start, L)
-        if p.quant and self._rq is not None:
-            e = self._rq.standard_normal(L)
-            x += p.quant * self.fs * np.diff(np.concatenate(([self._q_prev], e)))
-            self._q_prev = float(e[-1])
-        if p.ramp:
-            x += p.ramp * (np.arange(start, start + L) * self.dt)
-
-
-FLICKER_SPACING = 8.0
-"""Ratio of consecutive correlation times of the flicker bank."""
+        if start != self.done:
+            raise ValueError(f"blocks must be consecutive: expected sample {self.done}, got {start}")
+        for st in self.streams:  # over the processes, each vectorized
+            x += st.take(x.shape[0])
+        self.done += x.shape[0]
 
 
 class Flicker:
-    """Flicker rate noise of IEEE 952 coefficient B, sample by sample,
-    independent of how the stream is cut: each Gauss-Markov process of the
-    bank has its own random stream, drawn once per coarse step."""
+    """Flicker rate noise of IEEE 952 coefficient B: the catalogue's bank
+    (imu_allan.noise.Flicker), ``take(start, length)`` on consecutive blocks."""
 
     def __init__(self, b: float, fs: float, n: int, seed: np.random.SeedSequence) -> None:
-        r = FLICKER_SPACING
-        t_lo, t_hi = 1.0 / fs, max(4.0 * n / fs, 8.0 / fs)
-        count = int(math.ceil(math.log(t_hi / t_lo) / math.log(r))) + 1
-        sigma = b * math.sqrt(math.log(r) / math.pi)
-        self.procs = []
-        for k, ss in enumerate(seed.spawn(count)):
-            T = t_lo * r ** k
-            D = 1 << max(int(math.floor(math.log2(max(T * fs / 32.0, 1.0)))), 0)
-            a = math.exp(-D / (fs * T))
-            rng = np.random.default_rng(ss)
-            self.procs.append({"D": D, "a": a, "b": sigma * math.sqrt(1.0 - a * a), "rng": rng,
-                               "q": -1, "v": sigma * rng.standard_normal()})
+        from ..noise import processes as cat
+        self._bank = cat.Flicker(b).simulator(fs, n, seed)
+        self._done = 0
 
     def take(self, start: int, length: int) -> np.ndarray:
-        out = np.zeros(length)
-        for g in self.procs:  # over the bank (about ten processes), each vectorized
-            D, q_first, q_last = g["D"], start // g["D"], (start + length - 1) // g["D"]
-            new = q_last - g["q"]
-            if new > 0:
-                y, _ = lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new),
-                               zi=[g["a"] * g["v"]])
-                vals = np.concatenate(([g["v"]], y)) if q_first == g["q"] else y
-                g["q"], g["v"] = q_last, float(y[-1])
-            else:
-                vals = np.array([g["v"]])
-            held = np.repeat(vals, D) if D > 1 else vals
-            off = start - q_first * D
-            out += held[off:off + length]
-        return out
+        if start != self._done:
+            raise ValueError(f"blocks must be consecutive: expected sample {self._done}, got {start}")
+        self._done += length
+        return self._bank.take(length)

@@ -87,6 +87,8 @@ class Term:
     estimate: float                 # the fitted coefficient's square root (0 if none)
     upper: float                    # 95 % upper bound (always available)
     note: str = ""
+    extra: dict = field(default_factory=dict)
+    """Parameters beyond the value (LP: fc, order; GM: tau_c) and their intervals."""
 
     @property
     def identifiable(self) -> bool:

@@ -1,0 +1,111 @@
+"""The whole-curve noise fit, graded on streams it did not make.
+
+Two generators: the catalogue's own simulators (imu_allan.noise) and an
+independent one written here from the textbook formulas: Gaussian white
+noise through scipy.signal.lfilter with Butterworth coefficients
+(scipy.signal.butter) or a cascade of sampled RC poles, a cumulative sum for
+the rate random walk, Kasdin's fractional differencing for flicker (N. J.
+Kasdin, Proc. IEEE 83, 1995: h_k = h_{k-1} (k - 1 + alpha/2) / k, innovation
+variance B^2 for a one-sided PSD B^2 / (pi f)) and the AR(1) recursion for a
+Gauss-Markov process.  The truth is known: N (the white level at low
+frequency), B, K, T."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from imu_allan import api
+from imu_allan.noise import AR1, LP, RW, Flicker, Model
+
+FS = 1000.0
+N_TRUE = 0.01
+B_TRUE = 0.006       # floor 0.664 B = 0.004: above the white line beyond ~6 s
+K_TRUE = 8e-4        # crosses the white line near 20 s
+GM_SIGMA, GM_T = 0.03, 2.0
+
+
+def _independent(n: int, seed: int, order: int, fc: float, extra: str) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    w = rng.standard_normal(n) * N_TRUE * math.sqrt(FS)
+    if order == 1:
+        b, a = signal.butter(1, fc, fs=FS)
+    elif order == 2:
+        b, a = signal.butter(2, fc, fs=FS)
+    else:  # two sampled RC poles in cascade (critically damped, not a Butterworth)
+        p = math.exp(-2 * math.pi * fc / FS)
+        b, a = [(1 - p) ** 2], [1.0, -2 * p, p * p]
+    x = signal.lfilter(b, a, w)[:n]          # unit DC gain: the low-frequency density stays N^2
+    if extra == "flicker":
+        k = np.arange(1, n)
+        h = np.concatenate(([1.0], np.cumprod((k - 1 + 0.5) / k)))
+        e = rng.standard_normal(n) * B_TRUE
+        x = x + signal.fftconvolve(e, h)[:n]
+    elif extra == "rrw":
+        x = x + np.cumsum(rng.standard_normal(n) * K_TRUE / math.sqrt(FS))
+    elif extra == "gm":
+        phi = math.exp(-1.0 / (FS * GM_T))
+        v = rng.standard_normal(n) * GM_SIGMA * math.sqrt(1 - phi * phi)
+        x = x + signal.lfilter([1.0], [1.0, -phi], v, zi=[phi * GM_SIGMA * rng.standard_normal()])[0]
+    return x
+
+
+def _catalogue(n: int, seed: int, order: int, fc: float, extra: str) -> np.ndarray:
+    m = Model([LP(N_TRUE, fc, min(order, 2))])
+    m = m + {"none": Model(), "flicker": Flicker(B_TRUE), "rrw": RW(K_TRUE), "gm": AR1(GM_SIGMA, GM_T)}[extra]
+    return m.simulate(n, FS, seed)
+
+
+def _check(fit, extra: str) -> None:
+    t = fit.terms
+    assert t["N"].value is not None, fit.notes
+    assert abs(t["N"].value / N_TRUE - 1) < 0.10, (t["N"].value, fit.fitted)
+    assert t["Q"].value is None, fit.fitted          # a low-pass never looks like quantization
+    if extra == "flicker":
+        b = t["B"].value
+        if b is None:  # a bank of slow GM processes may stand in for the 1/f floor: read it off
+            b = math.sqrt(fit.model(np.array([20.0]))[0] - N_TRUE ** 2 / 20.0) / math.sqrt(2 * math.log(2) / math.pi)
+        assert abs(b / B_TRUE - 1) < 0.35, (b, fit.fitted)
+    if extra == "rrw":
+        assert t["K"].value is not None and abs(t["K"].value / K_TRUE - 1) < 0.35, fit.fitted
+    if extra == "gm":
+        gms = [v for k, v in t.items() if k.startswith("GM")]
+        assert gms, fit.fitted
+        T = max(gms, key=lambda g: g.value or 0).extra["tau_c"]
+        assert GM_T / 2 < T < GM_T * 2, fit.fitted
+
+
+CASES = [(1, FS / 100, "none"), (1, FS / 20, "none"), (1, FS / 4, "none"),
+         (2, FS / 100, "none"), (2, FS / 20, "none"), (2, FS / 4, "none"),
+         (1, FS / 20, "flicker"), (2, FS / 100, "rrw"), (2, FS / 20, "gm"), (1, FS / 4, "gm"),
+         (2, FS / 4, "flicker"), (1, FS / 100, "rrw")]
+
+
+@pytest.mark.parametrize("order,fc,extra", CASES)
+def test_fit_recovers_lowpassed_white_noise_from_an_independent_generator(order, fc, extra) -> None:
+    x = _independent(1 << 19, 11, order, fc, extra)
+    _check(api.noise_terms(x, FS), extra)
+
+
+@pytest.mark.parametrize("fc,extra", [(FS / 20, "none"), (FS / 4, "gm"), pytest.param(
+    FS / 4, "rrw", marks=pytest.mark.xfail(strict=True, reason=(
+        "known gap: on this stream the rise at the last octaves is taken as a ramp R, not K "
+        "(the two trade there; N is right)")))])
+def test_fit_recovers_two_rc_poles_in_cascade(fc, extra) -> None:
+    x = _independent(1 << 19, 5, 3, fc, extra)
+    _check(api.noise_terms(x, FS), extra)
+
+
+@pytest.mark.parametrize("order,fc,extra", CASES[::2])
+def test_fit_recovers_the_catalogues_own_streams(order, fc, extra) -> None:
+    x = _catalogue(1 << 19, 7, order, fc, extra)
+    _check(api.noise_terms(x, FS), extra)
+
+
+def test_plain_white_noise_gets_no_band_limit_and_no_gauss_markov() -> None:
+    x = np.random.default_rng(3).standard_normal(1 << 19) * N_TRUE * math.sqrt(FS)
+    fit = api.noise_terms(x, FS)
+    assert abs(fit.terms["N"].value / N_TRUE - 1) < 0.05
+    assert set(fit.terms) == {"Q", "N", "B", "K", "R"}, fit.fitted

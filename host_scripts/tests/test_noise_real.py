@@ -1,0 +1,106 @@
+"""The whole-curve noise fit on a real sensor: the ADIS16405 recording at rest
+(1e6 samples at 100 Hz; see test_real_recording.py for where it is found).
+
+The truth here is the low-frequency white level that two independent
+readings agree on: the Welch PSD (scipy.signal.welch) between 1 and 10 Hz,
+and allantools' overlapping ADEV times sqrt(tau) on the flat -1/2 part of
+the curve.  The part's own filter bends the short-tau end below that line;
+the fit's band limit must take it, not N."""
+from __future__ import annotations
+
+import gzip
+import math
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from imu_allan import api
+from test_real_recording import NAME, REPO, _find
+
+FS = 100.0
+GYROS = (3, 4, 5)
+ACCS = (0, 1, 2)
+
+
+@pytest.fixture(scope="module")
+def data() -> np.ndarray:
+    src = _find()
+    if src is None:
+        pytest.skip(f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} "
+                    "and $IMU_ALLAN_DATA")
+    with gzip.open(src, "rt") as f:
+        return np.loadtxt(f, dtype=np.float64)
+
+
+def _white_level(x: np.ndarray) -> tuple[float, float]:
+    """(PSD level, ADEV sqrt(tau) level), both as N in units * sqrt(s)."""
+    import allantools
+    f, p = signal.welch(x - x.mean(), fs=FS, nperseg=1 << 16)
+    psd_n = math.sqrt(np.median(p[(f >= 1) & (f <= 10)]) / 2.0)   # one-sided 2 N^2
+    taus = np.array([0.04, 0.08, 0.16])
+    t, ad, _, _ = allantools.oadev(x, rate=FS, data_type="freq", taus=taus)
+    return psd_n, float(np.median(ad * np.sqrt(t)))
+
+
+@pytest.fixture(scope="module")
+def fits(data: np.ndarray) -> dict:
+    return {c: api.noise_terms(data[:, c], FS) for c in GYROS + ACCS}
+
+
+@pytest.mark.parametrize("c", GYROS)
+def test_gyro_N_is_the_white_level_the_psd_and_the_flat_line_agree_on(data, fits, c) -> None:
+    psd_n, line_n = _white_level(data[:, c])
+    assert abs(psd_n / line_n - 1) < 0.05          # the two readings agree: a white level exists
+    ref = 0.5 * (psd_n + line_n)
+    n = fits[c].terms["N"]
+    assert n.value is not None and abs(n.value / ref - 1) < 0.05, (n, ref, fits[c].fitted)
+    # inside its interval, give or take the 2 % by which the two readings of the level differ
+    assert n.low <= ref * 1.02 and ref * 0.98 <= n.high, (n, ref)
+    import allantools
+    t, ad, _, _ = allantools.oadev(data[:, c], rate=FS, data_type="freq", taus=np.array([0.01]))
+    if ad[0] * math.sqrt(t[0]) < 0.9 * ref:     # where the part's filter bends the short end
+        assert "LP" in fits[c].terms             # the filter is a term, not a bias on N
+
+
+ACC_GAP = pytest.mark.xfail(strict=True, reason=(
+    "known gap: flicker and a rate random walk start right above the white part and the 1.7 s "
+    "oscillation is not taken as a sinusoid on this axis: N comes out 6-9 % high"))
+
+
+@pytest.mark.parametrize("c", [0, pytest.param(1, marks=ACC_GAP), pytest.param(2, marks=ACC_GAP)])
+def test_accelerometer_N_is_the_white_level_the_psd_and_the_flat_line_agree_on(data, fits, c) -> None:
+    psd_n, line_n = _white_level(data[:, c])
+    assert abs(psd_n / line_n - 1) < 0.05
+    ref = 0.5 * (psd_n + line_n)
+    n = fits[c].terms["N"]
+    assert n.value is not None and abs(n.value / ref - 1) < 0.05, (n, ref, fits[c].fitted)
+    assert n.low <= ref * 1.02 and ref * 0.98 <= n.high, (n, ref)
+
+
+@pytest.mark.parametrize("c", GYROS)
+def test_gyro_N_moves_less_than_3_percent_when_averaged_down_by_10(data, fits, c) -> None:
+    x = data[:, c]
+    slow = x[: x.size // 10 * 10].reshape(-1, 10).mean(axis=1)
+    n10 = api.noise_terms(slow, FS / 10).terms["N"].value
+    assert n10 is not None and abs(n10 / fits[c].terms["N"].value - 1) < 0.03
+
+
+@pytest.mark.parametrize("c", GYROS)
+def test_the_first_1000_s_give_N_with_a_wider_interval(data, fits, c) -> None:
+    short = api.noise_terms(data[: int(1000 * FS), c], FS).terms["N"]
+    full = fits[c].terms["N"]
+    assert short.value is not None and abs(short.value / full.value - 1) < 0.05
+    assert short.high - short.low > full.high - full.low
+
+
+@pytest.mark.parametrize("c", GYROS)
+def test_a_known_rate_random_walk_added_to_a_gyro_is_recovered(data, fits, c) -> None:
+    K = 0.1   # counts / sqrt(s): five times the recording's own
+    walk = np.cumsum(np.random.default_rng(c).standard_normal(data.shape[0])) * K / math.sqrt(FS)
+    fit = api.noise_terms(data[:, c] + walk, FS)
+    k = fit.terms["K"]
+    native = fits[c].terms["K"].value or 0.0
+    truth = math.hypot(K, native)
+    assert k.value is not None and abs(k.value / truth - 1) < 0.3, (k, fit.fitted)
+    assert k.low <= truth * 1.15 and truth / 1.15 <= k.high, (k, truth)
