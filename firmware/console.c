@@ -126,14 +126,14 @@ uint8_t console_close(void)
  * echo, all of it and its end.  Returns 1 when that is out. */
 static uint8_t echo(uint8_t job)
 {
-  uint8_t room = uart_tx_room(), n = 0;
-  if (room > UART_STEP_MAX)
-    room = UART_STEP_MAX;
-  if (room < 4)
+  uint8_t left = uart_tx_room(); /* of this step's bytes */
+  if (left > UART_STEP_MAX)
+    left = UART_STEP_MAX;
+  if (left < 4)
     return 0;
   if (con.flags & DROP) {
     end_line();
-    n = 4;
+    left = (uint8_t)(left - 4);
   }
   if (!(con.flags & OPEN)) {
     if (!con.len) { /* nothing typed (a refused empty line): no echo */
@@ -141,30 +141,30 @@ static uint8_t echo(uint8_t job)
         next();
       return job;
     }
-    if (n + 4u > room)
+    if (left < 4)
       return 0;
     uart_write('>');
     uart_write(' ');
-    n += 2;
+    left = (uint8_t)(left - 2);
     con.flags |= OPEN;
   }
   while (con.shown > con.keep) {
-    if (n + 5u > room)
+    if (left < 5)
       return 0; /* more next time */
     uart_write('\b');
     uart_write(' ');
     uart_write('\b');
-    n += 3;
+    left = (uint8_t)(left - 3);
     con.shown--;
   }
-  while (con.shown < con.len && n + 2u < room) {
+  while (con.shown < con.len && left > 2) {
     uart_write((uint8_t)console_shown_as(con.text[con.shown++]));
-    n++;
+    left--;
   }
   con.keep = con.shown;
   if (!job || con.shown != con.len)
     return 0;
-  uart_write('\r'); /* n + 2 <= room: kept free above */
+  uart_write('\r'); /* 2 bytes left: kept free above */
   uart_write('\n');
   next();
   return 1;
