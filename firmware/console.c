@@ -86,7 +86,7 @@ void console_receive(void)
   /* A complete line stops the reading until it has run and its echo is
    * out: bytes wait in the RX ring (what it cannot hold is lost, and the
    * line it belonged to refused). */
-  while (!(con.flags & (READY | RUN)) && (c = uart_read()) >= 0) {
+  while (!(uint8_t)(con.flags & (READY | RUN)) && (c = uart_read()) >= 0) {
     con.heard = clock_now();
     if (c & UART_READ_OVERRUN)
       count(0);
@@ -184,7 +184,8 @@ void console_poll(uint8_t live)
       con.err = CMD_ERR_TIMEOUT;
     con.flags |= READY;
   }
-  if (live && settings.echo && !(con.flags & RUN))
+  /* Nothing typed, shown or due: the loop's idle pass stays cheap. */
+  if (live && settings.echo && (con.len | con.shown | con.flags) && !(con.flags & RUN))
     echo(0);
 }
 
