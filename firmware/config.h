@@ -137,7 +137,7 @@
  * the next command, and a terminal must not be left with a line it cannot
  * see.  A host sends a whole line within milliseconds; a person types a
  * command with shorter pauses than this.  At most 6500 ms (the console's
- * clock wraps after 256 ticks of 26 ms at 10 MHz: clock.h). */
+ * clock counts up to 255 ticks of 26 ms at 10 MHz: clock.h). */
 #ifndef CONSOLE_TIMEOUT_MS
 #  define CONSOLE_TIMEOUT_MS 2000
 #endif

@@ -32,7 +32,6 @@ static struct {
   uint8_t flags;
   uint8_t shown; /* characters of text on the screen (echo) */
   uint8_t keep;  /* of them, still equal to text */
-  uint8_t heard; /* clock_now() at the last byte */
   uint16_t count[CONSOLE_COUNTS]; /* console.h's console_count() */
 } con;
 
@@ -87,7 +86,7 @@ void console_receive(void)
    * out: bytes wait in the RX ring (what it cannot hold is lost, and the
    * line it belonged to refused). */
   while (!(uint8_t)(con.flags & (READY | RUN)) && (c = uart_read()) >= 0) {
-    con.heard = clock_now();
+    clock_restart(); /* the silence starts again */
     if (c & UART_READ_OVERRUN)
       count(0);
     if (c & UART_READ_RING)
@@ -179,7 +178,7 @@ void console_poll(uint8_t live)
 {
   console_receive();
   if (!(con.flags & (READY | RUN)) && (con.len || con.err) &&
-      (uint8_t)(clock_now() - con.heard) >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
+      clock_ticks() >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
     if (con.err != CMD_ERR_LOST)
       con.err = CMD_ERR_TIMEOUT;
     con.flags |= READY;
