@@ -143,22 +143,21 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
   return 0;
 }
 
-/* A line refused before any command is known, two words a code, what
- * and what is allowed, as reply_set_error's texts: CMD_ERR_UNKNOWN,
- * CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE, CMD_ERR_TIMEOUT at words
- * 0, 2, 4, 6, 8 (codes 2 and 4 always name their
- * command). */
-static const char refused_P[] PROGMEM = "unknown command\0see help\0line too long\0"
-                                        "16 chars\0input lost\0resend\0bad byte\0printable ASCII\0timed out\0resend";
-#if CMD_ERR_UNKNOWN != 1 || CMD_ERR_LONG != 3 || CMD_ERR_LOST != 5 || CMD_ERR_BYTE != 6 || CMD_ERR_TIMEOUT != 7
-#  error "refused_P is indexed by (code & ~1), and 8 for CMD_ERR_TIMEOUT"
+/* A line refused before any command is known: two words a code from 1,
+ * what is wrong and what is allowed, as reply_set_error's texts (codes 2
+ * and 4 always name their command: empty words). */
+static const char refused_P[] PROGMEM = "unknown command\0see help\0\0\0line too long\0" "16 chars\0\0\0"
+                                        "input lost\0resend\0bad byte\0printable ASCII\0timed out\0resend";
+#if CMD_ERR_UNKNOWN != 1 || CMD_ERR_ARG != 2 || CMD_ERR_LONG != 3 || CMD_ERR_STATE != 4 || CMD_ERR_LOST != 5 || \
+    CMD_ERR_BYTE != 6 || CMD_ERR_TIMEOUT != 7
+#  error "refused_P holds the codes 1..7 in order"
 #endif
 
 /* `error:<code> <command>: <what>; <allowed>` */
 static __attribute__((noinline)) uint8_t step_error(uint8_t step)
 {
   uint8_t none = rpl.tail == CMD_NONE;
-  const char *text = none ? vocab_word(refused_P, (uint8_t)((rpl.code & ~1u) + (rpl.code == CMD_ERR_TIMEOUT ? 2 : 0))) : rpl.text_P;
+  const char *text = none ? vocab_word(refused_P, (uint8_t)(2 * rpl.code - 2)) : rpl.text_P;
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("error:"));
