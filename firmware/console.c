@@ -184,7 +184,7 @@ void console_poll(uint8_t live)
     con.flags |= READY;
   }
   /* Nothing typed, shown or due: the loop's idle pass stays cheap. */
-  if (live && settings.echo && (con.len | con.shown | con.flags) && !(con.flags & RUN))
+  if (live && settings.echo && (con.len | con.flags) && !(con.flags & RUN)) /* shown: OPEN is set */
     echo(0);
 }
 
