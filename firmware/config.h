@@ -66,7 +66,7 @@
 #  define REPORT 60
 #endif
 #if REPORT < 0 || REPORT > VOCAB_INTERVAL_MAX_S
-#  error "REPORT must be 0..VOCAB_INTERVAL_MAX_S (3600) seconds"
+#  error "REPORT must be 0..VOCAB_INTERVAL_MAX_S seconds"
 #endif
 
 /* Accumulator width.  Levels from ALLAN_ACC48_FROM up get 48 bits, those

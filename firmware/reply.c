@@ -82,7 +82,9 @@ void reply_set_plain(uint8_t code, const char *text_P)
 }
 
 static const char count_P[] PROGMEM = " [count]";
-static const char seconds_P[] PROGMEM = " 0..3600 s";
+#define REPLY_STR_(x) #x
+#define REPLY_STR(x) REPLY_STR_(x)
+static const char seconds_P[] PROGMEM = " 0.." REPLY_STR(VOCAB_INTERVAL_MAX_S) " s"; /* vocab.h's limit */
 static const char open_P[] PROGMEM = " [";
 static const char hz_P[] PROGMEM = " (Hz)";
 static const char g_P[] PROGMEM = " (g)";
