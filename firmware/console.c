@@ -163,8 +163,7 @@ static uint8_t echo(uint8_t job)
   con.keep = con.shown;
   if (!job || con.shown != con.len)
     return 0;
-  uart_write('\r'); /* 2 bytes left: kept free above */
-  uart_write('\n');
+  end_line(); /* CR LF: 2 bytes left, kept free above (no DROP here) */
   next();
   return 1;
 }
@@ -198,10 +197,11 @@ uint8_t console_take(const char **text)
   uint8_t err = con.err;
   con.text[con.len] = 0;
   *text = con.text;
-  if (err == CMD_ERR_LOST)
-    count(2);
-  else if (err == CMD_ERR_TIMEOUT)
-    count(3);
+  if (err == CMD_ERR_LOST || err == CMD_ERR_TIMEOUT)
+    count((uint8_t)(err >> 1)); /* counts 2 and 3 */
+#if CMD_ERR_LOST >> 1 != 2 || CMD_ERR_TIMEOUT >> 1 != 3
+#  error "the lost and timed-out lines' counts are error code / 2"
+#endif
   if (settings.echo)
     con.flags = (uint8_t)((con.flags & ~READY) | RUN); /* the echo job frees it */
   else
