@@ -147,9 +147,11 @@ ISR(USART_RX_vect)
     rx_head = next;
   }
   if (why) {
-    uint8_t g = rx_gap;
-    if (g && (uint8_t)((g ^ h) & GAP_SLOT))
+    uint8_t g = rx_gap, other = g ^ h; /* 8-bit steps: no int promotion, fewer registers saved */
+    other &= GAP_SLOT;
+    if (g && other)
       why |= GAP_MORE;
-    rx_gap = (uint8_t)((g & (uint8_t)~GAP_SLOT) | why | GAP_VALID | h);
+    g &= (uint8_t)~GAP_SLOT;
+    rx_gap = g | why | GAP_VALID | h;
   }
 }
