@@ -125,9 +125,7 @@ uint8_t console_close(void)
  * echo, all of it and its end.  Returns 1 when that is out. */
 static uint8_t echo(uint8_t job)
 {
-  uint8_t left = uart_tx_room(); /* of this step's bytes */
-  if (left > UART_STEP_MAX)
-    left = UART_STEP_MAX;
+  uint8_t left = uart_tx_room(); /* at most one output step (uart.h) */
   if (left < 4)
     return 0;
   if (con.flags & DROP) {
@@ -176,7 +174,7 @@ uint8_t console_echo_job(void)
 void console_poll(uint8_t live)
 {
   console_receive();
-  if (!(con.flags & (READY | RUN)) && (con.len || con.err) &&
+  if (!(con.flags & (READY | RUN)) && (con.len | con.err) &&
       clock_ticks() >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
     if (con.err != CMD_ERR_LOST)
       con.err = CMD_ERR_TIMEOUT;

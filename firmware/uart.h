@@ -16,7 +16,8 @@ void uart_init(void);
  * uart_tx_room() (the output scheduler writes only what fits). */
 void uart_write(uint8_t c);
 
-/* Bytes the TX ring can take now. */
+/* Bytes the TX ring can take now: at most UART_STEP_MAX (the ring holds
+ * one whole step, no more). */
 uint8_t uart_tx_room(void);
 
 /* Next received byte, or -1 when none is waiting.  UART_READ_GAP is or-ed
