@@ -50,7 +50,7 @@ FW_OPT := -Os -flto -mcall-prologues -mrelax -mstrict-X -fno-move-loop-invariant
 # the loop spends (imu-sim at 1 kHz: the same busy fraction).  In the
 # receiver and the ADC it is not used; in the engine and the sampling loop
 # only as FW_MORE_allan and FW_MORE_sample below, where it was measured.
-FW_COLD := stream proto reply command vocab link reset tx
+FW_COLD := stream proto reply command vocab link reset switchboard
 $(foreach m,$(FW_COLD),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += -fno-gcse))
 # The modules that run between sets, never per sample (the report, the
 # settings, the commands, the start-up in main): without these passes

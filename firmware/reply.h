@@ -2,7 +2,7 @@
  * reply.h - the replies to command lines (docs/protocol.md): `ok ...`,
  * `error:<code> <command>: <what>; <allowed>`, `ok status ...` and
  * `ok help <command> <arguments>` (one line per command).  A producer:
- * the output scheduler (tx.c) sets the reply up and writes it one step of
+ * the output scheduler (switchboard.c) sets the reply up and writes it one step of
  * at most UART_STEP_MAX characters at a time.
  */
 #ifndef REPLY_H

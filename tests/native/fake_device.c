@@ -13,7 +13,7 @@
 #include "control.h"
 #include "fixture.h"
 #include "sample.h"
-#include "tx.h"
+#include "switchboard.h"
 #include "uart.h"
 #include <avr/eeprom.h>
 
@@ -320,11 +320,11 @@ void fx_boot(uint8_t mcusr)
     erased = 1;
   }
   /* main.c's start-up, in its order */
-  tx_init(mcusr);
+  switchboard_init(mcusr);
   uart_init();
   adc_init();
   control_init();
-  tx_boot();
+  switchboard_boot();
   adc_start(0, 0);
 }
 
@@ -336,7 +336,7 @@ void fx_run_us(uint64_t us)
     /* main.c's loop body */
     while (sample_take())
       console_receive();
-    tx_poll();
+    switchboard_poll();
     control_poll();
   }
 }
