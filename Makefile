@@ -55,7 +55,7 @@ FW_OPT := -Os -flto -mcall-prologues -mrelax -mstrict-X -fno-move-loop-invariant
 # the loop spends (imu-sim at 1 kHz: the same busy fraction).  In the
 # receiver and the ADC it is not used; in the engine and the sampling loop
 # only as FW_MORE_allan and FW_MORE_sample below, where it was measured.
-FW_COLD := stream proto reply command vocab link reset tx
+FW_COLD := stream proto reply command vocab link reset switchboard
 $(foreach m,$(FW_COLD),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += -fno-gcse))
 # The modules that run between sets, never per sample (the report, the
 # settings, the commands, the start-up in main): without these passes
@@ -64,7 +64,7 @@ $(foreach m,$(FW_COLD),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += -fno-gcse))
 # Each flag measured alone on them: -fno-tree-pre 30, -fno-tree-tail-merge
 # 30, -fno-tree-sink 26, then -fno-tree-loop-ivcanon 56, -fno-tree-fre
 # 12.  make bench measures what they cost in cycles and stack.
-FW_SMALL := report settings control cmdline stream reply vocab reset main
+FW_SMALL := report settings control stream reply vocab reset main
 FW_SMALL_FLAGS := -fno-gcse -fno-tree-pre -fno-tree-tail-merge -fno-tree-sink -fno-tree-loop-ivcanon -fno-tree-fre
 $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS)))
 # And for some of them one or two passes more, each measured on its own
@@ -85,7 +85,7 @@ FW_MORE_reply := -fno-tree-ter
 # more; sample -fno-gcse 36.
 FW_MORE_allan := -fno-tree-dominator-opts -fno-gcse
 FW_MORE_sample := -fno-gcse
-$(foreach m,report stream fmt control main reply allan sample,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
+$(foreach m,report stream fmt control main reply allan sample console,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP

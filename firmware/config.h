@@ -66,7 +66,7 @@
 #  define REPORT 60
 #endif
 #if REPORT < 0 || REPORT > VOCAB_INTERVAL_MAX_S
-#  error "REPORT must be 0..VOCAB_INTERVAL_MAX_S (3600) seconds"
+#  error "REPORT must be 0..VOCAB_INTERVAL_MAX_S seconds"
 #endif
 
 /* Accumulator width.  Levels from ALLAN_ACC48_FROM up get 48 bits, those
@@ -129,6 +129,20 @@
 #  if CONFIG_LINK_WAIT * FS_DEFAULT * 100 > 2 * (BAUD / 10) * LINK_USE_PERCENT
 #    error "MODE_DEFAULT at FS_DEFAULT: a long line would hold samples back beyond the ring's slack at BAUD"
 #  endif
+#endif
+
+/* Silence after which an open command line (bytes without CR or LF) is
+ * discarded with one `error:7` reply (docs/protocol.md): a stray byte on a
+ * radio link, or a line whose end was lost, must never glue itself onto
+ * the next command, and a terminal must not be left with a line it cannot
+ * see.  A host sends a whole line within milliseconds; a person types a
+ * command with shorter pauses than this.  At most 6500 ms (the console's
+ * clock counts up to 255 ticks of 26 ms at 10 MHz: clock.h). */
+#ifndef CONSOLE_TIMEOUT_MS
+#  define CONSOLE_TIMEOUT_MS 2000
+#endif
+#if CONSOLE_TIMEOUT_MS < 100 || CONSOLE_TIMEOUT_MS > 6500
+#  error "CONSOLE_TIMEOUT_MS must be 100..6500"
 #endif
 
 /* Largest ADC code the engine accepts (10-bit converter). */

@@ -1,29 +1,22 @@
 /*
  * control.c - see control.h.  Commands run only where their reply may be
- * written at once (tx_can_interject), so a reply never cuts into a line.
+ * written at once (switchboard_can_interject), so a reply never cuts into a line.
  */
 #include "control.h"
 
 #include "adc.h"
 #include "board.h"
-#include "cmdline.h"
 #include "command.h"
 #include "config.h"
-#include "lineedit.h"
+#include "console.h"
 #include "link.h"
 #include "pgm.h"
 #include "proto.h"
 #include "sample.h"
 #include "settings.h"
-#include "tx.h"
+#include "switchboard.h"
 #include "uart.h"
 #include "vocab.h"
-
-/* The command line being received and echoed is lineedit (cmdline.c
- * fills it); LINE_READY: a complete one waits until the output is between
- * two lines. */
-#define line lineedit
-#define ready (line.flags & LINE_READY)
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -40,10 +33,10 @@ static void range_pins(uint8_t range)
  * report being written would now mix two runs: it is cut off. */
 static void new_run(void)
 {
-  tx_new_run();
+  switchboard_new_run();
   sample_reset();
   sample_interval_restart();
-  tx_restart_rows();
+  switchboard_restart_rows();
 }
 
 /* The settings' rate and range in force, and a new run. */
@@ -107,11 +100,11 @@ static void run_start(const command_t *cmd)
   if (cmd->has_arg)
     have = sets_taken();
   if (cmd->arg < have) {
-    tx_error(CMD_ERR_ARG, CMD_START, PSTR("count too small\0above n"));
+    switchboard_error(CMD_ERR_ARG, CMD_START, PSTR("count too small\0above n"));
     return;
   }
   adc_start(cmd->has_arg, cmd->arg - have);
-  tx_ok(PSTR("started"));
+  switchboard_ok(PSTR("started"));
 }
 
 /* Replies that share their ends: "rate=" is reset_rate_P + 6; "loaded"
@@ -121,33 +114,33 @@ static const char reset_rate_P[] PROGMEM = "reset rate=";
 static const char reset_range_P[] PROGMEM = "reset range=";
 static const char reset_tail_P[] PROGMEM = "\0 reset";
 
-/* tx_error()'s texts: what is wrong, what is allowed. */
+/* switchboard_error()'s texts: what is wrong, what is allowed. */
 static const char link_slow_P[] PROGMEM = "link too slow\0lower rate";
 
 /* `rate`, `mode`: refused when the link cannot carry the mode's output. */
 static void run_rate(uint32_t hz)
 {
   if (!vocab_rate_ok(hz)) {
-    tx_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported\0"));
+    switchboard_error(CMD_ERR_ARG, CMD_RATE, PSTR("unsupported\0"));
   } else if (!link_fits_here(settings.mode, (uint16_t)hz)) {
-    tx_error(CMD_ERR_STATE, CMD_RATE, link_slow_P);
+    switchboard_error(CMD_ERR_STATE, CMD_RATE, link_slow_P);
   } else {
     settings.rate_hz = (uint16_t)hz;
-    tx_ok_n(reset_rate_P + (apply_settings() ? 0 : 6), hz);
+    switchboard_ok_n(reset_rate_P + (apply_settings() ? 0 : 6), hz);
   }
 }
 
 static void run_mode(uint8_t mode)
 {
   if (!link_fits_here(mode, settings.rate_hz)) {
-    tx_error(CMD_ERR_STATE, CMD_MODE, link_slow_P);
+    switchboard_error(CMD_ERR_STATE, CMD_MODE, link_slow_P);
     return;
   }
   if (mode == MODE_RAW || mode == MODE_BINARY)
-    tx_abort_report(); /* no reports in these modes */
+    switchboard_abort_report(); /* no reports in these modes */
   settings.mode = mode;
-  tx_restart_rows();
-  tx_ok_word(PSTR("mode="), vocab_modes, mode);
+  switchboard_restart_rows();
+  switchboard_ok_word(PSTR("mode="), vocab_modes, mode);
 }
 
 static __attribute__((noinline)) void run_load(void)
@@ -158,10 +151,10 @@ static __attribute__((noinline)) void run_load(void)
   if (loaded != CFG_SAVED) {
     settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
-    tx_error(CMD_ERR_STATE, CMD_LOAD, loaded == CFG_INFEASIBLE ? link_slow_P : PSTR("nothing saved\0save first"));
+    switchboard_error(CMD_ERR_STATE, CMD_LOAD, loaded == CFG_INFEASIBLE ? link_slow_P : PSTR("nothing saved\0save first"));
     return;
   }
-  tx_ok_word(PSTR("loaded"), reset_tail_P, apply_settings());
+  switchboard_ok_word(PSTR("loaded"), reset_tail_P, apply_settings());
 }
 
 static void execute(const command_t *cmd)
@@ -169,11 +162,11 @@ static void execute(const command_t *cmd)
   switch (cmd->id) {
   case CMD_REPORT:
     if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
-      tx_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode\0allan or both"));
+      switchboard_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode\0allan or both"));
       break;
     }
-    tx_ok(0);
-    tx_report(); /* follows the reply */
+    switchboard_ok(0);
+    switchboard_report(); /* follows the reply */
     break;
   case CMD_RESET: {
     uint32_t count;
@@ -182,13 +175,13 @@ static void execute(const command_t *cmd)
     new_run();
     if (count)
       adc_limit(count); /* `start <count>` stops at n = count in the new run */
-    tx_ok(reset_tail_P + 2);
+    switchboard_ok(reset_tail_P + 2);
     break;
   }
   case CMD_STOP:
     adc_stop();
     sample_feed();
-    tx_ok_n(PSTR("stopped n="), sample_engine.n);
+    switchboard_ok_n(PSTR("stopped n="), sample_engine.n);
     break;
   case CMD_START:
     run_start(cmd);
@@ -198,10 +191,10 @@ static void execute(const command_t *cmd)
     break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
-      tx_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long\0"));
+      switchboard_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long\0"));
     } else {
       settings.interval_s = (uint16_t)cmd->arg;
-      tx_ok_n(PSTR("interval="), cmd->arg);
+      switchboard_ok_n(PSTR("interval="), cmd->arg);
     }
     break;
   case CMD_MODE:
@@ -209,7 +202,7 @@ static void execute(const command_t *cmd)
     break;
   case CMD_RANGE:
     settings.range = (uint8_t)cmd->arg;
-    tx_ok_word(reset_range_P + (apply_settings() ? 0 : 6), vocab_ranges, settings.range);
+    switchboard_ok_word(reset_range_P + (apply_settings() ? 0 : 6), vocab_ranges, settings.range);
     break;
   case CMD_SAVE:
     settings_save(); /* replied when the last byte is written */
@@ -219,81 +212,57 @@ static void execute(const command_t *cmd)
     break;
   case CMD_DEFAULTS:
     settings_defaults();
-    tx_ok_word(PSTR("defaults"), reset_tail_P, apply_settings());
+    switchboard_ok_word(PSTR("defaults"), reset_tail_P, apply_settings());
     break;
   case CMD_STATUS:
-    tx_status();
+    switchboard_status();
     break;
   case CMD_ECHO:
     if (cmd->has_arg)
       settings.echo = (uint8_t)cmd->arg;
-    tx_ok_word(PSTR("echo="), vocab_onoff, settings.echo);
+    switchboard_ok_word(PSTR("echo="), vocab_onoff, settings.echo);
     break;
   case CMD_UNITS: /* of the summary (report.c): the next report's */
     if (cmd->has_arg)
       settings.counts = (uint8_t)cmd->arg;
-    tx_ok_word(PSTR("units="), vocab_units, settings.counts);
+    switchboard_ok_word(PSTR("units="), vocab_units, settings.counts);
     break;
   default: /* CMD_HELP */
-    tx_help();
+    switchboard_help();
     break;
   }
 }
 
-/* Run the complete command line (replies: docs/protocol.md). */
+/* Run the waiting command line (replies: docs/protocol.md). */
 static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
   const char *text;
-  uint8_t err = cmdline_take(&text);
+  uint8_t err = console_take(&text);
   if (!err)
     err = command_parse(text, &cmd);
   if (err == CMD_ERR_ARG)
-    tx_error(err, cmd.id, PSTR("bad argument\0"));
+    switchboard_error(err, cmd.id, PSTR("bad argument\0"));
   else if (err)
-    tx_refuse(err, text);
+    switchboard_refuse(err, text);
   else if (cmd.id != CMD_NONE)
-    execute(&cmd); /* it may poll the receiver: the next line may begin */
+    execute(&cmd);
 }
 
-/* 1 when the echo is written as typed: mode allan, nothing else being
- * written.  Otherwise a line's echo goes out whole once it has ended, as
- * an output job just before its reply (a raw row waits for it as for a
- * reply, within the link budget: link.h). */
-__attribute__((noinline)) static uint8_t echo_live(void)
-{
-  return settings.mode == MODE_ALLAN && !tx_busy();
-}
-
-/* Echo the command line (cmdline.c assembles it, also between the
- * engine's channels).  The echo never holds a line back: as typed, it
- * takes what room the output has (a paste faster than the link may be
- * shown in part); whole, it is the job just before the reply, and input
- * waits only for that one step. */
-static __attribute__((noinline)) void read_line(void)
-{
-  cmdline_poll();
-  if (settings.echo && !lineedit_idle(&line)) {
-    if (echo_live()) {
-      lineedit_echo(&line, 0, uart_write, uart_tx_room());
-    } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
-      tx_echo(); /* a dropped or blank line's end */
-    }
-  }
-}
-
-/* Kept apart from read_line(), and small: a command may feed the engine
- * (stop, start, reset), the deepest stack there is. */
+/* Kept apart from the console's work, and small: a command may feed the
+ * engine (stop, start, reset), the deepest stack there is.  A complete
+ * line runs when the output is between two lines (and no EEPROM save is
+ * under way), so its reply never cuts into a line; the rest of its echo
+ * goes just before the reply. */
 static void poll_commands(void)
 {
-  read_line();
-  if (ready && tx_can_interject() && !settings_saving()) {
-    if (lineedit_ended(&line)) {
-      if (echo_live())
-        line.flags = (uint8_t)((line.flags & LINE_REFUSED) | LINE_RUN); /* no room: the rest is not shown */
-      else
-        tx_echo(); /* the reply follows it */
-    }
+  /* Typed characters are echoed as they come in mode allan, nothing else
+   * being written; otherwise a line's echo goes out whole just before its
+   * reply (a raw row waits for it as for a reply: link.h). */
+  console_poll(settings.mode == MODE_ALLAN && !switchboard_busy());
+  if (console_ready() && switchboard_can_interject() && !settings_saving()) {
+    if (settings.echo)
+      switchboard_echo(); /* the reply follows it */
     run_line();
   }
 }
@@ -301,17 +270,17 @@ static void poll_commands(void)
 void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
-  if (settings_saving() && tx_can_interject() && !lineedit_open(&line) && settings_poll())
-    tx_ok(vocab_sources); /* "saved": the first word, CFG_SAVED */
-  /* A complete line runs when the output is between two lines (and no
-   * EEPROM save is under way), so its reply never cuts into a line. */
+  if (settings_saving() && switchboard_can_interject() && console_close() && settings_poll())
+    switchboard_ok(vocab_sources); /* "saved": the first word, CFG_SAVED */
   poll_commands();
+  /* A periodic report never waits on a half-typed line: an echo line on
+   * the screen is ended first, and shown again after the report. */
   if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
-      !tx_busy() && !lineedit_open(&line) && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
-    tx_report(); /* its header restarts the interval */
+      !switchboard_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz && console_close())
+    switchboard_report(); /* its header restarts the interval */
 }
 
 uint8_t control_has_work(void)
 {
-  return uart_rx_pending() || settings_saving() || cmdline_ready();
+  return uart_rx_pending() || settings_saving() || console_ready();
 }

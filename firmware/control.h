@@ -2,7 +2,7 @@
  * control.h - the control room: command lines in from the UART, their
  * execution, the settings put in force (sample rate, accelerometer range
  * pins, output mode, report interval) and saved, and the periodic report.
- * Replies go out through the output scheduler (tx.h).
+ * Replies go out through the output scheduler (switchboard.h).
  */
 #ifndef CONTROL_H
 #define CONTROL_H

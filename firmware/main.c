@@ -10,42 +10,48 @@
 #include <avr/sleep.h>
 
 #include "adc.h"
+#include "clock.h"
+#include "console.h"
 #include "control.h"
 #include "reset.h"
 #include "sample.h"
 #include "stream.h"
-#include "tx.h"
+#include "switchboard.h"
 #include "uart.h"
 
 /* Work the loop can do right now; without any, it sleeps until an
  * interrupt (a tick, a conversion, a byte in or out) brings some. */
 static uint8_t has_work(void)
 {
-  uint8_t can_write = tx_can_write();
+  uint8_t can_write = switchboard_can_write();
   if (adc_pending() && (!stream_holds_oldest() || can_write))
     return 1; /* a set to feed to the engine, or its row or frame to write */
-  return control_has_work() || (tx_busy() && can_write);
+  return control_has_work() || (switchboard_busy() && can_write);
 }
 
 /* main never returns: OS_main spares it saving registers on the stack. */
 int main(void) __attribute__((OS_main));
 int main(void)
 {
-  tx_init(reset_cause());
+  switchboard_init(reset_cause());
   uart_init();
   adc_init();
+  clock_init();
   control_init();
   set_sleep_mode(SLEEP_MODE_IDLE);
   reset_watchdog_start();
   sei();
 
-  tx_boot();
+  switchboard_boot();
   adc_start(0, 0);
   for (;;) {
     reset_watchdog_kick();
-    if (adc_pending()) /* sample_feed's prologue is not for nothing */
-      sample_feed(); /* the stream holds a set until its row or frame is out */
-    tx_poll();
+    /* Sets to the engine (the stream holds a set until its row or frame is
+     * out), received bytes to the console between two of them.  No set
+     * waiting: sample_take's register saves are not paid for nothing. */
+    while (adc_pending() && sample_take())
+      console_receive();
+    switchboard_poll();
     control_poll();
     /* Sleep until the next interrupt unless there is work to do now. */
     cli();

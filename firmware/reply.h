@@ -2,7 +2,7 @@
  * reply.h - the replies to command lines (docs/protocol.md): `ok ...`,
  * `error:<code> <command>: <what>; <allowed>`, `ok status ...` and
  * `ok help <command> <arguments>` (one line per command).  A producer:
- * the output scheduler (tx.c) sets the reply up and writes it one step of
+ * the output scheduler (switchboard.c) sets the reply up and writes it one step of
  * at most UART_STEP_MAX characters at a time.
  */
 #ifndef REPLY_H
@@ -35,6 +35,12 @@ void reply_set_word(const char *text_P, const char *list_P, uint8_t n);
  * ("too long\0" "0..3600"); an empty second word (a text ending "\0")
  * lists the command's own arguments, as help shows them. */
 void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *text_P);
+
+/* ` <key>=<value>` (sep first) of setting k: run, mode, range, units (the
+ * value `counts`, 0 phys), cfg, fs, interval, link; the first
+ * SETTINGS_IN_HEADER are the report header's too.  At most 20 characters. */
+#define SETTINGS_IN_HEADER 5
+void reply_put_setting(uint8_t k, char sep, uint8_t counts);
 
 /* One step of the reply: REPLY_MORE (call again with step + 1),
  * REPLY_LINE_DONE (a line of a multi-line reply is out: the next starts

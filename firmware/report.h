@@ -1,7 +1,7 @@
 /*
  * report.h - the report lines (docs/protocol.md): the boot line B and a
  * report's header H, rows L, human summary S and end E.  A producer: the
- * output scheduler (tx.c) calls it one step at a time, each step writing at
+ * output scheduler (switchboard.c) calls it one step at a time, each step writing at
  * most UART_STEP_MAX characters through the proto sink, and decides when a
  * report starts, pauses for a reply and resumes.
  */

@@ -2,7 +2,7 @@
  * stream.h - the sample stream of modes raw, binary and both
  * (docs/protocol.md): a raw thesis row or a binary frame for each sample
  * set, and a count line `$C,<rows>,<drops>` every LINK_COUNT_EVERY of them.
- * A producer: the output scheduler (tx.c) gives it its turns; the main loop
+ * A producer: the output scheduler (switchboard.c) gives it its turns; the main loop
  * asks it whether the oldest set may be consumed yet.
  */
 #ifndef STREAM_H

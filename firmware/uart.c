@@ -34,17 +34,31 @@
 
 #define UART_TX_SIZE (UART_STEP_MAX + 1) /* one output step always fits */
 #define UART_RX_SIZE 8  /* a power of two */
-#if UART_TX_SIZE <= UART_STEP_MAX
-#  error "the TX ring must hold one whole output step"
+#if UART_TX_SIZE - 1 != UART_STEP_MAX
+#  error "the TX ring holds one whole output step, no more (console.c's echo counts on uart_tx_room() <= UART_STEP_MAX)"
 #endif
 
 static volatile uint8_t tx_buf[UART_TX_SIZE];
 static volatile uint8_t tx_head, tx_tail;
 static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
-/* Where bytes went missing: the ring index | UART_RX_SIZE; 0: none (so it
- * starts in .bss: no .data to copy at boot). */
+/* Where bytes went missing (0: nowhere; so it starts in .bss): the slot
+ * of the byte they went missing before (GAP_SLOT) | GAP_VALID, why
+ * (UART_READ_OVERRUN, UART_READ_RING, shifted down by 8), and GAP_MORE when
+ * another gap came before that one and is not yet read: every byte up to
+ * the slot then counts as following a gap (a line that lost any byte is
+ * refused whole, never glued to the next; a whole line between two gaps
+ * may be refused with them). */
 static volatile uint8_t rx_gap;
+#define GAP_SLOT (UART_RX_SIZE - 1u)
+#define GAP_DOR (UART_READ_OVERRUN >> 8) /* UCSR0A's DOR0 bit, as read */
+#define GAP_RING (UART_READ_RING >> 8)
+#define GAP_MORE 0x20u
+#define GAP_VALID 0x80u
+#define GAP_WHY (GAP_DOR | GAP_RING)
+#if GAP_DOR != (1 << DOR0) || GAP_SLOT >= GAP_DOR
+#  error "rx_gap's layout: the slot below DOR0's bit, which is the overrun's"
+#endif
 
 static uint8_t tx_next(uint8_t i)
 {
@@ -84,17 +98,25 @@ uint8_t uart_tx_room(void)
 
 int16_t uart_read(void)
 {
-  uint8_t c, t = rx_tail;
-  int16_t gap = 0;
-  if (rx_head == t)
-    return -1;
-  if ((t | UART_RX_SIZE) == rx_gap) { /* bytes were lost just before this one */
-    rx_gap = 0;
-    gap = UART_READ_GAP;
+  uint8_t c = 0, t = rx_tail, g, hi = 0; /* hi: the UART_READ_* bits, >> 8 */
+  ATOMIC_BLOCK(ATOMIC_FORCEON) {
+    g = rx_gap;
+    if ((uint8_t)((g ^ t) & (GAP_VALID | GAP_SLOT)) == GAP_VALID) { /* bytes were lost just before this one */
+      rx_gap = 0;
+      hi = (uint8_t)((g & GAP_WHY) | (UART_READ_GAP >> 8));
+    } else if (g & GAP_MORE) {
+      hi = UART_READ_GAP >> 8; /* an earlier gap, where exactly is not known */
+    }
   }
-  c = rx_buf[t];
-  rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
-  return (int16_t)(gap | c);
+  if (rx_head == t) { /* nothing after the gap yet: the line being received lost bytes */
+    if (!hi)
+      return -1;
+    hi |= UART_READ_EMPTY >> 8;
+  } else {
+    c = rx_buf[t];
+    rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
+  }
+  return (int16_t)((uint16_t)hi << 8 | c);
 }
 
 uint8_t uart_rx_pending(void)
@@ -114,13 +136,22 @@ ISR(USART_UDRE_vect)
 
 ISR(USART_RX_vect)
 {
+  uint8_t h = rx_head;
+  uint8_t why = UCSR0A & (1 << DOR0); /* before UDR0: bytes before this one were lost */
   uint8_t c = UDR0;
-  uint8_t next = (uint8_t)((rx_head + 1u) & (UART_RX_SIZE - 1u));
+  uint8_t next = (uint8_t)((h + 1u) & (UART_RX_SIZE - 1u));
   if (next == rx_tail) {
-    if (!rx_gap)
-      rx_gap = (uint8_t)(rx_head | UART_RX_SIZE); /* the next byte stored there follows a gap */
-    return;
+    why |= GAP_RING; /* the next byte stored in slot h follows a gap */
+  } else {
+    rx_buf[h] = c;
+    rx_head = next;
   }
-  rx_buf[rx_head] = c;
-  rx_head = next;
+  if (why) {
+    uint8_t g = rx_gap, other = g ^ h; /* 8-bit steps: no int promotion, fewer registers saved */
+    other &= GAP_SLOT;
+    if (g && other)
+      why |= GAP_MORE;
+    g &= (uint8_t)~GAP_SLOT;
+    rx_gap = g | why | GAP_VALID | h;
+  }
 }
