@@ -27,6 +27,9 @@
 #                  level (default build: 15 levels, 48-bit from level 11);
 #                  inputs start empty or from snapshots near the high levels
 #   fuzz_allan20   the same with -DALLAN_LEVELS=20 -DALLAN_ACC48_FROM=0
+#   fuzz_line      the whole device natively (tests/native's fakes) on byte
+#                  streams with mode changes, Ctrl-C/Esc and overruns: every
+#                  line run is one clean line as sent, in order; never deaf
 # Each run works on a copy of the corpus in $(BUILD)/fuzz/corpus-<target>,
 # which keeps what it found for the next `make fuzz` (fuzz-smoke starts
 # from the repo's corpus alone each time, in smoke-corpus-<target>); the
@@ -60,14 +63,23 @@ FUZZ_DIR := tests/fuzz
 FUZZ_OUT := $(BUILD)/fuzz
 FUZZ_CFLAGS := -std=gnu99 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
                -Wall -Wextra -Werror -I $(FW_DIR) -I $(FUZZ_DIR)
-FUZZ_DEPS := $(wildcard $(FW_DIR)/*.h) $(FUZZ_DIR)/fuzz_util.h $(FUZZ_DIR)/fuzz.mk
+FUZZ_DEPS := $(wildcard $(FW_DIR)/*.h) $(FUZZ_DIR)/fuzz_util.h $(FUZZ_DIR)/fuzz.mk \
+             $(FUZZ_DIR)/fuzz_line_state.h tests/native/fixture.h tests/native/fake_device.c
 
-FUZZ_TARGETS := fuzz_command fuzz_cmdline fuzz_proto fuzz_fmt fuzz_allan fuzz_allan20
+FUZZ_TARGETS := fuzz_command fuzz_cmdline fuzz_proto fuzz_fmt fuzz_allan fuzz_allan20 fuzz_line
+# fuzz_line fails on today's receiver within seconds (its corpus keeps the
+# input, glue-after-overrun: an overrun while an earlier one's mark is
+# still in the RX ring is merged into it, so a glued line runs): it joins
+# the smoke run once the new line discipline fixes that.
+FUZZ_SMOKE_TARGETS := $(filter-out fuzz_line,$(FUZZ_TARGETS))
 
 # Per target: firmware sources, extra flags, seed directory, input size.
 FUZZ_SRC_fuzz_command := command.c vocab.c
 # The receiver with the parser, on whole byte streams (NULs and all bytes).
 FUZZ_SRC_fuzz_cmdline := cmdline.c lineedit.c command.c vocab.c
+# The whole device with tests/native's fakes (included by fuzz_line.c).
+FUZZ_SRC_fuzz_line := tx.c report.c reply.c stream.c control.c cmdline.c lineedit.c sample.c settings.c \
+                      command.c vocab.c link.c proto.c crc.c fmt.c allan.c units.c
 FUZZ_SRC_fuzz_proto := proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_fmt := fmt.c
 FUZZ_SRC_fuzz_allan := allan.c
@@ -78,8 +90,11 @@ FUZZ_SRC_fuzz_allan20 := allan.c
 FUZZ_XFLAGS_fuzz_allan := -O2 -fno-sanitize-coverage=trace-cmp
 FUZZ_XFLAGS_fuzz_allan20 := $(FUZZ_XFLAGS_fuzz_allan) -DALLAN_LEVELS=20 -DALLAN_ACC48_FROM=0
 FUZZ_MAIN_fuzz_allan20 := fuzz_allan
+FUZZ_XFLAGS_fuzz_line := -I tests/native -isystem tests/native/fake -DF_CPU=10000000UL -DBAUD=115200UL \
+                         -DBOARD_PROBES=0 -include $(FUZZ_DIR)/fuzz_line_state.h -Wl,--wrap=command_parse
 FUZZ_MAX_LEN_fuzz_command = $(FUZZ_COMMAND_MAX_LEN)
 FUZZ_MAX_LEN_fuzz_cmdline := 512
+FUZZ_MAX_LEN_fuzz_line := 512
 FUZZ_MAX_LEN_fuzz_proto := 1024
 FUZZ_MAX_LEN_fuzz_fmt := 32
 FUZZ_MAX_LEN_fuzz_allan := 1024
@@ -90,7 +105,7 @@ fuzz_seeds = $(FUZZ_DIR)/corpus/$(1)
 
 FUZZ_BINS := $(addprefix $(FUZZ_OUT)/,$(FUZZ_TARGETS))
 FUZZ_RUNS := $(addprefix fuzz-run-,$(FUZZ_TARGETS))
-FUZZ_SMOKES := $(addprefix fuzz-smoke-,$(FUZZ_TARGETS))
+FUZZ_SMOKES := $(addprefix fuzz-smoke-,$(FUZZ_SMOKE_TARGETS))
 
 .PHONY: fuzz fuzz-smoke fuzz-build fuzz-corpus fuzz-clean $(FUZZ_RUNS) $(FUZZ_SMOKES)
 
@@ -100,7 +115,7 @@ define fuzz_bin_rule
 $(FUZZ_OUT)/$(1): $(call fuzz_main,$(1)) $(addprefix $(FW_DIR)/,$(FUZZ_SRC_$(1))) $(FUZZ_DEPS)
 	@test -n "$(FUZZ_CC)" || { echo "fuzz: no clang-14 or clang (apt-get install clang-14 libclang-rt-14-dev)"; exit 1; }
 	@mkdir -p $(FUZZ_OUT)
-	$(FUZZ_CC) $(FUZZ_CFLAGS) $(FUZZ_XFLAGS_$(1)) $$(filter %.c,$$^) -lm -o $$@
+	$(FUZZ_CC) $(FUZZ_CFLAGS) $(FUZZ_XFLAGS_$(1)) $$(filter-out tests/native/%,$$(filter %.c,$$^)) -lm -o $$@
 endef
 $(foreach t,$(FUZZ_TARGETS),$(eval $(call fuzz_bin_rule,$(t))))
 
@@ -128,10 +143,10 @@ define fuzz_run
 	echo "$$t: ok"
 endef
 
-# $(call fuzz_table,corpus dir prefix): the runs' rows under one header.
+# $(call fuzz_table,corpus dir prefix,targets): the runs' rows under one header.
 define fuzz_table
 	@printf '%-13s %6s %10s %8s %6s %7s %7s\n' target secs execs execs/s cov ft corpus
-	@cat $(foreach t,$(FUZZ_TARGETS),$(FUZZ_OUT)/$(1)$(t).row)
+	@cat $(foreach t,$(2),$(FUZZ_OUT)/$(1)$(t).row)
 endef
 
 $(FUZZ_RUNS): fuzz-run-%: $(FUZZ_OUT)/%
@@ -141,10 +156,10 @@ $(FUZZ_SMOKES): fuzz-smoke-%: $(FUZZ_OUT)/%
 	$(call fuzz_run,$*,$(FUZZ_SMOKE_SECONDS),smoke-corpus-$*,1)
 
 fuzz: $(FUZZ_RUNS)
-	$(call fuzz_table,corpus-)
+	$(call fuzz_table,corpus-,$(FUZZ_TARGETS))
 
 fuzz-smoke: $(FUZZ_SMOKES)
-	$(call fuzz_table,smoke-corpus-)
+	$(call fuzz_table,smoke-corpus-,$(FUZZ_SMOKE_TARGETS))
 
 # -merge=1 into an empty directory keeps the fewest inputs that give every
 # feature of the repo's corpus and of what `make fuzz` found.

@@ -1,0 +1,294 @@
+/*
+ * fuzz_line - the device's line discipline end to end: the whole firmware
+ * natively (the real receiver, line editor, control room, scheduler,
+ * producers, settings and engine, with the fakes of tests/native: UART at
+ * 115200 baud through the device's 8-byte ring, ADC, EEPROM, clock), fed
+ * arbitrary byte streams interleaved with mode and echo changes, pauses,
+ * Ctrl-C/Esc and UART overruns (bytes lost, the next one flagged, as the
+ * AVR's DOR flags it).
+ *
+ * What the device is about to run is what it hands command_parse(): the
+ * link-time --wrap of that function records every text.  Checked against
+ * the stream as sent (docs/protocol.md, "Commands"):
+ *   - every text parsed is a clean line of the stream, and they come in
+ *     the stream's order, none twice: a line is the bytes after a CR, LF,
+ *     Ctrl-C or Esc up to the next CR or LF, after BS/DEL editing; it is
+ *     clean when none of its bytes (its end included) was lost in an
+ *     overrun, it holds only printable ASCII and TAB, and it never grew
+ *     past COMMAND_LINE_MAX.  So a line that lost bytes, one with a bad
+ *     byte or one cut by Ctrl-C/Esc is never run, nor glued to another;
+ *   - the device is never left deaf: after the stream, a quiet moment
+ *     (PROBE_QUIET_MS), Ctrl-C, another, then a clean `status` line, up to
+ *     PROBE_TRIES times a second apart: whatever mode the stream left it
+ *     in, one of them is parsed.
+ *
+ * The firmware's globals are put back to their power-up image before each
+ * input (they live in sections of their own: fuzz_line_state.h), so that
+ * an input gives the same run alone or after any other.
+ *
+ * Input: bytes to send, except 0xFF, which starts an operation o (the next
+ * byte), its argument a = o >> 3:
+ *   o & 7 = 0  send command number a of COMMANDS (mode, echo, rate, ...) and CR
+ *           1  pause (a + 1) * 8 ms, the device running
+ *           2  an overrun: the next a % 8 + 1 bytes are lost on the way in
+ *           3  send the byte 0xFF itself
+ *           else pause a ms.
+ */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The fakes, their state with the firmware's (reset before every input). */
+#include "../native/fake_device.c"
+
+#pragma clang section bss = "" data = ""
+
+#include "command.h"
+#include "fuzz_util.h"
+#include "settings.h"
+
+/* An unusual spelling of a harmless command (the parser ignores case and
+ * trailing blanks), so that the stream itself hardly ever sends it. */
+#define PROBE "Status\t"
+#define PROBE_QUIET_MS 100u
+#define PROBE_TRIES 3
+#define MAX_LINES 4096
+
+static const char *const COMMANDS[] = {
+  "mode allan", "mode raw", "mode binary", "mode both", "echo on", "echo off",
+  "rate 1500", "rate 100", "rate 50", "interval 1", "interval 0", "stop",
+  "start", "start 20", "report", "status", "help", "units counts",
+  "units phys", "reset", "range 6",
+};
+#define NCOMMANDS (sizeof COMMANDS / sizeof COMMANDS[0])
+
+/* ---- what the device parsed ---- */
+static char parsed[MAX_LINES][COMMAND_LINE_MAX + 1];
+static size_t nparsed;
+static int parse_overflow;
+
+uint8_t __real_command_parse(const char *line, command_t *out);
+uint8_t __wrap_command_parse(const char *line, command_t *out)
+{
+  size_t n = strlen(line);
+  FUZZ_CHECK(n <= COMMAND_LINE_MAX, "a line of %zu characters was parsed: \"%s\"", n, line);
+  if (nparsed < MAX_LINES)
+    memcpy(parsed[nparsed++], line, n + 1);
+  else
+    parse_overflow = 1;
+  return __real_command_parse(line, out);
+}
+
+/* ---- the stream as sent, and the model's clean lines ---- */
+static uint8_t sent[1 << 16];
+static uint8_t lost[1 << 16]; /* 1: this byte never reached the device */
+static size_t nsent;
+
+typedef struct {
+  char text[COMMAND_LINE_MAX + 1];
+  size_t end; /* index of its CR or LF in sent[] */
+} line_t;
+static line_t model[MAX_LINES];
+static size_t nmodel;
+
+static size_t build_model(void)
+{
+  char text[COMMAND_LINE_MAX + 1];
+  size_t len = 0, count = 0, i;
+  int dirty = 0;
+  for (i = 0; i < nsent; i++) {
+    uint8_t c = sent[i];
+    /* a loss right before or at a byte spoils the line that byte is in */
+    if (lost[i] || (i && lost[i - 1]))
+      dirty = 1;
+    if (lost[i])
+      continue;
+    if (c == '\r' || c == '\n') {
+      if (!dirty && len && count < MAX_LINES) {
+        memcpy(model[count].text, text, len);
+        model[count].text[len] = 0;
+        model[count].end = i;
+        count++;
+      }
+      len = 0;
+      dirty = 0;
+    } else if (c == 0x03 || c == 0x1B) {
+      len = 0;
+      dirty = 0;
+    } else if (c == 0x08 || c == 0x7F) {
+      if (len)
+        len--;
+    } else if ((c < 0x20 && c != '\t') || c > 0x7E || len >= COMMAND_LINE_MAX) {
+      dirty = 1;
+    } else {
+      text[len++] = (char)c;
+    }
+  }
+  return count;
+}
+
+/* ---- the firmware's power-up image ---- */
+extern char __start_fwstate_bss[], __stop_fwstate_bss[];
+extern char __start_fwstate_data[], __stop_fwstate_data[];
+static char *image_bss, *image_data;
+
+/* A plain word copy: ASan's memcpy would object to the globals' redzones,
+ * which lie inside the sections too. */
+__attribute__((no_sanitize("address", "coverage"))) static void copy_words(char *dst, const char *src, size_t n)
+{
+  volatile uint64_t *d = (volatile uint64_t *)dst;
+  const volatile uint64_t *s = (const volatile uint64_t *)src;
+  for (size_t i = 0; i < n / 8; i++)
+    d[i] = s[i];
+  for (size_t i = n & ~(size_t)7; i < n; i++)
+    ((volatile char *)dst)[i] = src[i];
+}
+
+static void image_save(void)
+{
+  size_t nb = (size_t)(__stop_fwstate_bss - __start_fwstate_bss);
+  size_t nd = (size_t)(__stop_fwstate_data - __start_fwstate_data);
+  image_bss = malloc(nb + 8);
+  image_data = malloc(nd + 8);
+  copy_words(image_bss, __start_fwstate_bss, nb);
+  copy_words(image_data, __start_fwstate_data, nd);
+}
+
+static void image_restore(void)
+{
+  free(rx_queue); /* the fake's send queue: a heap block of the last input */
+  copy_words(__start_fwstate_bss, image_bss, (size_t)(__stop_fwstate_bss - __start_fwstate_bss));
+  copy_words(__start_fwstate_data, image_data, (size_t)(__stop_fwstate_data - __start_fwstate_data));
+}
+
+/* ---- driving the device ---- */
+/* Send what is queued in pending[] and let it all arrive, plus `extra_us`. */
+static uint8_t pending[1 << 16];
+static size_t npending;
+
+static void flush(uint64_t extra_us)
+{
+  if (npending) {
+    fx_send((const char *)pending, npending);
+    fx_run_us(npending * (BYTE_NS / 1000u + 1u));
+    npending = 0;
+  }
+  if (extra_us)
+    fx_run_us(extra_us);
+}
+
+static void put(uint8_t c)
+{
+  if (nsent < sizeof sent && npending < sizeof pending) {
+    sent[nsent] = c;
+    lost[nsent++] = 0;
+    pending[npending++] = c;
+  }
+}
+
+/* An overrun: n bytes on the wire never land; the next one that does is
+ * flagged (the fake's own marking of a full ring, rx_gap). */
+static void overrun(const uint8_t **p, const uint8_t *end, unsigned n)
+{
+  flush(0);
+  while (n-- && *p < end && nsent < sizeof sent) {
+    uint8_t c = *(*p)++;
+    if (c == 0xFF)
+      break;
+    sent[nsent] = c;
+    lost[nsent++] = 1;
+    fx_run_us(BYTE_NS / 1000u + 1u); /* its time on the wire passes */
+  }
+  if (rx_gap < 0)
+    rx_gap = (int)rx_head;
+}
+
+int LLVMFuzzerInitialize(int *argc, char ***argv)
+{
+  (void)argc;
+  (void)argv;
+  memset(fake_eeprom, 0xFF, sizeof fake_eeprom); /* blank: default settings */
+  fx_boot(0x01);                               /* power-on */
+  fx_run_us(50000);                            /* its boot line out */
+  image_save();
+  return 0;
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+  const uint8_t *p = data, *end = data + size;
+  size_t j = 0, k, probe_at;
+
+  image_restore();
+  nsent = npending = nparsed = 0;
+  parse_overflow = 0;
+  while (p < end) {
+    uint8_t c = *p++;
+    if (c != 0xFF) {
+      put(c);
+      continue;
+    }
+    uint8_t o = p < end ? *p++ : 0, a = o >> 3;
+    switch (o & 7) {
+    case 0:
+      for (const char *s = COMMANDS[a % NCOMMANDS]; *s; s++)
+        put((uint8_t)*s);
+      put('\r');
+      break;
+    case 1:
+      flush((a + 1u) * 8000u);
+      break;
+    case 2:
+      overrun(&p, end, a % 8u + 1u);
+      break;
+    case 3:
+      put(0xFF);
+      break;
+    default:
+      flush(a * 1000u);
+      break;
+    }
+  }
+  /* The probe, as a patient user sends it: a quiet moment, Ctrl-C to drop
+   * whatever line is open, another quiet moment, a clean line; again if
+   * it did not run within a second (its bytes may have been lost: the
+   * device is allowed to refuse such a line, not to stay deaf). */
+  for (int attempt = 0; attempt < PROBE_TRIES; attempt++) {
+    size_t before = nparsed;
+    flush(PROBE_QUIET_MS * 1000u);
+    put(0x03);
+    flush(PROBE_QUIET_MS * 1000u);
+    for (const char *s = PROBE; *s; s++)
+      put((uint8_t)*s);
+    probe_at = nsent;
+    put('\r');
+    flush(0);
+    for (k = 0; k < 1000u && !(nparsed > before && strcmp(parsed[nparsed - 1], PROBE) == 0); k++)
+      fx_run_us(1000);
+    if (k < 1000u)
+      break;
+  }
+
+  nmodel = build_model();
+  if (getenv("FUZZ_LINE_TRACE")) { /* replaying one input: what happened */
+    for (k = 0; k < nmodel; k++)
+      fprintf(stderr, "model %zu: \"%s\"\n", k, model[k].text);
+    for (k = 0; k < nparsed; k++)
+      fprintf(stderr, "parsed %zu: \"%s\"\n", k, parsed[k]);
+    fprintf(stderr, "device time %llu ms; output:\n%s\n", (unsigned long long)(fx_now_us() / 1000u), fx_out);
+  }
+  FUZZ_CHECK(!parse_overflow, "more than %d lines parsed", MAX_LINES);
+  for (k = 0; k < nparsed; k++) {
+    const char *t = parsed[k];
+    if (!*t)
+      continue; /* an empty text runs nothing */
+    while (j < nmodel && strcmp(model[j].text, t) != 0)
+      j++;
+    FUZZ_CHECK(j < nmodel, "parsed \"%s\" (#%zu), not a clean line sent after the last one run", t, k);
+    j++;
+  }
+  FUZZ_CHECK(nmodel && model[nmodel - 1].end == probe_at && j == nmodel,
+             "the probe line \"" PROBE "\" was not run, sent %d times (mode %u, echo %u)", PROBE_TRIES,
+             settings.mode, settings.echo);
+  return 0;
+}
