@@ -18,8 +18,8 @@
 # Targets (tests/fuzz/<target>.c; corpus in tests/fuzz/corpus/<target>/):
 #   fuzz_command   command_parse() on arbitrary lines, up to FUZZ_COMMAND_MAX_LEN
 #                  bytes: result codes, blank lines, case, blanks, determinism
-#   fuzz_cmdline   the receiver and line editor with the parser, on whole
-#                  byte streams, against a model of the protocol's lines
+#   fuzz_cmdline   the console's receiver and line editor (echo off) with the
+#                  parser, on whole byte streams, against a model of the lines
 #   fuzz_proto     proto_* framing, crc16, fmt_u32/fmt_hex vs an independent
 #                  decoder, CRC and snprintf; corrupted lines never accepted
 #   fuzz_fmt       fmt_adev/fmt_tau/fmt_sig3: 3 significant digits vs double
@@ -67,18 +67,15 @@ FUZZ_DEPS := $(wildcard $(FW_DIR)/*.h) $(FUZZ_DIR)/fuzz_util.h $(FUZZ_DIR)/fuzz.
              $(FUZZ_DIR)/fuzz_line_state.h tests/native/fixture.h tests/native/fake_device.c
 
 FUZZ_TARGETS := fuzz_command fuzz_cmdline fuzz_proto fuzz_fmt fuzz_allan fuzz_allan20 fuzz_line
-# fuzz_line fails on today's receiver within seconds (its corpus keeps the
-# input, glue-after-overrun: an overrun while an earlier one's mark is
-# still in the RX ring is merged into it, so a glued line runs): it joins
-# the smoke run once the new line discipline fixes that.
-FUZZ_SMOKE_TARGETS := $(filter-out fuzz_line,$(FUZZ_TARGETS))
+FUZZ_SMOKE_TARGETS := $(FUZZ_TARGETS)
 
 # Per target: firmware sources, extra flags, seed directory, input size.
 FUZZ_SRC_fuzz_command := command.c vocab.c
-# The receiver with the parser, on whole byte streams (NULs and all bytes).
-FUZZ_SRC_fuzz_cmdline := cmdline.c lineedit.c command.c vocab.c
+# The console's receiver with the parser, on whole byte streams (NULs and all bytes).
+FUZZ_SRC_fuzz_cmdline := console.c command.c vocab.c
+FUZZ_XFLAGS_fuzz_cmdline := -DF_CPU=10000000UL
 # The whole device with tests/native's fakes (included by fuzz_line.c).
-FUZZ_SRC_fuzz_line := tx.c report.c reply.c stream.c control.c cmdline.c lineedit.c sample.c settings.c \
+FUZZ_SRC_fuzz_line := tx.c report.c reply.c stream.c control.c console.c sample.c settings.c \
                       command.c vocab.c link.c proto.c crc.c fmt.c allan.c units.c
 FUZZ_SRC_fuzz_proto := proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_fmt := fmt.c

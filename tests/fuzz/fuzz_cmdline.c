@@ -1,6 +1,6 @@
 /*
- * fuzz_cmdline - the command-line receiver (firmware/cmdline.c) and parser
- * on arbitrary byte streams: NULs, controls, 8-bit bytes, BS/DEL, CR/LF,
+ * fuzz_cmdline - the console's line receiver (firmware/console.c, echo off)
+ * and the parser on arbitrary byte streams: NULs, controls, 8-bit bytes, BS/DEL, CR/LF,
  * and a receive gap, all included.  Checked against a model written here
  * from docs/protocol.md ("Commands"):
  *   - lines end at CR or LF; blank ones give nothing;
@@ -10,7 +10,10 @@
  *     (error:3), one with a receive gap too (error:5, which outranks);
  *     the first reason found is the one given otherwise;
  *   - any other line reaches the parser exactly as the model assembled it
- *     (nothing after a NUL is ever parsed: such a line never gets there).
+ *     (nothing after a NUL is ever parsed: such a line never gets there);
+ *   - echo off, nothing is written.
+ * The clock stands still here (no line times out): fuzz_line has the rest
+ * of the console, echo and timeout included, in the whole device.
  * Input: byte 0 chooses a gap (odd: a gap before byte byte0/2 of the
  * stream), the rest is the stream.
  */
@@ -18,8 +21,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cmdline.h"
+#include "clock.h"
 #include "command.h"
+#include "console.h"
 #include "fuzz_util.h"
 #include "settings.h"
 #include "uart.h"
@@ -29,13 +33,33 @@ settings_t settings; /* echo off: the receiver alone (no output) */
 static const uint8_t *stream;
 static size_t stream_len, stream_pos, gap_at = (size_t)-1;
 
+static int gap_taken;
+
 int16_t uart_read(void)
 {
-  int16_t gap;
+  int16_t gap = 0;
+  if (stream_pos == gap_at && !gap_taken) {
+    gap_taken = 1;
+    gap = UART_READ_GAP | UART_READ_RING;
+  }
   if (stream_pos >= stream_len)
-    return -1;
-  gap = stream_pos == gap_at ? UART_READ_GAP : 0;
+    return gap ? (int16_t)(gap | UART_READ_EMPTY) : -1; /* a gap with no byte after it */
   return (int16_t)(gap | stream[stream_pos++]);
+}
+
+void uart_write(uint8_t c)
+{
+  FUZZ_CHECK(0, "echo off, yet the console wrote 0x%02X", c);
+}
+
+uint8_t uart_tx_room(void)
+{
+  return 0;
+}
+
+uint8_t clock_now(void)
+{
+  return 0;
 }
 
 uint8_t uart_rx_pending(void)
@@ -110,20 +134,22 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     stream_len = 1;
     stream_pos = 0;
     gap_at = (size_t)-1;
-    cmdline_poll();
-    if (cmdline_ready())
-      cmdline_take(&t);
+    gap_taken = 0;
+    console_receive();
+    if (console_ready())
+      console_take(&t);
     stream = save;
     stream_len = save_len;
     stream_pos = 0;
     gap_at = save_gap;
+    gap_taken = 0;
   }
-  while (stream_pos < stream_len || cmdline_ready()) {
-    cmdline_poll();
-    if (!cmdline_ready())
+  while (stream_pos < stream_len || console_ready()) {
+    console_receive();
+    if (!console_ready())
       continue;
     const char *text;
-    uint8_t code = cmdline_take(&text);
+    uint8_t code = console_take(&text);
     FUZZ_CHECK(k < count, "a line the model does not have (code %u)", code);
     FUZZ_CHECK(code == ev[k].code, "line %zu: code %u, model %u", k, code, ev[k].code);
     if (!code) {

@@ -1,7 +1,8 @@
 /*
  * fuzz_line - the device's line discipline end to end: the whole firmware
- * natively (the real receiver, line editor, control room, scheduler,
- * producers, settings and engine, with the fakes of tests/native: UART at
+ * natively (the real console: receiver, line editor, echo, timeout; the
+ * control room, scheduler, producers, settings and engine), with the fakes
+ * of tests/native (UART at
  * 115200 baud through the device's 8-byte ring, ADC, EEPROM, clock), fed
  * arbitrary byte streams interleaved with mode and echo changes, pauses,
  * Ctrl-C/Esc and UART overruns (bytes lost, the next one flagged, as the
@@ -14,8 +15,10 @@
  *     the stream's order, none twice: a line is the bytes after a CR, LF,
  *     Ctrl-C or Esc up to the next CR or LF, after BS/DEL editing; it is
  *     clean when none of its bytes (its end included) was lost in an
- *     overrun, it holds only printable ASCII and TAB, and it never grew
- *     past COMMAND_LINE_MAX.  So a line that lost bytes, one with a bad
+ *     overrun, nor the bytes right before its first, it holds only
+ *     printable ASCII and TAB, and it never grew past COMMAND_LINE_MAX;
+ *     a silence past CONSOLE_TIMEOUT_MS ends an open line (refused) and
+ *     what follows starts a new one.  So a line that lost bytes, one with a bad
  *     byte or one cut by Ctrl-C/Esc is never run, nor glued to another;
  *   - Ctrl-C before a command works in every mode: after the stream and a
  *     quiet moment (PROBE_QUIET_MS), Ctrl-C and a clean `status` line back
@@ -34,7 +37,10 @@
  *           1  pause (a + 1) * 8 ms, the device running
  *           2  an overrun: the next a % 8 + 1 bytes are lost on the way in
  *           3  send the byte 0xFF itself
+ *           4  pause a % 4 + 1 seconds (an open line times out)
  *           else pause a ms.
+ * Silences are kept 100 ms clear of the line's timeout either way, where
+ * the device's 26 ms clock could go either way.
  */
 #include <stdint.h>
 #include <stdlib.h>
@@ -45,8 +51,9 @@
 
 #pragma clang section bss = "" data = ""
 
-#include "cmdline.h"
 #include "command.h"
+#include "config.h"
+#include "console.h"
 #include "fuzz_util.h"
 #include "settings.h"
 
@@ -85,6 +92,7 @@ uint8_t __wrap_command_parse(const char *line, command_t *out)
 /* ---- the stream as sent, and the model's clean lines ---- */
 static uint8_t sent[1 << 16];
 static uint8_t lost[1 << 16]; /* 1: this byte never reached the device */
+static uint64_t arrival[1 << 16]; /* when its last bit was on the wire (ns) */
 static size_t nsent;
 
 typedef struct {
@@ -101,6 +109,12 @@ static size_t build_model(void)
   int dirty = 0;
   for (i = 0; i < nsent; i++) {
     uint8_t c = sent[i];
+    /* an open line times out in a silence past CONSOLE_TIMEOUT_MS (none is
+     * near it: flush()): what comes after starts a new line */
+    if (i && arrival[i] - arrival[i - 1] > CONSOLE_TIMEOUT_MS * 1000000ull) {
+      len = 0;
+      dirty = 0;
+    }
     /* a loss right before or at a byte spoils the line that byte is in */
     if (lost[i] || (i && lost[i - 1]))
       dirty = 1;
@@ -159,7 +173,8 @@ static void image_save(void)
 
 static void image_restore(void)
 {
-  free(rx_queue); /* the fake's send queue: a heap block of the last input */
+  free(rx_queue); /* the fake's send queue: heap blocks of the last input */
+  free(rx_lostq);
   copy_words(__start_fwstate_bss, image_bss, (size_t)(__stop_fwstate_bss - __start_fwstate_bss));
   copy_words(__start_fwstate_data, image_data, (size_t)(__stop_fwstate_data - __start_fwstate_data));
 }
@@ -173,7 +188,7 @@ static void image_restore(void)
 static int device_idle(void)
 {
   return !tx_fill && rx_head == rx_tail && rx_queue_pos >= rx_queue_len && !adc_pending() &&
-         !tx_busy() && !settings_saving() && !cmdline_ready();
+         !tx_busy() && !settings_saving() && !console_ready();
 }
 
 static void run_us(uint64_t us)
@@ -194,21 +209,48 @@ static void run_us(uint64_t us)
         next = end;
     }
     advance_to(next);
-    sample_feed(); /* main.c's loop body */
+    while (sample_take()) /* main.c's loop body */
+      console_receive();
     tx_poll();
     control_poll();
     idle = device_idle() ? idle + 1 : 0;
   }
 }
 
-/* Send what is queued in pending[] and let it all arrive, plus `extra_us`. */
-static uint8_t pending[1 << 16];
+/* What is queued for the wire: bytes and whether the USART loses them. */
+static uint8_t pending[1 << 16], pending_lost[1 << 16];
 static size_t npending;
+static uint64_t last_arrival_ns; /* of the last byte sent */
 
+/* The line's timeout is measured in Timer0 ticks (26 ms): silences within
+ * TIMEOUT_MARGIN_MS of it could go either way, so none is made. */
+#define TIMEOUT_MARGIN_MS 100u
+
+/* Send what is queued and let it all arrive, plus `extra_us`. */
 static void flush(uint64_t extra_us)
 {
+  size_t i = 0, first = nsent - npending;
   if (npending) {
-    fx_send((const char *)pending, npending);
+    /* the first byte's silence, kept clear of the timeout */
+    uint64_t at = now_ns + BYTE_NS, silence = at - last_arrival_ns;
+    uint64_t lo = (CONSOLE_TIMEOUT_MS - TIMEOUT_MARGIN_MS) * 1000000ull;
+    uint64_t hi = (CONSOLE_TIMEOUT_MS + TIMEOUT_MARGIN_MS) * 1000000ull;
+    if (nsent > npending && silence >= lo && silence <= hi)
+      run_us((hi - silence) / 1000u + 1u);
+  }
+  while (i < npending) {
+    size_t n = 1;
+    while (i + n < npending && pending_lost[i + n] == pending_lost[i])
+      n++;
+    (pending_lost[i] ? fx_send_overrun : fx_send)((const char *)pending + i, n);
+    i += n;
+  }
+  if (npending) {
+    /* the fake's schedule: back to back from rx_next_ns */
+    uint64_t t = rx_next_ns + (uint64_t)(rx_queue_len - rx_queue_pos - npending) * BYTE_NS;
+    for (i = 0; i < npending; i++)
+      arrival[first + i] = t + i * BYTE_NS;
+    last_arrival_ns = arrival[first + npending - 1];
     run_us(npending * (BYTE_NS / 1000u + 1u));
     npending = 0;
   }
@@ -216,30 +258,27 @@ static void flush(uint64_t extra_us)
     run_us(extra_us);
 }
 
-static void put(uint8_t c)
+static void put_as(uint8_t c, uint8_t is_lost)
 {
   if (nsent < sizeof sent && npending < sizeof pending) {
     sent[nsent] = c;
-    lost[nsent++] = 0;
+    lost[nsent++] = is_lost;
+    pending_lost[npending] = is_lost;
     pending[npending++] = c;
   }
 }
 
-/* An overrun: n bytes on the wire never land; the next one that does is
- * flagged (the fake's own marking of a full ring, rx_gap). */
+static void put(uint8_t c)
+{
+  put_as(c, 0);
+}
+
+/* A data overrun: n bytes on the wire that the USART loses (the next one
+ * comes with DOR set). */
 static void overrun(const uint8_t **p, const uint8_t *end, unsigned n)
 {
-  flush(0);
-  while (n-- && *p < end && nsent < sizeof sent) {
-    uint8_t c = *(*p)++;
-    if (c == 0xFF)
-      break;
-    sent[nsent] = c;
-    lost[nsent++] = 1;
-    run_us(BYTE_NS / 1000u + 1u); /* its time on the wire passes */
-  }
-  if (rx_gap < 0)
-    rx_gap = (int)rx_head;
+  while (n-- && *p < end && **p != 0xFF)
+    put_as(*(*p)++, 1);
 }
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
@@ -283,6 +322,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
       break;
     case 3:
       put(0xFF);
+      break;
+    case 4:
+      flush((a % 4u + 1u) * 1000000u); /* 1 to 4 s: lines time out */
       break;
     default:
       flush(a * 1000u);
