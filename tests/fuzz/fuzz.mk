@@ -12,7 +12,8 @@
 #                                a target, from the repo's corpus), same table
 #   make fuzz-corpus             minimize (-merge=1) the repo's corpus together
 #                                with what `make fuzz` found, into the repo's
-#                                corpus (review and commit the change)
+#                                corpus (review and commit the change); inputs
+#                                named by hand are kept as they are
 #   make fuzz-clean              remove $(BUILD)/fuzz
 #
 # Targets (tests/fuzz/<target>.c; corpus in tests/fuzz/corpus/<target>/):
@@ -159,7 +160,8 @@ fuzz-smoke: $(FUZZ_SMOKES)
 	$(call fuzz_table,smoke-corpus-,$(FUZZ_SMOKE_TARGETS))
 
 # -merge=1 into an empty directory keeps the fewest inputs that give every
-# feature of the repo's corpus and of what `make fuzz` found.
+# feature of the repo's corpus and of what `make fuzz` found; inputs named
+# by hand (not a 40-digit hash: seeds, bugs' reproducers) always stay.
 FUZZ_CORPORA := $(addprefix fuzz-corpus-,$(FUZZ_TARGETS))
 .PHONY: $(FUZZ_CORPORA)
 fuzz-corpus: $(FUZZ_CORPORA)
@@ -167,7 +169,8 @@ $(FUZZ_CORPORA): fuzz-corpus-%: $(FUZZ_OUT)/%
 	@new=$(FUZZ_OUT)/merge-$*; rm -rf $$new; mkdir -p $$new $(FUZZ_OUT)/corpus-$*; \
 	$(FUZZ_OUT)/$* -merge=1 -max_len=$(FUZZ_MAX_LEN_$*) $$new $(FUZZ_DIR)/corpus/$* \
 	  $(FUZZ_OUT)/corpus-$* >$$new.log 2>&1 || { tail -n 20 $$new.log; exit 1; }; \
-	rm -f $(FUZZ_DIR)/corpus/$*/*; cp $$new/* $(FUZZ_DIR)/corpus/$*/; \
+	find $(FUZZ_DIR)/corpus/$* -type f -regextype egrep -regex '.*/[0-9a-f]{40}' -delete; \
+	cp $$new/* $(FUZZ_DIR)/corpus/$*/; \
 	echo "$*: $$(ls $$new | wc -l) inputs, $$(cat $$new/* | wc -c) bytes"
 
 fuzz-clean:
