@@ -229,11 +229,7 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
     proto_begin();
     proto_puts_P(PSTR("ok status"));
   } else if ((uint8_t)(k - STATUS_KEYS) < CONSOLE_COUNTS) {
-    k = (uint8_t)(k - STATUS_KEYS);
-    if (!k)
-      proto_puts_P(PSTR(" rx"));
-    proto_putc(k ? ':' : '=');
-    proto_u32(console_count(k));
+    console_put_count((uint8_t)(k - STATUS_KEYS), ' ');
   } else if (k < STATUS_KEYS) {
     uint16_t n = 0; /* every value fits */
     const char *list = 0; /* a word of this list, at n */

@@ -233,11 +233,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
   } else if (step == temp + 5) {
     put_causes();
   } else if ((uint8_t)(step - temp - 6) < CONSOLE_COUNTS) {
-    step = (uint8_t)(step - temp - 6);
-    if (!step)
-      proto_puts_P(PSTR(",rx"));
-    proto_putc(step ? ':' : '=');
-    proto_u32(console_count(step));
+    console_put_count((uint8_t)(step - temp - 6), ',');
   } else {
     proto_end();
     return 1;
