@@ -92,7 +92,7 @@ FUZZ_SMOKE_TARGETS := $(FUZZ_TARGETS)
 # Per target: firmware sources, extra flags, seed directory, input size.
 FUZZ_SRC_fuzz_command := command.c vocab.c
 # The console's receiver with the parser, on whole byte streams (NULs and all bytes).
-FUZZ_SRC_fuzz_cmdline := console.c command.c vocab.c
+FUZZ_SRC_fuzz_cmdline := console.c command.c vocab.c proto.c crc.c fmt.c
 FUZZ_XFLAGS_fuzz_cmdline := -DF_CPU=10000000UL
 # The whole device with tests/native's fakes (included by fuzz_line.c).
 FUZZ_SRC_fuzz_line := tx.c report.c reply.c stream.c control.c console.c sample.c settings.c \
