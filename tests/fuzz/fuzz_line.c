@@ -37,10 +37,12 @@
  *           1  pause (a + 1) * 8 ms, the device running
  *           2  an overrun: the next a % 8 + 1 bytes are lost on the way in
  *           3  send the byte 0xFF itself
- *           4  pause a % 4 + 1 seconds (an open line times out)
+ *           4  pause past the line's timeout (CONSOLE_TIMEOUT_MS + 0.3 s)
  *           else pause a ms.
  * Silences are kept 100 ms clear of the line's timeout either way, where
- * the device's 26 ms clock could go either way.
+ * the device's 26 ms clock could go either way.  The pauses of an input
+ * add up to PAUSE_MAX_MS at most: device time is what an input costs (a
+ * second of streaming at 1500 Hz is ~10^4 loop passes).
  */
 #include <stdint.h>
 #include <stdlib.h>
@@ -180,40 +182,40 @@ static void image_restore(void)
 }
 
 /* ---- driving the device ---- */
-/* fx_run_us() with the idle stretches skipped: while nothing moves (no
- * byte on the wire either way, none waiting, no set waiting, no line or
- * save in progress, nothing to write) the loop would only spin, so after
- * a few idle passes the clock jumps to the next event (a byte arriving,
- * an ADC tick).  The loop still runs a pass at every event. */
-static int device_idle(void)
-{
-  return !tx_fill && rx_head == rx_tail && rx_queue_pos >= rx_queue_len && !adc_pending() &&
-         !tx_busy() && !settings_saving() && !console_ready();
-}
-
+/* fx_run_us() with the waits skipped: after a few loop passes in which
+ * nothing moved (nothing written, read, sampled or taken), the loop would
+ * only spin until the next event, so the clock jumps there: a byte leaving
+ * the TX ring, one arriving, an ADC tick.  The loop runs a pass at every
+ * event, as before. */
 static void run_us(uint64_t us)
 {
   uint64_t end = now_ns + us * 1000u;
-  int idle = 0;
+  int still = 0;
   while (now_ns < end) {
     uint64_t next = now_ns + 20000u;
-    if (idle >= 4) {
+    size_t out = fx_out_len;
+    unsigned rx = rx_tail, sets = ring_tail;
+    uint8_t ready = console_ready();
+    if (still >= 4) {
       next = end;
+      if (tx_fill && tx_next_ns < next)
+        next = tx_next_ns;
       if (running && next_tick_ns < next)
         next = next_tick_ns;
       if (rx_queue_pos < rx_queue_len && rx_next_ns < next)
         next = rx_next_ns;
       if (next < now_ns + 20000u)
         next = now_ns + 20000u;
-      if (next > end)
-        next = end;
     }
     advance_to(next);
     while (sample_take()) /* main.c's loop body */
       console_receive();
     tx_poll();
     control_poll();
-    idle = device_idle() ? idle + 1 : 0;
+    still = (out == fx_out_len && rx == rx_tail && sets == ring_tail && ready == console_ready() &&
+             !settings_saving())
+                ? still + 1
+                : 0;
   }
 }
 
@@ -273,6 +275,18 @@ static void put(uint8_t c)
   put_as(c, 0);
 }
 
+/* A pause of the sender, within the input's allowance. */
+#define PAUSE_MAX_MS 5000u
+static uint64_t paused_us;
+
+static void pause(uint64_t us)
+{
+  if (paused_us + us > PAUSE_MAX_MS * 1000u)
+    us = PAUSE_MAX_MS * 1000u - paused_us;
+  paused_us += us;
+  flush(us);
+}
+
 /* A data overrun: n bytes on the wire that the USART loses (the next one
  * comes with DOR set). */
 static void overrun(const uint8_t **p, const uint8_t *end, unsigned n)
@@ -300,6 +314,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
   image_restore();
   nsent = npending = nparsed = 0;
+  paused_us = 0;
   parse_overflow = 0;
   while (p < end) {
     uint8_t c = *p++;
@@ -315,7 +330,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
       put('\r');
       break;
     case 1:
-      flush((a + 1u) * 8000u);
+      pause((a + 1u) * 8000u);
       break;
     case 2:
       overrun(&p, end, a % 8u + 1u);
@@ -324,10 +339,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
       put(0xFF);
       break;
     case 4:
-      flush((a % 4u + 1u) * 1000000u); /* 1 to 4 s: lines time out */
+      pause((CONSOLE_TIMEOUT_MS + 3u * TIMEOUT_MARGIN_MS) * 1000u); /* an open line times out */
       break;
     default:
-      flush(a * 1000u);
+      pause(a * 1000u);
       break;
     }
   }
