@@ -50,23 +50,25 @@ BUILD ?= build
 FW_DIR ?= firmware
 FUZZ_SECONDS ?= 10
 # The smoke run's budget, a target, where new coverage stops.  Measured with
-# tests/fuzz/saturation.py on 2 cores shared with other work (load ~11:
-# each run got about a fifth of a core), seconds until the edges
-# (cov) reach their final count, and features (ft) 99 % of theirs:
-#                  from nothing, 45 s           from the repo's corpus, 20 s
-#                  edges   ft99   ft at 45 s    edges   ft99   edges at 0 s
-#   fuzz_command    13.4   38.9   363            0.2    0.2   134 = final
-#   fuzz_cmdline     1.0   16.0   787            0.3    0.3   136 = final
-#   fuzz_proto       8.4   32.0   1052           0.5   11.9   190 = final
-#   fuzz_fmt         1.2    1.4   347            0.3    0.3   118 = final
-#   fuzz_allan       2.8   37.2   1515           0.7    1.5   244 = final
-#   fuzz_allan20    40.8   37.9   1613           3.8    4.4   265 = final
-#   fuzz_line       44.9   45.4   3127 (rising) 18.8   18.3   882 of 895
-# From nothing no target but fuzz_fmt saturates within a minute of this
-# machine, so the corpus carries the saturation (`make fuzz-corpus` after
-# longer runs) and the smoke run starts from it: 5 s a target reaches the
-# final edges of all but fuzz_line, whose corpus comes from a longer run
-# (150 s) and which gets 10 s.  Seven targets: about a minute with the build.
+# tests/fuzz/saturation.py on 2 cores shared with other work (load 11-13:
+# each run got about a fifth of a core), seconds until the edges (cov)
+# reach their final count, and features (ft) 99 % of theirs:
+#                  from nothing, 45 s             from the repo's corpus, 20 s
+#                  edges   ft99   edges/ft at 45  edges   ft99   edges at start
+#   fuzz_command    13.4   38.9    101/363          0.2    0.2   134 = final
+#   fuzz_cmdline    35.1   24.2    120/773          0.3    0.3   136 = final
+#   fuzz_proto       8.4   32.0    190/1052         0.5   11.9   190 = final
+#   fuzz_fmt         1.2    1.4    118/347          0.3    0.3   118 = final
+#   fuzz_allan       2.8   37.2    244/1515         0.7    1.5   244 = final
+#   fuzz_allan20    40.8   37.9    266/1613         3.8    4.4   265 = final
+#   fuzz_line       40.8   41.9    907/3954         4.1   12.8   930 = final
+# ("edges" from the corpus: when the first status line came, the corpus
+# replayed.)  From nothing, no target but fuzz_fmt saturates within a minute
+# here, so the corpus carries the saturation (`make fuzz-corpus` after
+# longer runs: fuzz_line's from 150 s) and the smoke run starts from it:
+# 5 s a target reach every final edge count, and the features' 99 %
+# but fuzz_proto's; fuzz_line, which replays its corpus in ~4 s here, gets
+# 10 s.  Seven targets: ~40 s of fuzzing, 92 s with a clean build here.
 FUZZ_SMOKE_SECONDS ?= 5
 FUZZ_SMOKE_SECONDS_fuzz_line ?= 10
 # Seconds one input may take before it counts as a hang.
