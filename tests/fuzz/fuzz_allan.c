@@ -72,13 +72,13 @@ typedef unsigned __int128 u128;
 
 typedef struct {
   uint32_t n;
-  uint16_t lo[NCH], hi[NCH];        /* code range so far */
-  int64_t total[NCH];               /* sum of all samples */
-  int64_t at1[NCH][NLEV];           /* total at level k's last boundary */
-  int64_t at2[NCH][NLEV];           /*          and at the one before it */
-  uint32_t clusters[NLEV];          /* complete clusters: n >> level */
-  u128 acc[NCH][NLEV];              /* sum of squared differences, exact */
-  uint8_t range_hit[NCH][NLEV];     /* a pair taken with the bound broken */
+  uint16_t lo[NCH], hi[NCH];    /* code range so far */
+  int64_t total[NCH];           /* sum of all samples */
+  int64_t at1[NCH][NLEV];       /* total at level k's last boundary */
+  int64_t at2[NCH][NLEV];       /*          and at the one before it */
+  uint32_t clusters[NLEV];      /* complete clusters: n >> level */
+  u128 acc[NCH][NLEV];          /* sum of squared differences, exact */
+  uint8_t range_hit[NCH][NLEV]; /* a pair taken with the bound broken */
 } ref_t;
 
 static ref_t ref;
@@ -101,8 +101,10 @@ REF_ONLY static void ref_push(const uint16_t *code)
   uint32_t n = ++ref.n;
   for (int ch = 0; ch < NCH; ch++) {
     ref.total[ch] += code[ch];
-    if (code[ch] < ref.lo[ch]) ref.lo[ch] = code[ch];
-    if (code[ch] > ref.hi[ch]) ref.hi[ch] = code[ch];
+    if (code[ch] < ref.lo[ch])
+      ref.lo[ch] = code[ch];
+    if (code[ch] > ref.hi[ch])
+      ref.hi[ch] = code[ch];
   }
   /* Sample n completes a cluster at every level k with 2^k | n: the
    * cluster's sum is the total now minus the total at its start. */

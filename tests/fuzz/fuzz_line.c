@@ -67,10 +67,9 @@
 #define MAX_LINES 4096
 
 static const char *const COMMANDS[] = {
-  "mode allan", "mode raw", "mode binary", "mode both", "echo on", "echo off",
-  "rate 1500", "rate 100", "rate 50", "interval 1", "interval 0", "stop",
-  "start", "start 20", "report", "status", "help", "units counts",
-  "units phys", "reset", "range 6",
+    "mode allan", "mode raw", "mode binary", "mode both",    "echo on",    "echo off", "rate 1500",
+    "rate 100",   "rate 50",  "interval 1",  "interval 0",   "stop",       "start",    "start 20",
+    "report",     "status",   "help",        "units counts", "units phys", "reset",    "range 6",
 };
 #define NCOMMANDS (sizeof COMMANDS / sizeof COMMANDS[0])
 
@@ -93,7 +92,7 @@ uint8_t __wrap_command_parse(const char *line, command_t *out)
 
 /* ---- the stream as sent, and the model's clean lines ---- */
 static uint8_t sent[1 << 16];
-static uint8_t lost[1 << 16]; /* 1: this byte never reached the device */
+static uint8_t lost[1 << 16];     /* 1: this byte never reached the device */
 static uint64_t arrival[1 << 16]; /* when its last bit was on the wire (ns) */
 static size_t nsent;
 
@@ -153,7 +152,8 @@ static char *image_bss, *image_data;
 
 /* A plain word copy: ASan's memcpy would object to the globals' redzones,
  * which lie inside the sections too. */
-__attribute__((no_sanitize("address", "coverage"))) static void copy_words(char *dst, const char *src, size_t n)
+__attribute__((no_sanitize("address", "coverage"))) static void copy_words(char *dst, const char *src,
+                                                                           size_t n)
 {
   volatile uint64_t *d = (volatile uint64_t *)dst;
   const volatile uint64_t *s = (const volatile uint64_t *)src;
@@ -213,9 +213,9 @@ static void run_us(uint64_t us)
     tx_poll();
     control_poll();
     still = (out == fx_out_len && rx == rx_tail && sets == ring_tail && ready == console_ready() &&
-             !settings_saving())
-                ? still + 1
-                : 0;
+             !settings_saving()) ?
+                still + 1 :
+                0;
   }
 }
 
@@ -300,8 +300,8 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
   (void)argc;
   (void)argv;
   memset(fake_eeprom, 0xFF, sizeof fake_eeprom); /* blank: default settings */
-  fx_boot(0x01);                               /* power-on */
-  fx_run_us(50000);                            /* its boot line out */
+  fx_boot(0x01);                                 /* power-on */
+  fx_run_us(50000);                              /* its boot line out */
   image_save();
   return 0;
 }
@@ -329,21 +329,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         put((uint8_t)*s);
       put('\r');
       break;
-    case 1:
-      pause((a + 1u) * 8000u);
-      break;
-    case 2:
-      overrun(&p, end, a % 8u + 1u);
-      break;
-    case 3:
-      put(0xFF);
-      break;
+    case 1: pause((a + 1u) * 8000u); break;
+    case 2: overrun(&p, end, a % 8u + 1u); break;
+    case 3: put(0xFF); break;
     case 4:
       pause((CONSOLE_TIMEOUT_MS + 3u * TIMEOUT_MARGIN_MS) * 1000u); /* an open line times out */
       break;
-    default:
-      pause(a * 1000u);
-      break;
+    default: pause(a * 1000u); break;
     }
   }
   /* The probe: a quiet moment, Ctrl-C to drop whatever line is open, a
@@ -387,11 +379,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     j++;
   }
   /* the last attempt ran: parsed after it was sent, the last line sent */
-  FUZZ_CHECK(attempt < PROBE_TRIES && nparsed > before && strcmp(parsed[nparsed - 1], PROBE) == 0 &&
-                 nmodel && model[nmodel - 1].end == probe_at,
+  FUZZ_CHECK(attempt < PROBE_TRIES && nparsed > before && strcmp(parsed[nparsed - 1], PROBE) == 0 && nmodel &&
+                 model[nmodel - 1].end == probe_at,
              "deaf: the probe line \"" PROBE "\" did not run, sent %d times, quiet moments around "
-             "Ctrl-C/Esc (mode %u, echo %u)", PROBE_TRIES, settings.mode, settings.echo);
-  FUZZ_CHECK(attempt == 0, "Ctrl-C then \"" PROBE "\" back to back, after a quiet moment: the line "
-             "did not run (it did when sent again slowly; mode %u, echo %u)", settings.mode, settings.echo);
+             "Ctrl-C/Esc (mode %u, echo %u)",
+             PROBE_TRIES, settings.mode, settings.echo);
+  FUZZ_CHECK(attempt == 0,
+             "Ctrl-C then \"" PROBE "\" back to back, after a quiet moment: the line "
+             "did not run (it did when sent again slowly; mode %u, echo %u)",
+             settings.mode, settings.echo);
   return 0;
 }

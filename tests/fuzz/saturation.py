@@ -10,6 +10,7 @@ times features reached 90 %, 99 % and 100 % of their final count.
 
     tests/fuzz/saturation.py [--empty] [--seconds S] BUILD_FUZZ_DIR TARGET...
 """
+
 import argparse
 import os
 import re
@@ -47,8 +48,9 @@ def measure(binary, corpus, seconds, max_len):
         shutil.rmtree(work)
 
 
-def first_time(points, pred):
-    return next((t for t, c, f in points if pred(c, f)), float("nan"))
+def first_time(points, cov=0, ft=0):
+    """Seconds until the edges reached cov and the features ft (NaN: never)."""
+    return next((t for t, c, f in points if c >= cov and f >= ft), float("nan"))
 
 
 def main():
@@ -60,19 +62,22 @@ def main():
     ap.add_argument("--max-len", type=int, default=0, help="libFuzzer -max_len (default: its own)")
     args = ap.parse_args()
     here = os.path.dirname(os.path.abspath(__file__))
-    print(f"{'target':13} {'execs/s':>8} {'cov':>5} {'ft':>6} {'last cov s':>10} "
-          f"{'ft90 s':>7} {'ft99 s':>7} {'ft100 s':>7}   from")
+    print(
+        f"{'target':13} {'execs/s':>8} {'cov':>5} {'ft':>6} {'last cov s':>10} "
+        f"{'ft90 s':>7} {'ft99 s':>7} {'ft100 s':>7}   from"
+    )
     for t in args.targets:
         corpus = None if args.empty else os.path.join(here, "corpus", t)
         points, eps = measure(os.path.join(args.build_dir, t), corpus, args.seconds, args.max_len)
         if not points:
             sys.exit(f"{t}: no status lines")
         cov, ft = points[-1][1], points[-1][2]
-        print(f"{t:13} {eps or 0:8} {cov:5} {ft:6} {first_time(points, lambda c, f: c >= cov):10.1f} "
-              f"{first_time(points, lambda c, f: f >= 0.9 * ft):7.1f} "
-              f"{first_time(points, lambda c, f: f >= 0.99 * ft):7.1f} "
-              f"{first_time(points, lambda c, f: f >= ft):7.1f}   {'empty' if args.empty else 'corpus'}",
-              flush=True)
+        print(
+            f"{t:13} {eps or 0:8} {cov:5} {ft:6} {first_time(points, cov=cov):10.1f} "
+            f"{first_time(points, ft=0.9 * ft):7.1f} {first_time(points, ft=0.99 * ft):7.1f} "
+            f"{first_time(points, ft=ft):7.1f}   {'empty' if args.empty else 'corpus'}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":
