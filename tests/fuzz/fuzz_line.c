@@ -2,11 +2,10 @@
  * fuzz_line - the device's line discipline end to end: the whole firmware
  * natively (the real console: receiver, line editor, echo, timeout; the
  * control room, scheduler, producers, settings and engine), with the fakes
- * of tests/native (UART at
- * 115200 baud through the device's 8-byte ring, ADC, EEPROM, clock), fed
- * arbitrary byte streams interleaved with mode and echo changes, pauses,
- * Ctrl-C/Esc and UART overruns (bytes lost, the next one flagged, as the
- * AVR's DOR flags it).
+ * of tests/native (UART at 115200 baud through the device's 8-byte ring,
+ * ADC, EEPROM, clock), fed arbitrary byte streams interleaved with mode and
+ * echo changes, pauses, Ctrl-C/Esc and UART overruns (bytes lost, the next
+ * one flagged, as the AVR's DOR flags it).
  *
  * What the device is about to run is what it hands command_parse(): the
  * link-time --wrap of that function records every text.  Checked against
@@ -18,8 +17,10 @@
  *     overrun, nor the bytes right before its first, it holds only
  *     printable ASCII and TAB, and it never grew past COMMAND_LINE_MAX;
  *     a silence past CONSOLE_TIMEOUT_MS ends an open line (refused) and
- *     what follows starts a new one.  So a line that lost bytes, one with a bad
- *     byte or one cut by Ctrl-C/Esc is never run, nor glued to another;
+ *     what follows starts a new one.  So a line that lost bytes, one with
+ *     a bad byte or one cut by Ctrl-C/Esc is never run, nor glued to
+ *     another (the device may refuse a clean line too: bytes it lost in its
+ *     own full ring are no loss of this model's);
  *   - Ctrl-C before a command works in every mode: after the stream and a
  *     quiet moment (PROBE_QUIET_MS), Ctrl-C and a clean `status` line back
  *     to back: whatever mode the stream left the device in, the line runs;
