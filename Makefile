@@ -33,11 +33,11 @@ HEX      := $(FW_BUILD)/imu-allan.hex
 # and a cycle less).  -mstrict-X, -fno-move-loop-invariants: about 170
 # bytes more; loop invariants are then recomputed in the loop (a few
 # cycles in the engine's cascade: bench/run.py).  Together these keep
-# the issue 10 and 12 features under the bootloader.
-# -fno-inline-small-functions: with the issue 12-14 features the ATmega168
+# the firmware under the bootloader.
+# -fno-inline-small-functions: with the terminal, link-budget and 1500 Hz work the ATmega168
 # build was 15910 bytes, 38 over what optiboot's 512 bytes leave; this flag
 # brings it to 15810 (make bench: no drops at any offered rate).
-# -fno-tree-forwprop (issue 12's flash budget): about 130 bytes, most of
+# -fno-tree-forwprop (the flash budget under optiboot): about 130 bytes, most of
 # them in the engine's accumulator reads; measured in imu-sim at 1 kHz, the
 # engine's cycles per channel and the cycles per set do not get worse (they
 # drop a little), the loop's idle passes cost a few cycles more (a 0.6 %
@@ -54,7 +54,7 @@ FW_COLD := stream proto reply command vocab link reset tx
 $(foreach m,$(FW_COLD),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += -fno-gcse))
 # The modules that run between sets, never per sample (the report, the
 # settings, the commands, the start-up in main): without these passes
-# they are 132 bytes smaller (15650 -> 15518; issue 12's flash budget).
+# they are 132 bytes smaller (15650 -> 15518; the flash budget under optiboot).
 # Each flag measured alone on them: -fno-tree-pre 30, -fno-tree-tail-merge
 # 30, -fno-tree-sink 26, then -fno-tree-loop-ivcanon 56, -fno-tree-fre
 # 12.  make bench measures what they cost in cycles and stack.

@@ -11,6 +11,7 @@
 #include <util/atomic.h>
 
 #include "board.h"
+#include "vocab.h"
 
 /* The slot at head is being filled; the others wait for the main loop.
  * Three on the 1 KB ATmega168; on parts with 2 KB (ATmega328P, whose
@@ -87,6 +88,11 @@ void adc_init(void)
 #  error "1500 Hz has an exact period at this F_CPU: no dither needed (adc.c)"
 #endif
 
+/* OCR1A of each rate in vocab_rates' order, worked out by the compiler
+ * (no division at run time; 1500 Hz's entry is not used: GPIOR0). */
+#define OCR_ITEM(a, hz) (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / (hz) - 1u),
+static const uint16_t rate_ocr[] PROGMEM = {VOCAB_RATES(OCR_ITEM, 0)};
+
 void adc_set_rate(uint16_t hz)
 {
   if (hz == DITHER_HZ) { /* the only rate in the list without an exact period */
@@ -94,16 +100,21 @@ void adc_set_rate(uint16_t hz)
     OCR1A = (uint16_t)(DITHER_TOP + (3u <= DITHER_LONG));
   } else {
     GPIOR0 = 0;
-    OCR1A = (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / hz - 1u);
+    OCR1A = pgm_read_word(&rate_ocr[vocab_rate_index(hz)]); /* hz: one of the list */
   }
 }
 
 uint16_t adc_rate(void)
 {
+  const uint16_t *p = rate_ocr;
+  uint16_t ocr = OCR1A;
   if (GPIOR0)
     return DITHER_HZ;
-  /* From the timer itself: exact for every other supported rate. */
-  return (uint16_t)((F_CPU / BOARD_TIMER1_PRESCALER + (OCR1A + 1ul) / 2u) / (OCR1A + 1ul));
+  /* From the timer itself: the rate whose period it counts (always one of
+   * the list: adc_set_rate wrote it; the last one if not). */
+  while (pgm_read_word(p) != ocr && p < rate_ocr + VOCAB_RATE_COUNT - 1)
+    p++;
+  return pgm_read_word(&vocab_rates[p - rate_ocr]);
 }
 
 void adc_start(uint8_t lim, uint32_t count)

@@ -14,7 +14,8 @@
 
 void adc_init(void);
 
-/* Sample rate in Hz (one of command_rate_ok's); call while stopped. */
+/* Sample rate in Hz, one of vocab_rates (vocab.h); call while stopped.
+ * adc_rate() reads it back from the timer (no copy kept). */
 void adc_set_rate(uint16_t hz);
 uint16_t adc_rate(void);
 
@@ -32,7 +33,8 @@ void adc_limit(uint32_t total);
 /* Stop ticking and wait for an unfinished scan to land in the ring. */
 void adc_stop(void);
 
-/* 1 while the tick runs. */
+/* 1 while the tick runs, or a scan it started has not landed yet (a
+ * `start <count>` stops the tick as its last scan begins). */
 uint8_t adc_running(void);
 
 /* The oldest finished scan, left in the ring; 0 when the ring is empty. */

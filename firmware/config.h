@@ -66,7 +66,7 @@
 #  define REPORT 60
 #endif
 #if REPORT < 0 || REPORT > VOCAB_INTERVAL_MAX_S
-#  error "REPORT must be 0..VOCAB_INTERVAL_MAX_S (3600) seconds"
+#  error "REPORT must be 0..VOCAB_INTERVAL_MAX_S seconds"
 #endif
 
 /* Accumulator width.  Levels from ALLAN_ACC48_FROM up get 48 bits, those
@@ -137,7 +137,7 @@
  * the next command, and a terminal must not be left with a line it cannot
  * see.  A host sends a whole line within milliseconds; a person types a
  * command with shorter pauses than this.  At most 6500 ms (the console's
- * clock wraps after 256 ticks of 26 ms at 10 MHz: clock.h). */
+ * clock counts up to 255 ticks of 26 ms at 10 MHz: clock.h). */
 #ifndef CONSOLE_TIMEOUT_MS
 #  define CONSOLE_TIMEOUT_MS 2000
 #endif

@@ -32,7 +32,6 @@ static struct {
   uint8_t flags;
   uint8_t shown; /* characters of text on the screen (echo) */
   uint8_t keep;  /* of them, still equal to text */
-  uint8_t heard; /* clock_now() at the last byte */
   uint16_t count[CONSOLE_COUNTS]; /* console.h's console_count() */
 } con;
 
@@ -86,8 +85,8 @@ void console_receive(void)
   /* A complete line stops the reading until it has run and its echo is
    * out: bytes wait in the RX ring (what it cannot hold is lost, and the
    * line it belonged to refused). */
-  while (!(con.flags & (READY | RUN)) && (c = uart_read()) >= 0) {
-    con.heard = clock_now();
+  while (!(uint8_t)(con.flags & (READY | RUN)) && (c = uart_read()) >= 0) {
+    clock_restart(); /* the silence starts again */
     if (c & UART_READ_OVERRUN)
       count(0);
     if (c & UART_READ_RING)
@@ -126,14 +125,14 @@ uint8_t console_close(void)
  * echo, all of it and its end.  Returns 1 when that is out. */
 static uint8_t echo(uint8_t job)
 {
-  uint8_t room = uart_tx_room(), n = 0;
-  if (room > UART_STEP_MAX)
-    room = UART_STEP_MAX;
-  if (room < 4)
+  uint8_t left = uart_tx_room(); /* of this step's bytes */
+  if (left > UART_STEP_MAX)
+    left = UART_STEP_MAX;
+  if (left < 4)
     return 0;
   if (con.flags & DROP) {
     end_line();
-    n = 4;
+    left = (uint8_t)(left - 4);
   }
   if (!(con.flags & OPEN)) {
     if (!con.len) { /* nothing typed (a refused empty line): no echo */
@@ -141,30 +140,30 @@ static uint8_t echo(uint8_t job)
         next();
       return job;
     }
-    if (n + 4u > room)
+    if (left < 4)
       return 0;
     uart_write('>');
     uart_write(' ');
-    n += 2;
+    left = (uint8_t)(left - 2);
     con.flags |= OPEN;
   }
   while (con.shown > con.keep) {
-    if (n + 5u > room)
+    if (left < 5)
       return 0; /* more next time */
     uart_write('\b');
     uart_write(' ');
     uart_write('\b');
-    n += 3;
+    left = (uint8_t)(left - 3);
     con.shown--;
   }
-  while (con.shown < con.len && n + 2u < room) {
+  while (con.shown < con.len && left > 2) {
     uart_write((uint8_t)console_shown_as(con.text[con.shown++]));
-    n++;
+    left--;
   }
   con.keep = con.shown;
   if (!job || con.shown != con.len)
     return 0;
-  uart_write('\r'); /* n + 2 <= room: kept free above */
+  uart_write('\r'); /* 2 bytes left: kept free above */
   uart_write('\n');
   next();
   return 1;
@@ -179,12 +178,13 @@ void console_poll(uint8_t live)
 {
   console_receive();
   if (!(con.flags & (READY | RUN)) && (con.len || con.err) &&
-      (uint8_t)(clock_now() - con.heard) >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
+      clock_ticks() >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
     if (con.err != CMD_ERR_LOST)
       con.err = CMD_ERR_TIMEOUT;
     con.flags |= READY;
   }
-  if (live && settings.echo && !(con.flags & RUN))
+  /* Nothing typed, shown or due: the loop's idle pass stays cheap. */
+  if (live && settings.echo && (con.len | con.flags) && !(con.flags & RUN)) /* shown: OPEN is set */
     echo(0);
 }
 

@@ -47,8 +47,9 @@ int main(void)
   for (;;) {
     reset_watchdog_kick();
     /* Sets to the engine (the stream holds a set until its row or frame is
-     * out), received bytes to the console between two of them. */
-    while (sample_take())
+     * out), received bytes to the console between two of them.  No set
+     * waiting: sample_take's register saves are not paid for nothing. */
+    while (adc_pending() && sample_take())
       console_receive();
     tx_poll();
     control_poll();

@@ -98,22 +98,25 @@ uint8_t uart_tx_room(void)
 
 int16_t uart_read(void)
 {
-  uint8_t c, t = rx_tail, g;
-  int16_t gap = 0;
+  uint8_t c = 0, t = rx_tail, g, hi = 0; /* hi: the UART_READ_* bits, >> 8 */
   ATOMIC_BLOCK(ATOMIC_FORCEON) {
     g = rx_gap;
-    if ((g & (GAP_VALID | GAP_SLOT)) == (t | GAP_VALID)) { /* bytes were lost just before this one */
+    if ((uint8_t)((g ^ t) & (GAP_VALID | GAP_SLOT)) == GAP_VALID) { /* bytes were lost just before this one */
       rx_gap = 0;
-      gap = (int16_t)(UART_READ_GAP | (uint16_t)(g & GAP_WHY) << 8);
+      hi = (uint8_t)((g & GAP_WHY) | (UART_READ_GAP >> 8));
     } else if (g & GAP_MORE) {
-      gap = UART_READ_GAP; /* an earlier gap, where exactly is not known */
+      hi = UART_READ_GAP >> 8; /* an earlier gap, where exactly is not known */
     }
   }
-  if (rx_head == t) /* nothing after the gap yet: the line being received lost bytes */
-    return gap ? (int16_t)(gap | UART_READ_EMPTY) : -1;
-  c = rx_buf[t];
-  rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
-  return (int16_t)(gap | c);
+  if (rx_head == t) { /* nothing after the gap yet: the line being received lost bytes */
+    if (!hi)
+      return -1;
+    hi |= UART_READ_EMPTY >> 8;
+  } else {
+    c = rx_buf[t];
+    rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
+  }
+  return (int16_t)((uint16_t)hi << 8 | c);
 }
 
 uint8_t uart_rx_pending(void)
@@ -145,7 +148,7 @@ ISR(USART_RX_vect)
   }
   if (why) {
     uint8_t g = rx_gap;
-    if (g && (g & GAP_SLOT) != h)
+    if (g && (uint8_t)((g ^ h) & GAP_SLOT))
       why |= GAP_MORE;
     rx_gap = (uint8_t)((g & (uint8_t)~GAP_SLOT) | why | GAP_VALID | h);
   }

@@ -57,9 +57,13 @@ uint8_t uart_tx_room(void)
   return 0;
 }
 
-uint8_t clock_now(void)
+uint8_t clock_ticks(void)
 {
   return 0;
+}
+
+void clock_restart(void)
+{
 }
 
 uint8_t uart_rx_pending(void)

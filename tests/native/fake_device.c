@@ -267,10 +267,25 @@ int eeprom_is_ready(void) { return 1; }
 /* ---- clock and loop ---- */
 uint64_t fx_now_us(void) { return now_ns / 1000u; }
 
-/* clock.h: Timer0's overflows, one every CLOCK_TICK_CYCLES CPU cycles */
-uint8_t clock_now(void)
+/* clock.h: Timer0's overflows, one every CLOCK_TICK_CYCLES CPU cycles
+ * (free-running: a restart does not move its phase), counted since the
+ * last clock_restart(), at most 255. */
+static uint64_t ticks_at_restart;
+
+static uint64_t ticks_now(void)
 {
-  return (uint8_t)(now_ns / (CLOCK_TICK_CYCLES * 1000000000ull / F_CPU));
+  return now_ns / (CLOCK_TICK_CYCLES * 1000000000ull / F_CPU);
+}
+
+uint8_t clock_ticks(void)
+{
+  uint64_t n = ticks_now() - ticks_at_restart;
+  return (uint8_t)(n > 255 ? 255 : n);
+}
+
+void clock_restart(void)
+{
+  ticks_at_restart = ticks_now();
 }
 
 static void advance_to(uint64_t t)
