@@ -128,7 +128,7 @@ FUZZ_SMOKES := $(addprefix fuzz-smoke-,$(FUZZ_SMOKE_TARGETS))
 
 .PHONY: fuzz fuzz-smoke fuzz-build fuzz-corpus fuzz-clean $(FUZZ_RUNS) $(FUZZ_SMOKES)
 
-fuzz-build: $(FUZZ_BINS)
+fuzz-build: $(FUZZ_BINS) ## build the fuzzers into build/fuzz/
 
 define fuzz_bin_rule
 $(FUZZ_OUT)/$(1): $(call fuzz_main,$(1)) $(addprefix $(FW_DIR)/,$(FUZZ_SRC_$(1))) $(FUZZ_DEPS)
@@ -168,16 +168,16 @@ define fuzz_table
 	@cat $(foreach t,$(2),$(FUZZ_OUT)/$(1)$(t).row)
 endef
 
-$(FUZZ_RUNS): fuzz-run-%: $(FUZZ_OUT)/%
+$(FUZZ_RUNS): fuzz-run-%: $(FUZZ_OUT)/% ## fuzz-run-<target>: one fuzzer (e.g. fuzz-run-fuzz_proto) FUZZ_SECONDS
 	$(call fuzz_run,$*,$(FUZZ_SECONDS),corpus-$*,0)
 
-$(FUZZ_SMOKES): fuzz-smoke-%: $(FUZZ_OUT)/%
+$(FUZZ_SMOKES): fuzz-smoke-%: $(FUZZ_OUT)/% ## fuzz-smoke-<target>: one fuzzer's short run from the repo's corpus
 	$(call fuzz_run,$*,$(or $(FUZZ_SMOKE_SECONDS_$*),$(FUZZ_SMOKE_SECONDS)),smoke-corpus-$*,1)
 
-fuzz: $(FUZZ_RUNS)
+fuzz: $(FUZZ_RUNS) ## run every fuzzer FUZZ_SECONDS (default 10) under ASan and UBSan; a table of execs/s and coverage
 	$(call fuzz_table,corpus-,$(FUZZ_TARGETS))
 
-fuzz-smoke: $(FUZZ_SMOKES)
+fuzz-smoke: $(FUZZ_SMOKES) ## every fuzzer 5 s (fuzz_line 10 s) from the repo's corpus, the same table (part of make test)
 	$(call fuzz_table,smoke-corpus-,$(FUZZ_SMOKE_TARGETS))
 
 # -merge=1 into an empty directory keeps the fewest inputs that give every
@@ -185,8 +185,8 @@ fuzz-smoke: $(FUZZ_SMOKES)
 # by hand (not a 40-digit hash: seeds, bugs' reproducers) always stay.
 FUZZ_CORPORA := $(addprefix fuzz-corpus-,$(FUZZ_TARGETS))
 .PHONY: $(FUZZ_CORPORA)
-fuzz-corpus: $(FUZZ_CORPORA)
-$(FUZZ_CORPORA): fuzz-corpus-%: $(FUZZ_OUT)/%
+fuzz-corpus: $(FUZZ_CORPORA) ## minimize (-merge=1) the repo's corpus with what make fuzz found, into tests/fuzz/corpus/
+$(FUZZ_CORPORA): fuzz-corpus-%: $(FUZZ_OUT)/% ## fuzz-corpus-<target>: one fuzzer's corpus minimized into the repo
 	@new=$(FUZZ_OUT)/merge-$*; rm -rf $$new; mkdir -p $$new $(FUZZ_OUT)/corpus-$*; \
 	$(FUZZ_OUT)/$* -merge=1 -max_len=$(FUZZ_MAX_LEN_$*) $$new $(FUZZ_DIR)/corpus/$* \
 	  $(FUZZ_OUT)/corpus-$* >$$new.log 2>&1 || { tail -n 20 $$new.log; exit 1; }; \
@@ -194,7 +194,7 @@ $(FUZZ_CORPORA): fuzz-corpus-%: $(FUZZ_OUT)/%
 	cp $$new/* $(FUZZ_DIR)/corpus/$*/; \
 	echo "$*: $$(ls $$new | wc -l) inputs, $$(cat $$new/* | wc -c) bytes"
 
-fuzz-clean:
+fuzz-clean: ## remove build/fuzz (the fuzzers and the corpora they grew)
 	rm -rf $(FUZZ_OUT)
 
 .DEFAULT_GOAL := $(FUZZ_SAVED_GOAL)
