@@ -62,9 +62,7 @@ uint8_t clock_ticks(void)
   return 0;
 }
 
-void clock_restart(void)
-{
-}
+void clock_restart(void) {}
 
 uint8_t uart_rx_pending(void)
 {
