@@ -31,8 +31,10 @@
 #                  inputs start empty or from snapshots near the high levels
 #   fuzz_allan20   the same with -DALLAN_LEVELS=20 -DALLAN_ACC48_FROM=0
 #   fuzz_line      the whole device natively (tests/native's fakes) on byte
-#                  streams with mode changes, Ctrl-C/Esc and overruns: every
-#                  line run is one clean line as sent, in order; never deaf
+#                  streams with mode changes, Ctrl-C/Esc, overruns and line
+#                  timeouts: every line run is one clean line as sent, in
+#                  order; all of them with no ring overflow; Ctrl-C + command
+#                  runs in every mode; never deaf
 # Each run works on a copy of the corpus in $(BUILD)/fuzz/corpus-<target>,
 # which keeps what it found for the next `make fuzz` (fuzz-smoke starts
 # from the repo's corpus alone each time, in smoke-corpus-<target>); the
