@@ -67,9 +67,9 @@ FUZZ_SECONDS ?= 10
 # ("edges" from the corpus: when the first status line came, the corpus
 # replayed.)  From nothing, no target but fuzz_fmt saturates within a minute
 # here, so the corpus carries the saturation (`make fuzz-corpus` after
-# longer runs: fuzz_line's from 150 s) and the smoke run starts from it:
+# longer runs: fuzz_line's from 150 s and 90 s) and the smoke run starts from it:
 # 5 s a target reach every final edge count, and the features' 99 %
-# but fuzz_proto's; fuzz_line, which replays its corpus in ~4 s here, gets
+# but fuzz_proto's; fuzz_line, which replays its corpus in ~5 s here, gets
 # 10 s.  Seven targets: ~40 s of fuzzing, 92 s with a clean build here.
 FUZZ_SMOKE_SECONDS ?= 5
 FUZZ_SMOKE_SECONDS_fuzz_line ?= 10
