@@ -1,6 +1,6 @@
 /*
- * fuzz_cmdline - the command-line receiver (firmware/console.c) and parser
- * on arbitrary byte streams: NULs, controls, 8-bit bytes, BS/DEL, CR/LF,
+ * fuzz_cmdline - the console's line receiver (firmware/console.c, echo off)
+ * and the parser on arbitrary byte streams: NULs, controls, 8-bit bytes, BS/DEL, CR/LF,
  * and a receive gap, all included.  Checked against a model written here
  * from docs/protocol.md ("Commands"):
  *   - lines end at CR or LF; blank ones give nothing;
@@ -10,7 +10,10 @@
  *     (error:3), one with a receive gap too (error:5, which outranks);
  *     the first reason found is the one given otherwise;
  *   - any other line reaches the parser exactly as the model assembled it
- *     (nothing after a NUL is ever parsed: such a line never gets there).
+ *     (nothing after a NUL is ever parsed: such a line never gets there);
+ *   - echo off, nothing is written.
+ * The clock stands still here (no line times out): fuzz_line has the rest
+ * of the console, echo and timeout included, in the whole device.
  * Input: byte 0 chooses a gap (odd: a gap before byte byte0/2 of the
  * stream), the rest is the stream.
  */
@@ -19,8 +22,8 @@
 #include <string.h>
 
 #include "clock.h"
-#include "console.h"
 #include "command.h"
+#include "console.h"
 #include "fuzz_util.h"
 #include "settings.h"
 #include "uart.h"
@@ -30,24 +33,23 @@ settings_t settings; /* echo off: the receiver alone (no output) */
 static const uint8_t *stream;
 static size_t stream_len, stream_pos, gap_at = (size_t)-1;
 
+static int gap_taken;
+
 int16_t uart_read(void)
 {
-  int16_t gap;
+  int16_t gap = 0;
+  if (stream_pos == gap_at && !gap_taken) {
+    gap_taken = 1;
+    gap = UART_READ_GAP | UART_READ_RING;
+  }
   if (stream_pos >= stream_len)
-    return -1;
-  gap = stream_pos == gap_at ? UART_READ_GAP : 0;
+    return gap ? (int16_t)(gap | UART_READ_EMPTY) : -1; /* a gap with no byte after it */
   return (int16_t)(gap | stream[stream_pos++]);
 }
 
-uint8_t uart_rx_pending(void)
-{
-  return stream_pos < stream_len;
-}
-
-/* Echo off: nothing is written; the clock stands still (no timeout). */
 void uart_write(uint8_t c)
 {
-  (void)c;
+  FUZZ_CHECK(0, "echo off, yet the console wrote 0x%02X", c);
 }
 
 uint8_t uart_tx_room(void)
@@ -60,8 +62,11 @@ uint8_t clock_ticks(void)
   return 0;
 }
 
-void clock_restart(void)
+void clock_restart(void) {}
+
+uint8_t uart_rx_pending(void)
 {
+  return stream_pos < stream_len;
 }
 
 typedef struct {
@@ -131,6 +136,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     stream_len = 1;
     stream_pos = 0;
     gap_at = (size_t)-1;
+    gap_taken = 0;
     console_receive();
     if (console_ready())
       console_take(&t);
@@ -138,6 +144,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     stream_len = save_len;
     stream_pos = 0;
     gap_at = save_gap;
+    gap_taken = 0;
   }
   while (stream_pos < stream_len || console_ready()) {
     console_receive();
