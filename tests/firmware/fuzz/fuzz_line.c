@@ -217,7 +217,7 @@ static void run_us(uint64_t us)
       ring_full = 1;
     while (sample_take()) /* main.c's loop body */
       console_receive();
-    tx_poll();
+    switchboard_poll();
     control_poll();
     still = (out == fx_out_len && rx == rx_tail && sets == ring_tail && ready == console_ready() &&
              !settings_saving()) ?
