@@ -1,12 +1,14 @@
 /*
- * sim_cli.c - imu-sim's command line: --help and the options into g.
+ * sim_cli.c - imu-sim's command line: --help and the options into h->
  */
-#include "harness.h"
+#include "sim_cli.h"
 
 #include <errno.h>
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "sim_msg.h"
 
 /* --help: the batch run and its options, terminal mode, the figures. */
 static const char usage_run[] =
@@ -55,7 +57,7 @@ static const char usage_run[] =
 "                    right after 'start' was acknowledged); N must not\n"
 "                    decrease from line to line.\n"
 "                    Text is sent as is, with escapes \\r \\n \\t \\\\ \\xNN;\n"
-"                    end a command with \\r yourself (e.g. '500<TAB>report\\r').\n"
+"                    end a command with \\r yourself (e.h-> '500<TAB>report\\r').\n"
 "                    '#' lines and blank lines are skipped.  Replies to these\n"
 "                    commands are only captured, never acted upon.\n"
 "  -o, --output FILE everything the device sends, bytes as they are\n"
@@ -188,41 +190,41 @@ static unsigned long parse_ulong(const char *s, const char *opt)
 }
 
 /* Options that exclude each other or need another. */
-static void check_args(void)
+static void check_args(const harness_t *h)
 {
-  if ((g.bootloader || g.isp_hex) && !g.board)
+  if ((h->bootloader || h->isp_hex) && !h->board)
     die(EXIT_INPUT, "%s only applies with --board (see --help)",
-        g.bootloader ? "--bootloader" : "--flash");
-  if (g.board && !g.pty)
+        h->bootloader ? "--bootloader" : "--flash");
+  if (h->board && !h->pty)
     die(EXIT_INPUT, "--board needs --pty: the board's port is a pseudo-terminal");
-  if (g.board && g.eeprom_path)
+  if (h->board && h->eeprom_path)
     die(EXIT_INPUT, "--eeprom does not apply with --board: its EEPROM is "
         "kept in PREFIX.eeprom");
-  if (!g.pty) {
-    const char *only = g.link_path ? "--link" : g.synthetic ? "--synthetic" :
-      g.fast ? "--fast" : g.realtime ? "--realtime" : g.no_wait ? "--no-wait" :
-      g.seed != 1 ? "--seed" : NULL;
+  if (!h->pty) {
+    const char *only = h->link_path ? "--link" : h->synthetic ? "--synthetic" :
+      h->fast ? "--fast" : h->realtime ? "--realtime" : h->no_wait ? "--no-wait" :
+      h->seed != 1 ? "--seed" : NULL;
     if (only)
       die(EXIT_INPUT, "%s only applies with --pty (see --help)", only);
   } else {
-    const char *not = g.fs ? "--fs" : g.uart_in_path ? "--uart-in" :
-      g.timeout_set ? "--timeout" : NULL;
+    const char *not = h->fs ? "--fs" : h->uart_in_path ? "--uart-in" :
+      h->timeout_set ? "--timeout" : NULL;
     if (not)
       die(EXIT_INPUT, "%s does not apply with --pty: the terminal drives "
           "the device (see --help)", not);
-    if (g.fast && g.realtime)
+    if (h->fast && h->realtime)
       die(EXIT_INPUT, "--fast and --realtime exclude each other");
-    if (g.synthetic && g.adc_path)
+    if (h->synthetic && h->adc_path)
       die(EXIT_INPUT, "--adc and --synthetic exclude each other");
-    if (!g.synthetic && !g.adc_path)
+    if (!h->synthetic && !h->adc_path)
       die(EXIT_INPUT, "--pty needs --adc FILE or --synthetic (see --help)");
     return;
   }
-  if (!g.adc_path)
+  if (!h->adc_path)
     die(EXIT_INPUT, "--adc FILE is required (see --help)");
-  if (g.fs && g.fs > 100000)
-    die(EXIT_INPUT, "--fs: %u Hz is not a sample rate", g.fs);
-  if (g.uart_in_path && !strcmp(g.uart_in_path, "-") && !strcmp(g.adc_path, "-"))
+  if (h->fs && h->fs > 100000)
+    die(EXIT_INPUT, "--fs: %u Hz is not a sample rate", h->fs);
+  if (h->uart_in_path && !strcmp(h->uart_in_path, "-") && !strcmp(h->adc_path, "-"))
     die(EXIT_INPUT, "--adc and --uart-in cannot both read stdin");
 }
 
@@ -256,63 +258,63 @@ static const struct option opts[] = {
   { NULL, 0, NULL, 0 },
 };
 
-void parse_args(int argc, char **argv)
+void parse_args(harness_t *h, int argc, char **argv)
 {
   int c;
   opterr = 0;
   while ((c = getopt_long(argc, argv, ":o:vh", opts, NULL)) != -1) {
     switch (c) {
-    case O_ADC: g.adc_path = optarg; break;
-    case O_FS: g.fs = (unsigned)parse_ulong(optarg, "--fs"); break;
-    case O_UART_IN: g.uart_in_path = optarg; break;
-    case 'o': g.out_path = optarg; break;
-    case O_MCU: g.mcu = optarg; break;
-    case O_FREQ: g.freq = (uint32_t)parse_ulong(optarg, "--freq"); break;
+    case O_ADC: h->adc_path = optarg; break;
+    case O_FS: h->fs = (unsigned)parse_ulong(optarg, "--fs"); break;
+    case O_UART_IN: h->uart_in_path = optarg; break;
+    case 'o': h->out_path = optarg; break;
+    case O_MCU: h->mcu = optarg; break;
+    case O_FREQ: h->freq = (uint32_t)parse_ulong(optarg, "--freq"); break;
     case O_TIMEOUT: {
       char *end;
-      g.timeout_s = strtod(optarg, &end);
-      g.timeout_set = 1;
-      if (*end || !(g.timeout_s > 0))
+      h->timeout_s = strtod(optarg, &end);
+      h->timeout_set = 1;
+      if (*end || !(h->timeout_s > 0))
         die(EXIT_INPUT, "--timeout: '%s' is not a positive number of seconds",
             optarg);
       break;
     }
     case O_STATS:
       if (optarg)
-        g.stats_json = optarg;
+        h->stats_json = optarg;
       else
-        g.stats_text = 1;
+        h->stats_text = 1;
       break;
-    case O_STATS_JSON: g.stats_json = optarg; break;
-    case O_PTY: g.pty = 1; break;
-    case O_LINK: g.link_path = optarg; break;
-    case O_SYNTHETIC: g.synthetic = 1; break;
-    case O_SEED: g.seed = parse_ulong(optarg, "--seed"); break;
-    case O_REALTIME: g.realtime = 1; break;
-    case O_FAST: g.fast = 1; break;
-    case O_NO_WAIT: g.no_wait = 1; break;
-    case O_EEPROM: g.eeprom_path = optarg; break;
-    case O_BOARD: g.board = optarg; break;
-    case O_BOOTLOADER: g.bootloader = optarg; break;
-    case O_FLASH: g.isp_hex = optarg; break;
-    case 'v': g.verbose++; break;
+    case O_STATS_JSON: h->stats_json = optarg; break;
+    case O_PTY: h->pty = 1; break;
+    case O_LINK: h->link_path = optarg; break;
+    case O_SYNTHETIC: h->synthetic = 1; break;
+    case O_SEED: h->seed = parse_ulong(optarg, "--seed"); break;
+    case O_REALTIME: h->realtime = 1; break;
+    case O_FAST: h->fast = 1; break;
+    case O_NO_WAIT: h->no_wait = 1; break;
+    case O_EEPROM: h->eeprom_path = optarg; break;
+    case O_BOARD: h->board = optarg; break;
+    case O_BOOTLOADER: h->bootloader = optarg; break;
+    case O_FLASH: h->isp_hex = optarg; break;
+    case 'v': h->verbose++; break;
     case 'h': usage(stdout); exit(EXIT_OK);
     case ':': die(EXIT_INPUT, "%s needs an argument (see --help)", argv[optind - 1]);
     default: die(EXIT_INPUT, "unknown option '%s' (see --help)", argv[optind - 1]);
     }
   }
-  if (g.board && optind == argc) {
-    check_args();     /* board mode: the firmware is in the board's flash */
+  if (h->board && optind == argc) {
+    check_args(h);     /* board mode: the firmware is in the board's flash */
     return;
   }
   if (optind == argc)
     die(EXIT_INPUT, "missing the firmware ELF file (see --help)");
-  if (g.board)
+  if (h->board)
     die(EXIT_INPUT, "--board takes no ELF: the firmware is what the board's "
         "flash holds (--flash HEX to program one)");
   if (optind != argc - 1)
     die(EXIT_INPUT, "expected one ELF file, got %d arguments (see --help)",
         argc - optind);
-  g.elf_path = argv[optind];
-  check_args();
+  h->elf_path = argv[optind];
+  check_args(h);
 }
