@@ -33,6 +33,7 @@
 #include "avr_adc.h"
 #include "avr_uart.h"
 
+#include "sim_fault.h"
 #include "sim_isr.h"
 #include "sim_rows.h"
 #include "sim_term.h"
@@ -125,6 +126,11 @@ struct harness {
   uint16_t sp_min;            /* lowest stack pointer seen */
   uint32_t sp_min_pc;         /* program counter (bytes) when it was seen */
   double wall_s;
+
+  /* faults injected (sim_fault.c), and the batch run's restarts after a
+   * reset: the final run covers rows first_row .. nrows - 1 */
+  fault_t fault;
+  uint64_t first_row, restarts;
 
   /* simavr log */
   char last_error[200];

@@ -18,6 +18,7 @@
 #include "sim_board.h"
 #include "sim_cli.h"
 #include "sim_drive.h"
+#include "sim_fault.h"
 #include "sim_measure.h"
 #include "sim_msg.h"
 #include "sim_serial.h"
@@ -131,6 +132,7 @@ static void make_avr(harness_t *h, elf_firmware_t *fw)
   sim_isr_watch(avr);
   serial_connect(h);
   measure_connect(h);
+  fault_connect(h);
   if (!h->pty)
     drive_connect(h);
 }

@@ -9,6 +9,7 @@
 
 #include "sim_regbit.h"
 
+#include "sim_fault.h"
 #include "sim_msg.h"
 
 
@@ -77,7 +78,7 @@ static uint16_t serve(harness_t *h, int ch)
     }
     h->loaded++;
   }
-  return h->win[k % ROW_WIN][ch];
+  return fault_adc(h, ch, k, h->win[k % ROW_WIN][ch]);
 }
 
 static const char *ref_name(uint16_t ref)

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "sim_fault.h"
 #include "sim_msg.h"
 
 /* --help: the batch run and its options, terminal mode, the figures. */
@@ -139,6 +140,38 @@ static const char usage_term[] =
 "\n"
 ;
 
+static const char usage_faults[] =
+"Faults (what a real board meets; any mode, counted in --stats as fault_*):\n"
+"  --link-loss P     each byte on the link is lost with probability P, both\n"
+"                    ways (in a batch run only while the rows run: the\n"
+"                    harness's set-up and the final report pass clean)\n"
+"  --link-flip P     each byte is hit by a bit error with probability P, both\n"
+"                    ways: towards the device one bit of its 10-bit frame\n"
+"                    (a data bit changes the byte unseen, the stop bit is a\n"
+"                    framing error (FE), the start bit loses the byte);\n"
+"                    towards the host one of its 8 bits\n"
+"  --fault-seed N    seed of every random fault (default 1): a run repeats\n"
+"  --no-flow-control host bytes go at the baud rate whatever the device\n"
+"                    does, and the UART keeps only what the chip keeps (two\n"
+"                    frames and one in its shift register): a frame arriving\n"
+"                    when that is full is lost and DOR is set (a data overrun)\n"
+"  --uart-overrun P  each host byte is lost to a data overrun (DOR set) with\n"
+"                    probability P, as when the receive interrupt comes late\n"
+"  --eeprom-flip ADDR[:MASK]@SEC  at simulated second SEC, EEPROM byte ADDR\n"
+"                    is XORed with MASK (default 0x01); up to 8 of them\n"
+"  --power-cut WHEN  the supply is cut and comes back (a power-on reset):\n"
+"                    WHEN is a simulated second, 'report' (as the device\n"
+"                    sends the first L row of a report) or 'save' (right\n"
+"                    after the device wrote the first EEPROM byte)\n"
+"  --brown-out WHEN  the same, a brown-out reset (BORF)\n"
+"                    After a reset in a batch run the harness starts again\n"
+"                    (stop, rate, reset, start) from the next row; the final\n"
+"                    report covers rows first_row .. the last (--stats).\n"
+"  --adc-fault CH=CODE|stuck[@ROW]  from row ROW (default 0) on, channel CH\n"
+"                    (ax ay az gx gy gz temp, or 0..6) reads CODE (0 or 1023:\n"
+"                    railed), or stays at its value of row ROW-1 (stuck)\n"
+"\n";
+
 static const char usage_figures[] =
 "Figures (--stats):\n"
 "  sample_cycles_mean/max, sample_count  CPU cycles PB0 stays high (the\n"
@@ -176,6 +209,7 @@ static void usage(FILE *f)
 {
   fputs(usage_run, f);
   fputs(usage_term, f);
+  fputs(usage_faults, f);
   fputs(usage_figures, f);
 }
 
@@ -186,6 +220,15 @@ static unsigned long parse_ulong(const char *s, const char *opt)
   unsigned long v = strtoul(s, &end, 0);
   if (!*s || *end || errno || *s == '-')
     die(EXIT_INPUT, "%s: '%s' is not a positive integer (see --help)", opt, s);
+  return v;
+}
+
+static double parse_prob(const char *s, const char *opt)
+{
+  char *end;
+  double v = strtod(s, &end);
+  if (!*s || *end || !(v >= 0 && v <= 1))
+    die(EXIT_INPUT, "%s: '%s' is not a probability (0 to 1)", opt, s);
   return v;
 }
 
@@ -231,7 +274,9 @@ static void check_args(const harness_t *h)
 /* imu-sim's long options (getopt_long). */
 enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
        O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
-       O_NO_WAIT, O_EEPROM, O_BOARD, O_BOOTLOADER, O_FLASH };
+       O_NO_WAIT, O_EEPROM, O_BOARD, O_BOOTLOADER, O_FLASH, O_LINK_LOSS,
+       O_LINK_FLIP, O_FAULT_SEED, O_NO_FLOW, O_OVERRUN, O_EE_FLIP, O_POWER_CUT,
+       O_BROWN_OUT, O_ADC_FAULT };
 static const struct option opts[] = {
   { "adc", required_argument, NULL, O_ADC },
   { "fs", required_argument, NULL, O_FS },
@@ -253,6 +298,15 @@ static const struct option opts[] = {
   { "board", required_argument, NULL, O_BOARD },
   { "bootloader", required_argument, NULL, O_BOOTLOADER },
   { "flash", required_argument, NULL, O_FLASH },
+  { "link-loss", required_argument, NULL, O_LINK_LOSS },
+  { "link-flip", required_argument, NULL, O_LINK_FLIP },
+  { "fault-seed", required_argument, NULL, O_FAULT_SEED },
+  { "no-flow-control", no_argument, NULL, O_NO_FLOW },
+  { "uart-overrun", required_argument, NULL, O_OVERRUN },
+  { "eeprom-flip", required_argument, NULL, O_EE_FLIP },
+  { "power-cut", required_argument, NULL, O_POWER_CUT },
+  { "brown-out", required_argument, NULL, O_BROWN_OUT },
+  { "adc-fault", required_argument, NULL, O_ADC_FAULT },
   { "verbose", no_argument, NULL, 'v' },
   { "help", no_argument, NULL, 'h' },
   { NULL, 0, NULL, 0 },
@@ -261,6 +315,7 @@ static const struct option opts[] = {
 void parse_args(harness_t *h, int argc, char **argv)
 {
   int c;
+  h->fault.rng = 0x9E3779B97F4A7C15ull + 1;   /* --fault-seed 1 */
   opterr = 0;
   while ((c = getopt_long(argc, argv, ":o:vh", opts, NULL)) != -1) {
     switch (c) {
@@ -297,6 +352,15 @@ void parse_args(harness_t *h, int argc, char **argv)
     case O_BOARD: h->board = optarg; break;
     case O_BOOTLOADER: h->bootloader = optarg; break;
     case O_FLASH: h->isp_hex = optarg; break;
+    case O_LINK_LOSS: h->fault.loss = parse_prob(optarg, "--link-loss"); break;
+    case O_LINK_FLIP: h->fault.flip = parse_prob(optarg, "--link-flip"); break;
+    case O_FAULT_SEED: h->fault.rng = parse_ulong(optarg, "--fault-seed") * 0x9E3779B97F4A7C15ull + 1; break;
+    case O_NO_FLOW: h->fault.no_flow = 1; break;
+    case O_OVERRUN: h->fault.overrun = parse_prob(optarg, "--uart-overrun"); break;
+    case O_EE_FLIP: fault_parse_eeprom(&h->fault, optarg); break;
+    case O_POWER_CUT: fault_parse_power(&h->fault, POWER_CUT, optarg); break;
+    case O_BROWN_OUT: fault_parse_power(&h->fault, POWER_BROWNOUT, optarg); break;
+    case O_ADC_FAULT: fault_parse_adc(&h->fault, optarg); break;
     case 'v': h->verbose++; break;
     case 'h': usage(stdout); exit(EXIT_OK);
     case ':': die(EXIT_INPUT, "%s needs an argument (see --help)", argv[optind - 1]);

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "sim_adc.h"
+#include "sim_fault.h"
 #include "sim_msg.h"
 #include "sim_serial.h"
 
@@ -32,6 +33,9 @@ static void release_uart_in(harness_t *h)
 static void set_state(harness_t *h, int st)
 {
   h->state = st;
+  /* the link is noisy (--link-loss, --link-flip) while the rows run: the
+   * set-up and the final report pass clean, so the run itself keeps going */
+  h->fault.link_on = st == ST_RUN;
   h->deadline = h->avr->cycle + h->timeout_cycles;
 }
 
@@ -43,6 +47,31 @@ static void finish_run(harness_t *h)
 }
 
 /* ---- device lines -------------------------------------------------------- */
+
+/* After a reset in the middle of the run (a power cut, a brown-out): the
+ * run starts again from the next row not yet converted, every channel from
+ * the same row (a scan the reset cut short is skipped). */
+static void restart(harness_t *h)
+{
+  h->restarts++;
+  h->armed = 0;     /* conversions read 512 and take no row until 'ok stopped' */
+  serial_send_cmd(h, "stop");
+  set_state(h, ST_STOP);
+}
+
+static void rearm(harness_t *h)
+{
+  uint64_t k = 0;
+  for (int c = 0; c < ROW_COLUMNS; c++)
+    if (h->conv[c] > k)
+      k = h->conv[c];
+  for (int c = 0; c < ROW_COLUMNS; c++)
+    h->conv[c] = k;
+  if (k >= h->nrows)
+    fail(h, EXIT_FAIL, "the device was reset after the last row: no row left to "
+         "run again");
+  h->first_row = k;
+}
 
 /* Replies: the harness's own commands are told apart by their replies'
  * content, not by counting, since user input (--uart-in) may be noise whose
@@ -60,8 +89,9 @@ static void on_reply(harness_t *h, int ok, const char *body)
   };
   switch (h->state) {
   case ST_STOP: case ST_RATE: case ST_RESET: case ST_START:
-    /* Set-up: no user input has been sent yet, so every reply is ours. */
-    if (!ok) {
+    /* Set-up: no user input has been sent yet, so every reply is ours
+     * (after a restart, user input may still be on its way). */
+    if (!ok && !h->restarts) {
       fail(h, EXIT_FAIL, "the device answered '%s' with '%s'", cmd[h->state], body);
       return;
     }
@@ -77,6 +107,8 @@ static void on_reply(harness_t *h, int ok, const char *body)
   case ST_STOP:
     if (!reply_is(body, "ok stopped"))
       return;
+    if (h->restarts)
+      rearm(h);
     h->armed = 1;   /* the next conversion of each channel gets row 0 */
     if (h->fs) {
       serial_send_cmd(h, "rate %u", h->fs);
@@ -95,7 +127,7 @@ static void on_reply(harness_t *h, int ok, const char *body)
   case ST_RESET:
     if (strcmp(body, "ok reset"))
       return;
-    serial_send_cmd(h, "start %llu", (unsigned long long)h->nrows);
+    serial_send_cmd(h, "start %llu", (unsigned long long)(h->nrows - h->first_row));
     set_state(h, ST_START);
     break;
   case ST_START:
@@ -133,9 +165,11 @@ static void on_line(harness_t *h, char *body, size_t len, int crc_ok)
     on_reply(h, 0, body);
   } else if (!strncmp(body, "B,", 2)) {
     if (h->boots++) {
-      if (!h->board)     /* a board resets whenever its port is opened */
+      if (!h->board && !h->fault.resets)   /* one the harness did not cause */
         warn("t=%.6f s: the device rebooted (boot line #%llu)", sim_time(h),
              (unsigned long long)h->boots);
+      if (h->state != ST_BOOT)
+        restart(h);
     } else if (h->state == ST_BOOT) {
       serial_send_cmd(h, "stop");
       set_state(h, ST_STOP);
@@ -143,7 +177,7 @@ static void on_line(harness_t *h, char *body, size_t len, int crc_ok)
   } else if (!strncmp(body, "H,", 2)) {
     /* The final report: the one that covers every row (the device stopped
      * there by itself), whoever asked for it. */
-    if (h->state == ST_REPORT_H && key_value(body, ",n=") == (long long)h->nrows) {
+    if (h->state == ST_REPORT_H && key_value(body, ",n=") == (long long)(h->nrows - h->first_row)) {
       h->report_seq = strtoul(body + 2, NULL, 10);
       h->dev_n = key_value(body, ",n=");
       h->dev_drops = key_value(body, ",drops=");
@@ -200,6 +234,10 @@ int drive_run(harness_t *h)
     if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
       break;
     watch_sp(h);
+    if (avr->cycle >= h->fault.next_at && fault_poll(h)) {
+      serial_after_reset(h);    /* simavr dropped the cycle timers */
+      h->deadline = avr->cycle + h->timeout_cycles;
+    }
     if (avr->cycle >= h->deadline) {
       if (h->state == ST_DRAIN)
         break;
@@ -227,9 +265,9 @@ void drive_summary(harness_t *h, int code)
          (unsigned long long)h->extra_conv, (unsigned long long)h->extra_scans);
   if (code == EXIT_OK && h->dev_drops > 0)
     warn("the final report says drops=%lld", h->dev_drops);
-  if (code == EXIT_OK && h->dev_n >= 0 && (uint64_t)h->dev_n != h->nrows)
+  if (code == EXIT_OK && h->dev_n >= 0 && (uint64_t)h->dev_n != h->nrows - h->first_row)
     warn("the final report says n=%lld, %llu rows were fed", h->dev_n,
-         (unsigned long long)h->nrows);
+         (unsigned long long)(h->nrows - h->first_row));
   if (h->bad_crc > 1)
     warn("%llu device lines had a bad CRC", (unsigned long long)h->bad_crc);
   if (h->bytes_lost)

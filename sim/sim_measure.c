@@ -209,7 +209,7 @@ void print_stats(harness_t *h, int json)
       return;
     }
   }
-  stat_kv_t kv[48];
+  stat_kv_t kv[64];
   int n = 0;
 #define KV(k, ...) \
   (kv[n].key = (k), kv[n].text = 0, \
@@ -257,6 +257,20 @@ void print_stats(harness_t *h, int json)
   KV("uart_xoff_events", "%llu", (unsigned long long)h->xoffs);
   KV("bad_crc_lines", "%llu", (unsigned long long)h->bad_crc);
   KV("device_n", "%s", dn);
+  KV("boots", "%llu", (unsigned long long)h->boots);
+  KV("restarts", "%llu", (unsigned long long)h->restarts);
+  KV("first_row", "%llu", (unsigned long long)h->first_row);
+  const fault_t *fl = &h->fault;
+  KV("fault_in_lost", "%llu", (unsigned long long)fl->in_lost);
+  KV("fault_in_flipped", "%llu", (unsigned long long)fl->in_flipped);
+  KV("fault_in_frame_errors", "%llu", (unsigned long long)fl->in_frame_errors);
+  KV("fault_out_lost", "%llu", (unsigned long long)fl->out_lost);
+  KV("fault_out_flipped", "%llu", (unsigned long long)fl->out_flipped);
+  KV("fault_overruns", "%llu", (unsigned long long)fl->overruns);
+  KV("fault_overruns_injected", "%llu", (unsigned long long)fl->overruns_injected);
+  KV("fault_eeprom_flipped", "%llu", (unsigned long long)fl->ee_flipped);
+  KV("fault_resets", "%llu", (unsigned long long)fl->resets);
+  KV("fault_adc_conversions", "%llu", (unsigned long long)fl->adc_faulted);
   KV("device_drops", "%s", dd);
   KV("sim_seconds", "%.6f", sim_s);
   KV("wall_seconds", "%.6f", h->wall_s);

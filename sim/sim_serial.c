@@ -1,8 +1,9 @@
 /*
  * sim_serial.c - the device's UART seen from the host: host bytes paced at
  * the baud rate the firmware programmed (honouring simavr's receive FIFO
- * flow control), device bytes captured and framed into protocol lines
- * checked with the firmware's own CRC (crc.c).
+ * flow control, unless --no-flow-control), device bytes captured and framed
+ * into protocol lines checked with the firmware's own CRC (crc.c); both
+ * ways through the link faults of sim_fault.c.
  */
 #include "sim_serial.h"
 
@@ -14,6 +15,7 @@
 #include "sim_regbit.h"
 
 #include "crc.h"
+#include "sim_fault.h"
 #include "sim_msg.h"
 
 /* the accessors of avr_uart.h's receive FIFO (avr_uart_t.input) */
@@ -43,19 +45,23 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
     h->tx_busy = 0;      /* restarted by tx_push() */
     return 0;
   }
-  if (h->xoff || uart_fifo_isfull(&h->uart->input)) {
+  /* Without flow control the sender never waits: the chip's receive
+   * buffer decides (fault_rx_full). */
+  if (!h->fault.no_flow && (h->xoff || uart_fifo_isfull(&h->uart->input))) {
     if (uart_fifo_isfull(&h->uart->input))
       return when + serial_byte_cycles(h);
     h->xoff = 0;
   }
   uint8_t c = h->txq[h->txq_head++];
+  int fe;
   h->txq_len--;
   if (!h->txq_len)
     h->txq_head = 0;
+  h->bytes_in++;
   if (!avr_regbit_get(avr, h->uart->rxen))
     h->bytes_lost++;     /* simavr drops it, as the hardware would */
-  avr_raise_irq(h->uart_irq + UART_IRQ_INPUT, c);
-  h->bytes_in++;
+  else if (fault_host_byte(h, &c, &fe) && !fault_rx_full(h))
+    avr_raise_irq(h->uart_irq + UART_IRQ_INPUT, c | (fe ? UART_INPUT_FE : 0));
   h->tx_free_at = when + serial_byte_cycles(h);
   if (!h->txq_len) {
     h->tx_busy = 0;
@@ -177,6 +183,8 @@ static void uart_out(avr_irq_t *irq, uint32_t value, void *param)
   harness_t *h = param;
   uint8_t c = (uint8_t)value;
   (void)irq;
+  if (!fault_device_byte(h, &c))
+    return;     /* lost on the link */
   if (h->out)
     putc(c, h->out);
   h->bytes_out++;

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "sim_board.h"
+#include "sim_fault.h"
 #include "sim_msg.h"
 #include "sim_serial.h"
 
@@ -284,6 +285,7 @@ int term_run(harness_t *h)
   signal(SIGPIPE, SIG_IGN);
 
   h->on_byte = term_out;
+  h->fault.link_on = 1;     /* the whole session goes over the link */
   h->on_line = on_line;
   fprintf(t.info, PROG ": device on %s\n", t.pty.slave);
   if (t.pty.link)
@@ -317,6 +319,8 @@ int term_run(harness_t *h)
     if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
       break;
     watch_sp(h);
+    if (avr->cycle >= h->fault.next_at && fault_poll(h))
+      h->reset_seen = 1;
     if (h->reset_seen)
       term_after_reset(h);
     if (avr->cycle < t.next_io)
