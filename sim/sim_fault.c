@@ -248,11 +248,9 @@ static void power_event(harness_t *h)
   if (h->verbose)
     fprintf(stderr, PROG ": t=%.6f s: %s\n", sim_time(h),
             f->power == POWER_CUT ? "power cut" : "brown-out");
-  avr_reset(avr);     /* simavr sets PORF */
-  if (f->power == POWER_BROWNOUT) {
-    avr_regbit_clear(avr, avr->reset_flags.porf);
-    avr_regbit_set(avr, avr->reset_flags.borf);
-  }
+  avr_reset(avr);     /* every I/O register to 0, MCUSR too */
+  avr_regbit_set(avr, f->power == POWER_CUT ? avr->reset_flags.porf
+                                            : avr->reset_flags.borf);
 }
 
 int fault_poll(harness_t *h)
