@@ -105,7 +105,7 @@ include tests/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all bench ext firmware other-mcus deps test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all bench ext firmware other-mcus deps test unit pytest sim-test soak term-test flash-test demo demo-native clean version
 
 all: firmware
 
@@ -174,6 +174,13 @@ sim-test: firmware $(IMU_SIM)
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/sim
 
 # ---- benchmark --------------------------------------------------------------
+# The link soak: 1,000 runs of random back-to-back commands over a link that
+# loses and flips bytes at 1e-3 each way (tests/sim/soak.py says what is
+# counted); `make sim-test` runs a sample of 12.  SOAK_RUNS=N for another count.
+SOAK_RUNS ?= 1000
+soak: firmware $(IMU_SIM)
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) tests/sim/soak.py --runs $(SOAK_RUNS)
+
 # Device, simulator and host side by side; writes bench/results.json.
 bench: firmware $(IMU_SIM) ext
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)

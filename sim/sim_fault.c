@@ -174,6 +174,7 @@ int fault_host_byte(harness_t *h, uint8_t *c, int *fe)
       f->in_frame_errors++;
       *fe = 1;
     } else {
+      f->in_data_flips++;
       *c ^= (uint8_t)(1u << (bit - 1));
     }
   }

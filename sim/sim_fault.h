@@ -40,7 +40,7 @@ typedef struct {
   uint16_t stuck_code;
   avr_cycle_count_t next_at;  /* when fault_poll() has work; ~0: never */
   /* what happened */
-  uint64_t in_lost, in_flipped, in_frame_errors, out_lost, out_flipped;
+  uint64_t in_lost, in_flipped, in_frame_errors, in_data_flips, out_lost, out_flipped;
   uint64_t overruns, overruns_injected, ee_flipped, resets, adc_faulted;
 } fault_t;
 

@@ -264,6 +264,7 @@ void print_stats(harness_t *h, int json)
   KV("fault_in_lost", "%llu", (unsigned long long)fl->in_lost);
   KV("fault_in_flipped", "%llu", (unsigned long long)fl->in_flipped);
   KV("fault_in_frame_errors", "%llu", (unsigned long long)fl->in_frame_errors);
+  KV("fault_in_data_flips", "%llu", (unsigned long long)fl->in_data_flips);
   KV("fault_out_lost", "%llu", (unsigned long long)fl->out_lost);
   KV("fault_out_flipped", "%llu", (unsigned long long)fl->out_flipped);
   KV("fault_overruns", "%llu", (unsigned long long)fl->overruns);
