@@ -58,7 +58,7 @@ $(foreach m,$(FW_COLD),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += -fno-gcse))
 # Each flag measured alone on them: -fno-tree-pre 30, -fno-tree-tail-merge
 # 30, -fno-tree-sink 26, then -fno-tree-loop-ivcanon 56, -fno-tree-fre
 # 12.  make bench measures what they cost in cycles and stack.
-FW_SMALL := report settings control cmdline stream reply vocab reset main
+FW_SMALL := report settings control stream reply vocab reset main
 FW_SMALL_FLAGS := -fno-gcse -fno-tree-pre -fno-tree-tail-merge -fno-tree-sink -fno-tree-loop-ivcanon -fno-tree-fre
 $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS)))
 # And for some of them one or two passes more, each measured on its own

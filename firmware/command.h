@@ -48,6 +48,7 @@ uint8_t command_arg_kind(uint8_t id);
 #define CMD_ERR_STATE   4
 #define CMD_ERR_LOST    5 /* bytes of the line were lost on the way in */
 #define CMD_ERR_BYTE    6 /* a byte no command holds: NUL, a control, 8-bit */
+#define CMD_ERR_TIMEOUT 7 /* no end of line within CONSOLE_TIMEOUT_MS of silence */
 
 typedef struct {
   uint8_t id;      /* CMD_* */

@@ -131,6 +131,20 @@
 #  endif
 #endif
 
+/* Silence after which an open command line (bytes without CR or LF) is
+ * discarded with one `error:7` reply (docs/protocol.md): a stray byte on a
+ * radio link, or a line whose end was lost, must never glue itself onto
+ * the next command, and a terminal must not be left with a line it cannot
+ * see.  A host sends a whole line within milliseconds; a person types a
+ * command with shorter pauses than this.  At most 6500 ms (the console's
+ * clock wraps after 256 ticks of 26 ms at 10 MHz: clock.h). */
+#ifndef CONSOLE_TIMEOUT_MS
+#  define CONSOLE_TIMEOUT_MS 2000
+#endif
+#if CONSOLE_TIMEOUT_MS < 100 || CONSOLE_TIMEOUT_MS > 6500
+#  error "CONSOLE_TIMEOUT_MS must be 100..6500"
+#endif
+
 /* Largest ADC code the engine accepts (10-bit converter). */
 #define ALLAN_CODE_MAX 1023u
 

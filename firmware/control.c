@@ -6,10 +6,9 @@
 
 #include "adc.h"
 #include "board.h"
-#include "cmdline.h"
 #include "command.h"
 #include "config.h"
-#include "lineedit.h"
+#include "console.h"
 #include "link.h"
 #include "pgm.h"
 #include "proto.h"
@@ -18,12 +17,6 @@
 #include "tx.h"
 #include "uart.h"
 #include "vocab.h"
-
-/* The command line being received and echoed is lineedit (cmdline.c
- * fills it); LINE_READY: a complete one waits until the output is between
- * two lines. */
-#define line lineedit
-#define ready (line.flags & LINE_READY)
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -240,12 +233,12 @@ static void execute(const command_t *cmd)
   }
 }
 
-/* Run the complete command line (replies: docs/protocol.md). */
+/* Run the waiting command line (replies: docs/protocol.md). */
 static __attribute__((noinline)) void run_line(void)
 {
   command_t cmd;
   const char *text;
-  uint8_t err = cmdline_take(&text);
+  uint8_t err = console_take(&text);
   if (!err)
     err = command_parse(text, &cmd);
   if (err == CMD_ERR_ARG)
@@ -253,47 +246,23 @@ static __attribute__((noinline)) void run_line(void)
   else if (err)
     tx_refuse(err, text);
   else if (cmd.id != CMD_NONE)
-    execute(&cmd); /* it may poll the receiver: the next line may begin */
+    execute(&cmd);
 }
 
-/* 1 when the echo is written as typed: mode allan, nothing else being
- * written.  Otherwise a line's echo goes out whole once it has ended, as
- * an output job just before its reply (a raw row waits for it as for a
- * reply, within the link budget: link.h). */
-__attribute__((noinline)) static uint8_t echo_live(void)
-{
-  return settings.mode == MODE_ALLAN && !tx_busy();
-}
-
-/* Echo the command line (cmdline.c assembles it, also between the
- * engine's channels).  The echo never holds a line back: as typed, it
- * takes what room the output has (a paste faster than the link may be
- * shown in part); whole, it is the job just before the reply, and input
- * waits only for that one step. */
-static __attribute__((noinline)) void read_line(void)
-{
-  cmdline_poll();
-  if (settings.echo && !lineedit_idle(&line)) {
-    if (echo_live()) {
-      lineedit_echo(&line, 0, uart_write, uart_tx_room());
-    } else if (!ready && lineedit_ended(&line) && tx_can_interject()) {
-      tx_echo(); /* a dropped or blank line's end */
-    }
-  }
-}
-
-/* Kept apart from read_line(), and small: a command may feed the engine
- * (stop, start, reset), the deepest stack there is. */
+/* Kept apart from the console's work, and small: a command may feed the
+ * engine (stop, start, reset), the deepest stack there is.  A complete
+ * line runs when the output is between two lines (and no EEPROM save is
+ * under way), so its reply never cuts into a line; the rest of its echo
+ * goes just before the reply. */
 static void poll_commands(void)
 {
-  read_line();
-  if (ready && tx_can_interject() && !settings_saving()) {
-    if (lineedit_ended(&line)) {
-      if (echo_live())
-        line.flags = (uint8_t)((line.flags & LINE_REFUSED) | LINE_RUN); /* no room: the rest is not shown */
-      else
-        tx_echo(); /* the reply follows it */
-    }
+  /* Typed characters are echoed as they come in mode allan, nothing else
+   * being written; otherwise a line's echo goes out whole just before its
+   * reply (a raw row waits for it as for a reply: link.h). */
+  console_poll(settings.mode == MODE_ALLAN && !tx_busy());
+  if (console_ready() && tx_can_interject() && !settings_saving()) {
+    if (settings.echo)
+      tx_echo(); /* the reply follows it */
     run_line();
   }
 }
@@ -301,17 +270,17 @@ static void poll_commands(void)
 void control_poll(void)
 {
   /* EEPROM bytes go out only where the reply may follow at once. */
-  if (settings_saving() && tx_can_interject() && !lineedit_open(&line) && settings_poll())
+  if (settings_saving() && tx_can_interject() && console_close() && settings_poll())
     tx_ok(vocab_sources); /* "saved": the first word, CFG_SAVED */
-  /* A complete line runs when the output is between two lines (and no
-   * EEPROM save is under way), so its reply never cuts into a line. */
   poll_commands();
+  /* A periodic report never waits on a half-typed line: an echo line on
+   * the screen is ended first, and shown again after the report. */
   if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
-      !tx_busy() && !lineedit_open(&line) && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz)
+      !tx_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz && console_close())
     tx_report(); /* its header restarts the interval */
 }
 
 uint8_t control_has_work(void)
 {
-  return uart_rx_pending() || settings_saving() || cmdline_ready();
+  return uart_rx_pending() || settings_saving() || console_ready();
 }

@@ -10,6 +10,8 @@
 #include <avr/sleep.h>
 
 #include "adc.h"
+#include "clock.h"
+#include "console.h"
 #include "control.h"
 #include "reset.h"
 #include "sample.h"
@@ -34,6 +36,7 @@ int main(void)
   tx_init(reset_cause());
   uart_init();
   adc_init();
+  clock_init();
   control_init();
   set_sleep_mode(SLEEP_MODE_IDLE);
   reset_watchdog_start();
@@ -43,8 +46,10 @@ int main(void)
   adc_start(0, 0);
   for (;;) {
     reset_watchdog_kick();
-    if (adc_pending()) /* sample_feed's prologue is not for nothing */
-      sample_feed(); /* the stream holds a set until its row or frame is out */
+    /* Sets to the engine (the stream holds a set until its row or frame is
+     * out), received bytes to the console between two of them. */
+    while (sample_take())
+      console_receive();
     tx_poll();
     control_poll();
     /* Sleep until the next interrupt unless there is work to do now. */

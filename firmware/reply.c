@@ -4,7 +4,7 @@
 #include "adc.h"
 #include "command.h"
 #include "config.h"
-#include "lineedit.h"
+#include "console.h"
 #include "link.h"
 #include "pgm.h"
 #include "proto.h"
@@ -13,7 +13,7 @@
 
 #define WORD_MAX 6 /* characters of an unknown command word quoted */
 
-#if CMD_ERR_BYTE > 9
+#if CMD_ERR_TIMEOUT > 9
 #  error "step_error() writes an error code as one digit"
 #endif
 
@@ -143,21 +143,22 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
   return 0;
 }
 
-/* A line refused before any command is known, by CMD_ERR_* code / 2
- * (CMD_ERR_UNKNOWN, CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE: 0, 1, 2, 3;
- * 2 and 4 always name their command): what, and what is allowed, as
- * reply_set_error's texts. */
-static const char refused_P[] PROGMEM =
-  "unknown command\0see help\0line too long\0" "16 chars\0input lost\0resend\0bad byte\0printable ASCII";
-#if CMD_ERR_UNKNOWN / 2 != 0 || CMD_ERR_LONG / 2 != 1 || CMD_ERR_LOST / 2 != 2 || CMD_ERR_BYTE / 2 != 3
-#  error "refused_P is indexed by code / 2"
+/* A line refused before any command is known, two words a code, what
+ * and what is allowed, as reply_set_error's texts: CMD_ERR_UNKNOWN,
+ * CMD_ERR_LONG, CMD_ERR_LOST, CMD_ERR_BYTE, CMD_ERR_TIMEOUT at words
+ * 0, 2, 4, 6, 8 (codes 2 and 4 always name their
+ * command). */
+static const char refused_P[] PROGMEM = "unknown command\0see help\0line too long\0"
+                                        "16 chars\0input lost\0resend\0bad byte\0printable ASCII\0timed out\0resend";
+#if CMD_ERR_UNKNOWN != 1 || CMD_ERR_LONG != 3 || CMD_ERR_LOST != 5 || CMD_ERR_BYTE != 6 || CMD_ERR_TIMEOUT != 7
+#  error "refused_P is indexed by (code & ~1), and 8 for CMD_ERR_TIMEOUT"
 #endif
 
 /* `error:<code> <command>: <what>; <allowed>` */
 static __attribute__((noinline)) uint8_t step_error(uint8_t step)
 {
   uint8_t none = rpl.tail == CMD_NONE;
-  const char *text = none ? vocab_word(refused_P, (uint8_t)(rpl.code & ~1u)) : rpl.text_P;
+  const char *text = none ? vocab_word(refused_P, (uint8_t)((rpl.code & ~1u) + (rpl.code == CMD_ERR_TIMEOUT ? 2 : 0))) : rpl.text_P;
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("error:"));
@@ -167,7 +168,7 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
     if (none) {
       uint8_t i;
       for (i = 0; i < WORD_MAX && rpl.word[i]; i++)
-        proto_putc(lineedit_shown_as(rpl.word[i]));
+        proto_putc(console_shown_as(rpl.word[i]));
     } else {
       proto_puts_P(command_word(rpl.tail));
     }
@@ -215,8 +216,9 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
   return REPLY_MORE;
 }
 
-/* `ok status run= fs= mode= range= interval= link= cfg= units=`: a key=value a
- * step, the keys from this list (a new key: a word here, a case below). */
+/* `ok status run= fs= mode= range= interval= link= cfg= units= rx=`: a
+ * key=value a step, the keys from this list (a new key: a word here, a
+ * case below), then rx's counts a step each. */
 static const char status_keys_P[] PROGMEM = "run\0fs\0mode\0range\0interval\0link\0cfg\0units";
 #define STATUS_KEYS 8
 
@@ -226,6 +228,12 @@ static __attribute__((noinline)) uint8_t step_status(uint8_t step)
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("ok status"));
+  } else if ((uint8_t)(k - STATUS_KEYS) < CONSOLE_COUNTS) {
+    k = (uint8_t)(k - STATUS_KEYS);
+    if (!k)
+      proto_puts_P(PSTR(" rx"));
+    proto_putc(k ? ':' : '=');
+    proto_u32(console_count(k));
   } else if (k < STATUS_KEYS) {
     uint16_t n = 0; /* every value fits */
     const char *list = 0; /* a word of this list, at n */

@@ -10,6 +10,7 @@
 #include "adc.h"
 #include "allan.h"
 #include "config.h"
+#include "console.h"
 #include "fmt.h"
 #include "pgm.h"
 #include "proto.h"
@@ -231,6 +232,12 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
     proto_puts_P(reset_key_P);
   } else if (step == temp + 5) {
     put_causes();
+  } else if ((uint8_t)(step - temp - 6) < CONSOLE_COUNTS) {
+    step = (uint8_t)(step - temp - 6);
+    if (!step)
+      proto_puts_P(PSTR(",rx"));
+    proto_putc(step ? ':' : '=');
+    proto_u32(console_count(step));
   } else {
     proto_end();
     return 1;

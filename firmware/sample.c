@@ -2,7 +2,6 @@
 #include "sample.h"
 
 #include "board.h"
-#include "cmdline.h"
 #include "config.h"
 #include "stream.h"
 
@@ -27,50 +26,52 @@ static inline __attribute__((always_inline)) void temp_add(uint16_t code)
 #endif
 }
 
-void sample_feed(void)
+uint8_t sample_take(void)
 {
+  uint8_t i, counted;
   /* In raw and binary modes a set stays in the ring until its row or frame
    * is written (stream.c), so that output and engine see the same sets.
    * Codes are read one at a time from the ring: no copy on the stack of
    * the engine's deepest path. */
-  while (adc_pending() && !stream_holds_oldest()) {
-    uint8_t i, counted;
-    BOARD_PROBE_SAMPLE_ON();
-    /* A set the engine refuses (its 32-bit count is full) is lost like a
-     * dropped one, and counted as such. */
-    BOARD_PROBE_ALLAN_ON();
-    counted = allan_begin(&sample_engine) == ALLAN_OK;
-    BOARD_PROBE_ALLAN_OFF();
-    if (!counted)
-      adc_count_drop();
-    for (i = 0; i < ADC_COLUMNS; i++) {
-      uint16_t code = adc_oldest(i);
-      if ((code == 0 || code == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFu)
-        sample_stats.clips[i]++;
-      if (i < ALLAN_CHANNELS) {
-        if (counted) {
-          BOARD_PROBE_ALLAN_ON();
-          allan_channel(&sample_engine, i, code);
-          BOARD_PROBE_ALLAN_OFF();
-          /* A whole set takes up to 0.4 ms (docs/firmware.md), the RX
-           * ring's 8 bytes last 0.69 ms at 115200 baud: receive twice a
-           * set, so that sets taken back to back never starve it. */
-          if (i == 2 || i == ALLAN_CHANNELS - 1)
-            cmdline_poll();
-        }
-      } else {
-        temp_add(code);
-        if (code < sample_stats.temp_min)
-          sample_stats.temp_min = code;
-        if (code > sample_stats.temp_max)
-          sample_stats.temp_max = code;
+  if (!adc_pending() || stream_holds_oldest())
+    return 0;
+  BOARD_PROBE_SAMPLE_ON();
+  /* A set the engine refuses (its 32-bit count is full) is lost like a
+   * dropped one, and counted as such. */
+  BOARD_PROBE_ALLAN_ON();
+  counted = allan_begin(&sample_engine) == ALLAN_OK;
+  BOARD_PROBE_ALLAN_OFF();
+  if (!counted)
+    adc_count_drop();
+  for (i = 0; i < ADC_COLUMNS; i++) {
+    uint16_t code = adc_oldest(i);
+    if ((code == 0 || code == ALLAN_CODE_MAX) && sample_stats.clips[i] != 0xFFFFu)
+      sample_stats.clips[i]++;
+    if (i < ALLAN_CHANNELS) {
+      if (counted) {
+        BOARD_PROBE_ALLAN_ON();
+        allan_channel(&sample_engine, i, code);
+        BOARD_PROBE_ALLAN_OFF();
       }
+    } else {
+      temp_add(code);
+      if (code < sample_stats.temp_min)
+        sample_stats.temp_min = code;
+      if (code > sample_stats.temp_max)
+        sample_stats.temp_max = code;
     }
-    sample_stats.since_report++;
-    adc_discard();
-    stream_taken();
-    BOARD_PROBE_SAMPLE_OFF();
   }
+  sample_stats.since_report++;
+  adc_discard();
+  stream_taken();
+  BOARD_PROBE_SAMPLE_OFF();
+  return 1;
+}
+
+void sample_feed(void)
+{
+  while (sample_take())
+    ;
 }
 
 void sample_reset(void)

@@ -21,10 +21,15 @@ typedef struct {
 extern allan_t sample_engine;
 extern sample_stats_t sample_stats;
 
-/* Feed every finished scan the stream no longer holds to the engine and
- * the statistics.  Called by the main loop, and by commands that must see
- * every set taken so far; never by the output code.  Cheap when there is
- * none. */
+/* Feed the oldest finished scan to the engine and the statistics, unless
+ * the stream still holds it; 1 if one was fed.  The main loop calls it a
+ * set at a time, receiving command bytes between two sets (a set takes at
+ * most 0.4 ms, the RX ring lasts 0.69 ms at 115200 baud). */
+uint8_t sample_take(void);
+
+/* Every finished scan the stream no longer holds: for commands that must
+ * see every set taken so far (stop, start, reset); never by the output
+ * code. */
 void sample_feed(void);
 
 /* Clear the engine, clips and drops (a new run). */

@@ -8,7 +8,7 @@
 
 #include "adc.h"
 #include "command.h"
-#include "lineedit.h"
+#include "console.h"
 #include "proto.h"
 #include "reply.h"
 #include "report.h"
@@ -205,8 +205,7 @@ void tx_poll(void)
       tx.step = done == REPLY_MORE ? (uint8_t)(tx.step + 1) : 0;
       done = done == REPLY_DONE;
     } else if (tx.job == JOB_ECHO) {
-      lineedit_echo(&lineedit, 1, uart_write, UART_STEP_MAX);
-      done = !lineedit_ended(&lineedit);
+      done = console_echo_job();
     } else {
       done = report_boot_step(tx.step);
       tx.step++;

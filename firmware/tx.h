@@ -19,7 +19,7 @@
 void tx_init(uint8_t reset_cause);
 
 /* Queue jobs (replies and echo only when tx_can_interject()). */
-void tx_echo(void);                                    /* the rest of the ended line's echo (lineedit.h), whole */
+void tx_echo(void);                                    /* the rest of the taken line's echo (console.h), whole */
 void tx_boot(void);
 void tx_report(void);                                  /* a whole report, after the current job */
 void tx_ok(const char *text_P);                        /* `ok` or `ok <text>` */

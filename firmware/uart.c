@@ -42,9 +42,18 @@ static volatile uint8_t tx_buf[UART_TX_SIZE];
 static volatile uint8_t tx_head, tx_tail;
 static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
-/* Where bytes went missing: the ring index | UART_RX_SIZE; 0: none (so it
- * starts in .bss: no .data to copy at boot). */
+/* Where bytes went missing (0: nowhere; so it starts in .bss): the slot
+ * of the byte they went missing before (GAP_SLOT) | GAP_VALID, why
+ * (UART_READ_OVERRUN, UART_READ_RING, shifted down by 8), and GAP_MORE when
+ * another gap came before that one and is not yet read: every byte up to
+ * the slot then counts as following a gap (a line that lost any byte is
+ * refused whole, never glued to the next; a whole line between two gaps
+ * may be refused with them). */
 static volatile uint8_t rx_gap;
+#define GAP_SLOT (UART_RX_SIZE - 1u)
+#define GAP_VALID UART_RX_SIZE
+#define GAP_MORE 0x40u
+#define GAP_WHY (UART_READ_WHY >> 8)
 
 static uint8_t tx_next(uint8_t i)
 {
@@ -84,14 +93,19 @@ uint8_t uart_tx_room(void)
 
 int16_t uart_read(void)
 {
-  uint8_t c, t = rx_tail;
+  uint8_t c, t = rx_tail, g;
   int16_t gap = 0;
-  if (rx_head == t)
-    return -1;
-  if ((t | UART_RX_SIZE) == rx_gap) { /* bytes were lost just before this one */
-    rx_gap = 0;
-    gap = UART_READ_GAP;
+  ATOMIC_BLOCK(ATOMIC_FORCEON) {
+    g = rx_gap;
+    if ((g & (GAP_VALID | GAP_SLOT)) == (t | GAP_VALID)) { /* bytes were lost just before this one */
+      rx_gap = 0;
+      gap = (int16_t)(UART_READ_GAP | (uint16_t)(g & GAP_WHY) << 8);
+    } else if (g & GAP_MORE) {
+      gap = UART_READ_GAP; /* an earlier gap, where exactly is not known */
+    }
   }
+  if (rx_head == t) /* nothing after the gap yet: the line being received lost bytes */
+    return gap ? (int16_t)(gap | UART_READ_EMPTY) : -1;
   c = rx_buf[t];
   rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
   return (int16_t)(gap | c);
@@ -114,13 +128,21 @@ ISR(USART_UDRE_vect)
 
 ISR(USART_RX_vect)
 {
+  uint8_t h = rx_head, why = 0;
+  uint8_t next = (uint8_t)((h + 1u) & (UART_RX_SIZE - 1u));
+  if (UCSR0A & (1 << DOR0)) /* read before UDR0: bytes before this one were lost */
+    why = UART_READ_OVERRUN >> 8;
   uint8_t c = UDR0;
-  uint8_t next = (uint8_t)((rx_head + 1u) & (UART_RX_SIZE - 1u));
   if (next == rx_tail) {
-    if (!rx_gap)
-      rx_gap = (uint8_t)(rx_head | UART_RX_SIZE); /* the next byte stored there follows a gap */
-    return;
+    why |= UART_READ_RING >> 8; /* the next byte stored in slot h follows a gap */
+  } else {
+    rx_buf[h] = c;
+    rx_head = next;
   }
-  rx_buf[rx_head] = c;
-  rx_head = next;
+  if (why) {
+    uint8_t g = rx_gap;
+    if ((g & GAP_VALID) && (g & GAP_SLOT) != h)
+      why |= GAP_MORE;
+    rx_gap = (uint8_t)((g & (GAP_WHY | GAP_MORE)) | why | GAP_VALID | h);
+  }
 }

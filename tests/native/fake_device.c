@@ -8,6 +8,8 @@
 #include <string.h>
 
 #include "adc.h"
+#include "clock.h"
+#include "console.h"
 #include "control.h"
 #include "fixture.h"
 #include "sample.h"
@@ -33,8 +35,11 @@ static uint64_t tx_next_ns;
 #define RX_SIZE 8
 static uint8_t rx_buf[RX_SIZE];
 static unsigned rx_head, rx_tail;
-static int rx_gap = -1;
+static int rx_gap = -1;      /* the slot a gap precedes, -1: none */
+static int rx_gap_why;       /* UART_READ_OVERRUN | UART_READ_RING */
+static int rx_gap_more;      /* another gap came before it: every byte up to it follows a gap */
 static char *rx_queue;
+static char *rx_lostq; /* 1: this queued byte is lost in the USART (overrun) */
 static size_t rx_queue_len, rx_queue_pos;
 static uint64_t rx_next_ns;
 
@@ -66,12 +71,15 @@ int16_t uart_read(void)
 {
   int16_t gap = 0;
   uint8_t c;
-  if (rx_head == rx_tail)
-    return -1;
   if ((int)rx_tail == rx_gap) {
+    gap = (int16_t)(UART_READ_GAP | rx_gap_why);
     rx_gap = -1;
+    rx_gap_why = rx_gap_more = 0;
+  } else if (rx_gap_more) {
     gap = UART_READ_GAP;
   }
+  if (rx_head == rx_tail)
+    return gap ? (int16_t)(gap | UART_READ_EMPTY) : -1;
   c = rx_buf[rx_tail];
   rx_tail = (rx_tail + 1) % RX_SIZE;
   return (int16_t)(gap | c);
@@ -82,25 +90,56 @@ uint8_t uart_rx_pending(void)
   return rx_head != rx_tail;
 }
 
-static void rx_byte(uint8_t c)
+/* A gap just before slot h (uart.c's marking, with its reasons). */
+static void mark_gap(int why)
+{
+  if (rx_gap >= 0 && rx_gap != (int)rx_head)
+    rx_gap_more = 1;
+  rx_gap = (int)rx_head;
+  rx_gap_why |= why;
+}
+
+static int dor; /* bytes were lost in the USART: the next byte has DOR set */
+
+static void rx_byte(uint8_t c, int lost)
 {
   unsigned next = (rx_head + 1) % RX_SIZE;
+  if (lost) {
+    dor = 1;
+    return;
+  }
+  if (dor) { /* uart.c's ISR reads DOR with the byte */
+    dor = 0;
+    mark_gap(UART_READ_OVERRUN);
+  }
   if (next == rx_tail) {
-    if (rx_gap < 0)
-      rx_gap = (int)rx_head;
+    mark_gap(UART_READ_RING);
     return;
   }
   rx_buf[rx_head] = c;
   rx_head = next;
 }
 
-void fx_send(const char *bytes, size_t n)
+
+static void queue(const char *bytes, size_t n, int lost)
 {
   rx_queue = realloc(rx_queue, rx_queue_len + n);
+  rx_lostq = realloc(rx_lostq, rx_queue_len + n);
   memcpy(rx_queue + rx_queue_len, bytes, n);
+  memset(rx_lostq + rx_queue_len, lost, n);
   rx_queue_len += n;
   if (rx_next_ns < now_ns)
     rx_next_ns = now_ns + BYTE_NS;
+}
+
+void fx_send(const char *bytes, size_t n)
+{
+  queue(bytes, n, 0);
+}
+
+void fx_send_overrun(const char *bytes, size_t n)
+{
+  queue(bytes, n, 1);
 }
 
 void fx_send_str(const char *s)
@@ -228,6 +267,12 @@ int eeprom_is_ready(void) { return 1; }
 /* ---- clock and loop ---- */
 uint64_t fx_now_us(void) { return now_ns / 1000u; }
 
+/* clock.h: Timer0's overflows, one every CLOCK_TICK_CYCLES CPU cycles */
+uint8_t clock_now(void)
+{
+  return (uint8_t)(now_ns / (CLOCK_TICK_CYCLES * 1000000000ull / F_CPU));
+}
+
 static void advance_to(uint64_t t)
 {
   now_ns = t;
@@ -236,7 +281,8 @@ static void advance_to(uint64_t t)
     tx_next_ns += BYTE_NS;
   }
   while (rx_queue_pos < rx_queue_len && rx_next_ns <= now_ns) {
-    rx_byte((uint8_t)rx_queue[rx_queue_pos++]);
+    rx_byte((uint8_t)rx_queue[rx_queue_pos], rx_lostq[rx_queue_pos]);
+    rx_queue_pos++;
     rx_next_ns += BYTE_NS;
   }
   while (running && next_tick_ns <= now_ns) {
@@ -273,7 +319,8 @@ void fx_run_us(uint64_t us)
   while (now_ns < end) {
     advance_to(now_ns + 20000u); /* one loop pass: 20 us */
     /* main.c's loop body */
-    sample_feed();
+    while (sample_take())
+      console_receive();
     tx_poll();
     control_poll();
   }

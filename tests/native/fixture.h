@@ -23,6 +23,10 @@ void fx_run_us(uint64_t us);
 void fx_send(const char *bytes, size_t n);
 void fx_send_str(const char *s);
 
+/* Bytes sent that the USART loses (a data overrun: the loop kept its
+ * interrupt away): the byte after them comes with DOR set. */
+void fx_send_overrun(const char *bytes, size_t n);
+
 /* Everything the device wrote, in order (NUL-terminated copy too). */
 extern char fx_out[1 << 20];
 extern size_t fx_out_len;

@@ -6,6 +6,7 @@
  * against independent computations written here: the CRCs bit by bit, the
  * codes from the fake ADC's pattern, the fields from the commands sent.
  */
+#define _GNU_SOURCE /* memmem */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -113,7 +114,7 @@ static void test_status_reply_is_framed_and_checksummed(void)
   fx_send_str("status\r");
   fx_run_us(50000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank units=phys", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank units=phys rx=0:0:0:0", b);
   assert_all_lines_whole();
 }
 
@@ -296,7 +297,7 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
   line("ok status", 0, b, sizeof b);
   /* link: 50 rows of 36 bytes and half a 31-byte count line a second, of
    * 11520 bytes/s: 1816 / 11520 = 15.8 %, rounded up */
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved units=phys", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved units=phys rx=0:0:0:0", b);
 }
 
 static void test_saved_settings_are_in_force_at_power_up(void)
@@ -312,7 +313,7 @@ static void test_saved_settings_are_in_force_at_power_up(void)
   fx_send_str("status\r");
   fx_run_us(100000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved units=phys", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved units=phys rx=0:0:0:0", b);
   TEST_ASSERT_EQUAL_UINT(3, (fake_portd >> 6) & 3u);
 }
 
@@ -675,7 +676,7 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   fx_run_us(60000);
   command("status");
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible units=phys", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible units=phys rx=0:0:0:0", b);
   command("load");
   line("error:", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);
@@ -785,6 +786,183 @@ static void test_start_count_is_kept_through_a_rate_change(void)
   TEST_ASSERT_EQUAL_STRING("ok stopped n=300", b);
 }
 
+/* The console's line discipline (docs/protocol.md, "Commands"). */
+
+/* Offset of the first occurrence of text in the output at or after from, or -1. */
+static long out_find(const char *text, long from)
+{
+  const char *p = memmem(fx_out + from, fx_out_len - (size_t)from, text, strlen(text));
+  return p ? p - fx_out : -1;
+}
+
+/* Occurrences of text in the whole output (binary frames hold NULs). */
+static unsigned out_count(const char *text)
+{
+  unsigned n = 0;
+  for (long at = out_find(text, 0); at >= 0; at = out_find(text, at + 1))
+    n++;
+  return n;
+}
+
+static void test_stray_byte_without_end_delays_no_report_and_times_out(void)
+{
+  char b[512];
+  long x, h, rx;
+  fx_boot(1);
+  fx_run_us(50000);
+  command("interval 2"); /* the first report after 200 sets: at 2 s */
+  fx_run_us(1000000 - fx_now_us());
+  fx_send_str("x"); /* at 1 s, and nothing more */
+  fx_run_us(2500000 - fx_now_us());
+  /* the report came on time, the echo line ended before it */
+  h = fx_find_line("H,0,", 0, b, sizeof b, NULL);
+  TEST_ASSERT_TRUE_MESSAGE(h >= 0, "the report waited on a half-typed line");
+  x = out_find("> x\r\n", 0);
+  TEST_ASSERT_TRUE(x >= 0 && x < h);
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("error:"));
+  /* 2 s of silence after the x (it arrived at 1.0 s): refused, once */
+  fx_run_us(2990000 - fx_now_us());
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("error:"));
+  fx_run_us(3100000 - fx_now_us());
+  line("error:", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:7 x: timed out; resend", b);
+  /* shown again whole before its reply, after the report */
+  rx = fx_find_line("error:7", 0, b, sizeof b, NULL);
+  x = out_find("> x\r\n", x + 1);
+  TEST_ASSERT_TRUE(x > h && x < rx);
+  fx_run_us(2000000);
+  TEST_ASSERT_EQUAL_UINT(1, fx_count_lines("error:"));
+  line("H,1,", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("0:0:0:1", field(b, "rx"));
+  command("status");
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("0:0:0:1", field(b, "rx"));
+}
+
+static void test_line_that_lost_a_byte_to_an_overrun_is_refused_whole(void)
+{
+  char b[256];
+  fx_boot(1);
+  fx_run_us(50000);
+  /* "rate 200" whose second 0 the USART lost: never run as "rate 20" */
+  fx_send_str("rate 20");
+  fx_send_overrun("0", 1);
+  fx_send_str("\r");
+  fx_run_us(60000);
+  line("error:", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:5 rate: input lost; resend", b);
+  /* the end of the line lost: glued to the next, refused with it */
+  fx_send_str("interval 36");
+  fx_send_overrun("00\r", 3);
+  fx_send_str("status\r");
+  fx_run_us(60000);
+  line("error:", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:5 interv: input lost; resend", b);
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("ok"));
+  command("status");
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("100", field(b, "fs"));
+  TEST_ASSERT_EQUAL_STRING("60", field(b, "interval"));
+  TEST_ASSERT_EQUAL_STRING("2:0:2:0", field(b, "rx"));
+}
+
+/* Commands sent back to back while a long reply keeps the device from
+ * reading: the RX ring overflows again and again.  Every command either
+ * runs as sent or is refused with error:5; none is glued to another. */
+static void test_back_to_back_commands_run_as_sent_or_get_error_5(void)
+{
+  static const char *cmds[] = {"status", "interval 3600", "rate 1000", "report", "interval 17", "rate 250",
+                               "echo on", "units counts", "reset"};
+  static const char *ok[] = {"ok status ", "ok interval=3600", "ok reset rate=1000", "ok", "ok interval=17",
+                             "ok reset rate=250", "ok echo=on", "ok units=counts", "ok reset"};
+  const unsigned n = sizeof cmds / sizeof cmds[0];
+  char b[512];
+  unsigned runs = 0, lost = 0;
+  fx_boot(1);
+  fx_run_us(50000);
+  for (unsigned round = 0; round < 6; round++) {
+    fx_send_str("help\r"); /* 15 lines: the next commands wait in the ring */
+    for (unsigned i = 0; i < n; i++) {
+      fx_send_str(cmds[(i + round) % n]);
+      fx_send_str("\r");
+    }
+    fx_run_us(3000000);
+  }
+  for (unsigned k = 0; fx_find_line("ok", k, b, sizeof b, NULL) >= 0; k++) {
+    int known = strncmp(b, "ok help ", 8) == 0;
+    for (unsigned i = 0; i < n && !known; i++)
+      known = i == 0 ? strncmp(b, ok[0], strlen(ok[0])) == 0 : strcmp(b, ok[i]) == 0;
+    TEST_ASSERT_TRUE_MESSAGE(known, b);
+    runs += strncmp(b, "ok help ", 8) != 0;
+  }
+  for (unsigned k = 0; fx_find_line("error:", k, b, sizeof b, NULL) >= 0; k++) {
+    TEST_ASSERT_EQUAL_STRING_LEN_MESSAGE("error:5 ", b, 8, b);
+    lost++;
+  }
+  /* the ring did overflow, and some commands still got through */
+  TEST_ASSERT_TRUE(lost > 0);
+  TEST_ASSERT_TRUE(runs > 0);
+  command("status");
+  line("ok status", fx_count_lines("ok status") - 1, b, sizeof b);
+  {
+    unsigned ovr, ring, lines, timeouts;
+    TEST_ASSERT_EQUAL_INT(4, sscanf(field(b, "rx"), "%u:%u:%u:%u", &ovr, &ring, &lines, &timeouts));
+    TEST_ASSERT_EQUAL_UINT(0, ovr);
+    TEST_ASSERT_TRUE(ring > 0);
+    TEST_ASSERT_EQUAL_UINT(lost, lines);
+    TEST_ASSERT_EQUAL_UINT(0, timeouts);
+  }
+}
+
+/* Ctrl-C or Esc, then a command at once, in every mode: the command runs
+ * (no false error:5), nothing is replied to the dropped line. */
+static void test_ctrl_c_or_esc_then_a_command_runs_in_every_mode(void)
+{
+  static const char *modes[] = {"binary", "raw", "both", "allan"};
+  char b[256], want[64];
+  fx_boot(1);
+  fx_run_us(50000);
+  command("rate 50"); /* every mode fits the link at 50 Hz */
+  for (unsigned i = 0; i < 4; i++) {
+    snprintf(want, sizeof want, "mode %s", modes[i]);
+    command(want);
+    fx_send_str(i & 1 ? "\x1bmode allan\r" : "st\x03mode allan\r");
+    fx_run_us(200000);
+    fx_send_str(i & 1 ? "\x1b" : "\x03");
+    snprintf(want, sizeof want, "mode %s\r", modes[i]);
+    fx_send_str(want);
+    fx_run_us(200000);
+  }
+  TEST_ASSERT_EQUAL_UINT(0, out_count("$error:"));
+  TEST_ASSERT_EQUAL_UINT(6, out_count("$ok mode=allan*"));
+  TEST_ASSERT_EQUAL_UINT(2, out_count("$ok mode=binary*"));
+  TEST_ASSERT_EQUAL_UINT(2, out_count("$ok mode=raw*"));
+  TEST_ASSERT_EQUAL_UINT(2, out_count("$ok mode=both*"));
+  (void)b;
+}
+
+/* A line on the screen that Ctrl-C drops is marked "^C" and ended; the
+ * echo of a line that runs ends (CR LF) before its reply. */
+static void test_dropped_line_is_marked_on_the_screen(void)
+{
+  long e, r;
+  fx_boot(1);
+  fx_run_us(50000);
+  fx_send_str("repo");
+  fx_run_us(100000);
+  fx_send_str("\x03");
+  fx_run_us(100000);
+  TEST_ASSERT_TRUE(out_find("> repo^C\r\n", 0) >= 0);
+  fx_send_str("status\r");
+  fx_run_us(100000);
+  e = out_find("> status\r\n", 0);
+  r = out_find("$ok status", 0);
+  TEST_ASSERT_TRUE(e >= 0 && r == e + 10);
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("ok report"));
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("H,"));
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("error:"));
+}
+
 static const struct { const char *name; void (*fn)(void); } tests[] = {
 #define T(f) {#f, f}
   T(test_boot_line_names_protocol_version_and_reset_cause),
@@ -809,6 +987,11 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_seq_advances_when_a_report_starts_and_reset_changes_id),
   T(test_start_count_stops_at_count_through_a_reset),
   T(test_start_count_is_kept_through_a_rate_change),
+  T(test_stray_byte_without_end_delays_no_report_and_times_out),
+  T(test_line_that_lost_a_byte_to_an_overrun_is_refused_whole),
+  T(test_back_to_back_commands_run_as_sent_or_get_error_5),
+  T(test_ctrl_c_or_esc_then_a_command_runs_in_every_mode),
+  T(test_dropped_line_is_marked_on_the_screen),
 #undef T
 };
 

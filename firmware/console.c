@@ -1,0 +1,218 @@
+/* console.c - see console.h. */
+#include "console.h"
+
+#include "clock.h"
+#include "command.h"
+#include "settings.h"
+#include "uart.h"
+
+/* The timeout in clock ticks, rounded up. */
+#define CONSOLE_TIMEOUT_TICKS \
+  ((CONSOLE_TIMEOUT_MS * (F_CPU / 1000UL) + CLOCK_TICK_CYCLES - 1UL) / CLOCK_TICK_CYCLES)
+#if CONSOLE_TIMEOUT_TICKS > 250
+#  error "CONSOLE_TIMEOUT_MS is longer than the console's clock can count at this F_CPU (clock.h)"
+#endif
+
+#if UART_STEP_MAX < 2 + COMMAND_LINE_MAX + 2
+#  error "an echo line (> , the text, CR LF) must fit one output step"
+#endif
+
+/* flags */
+#define READY 1  /* the line is complete (or refused) and waits to run */
+#define RUN   2  /* taken: the end of its echo frees it */
+#define OPEN  4  /* an echo line is on the screen: "> " out, its CR LF not yet */
+#define DROP  8  /* that echo line was dropped: "^C" CR LF due */
+#define CLOSE 16 /* that echo line ended blank: CR LF due */
+
+static struct {
+  char text[COMMAND_LINE_MAX + 1];
+  uint8_t len;
+  uint8_t err;   /* the CMD_ERR_* that refuses the line, 0 if none */
+  uint8_t flags;
+  uint8_t shown; /* characters of text on the screen (echo) */
+  uint8_t keep;  /* of them, still equal to text */
+  uint8_t heard; /* clock_now() at the last byte */
+  uint16_t count[CONSOLE_COUNTS]; /* console.h's console_count() */
+} con;
+
+static void next(void)
+{
+  con.len = con.err = con.flags = con.shown = con.keep = 0;
+}
+
+char console_shown_as(char c)
+{
+  return (c < 0x20 || c > 0x7E || c == '$' || c == '*') ? '?' : c;
+}
+
+static void count(uint8_t i)
+{
+  if (con.count[i] != 0xFFFFu)
+    con.count[i]++;
+}
+
+/* One received byte into the line. */
+static void feed(uint8_t c)
+{
+  if (c == '\r' || c == '\n') {
+    if (con.len || con.err) {
+      con.text[con.len] = 0;
+      con.flags |= READY;
+    } else if (con.flags & OPEN) {
+      con.flags |= CLOSE; /* typed and erased: the blank echo line ends */
+    }
+  } else if (c == 0x03 || c == 0x1B) {
+    if (con.flags & OPEN)
+      con.flags |= DROP; /* shown: marked as dropped */
+    con.len = con.err = con.keep = 0; /* gone, lost bytes with it */
+  } else if (c == 0x08 || c == 0x7F) {
+    if (con.len && con.err != CMD_ERR_LONG)
+      con.len--;
+    if (con.keep > con.len)
+      con.keep = con.len;
+  } else {
+    if ((c < 0x20 && c != '\t') || c > 0x7E) {
+      if (!con.err)
+        con.err = CMD_ERR_BYTE; /* the first reason found is the one given */
+      c = '?';
+    }
+    if (con.len < COMMAND_LINE_MAX)
+      con.text[con.len++] = (char)c;
+    else if (!con.err)
+      con.err = CMD_ERR_LONG;
+  }
+}
+
+void console_receive(void)
+{
+  int16_t c;
+  /* A complete line stops the reading until it has run and its echo is
+   * out: bytes wait in the RX ring (what it cannot hold is lost, and the
+   * line it belonged to refused). */
+  while (!(con.flags & (READY | RUN)) && (c = uart_read()) >= 0) {
+    con.heard = clock_now();
+    if (c & UART_READ_OVERRUN)
+      count(0);
+    if (c & UART_READ_RING)
+      count(1);
+    if (c & UART_READ_GAP)
+      con.err = CMD_ERR_LOST; /* outranks every other reason */
+    if (!(c & UART_READ_EMPTY))
+      feed((uint8_t)c);
+  }
+}
+
+/* The echo line on the screen ends: a dropped line's mark, CR LF. */
+static void end_line(void)
+{
+  if (con.flags & DROP) {
+    uart_write('^');
+    uart_write('C');
+  }
+  uart_write('\r');
+  uart_write('\n');
+  con.flags &= (uint8_t)~(OPEN | DROP | CLOSE);
+  con.shown = con.keep = 0;
+}
+
+uint8_t console_close(void)
+{
+  if (!(con.flags & OPEN))
+    return 1;
+  if (uart_tx_room() < 4)
+    return 0;
+  end_line();
+  return 1;
+}
+
+/* Write the echo due now, within one output step; `job`: the taken line's
+ * echo, all of it and its end.  Returns 1 when that is out. */
+static uint8_t echo(uint8_t job)
+{
+  uint8_t room = uart_tx_room(), n = 0;
+  if (room > UART_STEP_MAX)
+    room = UART_STEP_MAX;
+  if (room < 4)
+    return 0;
+  if (con.flags & (DROP | CLOSE)) {
+    end_line();
+    n = 4;
+  }
+  if (!(con.flags & OPEN)) {
+    if (!con.len) { /* nothing typed (a refused empty line): no echo */
+      if (job)
+        next();
+      return job;
+    }
+    if (n + 4u > room)
+      return 0;
+    uart_write('>');
+    uart_write(' ');
+    n += 2;
+    con.flags |= OPEN;
+  }
+  while (con.shown > con.keep) {
+    if (n + 5u > room)
+      return 0; /* more next time */
+    uart_write('\b');
+    uart_write(' ');
+    uart_write('\b');
+    n += 3;
+    con.shown--;
+  }
+  while (con.shown < con.len && n + 2u < room) {
+    uart_write((uint8_t)console_shown_as(con.text[con.shown++]));
+    n++;
+  }
+  con.keep = con.shown;
+  if (!job || con.shown != con.len)
+    return 0;
+  uart_write('\r'); /* n + 2 <= room: kept free above */
+  uart_write('\n');
+  next();
+  return 1;
+}
+
+uint8_t console_echo_job(void)
+{
+  return echo(1);
+}
+
+void console_poll(uint8_t live)
+{
+  console_receive();
+  if (!(con.flags & (READY | RUN)) && (con.len || con.err) &&
+      (uint8_t)(clock_now() - con.heard) >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
+    if (con.err != CMD_ERR_LOST)
+      con.err = CMD_ERR_TIMEOUT;
+    con.text[con.len] = 0;
+    con.flags |= READY;
+  }
+  if (live && settings.echo && !(con.flags & RUN))
+    echo(0);
+}
+
+uint8_t console_ready(void)
+{
+  return con.flags & READY;
+}
+
+uint8_t console_take(const char **text)
+{
+  uint8_t err = con.err;
+  *text = con.text;
+  if (err == CMD_ERR_LOST)
+    count(2);
+  else if (err == CMD_ERR_TIMEOUT)
+    count(3);
+  if (settings.echo)
+    con.flags = (uint8_t)((con.flags & ~READY) | RUN); /* the echo job frees it */
+  else
+    next();
+  return err;
+}
+
+uint16_t console_count(uint8_t i)
+{
+  return con.count[i];
+}
