@@ -42,6 +42,10 @@ static void set_state(harness_t *h, int st)
 static void finish_run(harness_t *h)
 {
   release_uart_in(h);
+  /* a noisy link may have eaten the CR of a user line: close it first, so
+   * that 'report' is not glued to its end */
+  if (h->fault.loss > 0 || h->fault.flip > 0)
+    h->user_line_len = 1;
   serial_send_cmd(h, "report");
   set_state(h, ST_REPORT_H);
 }

@@ -181,10 +181,21 @@ int fault_host_byte(harness_t *h, uint8_t *c, int *fe)
   if (chance(f, f->overrun)) {
     f->overruns_injected++;
     f->overruns++;
-    avr_regbit_setto(h->avr, h->uart->dor, 1);
+    f->dor_pending = 1;
     return 0;
   }
   return 1;
+}
+
+/* DOR belongs to the first frame after the lost ones: set once that frame
+ * is in simavr's FIFO (set before, simavr would refuse the frame too). */
+void fault_host_byte_delivered(harness_t *h)
+{
+  if (h->fault.dor_pending) {
+    h->fault.dor_pending = 0;
+    h->fault.dor_events++;
+    avr_regbit_setto(h->avr, h->uart->dor, 1);
+  }
 }
 
 int fault_rx_full(harness_t *h)
@@ -196,7 +207,7 @@ int fault_rx_full(harness_t *h)
   if (!h->fault.no_flow || unread < 3)
     return 0;
   h->fault.overruns++;
-  avr_regbit_setto(h->avr, u->dor, 1);
+  h->fault.dor_pending = 1;
   return 1;
 }
 

@@ -36,12 +36,12 @@ typedef struct {
   double power_t;
   /* state */
   int link_on;                /* the link is noisy now (set by the runner) */
-  int power_done, power_due, prev_dollar;
+  int power_done, power_due, prev_dollar, dor_pending;
   uint16_t stuck_code;
   avr_cycle_count_t next_at;  /* when fault_poll() has work; ~0: never */
   /* what happened */
   uint64_t in_lost, in_flipped, in_frame_errors, in_data_flips, out_lost, out_flipped;
-  uint64_t overruns, overruns_injected, ee_flipped, resets, adc_faulted;
+  uint64_t overruns, overruns_injected, dor_events, ee_flipped, resets, adc_faulted;
 } fault_t;
 
 /* Options (from sim_cli.c); each returns 0, or dies with a message. */
@@ -54,6 +54,8 @@ void fault_connect(struct harness *h);    /* after the MCU is made */
 /* A host byte about to reach the UART: 0 lost on the line, else 1 with
  * *c as it arrives and *fe set when its stop bit was hit. */
 int fault_host_byte(struct harness *h, uint8_t *c, int *fe);
+/* After a host byte reached simavr's FIFO: a pending overrun's DOR. */
+void fault_host_byte_delivered(struct harness *h);
 /* The chip's receive buffer is full (two frames and one in the shift
  * register): a frame arriving now is lost with DOR set. */
 int fault_rx_full(struct harness *h);

@@ -269,6 +269,7 @@ void print_stats(harness_t *h, int json)
   KV("fault_out_flipped", "%llu", (unsigned long long)fl->out_flipped);
   KV("fault_overruns", "%llu", (unsigned long long)fl->overruns);
   KV("fault_overruns_injected", "%llu", (unsigned long long)fl->overruns_injected);
+  KV("fault_dor_events", "%llu", (unsigned long long)fl->dor_events);
   KV("fault_eeprom_flipped", "%llu", (unsigned long long)fl->ee_flipped);
   KV("fault_resets", "%llu", (unsigned long long)fl->resets);
   KV("fault_adc_conversions", "%llu", (unsigned long long)fl->adc_faulted);

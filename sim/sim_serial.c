@@ -60,8 +60,10 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
   h->bytes_in++;
   if (!avr_regbit_get(avr, h->uart->rxen))
     h->bytes_lost++;     /* simavr drops it, as the hardware would */
-  else if (fault_host_byte(h, &c, &fe) && !fault_rx_full(h))
+  else if (fault_host_byte(h, &c, &fe) && !fault_rx_full(h)) {
     avr_raise_irq(h->uart_irq + UART_IRQ_INPUT, c | (fe ? UART_INPUT_FE : 0));
+    fault_host_byte_delivered(h);
+  }
   /* simavr's receiver takes 11 bit times a byte (it counts a parity bit
    * that 8N1 has not): without flow control the sender keeps its pace, or
    * simavr's own lag would overrun a chip that keeps up */

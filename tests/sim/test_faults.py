@@ -161,7 +161,7 @@ def test_paste_without_flow_control_runs_nothing_cut_short(tmp_path: Path, fs: i
         # the line discipline that refuses fragments whole and times out a
         # line left open, so the status after the storm is answered
         assert all(r.startswith(("ok interval=", "ok status", "error:5", "error:7"))
-                   for r in got[4:]), got        # after the harness's set-up
+                   for r in got[4:] if r != "ok"), got    # after the set-up, but 'report' 
         assert [r for r in got if r.startswith("ok status")][-1].startswith("ok status run=1")
 
 
@@ -190,5 +190,7 @@ def test_overruns_refuse_their_lines_and_are_counted(tmp_path: Path, fs: int) ->
     assert refused >= 1, got
     status = [r for r in got if r.startswith("ok status")][-1]
     overruns = int(re.search(r" rx=(\d+):", status).group(1))
-    assert overruns == run.stats["fault_overruns_injected"], (status, run.stats)
+    # each DOR the device saw is counted (one on a byte its full ring then
+    # dropped may count as ring loss instead)
+    assert 0 < overruns <= run.stats["fault_dor_events"], (status, run.stats)
     exact_after(run, rows, tmp_path, fs)
