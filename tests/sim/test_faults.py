@@ -38,22 +38,27 @@ def replies(run: SimRun) -> list[str]:
     return [b for b in run.lines() if b.startswith(("ok", "error"))]
 
 
+POWER = [("--power-cut", "por"), ("--brown-out", "bor")]
+
+
 @pytest.mark.parametrize("fs", RATES)
-def test_power_cut_in_a_save_loses_the_record_not_the_run(tmp_path: Path, fs: int) -> None:
+@pytest.mark.parametrize("event,cause", POWER)
+def test_power_fails_in_a_save_loses_the_record_not_the_run(tmp_path: Path, fs: int,
+                                                            event: str, cause: str) -> None:
     """The supply fails right after `save` wrote its first EEPROM byte: the
-    device boots saying so (reset=por, cfg=corrupt: the half-written record
+    device boots saying so (reset=por or bor, cfg=corrupt: the half-written record
     fails its CRC, the defaults run), samples the rest of the rows exactly,
     and a `save` after it works."""
     n = ROWS[fs]
     rows = make_rows(tmp_path / "r.tsv", n, seed=fs)
     uart = (f"{n // 5}\tsave\\r\n{n // 2 - 50}\tstatus\\r\n{n // 2}\tsave\\r\n"
             f"{n // 2 + 20}\tload\\r\n{n // 2 + 40}\tstatus\\r\n")
-    run = simulate(tmp_path / "r.tsv", tmp_path, fs, "--power-cut", "save", uart=uart)
+    run = simulate(tmp_path / "r.tsv", tmp_path, fs, event, "save", uart=uart)
     assert run.stats["fault_resets"] == 1 and run.stats["restarts"] == 1
     boots = run.boots()
-    assert len(boots) == 2 and boots[1].endswith("reset=por"), boots
+    assert len(boots) == 2 and boots[1].endswith(f"reset={cause}"), boots
     head = exact_after(run, rows, tmp_path, fs)
-    assert head["reset"].startswith("por"), head
+    assert head["reset"].startswith(cause), head
     got = replies(run)
     assert got.count("ok saved") == 1 and "ok loaded" in got, got      # the second save
     after_cut, after_save = [r for r in got if r.startswith("ok status")]
@@ -62,22 +67,24 @@ def test_power_cut_in_a_save_loses_the_record_not_the_run(tmp_path: Path, fs: in
 
 
 @pytest.mark.parametrize("fs", RATES)
-def test_brown_out_in_a_report_restarts_cleanly(tmp_path: Path, fs: int) -> None:
-    """A brown-out as the report's first L row goes out: the half report has
-    no E line (the host never takes it for a whole one), the device boots
-    with reset=bor, and the run after it is exact."""
+@pytest.mark.parametrize("event,cause", POWER)
+def test_power_fails_in_a_report_restarts_cleanly(tmp_path: Path, fs: int, event: str,
+                                                  cause: str) -> None:
+    """The supply fails as the report's first L row goes out: the half report
+    has no E line (the host never takes it for a whole one), the device boots
+    with reset=por or bor, and the run after it is exact."""
     n = ROWS[fs]
     rows = make_rows(tmp_path / "r.tsv", n, seed=fs + 1)
-    run = simulate(tmp_path / "r.tsv", tmp_path, fs, "--brown-out", "report",
+    run = simulate(tmp_path / "r.tsv", tmp_path, fs, event, "report",
                    uart=f"{n // 3}\treport\\r\n")
     boots = run.boots()
-    assert len(boots) == 2 and boots[1].endswith("reset=bor"), boots
+    assert len(boots) == 2 and boots[1].endswith(f"reset={cause}"), boots
     lines = run.lines()
-    cut = lines.index(boots[1])
+    cut = [i for i, b in enumerate(lines) if b.startswith("B,")][1]
     assert any(b.startswith("H,") for b in lines[:cut])    # the report had begun
     assert not any(b.startswith(("L,", "E,")) for b in lines[:cut])
     head = exact_after(run, rows, tmp_path, fs)
-    assert head["reset"].startswith("bor"), head
+    assert head["reset"].startswith(cause), head
     decoded = cli("decode", "--json", str(tmp_path / "final.log"))
     assert '"n": %d' % (n - run.stats["first_row"]) in decoded.stdout
 
