@@ -79,7 +79,7 @@ FW_MORE_reply := -fno-tree-ter
 # more; sample -fno-gcse 36.
 FW_MORE_allan := -fno-tree-dominator-opts -fno-gcse
 FW_MORE_sample := -fno-gcse
-$(foreach m,report stream fmt control main reply allan sample,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
+$(foreach m,report stream fmt control main reply allan sample console,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP

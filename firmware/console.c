@@ -3,6 +3,8 @@
 
 #include "clock.h"
 #include "command.h"
+#include "pgm.h"
+#include "proto.h"
 #include "settings.h"
 #include "uart.h"
 
@@ -22,7 +24,6 @@
 #define RUN   2  /* taken: the end of its echo frees it */
 #define OPEN  4  /* an echo line is on the screen: "> " out, its CR LF not yet */
 #define DROP  8  /* that echo line was dropped: "^C" CR LF due */
-#define CLOSE 16 /* that echo line ended blank: CR LF due */
 
 static struct {
   char text[COMMAND_LINE_MAX + 1];
@@ -55,12 +56,8 @@ static void count(uint8_t i)
 static void feed(uint8_t c)
 {
   if (c == '\r' || c == '\n') {
-    if (con.len || con.err) {
-      con.text[con.len] = 0;
+    if (con.len || con.err) /* blank lines are ignored (an echo line "> " stays open) */
       con.flags |= READY;
-    } else if (con.flags & OPEN) {
-      con.flags |= CLOSE; /* typed and erased: the blank echo line ends */
-    }
   } else if (c == 0x03 || c == 0x1B) {
     if (con.flags & OPEN)
       con.flags |= DROP; /* shown: marked as dropped */
@@ -111,7 +108,7 @@ static void end_line(void)
   }
   uart_write('\r');
   uart_write('\n');
-  con.flags &= (uint8_t)~(OPEN | DROP | CLOSE);
+  con.flags &= (uint8_t)~(OPEN | DROP);
   con.shown = con.keep = 0;
 }
 
@@ -129,14 +126,14 @@ uint8_t console_close(void)
  * echo, all of it and its end.  Returns 1 when that is out. */
 static uint8_t echo(uint8_t job)
 {
-  uint8_t room = uart_tx_room(), n = 0;
-  if (room > UART_STEP_MAX)
-    room = UART_STEP_MAX;
-  if (room < 4)
+  uint8_t left = uart_tx_room(); /* of this step's bytes */
+  if (left > UART_STEP_MAX)
+    left = UART_STEP_MAX;
+  if (left < 4)
     return 0;
-  if (con.flags & (DROP | CLOSE)) {
+  if (con.flags & DROP) {
     end_line();
-    n = 4;
+    left = (uint8_t)(left - 4);
   }
   if (!(con.flags & OPEN)) {
     if (!con.len) { /* nothing typed (a refused empty line): no echo */
@@ -144,30 +141,30 @@ static uint8_t echo(uint8_t job)
         next();
       return job;
     }
-    if (n + 4u > room)
+    if (left < 4)
       return 0;
     uart_write('>');
     uart_write(' ');
-    n += 2;
+    left = (uint8_t)(left - 2);
     con.flags |= OPEN;
   }
   while (con.shown > con.keep) {
-    if (n + 5u > room)
+    if (left < 5)
       return 0; /* more next time */
     uart_write('\b');
     uart_write(' ');
     uart_write('\b');
-    n += 3;
+    left = (uint8_t)(left - 3);
     con.shown--;
   }
-  while (con.shown < con.len && n + 2u < room) {
+  while (con.shown < con.len && left > 2) {
     uart_write((uint8_t)console_shown_as(con.text[con.shown++]));
-    n++;
+    left--;
   }
   con.keep = con.shown;
   if (!job || con.shown != con.len)
     return 0;
-  uart_write('\r'); /* n + 2 <= room: kept free above */
+  uart_write('\r'); /* 2 bytes left: kept free above */
   uart_write('\n');
   next();
   return 1;
@@ -185,7 +182,6 @@ void console_poll(uint8_t live)
       (uint8_t)(clock_now() - con.heard) >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
     if (con.err != CMD_ERR_LOST)
       con.err = CMD_ERR_TIMEOUT;
-    con.text[con.len] = 0;
     con.flags |= READY;
   }
   if (live && settings.echo && !(con.flags & RUN))
@@ -200,6 +196,7 @@ uint8_t console_ready(void)
 uint8_t console_take(const char **text)
 {
   uint8_t err = con.err;
+  con.text[con.len] = 0;
   *text = con.text;
   if (err == CMD_ERR_LOST)
     count(2);
@@ -212,7 +209,13 @@ uint8_t console_take(const char **text)
   return err;
 }
 
-uint16_t console_count(uint8_t i)
+void console_put_count(uint8_t i, char sep)
 {
-  return con.count[i];
+  if (!i) {
+    proto_putc(sep);
+    proto_puts_P(PSTR("rx="));
+  } else {
+    proto_putc(':');
+  }
+  proto_u32(con.count[i]);
 }

@@ -70,7 +70,10 @@ uint8_t console_close(void);
  * once), lines refused for lost bytes (error:5), lines timed out
  * (error:7). */
 #define CONSOLE_COUNTS 4
-uint16_t console_count(uint8_t i);
+
+/* Write count i of `rx=` through the proto sink, the key first (after
+ * sep) for i = 0, ':' before the others: at most 7 characters. */
+void console_put_count(uint8_t i, char sep);
 
 /* How a typed character is shown (echo, the quote of an error): '?' for a
  * control byte, '$' or '*', which would spoil a protocol line. */

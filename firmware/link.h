@@ -19,8 +19,8 @@
 #define LINK_COUNT_LINE 36u
 #define LINK_COUNT_EVERY 100u
 #define LINK_FRAME 13u      /* one binary frame */
-#define LINK_REPLY_MAX 104u /* longest reply line: status, with every field at its longest */
-#define LINK_REPORT_MAX 286u /* longest report line: the header with every count at its maximum */
+#define LINK_REPLY_MAX 131u /* longest reply line: status, with every field at its longest (rx= included) */
+#define LINK_REPORT_MAX 313u /* longest report line: the header with every count at its maximum (rx= included) */
 #define LINK_USE_PERCENT 90u /* of BAUD/10 bytes per second, at most */
 
 /* The rules, as expressions of constants when their arguments are (the

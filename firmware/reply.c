@@ -216,64 +216,69 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
   return REPLY_MORE;
 }
 
-/* `ok status run= fs= mode= range= interval= link= cfg= units= rx=`: a
- * key=value a step, the keys from this list (a new key: a word here, a
- * case below), then rx's counts a step each. */
-static const char status_keys_P[] PROGMEM = "run\0fs\0mode\0range\0interval\0link\0cfg\0units";
-#define STATUS_KEYS 8
+/* The settings' keys of `status` and of the report header, in this order
+ * (the header has the first SETTINGS_IN_HEADER, after its own fs=). */
+static const char setting_keys_P[] PROGMEM = "run\0mode\0range\0units\0cfg\0fs\0interval\0link";
+#define SETTING_KEYS 8
+#if SETTINGS_IN_HEADER != 5
+#  error "the header shows run, mode, range, units and cfg"
+#endif
 
+void reply_put_setting(uint8_t k, char sep, uint8_t counts)
+{
+  uint16_t n; /* every value fits */
+  const char *list = 0; /* a word of this list, at n */
+  proto_putc(sep);
+  proto_puts_P(vocab_word(setting_keys_P, k));
+  proto_putc('=');
+  switch (k) {
+  case 0:
+    n = adc_running();
+    break;
+  case 1:
+    list = vocab_modes;
+    n = settings.mode;
+    break;
+  case 2:
+    list = vocab_ranges;
+    n = settings.range;
+    break;
+  case 3:
+    list = vocab_units;
+    n = counts;
+    break;
+  case 4:
+    list = vocab_sources;
+    n = settings_source;
+    break;
+  case 5:
+    n = adc_rate();
+    break;
+  case 6:
+    n = settings.interval_s;
+    break;
+  default:
+    n = link_percent_here(settings.mode, adc_rate());
+    break;
+  }
+  if (list)
+    proto_puts_P(vocab_word(list, (uint8_t)n));
+  else
+    proto_u32(n);
+}
+
+/* `ok status run= mode= range= units= cfg= fs= interval= link= rx=`: a
+ * key=value a step, then rx's counts a step each. */
 static __attribute__((noinline)) uint8_t step_status(uint8_t step)
 {
   uint8_t k = (uint8_t)(step - 1);
   if (step == 0) {
     proto_begin();
     proto_puts_P(PSTR("ok status"));
-  } else if ((uint8_t)(k - STATUS_KEYS) < CONSOLE_COUNTS) {
-    k = (uint8_t)(k - STATUS_KEYS);
-    if (!k)
-      proto_puts_P(PSTR(" rx"));
-    proto_putc(k ? ':' : '=');
-    proto_u32(console_count(k));
-  } else if (k < STATUS_KEYS) {
-    uint16_t n = 0; /* every value fits */
-    const char *list = 0; /* a word of this list, at n */
-    proto_putc(' ');
-    proto_puts_P(vocab_word(status_keys_P, k));
-    proto_putc('=');
-    switch (k) {
-    case 0:
-      n = adc_running();
-      break;
-    case 1:
-      n = adc_rate();
-      break;
-    case 2:
-      list = vocab_modes;
-      n = settings.mode;
-      break;
-    case 3:
-      list = vocab_ranges;
-      n = settings.range;
-      break;
-    case 4:
-      n = settings.interval_s;
-      break;
-    case 5:
-      n = link_percent_here(settings.mode, adc_rate());
-      break;
-    case 6:
-      list = vocab_sources;
-      n = settings_source;
-      break;
-    default:
-      list = vocab_units;
-      n = settings.counts;
-      break;
-    }
-    if (list)
-      proto_puts_P(vocab_word(list, (uint8_t)n));
-    else
-      proto_u32(n);
+  } else if (k < SETTING_KEYS) {
+    reply_put_setting(k, ' ', settings.counts);
+  } else if ((uint8_t)(k - SETTING_KEYS) < CONSOLE_COUNTS) {
+    console_put_count((uint8_t)(k - SETTING_KEYS), ' ');
   } else {
     proto_end();
     return REPLY_DONE;

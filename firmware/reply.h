@@ -36,6 +36,12 @@ void reply_set_word(const char *text_P, const char *list_P, uint8_t n);
  * lists the command's own arguments, as help shows them. */
 void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *text_P);
 
+/* ` <key>=<value>` (sep first) of setting k: run, mode, range, units (the
+ * value `counts`, 0 phys), cfg, fs, interval, link; the first
+ * SETTINGS_IN_HEADER are the report header's too.  At most 20 characters. */
+#define SETTINGS_IN_HEADER 5
+void reply_put_setting(uint8_t k, char sep, uint8_t counts);
+
 /* One step of the reply: REPLY_MORE (call again with step + 1),
  * REPLY_LINE_DONE (a line of a multi-line reply is out: the next starts
  * at step 0; others may write between them), REPLY_DONE. */

@@ -14,6 +14,7 @@
 #include "fmt.h"
 #include "pgm.h"
 #include "proto.h"
+#include "reply.h"
 #include "sample.h"
 #include "settings.h"
 #include "units.h"
@@ -217,27 +218,14 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
       proto_puts_P(PSTR(",temp="));
   } else if (step == temp) {
     put_temp();
-  } else if (step == temp + 1) {
-    proto_puts_P(adc_running() ? PSTR(",run=1,mode=") : PSTR(",run=0,mode="));
-    proto_puts_P(vocab_word(vocab_modes, settings.mode));
-  } else if (step == temp + 2) {
-    proto_puts_P(PSTR(",range="));
-    proto_puts_P(vocab_word(vocab_ranges, settings.range));
-    proto_puts_P(PSTR(",units="));
-  } else if (step == temp + 3) {
-    proto_puts_P(vocab_word(vocab_units, rep_counts()));
-    proto_puts_P(PSTR(",cfg="));
-  } else if (step == temp + 4) {
-    proto_puts_P(vocab_word(vocab_sources, settings_source));
+  } else if ((uint8_t)(step - temp - 1) < SETTINGS_IN_HEADER) {
+    reply_put_setting((uint8_t)(step - temp - 1), ',', rep_counts());
+  } else if (step == temp + 1 + SETTINGS_IN_HEADER) {
     proto_puts_P(reset_key_P);
-  } else if (step == temp + 5) {
+  } else if (step == temp + 2 + SETTINGS_IN_HEADER) {
     put_causes();
-  } else if ((uint8_t)(step - temp - 6) < CONSOLE_COUNTS) {
-    step = (uint8_t)(step - temp - 6);
-    if (!step)
-      proto_puts_P(PSTR(",rx"));
-    proto_putc(step ? ':' : '=');
-    proto_u32(console_count(step));
+  } else if ((uint8_t)(step - temp - 3 - SETTINGS_IN_HEADER) < CONSOLE_COUNTS) {
+    console_put_count((uint8_t)(step - temp - 3 - SETTINGS_IN_HEADER), ',');
   } else {
     proto_end();
     return 1;

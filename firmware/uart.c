@@ -51,9 +51,14 @@ static volatile uint8_t rx_head, rx_tail;
  * may be refused with them). */
 static volatile uint8_t rx_gap;
 #define GAP_SLOT (UART_RX_SIZE - 1u)
-#define GAP_VALID UART_RX_SIZE
-#define GAP_MORE 0x40u
-#define GAP_WHY (UART_READ_WHY >> 8)
+#define GAP_DOR (UART_READ_OVERRUN >> 8) /* UCSR0A's DOR0 bit, as read */
+#define GAP_RING (UART_READ_RING >> 8)
+#define GAP_MORE 0x20u
+#define GAP_VALID 0x80u
+#define GAP_WHY (GAP_DOR | GAP_RING)
+#if GAP_DOR != (1 << DOR0) || GAP_SLOT >= GAP_DOR
+#  error "rx_gap's layout: the slot below DOR0's bit, which is the overrun's"
+#endif
 
 static uint8_t tx_next(uint8_t i)
 {
@@ -93,22 +98,25 @@ uint8_t uart_tx_room(void)
 
 int16_t uart_read(void)
 {
-  uint8_t c, t = rx_tail, g;
-  int16_t gap = 0;
+  uint8_t c = 0, t = rx_tail, g, hi = 0; /* hi: the UART_READ_* bits, >> 8 */
   ATOMIC_BLOCK(ATOMIC_FORCEON) {
     g = rx_gap;
-    if ((g & (GAP_VALID | GAP_SLOT)) == (t | GAP_VALID)) { /* bytes were lost just before this one */
+    if ((uint8_t)((g ^ t) & (GAP_VALID | GAP_SLOT)) == GAP_VALID) { /* bytes were lost just before this one */
       rx_gap = 0;
-      gap = (int16_t)(UART_READ_GAP | (uint16_t)(g & GAP_WHY) << 8);
+      hi = (uint8_t)((g & GAP_WHY) | (UART_READ_GAP >> 8));
     } else if (g & GAP_MORE) {
-      gap = UART_READ_GAP; /* an earlier gap, where exactly is not known */
+      hi = UART_READ_GAP >> 8; /* an earlier gap, where exactly is not known */
     }
   }
-  if (rx_head == t) /* nothing after the gap yet: the line being received lost bytes */
-    return gap ? (int16_t)(gap | UART_READ_EMPTY) : -1;
-  c = rx_buf[t];
-  rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
-  return (int16_t)(gap | c);
+  if (rx_head == t) { /* nothing after the gap yet: the line being received lost bytes */
+    if (!hi)
+      return -1;
+    hi |= UART_READ_EMPTY >> 8;
+  } else {
+    c = rx_buf[t];
+    rx_tail = (uint8_t)((t + 1u) & (UART_RX_SIZE - 1u));
+  }
+  return (int16_t)((uint16_t)hi << 8 | c);
 }
 
 uint8_t uart_rx_pending(void)
@@ -128,21 +136,20 @@ ISR(USART_UDRE_vect)
 
 ISR(USART_RX_vect)
 {
-  uint8_t h = rx_head, why = 0;
-  uint8_t next = (uint8_t)((h + 1u) & (UART_RX_SIZE - 1u));
-  if (UCSR0A & (1 << DOR0)) /* read before UDR0: bytes before this one were lost */
-    why = UART_READ_OVERRUN >> 8;
+  uint8_t h = rx_head;
+  uint8_t why = UCSR0A & (1 << DOR0); /* before UDR0: bytes before this one were lost */
   uint8_t c = UDR0;
+  uint8_t next = (uint8_t)((h + 1u) & (UART_RX_SIZE - 1u));
   if (next == rx_tail) {
-    why |= UART_READ_RING >> 8; /* the next byte stored in slot h follows a gap */
+    why |= GAP_RING; /* the next byte stored in slot h follows a gap */
   } else {
     rx_buf[h] = c;
     rx_head = next;
   }
   if (why) {
     uint8_t g = rx_gap;
-    if ((g & GAP_VALID) && (g & GAP_SLOT) != h)
+    if (g && (uint8_t)((g ^ h) & GAP_SLOT))
       why |= GAP_MORE;
-    rx_gap = (uint8_t)((g & (GAP_WHY | GAP_MORE)) | why | GAP_VALID | h);
+    rx_gap = (uint8_t)((g & (uint8_t)~GAP_SLOT) | why | GAP_VALID | h);
   }
 }

@@ -30,8 +30,8 @@ uint8_t uart_tx_room(void);
  * received lost its end. */
 #define UART_READ_GAP 0x100
 #define UART_READ_EMPTY 0x4000
-#define UART_READ_OVERRUN 0x1000
-#define UART_READ_RING 0x2000
+#define UART_READ_OVERRUN 0x0800
+#define UART_READ_RING 0x1000
 #define UART_READ_WHY (UART_READ_OVERRUN | UART_READ_RING)
 int16_t uart_read(void);
 

@@ -66,7 +66,7 @@ def test_opening_the_port_resets_and_the_firmware_answers(board: Board) -> None:
     time.sleep(0.1)
     ser.reset_input_buffer()
     status = board.ask("status")
-    assert re.fullmatch(r"ok status run=1 fs=100 mode=allan range=1\.5 interval=60 link=\d+ cfg=\w+ units=\w+", status), status
+    assert re.fullmatch(r"ok status run=1 mode=allan range=1\.5 units=\w+ cfg=\w+ fs=100 interval=60 link=\d+ rx=\d+:\d+:\d+:\d+", status), status
     assert board.ask("rate 50") in ("ok rate=50", "ok reset rate=50")
     assert board.ask("save", timeout=5) == "ok saved"
     board.close()

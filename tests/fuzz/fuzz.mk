@@ -55,13 +55,14 @@ FUZZ_TARGETS := fuzz_command fuzz_cmdline fuzz_proto fuzz_fmt fuzz_allan fuzz_al
 # Per target: firmware sources, extra flags, seed directory, input size.
 FUZZ_SRC_fuzz_command := command.c vocab.c
 # The receiver with the parser, on whole byte streams (NULs and all bytes).
-FUZZ_SRC_fuzz_cmdline := cmdline.c lineedit.c command.c vocab.c
+FUZZ_SRC_fuzz_cmdline := console.c command.c vocab.c proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_proto := proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_fmt := fmt.c
 FUZZ_SRC_fuzz_allan := allan.c
 FUZZ_SRC_fuzz_allan20 := allan.c
 # The engine target runs 2^16+ pushes an input: comparison tracing (the
 # fuzzer's value profile) would halve its speed for little gain.
+FUZZ_XFLAGS_fuzz_cmdline := -DF_CPU=10000000UL
 FUZZ_XFLAGS_fuzz_allan := -fno-sanitize-coverage=trace-cmp
 FUZZ_XFLAGS_fuzz_allan20 := -fno-sanitize-coverage=trace-cmp -DALLAN_LEVELS=20 -DALLAN_ACC48_FROM=0
 FUZZ_MAIN_fuzz_allan20 := fuzz_allan

@@ -114,7 +114,7 @@ static void test_status_reply_is_framed_and_checksummed(void)
   fx_send_str("status\r");
   fx_run_us(50000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=blank units=phys rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=allan range=1.5 units=phys cfg=blank fs=100 interval=60 link=0 rx=0:0:0:0", b);
   assert_all_lines_whole();
 }
 
@@ -297,7 +297,7 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
   line("ok status", 0, b, sizeof b);
   /* link: 50 rows of 36 bytes and half a 31-byte count line a second, of
    * 11520 bytes/s: 1816 / 11520 = 15.8 %, rounded up */
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=50 mode=both range=4 interval=7 link=16 cfg=saved units=phys rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=both range=4 units=phys cfg=saved fs=50 interval=7 link=16 rx=0:0:0:0", b);
 }
 
 static void test_saved_settings_are_in_force_at_power_up(void)
@@ -313,7 +313,7 @@ static void test_saved_settings_are_in_force_at_power_up(void)
   fx_send_str("status\r");
   fx_run_us(100000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=500 mode=allan range=6 interval=5 link=0 cfg=saved units=phys rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=allan range=6 units=phys cfg=saved fs=500 interval=5 link=0 rx=0:0:0:0", b);
   TEST_ASSERT_EQUAL_UINT(3, (fake_portd >> 6) & 3u);
 }
 
@@ -676,7 +676,7 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   fx_run_us(60000);
   command("status");
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 fs=100 mode=allan range=1.5 interval=60 link=0 cfg=infeasible units=phys rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=allan range=1.5 units=phys cfg=infeasible fs=100 interval=60 link=0 rx=0:0:0:0", b);
   command("load");
   line("error:", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);

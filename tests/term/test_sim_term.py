@@ -256,13 +256,14 @@ def test_status(dev: SimTerm) -> None:
     body = dev.command("status")
     assert body.startswith("ok status "), body
     keys = dict(kv.split("=", 1) for kv in body[len("ok status "):].split())
-    documented = ("run", "fs", "mode", "range", "interval", "link", "cfg", "units")
+    documented = ("run", "fs", "mode", "range", "interval", "link", "cfg", "units", "rx")
     assert set(keys) == set(documented), f"status keys differ from docs/protocol.md: {body}"
     assert dev.command("stop").startswith("ok stopped")
     set_rate(dev, 100)
     keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status "):].split())
     assert keys["run"] == "0" and keys["fs"] == "100" and keys["mode"] == "allan", keys
     assert keys["link"] == "0" and keys["cfg"] == "blank" and keys["units"] == "phys", keys
+    assert keys["rx"] == "0:0:0:0", keys  # nothing lost, nothing timed out on a clean link
     assert dev.command("interval 7") == "ok interval=7"
     assert dev.command("start") == "ok started"
     keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status "):].split())

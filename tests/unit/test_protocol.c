@@ -442,32 +442,32 @@ static void test_command_settings_words(void)
 
 /* The link rules of docs/protocol.md, worked out by hand at 115200 baud
  * (11520 bytes/s; 90 % = 10368 usable).  A set's row or frame may wait
- * behind the longest line it cannot cut into (status: 104 bytes; the
- * header: 286) and one 20-byte output step, then its own row (36) or frame (13);
+ * behind the longest line it cannot cut into (status: 131 bytes; the
+ * header: 313) and one 20-byte output step, then its own row (36) or frame (13);
  * that must go out at the usable rate within two sample periods. */
 static void test_link_budget(void)
 {
   const uint32_t b = 115200;
-  /* raw: 36 bytes a row + a 36-byte count line per 100 rows; 104 + 20 + 36
-   * = 160 bytes of wait */
+  /* raw: 36 bytes a row + a 36-byte count line per 100 rows; 131 + 20 + 36
+   * = 187 bytes of wait */
   TEST_ASSERT_EQUAL_UINT32(250u * 36u + (250u * 36u + 99u) / 100u, link_bytes_per_s(MODE_RAW, 250));
-  TEST_ASSERT_EQUAL_UINT16(160, link_wait_bytes(MODE_RAW));
-  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, b));   /* 160 / 10368 s = 15.4 ms <= 20 ms */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 200, b));  /* 15.4 ms > 10 ms: a status reply would cost a set */
+  TEST_ASSERT_EQUAL_UINT16(187, link_wait_bytes(MODE_RAW));
+  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, b));   /* 187 / 10368 s = 18.0 ms <= 20 ms */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 200, b));  /* 18.0 ms > 10 ms: a status reply would cost a set */
   TEST_ASSERT_FALSE(link_fits(MODE_RAW, 250, b));  /* throughput fits (9090 B/s), the wait does not */
   TEST_ASSERT_FALSE(link_fits(MODE_RAW, 500, b));  /* 18155 B/s */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 100, 57600)); /* 160 / 5184 s = 31 ms > 20 ms */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 100, 57600)); /* 187 / 5184 s = 36 ms > 20 ms */
   TEST_ASSERT_TRUE(link_fits(MODE_RAW, 50, 57600));
   /* binary: 13 bytes a frame; frames cut into lines: 20 + 13 = 33 bytes of wait */
   TEST_ASSERT_EQUAL_UINT16(33, link_wait_bytes(MODE_BINARY));
   TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 500, b));   /* 3.2 ms <= 4 ms */
   TEST_ASSERT_FALSE(link_fits(MODE_BINARY, 1000, b)); /* 13360 B/s */
   TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 1000, 250000));
-  /* both: 286 + 20 + 36 = 342 bytes of wait */
-  TEST_ASSERT_EQUAL_UINT16(342, link_wait_bytes(MODE_BOTH));
-  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));   /* 33.0 ms <= 40 ms */
+  /* both: 313 + 20 + 36 = 369 bytes of wait */
+  TEST_ASSERT_EQUAL_UINT16(369, link_wait_bytes(MODE_BOTH));
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));   /* 35.6 ms <= 40 ms */
   TEST_ASSERT_FALSE(link_fits(MODE_BOTH, 100, b));
-  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000)); /* 15.2 ms <= 20 ms */
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000)); /* 16.4 ms <= 20 ms */
   /* allan: reports wait for the link */
   TEST_ASSERT_TRUE(link_fits(MODE_ALLAN, 1000, 9600));
   TEST_ASSERT_EQUAL_UINT16(0, link_percent(MODE_ALLAN, 1000, b));
