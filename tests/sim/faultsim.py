@@ -61,7 +61,7 @@ def simulate(rows: Path, tmp: Path, fs: int, *options: str, uart: str | None = N
     if uart is not None:
         (tmp / f"{name}.uart").write_text(uart)
         args += ["--uart-in", str(tmp / f"{name}.uart")]
-    proc = subprocess.run([*args, str(ELF)], capture_output=True, text=True)
+    proc = subprocess.run([*args, str(ELF)], capture_output=True, text=True, errors="replace")
     if check and proc.returncode != 0:
         raise AssertionError(f"imu-sim exited {proc.returncode}: {proc.stderr}")
     st = json.loads(stats.read_text()) if stats.exists() else {}
