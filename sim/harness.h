@@ -131,6 +131,7 @@ struct harness {
    * reset: the final run covers rows first_row .. nrows - 1 */
   fault_t fault;
   uint64_t first_row, restarts;
+  int report_retries;         /* 'report' sent again after an error:5 */
 
   /* simavr log */
   char last_error[200];
