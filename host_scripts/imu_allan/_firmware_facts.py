@@ -75,7 +75,7 @@ COMMAND_ARGS = {
 """The argument each command takes (the firmware's cmd_arg table): none, count, rate,
 seconds, mode, range, onoff or units."""
 
-ERROR_CODES = {"unknown": 1, "arg": 2, "long": 3, "state": 4, "lost": 5, "byte": 6}
+ERROR_CODES = {"unknown": 1, "arg": 2, "long": 3, "state": 4, "lost": 5, "byte": 6, "timeout": 7}
 """`error:N` codes of a reply, by cause (the firmware's CMD_ERR_*)."""
 
 INTERVAL_MAX_S = 3600

@@ -95,7 +95,8 @@ def add_to_analysis(doc: dict[str, Any], level: float = LEVEL) -> None:
             if not term:
                 continue
             term["interval_pct"] = term_interval_pct(term)
-            nu = term_edf(ch.get("curve") or [], term.get("tau_range_s"), name, overlapping)
+            points = (ch.get("fit") or {}).get("octave_points") or ch.get("curve") or []
+            nu = term_edf(points, term.get("tau_range_s"), name, overlapping)
             term["edf"] = nu
             term["expected_pct"] = 100 * halfwidth(nu, level) if nu else None
             for target in TARGETS_PCT:

@@ -298,6 +298,10 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
                 **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs)},
         "curve": _points(main, fs, k2, fit, d=2, modified=False, used=used),
     }
+    # the fit's own octave points with their EDFs, whatever grid --taus shows: what the
+    # recording-length advice counts (docs/dynamic.md)
+    out["fit"]["octave_points"] = [{"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u)} for p, u in
+                                   zip(_points(fitc, fs, k2, fit, d=2, modified=False), fit.used)]
     extra = {}
     for name, d, mod in (("adev", 2, False), ("mdev", 2, True), ("hdev", 3, False)):
         cv = curves.get({"adev": "avar", "mdev": "mvar", "hdev": "hvar"}[name])
