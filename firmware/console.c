@@ -61,7 +61,7 @@ static void feed(uint8_t c)
 {
   uint8_t f = con.flags;
   if (c == '\r' || c == '\n') {
-    if ((f & STAR) && (f & DIGITS) != 4 * DIGIT)
+    if ((f & STAR) && (uint8_t)(f & DIGITS) != 4 * DIGIT)
       con.err = CMD_ERR_LOST; /* a check cut short, changed or malformed */
     con.flags = f & (uint8_t)~(STAR | DIGITS);
     if (con.len || con.err) /* blank lines are ignored (an echo line "> " stays open) */
@@ -78,7 +78,7 @@ static void feed(uint8_t c)
     uint8_t d = (uint8_t)(con.sum >> 12);
     d = (uint8_t)(d + (d > 9 ? 'A' - 10 : '0'));
     con.sum = (uint16_t)(con.sum << 4);
-    if (d != c || (f & DIGITS) >= 4 * DIGIT)
+    if (d != c || (f & 4 * DIGIT)) /* 4 digits already (or malformed) */
       f |= DIGITS; /* never 4 digits again: refused at the end */
     else
       f += DIGIT;
