@@ -111,7 +111,7 @@ include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts lint format bench ext firmware other-mcus deps test firmware-test unit pytest sim-test term-test flash-test demo demo-native clean version
+.PHONY: all help facts lint format bench ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -222,6 +222,13 @@ format: ## apply ruff's safe fixes, ruff format and clang-format to every Python
 	$(CLANG_FORMAT) -i $(C_SOURCES)
 
 # ---- benchmark --------------------------------------------------------------
+# The link soak: 1,000 runs of random back-to-back commands over a link that
+# loses and flips bytes at 1e-3 each way (tests/system/sim/soak.py says what is
+# counted); `make sim-test` runs a sample of 12.  SOAK_RUNS=N for another count.
+SOAK_RUNS ?= 1000
+soak: firmware $(IMU_SIM) ## the link soak: 1,000 runs of random commands over a lossy, bit-flipping link
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) tests/system/sim/soak.py --runs $(SOAK_RUNS)
+
 # Device, simulator and host side by side; writes bench/results.json.
 bench: firmware $(IMU_SIM) ext ## device, simulator and host figures side by side into bench/results.json
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)

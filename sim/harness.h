@@ -1,18 +1,23 @@
 /*
- * harness.h - imu-sim's shared state and the calls between its rooms:
+ * harness.h - imu-sim's shared state: one harness_t, made by main
+ * (imu_sim.c) and passed down to every room, none of which keeps a global
+ * of it.  The rooms, each calling only those below it:
  *   imu_sim.c       main: set-up, the run, the outcome
- *   sim_cli.c       the command line (--help, options)
- *   sim_msg.c       messages: warnings, fatal errors, run failures, simavr's log
- *   sim_serial.c    the UART: host bytes paced at the baud rate, device bytes
- *                   captured and framed into checked protocol lines
- *   sim_drive.c     the batch run: stop, rate, reset, start, report
- *   sim_adc.c       ADC conversions served from input rows
- *   sim_measure.c   cycles of marked code, stack depth, the figures (--stats)
+ *   sim_cli.c       the command line (--help, options) into the state
  *   sim_termrun.c   terminal mode (--pty): the port on a pty, real-time pacing
+ *   sim_drive.c     the batch run: stop, rate, reset, start, report
  *   sim_board.c     board mode (--board): flash and EEPROM kept in files, a
  *                   bootloader, the reset on opening the port
+ *   sim_measure.c   cycles of marked code, stack depth, the figures (--stats)
+ *   sim_serial.c    the UART, both ways: host bytes paced at the baud rate,
+ *                   device bytes captured and framed into checked lines
+ *   sim_adc.c       ADC conversions served from input rows
+ *   sim_fault.c     the faults a real board meets, injected on request
+ *   sim_msg.c       messages: warnings, fatal errors, run failures, simavr's log
  * and the helpers sim_rows.c (input files), sim_term.c (pty, synthetic IMU),
  * sim_err.c (error-buffer formatting), sim_isr.c (whole-interrupt timing).
+ * A lower room reports upward only through the hooks at the end of
+ * harness_t (on_line, on_byte, on_scan), which the room above sets.
  */
 #ifndef HARNESS_H
 #define HARNESS_H
@@ -21,12 +26,14 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <string.h>
 #include <time.h>
 
 #include "sim_avr.h"
 #include "avr_adc.h"
 #include "avr_uart.h"
 
+#include "sim_fault.h"
 #include "sim_isr.h"
 #include "sim_rows.h"
 #include "sim_term.h"
@@ -53,7 +60,9 @@ typedef struct {
   uint64_t sum, max;
 } pulse_t;
 
-typedef struct {
+typedef struct harness harness_t;
+
+struct harness {
   /* options */
   const char *adc_path, *uart_in_path, *out_path, *stats_json, *elf_path;
   const char *eeprom_path;
@@ -118,83 +127,46 @@ typedef struct {
   uint32_t sp_min_pc;         /* program counter (bytes) when it was seen */
   double wall_s;
 
+  /* faults injected (sim_fault.c), and the batch run's restarts after a
+   * reset: the final run covers rows first_row .. nrows - 1 */
+  fault_t fault;
+  uint64_t first_row, restarts;
+  int report_retries;         /* 'report' sent again after an error:5 */
+
   /* simavr log */
   char last_error[200];
   int log_shown;
   int log_quiet;
   uint64_t errors;
-} harness_t;
 
-/* The one harness state (defined in imu_sim.c). */
-extern harness_t g;
+  /* Calls up, set by whoever runs the device (the driver, the terminal):
+   * lower rooms report through them and never name the rooms above. */
+  void (*on_line)(harness_t *h, char *body, size_t len, int crc_ok);
+  void (*on_byte)(harness_t *h, uint8_t c);   /* every device byte */
+  void (*on_scan)(harness_t *h);              /* mux 6 of a row converted */
+};
 
-/* ---- imu_sim.c ---------------------------------------------------------- */
-/* A peripheral of g.avr by kind ("adc", "uart", "timer") and name (0: any). */
-avr_io_t *find_io(const char *kind, char name);
-
-/* ---- sim_msg.c ---------------------------------------------------------- */
-void warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-void die(int code, const char *fmt, ...)
-  __attribute__((format(printf, 2, 3), noreturn));
-/* A failure found inside a simavr callback: the run loop stops on it. */
-void fail(int code, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-double sim_time(void);
-void logger(avr_t *avr, const int level, const char *fmt, va_list ap);
-
-/* ---- sim_cli.c ---------------------------------------------------------- */
-void parse_args(int argc, char **argv);
-
-/* ---- sim_serial.c ------------------------------------------------------- */
-avr_cycle_count_t byte_cycles(void);
-void tx_push(const uint8_t *b, size_t n);
-void tx_kick(void);             /* (re)start sending what is queued */
-void send_cmd(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-void send_user(const uart_in_t *u);
-void serial_connect(void);     /* hooks the UART's IRQs */
-
-/* ---- sim_drive.c -------------------------------------------------------- */
-uint64_t rows_consumed(void);
-void release_uart_in(void);
-void set_state(int st);
-void finish_run(void);
-void on_line(char *body, size_t len, int crc_ok);
-int drive_run(void);           /* the batch run; returns avr_run()'s state */
-void drive_summary(int code);  /* warnings about the run, at its end */
-
-/* ---- sim_adc.c ---------------------------------------------------------- */
-void adc_connect(void);        /* hooks the ADC's trigger */
-
-/* ---- sim_measure.c ------------------------------------------------------ */
-void measure_connect(void);    /* hooks PB0..PB2 and the sleep callback */
-int elf_is_avr(const char *path);
-uint16_t elf_bss_end(const char *path);
-void print_stats(int json);
+/* A peripheral of avr by kind ("adc", "uart", "timer") and name (0: any). */
+static inline avr_io_t *find_io(avr_t *avr, const char *kind, char name)
+{
+  for (avr_io_t *io = avr->io_port; io; io = io->next)
+    if (io->kind && !strcmp(io->kind, kind) &&
+        (!name || ((avr_uart_t *)io)->name == name))
+      return io;
+  return NULL;
+}
 
 /* The lowest stack pointer, checked after every instruction (inline: it
  * runs once per simulated instruction). */
-static inline void watch_sp(void)
+static inline void watch_sp(harness_t *h)
 {
-  avr_t *avr = g.avr;
+  avr_t *avr = h->avr;
   uint16_t sp = (uint16_t)(avr->data[R_SPL] | avr->data[R_SPH] << 8);
-  if (sp < g.sp_min) {
-    g.sp_min = sp;
-    g.sp_min_pc = avr->pc;
+  if (sp < h->sp_min) {
+    h->sp_min = sp;
+    h->sp_min_pc = avr->pc;
   }
   sim_isr_step();
 }
-
-/* ---- sim_board.c -------------------------------------------------------- */
-void board_open(void);         /* flash, EEPROM, bootloader, reset vector */
-void board_external_reset(void);
-void board_poll(void);         /* persist what changed; SIGUSR1 hang */
-void board_close(void);
-
-/* ---- sim_termrun.c ------------------------------------------------------ */
-void term_open(void);          /* the pty, its link and the info stream */
-void term_out(uint8_t c);
-int term_run(void);
-void term_started(struct timespec *t0);  /* when the device powered up */
-void term_summary(int st);
-void term_close(void);
 
 #endif /* HARNESS_H */

@@ -28,9 +28,9 @@ $(FW_BUILD)/simavr_section.o: sim/simavr_section.c sim/sim.mk | $(FW_BUILD)
 IMU_SIM := $(BUILD)/host/imu-sim
 # The harness's rooms (harness.h lists them), and the firmware's own CRC.
 IMU_SIM_SRC := $(addprefix sim/,imu_sim.c sim_cli.c sim_msg.c sim_serial.c \
-               sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_board.c sim_rows.c \
+               sim_drive.c sim_adc.c sim_measure.c sim_termrun.c sim_board.c sim_fault.c sim_rows.c \
                sim_term.c sim_err.c sim_isr.c) $(FW_DIR)/crc.c
-IMU_SIM_HDR := $(addprefix sim/,harness.h sim_rows.h sim_term.h sim_err.h sim_isr.h) \
+IMU_SIM_HDR := $(addprefix sim/,harness.h sim_msg.h sim_serial.h sim_drive.h sim_adc.h sim_measure.h sim_board.h sim_termrun.h sim_cli.h sim_fault.h sim_rows.h sim_term.h sim_err.h sim_isr.h) \
                $(FW_DIR)/crc.h
 
 # simavr's headers include each other as "sim_avr.h", so their directory

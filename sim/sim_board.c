@@ -20,7 +20,7 @@
  *   watchdog tests): outside interrupts, it jumps to the first `rjmp .` of
  *   the application, interrupts left on.
  */
-#include "harness.h"
+#include "sim_board.h"
 
 #include <errno.h>
 #include <signal.h>
@@ -33,6 +33,8 @@
 #include "avr_eeprom.h"
 #include "avr_flash.h"
 
+#include "sim_msg.h"
+
 static struct {
   char flash_path[4096], eeprom_path[4096];
   uint8_t *flash_saved;           /* what the flash file holds */
@@ -41,6 +43,7 @@ static struct {
   uint32_t flash_writes, eeprom_writes, spm_dropped;
   void (*mcu_reset)(avr_t *avr);  /* the core's own reset hook */
   int resets;
+  harness_t *h;                   /* for the reset hook, which has no pointer */
 } b;
 
 static volatile sig_atomic_t hang_request;
@@ -71,7 +74,7 @@ static void on_hang_signal(int sig)
 }
 
 /* Reads PATH (up to LEN bytes) into BUF; 1 if it existed. */
-static int load_file(const char *path, uint8_t *buf, size_t len, const char *what)
+static int load_file(const avr_t *avr, const char *path, uint8_t *buf, size_t len, const char *what)
 {
   FILE *f = fopen(path, "rb");
   if (!f) {
@@ -84,7 +87,7 @@ static int load_file(const char *path, uint8_t *buf, size_t len, const char *wha
   fclose(f);
   if (n != len || extra)
     die(EXIT_INPUT, "%s: %zu bytes, not the %zu of the %s's %s (delete it "
-        "for a blank chip)", path, n + (size_t)extra, len, g.avr->mmcu, what);
+        "for a blank chip)", path, n + (size_t)extra, len, avr->mmcu, what);
   return 1;
 }
 
@@ -99,7 +102,7 @@ static void save_file(const char *path, const uint8_t *buf, size_t len)
 }
 
 /* Writes a hex file into flash; returns its lowest address. */
-static uint32_t put_hex(const char *path, const char *what)
+static uint32_t put_hex(avr_t *avr, const char *path, const char *what)
 {
   ihex_chunk_p chunks = NULL;
   int n = read_ihex_chunks(path, &chunks);
@@ -107,11 +110,11 @@ static uint32_t put_hex(const char *path, const char *what)
   if (n <= 0)
     die(EXIT_INPUT, "%s %s: not an Intel hex file", what, path);
   for (int i = 0; i < n; i++) {
-    if (chunks[i].baseaddr + chunks[i].size > g.avr->flashend + 1u)
+    if (chunks[i].baseaddr + chunks[i].size > avr->flashend + 1u)
       die(EXIT_INPUT, "%s %s: bytes at 0x%x-0x%x, beyond the %s's flash",
           what, path, (unsigned)chunks[i].baseaddr,
-          (unsigned)(chunks[i].baseaddr + chunks[i].size - 1), g.avr->mmcu);
-    memcpy(g.avr->flash + chunks[i].baseaddr, chunks[i].data, chunks[i].size);
+          (unsigned)(chunks[i].baseaddr + chunks[i].size - 1), avr->mmcu);
+    memcpy(avr->flash + chunks[i].baseaddr, chunks[i].data, chunks[i].size);
     if (chunks[i].baseaddr < low)
       low = chunks[i].baseaddr;
   }
@@ -126,39 +129,40 @@ static void board_reset_hook(avr_t *avr)
   if (b.mcu_reset)
     b.mcu_reset(avr);
   b.resets++;
-  g.reset_seen = 1;
+  b.h->reset_seen = 1;
 }
 
-void board_open(void)
+void board_open(harness_t *h)
 {
-  avr_t *avr = g.avr;
+  b.h = h;
+  avr_t *avr = h->avr;
   size_t flash_len = avr->flashend + 1u, ee_len = avr->e2end + 1u;
 
-  snprintf(b.flash_path, sizeof b.flash_path, "%s.flash", g.board);
-  snprintf(b.eeprom_path, sizeof b.eeprom_path, "%s.eeprom", g.board);
+  snprintf(b.flash_path, sizeof b.flash_path, "%s.flash", h->board);
+  snprintf(b.eeprom_path, sizeof b.eeprom_path, "%s.eeprom", h->board);
   b.flash_saved = malloc(flash_len);
   if (!b.flash_saved || ee_len > sizeof b.eeprom_saved)
     die(EXIT_FAIL, "out of memory");
 
   memset(avr->flash, 0xFF, flash_len);
-  load_file(b.flash_path, avr->flash, flash_len, "flash");
-  if (g.isp_hex) {
+  load_file(avr, b.flash_path, avr->flash, flash_len, "flash");
+  if (h->isp_hex) {
     /* chip erase of the application section, then the hex */
     memset(avr->flash, 0xFF, b.boot_start ? b.boot_start : flash_len);
-    put_hex(g.isp_hex, "--flash");
+    put_hex(avr, h->isp_hex, "--flash");
   }
-  if (g.bootloader && strcmp(g.bootloader, "none")) {
-    b.boot_start = put_hex(g.bootloader, "--bootloader");
+  if (h->bootloader && strcmp(h->bootloader, "none")) {
+    b.boot_start = put_hex(avr, h->bootloader, "--bootloader");
     if (b.boot_start < flash_len / 2)
       die(EXIT_INPUT, "--bootloader %s starts at 0x%x: not a boot section",
-          g.bootloader, (unsigned)b.boot_start);
+          h->bootloader, (unsigned)b.boot_start);
   }
   avr->codeend = avr->flashend;
   memcpy(b.flash_saved, avr->flash, flash_len);
   save_file(b.flash_path, avr->flash, flash_len);
 
   memset(b.eeprom_saved, 0xFF, ee_len);
-  load_file(b.eeprom_path, b.eeprom_saved, ee_len, "EEPROM");
+  load_file(avr, b.eeprom_path, b.eeprom_saved, ee_len, "EEPROM");
   avr_eeprom_desc_t d = { .ee = b.eeprom_saved, .offset = 0, .size = (uint32_t)ee_len };
   avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &d);
 
@@ -178,19 +182,19 @@ void board_open(void)
 }
 
 /* The RESET pin pulled low and released (the DTR capacitor's pulse). */
-void board_external_reset(void)
+void board_external_reset(harness_t *h)
 {
-  avr_t *avr = g.avr;
+  avr_t *avr = h->avr;
   avr_reset(avr);
   avr_regbit_set(avr, avr->reset_flags.extrf);
-  if (g.verbose)
+  if (h->verbose)
     fprintf(stderr, PROG ": external reset (the port was opened)\n");
 }
 
 /* Flash and EEPROM to their files when they changed; the hang request. */
-void board_poll(void)
+void board_poll(harness_t *h)
 {
-  avr_t *avr = g.avr;
+  avr_t *avr = h->avr;
   size_t flash_len = avr->flashend + 1u, ee_len = avr->e2end + 1u;
   if (memcmp(b.flash_saved, avr->flash, flash_len)) {
     memcpy(b.flash_saved, avr->flash, flash_len);
@@ -213,7 +217,7 @@ void board_poll(void)
     for (uint32_t a = 0; a + 1 < end; a += 2)
       if (avr->flash[a] == 0xFF && avr->flash[a + 1] == 0xCF) {   /* rjmp . */
         avr->pc = a;
-        if (g.verbose)
+        if (h->verbose)
           fprintf(stderr, PROG ": hung at 0x%04x (SIGUSR1)\n", (unsigned)a);
         return;
       }
@@ -221,15 +225,15 @@ void board_poll(void)
   }
 }
 
-void board_close(void)
+void board_close(harness_t *h)
 {
   if (!b.flash_saved)
     return;
-  board_poll();
+  board_poll(h);
   if (b.spm_dropped)
     warn("%u SPM instructions outside the boot loader section were ignored, "
          "as the chip ignores them", (unsigned)b.spm_dropped);
-  if (g.verbose)
+  if (h->verbose)
     fprintf(stderr, PROG ": %d resets, flash saved %u times, EEPROM %u times\n",
             b.resets, (unsigned)b.flash_writes, (unsigned)b.eeprom_writes);
   free(b.flash_saved);

@@ -1,12 +1,15 @@
 /*
- * sim_cli.c - imu-sim's command line: --help and the options into g.
+ * sim_cli.c - imu-sim's command line: --help and the options into h->
  */
-#include "harness.h"
+#include "sim_cli.h"
 
 #include <errno.h>
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "sim_fault.h"
+#include "sim_msg.h"
 
 /* --help: the batch run and its options, terminal mode, the figures. */
 static const char usage_run[] =
@@ -33,7 +36,8 @@ static const char usage_run[] =
 "     exits 0.  Conversions after the last row read the last row again and\n"
 "     are reported as a warning (the device dropped samples).\n"
 "Host bytes go to the device at the firmware's baud rate (one byte time\n"
-"each), honouring simavr's receive FIFO flow control.  Simulated time\n"
+"each), honouring simavr's receive FIFO flow control (unless\n"
+"--no-flow-control, see Faults).  Simulated time\n"
 "runs as fast as the host can go; idle (sleep) time costs nothing.\n"
 "\n"
 "Options:\n"
@@ -55,7 +59,7 @@ static const char usage_run[] =
 "                    right after 'start' was acknowledged); N must not\n"
 "                    decrease from line to line.\n"
 "                    Text is sent as is, with escapes \\r \\n \\t \\\\ \\xNN;\n"
-"                    end a command with \\r yourself (e.g. '500<TAB>report\\r').\n"
+"                    end a command with \\r yourself (e.h-> '500<TAB>report\\r').\n"
 "                    '#' lines and blank lines are skipped.  Replies to these\n"
 "                    commands are only captured, never acted upon.\n"
 "  -o, --output FILE everything the device sends, bytes as they are\n"
@@ -137,6 +141,41 @@ static const char usage_term[] =
 "\n"
 ;
 
+static const char usage_faults[] =
+"Faults (what a real board meets; any mode, counted in --stats as fault_*):\n"
+"  --link-loss P     each byte on the link is lost with probability P, both\n"
+"                    ways (in a batch run only while the rows run: the\n"
+"                    harness's set-up and the final report pass clean)\n"
+"  --link-flip P     each byte is hit by a bit error with probability P, both\n"
+"                    ways: towards the device one bit of its 10-bit frame\n"
+"                    (a data bit changes the byte unseen, the stop bit is a\n"
+"                    framing error (FE), the start bit loses the byte);\n"
+"                    towards the host one of its 8 bits\n"
+"  --fault-seed N    seed of every random fault (default 1): a run repeats\n"
+"  --no-flow-control host bytes go at the baud rate whatever the device\n"
+"                    does, and the UART keeps only what the chip keeps (two\n"
+"                    frames and one in its shift register): a frame arriving\n"
+"                    when that is full is lost and DOR is set (a data overrun)\n"
+"  --uart-overrun P  each host byte is lost to a data overrun with\n"
+"                    probability P, as when the receive interrupt comes late:\n"
+"                    DOR is set with the next frame that arrives (overruns\n"
+"                    with no frame between them are one DOR event:\n"
+"                    fault_dor_events)\n"
+"  --eeprom-flip ADDR[:MASK]@SEC  at simulated second SEC, EEPROM byte ADDR\n"
+"                    is XORed with MASK (default 0x01); up to 8 of them\n"
+"  --power-cut WHEN  the supply is cut and comes back (a power-on reset):\n"
+"                    WHEN is a simulated second, 'report' (as the device\n"
+"                    sends the first L row of a report) or 'save' (right\n"
+"                    after the device wrote the first EEPROM byte)\n"
+"  --brown-out WHEN  the same, a brown-out reset (BORF)\n"
+"                    After a reset in a batch run the harness starts again\n"
+"                    (stop, rate, reset, start) from the next row; the final\n"
+"                    report covers rows first_row .. the last (--stats).\n"
+"  --adc-fault CH=CODE|stuck[@ROW]  from row ROW (default 0) on, channel CH\n"
+"                    (ax ay az gx gy gz temp, or 0..6) reads CODE (0 or 1023:\n"
+"                    railed), or stays at its value of row ROW-1 (stuck)\n"
+"\n";
+
 static const char usage_figures[] =
 "Figures (--stats):\n"
 "  sample_cycles_mean/max, sample_count  CPU cycles PB0 stays high (the\n"
@@ -174,6 +213,7 @@ static void usage(FILE *f)
 {
   fputs(usage_run, f);
   fputs(usage_term, f);
+  fputs(usage_faults, f);
   fputs(usage_figures, f);
 }
 
@@ -187,49 +227,60 @@ static unsigned long parse_ulong(const char *s, const char *opt)
   return v;
 }
 
-/* Options that exclude each other or need another. */
-static void check_args(void)
+static double parse_prob(const char *s, const char *opt)
 {
-  if ((g.bootloader || g.isp_hex) && !g.board)
+  char *end;
+  double v = strtod(s, &end);
+  if (!*s || *end || !(v >= 0 && v <= 1))
+    die(EXIT_INPUT, "%s: '%s' is not a probability (0 to 1)", opt, s);
+  return v;
+}
+
+/* Options that exclude each other or need another. */
+static void check_args(const harness_t *h)
+{
+  if ((h->bootloader || h->isp_hex) && !h->board)
     die(EXIT_INPUT, "%s only applies with --board (see --help)",
-        g.bootloader ? "--bootloader" : "--flash");
-  if (g.board && !g.pty)
+        h->bootloader ? "--bootloader" : "--flash");
+  if (h->board && !h->pty)
     die(EXIT_INPUT, "--board needs --pty: the board's port is a pseudo-terminal");
-  if (g.board && g.eeprom_path)
+  if (h->board && h->eeprom_path)
     die(EXIT_INPUT, "--eeprom does not apply with --board: its EEPROM is "
         "kept in PREFIX.eeprom");
-  if (!g.pty) {
-    const char *only = g.link_path ? "--link" : g.synthetic ? "--synthetic" :
-      g.fast ? "--fast" : g.realtime ? "--realtime" : g.no_wait ? "--no-wait" :
-      g.seed != 1 ? "--seed" : NULL;
+  if (!h->pty) {
+    const char *only = h->link_path ? "--link" : h->synthetic ? "--synthetic" :
+      h->fast ? "--fast" : h->realtime ? "--realtime" : h->no_wait ? "--no-wait" :
+      h->seed != 1 ? "--seed" : NULL;
     if (only)
       die(EXIT_INPUT, "%s only applies with --pty (see --help)", only);
   } else {
-    const char *not = g.fs ? "--fs" : g.uart_in_path ? "--uart-in" :
-      g.timeout_set ? "--timeout" : NULL;
+    const char *not = h->fs ? "--fs" : h->uart_in_path ? "--uart-in" :
+      h->timeout_set ? "--timeout" : NULL;
     if (not)
       die(EXIT_INPUT, "%s does not apply with --pty: the terminal drives "
           "the device (see --help)", not);
-    if (g.fast && g.realtime)
+    if (h->fast && h->realtime)
       die(EXIT_INPUT, "--fast and --realtime exclude each other");
-    if (g.synthetic && g.adc_path)
+    if (h->synthetic && h->adc_path)
       die(EXIT_INPUT, "--adc and --synthetic exclude each other");
-    if (!g.synthetic && !g.adc_path)
+    if (!h->synthetic && !h->adc_path)
       die(EXIT_INPUT, "--pty needs --adc FILE or --synthetic (see --help)");
     return;
   }
-  if (!g.adc_path)
+  if (!h->adc_path)
     die(EXIT_INPUT, "--adc FILE is required (see --help)");
-  if (g.fs && g.fs > 100000)
-    die(EXIT_INPUT, "--fs: %u Hz is not a sample rate", g.fs);
-  if (g.uart_in_path && !strcmp(g.uart_in_path, "-") && !strcmp(g.adc_path, "-"))
+  if (h->fs && h->fs > 100000)
+    die(EXIT_INPUT, "--fs: %u Hz is not a sample rate", h->fs);
+  if (h->uart_in_path && !strcmp(h->uart_in_path, "-") && !strcmp(h->adc_path, "-"))
     die(EXIT_INPUT, "--adc and --uart-in cannot both read stdin");
 }
 
 /* imu-sim's long options (getopt_long). */
 enum { O_ADC = 256, O_FS, O_UART_IN, O_MCU, O_FREQ, O_TIMEOUT, O_STATS,
        O_STATS_JSON, O_PTY, O_LINK, O_SYNTHETIC, O_SEED, O_REALTIME, O_FAST,
-       O_NO_WAIT, O_EEPROM, O_BOARD, O_BOOTLOADER, O_FLASH };
+       O_NO_WAIT, O_EEPROM, O_BOARD, O_BOOTLOADER, O_FLASH, O_LINK_LOSS,
+       O_LINK_FLIP, O_FAULT_SEED, O_NO_FLOW, O_OVERRUN, O_EE_FLIP, O_POWER_CUT,
+       O_BROWN_OUT, O_ADC_FAULT };
 static const struct option opts[] = {
   { "adc", required_argument, NULL, O_ADC },
   { "fs", required_argument, NULL, O_FS },
@@ -251,68 +302,87 @@ static const struct option opts[] = {
   { "board", required_argument, NULL, O_BOARD },
   { "bootloader", required_argument, NULL, O_BOOTLOADER },
   { "flash", required_argument, NULL, O_FLASH },
+  { "link-loss", required_argument, NULL, O_LINK_LOSS },
+  { "link-flip", required_argument, NULL, O_LINK_FLIP },
+  { "fault-seed", required_argument, NULL, O_FAULT_SEED },
+  { "no-flow-control", no_argument, NULL, O_NO_FLOW },
+  { "uart-overrun", required_argument, NULL, O_OVERRUN },
+  { "eeprom-flip", required_argument, NULL, O_EE_FLIP },
+  { "power-cut", required_argument, NULL, O_POWER_CUT },
+  { "brown-out", required_argument, NULL, O_BROWN_OUT },
+  { "adc-fault", required_argument, NULL, O_ADC_FAULT },
   { "verbose", no_argument, NULL, 'v' },
   { "help", no_argument, NULL, 'h' },
   { NULL, 0, NULL, 0 },
 };
 
-void parse_args(int argc, char **argv)
+void parse_args(harness_t *h, int argc, char **argv)
 {
   int c;
+  h->fault.rng = 0x9E3779B97F4A7C15ull + 1;   /* --fault-seed 1 */
   opterr = 0;
   while ((c = getopt_long(argc, argv, ":o:vh", opts, NULL)) != -1) {
     switch (c) {
-    case O_ADC: g.adc_path = optarg; break;
-    case O_FS: g.fs = (unsigned)parse_ulong(optarg, "--fs"); break;
-    case O_UART_IN: g.uart_in_path = optarg; break;
-    case 'o': g.out_path = optarg; break;
-    case O_MCU: g.mcu = optarg; break;
-    case O_FREQ: g.freq = (uint32_t)parse_ulong(optarg, "--freq"); break;
+    case O_ADC: h->adc_path = optarg; break;
+    case O_FS: h->fs = (unsigned)parse_ulong(optarg, "--fs"); break;
+    case O_UART_IN: h->uart_in_path = optarg; break;
+    case 'o': h->out_path = optarg; break;
+    case O_MCU: h->mcu = optarg; break;
+    case O_FREQ: h->freq = (uint32_t)parse_ulong(optarg, "--freq"); break;
     case O_TIMEOUT: {
       char *end;
-      g.timeout_s = strtod(optarg, &end);
-      g.timeout_set = 1;
-      if (*end || !(g.timeout_s > 0))
+      h->timeout_s = strtod(optarg, &end);
+      h->timeout_set = 1;
+      if (*end || !(h->timeout_s > 0))
         die(EXIT_INPUT, "--timeout: '%s' is not a positive number of seconds",
             optarg);
       break;
     }
     case O_STATS:
       if (optarg)
-        g.stats_json = optarg;
+        h->stats_json = optarg;
       else
-        g.stats_text = 1;
+        h->stats_text = 1;
       break;
-    case O_STATS_JSON: g.stats_json = optarg; break;
-    case O_PTY: g.pty = 1; break;
-    case O_LINK: g.link_path = optarg; break;
-    case O_SYNTHETIC: g.synthetic = 1; break;
-    case O_SEED: g.seed = parse_ulong(optarg, "--seed"); break;
-    case O_REALTIME: g.realtime = 1; break;
-    case O_FAST: g.fast = 1; break;
-    case O_NO_WAIT: g.no_wait = 1; break;
-    case O_EEPROM: g.eeprom_path = optarg; break;
-    case O_BOARD: g.board = optarg; break;
-    case O_BOOTLOADER: g.bootloader = optarg; break;
-    case O_FLASH: g.isp_hex = optarg; break;
-    case 'v': g.verbose++; break;
+    case O_STATS_JSON: h->stats_json = optarg; break;
+    case O_PTY: h->pty = 1; break;
+    case O_LINK: h->link_path = optarg; break;
+    case O_SYNTHETIC: h->synthetic = 1; break;
+    case O_SEED: h->seed = parse_ulong(optarg, "--seed"); break;
+    case O_REALTIME: h->realtime = 1; break;
+    case O_FAST: h->fast = 1; break;
+    case O_NO_WAIT: h->no_wait = 1; break;
+    case O_EEPROM: h->eeprom_path = optarg; break;
+    case O_BOARD: h->board = optarg; break;
+    case O_BOOTLOADER: h->bootloader = optarg; break;
+    case O_FLASH: h->isp_hex = optarg; break;
+    case O_LINK_LOSS: h->fault.loss = parse_prob(optarg, "--link-loss"); break;
+    case O_LINK_FLIP: h->fault.flip = parse_prob(optarg, "--link-flip"); break;
+    case O_FAULT_SEED: h->fault.rng = parse_ulong(optarg, "--fault-seed") * 0x9E3779B97F4A7C15ull + 1; break;
+    case O_NO_FLOW: h->fault.no_flow = 1; break;
+    case O_OVERRUN: h->fault.overrun = parse_prob(optarg, "--uart-overrun"); break;
+    case O_EE_FLIP: fault_parse_eeprom(&h->fault, optarg); break;
+    case O_POWER_CUT: fault_parse_power(&h->fault, POWER_CUT, optarg); break;
+    case O_BROWN_OUT: fault_parse_power(&h->fault, POWER_BROWNOUT, optarg); break;
+    case O_ADC_FAULT: fault_parse_adc(&h->fault, optarg); break;
+    case 'v': h->verbose++; break;
     case 'h': usage(stdout); exit(EXIT_OK);
     case ':': die(EXIT_INPUT, "%s needs an argument (see --help)", argv[optind - 1]);
     default: die(EXIT_INPUT, "unknown option '%s' (see --help)", argv[optind - 1]);
     }
   }
-  if (g.board && optind == argc) {
-    check_args();     /* board mode: the firmware is in the board's flash */
+  if (h->board && optind == argc) {
+    check_args(h);     /* board mode: the firmware is in the board's flash */
     return;
   }
   if (optind == argc)
     die(EXIT_INPUT, "missing the firmware ELF file (see --help)");
-  if (g.board)
+  if (h->board)
     die(EXIT_INPUT, "--board takes no ELF: the firmware is what the board's "
         "flash holds (--flash HEX to program one)");
   if (optind != argc - 1)
     die(EXIT_INPUT, "expected one ELF file, got %d arguments (see --help)",
         argc - optind);
-  g.elf_path = argv[optind];
-  check_args();
+  h->elf_path = argv[optind];
+  check_args(h);
 }

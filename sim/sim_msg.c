@@ -2,7 +2,7 @@
  * sim_msg.c - imu-sim's messages: warnings, fatal errors, failures found
  * inside simavr callbacks (the run loop stops on them), simavr's own log.
  */
-#include "harness.h"
+#include "sim_msg.h"
 
 #include <stdarg.h>
 #include <stdio.h>
@@ -15,6 +15,14 @@ static void say(const char *prefix, const char *fmt, va_list ap)
   fputs(prefix, stderr);
   vfprintf(stderr, fmt, ap);
   fputc('\n', stderr);
+}
+
+/* The state simavr's logger reads (its callback carries no pointer). */
+static harness_t *log_h;
+
+void msg_init(harness_t *h)
+{
+  log_h = h;
 }
 
 void warn(const char *fmt, ...)
@@ -34,28 +42,31 @@ void die(int code, const char *fmt, ...)
   exit(code);
 }
 
-void fail(int code, const char *fmt, ...)
+void fail(harness_t *h, int code, const char *fmt, ...)
 {
   va_list ap;
-  if (g.fail)
+  if (h->fail)
     return;
   va_start(ap, fmt);
-  vsnprintf(g.fail_msg, sizeof g.fail_msg, fmt, ap);
+  vsnprintf(h->fail_msg, sizeof h->fail_msg, fmt, ap);
   va_end(ap);
-  g.fail = code;
+  h->fail = code;
 }
 
-double sim_time(void)
+double sim_time(const harness_t *h)
 {
-  return g.avr ? (double)g.avr->cycle / g.avr->frequency : 0.0;
+  return h->avr ? (double)h->avr->cycle / h->avr->frequency : 0.0;
 }
 
 void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
 {
-  int show = g.verbose >= 2 ? LOG_TRACE : LOG_WARNING;
+  harness_t *h = log_h;
   char msg[240], *w = msg;
   (void)avr;
-  if (g.log_quiet || (level > show && level != LOG_ERROR))
+  if (!h)
+    return;
+  int show = h->verbose >= 2 ? LOG_TRACE : LOG_WARNING;
+  if (h->log_quiet || (level > show && level != LOG_ERROR))
     return;
   vsnprintf(msg, sizeof msg, fmt, ap);
   /* drop simavr's colour escapes and line ends */
@@ -75,28 +86,28 @@ void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
   if (level == LOG_ERROR) {
     if (!strncmp(msg, "avr_sadly_crashed", 17))
       return;
-    snprintf(g.last_error, sizeof g.last_error, "%.199s", msg);
-    g.errors++;
-    if (!g.verbose)
+    snprintf(h->last_error, sizeof h->last_error, "%.199s", msg);
+    h->errors++;
+    if (!h->verbose)
       return;
   }
   /* simavr 1.6 warns about any OCRnx write while the timer's clock is
    * stopped; the value is applied when the clock starts: noise. */
-  if (!g.verbose && strstr(msg, "avr_timer_write_ocr") &&
+  if (!h->verbose && strstr(msg, "avr_timer_write_ocr") &&
       strstr(msg, "mode 0 UNSUPPORTED"))
     return;
   /* simavr's self-programming module warns when SPMCSR's SELFPRGEN times
    * out after an SPM it has already carried out (optiboot's page writes
    * land and verify): noise too. */
-  if (!g.verbose && strstr(msg, "SPM not received"))
+  if (!h->verbose && strstr(msg, "SPM not received"))
     return;
   if (level > show)
     return;
-  if (!g.verbose && g.log_shown >= LOG_CAP) {
-    if (g.log_shown++ == LOG_CAP)
+  if (!h->verbose && h->log_shown >= LOG_CAP) {
+    if (h->log_shown++ == LOG_CAP)
       fputs(PROG ": simavr: further messages suppressed (use -v)\n", stderr);
     return;
   }
-  g.log_shown++;
+  h->log_shown++;
   fprintf(stderr, PROG ": simavr: %s\n", msg);
 }

@@ -4,7 +4,7 @@
  * wall clock (or --fast), device output lost while no terminal listens.
  */
 #define _GNU_SOURCE
-#include "harness.h"
+#include "sim_termrun.h"
 #include "sim_regbit.h"
 
 #include <errno.h>
@@ -14,6 +14,11 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+
+#include "sim_board.h"
+#include "sim_fault.h"
+#include "sim_msg.h"
+#include "sim_serial.h"
 
 /* Set by SIGINT, SIGTERM, SIGHUP: the terminal loop ends. */
 static volatile sig_atomic_t stop_signal;
@@ -56,13 +61,10 @@ static void sleep_s(double s)
  * meanwhile, never arrive (its UART restarts empty): a next session must
  * not receive the end of the last one (say, half a page of an upload that
  * was cut off, which would throw the bootloader out of step). */
-static void drop_host_bytes(void)
+static void drop_host_bytes(harness_t *h)
 {
   uint8_t buf[256];
-  t.flushed += g.txq_len;
-  g.txq_len = 0;
-  g.txq_head = 0;
-  g.user_line_len = 0;
+  t.flushed += serial_drop_queued(h);
   for (;;) {      /* what the closed terminal left in the pty */
     ssize_t n = read(t.pty.master, buf, sizeof buf);
     if (n <= 0 && !(n < 0 && errno == EINTR))
@@ -72,21 +74,21 @@ static void drop_host_bytes(void)
   }
 }
 
-static void term_poll(void)
+static void term_poll(harness_t *h)
 {
   int readable;
   int now = pty_state(&t.pty, &readable);
-  int opened = g.board ? pty_opened(&t.pty) : 0;
+  int opened = h->board ? pty_opened(&t.pty) : 0;
   if (now != t.connected || opened > 0) {
-    if (g.verbose)
-      fprintf(stderr, PROG ": t=%.3f s: terminal %s\n", sim_time(),
+    if (h->verbose)
+      fprintf(stderr, PROG ": t=%.3f s: terminal %s\n", sim_time(h),
               now ? "opened" : "closed");
     if (!now || opened > 0)
-      drop_host_bytes();          /* they went with the last line */
+      drop_host_bytes(h);          /* they went with the last line */
     /* DTR auto-reset: every open, even a close and open between two
      * looks (inotify counts them); without inotify, a change seen */
-    if (g.board && (opened > 0 || (opened < 0 && now && !t.connected))) {
-      board_external_reset();
+    if (h->board && (opened > 0 || (opened < 0 && now && !t.connected))) {
+      board_external_reset(h);
       now = pty_state(&t.pty, &readable);
     }
     t.connected = now;
@@ -95,14 +97,14 @@ static void term_poll(void)
    * receiver: the device powers up when the terminal opens it (as a board
    * reset by DTR does), and a command sent at once would otherwise reach
    * a UART not yet listening and be lost without a reply. */
-  if (!avr_regbit_get(g.avr, g.uart->rxen))
+  if (!avr_regbit_get(h->avr, h->uart->rxen))
     return;
-  while (t.connected && readable && g.txq_len < 64) {
+  while (t.connected && readable && serial_queued(h) < 64) {
     uint8_t buf[64];
-    ssize_t n = read(t.pty.master, buf, sizeof buf - g.txq_len);
+    ssize_t n = read(t.pty.master, buf, sizeof buf - serial_queued(h));
     if (n > 0) {
       t.from_term += (uint64_t)n;
-      tx_push(buf, (size_t)n);
+      serial_push(h, buf, (size_t)n);
       continue;
     }
     if (n < 0 && errno == EINTR)
@@ -117,11 +119,11 @@ static void term_poll(void)
  * serial line with nothing attached.  A terminal that does not read:
  * real time drops what does not fit (the device cannot wait); --fast
  * waits for it, since simulated time can. */
-static void term_flush(void)
+static void term_flush(harness_t *h)
 {
   size_t off = 0;
-  if (g.out && t.olen)
-    fflush(g.out);    /* -o: a copy others may read while the device runs */
+  if (h->out && t.olen)
+    fflush(h->out);    /* -o: a copy others may read while the device runs */
   while (off < t.olen) {
     if (!t.connected) {
       t.unheard += t.olen - off;
@@ -138,10 +140,10 @@ static void term_flush(void)
       t.connected = 0;
       continue;
     }
-    if (!g.fast || stop_signal) {
+    if (!h->fast || stop_signal) {
       if (!t.dropped)
         warn("t=%.3f s: the terminal does not read: device output is lost",
-             sim_time());
+             sim_time(h));
       t.dropped += t.olen - off;
       break;
     }
@@ -152,36 +154,36 @@ static void term_flush(void)
   t.olen = 0;
 }
 
-void term_out(uint8_t c)
+static void term_out(harness_t *h, uint8_t c)
 {
   t.obuf[t.olen++] = c;
   if (t.olen == sizeof t.obuf)
-    term_flush();
+    term_flush(h);
 }
 
 /* Real time: hold the simulation until the wall clock catches up with
  * it, serving the terminal meanwhile.  A host too slow for real time
  * restarts the comparison rather than rushing to catch up. */
-static void term_pace(void)
+static void term_pace(harness_t *h)
 {
   for (;;) {
-    double ahead = (double)(g.avr->cycle - t.c0) / g.avr->frequency - since(&t.t0);
+    double ahead = (double)(h->avr->cycle - t.c0) / h->avr->frequency - since(&t.t0);
     if (ahead < -0.25) {
       if (!t.resyncs++)
         warn("t=%.3f s: the host cannot keep up with real time; "
-             "simulated time runs slower", sim_time());
+             "simulated time runs slower", sim_time(h));
       clock_gettime(CLOCK_MONOTONIC, &t.t0);
-      t.c0 = g.avr->cycle;
+      t.c0 = h->avr->cycle;
       return;
     }
     if (ahead <= 0 || stop_signal)
       return;
-    if (t.connected && g.txq_len < 64) {
+    if (t.connected && serial_queued(h) < 64) {
       /* wake up early for typed bytes */
       struct pollfd q = { .fd = t.pty.master, .events = POLLIN };
       struct timespec ts = { 0, (long)(ahead * 1e9) };
       if (ppoll(&q, 1, &ts, NULL) > 0)
-        term_poll();
+        term_poll(h);
       if (!t.connected)
         sleep_s(ahead);
     } else {
@@ -221,50 +223,56 @@ static void on_stop_signal(int sig)
  * versions restart the cycle count from 0; 1.6 goes on counting): the
  * harness re-arms its timers, and re-bases the real-time comparison if
  * the count went back. */
-static void term_after_reset(void)
+static void term_after_reset(harness_t *h)
 {
-  avr_t *avr = g.avr;
-  g.reset_seen = 0;
-  g.tx_busy = 0;
-  g.tx_free_at = 0;
-  g.xoff = 0;
-  t.flushed += g.txq_len;     /* bytes on the wire during the reset */
-  g.txq_len = 0;
-  g.txq_head = 0;
-  g.user_line_len = 0;
+  avr_t *avr = h->avr;
+  h->reset_seen = 0;
+  t.flushed += serial_drop_queued(h);   /* bytes on the wire during the reset */
   if (avr->cycle < t.c0) {
     clock_gettime(CLOCK_MONOTONIC, &t.t0);
     t.c0 = avr->cycle;
   }
   t.next_io = avr->cycle + t.slice;
-  if (!g.fast)
+  if (!h->fast)
     avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
-  tx_kick();
+  serial_after_reset(h);
 }
 
 /* Board mode: a chip does not stop on an opcode simavr cannot run (a
  * half-written firmware, say); it goes astray until it is reset.  The board
  * waits for a reset (the port opened) and runs on. */
-static int term_stuck(void)
+static int term_stuck(harness_t *h)
 {
-  avr_t *avr = g.avr;
+  avr_t *avr = h->avr;
   warn("t=%.3f s: the firmware crashed (PC 0x%04x)%s%s; the board is stuck "
-       "until it is reset (open the port)", sim_time(), (unsigned)avr->pc,
-       g.last_error[0] ? ": " : "", g.last_error);
+       "until it is reset (open the port)", sim_time(h), (unsigned)avr->pc,
+       h->last_error[0] ? ": " : "", h->last_error);
   while (!stop_signal && avr->state != cpu_Running) {
     sleep_s(0.001);
-    term_flush();
-    term_poll();
-    board_poll();
+    term_flush(h);
+    term_poll(h);
+    board_poll(h);
   }
-  if (g.reset_seen)
-    term_after_reset();
+  if (h->reset_seen)
+    term_after_reset(h);
   return avr->state;
 }
 
-int term_run(void)
+/* Device lines are only watched for a reboot: bad lines are the user's
+ * business (and binary frames look like garbage). */
+static void on_line(harness_t *h, char *body, size_t len, int crc_ok)
 {
-  avr_t *avr = g.avr;
+  (void)len;
+  if (!crc_ok)
+    h->bad_crc++;
+  if (!strncmp(body, "B,", 2) && h->boots++ && !h->board)
+    warn("t=%.6f s: the device rebooted (boot line #%llu)", sim_time(h),
+         (unsigned long long)h->boots);
+}
+
+int term_run(harness_t *h)
+{
+  avr_t *avr = h->avr;
   struct sigaction sa;
   int readable, st = cpu_Running;
 
@@ -276,69 +284,74 @@ int term_run(void)
   sigaction(SIGHUP, &sa, NULL);
   signal(SIGPIPE, SIG_IGN);
 
+  h->on_byte = term_out;
+  h->fault.link_on = 1;     /* the whole session goes over the link */
+  h->on_line = on_line;
   fprintf(t.info, PROG ": device on %s\n", t.pty.slave);
   if (t.pty.link)
     fprintf(t.info, PROG ": linked as %s\n", t.pty.link);
   fflush(t.info);
-  if (!g.no_wait) {
+  if (!h->no_wait) {
     fprintf(stderr, PROG ": the device powers up when a terminal opens it "
             "(%s%s, %s; Ctrl-C ends)\n",
-            g.synthetic ? "synthetic IMU" : "ADC rows from ",
-            g.synthetic ? "" : g.adc_path, g.fast ? "fast" : "real time");
+            h->synthetic ? "synthetic IMU" : "ADC rows from ",
+            h->synthetic ? "" : h->adc_path, h->fast ? "fast" : "real time");
     while (!stop_signal && !pty_state(&t.pty, &readable))
       sleep_s(0.01);
     sleep_s(OPEN_GRACE_S);
   }
 
-  t.slice = avr->frequency / (g.fast ? 200 : 1000);   /* 5 or 1 ms */
+  t.slice = avr->frequency / (h->fast ? 200 : 1000);   /* 5 or 1 ms */
   clock_gettime(CLOCK_MONOTONIC, &t.t0);
   t.c0 = avr->cycle;
   t.next_io = avr->cycle + t.slice;
-  if (!g.fast)
+  if (!h->fast)
     avr_cycle_timer_register(avr, t.slice, term_tick, NULL);
-  g.reset_seen = 0;
-  term_poll();
-  if (g.reset_seen)
-    term_after_reset();
+  h->reset_seen = 0;
+  term_poll(h);
+  if (h->reset_seen)
+    term_after_reset(h);
   unsigned slices = 0;
-  while (!stop_signal && !g.fail) {
+  while (!stop_signal && !h->fail) {
     st = avr_run(avr);
-    if (g.board && (st == cpu_Crashed || st == cpu_Stopped))
-      st = term_stuck();
+    if (h->board && (st == cpu_Crashed || st == cpu_Stopped))
+      st = term_stuck(h);
     if (st == cpu_Crashed || st == cpu_Done || st == cpu_Stopped)
       break;
-    watch_sp();
-    if (g.reset_seen)
-      term_after_reset();
+    watch_sp(h);
+    if (avr->cycle >= h->fault.next_at && fault_poll(h))
+      h->reset_seen = 1;
+    if (h->reset_seen)
+      term_after_reset(h);
     if (avr->cycle < t.next_io)
       continue;
     t.next_io = avr->cycle + t.slice;
-    term_flush();
-    term_poll();
-    if (g.reset_seen)
-      term_after_reset();
-    if (g.board && ++slices % 50 == 0)
-      board_poll();           /* every 50 ms (250 ms with --fast) */
-    if (!g.fast)
-      term_pace();
+    term_flush(h);
+    term_poll(h);
+    if (h->reset_seen)
+      term_after_reset(h);
+    if (h->board && ++slices % 50 == 0)
+      board_poll(h);           /* every 50 ms (250 ms with --fast) */
+    if (!h->fast)
+      term_pace(h);
   }
   if (st != cpu_Done)
-    term_flush();
+    term_flush(h);
   return st;
 }
 
-void term_open(void)
+void term_open(harness_t *h)
 {
   char err[320];
   int fd = dup(STDOUT_FILENO);
   t.info = fd < 0 ? NULL : fdopen(fd, "w");
   if (!t.info)
     die(EXIT_FAIL, "stdout: %s", strerror(errno));
-  int r = pty_open(&t.pty, g.link_path, err, sizeof err);
+  int r = pty_open(&t.pty, h->link_path, err, sizeof err);
   if (r)
     die(r == -2 ? EXIT_INPUT : EXIT_FAIL, "%s", err);
   atexit(term_cleanup);     /* the link goes, however imu-sim ends */
-  if (g.board && pty_opened(&t.pty) < 0)     /* start counting opens */
+  if (h->board && pty_opened(&t.pty) < 0)     /* start counting opens */
     warn("no inotify on %s: a close and open faster than a millisecond "
          "may not reset the board", t.pty.slave);
 }
@@ -348,22 +361,22 @@ void term_started(struct timespec *t0)
   *t0 = t.t0;
 }
 
-void term_summary(int st)
+void term_summary(harness_t *h, int st)
 {
-  if (g.verbose && t.flushed)
+  if (h->verbose && t.flushed)
     fprintf(stderr, PROG ": %llu bytes from the terminal were lost to a reset "
             "or a closed line\n", (unsigned long long)t.flushed);
   if (t.dropped)
     warn("%llu device bytes were lost: the terminal did not read them",
          (unsigned long long)t.dropped);
-  if (g.bytes_lost)
+  if (h->bytes_lost)
     warn("%llu bytes from the terminal were lost: the device's receiver "
-         "was disabled", (unsigned long long)g.bytes_lost);
+         "was disabled", (unsigned long long)h->bytes_lost);
   if (st != cpu_Crashed && st != cpu_Stopped && st != cpu_Done)
     fprintf(stderr, PROG ": stopped at t=%.1f simulated s (%.1f s of wall "
             "time); %llu bytes from the terminal, %llu to it\n",
-            sim_time(), g.wall_s, (unsigned long long)t.from_term,
-            (unsigned long long)(g.bytes_out - t.unheard - t.dropped));
+            sim_time(h), h->wall_s, (unsigned long long)t.from_term,
+            (unsigned long long)(h->bytes_out - t.unheard - t.dropped));
 }
 
 void term_close(void)
