@@ -3,6 +3,7 @@
 
 #include "clock.h"
 #include "command.h"
+#include "crc.h"
 #include "pgm.h"
 #include "proto.h"
 #include "settings.h"
@@ -24,6 +25,9 @@
 #define RUN   2  /* taken: the end of its echo frees it */
 #define OPEN  4  /* an echo line is on the screen: "> " out, its CR LF not yet */
 #define DROP  8  /* that echo line was dropped: "^C" CR LF due */
+#define STAR  16 /* the line's check `*XXXX` has begun: bytes go to sum */
+#define DIGIT 32 /* the check's hex digits so far, in the 3 top bits (7: malformed) */
+#define DIGITS (DIGIT * 7)
 
 static struct {
   char text[COMMAND_LINE_MAX + 1];
@@ -32,6 +36,7 @@ static struct {
   uint8_t flags;
   uint8_t shown; /* characters of text on the screen (echo) */
   uint8_t keep;  /* of them, still equal to text */
+  uint16_t sum;  /* the check's digits so far (not in text, not echoed) */
   uint16_t count[CONSOLE_COUNTS]; /* console.h's console_count() */
 } con;
 
@@ -54,13 +59,37 @@ static void count(uint8_t i)
 /* One received byte into the line. */
 static void feed(uint8_t c)
 {
+  uint8_t f = con.flags;
   if (c == '\r' || c == '\n') {
+    if ((f & STAR) && (uint8_t)(f & DIGITS) != 4 * DIGIT)
+      con.err = CMD_ERR_LOST; /* a check cut short, changed or malformed */
+    con.flags = f & (uint8_t)~(STAR | DIGITS);
     if (con.len || con.err) /* blank lines are ignored (an echo line "> " stays open) */
       con.flags |= READY;
   } else if (c == 0x03 || c == 0x1B) {
-    if (con.flags & OPEN)
-      con.flags |= DROP; /* shown: marked as dropped */
+    f &= (uint8_t)~(STAR | DIGITS);
+    if (f & OPEN)
+      f |= DROP; /* shown: marked as dropped */
+    con.flags = f;
     con.len = con.err = con.keep = 0; /* gone, lost bytes with it */
+  } else if (f & STAR) {
+    /* A digit of the check: the text is final, its CRC known (sum); each
+     * digit must be the next one of that CRC in upper-case hex. */
+    uint8_t d = (uint8_t)(con.sum >> 12);
+    d = (uint8_t)(d + (d > 9 ? 'A' - 10 : '0'));
+    con.sum = (uint16_t)(con.sum << 4);
+    if (d != c || (f & 4 * DIGIT)) /* 4 digits already (or malformed) */
+      f |= DIGITS; /* never 4 digits again: refused at the end */
+    else
+      f += DIGIT;
+    con.flags = f;
+  } else if (c == '*') {
+    uint16_t crc = CRC16_INIT;
+    uint8_t i;
+    for (i = 0; i < con.len; i++)
+      crc = crc16_update(crc, (uint8_t)con.text[i]);
+    con.sum = crc;
+    con.flags = f | STAR;
   } else if (c == 0x08 || c == 0x7F) {
     if (con.len && con.err != CMD_ERR_LONG)
       con.len--;
@@ -174,7 +203,7 @@ uint8_t console_echo_job(void)
 void console_poll(uint8_t live)
 {
   console_receive();
-  if (!(con.flags & (READY | RUN)) && (con.len | con.err) &&
+  if (!(con.flags & (READY | RUN)) && (con.len | con.err | (con.flags & STAR)) &&
       clock_ticks() >= (uint8_t)CONSOLE_TIMEOUT_TICKS) {
     if (con.err != CMD_ERR_LOST)
       con.err = CMD_ERR_TIMEOUT;

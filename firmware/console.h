@@ -15,6 +15,11 @@
  *    silence: error:7; a byte outside printable ASCII and TAB: error:6;
  *    longer than COMMAND_LINE_MAX: error:3 (5 outranks 7, which outranks
  *    the others; between 6 and 3 the first found).
+ *  - A line may end in its check, `*XXXX`: the CRC-16 of the text before
+ *    `*` (crc.h, the lines' own) in upper-case hex; not exactly that
+ *    (a bit flipped on the way, a malformed check): error:5, counted as a
+ *    lost line.  The check is neither kept in the text (not counted in
+ *    COMMAND_LINE_MAX) nor echoed.
  *  - Ctrl-C (0x03) and Esc (0x1B) drop the line at once, bytes lost with
  *    it; reading goes on (a command right after it runs).  A dropped line
  *    that is on the screen ends with `^C` CR LF.
@@ -67,7 +72,7 @@ uint8_t console_close(void);
  * of `rx=` (status, report header): gaps in the received bytes due to a
  * UART data overrun, gaps due to the full RX ring (each gap one or more
  * bytes; gaps that come while an earlier one waits to be read count
- * once), lines refused for lost bytes (error:5), lines timed out
+ * once), lines refused for lost bytes or a wrong check (error:5), lines timed out
  * (error:7). */
 #define CONSOLE_COUNTS 4
 

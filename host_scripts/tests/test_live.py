@@ -97,7 +97,8 @@ class FakeDevice:
         tty.setraw(self.slave)  # no echo, no CR/LF translation before pyserial opens it
         self.path = os.ttyname(self.slave)
         self.answer, self.first, self.hold = answer, first, hold
-        self.commands: list[str] = []
+        self.commands: list[str] = []  # their text, the check taken off
+        self.checked: list[bool] = []  # each ended in its right check
         self._stop = threading.Event()
         self.thread = threading.Thread(target=self._run, daemon=True)
 
@@ -113,8 +114,10 @@ class FakeDevice:
             buf += os.read(self.master, 1024)
             while b"\r" in buf:
                 cmd, buf = buf.split(b"\r", 1)
-                self.commands.append(cmd.decode())
-                self._write(self.answer(cmd.decode()))
+                text, star, check = cmd.decode().partition("*")
+                self.commands.append(text)
+                self.checked.append(bool(star) and check == "%04X" % _ref_crc16(text.encode()))
+                self._write(self.answer(text))
         os.close(self.master)  # the reader sees the port go away
 
     def _write(self, data: bytes) -> None:
@@ -125,6 +128,18 @@ class FakeDevice:
         self._stop.set()
         self.thread.join(5)
         os.close(self.slave)
+
+
+def _ref_crc16(data: bytes) -> int:
+    """CRC-16/CCITT-FALSE bit by bit (docs/protocol.md), written apart from framing.py's table."""
+    reg = 0xFFFF
+    for byte in data:
+        for bit in range(7, -1, -1):
+            top = reg >> 15
+            reg = (reg << 1) & 0xFFFF
+            if top ^ ((byte >> bit) & 1):
+                reg ^= 0x1021
+    return reg
 
 
 @pytest.fixture
@@ -155,7 +170,19 @@ def test_cmd_ok(device, run_cli) -> None:
     dev = device(lambda c: _traffic() + line("ok reset rate=250"))
     rc, out, err = run_cli("cmd", "--port", dev.path, "rate", "250")
     assert (rc, out, err) == (0, "ok reset rate=250\n", "")
-    assert dev.commands == ["rate 250"]
+    assert dev.commands == ["rate 250"] and dev.checked == [True]
+
+
+def test_cmd_appends_the_lines_check() -> None:
+    """A command goes as ``text*XXXX``: the device runs it only if the check
+    is the CRC of the text as received (a flipped bit gets error:5)."""
+    from imu_allan.device.monitor import command_line
+    from imu_allan.errors import InputError
+    assert _ref_crc16(b"123456789") == 0x29B1  # the CRC's check value
+    assert command_line(["interval", "36"]) == b"interval 36*%04X\r" % _ref_crc16(b"interval 36")
+    assert command_line(["start 4294967295"]).startswith(b"start 4294967295*")
+    with pytest.raises(InputError, match="no '\\*'"):
+        command_line(["rate", "1*2"])
 
 
 def test_cmd_error(device, run_cli) -> None:

@@ -42,6 +42,7 @@ import numpy as np
 from scipy import stats
 
 from ..channels import CHANNELS
+from ..device.monitor import command_line
 from ..errors import InputError
 from ..progress import Progress
 
@@ -471,7 +472,7 @@ class _Link:
         while the device booted, or on the radio), at most ``tries`` times."""
         for _ in range(tries):
             self.replies.clear()
-            self.ser.write(words.encode("ascii") + b"\r")
+            self.ser.write(command_line([words]))  # with its check, as `imu-allan cmd` sends it
             self.ser.flush()
             end = time.monotonic() + timeout
             while time.monotonic() < end:

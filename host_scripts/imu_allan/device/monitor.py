@@ -19,6 +19,7 @@ from typing import IO, Any, Optional
 
 from ..channels import CHANNELS
 from ..errors import InputError
+from .framing import crc16
 from .stream import StreamDecoder
 
 READ_TIMEOUT = 0.1
@@ -57,13 +58,21 @@ def open_port(port: str, baud: int, timeout: float = READ_TIMEOUT) -> Any:
 
 
 def command_line(words: list[str]) -> bytes:
-    """WORDS -> the bytes of one command line (CR-ended); InputError if unsendable."""
+    """WORDS -> the bytes of one command line, ``text*XXXX`` CR: the text
+    and its check, the CRC-16 of the text in 4 upper-case hex digits, the
+    same CRC as the device's own lines (docs/protocol.md, "Commands"), so
+    that a bit flipped on the way makes the device refuse the line
+    (``error:5``) instead of running another command.  InputError if
+    unsendable."""
     text = " ".join(words).strip()
     if not text:
         raise InputError("empty command")
     if not all(0x20 <= ord(ch) <= 0x7E for ch in text):
         raise InputError(f"a command is printable ASCII: {text!r}")
-    return text.encode("ascii") + b"\r"
+    if "*" in text:
+        raise InputError(f"a command holds no '*' (it starts the line's check): {text!r}")
+    raw = text.encode("ascii")
+    return b"%s*%04X\r" % (raw, crc16(raw))
 
 
 def send_command(ser: Any, line: bytes, timeout: float) -> Optional[str]:
@@ -315,8 +324,11 @@ def _run_terminal(ser: Any, mon: Monitor, log: IO[bytes], out: IO[str], once: bo
                     fds.remove(keys.fd)
                 lines, pressed = editor.feed(typed, final=not typed)
                 for text in lines:
-                    ser.write(text.encode("ascii") + b"\r")
-                    mon.sent = text
+                    try:
+                        ser.write(command_line([text]))
+                        mon.sent = text
+                    except InputError as exc:
+                        mon.sent = f"not sent: {exc}"
                 page = max(scr.lines - 6, 1)
                 scroll += sum(page if k == "page_down" else -page if k == "page_up" else 0
                               for k in pressed)

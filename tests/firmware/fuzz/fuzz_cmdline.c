@@ -9,6 +9,8 @@
  *     refused whole (error:6), one longer than 16 characters too
  *     (error:3), one with a receive gap too (error:5, which outranks);
  *     the first reason found is the one given otherwise;
+ *   - a line ending in a check (`*` and the CRC of its text) that is not
+ *     exactly right is refused with error:5, the check not in the text;
  *   - any other line reaches the parser exactly as the model assembled it
  *     (nothing after a NUL is ever parsed: such a line never gets there);
  *   - echo off, nothing is written.
@@ -74,18 +76,41 @@ typedef struct {
   char text[COMMAND_LINE_MAX + 1];
 } event_t;
 
-/* The model: the events the stream must give, in order. */
+/* CRC-16/CCITT-FALSE bit by bit (docs/protocol.md): a line's check. */
+static unsigned model_crc16(const char *s, size_t n)
+{
+  unsigned reg = 0xFFFF;
+  for (size_t i = 0; i < n; i++)
+    for (int b = 7; b >= 0; b--) {
+      unsigned in = ((unsigned char)s[i] >> b) & 1u, top = (reg >> 15) & 1u;
+      reg = (reg << 1) & 0xFFFF;
+      if (top ^ in)
+        reg ^= 0x1021;
+    }
+  return reg;
+}
+
+/* The model: the events the stream must give, in order.  A `*` starts the
+ * line's check: every byte after it but the end, Ctrl-C and Esc is a digit
+ * of it; not exactly the 4 upper-case hex digits of the CRC of the text
+ * before `*` (as held, a bad byte as '?'): error:5. */
 static size_t model(const uint8_t *s, size_t n, size_t gap, event_t *ev)
 {
-  size_t count = 0, i;
-  char text[COMMAND_LINE_MAX + 1];
+  size_t count = 0, i, ndig = 0;
+  char text[COMMAND_LINE_MAX + 1], check[4];
   size_t len = 0;
   uint8_t code = 0;
+  int star = 0;
   for (i = 0; i < n; i++) {
     uint8_t c = s[i];
     if (i == gap)
       code = CMD_ERR_LOST;
     if (c == '\r' || c == '\n') {
+      char want[8];
+      snprintf(want, sizeof want, "%04X", model_crc16(text, len));
+      if (star && (ndig != 4 || memcmp(check, want, 4) != 0))
+        code = CMD_ERR_LOST;
+      star = 0;
       if (len || code) {
         ev[count].code = code;
         memcpy(ev[count].text, text, len);
@@ -97,6 +122,14 @@ static size_t model(const uint8_t *s, size_t n, size_t gap, event_t *ev)
     } else if (c == 0x03 || c == 0x1B) {
       len = 0; /* Ctrl-C, Esc: the line is dropped, lost bytes with it */
       code = 0;
+      star = 0;
+    } else if (star) {
+      if (ndig < 4)
+        check[ndig] = (char)c;
+      ndig++;
+    } else if (c == '*') {
+      star = 1;
+      ndig = 0;
     } else if (c == 0x08 || c == 0x7F) {
       if (len)
         len--;

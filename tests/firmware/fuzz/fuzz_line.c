@@ -16,6 +16,8 @@
  *     clean when none of its bytes (its end included) was lost in an
  *     overrun, nor the bytes right before its first, it holds only
  *     printable ASCII and TAB, and it never grew past COMMAND_LINE_MAX;
+ *     a `*` starts the line's check, right only as 4 upper-case hex
+ *     digits, the CRC of the text before it (what runs);
  *     a silence past CONSOLE_TIMEOUT_MS ends an open line (refused) and
  *     what follows starts a new one.  So a line that lost bytes, one with
  *     a bad byte or one cut by Ctrl-C/Esc is never run, nor glued to
@@ -106,18 +108,36 @@ typedef struct {
 static line_t model[MAX_LINES];
 static size_t nmodel;
 
+/* CRC-16/CCITT-FALSE bit by bit (docs/protocol.md): a line's check. */
+static unsigned model_crc16(const char *s, size_t n)
+{
+  unsigned reg = 0xFFFF;
+  for (size_t i = 0; i < n; i++)
+    for (int b = 7; b >= 0; b--) {
+      unsigned in = ((unsigned char)s[i] >> b) & 1u, top = (reg >> 15) & 1u;
+      reg = (reg << 1) & 0xFFFF;
+      if (top ^ in)
+        reg ^= 0x1021;
+    }
+  return reg;
+}
+
+/* A line may end in a check, `*` and the text's CRC in 4 upper-case hex
+ * digits: it runs (the text before `*`) only when the check is exactly
+ * that; every byte after `*` but the line's end, Ctrl-C and Esc is a
+ * digit of the check. */
 static size_t build_model(void)
 {
-  char text[COMMAND_LINE_MAX + 1];
-  size_t len = 0, count = 0, i;
-  int dirty = 0;
+  char text[COMMAND_LINE_MAX + 1], check[5];
+  size_t len = 0, count = 0, i, ndig = 0;
+  int dirty = 0, star = 0;
   for (i = 0; i < nsent; i++) {
     uint8_t c = sent[i];
     /* an open line times out in a silence past CONSOLE_TIMEOUT_MS (none is
      * near it: flush()): what comes after starts a new line */
     if (i && arrival[i] - arrival[i - 1] > CONSOLE_TIMEOUT_MS * 1000000ull) {
       len = 0;
-      dirty = 0;
+      dirty = star = 0;
     }
     /* a loss right before or at a byte spoils the line that byte is in */
     if (lost[i] || (i && lost[i - 1]))
@@ -125,6 +145,10 @@ static size_t build_model(void)
     if (lost[i])
       continue;
     if (c == '\r' || c == '\n') {
+      char want[8];
+      snprintf(want, sizeof want, "%04X", model_crc16(text, len));
+      if (star && (ndig != 4 || memcmp(check, want, 4) != 0))
+        dirty = 1;
       if (!dirty && len && count < MAX_LINES) {
         memcpy(model[count].text, text, len);
         model[count].text[len] = 0;
@@ -132,10 +156,17 @@ static size_t build_model(void)
         count++;
       }
       len = 0;
-      dirty = 0;
+      dirty = star = 0;
     } else if (c == 0x03 || c == 0x1B) {
       len = 0;
-      dirty = 0;
+      dirty = star = 0;
+    } else if (star) {
+      if (ndig < 4)
+        check[ndig] = (char)c;
+      ndig++;
+    } else if (c == '*') {
+      star = 1;
+      ndig = 0;
     } else if (c == 0x08 || c == 0x7F) {
       if (len)
         len--;

@@ -963,6 +963,71 @@ static void test_dropped_line_is_marked_on_the_screen(void)
   TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("error:"));
 }
 
+/* "text*XXXX": the text and the line check a host appends (docs/protocol.md,
+ * "Commands"), the CRC computed here bit by bit. */
+static void with_check(char *out, size_t size, const char *text)
+{
+  snprintf(out, size, "%s*%04X", text, ref_crc16(text, strlen(text)));
+}
+
+/* A command with its check runs as sent; one whose text or check changed
+ * on the way (a bit flipped into another printable character) is refused
+ * whole with error:5, runs nothing and counts as a lost line; a command
+ * without a check runs as typed. */
+static void test_command_check_runs_as_sent_or_refuses_a_changed_line(void)
+{
+  char b[256], l[32];
+  fx_boot(1);
+  fx_run_us(50000);
+  with_check(l, sizeof l, "interval 36");
+  command(l);
+  line("ok interval", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok interval=36", b);
+  TEST_ASSERT_TRUE(out_find("> interval 36\r\n", 0) >= 0); /* the check is not echoed */
+  l[10] ^= 0x01; /* "interval 37" with the check of "interval 36" */
+  command(l);
+  line("error:", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("error:5 interv: input lost; resend", b);
+  with_check(l, sizeof l, "interval 17");
+  l[strlen(l) - 1] ^= 0x02; /* a bit of the check's last digit */
+  command(l);
+  line("error:", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING_LEN("error:5 ", b, 8);
+  /* malformed: too few digits, too many, lower case, nothing after '*' */
+  with_check(l, sizeof l, "interval 18");
+  l[strlen(l) - 1] = 0;
+  command(l);
+  with_check(l, sizeof l, "interval 19");
+  strcat(l, "0");
+  command(l);
+  command("interval 20*abcd");
+  command("interval 21*");
+  TEST_ASSERT_EQUAL_UINT(6, fx_count_lines("error:5 "));
+  TEST_ASSERT_EQUAL_UINT(1, fx_count_lines("ok interval"));
+  /* no check: typed by a person, it runs */
+  command("interval 22");
+  line("ok interval", 1, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok interval=22", b);
+  /* the check does not count against the 16 characters of a line */
+  with_check(l, sizeof l, "start 4294967295");
+  command(l);
+  line("ok started", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok started", b);
+  with_check(l, sizeof l, "status");
+  command(l);
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("22", field(b, "interval"));
+  TEST_ASSERT_EQUAL_STRING("0:0:6:0", field(b, "rx"));
+  TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("error:3"));
+  /* a stray '*' alone times out like any open line, glued to nothing */
+  fx_send_str("*");
+  fx_run_us(2100000);
+  TEST_ASSERT_EQUAL_UINT(1, fx_count_lines("error:7"));
+  command("interval 23");
+  line("ok interval", 2, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok interval=23", b);
+}
+
 static const struct { const char *name; void (*fn)(void); } tests[] = {
 #define T(f) {#f, f}
   T(test_boot_line_names_protocol_version_and_reset_cause),
@@ -992,6 +1057,7 @@ static const struct { const char *name; void (*fn)(void); } tests[] = {
   T(test_back_to_back_commands_run_as_sent_or_get_error_5),
   T(test_ctrl_c_or_esc_then_a_command_runs_in_every_mode),
   T(test_dropped_line_is_marked_on_the_screen),
+  T(test_command_check_runs_as_sent_or_refuses_a_changed_line),
 #undef T
 };
 

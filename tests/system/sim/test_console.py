@@ -43,3 +43,37 @@ def test_ctrl_c_or_esc_before_a_command_in_a_stream_mode(run, tmp_path: Path) ->
     assert b"$error:" not in text
     assert text.count(b"$ok mode=allan*") == 2
     assert text.count(b"$ok mode=binary*") == 1 and text.count(b"$ok mode=raw*") == 1
+
+
+def _checked(text: str, flip: int | None = None) -> str:
+    """``text*XXXX`` as the host tools send it (framing.crc16, the lines'
+    CRC); ``flip``: the index of a byte of the whole line whose bit 0 the
+    link flipped."""
+    from imu_allan.device.framing import crc16
+    line = f"{text}*{crc16(text.encode()):04X}"
+    if flip is not None:
+        line = line[:flip] + chr(ord(line[flip]) ^ 1) + line[flip + 1:]
+    return line
+
+
+def test_a_command_with_its_check_runs_and_a_changed_one_is_refused(run, tmp_path: Path) -> None:
+    """On the real firmware: `interval 36*XXXX` runs; the same line with a
+    bit flipped in its text (`interval 37`) or in its check is refused with
+    error:5 and runs nothing; one typed without a check runs."""
+    r = run("command-check")
+    n, fs = 3000, 100
+    cli("gen", "-n", str(n), "--fs", str(fs), "--seed", "2012", "-o", str(r.rows))
+    uart = tmp_path / "uart.txt"
+    uart.write_text(f"100\t{_checked('interval 36')}\\r\n"
+                    f"600\t{_checked('interval 36', flip=10)}\\r\n"
+                    f"1100\t{_checked('interval 18', flip=13)}\\r\n"
+                    f"1600\tinterval 40\\r\n"
+                    f"2100\t{_checked('status')}\\r\n")
+    simulate_and_check(r, n, fs, uart_in=uart)
+    text = r.log.read_bytes()
+    assert text.count(b"$ok interval=36*") == 1 and b"interval=37" not in text and b"interval=18" not in text
+    assert text.count(b"$error:5 ") == 2 and text.count(b"$error:") == 2
+    assert text.count(b"$ok interval=40*") == 1
+    status = text[text.index(b"$ok status"):]
+    assert b" interval=40 " in status[:200] and b"rx=0:0:2:0" in status[:200]
+    assert b"> interval 36\r\n" in text and b"> status\r\n" in text  # the check is not echoed
