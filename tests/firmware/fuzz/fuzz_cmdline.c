@@ -29,6 +29,7 @@
 #include "fuzz_util.h"
 #include "settings.h"
 #include "uart.h"
+#include "../native/ref_crc16.h"
 
 settings_t settings; /* echo off: the receiver alone (no output) */
 
@@ -76,19 +77,6 @@ typedef struct {
   char text[COMMAND_LINE_MAX + 1];
 } event_t;
 
-/* CRC-16/CCITT-FALSE bit by bit (docs/protocol.md): a line's check. */
-static unsigned model_crc16(const char *s, size_t n)
-{
-  unsigned reg = 0xFFFF;
-  for (size_t i = 0; i < n; i++)
-    for (int b = 7; b >= 0; b--) {
-      unsigned in = ((unsigned char)s[i] >> b) & 1u, top = (reg >> 15) & 1u;
-      reg = (reg << 1) & 0xFFFF;
-      if (top ^ in)
-        reg ^= 0x1021;
-    }
-  return reg;
-}
 
 /* The model: the events the stream must give, in order.  A `*` starts the
  * line's check: every byte after it but the end, Ctrl-C and Esc is a digit
@@ -107,7 +95,7 @@ static size_t model(const uint8_t *s, size_t n, size_t gap, event_t *ev)
       code = CMD_ERR_LOST;
     if (c == '\r' || c == '\n') {
       char want[8];
-      snprintf(want, sizeof want, "%04X", model_crc16(text, len));
+      snprintf(want, sizeof want, "%04X", ref_crc16(text, len));
       if (star && (ndig != 4 || memcmp(check, want, 4) != 0))
         code = CMD_ERR_LOST;
       star = 0;

@@ -63,6 +63,7 @@
 #include "console.h"
 #include "fuzz_util.h"
 #include "settings.h"
+#include "../native/ref_crc16.h"
 
 /* An unusual spelling of a harmless command (the parser ignores case and
  * trailing blanks), so that the stream itself hardly ever sends it. */
@@ -108,19 +109,6 @@ typedef struct {
 static line_t model[MAX_LINES];
 static size_t nmodel;
 
-/* CRC-16/CCITT-FALSE bit by bit (docs/protocol.md): a line's check. */
-static unsigned model_crc16(const char *s, size_t n)
-{
-  unsigned reg = 0xFFFF;
-  for (size_t i = 0; i < n; i++)
-    for (int b = 7; b >= 0; b--) {
-      unsigned in = ((unsigned char)s[i] >> b) & 1u, top = (reg >> 15) & 1u;
-      reg = (reg << 1) & 0xFFFF;
-      if (top ^ in)
-        reg ^= 0x1021;
-    }
-  return reg;
-}
 
 /* A line may end in a check, `*` and the text's CRC in 4 upper-case hex
  * digits: it runs (the text before `*`) only when the check is exactly
@@ -146,7 +134,7 @@ static size_t build_model(void)
       continue;
     if (c == '\r' || c == '\n') {
       char want[8];
-      snprintf(want, sizeof want, "%04X", model_crc16(text, len));
+      snprintf(want, sizeof want, "%04X", ref_crc16(text, len));
       if (star && (ndig != 4 || memcmp(check, want, 4) != 0))
         dirty = 1;
       if (!dirty && len && count < MAX_LINES) {

@@ -16,23 +16,11 @@
 #include "unity.h"
 #include <avr/eeprom.h>
 #include <avr/io.h>
+#include "ref_crc16.h"
 
 void setUp(void) {}
 void tearDown(void) {}
 
-/* CRC-16/CCITT-FALSE, bit by bit (docs/protocol.md's line check). */
-static unsigned ref_crc16(const char *s, size_t n)
-{
-  unsigned reg = 0xFFFF;
-  for (size_t i = 0; i < n; i++)
-    for (int b = 7; b >= 0; b--) {
-      unsigned in = ((unsigned char)s[i] >> b) & 1u, top = (reg >> 15) & 1u;
-      reg = (reg << 1) & 0xFFFF;
-      if (top ^ in)
-        reg ^= 0x1021;
-    }
-  return reg;
-}
 
 static unsigned ref_crc16_modbus(const uint8_t *p, size_t n);
 static unsigned ref_crc16_modbus_more(unsigned reg, const uint8_t *p, size_t n);
