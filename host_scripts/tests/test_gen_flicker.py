@@ -7,7 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from imu_allan.stats import allan, gen, noise
+from imu_allan.noise import gen
+from imu_allan.noise import streams as noise
+from imu_allan.stats import allan
 from imu_allan.progress import Progress
 
 

@@ -26,7 +26,8 @@ import numpy as np
 from .._version import __version__
 from ..channels import CHANNELS, CODE_MAX
 from ..noise.fit import fit_curve as fit_noise
-from ..stats import allan, edf, model, psd, terms
+from ..noise import model, terms
+from ..stats import allan, edf, psd
 from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 from ..device.records import DeviceReport, flag_names
 from ..errors import InputError

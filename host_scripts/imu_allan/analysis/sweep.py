@@ -181,7 +181,8 @@ def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from
           allowed: Optional[tuple[str, ...]] = None) -> None:
     """The IEEE 952 fit of the device curve restricted to tau >= fit_from and to the
     ``allowed`` terms (replaces the terms)."""
-    from ..stats import edf, terms
+    from ..noise import terms
+    from ..stats import edf
     from ..noise.fit import fit_curve
     from .pipeline import device_curve, term_json
     cv = device_curve(rep, ch)
@@ -356,7 +357,7 @@ def say_stderr(msg: str) -> None:
 def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = False) -> Measure:
     """Each rate: rows from the sensor model at that rate's ADC instants, the real
     firmware in imu-sim on them (rate set as after 'rate'), its log."""
-    from ..sensor import Board, SensorModel
+    from ..noise.sensor import Board, SensorModel
     from ..sources.rows import format_rows
     from ..device.simrun import sim_command
     cfg = sw.config
@@ -394,7 +395,7 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
             os.unlink(rows)
         mean = s1 / n
         std = np.sqrt(np.maximum(s2 / n - mean * mean, 0.0))
-        from ..sensor import aliased_n, SENSORS
+        from ..noise.sensor import aliased_n, SENSORS
         law = {ch: aliased_n(model.channel(ch)["N"], model.channel(ch)["bandwidth_hz"], fs,
                              average=cfg.average) for ch in SENSORS}
         return {"sim": {"series_std": dict(zip(CHANNELS, std[:6].tolist())), "N_law": law,

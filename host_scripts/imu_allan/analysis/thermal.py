@@ -357,14 +357,14 @@ def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Option
 
 
 def _fit(s: np.ndarray, m: np.ndarray) -> Optional[float]:
-    from ..stats.model import fit_percent
+    from ..noise.model import fit_percent
     return fit_percent(s, m)
 
 
 def _with_thermal(after: dict[str, Any], before: dict[str, Any], ch: dict[str, Any], T: np.ndarray,
                   fs: float, k: float) -> Optional[float]:
     """FIT% (log10 ADEV) of noise model + thermal term against the raw series' curve."""
-    from ..stats import model
+    from ..noise import model
     from ..stats.allan import oadev_octave
     mp = (after.get("model") or {}).get("params")
     if not mp:

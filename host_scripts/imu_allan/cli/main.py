@@ -102,7 +102,7 @@ def cmd_gen(args: argparse.Namespace) -> int:
         from .study import gen_from_model
         return gen_from_model(args)
     from ..sources.rows import format_rows
-    from ..stats.gen import PARAMS, generate, make_params
+    from ..noise.gen import PARAMS, generate, make_params
     params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
                          profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
     head = (f"# {params.command()}\n"

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..profiles import LITERATURE
 from .text import NAMES
-from ..stats.terms import B_READOFF, TERMS, basis
+from ..noise.terms import B_READOFF, TERMS, basis
 
 COLORS = {"Q": "tab:purple", "N": "tab:blue", "B": "tab:green", "K": "tab:orange", "R": "tab:red"}
 SLOPE_LABEL = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}

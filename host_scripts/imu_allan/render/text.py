@@ -23,7 +23,7 @@ from ..device.consistency import sig3
 from ..device.records import DeviceReport, flag_names
 from ..errors import InputError
 from ..profiles import LITERATURE
-from ..stats.terms import TERMS
+from ..noise.terms import TERMS
 
 NAMES = {"Q": "quantization", "N": "random walk", "B": "bias instability", "K": "rate random walk",
          "R": "rate ramp"}

@@ -44,7 +44,8 @@ from numpy.typing import ArrayLike
 from .kernels import (DOT_MAX, HEAD, any_m_sums, blocked as _blocked, octave_avar_sums, octave_oavar_sums,
                       offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq)
 
-from .options import TAU_KINDS  # noqa: F401  (its home: options.py)
+from . import TAU_KINDS  # noqa: F401  (numpy-free in __init__.py, for the CLI parser)
+
 BLOCK = 1 << 16
 EXACT_MAX = 1 << 22
 STRIDE_OFFSETS = 1024
