@@ -159,7 +159,7 @@ CASES = _cases()
 def _main(capfd: pytest.CaptureFixture[str], argv: list[str]) -> tuple[int, str, str]:
     """``cli.main(argv)`` in this process; stdout and stderr captured at the
     file descriptors, so that the simulator harness's own line is seen too."""
-    from imu_allan.cli import main
+    from imu_allan.cli.main import main
     try:
         rc = main(argv)
     except SystemExit as exc:  # argparse usage errors
@@ -192,7 +192,7 @@ def test_no_traceback_and_one_line_refusals(case: tuple[str, ...], files: dict[s
 
 
 def test_the_table_covers_every_subcommand() -> None:
-    from imu_allan.cli import COMMANDS
+    from imu_allan.cli.main import COMMANDS
     covered = {c[1] for c in CASES}
     assert covered >= set(COMMANDS) | {"sweep", "thermal"}, set(COMMANDS) - covered
     assert len(CASES) >= 300

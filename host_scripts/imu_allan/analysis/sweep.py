@@ -405,7 +405,7 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
 
 def port_measure(sw: Sweep, port: str, baud: int) -> Measure:
     """Each rate on a real board: rate, reset, wait, report; every byte logged."""
-    from ..device.monitor import open_port
+    from ..device.link import open_port
     cfg = sw.config
 
     def measure(fs: float, log: str) -> dict[str, Any]:

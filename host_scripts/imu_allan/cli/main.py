@@ -165,12 +165,12 @@ def cmd_rows(args: argparse.Namespace) -> int:
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
-    from ..device.monitor import run_monitor
+    from .monitor import run_monitor
     return run_monitor(args.port, args.baud, args.log, args.once)
 
 
 def cmd_cmd(args: argparse.Namespace) -> int:
-    from ..device.monitor import PortError, command_line, open_port, send_command
+    from ..device.link import PortError, command_line, open_port, send_command
     line = command_line(args.words)
     ser = open_port(args.port, args.baud)
     try:

@@ -2,5 +2,6 @@
 
 text.py      the text tables and summaries, and the JSON, CSV and YAML documents
 plots.py     the figures (matplotlib, loaded only when a figure is asked for)
+screen.py    the monitor's live view of a port (full screen or plain lines)
 terminal.py  the terminal itself: screen size, alternate screen, raw keys, line editing
 """
