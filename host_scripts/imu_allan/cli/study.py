@@ -187,7 +187,8 @@ def cmd_thermal(args: argparse.Namespace) -> int:
 def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespace) -> int:
     """The plot (--plot DIR) and the document as text or JSON (--json)."""
     if args.plot:
-        path = module.write_plot(doc, args.plot)
+        from ..render import plots
+        path = getattr(plots, f"{command}_plot")(doc, args.plot)
         print(f"imu-allan {command}: wrote {path}", file=sys.stderr)
     sys.stdout.write(json.dumps(doc, indent=1) + "\n" if args.json else module.text(doc))
     return 0
