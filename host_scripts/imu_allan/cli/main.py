@@ -304,6 +304,7 @@ def main(argv: Optional[list[str]] = None) -> int:
         return 2
     if sys.stdout is None:
         sys.stdout = _ClosedStream()  # type: ignore[assignment]
+    _draw_progress()
     try:
         rc = handlers[args.command](args)
         sys.stdout.flush()
@@ -322,6 +323,13 @@ def main(argv: Optional[list[str]] = None) -> int:
         _quiet_stdout()
         print(f"imu-allan {args.command}: cannot write stdout: {exc.strerror or exc}", file=sys.stderr)
         return 2
+
+
+def _draw_progress() -> None:
+    """Long work shows its progress line on stderr (a terminal only)."""
+    from .. import progress
+    from ..render.progress import Progress
+    progress.use(Progress)
 
 
 def _quiet_stdout() -> None:
