@@ -1,5 +1,5 @@
 """``imu-allan analyze``: from a source (samples and/or a device report) to the
-analysis document (the ``--json`` contract; render.py prints it for people).
+analysis document (the ``--json`` contract; render/text.py prints it for people).
 
 One streaming pass over the samples feeds the octave engine (overlapping and
 non-overlapping AVAR, allan.py) and, for files too large to hold, the Welch
@@ -77,7 +77,7 @@ class HostPass:
 @dataclass
 class Analysis:
     """The result of ``analyze``: the ``--json`` document (every float finite
-    or None, ready for render.py) and each channel's fit of the noise terms."""
+    or None, ready for render/text.py) and each channel's fit of the noise terms."""
     doc: dict[str, Any]
     fits: dict[str, terms.FitResult]
 
