@@ -27,7 +27,7 @@ LAYERS: tuple[tuple[int, str, tuple[str, ...]], ...] = (
 # Upward or sideways imports allowed for now, each with the move that removes it
 # (none left: keep it empty).
 ALLOWED: dict[tuple[str, str], str] = {}
-KNOWN_LONG = {("terms.py", "fit_terms"): "the IEEE 952 iterated weighted fit in one piece, until the noise fitter"}
+KNOWN_LONG = {("terms.py", "fit_terms"): "noise/terms.py: the IEEE 952 iterated weighted fit in one piece (identify.py drives it)"}
 
 
 def _module_name(path: Path) -> str:
