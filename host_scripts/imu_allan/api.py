@@ -29,7 +29,8 @@ from .device.capture import Capture, read_capture
 from .device.files import PathLike, read_blocks
 from .device.records import DeviceReport, decode_blocks
 from .sources.rows import read_rows
-from .stats import allan, edf, terms
+from .noise import terms
+from .stats import allan, edf
 
 Taus = Union[str, ArrayLike]
 Variance = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]

@@ -1,93 +1,52 @@
-"""A plain progress line on stderr, shown only on a terminal and only for long work."""
+"""Progress of long work, without drawing it: the callback type the statistics
+take, and the progress line device/ and analysis/ ask for.  Nothing is drawn
+unless a drawer is installed: the command line installs the stderr line of
+render/progress.py (``use``); a library caller gets the quiet one."""
 from __future__ import annotations
 
-import os
-import sys
 import time
-from typing import Optional, TextIO
+from typing import Any, Callable, Optional
+
+ProgressFn = Optional[Callable[[int], None]]
+"""Called with the work done so far (a progress line's ``update`` fits)."""
 
 
-def _columns(stream: TextIO) -> int:
-    """The terminal's width for ``stream`` (80 if it cannot be asked)."""
-    try:
-        return os.get_terminal_size(stream.fileno()).columns or 80
-    except (AttributeError, OSError, ValueError):  # io.UnsupportedOperation is both
-        return 80
+class Quiet:
+    """The progress line that draws nothing (same calls as render/progress.Progress)."""
 
+    enabled = False
+    drawn = False
 
-class Progress:
-    """``with Progress("reading", total) as p: p.update(done)``.
-
-    Draws nothing unless the stream is a TTY and the work has lasted more
-    than ``delay`` seconds; redraws at most 10 times a second; erases itself
-    at the end. ``total`` may be unknown (None): then it counts. ``show``
-    draws a line of the caller's own. A line never wraps (it is cut to the
-    terminal's width less one column), so a carriage return reaches its
-    start, and the erase overwrites exactly the columns last written.
-    """
-
-    def __init__(self, label: str, total: Optional[float] = None, stream: Optional[TextIO] = None,
-                 delay: float = 0.5, unit: str = "") -> None:
-        self.label = label
-        self.total = total
-        self.stream = stream if stream is not None else sys.stderr
-        self.delay = delay
-        self.unit = unit
+    def __init__(self, label: str = "", total: Optional[float] = None, **_: Any) -> None:
+        self.label, self.total = label, total
         self.start = time.monotonic()
-        self.last = 0.0
-        self.width = 0  # columns on screen now (0: nothing drawn)
-        try:
-            self.enabled = bool(self.stream.isatty())
-        except (AttributeError, ValueError):
-            self.enabled = False
 
-    @property
-    def drawn(self) -> bool:
-        return self.width > 0
-
-    def __enter__(self) -> "Progress":
+    def __enter__(self) -> "Quiet":
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def _due(self) -> Optional[float]:
-        if not self.enabled:
-            return None
-        now = time.monotonic()
-        if now - self.start < self.delay or now - self.last < 0.1:
-            return None
-        self.last = now
-        return now
+        pass
 
     def update(self, done: float) -> None:
-        now = self._due()
-        if now is None:
-            return
-        if self.total:
-            frac = min(max(done / self.total, 0.0), 1.0)
-            width = 30
-            bar = "#" * int(frac * width) + "-" * (width - int(frac * width))
-            eta = (now - self.start) * (1 - frac) / frac if frac > 0 else 0.0
-            text = f"{self.label} [{bar}] {frac * 100:5.1f}%  {eta:5.0f} s left"
-        else:
-            text = f"{self.label} {done:,.0f}{self.unit}"
-        self._draw(text)
+        pass
 
     def show(self, text: str) -> None:
-        """Draw ``text`` (after the label) as the progress line, at the same pace."""
-        if self._due() is not None:
-            self._draw(f"{self.label} {text}")
-
-    def _draw(self, text: str) -> None:
-        text = text[: max(_columns(self.stream) - 1, 1)]
-        pad = " " * max(self.width - len(text), 0)  # what a longer line left behind
-        self.stream.write("\r" + text + pad + "\b" * len(pad))
-        self.stream.flush()
-        self.width = len(text)
+        pass
 
     def close(self) -> None:
-        if self.drawn:
-            self.stream.write("\r" + " " * self.width + "\r")
-            self.stream.flush()
-            self.width = 0
+        pass
+
+
+_drawer: Callable[..., Any] = Quiet
+
+
+def use(drawer: Callable[..., Any]) -> None:
+    """Install the progress line that ``Progress`` makes from now on."""
+    global _drawer
+    _drawer = drawer
+
+
+def Progress(label: str, total: Optional[float] = None, **kw: Any) -> Any:
+    """``with Progress("reading", total) as p: p.update(done)``: the installed
+    progress line (``stream``, ``delay``, ``unit`` passed on), or a quiet one."""
+    return _drawer(label, total, **kw)

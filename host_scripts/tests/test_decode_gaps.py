@@ -173,7 +173,7 @@ def test_seq_going_backwards_without_a_boot_line_is_said(tmp_path: Path, run_cli
     doc = json.loads(out)
     assert rc == 0 and doc["header"]["seq"] == 3 and doc["errors"]["seq_backwards"] == 1
     assert doc["warnings"] == res.warnings and "warning: report seq 3 comes after seq 7" in err
-    from imu_allan.device.monitor import Monitor
+    from imu_allan.render.screen import Monitor
     mon = Monitor("port", 115200, str(tmp_path / "m.log"))  # the monitor's decoder says it too
     mon.decoder.feed(b"".join(newer + older))
     assert mon.decoder.counts["seq_backwards"] == 1

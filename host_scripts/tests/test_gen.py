@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan.stats.gen import THESIS, generate, make_params
+from imu_allan.noise.gen import THESIS, generate, make_params
 from imu_allan.sources.rows import read_rows
 
 

@@ -7,8 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from imu_allan.stats import allan, gen, noise
-from imu_allan.progress import Progress
+from imu_allan.noise import gen
+from imu_allan.noise import streams as noise
+from imu_allan.stats import allan
+from imu_allan.render.progress import Progress
 
 
 def test_flicker_floor_is_0664_b() -> None:

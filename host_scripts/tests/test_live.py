@@ -176,7 +176,7 @@ def test_cmd_ok(device, run_cli) -> None:
 def test_cmd_appends_the_lines_check() -> None:
     """A command goes as ``text*XXXX``: the device runs it only if the check
     is the CRC of the text as received (a flipped bit gets error:5)."""
-    from imu_allan.device.monitor import command_line
+    from imu_allan.device.link import command_line
     from imu_allan.errors import InputError
     assert _ref_crc16(b"123456789") == 0x29B1  # the CRC's check value
     assert command_line(["interval", "36"]) == b"interval 36*%04X\r" % _ref_crc16(b"interval 36")
@@ -255,7 +255,7 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
     """On a terminal: the alternate screen, every line put at its own row
     (no newline, so nothing scrolls), cut to the width (80x24 when the size
     cannot be asked), and the normal screen back at the end."""
-    from imu_allan.device.monitor import run_monitor
+    from imu_allan.cli.monitor import run_monitor
     data, _ = _monitor_stream()
     dev = device(first=data)
     out, err = _Tty(), io.StringIO()
@@ -274,7 +274,7 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
 
 
 def test_monitor_view_rate_and_losses() -> None:
-    from imu_allan.device.monitor import Monitor
+    from imu_allan.render.screen import Monitor
     codes = random_codes(1000, 7)
     mon = Monitor("/dev/x", 115200, "x.log")
     data = _raw(codes).replace(raw_row(codes[450]), b"")  # one row lost

@@ -6,7 +6,7 @@ import pytest
 
 from conftest import line, report_lines, thesis_like
 from test_live import device  # noqa: F401  (the fake device on a pseudo-terminal)
-from imu_allan.device.monitor import Monitor
+from imu_allan.render.screen import Monitor
 from imu_allan.render.terminal import LineEditor
 
 

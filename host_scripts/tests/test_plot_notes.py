@@ -46,7 +46,7 @@ def test_b_line_and_log_grid_limits(tmp_path: Path, monkeypatch) -> None:
                          [t.get_text() for t in (ax.get_legend().get_texts() if ax.get_legend() else [])]))
         return real_save(plt_, fig, path)
     monkeypatch.setattr(plots, "_save", keep)
-    from imu_allan.stats import gen
+    from imu_allan.noise import gen
     p = gen.make_params(n=1 << 15, seed=3, white=1.0, flicker=0.5, gm_sigma=0, rrw=0)
     data = write_rows(tmp_path / "imu.txt", np.concatenate(list(gen.generate(p)), axis=1).T)
     buf = io.StringIO()

@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from imu_allan.stats import allan, model, psd
-from imu_allan.stats.noise import Flicker
+from imu_allan.noise import model
+from imu_allan.stats import allan, psd
+from imu_allan.noise.streams import Flicker
 
 
 def test_welch_streams_like_scipy() -> None:

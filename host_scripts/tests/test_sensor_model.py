@@ -9,8 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from imu_allan import sensor
-from imu_allan.stats import edf, terms
+from imu_allan.noise import sensor
+from imu_allan.noise import terms
+from imu_allan.stats import edf
 from imu_allan.stats.allan import octave_oavar
 from imu_allan.errors import InputError
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan import sensor
+from imu_allan.noise import sensor
 from imu_allan.analysis import sweep
 
 REPO = Path(__file__).resolve().parents[2]

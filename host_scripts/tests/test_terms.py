@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from imu_allan.stats import allan, edf, terms
-from imu_allan.stats.noise import Flicker
+from imu_allan.noise import terms
+from imu_allan.stats import allan, edf
+from imu_allan.noise.streams import Flicker
 
 FS = 100.0
 

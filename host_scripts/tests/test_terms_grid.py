@@ -9,7 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from imu_allan.stats import allan, edf, gen, identify
+from imu_allan.noise import gen, identify
+from imu_allan.stats import allan, edf
 
 FS = 100.0
 WHITE, FLICKER, RRW = 2.0, 0.3, 0.002  # counts per sample, counts (B), counts per step
@@ -82,7 +83,7 @@ def test_a_hump_is_named_and_left_out(codes: np.ndarray) -> None:
 def test_each_term_stays_under_the_curve(codes: np.ndarray) -> None:
     ms, f = _identify(codes, "octave")
     v, _ = allan.oavar(codes, ms)
-    from imu_allan.stats.terms import ALPHA, TERMS, basis
+    from imu_allan.noise.terms import ALPHA, TERMS, basis
     A = basis(ms / FS)
     alpha = np.array([ALPHA[TERMS[j]] for j in np.argmax(A * f.coef, axis=1)])  # as the document draws it
     e = edf.edf_function(ms, np.full(ms.size, codes.size + 1), np.ones(ms.size, dtype=np.int64))(alpha)

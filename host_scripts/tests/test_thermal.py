@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan import sensor
+from imu_allan.cli.study import write_model_rows
+from imu_allan.noise import sensor
 from imu_allan.analysis import thermal
 
 REPO = Path(__file__).resolve().parents[2]
@@ -30,7 +31,7 @@ def capture(tmp_path_factory) -> tuple[Path, sensor.SensorModel]:
     mf.write_text(json.dumps(spec))
     model = sensor.load_model(str(mf))
     rows = d / "cycle.tsv"
-    sensor.write_rows(str(rows), model, 50.0, 50 * 2400, seed=11)
+    write_model_rows(str(rows), model, 50.0, 50 * 2400, seed=11)
     return rows, model
 
 
@@ -122,7 +123,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess:
 def test_cli_json_shape_and_errors(capture, tmp_path):
     _, model = capture
     rows = tmp_path / "short-cycle.tsv"
-    sensor.write_rows(str(rows), model, 50.0, 20_000, seed=2)
+    write_model_rows(str(rows), model, 50.0, 20_000, seed=2)
     p = _cli("thermal", str(rows), "--fs", "50", "--json")
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)

@@ -1,5 +1,5 @@
 """The worked example of docs/thesis-example.md, shortened: the thesis' 100 Hz
-N, B, K (imu_allan.thesis) as ``imu-allan gen`` streams, analyzed from the
+N, B, K (imu_allan.noise.thesis) as ``imu-allan gen`` streams, analyzed from the
 raw rows and from a device log encoded here from exact integers (the host
 side of the simulator run), recovered within 10 %."""
 from __future__ import annotations
@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from conftest import line
-from imu_allan import profiles, thesis
+from imu_allan import profiles
+from imu_allan.noise import thesis
 from imu_allan.analysis import pipeline as analysis
 from imu_allan.sources import detect as sources
-from imu_allan.stats import gen
+from imu_allan.noise import gen
 
 CH = ("ax", "ay", "az", "gx", "gy", "gz")
 

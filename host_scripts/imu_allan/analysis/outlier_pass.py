@@ -15,7 +15,8 @@ import numpy as np
 from . import outliers
 from ..errors import InputError
 from ..noise.fit import fit_curve
-from ..stats import allan, terms
+from ..noise import terms
+from ..stats import allan
 
 
 @dataclass

@@ -1,5 +1,5 @@
 """``imu-allan analyze``: from a source (samples and/or a device report) to the
-analysis document (the ``--json`` contract; render.py prints it for people).
+analysis document (the ``--json`` contract; render/text.py prints it for people).
 
 One streaming pass over the samples feeds the octave engine (overlapping and
 non-overlapping AVAR, allan.py) and, for files too large to hold, the Welch
@@ -26,7 +26,8 @@ import numpy as np
 from .._version import __version__
 from ..channels import CHANNELS, CODE_MAX
 from ..noise.fit import fit_curve as fit_noise
-from ..stats import allan, edf, model, psd, terms
+from ..noise import model, terms
+from ..stats import allan, edf, psd
 from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 from ..device.records import DeviceReport, flag_names
 from ..errors import InputError
@@ -76,7 +77,7 @@ class HostPass:
 @dataclass
 class Analysis:
     """The result of ``analyze``: the ``--json`` document (every float finite
-    or None, ready for render.py) and each channel's fit of the noise terms."""
+    or None, ready for render/text.py) and each channel's fit of the noise terms."""
     doc: dict[str, Any]
     fits: dict[str, terms.FitResult]
 

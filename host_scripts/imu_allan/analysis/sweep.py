@@ -42,7 +42,7 @@ import numpy as np
 from scipy import stats
 
 from ..channels import CHANNELS
-from ..device.monitor import command_line
+from ..device.link import command_line
 from ..errors import InputError
 from ..progress import Progress
 
@@ -182,7 +182,8 @@ def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from
           allowed: Optional[tuple[str, ...]] = None) -> None:
     """The IEEE 952 fit of the device curve restricted to tau >= fit_from and to the
     ``allowed`` terms (replaces the terms)."""
-    from ..stats import edf, terms
+    from ..noise import terms
+    from ..stats import edf
     from ..noise.fit import fit_curve
     from .pipeline import device_curve, term_json
     cv = device_curve(rep, ch)
@@ -357,7 +358,7 @@ def say_stderr(msg: str) -> None:
 def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = False) -> Measure:
     """Each rate: rows from the sensor model at that rate's ADC instants, the real
     firmware in imu-sim on them (rate set as after 'rate'), its log."""
-    from ..sensor import Board, SensorModel
+    from ..noise.sensor import Board, SensorModel
     from ..sources.rows import format_rows
     from ..device.simrun import sim_command
     cfg = sw.config
@@ -395,7 +396,7 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
             os.unlink(rows)
         mean = s1 / n
         std = np.sqrt(np.maximum(s2 / n - mean * mean, 0.0))
-        from ..sensor import aliased_n, SENSORS
+        from ..noise.sensor import aliased_n, SENSORS
         law = {ch: aliased_n(model.channel(ch)["N"], model.channel(ch)["bandwidth_hz"], fs,
                              average=cfg.average) for ch in SENSORS}
         return {"sim": {"series_std": dict(zip(CHANNELS, std[:6].tolist())), "N_law": law,
@@ -405,7 +406,7 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
 
 def port_measure(sw: Sweep, port: str, baud: int) -> Measure:
     """Each rate on a real board: rate, reset, wait, report; every byte logged."""
-    from ..device.monitor import open_port
+    from ..device.link import open_port
     cfg = sw.config
 
     def measure(fs: float, log: str) -> dict[str, Any]:
@@ -499,47 +500,3 @@ class _Link:
                     return r
         raise InputError(f"no complete report at {fs:g} Hz with at least {n_min} samples "
                          f"within {timeout:g} s of 'report'")
-
-
-# ---- figure -------------------------------------------------------------------------------------
-
-PLOTTED = ("N", "N_tau0", "B", "K", "sigma_sensor", "sigma_BIAS")
-
-
-def write_plot(doc: dict[str, Any], directory: str) -> str:
-    """terms-vs-fs.png: one panel per quantity, one series per channel, the fitted power laws."""
-    from ..render.plots import pyplot_for
-    plt = pyplot_for(directory)
-    keys = list(doc["rates"])
-    fig, axes = plt.subplots(2, 3, figsize=(14, 8))
-    for ax, q in zip(axes.flat, PLOTTED):
-        for i, ch in enumerate(doc["dependence"]):
-            pts = [(float(k), quantity(doc["rates"][k], ch, q)) for k in keys]
-            pts = [(f, v) for f, v in pts if v and v.get("value")]
-            if not pts:
-                continue
-            f = np.array([p[0] for p in pts])
-            v = np.array([p[1]["value"] for p in pts])
-            lo = np.array([p[1].get("low") or p[1]["value"] for p in pts])
-            hi = np.array([p[1].get("high") or p[1]["value"] for p in pts])
-            color = f"C{i}"
-            ax.errorbar(f, v, yerr=[v - lo, hi - v], fmt="o", color=color, ms=4, capsize=2,
-                        label=ch)
-            fit = doc["dependence"][ch].get(q)
-            if fit and len(pts) > 1:
-                c = np.exp(np.mean(np.log(v) - fit["exponent"] * np.log(f)))
-                ff = np.geomspace(f.min(), f.max(), 20)
-                ax.plot(ff, c * ff ** fit["exponent"], "-", color=color, lw=0.8)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_title(q)
-        ax.set_xlabel("Fs, Hz")
-        ax.grid(True, which="both", alpha=0.3)
-    axes.flat[0].legend(fontsize=8)
-    fig.suptitle(f"imu-allan sweep ({doc['source']}, {doc['seconds']:g} s per rate, "
-                 f"{doc['profile']} units): terms against the sample rate")
-    fig.tight_layout()
-    path = os.path.join(directory, "terms-vs-fs.png")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path

@@ -36,7 +36,6 @@ the thermal term, and the thermal term's FIT% on the block means.
 from __future__ import annotations
 
 import math
-import os
 from typing import Any, Optional
 
 import numpy as np
@@ -357,14 +356,14 @@ def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Option
 
 
 def _fit(s: np.ndarray, m: np.ndarray) -> Optional[float]:
-    from ..stats.model import fit_percent
+    from ..noise.model import fit_percent
     return fit_percent(s, m)
 
 
 def _with_thermal(after: dict[str, Any], before: dict[str, Any], ch: dict[str, Any], T: np.ndarray,
                   fs: float, k: float) -> Optional[float]:
     """FIT% (log10 ADEV) of noise model + thermal term against the raw series' curve."""
-    from ..stats import model
+    from ..noise import model
     from ..stats.allan import oadev_octave
     mp = (after.get("model") or {}).get("params")
     if not mp:
@@ -432,23 +431,3 @@ def text(doc: dict[str, Any]) -> str:
                      + "; ".join(parts))
     lines += [f"note: {n}" for n in doc["notes"]]
     return "\n".join(lines) + "\n"
-
-
-def write_plot(doc: dict[str, Any], directory: str) -> str:
-    from ..render.plots import pyplot_for
-    plt = pyplot_for(directory)
-    fig, axes = plt.subplots(2, 3, figsize=(14, 8))
-    for ax, (ch, c) in zip(axes.flat, doc["channels"].items()):
-        for key, label in (("adev_before", "raw"), ("adev_after", "thermal bias removed")):
-            pts = [p for p in c[key] if p["dev"]]
-            ax.loglog([p["tau_s"] for p in pts], [p["dev"] for p in pts], "o-", ms=3, label=label)
-        ax.set_title(f"{ch}: tempco {c['tempco']['value']:.3g} {c['tempco']['unit']}")
-        ax.set_xlabel("tau, s")
-        ax.grid(True, which="both", alpha=0.3)
-    axes.flat[0].legend(fontsize=8)
-    fig.suptitle(f"imu-allan thermal: {os.path.basename(doc['file'])}")
-    fig.tight_layout()
-    path = os.path.join(directory, "thermal.png")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path

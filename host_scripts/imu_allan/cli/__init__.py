@@ -4,4 +4,5 @@ main.py   the commands: each reads with device/ or sources/, computes with stats
           analysis/, prints with render/; error handling and exit statuses
 args.py   the parser: every word, option and --help text (no numpy: --help starts fast)
 study.py  the sweep and thermal commands (the thesis' open questions)
+monitor.py  the monitor loop: a port (device/link.py) wired to its view (render/screen.py)
 """

@@ -215,7 +215,7 @@ def _add_check(sub: Any) -> None:
 
 
 def _add_gen(sub: Any) -> None:
-    from ..stats.options import HELP, KINDS, PROFILES, UNITS
+    from ..noise.words import HELP, KINDS, PROFILES, UNITS
     p = sub.add_parser(
         "gen", help="write a synthetic IMU rows file (thesis noise model)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -455,7 +455,7 @@ ANALYZE_EPILOG = (
 
 
 def _add_analyze(sub: Any) -> None:
-    from ..stats.options import TAU_KINDS
+    from ..stats import TAU_KINDS
     from ..profiles import PROFILES, RANGES
     p = sub.add_parser(
         "analyze", help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",

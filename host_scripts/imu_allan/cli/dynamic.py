@@ -92,7 +92,7 @@ def cmd_dynamic(args: argparse.Namespace) -> int:
             raise InputError(f"cannot write '{args.plot}': {exc.strerror or exc}") from None
         print(f"imu-allan dynamic: wrote {args.plot}", file=sys.stderr)
     if args.json:
-        from ..render.text import to_json
+        from ..render.formats import to_json
         sys.stdout.write(to_json(doc))
     elif args.csv:
         sys.stdout.write(dynamic_render.csv(doc))

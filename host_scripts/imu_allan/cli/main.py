@@ -17,7 +17,7 @@ from ..errors import InputError
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    from ..render import text as render
+    from ..render import formats, text as render
     from ..device.files import read_blocks
     from ..device.records import decode_blocks
     res = decode_blocks(read_blocks(args.log))
@@ -30,14 +30,14 @@ def cmd_decode(args: argparse.Namespace) -> int:
     docs = [render.report_doc(r) for r in (res.reports if args.all else res.reports[-1:])]
     if args.json:
         if args.all:
-            sys.stdout.write(render.to_json({"reports": docs, "errors": res.errors,
+            sys.stdout.write(formats.to_json({"reports": docs, "errors": res.errors,
                                              "warnings": res.warnings}))
         else:
-            sys.stdout.write(render.to_json({**docs[0], "errors": res.errors,
+            sys.stdout.write(formats.to_json({**docs[0], "errors": res.errors,
                                              "complete_reports": len(res.reports),
                                              "warnings": res.warnings}))
     elif args.csv:
-        sys.stdout.write(render.to_csv(docs, with_seq=args.all))
+        sys.stdout.write(formats.to_csv(docs, with_seq=args.all))
     else:
         sys.stdout.write(render.decode_text(docs, len(res.reports), args.log, args.all, res.errors))
     return 0
@@ -61,7 +61,7 @@ def _refused(reasons: list[str]) -> str:
 
 
 def cmd_reference(args: argparse.Namespace) -> int:
-    from ..render import text as render
+    from ..render import formats, text as render
     from ..sources.rows import iter_blocks
     from ..stats.reference import OctaveCascade
     cascade = OctaveCascade(args.levels, len(CHANNELS))
@@ -71,9 +71,9 @@ def cmd_reference(args: argparse.Namespace) -> int:
         raise InputError(f"'{args.file}' holds no rows (a rows file has 7 integer codes per line)")
     doc = render.reference_doc(cascade, args.file, args.fs)
     if args.json:
-        sys.stdout.write(render.to_json({**doc, "errors": {}}))
+        sys.stdout.write(formats.to_json({**doc, "errors": {}}))
     elif args.csv:
-        sys.stdout.write(render.to_csv([doc]))
+        sys.stdout.write(formats.to_csv([doc]))
     else:
         sys.stdout.write(render.reference_text(doc))
     return 0
@@ -102,7 +102,7 @@ def cmd_gen(args: argparse.Namespace) -> int:
         from .study import gen_from_model
         return gen_from_model(args)
     from ..sources.rows import format_rows
-    from ..stats.gen import PARAMS, generate, make_params
+    from ..noise.gen import PARAMS, generate, make_params
     params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
                          profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
     head = (f"# {params.command()}\n"
@@ -165,12 +165,12 @@ def cmd_rows(args: argparse.Namespace) -> int:
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
-    from ..device.monitor import run_monitor
+    from .monitor import run_monitor
     return run_monitor(args.port, args.baud, args.log, args.once)
 
 
 def cmd_cmd(args: argparse.Namespace) -> int:
-    from ..device.monitor import PortError, command_line, open_port, send_command
+    from ..device.link import PortError, command_line, open_port, send_command
     line = command_line(args.words)
     ser = open_port(args.port, args.baud)
     try:
@@ -196,7 +196,7 @@ CMD_TRIES = 3
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from ..render import text as render
+    from ..render import formats, text as render
     from ..analysis.pipeline import Options, analyze
     from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
     from ..sources.detect import load, load_device_report
@@ -224,18 +224,18 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     advice.add_to_analysis(doc)
     written = []
     if args.curves:
-        written.append(_write_text(args.curves, render.curves_csv(doc)))
+        written.append(_write_text(args.curves, formats.curves_csv(doc)))
     if args.kalibr:
-        written.append(_write_text(args.kalibr, render.kalibr_yaml(doc)))
+        written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc)))
     if args.imu_utils:
-        written.append(_write_text(args.imu_utils, render.imu_utils_yaml(doc)))
+        written.append(_write_text(args.imu_utils, formats.imu_utils_yaml(doc)))
     if args.plot:
         from ..render.plots import write_plots
         written += write_plots(doc, args.plot)
     if args.json:
-        sys.stdout.write(render.to_json(doc))
+        sys.stdout.write(formats.to_json(doc))
     elif args.csv:
-        sys.stdout.write(render.terms_csv(doc))
+        sys.stdout.write(formats.terms_csv(doc))
     else:
         sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc))
     for path in written:
@@ -304,6 +304,7 @@ def main(argv: Optional[list[str]] = None) -> int:
         return 2
     if sys.stdout is None:
         sys.stdout = _ClosedStream()  # type: ignore[assignment]
+    _draw_progress()
     try:
         rc = handlers[args.command](args)
         sys.stdout.flush()
@@ -322,6 +323,13 @@ def main(argv: Optional[list[str]] = None) -> int:
         _quiet_stdout()
         print(f"imu-allan {args.command}: cannot write stdout: {exc.strerror or exc}", file=sys.stderr)
         return 2
+
+
+def _draw_progress() -> None:
+    """Long work shows its progress line on stderr (a terminal only)."""
+    from .. import progress
+    from ..render.progress import Progress
+    progress.use(Progress)
 
 
 def _quiet_stdout() -> None:

@@ -187,7 +187,8 @@ def cmd_thermal(args: argparse.Namespace) -> int:
 def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespace) -> int:
     """The plot (--plot DIR) and the document as text or JSON (--json)."""
     if args.plot:
-        path = module.write_plot(doc, args.plot)
+        from ..render import plots
+        path = getattr(plots, f"{command}_plot")(doc, args.plot)
         print(f"imu-allan {command}: wrote {path}", file=sys.stderr)
     sys.stdout.write(json.dumps(doc, indent=1) + "\n" if args.json else module.text(doc))
     return 0
@@ -197,7 +198,7 @@ def _load_model(path: Any) -> Any:
     """``sensor.load_model``, a file that is not a model's JSON (binary bytes, a
     section that is not an object) refused in one line like its other errors."""
     from ..errors import InputError
-    from ..sensor import load_model
+    from ..noise.sensor import load_model
     try:
         return load_model(path)
     except (UnicodeDecodeError, AttributeError, TypeError) as exc:
@@ -205,17 +206,23 @@ def _load_model(path: Any) -> Any:
                          f"{type(exc).__name__})") from None
 
 
+def write_model_rows(path: str, model: Any, fs: float, n: int, seed: int = 1) -> None:
+    """A rows file (thesis format) of the sensor model's board sampled at fs."""
+    from ..noise.sensor import Board, rows_header
+    from ..sources.rows import write_rows
+    write_rows(path, rows_header(fs, n, seed), Board(model, fs, n, seed=seed).blocks())
+
+
 def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
     from ..errors import InputError
-    from ..sensor import write_rows
-    from ..stats.gen import PARAMS
+    from ..noise.gen import PARAMS
     given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
     if args.kind != "noise" or args.json_params:
         given.append("--kind" if args.kind != "noise" else "--json-params")
     if given:
         raise InputError(f"--model sets every parameter (in its file): {', '.join(given)} not allowed with it")
-    write_rows(args.output, _load_model(args.model), float(args.fs), args.n, seed=args.seed)
+    write_model_rows(args.output, _load_model(args.model), float(args.fs), args.n, seed=args.seed)
     return 0
 
 
@@ -227,7 +234,6 @@ def sim_from_model(args: argparse.Namespace) -> int:
 
     from ..device.simrun import run, sim_command
     from ..errors import InputError
-    from ..sensor import write_rows
     if args.adc and args.model:
         raise InputError("--adc and --model: give one")
     if not args.model:
@@ -236,7 +242,7 @@ def sim_from_model(args: argparse.Namespace) -> int:
     fd, rows = tempfile.mkstemp(prefix="imu-allan-model-", suffix=".tsv")
     os.close(fd)
     try:
-        write_rows(rows, _load_model(args.model), fs, int(round(args.seconds * fs)))
+        write_model_rows(rows, _load_model(args.model), fs, int(round(args.seconds * fs)))
         return run(sim_command(rows, args.output, fs=f"{fs:g}", uart_in=args.uart_in,
                                firmware=args.firmware, stats=args.stats))
     finally:

@@ -213,32 +213,18 @@ class LineSplitter:
         first[has] = d[k_first[has]]
         echo = (ls + 1 < nl) & (b[ls] == 0x3E) & (b[np.minimum(ls + 1, b.size - 1)] == 0x20)
         err["garbage_bytes"] += int((first - ls)[~echo].sum())
-        err["restarted"] += int((k_end - k_first)[has].sum()) - int(np.count_nonzero(has))
         if not d.size:
             return []
-        start = d[k_end[has] - 1] + 1  # after the line's last '$'
-        stop = nl[has]
-        length = stop - start
-        shaped = (length >= 5) & (length - 5 <= MAX_BODY)
-        shaped[shaped] = b[stop[shaped] - 5] == 0x2A  # '*' before the 4 CRC digits
-        err["malformed"] += int(np.count_nonzero(~shaped))
-        starts, stops = start[shaped].tolist(), stop[shaped].tolist()
         bodies: list[str] = []
-        for at in range(0, len(starts), _CHECK_BATCH):
-            found = []
-            for s, e in zip(starts[at:at + _CHECK_BATCH], stops[at:at + _CHECK_BATCH]):
-                m = LINE.fullmatch(buf, s, e)
-                if m is None:
-                    err["malformed"] += 1
+        found = dollar_lines(buf, b, ls[has], nl[has], d, err)
+        for at in range(0, len(found), _CHECK_BATCH):
+            batch = found[at:at + _CHECK_BATCH]
+            crcs = crc16_many([body for _, body, _ in batch]).tolist()
+            for (_, body, sent), got in zip(batch, crcs):
+                if sent == got:
+                    bodies.append(body.decode("ascii"))
                 else:
-                    found.append((m.group(1), int(m.group(2), 16)))
-            if found:
-                crcs = crc16_many([body for body, _ in found]).tolist()
-                for (body, sent), got in zip(found, crcs):
-                    if sent == got:
-                        bodies.append(body.decode("ascii"))
-                    else:
-                        err["bad_crc"] += 1
+                    err["bad_crc"] += 1
         return bodies
 
     def _tail(self, text: bytes, last: str) -> None:
@@ -255,6 +241,36 @@ class LineSplitter:
             return
         err["restarted"] += text.count(b"$", first + 1)
         err[last] += 1
+
+
+def dollar_lines(buf: bytes, b: np.ndarray, starts: np.ndarray, stops: np.ndarray,
+                 dollars: np.ndarray, errors: dict[str, int]) -> list[tuple[int, bytes, int]]:
+    """The one cutter of ``$`` lines (``LineSplitter`` and the stream decoder use
+    it): of the lines [starts, stops) of ``buf`` (``b`` its bytes; stops: the
+    line's end, before CR LF), each holding a ``$`` (``dollars``: every ``$`` of
+    ``buf``, sorted), the candidates (index of the body, body, sent CRC) from
+    the line's last ``$`` on, shaped ``body*XXXX`` (checked vectorized first,
+    so that a flood of ``$`` lines stays cheap).  Counts ``restarted`` (a
+    ``$`` after the first) and ``malformed`` in ``errors``; the CRC is the
+    caller's to check."""
+    if starts.size == 0:
+        return []
+    k_first = np.searchsorted(dollars, starts)
+    k_end = np.searchsorted(dollars, stops)  # one past the line's last '$'
+    errors["restarted"] += int((k_end - k_first - 1).sum())
+    start = dollars[k_end - 1] + 1  # after the line's last '$'
+    length = stops - start
+    shaped = (length >= 5) & (length - 5 <= MAX_BODY)
+    shaped[shaped] = b[stops[shaped] - 5] == 0x2A  # '*' before the 4 CRC digits
+    errors["malformed"] += int(np.count_nonzero(~shaped))
+    found: list[tuple[int, bytes, int]] = []
+    for s, e in zip(start[shaped].tolist(), stops[shaped].tolist()):
+        m = LINE.fullmatch(buf, s, e)
+        if m is None:
+            errors["malformed"] += 1
+        else:
+            found.append((s, m.group(1), int(m.group(2), 16)))
+    return found
 
 
 def cr_line_ends(res: bytes, final: bool) -> tuple[bytes, np.ndarray]:

@@ -78,7 +78,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, LINE, MAX_BODY, SYNC, cr_line_ends,
+from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, SYNC, cr_line_ends, dollar_lines,
                       crc16_many, crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
 from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
                       parse_count_block, resets_run, restarts_output)
@@ -507,30 +507,14 @@ class StreamDecoder:
     def _dollar_lines(self, res: bytes, r: np.ndarray, starts: np.ndarray, ends: np.ndarray,
                       dollars: np.ndarray) -> list[tuple[int, bytes, int]]:
         """The whole lines [starts, ends) (ends: their LF) that hold a '$':
-        garbage before the first '$', restarts, and, from the last '$' on, the
-        candidates (key, body, sent CRC) of lines shaped ``body*XXXX`` (the
-        shape is checked vectorized first: a flood of '$' lines stays cheap)."""
-        c = self.counts
+        garbage before the first '$' counted here, the rest cut by framing's
+        one line cutter (``dollar_lines``): candidates (key, body, sent CRC)."""
         if starts.size == 0:
             return []
-        k_first = np.searchsorted(dollars, starts)
-        k_end = np.searchsorted(dollars, ends)
-        first, last = dollars[k_first], dollars[k_end - 1]
-        c["garbage_bytes"] += int((first - starts).sum())
-        c["restarted"] += int((k_end - k_first - 1).sum())
+        c = self.counts
+        c["garbage_bytes"] += int((dollars[np.searchsorted(dollars, starts)] - starts).sum())
         stop = ends - (r[np.maximum(ends - 1, 0)] == 0x0D)  # a CR before the LF is the line's end
-        length = stop - (last + 1)
-        shaped = (length >= 5) & (length - 5 <= MAX_BODY)
-        shaped[shaped] = r[stop[shaped] - 5] == 0x2A  # '*' before the 4 CRC digits
-        c["malformed"] += int(np.count_nonzero(~shaped))
-        found: list[tuple[int, bytes, int]] = []
-        for s, e in zip((last[shaped] + 1).tolist(), stop[shaped].tolist()):
-            m = LINE.fullmatch(res, s, e)
-            if m is None:
-                c["malformed"] += 1
-            else:
-                found.append((2 * s - 1, m.group(1), int(m.group(2), 16)))
-        return found
+        return [(2 * s - 1, body, sent) for s, body, sent in dollar_lines(res, r, starts, stop, dollars, c)]
 
     def _frame_gaps(self, fkey: np.ndarray, fseq: np.ndarray, marks: list[int]) -> None:
         if fkey.size == 0:

@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike
 from scipy import optimize, stats
 
 from ..stats.edf import alpha_from_slope
-from ..stats.terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
+from .terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
 from .reading import to_model, _compare, _linear_term, _unexplained, slope_reading
 
@@ -139,7 +139,7 @@ class _Gls:
 
     def __init__(self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray,
                  kind: str, floor: float = 0.0, robust: Optional[np.ndarray] = None) -> None:
-        from ..stats.terms import RHO, _cholesky
+        from .terms import RHO, _cholesky
         sd = ref * np.sqrt(2.0 / e)
         rho = RHO[kind]
         lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))

@@ -9,7 +9,7 @@ from typing import Any, Optional
 import numpy as np
 from scipy import stats
 
-from ..stats.terms import B_FACTOR, Term
+from .terms import B_FACTOR, Term
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
 
 Z95 = 1.959963984540054
@@ -45,7 +45,7 @@ def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total:
 
 
 def _unexplained_all(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) -> list[dict]:
-    from ..stats.identify import _regions
+    from .identify import _regions
     k = np.zeros(t.size, dtype=bool)
     k[keep] = True
     return _regions(t, y, model, k)
@@ -53,7 +53,7 @@ def _unexplained_all(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.n
 
 def _unexplained(p: Any, model: np.ndarray, e: np.ndarray) -> list[dict]:
     from ..stats.edf import chi2_interval
-    from ..stats.identify import TOL, _regions
+    from .identify import TOL, _regions
     lo, hi = chi2_interval(p.y, e)
     keep = (model >= lo / (1 + TOL) ** 2) & (model <= hi * (1 + TOL) ** 2)
     return _regions(p.t, p.y, model, keep)

@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import InputError
 from ..profiles import LITERATURE
 from .text import NAMES
-from ..stats.terms import B_READOFF, TERMS, basis
+from ..noise.terms import B_READOFF, TERMS, basis
 
 COLORS = {"Q": "tab:purple", "N": "tab:blue", "B": "tab:green", "K": "tab:orange", "R": "tab:red"}
 SLOPE_LABEL = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}
@@ -249,3 +249,69 @@ def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], dir
                  f"{src['n']} samples at {src['fs_hz']:g} Hz")
     fig.tight_layout()
     return _save(plt, fig, os.path.join(directory, f"psd_{group}.png"))
+
+
+# ---- the sweep's and the thermal study's figures -------------------------------------------------------------------------------------
+
+SWEEP_PLOTTED = ("N", "N_tau0", "B", "K", "sigma_sensor", "sigma_BIAS")
+
+
+def sweep_plot(doc: dict[str, Any], directory: str) -> str:
+    """terms-vs-fs.png of a sweep document (analysis/sweep.py): one panel per
+    quantity, one series per channel, the fitted power laws."""
+    from ..analysis.sweep import quantity
+    plt = pyplot_for(directory)
+    keys = list(doc["rates"])
+    fig, axes = plt.subplots(2, 3, figsize=(14, 8))
+    for ax, q in zip(axes.flat, SWEEP_PLOTTED):
+        for i, ch in enumerate(doc["dependence"]):
+            pts = [(float(k), quantity(doc["rates"][k], ch, q)) for k in keys]
+            pts = [(f, v) for f, v in pts if v and v.get("value")]
+            if not pts:
+                continue
+            f = np.array([p[0] for p in pts])
+            v = np.array([p[1]["value"] for p in pts])
+            lo = np.array([p[1].get("low") or p[1]["value"] for p in pts])
+            hi = np.array([p[1].get("high") or p[1]["value"] for p in pts])
+            color = f"C{i}"
+            ax.errorbar(f, v, yerr=[v - lo, hi - v], fmt="o", color=color, ms=4, capsize=2,
+                        label=ch)
+            fit = doc["dependence"][ch].get(q)
+            if fit and len(pts) > 1:
+                c = np.exp(np.mean(np.log(v) - fit["exponent"] * np.log(f)))
+                ff = np.geomspace(f.min(), f.max(), 20)
+                ax.plot(ff, c * ff ** fit["exponent"], "-", color=color, lw=0.8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(q)
+        ax.set_xlabel("Fs, Hz")
+        ax.grid(True, which="both", alpha=0.3)
+    axes.flat[0].legend(fontsize=8)
+    fig.suptitle(f"imu-allan sweep ({doc['source']}, {doc['seconds']:g} s per rate, "
+                 f"{doc['profile']} units): terms against the sample rate")
+    fig.tight_layout()
+    path = os.path.join(directory, "terms-vs-fs.png")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def thermal_plot(doc: dict[str, Any], directory: str) -> str:
+    """thermal.png of a thermal document (analysis/thermal.py): each channel's
+    Allan deviation before and after its thermal bias is removed."""
+    plt = pyplot_for(directory)
+    fig, axes = plt.subplots(2, 3, figsize=(14, 8))
+    for ax, (ch, c) in zip(axes.flat, doc["channels"].items()):
+        for key, label in (("adev_before", "raw"), ("adev_after", "thermal bias removed")):
+            pts = [p for p in c[key] if p["dev"]]
+            ax.loglog([p["tau_s"] for p in pts], [p["dev"] for p in pts], "o-", ms=3, label=label)
+        ax.set_title(f"{ch}: tempco {c['tempco']['value']:.3g} {c['tempco']['unit']}")
+        ax.set_xlabel("tau, s")
+        ax.grid(True, which="both", alpha=0.3)
+    axes.flat[0].legend(fontsize=8)
+    fig.suptitle(f"imu-allan thermal: {os.path.basename(doc['file'])}")
+    fig.tight_layout()
+    path = os.path.join(directory, "thermal.png")
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -147,3 +147,16 @@ def format_rows(codes: np.ndarray) -> bytes:
         sel = nd > p
         out[start[sel] + p] = 0x30 + (flat[sel] // _POW10[nd[sel] - 1 - p]) % 10
     return out.tobytes()
+
+
+def write_rows(path: str, head: bytes, blocks: Iterator[np.ndarray]) -> None:
+    """A rows file: ``head`` (comment lines) then each block of codes (shape
+    (7, rows)); ``-`` writes to stdout.  An unwritable path is one InputError."""
+    import sys
+    try:
+        with (open(path, "wb") if path != "-" else open(sys.stdout.fileno(), "wb", closefd=False)) as f:
+            f.write(head)
+            for block in blocks:
+                f.write(format_rows(block))
+    except OSError as exc:
+        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None

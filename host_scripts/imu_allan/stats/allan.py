@@ -44,14 +44,14 @@ from numpy.typing import ArrayLike
 from .kernels import (DOT_MAX, HEAD, any_m_sums, blocked as _blocked, octave_avar_sums, octave_oavar_sums,
                       offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq)
 
-from .options import TAU_KINDS  # noqa: F401  (its home: options.py)
+from ..progress import ProgressFn
+from . import TAU_KINDS  # noqa: F401  (numpy-free in __init__.py, for the CLI parser)
+
 BLOCK = 1 << 16
 EXACT_MAX = 1 << 22
 STRIDE_OFFSETS = 1024
 """Above exact_max the overlapping estimate keeps 2 * exact_max / D >= this many offsets."""
 
-ProgressFn = Optional[Callable[[int], None]]
-"""Called with the work done so far (progress.Progress.update fits)."""
 
 
 # ---- tau grids -------------------------------------------------------------------

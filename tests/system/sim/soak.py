@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "host_scripts"))
 from faultsim import make_rows, simulate  # noqa: E402
 
-from imu_allan.device.monitor import command_line  # noqa: E402  (what the host tools send)
+from imu_allan.device.link import command_line  # noqa: E402  (what the host tools send)
 
 RATES = (100, 1500)
 SECONDS = 3.0

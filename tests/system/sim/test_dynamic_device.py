@@ -12,7 +12,7 @@ import pytest
 
 from conftest import cli
 from imu_allan.device.records import decode_bytes
-from imu_allan.device.monitor import Monitor
+from imu_allan.render.screen import Monitor
 from imu_allan.analysis.dynamic import from_reports, runs
 from imu_allan.stats.reference import octave_avar
 

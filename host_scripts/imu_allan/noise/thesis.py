@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from typing import Optional
 
-from .profiles import G0, thesis_profile
+from ..profiles import G0, thesis_profile
 
 FS = 100.0
 # sensor: N, B, K, sigma_sensor, sigma_bias, sigma_AVRW, sigma_ARRW, FIT %  (as printed, 100 Hz)

@@ -65,11 +65,10 @@ from typing import Any, Iterator, Optional
 import numpy as np
 from scipy.signal import lfilter
 
-from .errors import InputError
+from ..channels import CODE_MAX, COLUMNS
+from ..errors import InputError
 
-COLUMNS = ("ax", "ay", "az", "gx", "gy", "gz", "temp")
 SENSORS = COLUMNS[:6]
-CODE_MAX = 1023
 F_ADC = 10_000_000 / 64
 CHANNEL_KEYS = ("offset", "N", "bandwidth_hz", "B", "K", "gm_sigma", "gm_tau", "tempco", "tempco2")
 UNITS = {"offset": "counts", "N": "counts*sqrt(s) (sqrt of the two-sided white density, before the low-pass)",
@@ -351,17 +350,8 @@ class Board:
         return codes.astype(np.uint16)
 
 
-def write_rows(path: str, model: SensorModel, fs: float, n: int, seed: int = 1, average: int = 1) -> None:
-    """A rows file (thesis format) of the board sampled at fs."""
-    from .sources.rows import format_rows
-    import sys
-    board = Board(model, fs, n, seed=seed, average=average)
-    try:
-        with (open(path, "wb") if path != "-" else open(sys.stdout.fileno(), "wb", closefd=False)) as f:
-            f.write(f"# imu-allan sensor model, fs {fs:g} Hz, {n} rows, seed {seed}"
-                    f"{f', average {average}' if average > 1 else ''}\n"
-                    f"# columns: {' '.join(COLUMNS)} (10-bit ADC codes)\n".encode())
-            for block in board.blocks():
-                f.write(format_rows(block))
-    except OSError as exc:
-        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+def rows_header(fs: float, n: int, seed: int = 1, average: int = 1) -> bytes:
+    """The comment lines that open a rows file of the board (``Board.blocks`` its rows)."""
+    return (f"# imu-allan sensor model, fs {fs:g} Hz, {n} rows, seed {seed}"
+            f"{f', average {average}' if average > 1 else ''}\n"
+            f"# columns: {' '.join(COLUMNS)} (10-bit ADC codes)\n").encode()

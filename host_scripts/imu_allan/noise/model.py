@@ -44,7 +44,7 @@ from typing import Iterator, Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .noise import NoiseParams, NoiseProcess
+from .streams import NoiseParams, NoiseProcess
 
 GM_PEAK_X = 1.8926176
 """tau / T at the maximum of a Gauss-Markov process's Allan deviation."""

@@ -32,10 +32,10 @@ from typing import Iterator, Optional
 import numpy as np
 
 from ..errors import InputError
-from .noise import NoiseParams, NoiseProcess
+from .streams import NoiseParams, NoiseProcess
 from ..channels import CODE_MAX, COLUMNS
 
-from .options import HELP, KINDS, PARAMS, PROFILES, UNITS  # noqa: F401  (their home: options.py)
+from .words import HELP, KINDS, PARAMS, PROFILES, UNITS  # noqa: F401  (their home: words.py)
 CHUNK = 1 << 17
 
 # The thesis board at rest (order ax ay az gx gy gz temp), of the order the

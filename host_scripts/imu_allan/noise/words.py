@@ -1,9 +1,8 @@
-"""The words of the ``gen`` and ``analyze`` options (kinds, parameters and
-their units, tau grids), numpy-free so that the ``imu-allan`` parser and its
---help build without importing numpy; gen.py and allan.py use them from here."""
+"""The words of the synthetic generator (gen.py): its kinds, profiles, parameters
+with their units and help texts.  numpy-free, so that the ``imu-allan`` parser and
+its --help name them without importing numpy; gen.py uses them from here."""
 from __future__ import annotations
 
-TAU_KINDS = ("octave", "decade", "log", "all")
 KINDS = ("noise", "walk", "drift", "clip", "square")
 PROFILES = ("thesis",)          # gen --profile (analyze's are in profiles.py)
 PARAMS = ("offset", "white", "gm_sigma", "gm_tau", "rrw", "drift", "flicker")

@@ -12,8 +12,8 @@ Per sample i (dt = 1/fs), in the unit of the signal:
     ramp_i    = R i dt                               rate ramp (drift)
 
 Each process draws from its own random stream, so adding a process never
-changes the others.  Used by ``imu-allan gen`` (stats/gen.py: offset, clip to
-10-bit codes) and by the thesis model of ``analyze`` (stats/model.py).
+changes the others.  Used by ``imu-allan gen`` (noise/gen.py: offset, clip to
+10-bit codes) and by the thesis model of ``analyze`` (noise/model.py).
 
 Flicker (IEEE 952 B; Allan deviation floor 0.664 B): Gauss-Markov processes
 with correlation times T_k = 8^k / fs up to 4 times the record, each of
@@ -57,7 +57,7 @@ class NoiseProcess:
                  gm_rng: np.random.Generator, rrw_rng: np.random.Generator,
                  quant_rng: Optional[np.random.Generator] = None,
                  flicker_seed: Optional[np.random.SeedSequence] = None) -> None:
-        from ..noise import processes as cat
+        from . import processes as cat
         self.p, self.fs = p, fs
         self.model = cat.Model()
         self.streams = []
@@ -96,7 +96,7 @@ class Flicker:
     (imu_allan.noise.Flicker), ``take(start, length)`` on consecutive blocks."""
 
     def __init__(self, b: float, fs: float, n: int, seed: np.random.SeedSequence) -> None:
-        from ..noise import processes as cat
+        from . import processes as cat
         self._bank = cat.Flicker(b).simulator(fs, n, seed)
         self._done = 0
 

@@ -121,7 +121,7 @@ class FitResult:
 
 def local_alpha(tau: np.ndarray, avar: np.ndarray) -> np.ndarray:
     """Noise type from the local log-log slope of AVAR (neighbours on each side)."""
-    from .edf import alpha_from_slope
+    from ..stats.edf import alpha_from_slope
     lt, la = np.log(tau), np.log(avar)
     out = np.zeros(tau.size, dtype=np.int64)
     for i in range(tau.size):  # over curve points (tens), not samples

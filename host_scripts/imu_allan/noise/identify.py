@@ -35,7 +35,7 @@ from typing import Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .edf import chi2_interval
+from ..stats.edf import chi2_interval
 from .terms import ALPHA, TERMS, EdfFn, FitResult, b_classic, basis, fit_terms, local_alpha
 
 MODEL_ERR = 0.05
