@@ -10,17 +10,9 @@ from typing import Any, Optional
 import numpy as np
 
 from ..errors import InputError
+from .pipeline import _num as json_num  # the one JSON number rule of the documents
 
 MEMORY = 1 << 30  # bytes of samples held for raw windows (they are computed in memory)
-
-
-def json_num(v: Any) -> Optional[float]:
-    """A float for JSON: None for what is not a finite number."""
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) else None
 
 
 def adev_list(var: np.ndarray) -> list[Optional[float]]:
