@@ -184,7 +184,7 @@ firmware-test unit: ## the firmware's Unity and native tests (cmake, ctest); uni
 # The host tests that drive the real firmware in imu-sim (sweep, the report
 # check line) need both built; without them they would skip.
 pytest: firmware $(IMU_SIM) ext ## the host package's tests (host_scripts/tests)
-	cd host_scripts && $(PYTHON) -m pytest -q
+	cd host_scripts && $(PYTHON) -m pytest -q -n 2
 
 # The simulated device on a pseudo-terminal, driven as a user would.
 term-test: firmware $(IMU_SIM) ## the simulated device on a pseudo-terminal, driven as a user would
