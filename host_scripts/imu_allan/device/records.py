@@ -16,7 +16,7 @@ Records are typed: ``DeviceHeader`` (an H record), ``Boot`` (a B record),
 from __future__ import annotations
 
 import re
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from typing import Any, Iterable, Optional
 
 from ..channels import CHANNELS, FS_LIMITS_HZ

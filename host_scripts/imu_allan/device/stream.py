@@ -74,7 +74,7 @@ same error counts as ``decode_bytes``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Optional
 
 import numpy as np
 

@@ -45,7 +45,7 @@ from scipy import optimize, stats
 
 from ..stats.edf import alpha_from_slope
 from .terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
-from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
+from .processes import AR1, LP, QN, RW, WN, Model, Ramp, Sine
 from .reading import to_model, _compare, _linear_term, _unexplained, slope_reading
 
 MAX_GM = 2

@@ -12,8 +12,9 @@ import time
 from typing import IO, Any, Optional
 
 from ..channels import CHANNELS
-from ..device.link import READ_TIMEOUT, PortReader, log_write
+from ..device.link import READ_TIMEOUT, PortReader, command_line, log_write
 from ..device.stream import StreamDecoder
+from ..errors import InputError
 
 _REPLIES_SHOWN = 5
 _RATE_WINDOW = 2.0
