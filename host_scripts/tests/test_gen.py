@@ -23,6 +23,7 @@ def test_reproducible_and_self_describing(tmp_path: Path, run_cli) -> None:
     b = _gen(run_cli, tmp_path / "b.txt", "-n", 5000, "--seed", 9, "--white", "gx=1.5")
     c = _gen(run_cli, tmp_path / "c.txt", "-n", 5000, "--seed", 10, "--white", "gx=1.5")
     assert (tmp_path / "a.txt").read_bytes() == (tmp_path / "b.txt").read_bytes()
+    assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
     head = (tmp_path / "a.txt").read_text().splitlines()[0]
     assert head.startswith("# imu-allan gen ") and "gx=1.5" in head and "--seed 9" in head

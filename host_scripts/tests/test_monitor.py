@@ -84,7 +84,7 @@ def test_a_long_command_line_shows_its_end() -> None:
     assert lines[-1] == "> interval 3600 and more words"[-19:] and cursor == (9, 19)
 
 
-def test_a_port_held_by_another_program_is_busy_in_one_line(device, run_cli, tmp_path) -> None:
+def test_a_port_held_by_another_program_is_busy_in_one_line(device, run_cli, tmp_path) -> None:  # noqa: F811
     import serial
     dev = device(hold=5.0)
     holder = serial.Serial(dev.path, 115200, exclusive=True)  # as picocom or a monitor holds it

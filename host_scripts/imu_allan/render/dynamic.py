@@ -184,7 +184,7 @@ def plot(doc: dict[str, Any], path: str) -> str:
             ax.text(warm, tau_edges[-1], f" warm-up ends {warm:.0f} s", va="top", fontsize=8)
         st = doc["stationary"][ch]
         state = "stationary" if st["stationary"] else "NOT stationary"
-        ax.set_title(f"{ch}: {state}" + (f" after the warm-up" if warm is not None and st["stationary"] else ""),
+        ax.set_title(f"{ch}: {state}" + (" after the warm-up" if warm is not None and st["stationary"] else ""),
                      fontsize=10)
         ax.set_yscale("log")
         ax.set_ylabel("tau (s)")
