@@ -119,7 +119,7 @@ static size_t model(const uint8_t *s, size_t n, size_t gap, event_t *ev)
       star = 1;
       ndig = 0;
     } else if (c == 0x08 || c == 0x7F) {
-      if (len)
+      if (len && code != CMD_ERR_LONG) /* a line that overflowed stays refused whole */
         len--;
     } else if ((c < 0x20 && c != '\t') || c > 0x7E) {
       if (!code)
