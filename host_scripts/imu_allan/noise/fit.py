@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike
 from scipy import optimize, stats
 
 from ..stats.edf import alpha_from_slope
-from .terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic
+from .terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic, usable_points
 from .processes import AR1, LP, QN, RW, WN, Model, Ramp, Sine
 from .reading import to_model, _compare, _linear_term, _unexplained, slope_reading
 
@@ -290,9 +290,7 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     ``extended`` False: the five IEEE 952 terms only (no band limit, no GM)."""
     tau = np.asarray(tau, dtype=np.float64)
     avar = np.asarray(avar, dtype=np.float64)
-    used = np.isfinite(avar) & (avar > 0) & np.isfinite(tau) & (tau > 0)
-    if mask is not None:
-        used &= np.asarray(mask, dtype=bool)
+    used = usable_points(tau, avar, mask)
     idx = np.flatnonzero(used)
     idx = idx[np.argsort(tau[idx])]
     idx = idx[_thin(tau[idx])]

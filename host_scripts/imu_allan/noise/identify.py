@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..stats.edf import chi2_interval
-from .terms import ALPHA, TERMS, EdfFn, FitResult, b_classic, basis, fit_terms, local_alpha
+from .terms import ALPHA, TERMS, EdfFn, FitResult, b_classic, basis, fit_terms, local_alpha, usable_points
 
 MODEL_ERR = 0.05
 """Relative standard deviation of ADEV granted to the five-term model (0.10 in AVAR)."""
@@ -61,9 +61,7 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
     """
     tau = np.asarray(tau, dtype=np.float64)
     avar = np.asarray(avar, dtype=np.float64)
-    usable = np.isfinite(avar) & (avar > 0) & np.isfinite(tau) & (tau > 0)
-    if mask is not None:
-        usable &= np.asarray(mask, dtype=bool)
+    usable = usable_points(tau, avar, mask)
     idx = np.flatnonzero(usable)
     idx = idx[np.argsort(tau[idx])]
     if idx.size < MIN_KEEP + 1:

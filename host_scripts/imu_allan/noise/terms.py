@@ -193,6 +193,15 @@ def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np
     return np.clip(r.x, 0.0, hi) / scale
 
 
+def usable_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike] = None) -> np.ndarray:
+    """The points a fit may use: a finite positive variance at a positive tau,
+    and within ``mask`` when one is given (every fitter starts from these)."""
+    used = np.isfinite(avar) & (avar > 0) & np.isfinite(tau) & (tau > 0)
+    if mask is not None:
+        used &= np.asarray(mask, dtype=bool)
+    return used
+
+
 def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None,
               overlapping: bool = True, iterations: int = 5,
               allowed: tuple[str, ...] = TERMS, floor: float = 0.0,
@@ -212,9 +221,7 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     ub = None if caps is None else np.asarray(caps, dtype=np.float64)
     tau = np.asarray(tau, dtype=np.float64)
     avar = np.asarray(avar, dtype=np.float64)
-    used = np.isfinite(avar) & (avar > 0) & np.isfinite(tau) & (tau > 0)
-    if mask is not None:
-        used &= np.asarray(mask, dtype=bool)
+    used = usable_points(tau, avar, mask)
     nterm = len(TERMS)
     coef = np.zeros(nterm)
     cov = np.zeros((nterm, nterm))
