@@ -8,6 +8,7 @@ and max. Values: the largest relative difference from allantools at the same
 taus. Memory: peak RSS growth of a fresh process running the kernel, over the
 input's size.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,9 +36,14 @@ def pairs(fa, fb, count: int) -> dict:
         ta.append(a)
         tb.append(b)
         ratios.append(a / b)
-    return {"median": round(float(np.median(ratios)), 2), "min": round(min(ratios), 2),
-            "max": round(max(ratios), 2), "allantools_s": round(float(np.median(ta)), 4),
-            "imu_allan_s": round(float(np.median(tb)), 4), "pairs": count}
+    return {
+        "median": round(float(np.median(ratios)), 2),
+        "min": round(min(ratios), 2),
+        "max": round(max(ratios), 2),
+        "allantools_s": round(float(np.median(ta)), 4),
+        "imu_allan_s": round(float(np.median(tb)), 4),
+        "pairs": count,
+    }
 
 
 def peak_mem_ratio(n: int, stat: str) -> float:
@@ -52,7 +58,8 @@ def peak_mem_ratio(n: int, stat: str) -> float:
         "open('/proc/self/clear_refs', 'w').write('5')\n"
         "base = field('VmRSS:')\n"
         f"allan.{stat}(x, allan.tau_grid('octave', x.size // 2))\n"
-        "print((field('VmHWM:') - base) / x.nbytes)\n")
+        "print((field('VmHWM:') - base) / x.nbytes)\n"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     return round(float(out.stdout.strip()), 3) if out.returncode == 0 else float("nan")
 
@@ -73,6 +80,7 @@ def main() -> int:
     octave = allan.tau_grid("octave", n // 2)
     log = allan.tau_grid("log", n // 2, per_decade=10)
     from imu_allan.stats import kernels
+
     r: dict = {"samples": n, "kernels": "compiled" if kernels.COMPILED else "numpy fallback"}
     print("kernels:", r["kernels"], flush=True)
 
@@ -81,12 +89,21 @@ def main() -> int:
         return float(np.max(np.abs(np.asarray(ours[:k]) / np.asarray(theirs[:k]) - 1)))
 
     cases = [
-        ("overlapping_octave", lambda: allantools.oadev(x, rate=1.0, data_type="freq", taus="octave"),
-         lambda: allan.oavar(x, octave)),
-        ("nonoverlapping_octave", lambda: allantools.adev(x, rate=1.0, data_type="freq", taus="octave"),
-         lambda: allan.avar(x, octave)),
-        ("overlapping_log10", lambda: allantools.oadev(x, rate=1.0, data_type="freq", taus=log.astype(float)),
-         lambda: allan.oavar(x, log)),
+        (
+            "overlapping_octave",
+            lambda: allantools.oadev(x, rate=1.0, data_type="freq", taus="octave"),
+            lambda: allan.oavar(x, octave),
+        ),
+        (
+            "nonoverlapping_octave",
+            lambda: allantools.adev(x, rate=1.0, data_type="freq", taus="octave"),
+            lambda: allan.avar(x, octave),
+        ),
+        (
+            "overlapping_log10",
+            lambda: allantools.oadev(x, rate=1.0, data_type="freq", taus=log.astype(float)),
+            lambda: allan.oavar(x, log),
+        ),
     ]
     for name, fa, fb in cases:
         theirs = fa()[1] ** 2

@@ -9,6 +9,7 @@ bench/results.json.  Targets are reported here, never asserted by tests.
 
 Usage: bench/run.py [--quick] [--out FILE]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -51,12 +52,13 @@ def sizes() -> dict:
         if len(parts) >= 2 and parts[0].startswith(".") and parts[1].isdigit():
             sec[parts[0]] = int(parts[1])
     data = sec.get(".data", 0)
-    return {"flash_bytes": sec.get(".text", 0) + data,
-            "ram_static_bytes": data + sec.get(".bss", 0) + sec.get(".noinit", 0)}
+    return {
+        "flash_bytes": sec.get(".text", 0) + data,
+        "ram_static_bytes": data + sec.get(".bss", 0) + sec.get(".noinit", 0),
+    }
 
 
-def simulate(tmp: Path, name: str, rows: Path, fs: int, uart: str | None = None,
-             tolerate: bool = False) -> dict:
+def simulate(tmp: Path, name: str, rows: Path, fs: int, uart: str | None = None, tolerate: bool = False) -> dict:
     """One run of the real ELF in simavr; its --stats, plus whether the
     device's final report agrees exactly with the float64 reference.
     ``tolerate``: a run that failed (e.g. its final report never came: a
@@ -100,22 +102,24 @@ def square(tmp: Path, n: int) -> Path:
 # the ADC clock and takes 13 ADC clocks; ADIF is set at its last edge.
 # simavr converts in exactly 13 ADC clocks after ADSC (no edge wait), so the
 # true scan is computed from the ADSC delays measured in simavr.
-ADC_PRESCALER = 64        # board.h at 10 MHz: 156.25 kHz, within 50..200 kHz
-INT_RESPONSE = 4          # cycles from a flag to the vector (datasheet minimum), not in the sim figures
+ADC_PRESCALER = 64  # board.h at 10 MHz: 156.25 kHz, within 50..200 kHz
+INT_RESPONSE = 4  # cycles from a flag to the vector (datasheet minimum), not in the sim figures
 
 
 def scan_figures(s: dict) -> dict:
     """The true 7-column scan from the ADSC delays imu-sim measured."""
     f_cpu, clk = s["f_cpu"], ADC_PRESCALER
     chain = s["adsc_after_adc_vector_max"] + INT_RESPONSE  # ADIF -> next ADSC
-    tick = s["adsc_after_tick_max"] + INT_RESPONSE          # OCF1A -> first ADSC
-    conv = 13 + max(1, -(-chain // clk))                     # ADC clocks per chained conversion
+    tick = s["adsc_after_tick_max"] + INT_RESPONSE  # OCF1A -> first ADSC
+    conv = 13 + max(1, -(-chain // clk))  # ADC clocks per chained conversion
     # first conversion: tick latency, up to one ADC clock to its edge, 13 clocks
     scan = tick + clk + 13 * clk + 6 * conv * clk
-    return {"adc_clocks_per_chained_conversion": conv,
-            "adsc_after_adif_cycles": chain,
-            "scan_us": round(scan * 1e6 / f_cpu, 1),
-            "scan_ceiling_hz": int(f_cpu // scan)}
+    return {
+        "adc_clocks_per_chained_conversion": conv,
+        "adsc_after_adif_cycles": chain,
+        "scan_us": round(scan * 1e6 / f_cpu, 1),
+        "scan_ceiling_hz": int(f_cpu // scan),
+    }
 
 
 def device(tmp: Path, quick: bool) -> dict:
@@ -126,8 +130,7 @@ def device(tmp: Path, quick: bool) -> dict:
     fast = simulate(tmp, "cycles", gen(tmp, "r1000", n16, 1000, seed=11), 1000, uart)
     r["cycles_per_sample_mean"] = fast["sample_cycles_mean"]
     sets = fast["sample_count"]
-    r["allan_cycles_per_channel_sample"] = round(
-        fast["allan_cycles_mean"] * fast["allan_count"] / (sets * 6), 1)
+    r["allan_cycles_per_channel_sample"] = round(fast["allan_cycles_mean"] * fast["allan_count"] / (sets * 6), 1)
     r["allan_cycles_per_sample_max"] = fast["allan_cycles_max"]
     r["isr_probe_cycles_max"] = fast["isr_cycles_max"]
     r["cpu_busy_fraction_1khz"] = fast["cpu_busy_fraction"]
@@ -136,13 +139,21 @@ def device(tmp: Path, quick: bool) -> dict:
     # (2^16 sets each, reports streaming); every run's worst set counts.
     best, per_rate, first_bad, runs = 0, {}, None, []
     for fs in RATES:
-        s = fast if fs == 1000 else simulate(tmp, f"rate{fs}", gen(tmp, f"r{fs}", n16, fs, seed=fs), fs, uart,
-                                                  tolerate=True)
+        s = (
+            fast
+            if fs == 1000
+            else simulate(tmp, f"rate{fs}", gen(tmp, f"r{fs}", n16, fs, seed=fs), fs, uart, tolerate=True)
+        )
         runs.append(s)
-        per_rate[fs] = {"drops": s["device_drops"], "exact": s["exact"], "sets": s["device_n"],
-                        "sample_cycles_max": s["sample_cycles_max"],
-                        "period_cycles": s["f_cpu"] // fs, "cpu_busy_fraction": s["cpu_busy_fraction"],
-                        **({"sim_error": s["sim_error"]} if "sim_error" in s else {})}
+        per_rate[fs] = {
+            "drops": s["device_drops"],
+            "exact": s["exact"],
+            "sets": s["device_n"],
+            "sample_cycles_max": s["sample_cycles_max"],
+            "period_cycles": s["f_cpu"] // fs,
+            "cpu_busy_fraction": s["cpu_busy_fraction"],
+            **({"sim_error": s["sim_error"]} if "sim_error" in s else {}),
+        }
         if s.get("device_drops") != 0 or not s["exact"]:
             first_bad = fs
             break
@@ -155,10 +166,12 @@ def device(tmp: Path, quick: bool) -> dict:
     r["isr_any_cycles_max"] = max(s["isr_any_cycles_max"] for s in runs)
     r.update(scan_figures(fast))
     if first_bad is None:
-        r["max_fs_reason"] = (f"every offered rate passed; {RATES[-1]} Hz (period {1e6 / RATES[-1]:.1f} us, "
-                              f"exact on average: Timer1 dithered by one CPU cycle) is the highest the "
-                              f"{r['scan_us']} us scan fits (the next whole rate with an exact period, "
-                              f"1600 Hz = 625 us, is shorter than the scan)")
+        r["max_fs_reason"] = (
+            f"every offered rate passed; {RATES[-1]} Hz (period {1e6 / RATES[-1]:.1f} us, "
+            f"exact on average: Timer1 dithered by one CPU cycle) is the highest the "
+            f"{r['scan_us']} us scan fits (the next whole rate with an exact period, "
+            f"1600 Hz = 625 us, is shorter than the scan)"
+        )
     else:
         r["max_fs_reason"] = f"{first_bad} Hz dropped or was not exact"
 
@@ -182,12 +195,15 @@ def device(tmp: Path, quick: bool) -> dict:
     # while a report streams at 1 kHz they overflow the 8-byte receive
     # ring, and the harness's own final `report` would then be refused as
     # a line that lost bytes (error:5).
-    noise = "".join(f"{i}\t\\x00\\x7f\\xff\\x01\\r\n{i + 100}\treport\\r\n{i + 300}\tstatus\\r\n"
-                    f"{i + 400}\t{'x' * 30}\\r\n" for i in range(100, 19000, 700))
+    noise = "".join(
+        f"{i}\t\\x00\\x7f\\xff\\x01\\r\n{i + 100}\treport\\r\n{i + 300}\tstatus\\r\n{i + 400}\t{'x' * 30}\\r\n"
+        for i in range(100, 19000, 700)
+    )
     worst["noisy_rx"] = simulate(tmp, "noisy", rows, 1000, noise)["stack_free_bytes"]
     # raw rows, at 100 Hz: the highest rate whose raw stream the 115200-baud link carries (link.c)
-    worst["raw_100hz"] = simulate(tmp, "raw", gen(tmp, "r100raw", 12000, 100, seed=25), 100,
-                                  "100\tmode raw\\r\n11800\tmode allan\\r\n")["stack_free_bytes"]
+    worst["raw_100hz"] = simulate(
+        tmp, "raw", gen(tmp, "r100raw", 12000, 100, seed=25), 100, "100\tmode raw\\r\n11800\tmode allan\\r\n"
+    )["stack_free_bytes"]
     r["stack_free_bytes"] = min(worst.values())
     r["stack_free_by_scenario"] = worst
     return r
@@ -208,9 +224,14 @@ def ab_ratio(ref, ours, pairs: int) -> dict:
         t_ref.append(t[0])
         t_ours.append(t[1])
         ratios.append(t[0] / t[1])
-    return {"median": round(float(np.median(ratios)), 2), "min": round(min(ratios), 2),
-            "max": round(max(ratios), 2), "pairs": pairs,
-            "ref_s_median": round(float(np.median(t_ref)), 4), "ours_s_median": round(float(np.median(t_ours)), 4)}
+    return {
+        "median": round(float(np.median(ratios)), 2),
+        "min": round(min(ratios), 2),
+        "max": round(max(ratios), 2),
+        "pairs": pairs,
+        "ref_s_median": round(float(np.median(t_ref)), 4),
+        "ours_s_median": round(float(np.median(t_ours)), 4),
+    }
 
 
 def max_rel(a, b) -> float:
@@ -225,7 +246,7 @@ def longdouble_dev(x: np.ndarray, ms: np.ndarray, overlapping: bool) -> np.ndarr
     reference both imu-allan and allantools are held to."""
     xl = x.astype(np.longdouble)
     X = np.zeros(x.size + 1, dtype=np.longdouble)
-    np.cumsum(xl - xl[:1 << 16].mean(), out=X[1:])
+    np.cumsum(xl - xl[: 1 << 16].mean(), out=X[1:])
     del xl
     out = []
     for m in ms.tolist():
@@ -234,11 +255,10 @@ def longdouble_dev(x: np.ndarray, ms: np.ndarray, overlapping: bool) -> np.ndarr
         acc = np.longdouble(0)
         for a in range(0, c, 1 << 20):
             b = min(a + (1 << 20), c)
-            d = P[a + 2 * s:b + 2 * s] - 2 * P[a + s:b + s] + P[a:b]
+            d = P[a + 2 * s : b + 2 * s] - 2 * P[a + s : b + s] + P[a:b]
             acc += np.sum(d * d)
         out.append(float(np.sqrt(acc / (2 * m * m * c))))
     return np.array(out)
-
 
 
 def _write_npy(path, dtype, m: int, draw) -> None:
@@ -246,13 +266,14 @@ def _write_npy(path, dtype, m: int, draw) -> None:
     arr = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=(m,))
     for i in range(0, m, 10**7):
         k = min(10**7, m - i)
-        arr[i:i + k] = draw(np.random.default_rng(i), k)
+        arr[i : i + k] = draw(np.random.default_rng(i), k)
     del arr
 
 
 def _time_mapped(path, runs: int = 3):
     """allan.octave_mapped over the memory-mapped file, timed ``runs`` times: (result, seconds)."""
     from imu_allan.stats import allan
+
     times = []
     for _ in range(runs):
         t = time.perf_counter()
@@ -260,10 +281,12 @@ def _time_mapped(path, runs: int = 3):
         times.append(time.perf_counter() - t)
     return out, times
 
+
 def outlier_scan() -> dict:
     """Spikes and bursts found before the statistics (outliers.scan): 6 channels x 1e6
     ADC codes of white noise (1.5 to 10 codes, like the ADIS16405 at rest), 100 spikes."""
     from imu_allan.analysis import outliers
+
     rng = np.random.default_rng(5)
     sd = np.array([1.0, 0.8, 1.1, 6.0, 6.5, 7.5])[:, None]
     x = np.rint(512 + sd * rng.standard_normal((6, 10**6)))
@@ -273,9 +296,11 @@ def outlier_scan() -> dict:
         t = time.perf_counter()
         found = outliers.scan(x, 100.0)
         times.append(time.perf_counter() - t)
-    return {"host_outlier_scan_1e6_s": round(float(np.median(times)), 3),
-            "host_outlier_scan_1e6_runs_s": [round(v, 3) for v in times],
-            "host_outlier_scan_found": found.count}
+    return {
+        "host_outlier_scan_1e6_s": round(float(np.median(times)), 3),
+        "host_outlier_scan_1e6_runs_s": [round(v, 3) for v in times],
+        "host_outlier_scan_found": found.count,
+    }
 
 
 def host(tmp: Path, quick: bool) -> dict:
@@ -295,18 +320,24 @@ def host(tmp: Path, quick: bool) -> dict:
     # the octave kernels the public API uses (imu_allan.oadev / adev: stats/kernels.py)
     ours_o = np.sqrt(allan.oavar(x, ms_o)[0])
     ours_a = np.sqrt(allan.avar(x, ms_a)[0])
-    ovl_ab = ab_ratio(lambda: allantools.oadev(x, rate=1.0, data_type="freq", taus="octave"),
-                      lambda: allan.oavar(x, ms_o), pairs)
-    non_ab = ab_ratio(lambda: allantools.adev(x, rate=1.0, data_type="freq", taus="octave"),
-                      lambda: allan.avar(x, ms_a), pairs)
+    ovl_ab = ab_ratio(
+        lambda: allantools.oadev(x, rate=1.0, data_type="freq", taus="octave"), lambda: allan.oavar(x, ms_o), pairs
+    )
+    non_ab = ab_ratio(
+        lambda: allantools.adev(x, rate=1.0, data_type="freq", taus="octave"), lambda: allan.avar(x, ms_a), pairs
+    )
     # Dense grid: about 10 points a decade, overlapping.
     ms_d = allan.tau_grid("log", allan.max_m("oavar", n), 10)
     dn = 10**6  # allantools at every dense tau on 1e7 samples would take minutes
-    taus_d, ref_d = allantools.oadev(x[:dn], rate=1.0, data_type="freq",
-                                     taus=ms_d[ms_d <= allan.max_m("oavar", dn)].astype(float))[:2]
+    taus_d, ref_d = allantools.oadev(
+        x[:dn], rate=1.0, data_type="freq", taus=ms_d[ms_d <= allan.max_m("oavar", dn)].astype(float)
+    )[:2]
     ours_d = np.sqrt(allan.oavar(x[:dn], taus_d.astype(np.int64))[0])
-    dense_ab = ab_ratio(lambda: allantools.oadev(x[:dn], rate=1.0, data_type="freq", taus=taus_d),
-                        lambda: allan.oavar(x[:dn], taus_d.astype(np.int64)), pairs)
+    dense_ab = ab_ratio(
+        lambda: allantools.oadev(x[:dn], rate=1.0, data_type="freq", taus=taus_d),
+        lambda: allan.oavar(x[:dn], taus_d.astype(np.int64)),
+        pairs,
+    )
     r["host_samples"] = n
     r["host_speedup_vs_allantools"] = ovl_ab["median"]
     r["host_speedup_overlapping"] = ovl_ab
@@ -319,18 +350,28 @@ def host(tmp: Path, quick: bool) -> dict:
     r["host_allantools_oadev_s"] = ovl_ab["ref_s_median"]
     r["host_octave_overlapping_s"] = ovl_ab["ours_s_median"]
     r["host_octave_nonoverlapping_s"] = non_ab["ours_s_median"]
-    r["host_max_rel_diff"] = {"overlapping": max_rel(ours_o, ref_o), "nonoverlapping": max_rel(ours_a, ref_a),
-                              "dense": max_rel(ours_d, ref_d)}
+    r["host_max_rel_diff"] = {
+        "overlapping": max_rel(ours_o, ref_o),
+        "nonoverlapping": max_rel(ours_a, ref_a),
+        "dense": max_rel(ours_d, ref_d),
+    }
     # Both against the long double evaluation of the definitions: where the
     # 1e-12 above comes from (allantools' float64 phase of this walk).
     ld_o = longdouble_dev(x, ms_o, True)
     ld_a = longdouble_dev(x, ms_a, False)
     ld_d = longdouble_dev(x[:dn], taus_d.astype(np.int64), True)
     r["host_max_rel_diff_vs_longdouble"] = {
-        "imu_allan": {"overlapping": max_rel(ours_o, ld_o), "nonoverlapping": max_rel(ours_a, ld_a),
-                      "dense": max_rel(ours_d, ld_d)},
-        "allantools": {"overlapping": max_rel(ref_o, ld_o), "nonoverlapping": max_rel(ref_a, ld_a),
-                       "dense": max_rel(ref_d, ld_d)}}
+        "imu_allan": {
+            "overlapping": max_rel(ours_o, ld_o),
+            "nonoverlapping": max_rel(ours_a, ld_a),
+            "dense": max_rel(ours_d, ld_d),
+        },
+        "allantools": {
+            "overlapping": max_rel(ref_o, ld_o),
+            "nonoverlapping": max_rel(ref_a, ld_a),
+            "dense": max_rel(ref_d, ld_d),
+        },
+    }
 
     # Peak RSS growth while analysing, over the input array's size (own process):
     # the octave overlapping kernel the speed figure times (allan.oavar).
@@ -348,7 +389,8 @@ def host(tmp: Path, quick: bool) -> dict:
         "open('/proc/self/clear_refs', 'w').write('5')\n"
         "base = rss()\n"
         "allan.oavar(x, allan.tau_grid('octave', x.size // 2))\n"
-        "print((hwm() - base) / x.nbytes)\n")
+        "print((hwm() - base) / x.nbytes)\n"
+    )
     out = run([sys.executable, "-c", code])
     r["host_peak_mem_ratio"] = round(float(out.stdout.strip()), 3) if out.returncode == 0 else None
     if out.returncode:
@@ -383,46 +425,106 @@ def host(tmp: Path, quick: bool) -> dict:
 # size, RAM and cycles, the simulator's speed and the host's kernels;
 # results.json carries each figure with its target.
 TARGETS = [
-    ("noise_fit_s_per_channel", "<=", 0.5, "s",
-     "CPU seconds of the whole-curve noise fit of one channel of 1e6 samples (bench/run.py noise_fit)"),
+    (
+        "noise_fit_s_per_channel",
+        "<=",
+        0.5,
+        "s",
+        "CPU seconds of the whole-curve noise fit of one channel of 1e6 samples (bench/run.py noise_fit)",
+    ),
     # The project's budget, not the chip's: optiboot's 512 bytes leave 15872.
     # 15360 until the commands' check (+152 bytes: a flipped bit must not
     # run another command), which no saving found in time could pay for.
     ("flash_bytes", "<=", 15512, "bytes", "avr-size -A: .text + .data, ATmega168 (optiboot's 512 bytes leave 15872)"),
     ("ram_static_bytes", "<=", None, "bytes", "avr-size -A: .data + .bss + .noinit"),
-    ("stack_free_bytes", ">=", 64, "bytes",
-     "SRAM painted 0xA5 by imu-sim, bytes never touched between .bss and the deepest stack, "
-     "least over all scenarios"),
+    (
+        "stack_free_bytes",
+        ">=",
+        64,
+        "bytes",
+        "SRAM painted 0xA5 by imu-sim, bytes never touched between .bss and the deepest stack, "
+        "least over all scenarios",
+    ),
     ("allan_octaves", ">=", 15, "", "levels in the device's report header"),
     ("allan_channels", ">=", 6, "", "channels in the device's report rows"),
-    ("cycles_per_sample_mean", "<=", None, "cycles",
-     "PB0 high while the main loop handles one set, 1 kHz, reports streaming"),
-    ("cycles_per_sample_max", "<=", 4000, "cycles",
-     "worst PB0 pulse over every rate run (2^16 sets each), ISRs inside included"),
+    (
+        "cycles_per_sample_mean",
+        "<=",
+        None,
+        "cycles",
+        "PB0 high while the main loop handles one set, 1 kHz, reports streaming",
+    ),
+    (
+        "cycles_per_sample_max",
+        "<=",
+        4000,
+        "cycles",
+        "worst PB0 pulse over every rate run (2^16 sets each), ISRs inside included",
+    ),
     ("allan_cycles_per_channel_sample", "<=", 250, "cycles", "PB2 (around each engine call) total / (sets * 6), 1 kHz"),
     ("isr_cycles_max", "<=", None, "cycles", "ADC ISR from the jump to its vector to the end of reti (imu-sim, PC/SP)"),
     ("scan_us", "<=", None, "us", "7 conversions: ADSC delays measured in imu-sim + the datasheet's clock-edge rule"),
-    ("max_fs_zero_drop_hz", ">=", 1500, "Hz",
-     "offered rates in turn up to the first that drops, 2^16 sets, reports streaming, imu-allan check exact"),
+    (
+        "max_fs_zero_drop_hz",
+        ">=",
+        1500,
+        "Hz",
+        "offered rates in turn up to the first that drops, 2^16 sets, reports streaming, imu-allan check exact",
+    ),
     ("sim_speed_x", ">=", 60, "x", "simulated s per wall s, 100 Hz"),
-    ("host_speedup_vs_allantools", ">=", 10, "x",
-     "octave overlapping vs allantools.oadev(taus='octave'), 1e7, median of 7 A/B pairs"),
-    ("host_speedup_nonoverlapping", ">=", 5, "x",
-     "octave non-overlapping vs allantools.adev(taus='octave'), median of 7 A/B pairs"),
-    ("host_speedup_dense", ">=", 3, "x",
-     "log grid 10/decade, overlapping vs allantools.oadev, 1e6, median of 7 A/B pairs"),
-    ("host_peak_mem_ratio", "<=", 1.1, "x",
-     "peak RSS growth / input bytes, own process, allan.oavar octave, 1e7 float64"),
-    ("host_stream_1e8_s", "<=", 10, "s",
-     "allan.octave_mapped on np.load(mmap_mode='r') of a 1e8 float64 .npy (800 MB) written just before "
-     "(page cache warm, not dropped): overlapping + non-overlapping, every octave exact (stride 1), "
-     "median of 3 runs"),
+    (
+        "host_speedup_vs_allantools",
+        ">=",
+        10,
+        "x",
+        "octave overlapping vs allantools.oadev(taus='octave'), 1e7, median of 7 A/B pairs",
+    ),
+    (
+        "host_speedup_nonoverlapping",
+        ">=",
+        5,
+        "x",
+        "octave non-overlapping vs allantools.adev(taus='octave'), median of 7 A/B pairs",
+    ),
+    (
+        "host_speedup_dense",
+        ">=",
+        3,
+        "x",
+        "log grid 10/decade, overlapping vs allantools.oadev, 1e6, median of 7 A/B pairs",
+    ),
+    (
+        "host_peak_mem_ratio",
+        "<=",
+        1.1,
+        "x",
+        "peak RSS growth / input bytes, own process, allan.oavar octave, 1e7 float64",
+    ),
+    (
+        "host_stream_1e8_s",
+        "<=",
+        10,
+        "s",
+        "allan.octave_mapped on np.load(mmap_mode='r') of a 1e8 float64 .npy (800 MB) written just before "
+        "(page cache warm, not dropped): overlapping + non-overlapping, every octave exact (stride 1), "
+        "median of 3 runs",
+    ),
     ("host_stream_exact_levels", ">=", None, "", "octaves computed at every offset (stride 1), of host_stream_levels"),
-    ("host_stream_codes_1e8_s", "<=", 10, "s",
-     "as host_stream_1e8_s, 1e8 int16 ADC codes (200 MB .npy): exact integer sums (int64 differences, "
-     "128-bit sums of squares), median of 3 runs, page cache warm"),
-    ("host_outlier_scan_1e6_s", "<=", 1.0, "s",
-     "outliers.scan of 6 channels x 1e6 ADC codes (white noise, 100 spikes), median of 5 runs"),
+    (
+        "host_stream_codes_1e8_s",
+        "<=",
+        10,
+        "s",
+        "as host_stream_1e8_s, 1e8 int16 ADC codes (200 MB .npy): exact integer sums (int64 differences, "
+        "128-bit sums of squares), median of 3 runs, page cache warm",
+    ),
+    (
+        "host_outlier_scan_1e6_s",
+        "<=",
+        1.0,
+        "s",
+        "outliers.scan of 6 channels x 1e6 ADC codes (white noise, 100 spikes), median of 5 runs",
+    ),
 ]
 
 
@@ -434,6 +536,7 @@ def noise_fit() -> dict:
     from imu_allan.noise import AR1, LP, RW, Flicker
     from imu_allan.noise.fit import fit_curve
     from imu_allan.stats import allan, edf
+
     fs, n = 100.0, 10**6
     out = []
     for seed in range(3):
@@ -444,8 +547,10 @@ def noise_fit() -> dict:
         efn = edf.edf_function(ms, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
         fit_curve(ms / fs, var, efn, fs=fs)
         out.append(time.process_time() - t0)
-    return {"noise_fit_s_per_channel": round(float(np.median(out)), 3),
-            "noise_fit_s_per_channel_runs": [round(v, 3) for v in out]}
+    return {
+        "noise_fit_s_per_channel": round(float(np.median(out)), 3),
+        "noise_fit_s_per_channel_runs": [round(v, 3) for v in out],
+    }
 
 
 def main() -> int:
@@ -468,15 +573,21 @@ def main() -> int:
     res["targets"] = {key: f"{op} {target}" for key, op, target, _, _ in TARGETS if target is not None}
     res["how"] = {key: how for key, _, _, _, how in TARGETS}
     res["how"]["host_speedup_overlapping"] = "per A/B pair t_allantools / t_ours; median, min, max"
-    res["how"]["host_max_rel_diff"] = ("largest relative difference of the deviations from allantools'; on this "
-                                       "walk+white input allantools' own float64 phase rounds at ~1e-12, while "
-                                       "imu-allan is within ~1e-13 of a long double reference (host_scripts/tests/"
-                                       "test_ckernels.py, test_octave_kernels.py)")
-    res["how"]["host_max_rel_diff_vs_longdouble"] = ("largest relative difference of each side's deviations "
-                                                     "from bench/run.py's longdouble_dev (NIST SP 1065 eqs. 6 "
-                                                     "and 8 on a long double phase), same input and taus")
-    res["how"]["host_kernels"] = ("which implementation the host figures measured: the compiled kernels "
-                                  "(make ext / pip install) or the numpy fallback")
+    res["how"]["host_max_rel_diff"] = (
+        "largest relative difference of the deviations from allantools'; on this "
+        "walk+white input allantools' own float64 phase rounds at ~1e-12, while "
+        "imu-allan is within ~1e-13 of a long double reference (host_scripts/tests/"
+        "test_ckernels.py, test_octave_kernels.py)"
+    )
+    res["how"]["host_max_rel_diff_vs_longdouble"] = (
+        "largest relative difference of each side's deviations "
+        "from bench/run.py's longdouble_dev (NIST SP 1065 eqs. 6 "
+        "and 8 on a long double phase), same input and taus"
+    )
+    res["how"]["host_kernels"] = (
+        "which implementation the host figures measured: the compiled kernels "
+        "(make ext / pip install) or the numpy fallback"
+    )
     Path(args.out).write_text(json.dumps(res, indent=2) + "\n")
     print(f"{'figure':34} {'value':>12}  target")
     for key, op, target, unit, _ in TARGETS:

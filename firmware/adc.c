@@ -43,8 +43,8 @@ static volatile uint8_t next_admux, next_adcsra;
  * one byte for both, as every byte of SRAM is stack margin. */
 static volatile uint8_t flags;
 #define SCANNING 0x01u
-#define LIMITED  0x02u
-static volatile uint32_t budget; /* scans left when limited */
+#define LIMITED 0x02u
+static volatile uint32_t budget;   /* scans left when limited */
 static volatile uint8_t isr_drops; /* counted by the ISRs, 8 bits to keep them small */
 static uint32_t drops;             /* folded in by the main loop */
 
@@ -64,7 +64,7 @@ void adc_init(void)
   while (ADCSRA & (1 << ADSC))
     ;
   ADCSRA = ADCSRA_IDLE | (1 << ADIF); /* ADIF: cleared by writing 1 */
-  DIDR0 = 0x3F; /* ADC0..5 are analog only: no digital input buffers */
+  DIDR0 = 0x3F;                       /* ADC0..5 are analog only: no digital input buffers */
   TCCR1A = 0;
   TCCR1B = (1 << WGM12); /* CTC on OCR1A, clock off until adc_start */
   adc_set_rate(100);
@@ -79,7 +79,7 @@ void adc_init(void)
  * GPIOR0, an I/O register nothing else uses (no SRAM): 0 for an exact
  * rate, else the phase 3, 2, 1 of the period in progress. */
 #define DITHER_HZ 1500u
-#define DITHER_TOP (F_CPU / DITHER_HZ - 1u)                        /* OCR1A of a short period */
+#define DITHER_TOP (F_CPU / DITHER_HZ - 1u)                             /* OCR1A of a short period */
 #define DITHER_LONG ((uint8_t)((F_CPU % DITHER_HZ) / (DITHER_HZ / 3u))) /* long periods in three */
 #if (3ull * F_CPU) % DITHER_HZ != 0 || F_CPU / DITHER_HZ > 65535u
 #  error "1500 Hz needs F_CPU / 1500 to be a whole number of thirds below 65536"
@@ -90,7 +90,7 @@ void adc_init(void)
 
 /* OCR1A of each rate in vocab_rates' order, worked out by the compiler
  * (no division at run time; 1500 Hz's entry is not used: GPIOR0). */
-#define OCR_ITEM(a, hz) (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / (hz) - 1u),
+#define OCR_ITEM(a, hz) (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / (hz)-1u),
 static const uint16_t rate_ocr[] PROGMEM = {VOCAB_RATES(OCR_ITEM, 0)};
 
 void adc_set_rate(uint16_t hz)
@@ -134,7 +134,9 @@ void adc_start(uint8_t lim, uint32_t count)
 uint32_t adc_remaining(void)
 {
   uint32_t r;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { r = (flags & LIMITED) ? budget : ADC_UNLIMITED; }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    r = (flags & LIMITED) ? budget : ADC_UNLIMITED;
+  }
   return r;
 }
 
@@ -242,7 +244,9 @@ uint32_t adc_drops(void)
 
 void adc_clear_drops(void)
 {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { isr_drops = 0; }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    isr_drops = 0;
+  }
   drops = 0;
 }
 
@@ -320,119 +324,115 @@ ISR(TIMER1_COMPA_vect)
 ISR(ADC_vect, ISR_NAKED)
 {
   __asm__ __volatile__(
-    "push r24\n\t"
-    "lds r24, %[mux]\n\t"
-    "sts %[admux], r24\n\t"
-    "lds r24, %[csra]\n\t"
-    "sts %[adcsra], r24\n\t"
-    "in r24, __SREG__\n\t"
-    "push r24\n\t"
-    "push r25\n\t"
-    "push r26\n\t"
-    "push r27\n\t"
-    "push r30\n\t"
-    "push r31\n\t"
-    ADC_ISR_PROBE_ON
-    /* Z = slot = ring + 9 * ring_head, X = &slot->lo[scan_col] */
-    "lds r24, %[head]\n\t"
-    "mov r25, r24\n\t"
-    "lsl r25\n\t"
-    "lsl r25\n\t"
-    "lsl r25\n\t"
-    "add r25, r24\n\t"
-    "ldi r30, lo8(%[ring])\n\t"
-    "ldi r31, hi8(%[ring])\n\t"
-    "add r30, r25\n\t"
-    "ldi r25, 0\n\t"
-    "adc r31, r25\n\t"
-    "lds r24, %[col]\n\t"
-    "movw r26, r30\n\t"
-    "add r26, r24\n\t"
-    "adc r27, r25\n\t"
-    "lds r25, %[adcl]\n\t"   /* ADCL first: reading it locks ADCH until ADCH is read */
-    "st X, r25\n\t"
-    "lds r26, %[adch]\n\t"   /* r26: the code's top 2 bits */
-    /* hi word >> 2, with the top bits in at bits 12..13 */
-    "ldd r25, Z+%[hilo]\n\t"
-    "lsr r25\n\t"
-    "lsr r25\n\t"
-    "ldd r27, Z+%[hilo]+1\n\t"
-    "mov r24, r27\n\t"
-    "andi r24, 3\n\t"
-    "swap r24\n\t"
-    "lsl r24\n\t"
-    "lsl r24\n\t"
-    "or r25, r24\n\t"
-    "std Z+%[hilo], r25\n\t"
-    "lsr r27\n\t"
-    "lsr r27\n\t"
-    "swap r26\n\t"
-    "or r27, r26\n\t"
-    "std Z+%[hilo]+1, r27\n\t"
-    /* the next column */
-    "lds r24, %[col]\n\t"
-    "inc r24\n\t"
-    "cpi r24, %[ncol]\n\t"
-    "brsh 3f\n\t"
-    "sts %[col], r24\n\t"
-    "cpi r24, %[ncol]-1\n\t"
-    "brsh 2f\n\t"
-    "ldi r30, lo8(%[mux1])\n\t"
-    "ldi r31, hi8(%[mux1])\n\t"
-    "add r30, r24\n\t"
-    "ldi r25, 0\n\t"
-    "adc r31, r25\n\t"
-    "lpm r25, Z\n\t"
-    "ori r25, %[ref]\n\t"
-    "sts %[mux], r25\n\t"
-    "rjmp 9f\n"
-    "2:\n\t"
-    "ldi r25, %[idle]\n\t"
-    "sts %[csra], r25\n\t"
-    "rjmp 9f\n"
-    /* scan done: into the ring, or counted as dropped */
-    "3:\n\t"
-    "lds r24, %[head]\n\t"
-    "inc r24\n\t"
-    "cpi r24, %[nring]\n\t"
-    "brne 4f\n\t"
-    "ldi r24, 0\n"
-    "4:\n\t"
-    "lds r25, %[tail]\n\t"
-    "cp r24, r25\n\t"
-    "brne 5f\n\t"
-    "lds r25, %[drops]\n\t"
-    "cpi r25, 0xFF\n\t"
-    "breq 6f\n\t"
-    "inc r25\n\t"
-    "sts %[drops], r25\n\t"
-    "rjmp 6f\n"
-    "5:\n\t"
-    "sts %[head], r24\n"
-    "6:\n\t"
-    "lds r25, %[flags]\n\t"
-    "andi r25, %[notscan]\n\t"
-    "sts %[flags], r25\n"
-    "9:\n\t"
-    ADC_ISR_PROBE_OFF
-    "pop r31\n\t"
-    "pop r30\n\t"
-    "pop r27\n\t"
-    "pop r26\n\t"
-    "pop r25\n\t"
-    "pop r24\n\t"
-    "out __SREG__, r24\n\t"
-    "pop r24\n\t"
-    "reti\n\t"
-    :
-    : [mux] "i"(&next_admux), [csra] "i"(&next_adcsra),
-      [admux] "i"(_SFR_MEM_ADDR(ADMUX)), [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)),
-      [adcl] "i"(_SFR_MEM_ADDR(ADCL)), [adch] "i"(_SFR_MEM_ADDR(ADCH)),
+      "push r24\n\t"
+      "lds r24, %[mux]\n\t"
+      "sts %[admux], r24\n\t"
+      "lds r24, %[csra]\n\t"
+      "sts %[adcsra], r24\n\t"
+      "in r24, __SREG__\n\t"
+      "push r24\n\t"
+      "push r25\n\t"
+      "push r26\n\t"
+      "push r27\n\t"
+      "push r30\n\t"
+      "push r31\n\t" ADC_ISR_PROBE_ON
+      /* Z = slot = ring + 9 * ring_head, X = &slot->lo[scan_col] */
+      "lds r24, %[head]\n\t"
+      "mov r25, r24\n\t"
+      "lsl r25\n\t"
+      "lsl r25\n\t"
+      "lsl r25\n\t"
+      "add r25, r24\n\t"
+      "ldi r30, lo8(%[ring])\n\t"
+      "ldi r31, hi8(%[ring])\n\t"
+      "add r30, r25\n\t"
+      "ldi r25, 0\n\t"
+      "adc r31, r25\n\t"
+      "lds r24, %[col]\n\t"
+      "movw r26, r30\n\t"
+      "add r26, r24\n\t"
+      "adc r27, r25\n\t"
+      "lds r25, %[adcl]\n\t" /* ADCL first: reading it locks ADCH until ADCH is read */
+      "st X, r25\n\t"
+      "lds r26, %[adch]\n\t" /* r26: the code's top 2 bits */
+      /* hi word >> 2, with the top bits in at bits 12..13 */
+      "ldd r25, Z+%[hilo]\n\t"
+      "lsr r25\n\t"
+      "lsr r25\n\t"
+      "ldd r27, Z+%[hilo]+1\n\t"
+      "mov r24, r27\n\t"
+      "andi r24, 3\n\t"
+      "swap r24\n\t"
+      "lsl r24\n\t"
+      "lsl r24\n\t"
+      "or r25, r24\n\t"
+      "std Z+%[hilo], r25\n\t"
+      "lsr r27\n\t"
+      "lsr r27\n\t"
+      "swap r26\n\t"
+      "or r27, r26\n\t"
+      "std Z+%[hilo]+1, r27\n\t"
+      /* the next column */
+      "lds r24, %[col]\n\t"
+      "inc r24\n\t"
+      "cpi r24, %[ncol]\n\t"
+      "brsh 3f\n\t"
+      "sts %[col], r24\n\t"
+      "cpi r24, %[ncol]-1\n\t"
+      "brsh 2f\n\t"
+      "ldi r30, lo8(%[mux1])\n\t"
+      "ldi r31, hi8(%[mux1])\n\t"
+      "add r30, r24\n\t"
+      "ldi r25, 0\n\t"
+      "adc r31, r25\n\t"
+      "lpm r25, Z\n\t"
+      "ori r25, %[ref]\n\t"
+      "sts %[mux], r25\n\t"
+      "rjmp 9f\n"
+      "2:\n\t"
+      "ldi r25, %[idle]\n\t"
+      "sts %[csra], r25\n\t"
+      "rjmp 9f\n"
+      /* scan done: into the ring, or counted as dropped */
+      "3:\n\t"
+      "lds r24, %[head]\n\t"
+      "inc r24\n\t"
+      "cpi r24, %[nring]\n\t"
+      "brne 4f\n\t"
+      "ldi r24, 0\n"
+      "4:\n\t"
+      "lds r25, %[tail]\n\t"
+      "cp r24, r25\n\t"
+      "brne 5f\n\t"
+      "lds r25, %[drops]\n\t"
+      "cpi r25, 0xFF\n\t"
+      "breq 6f\n\t"
+      "inc r25\n\t"
+      "sts %[drops], r25\n\t"
+      "rjmp 6f\n"
+      "5:\n\t"
+      "sts %[head], r24\n"
+      "6:\n\t"
+      "lds r25, %[flags]\n\t"
+      "andi r25, %[notscan]\n\t"
+      "sts %[flags], r25\n"
+      "9:\n\t" ADC_ISR_PROBE_OFF "pop r31\n\t"
+      "pop r30\n\t"
+      "pop r27\n\t"
+      "pop r26\n\t"
+      "pop r25\n\t"
+      "pop r24\n\t"
+      "out __SREG__, r24\n\t"
+      "pop r24\n\t"
+      "reti\n\t"
+      :
+      : [mux] "i"(&next_admux), [csra] "i"(&next_adcsra), [admux] "i"(_SFR_MEM_ADDR(ADMUX)),
+        [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)), [adcl] "i"(_SFR_MEM_ADDR(ADCL)), [adch] "i"(_SFR_MEM_ADDR(ADCH)),
 #if BOARD_PROBES
-      [portb] "I"(_SFR_IO_ADDR(PORTB)),
+        [portb] "I"(_SFR_IO_ADDR(PORTB)),
 #endif
-      [head] "i"(&ring_head), [tail] "i"(&ring_tail), [col] "i"(&scan_col), [ring] "i"(ring),
-      [hilo] "n"(ADC_COLUMNS), [ncol] "n"(ADC_COLUMNS), [nring] "n"(ADC_RING),
-      [mux1] "i"(&adc_mux[1]), [ref] "n"(BOARD_ADMUX_REF), [idle] "n"(ADCSRA_IDLE),
-      [drops] "i"(&isr_drops), [flags] "i"(&flags), [notscan] "n"((uint8_t)~SCANNING));
+        [head] "i"(&ring_head), [tail] "i"(&ring_tail), [col] "i"(&scan_col), [ring] "i"(ring),
+        [hilo] "n"(ADC_COLUMNS), [ncol] "n"(ADC_COLUMNS), [nring] "n"(ADC_RING), [mux1] "i"(&adc_mux[1]),
+        [ref] "n"(BOARD_ADMUX_REF), [idle] "n"(ADCSRA_IDLE), [drops] "i"(&isr_drops), [flags] "i"(&flags),
+        [notscan] "n"((uint8_t)~SCANNING));
 }

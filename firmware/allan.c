@@ -74,7 +74,7 @@ static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ex
   uint16_t a = (uint16_t)(d >> 16), b = (uint16_t)d, up;
   uint32_t t, lo;
   __asm__("" : "+r"(a), "+r"(b)); /* 16 x 16 multiplies, not 32 x 32 */
-  t = (uint32_t)b * b;             /* b^2 */
+  t = (uint32_t)b * b;            /* b^2 */
   lo = c->acc_lo + t;
   up = (uint16_t)(lo < t) + a * a; /* bits 32.. of acc + a^2 2^32 + b^2: below 2^16 */
   t = (uint32_t)a * b * 2u;        /* 2ab, below 2^25, goes in at bit 16 */
@@ -103,7 +103,7 @@ static __attribute__((noinline)) void cell_add_wide(allan_cell_t *c, uint8_t *ex
 /* acc += d^2 for d < 2^16, the common case (every level-0 pair and nearly
  * all others): one 16x16 multiply and a 32-bit add. */
 static inline __attribute__((always_inline)) void cell_add_small(allan_t *a, uint8_t ch, uint8_t level,
-                                                                  allan_cell_t *c, uint16_t d)
+                                                                 allan_cell_t *c, uint16_t d)
 {
   uint32_t sq, lo;
   /* Hide d's origin so that avr-gcc multiplies 16 x 16 (not 32 x 32). */
@@ -156,7 +156,7 @@ void allan_reset(allan_t *a)
  * previous one, store it, and return the next level's new sum (24 bits: it
  * leaves 16 after the last narrow level). */
 static inline __attribute__((always_inline)) allan_sum_t narrow_step(allan_t *a, uint8_t ch, uint8_t k,
-                                                                      allan_cell_t *c, uint16_t v)
+                                                                     allan_cell_t *c, uint16_t v)
 {
   uint16_t last = c->sum_lo;
   if (a->depth != (uint8_t)(ALLAN_TOP_FIRST | (k + 1u))) /* not level k's first cluster */
@@ -205,7 +205,7 @@ static __attribute__((noinline)) uint8_t settle(allan_t *a, uint8_t k)
     }
     cell_add_square(a, ch, k, c, pair_diff(k, v, (allan_sum_t)((up - v) & SUM_MASK)));
   }
-  a->pend &= (allan_pend_t)~((allan_pend_t)1 << k);
+  a->pend &= (allan_pend_t) ~((allan_pend_t)1 << k);
   return ALLAN_OK;
 }
 
@@ -304,20 +304,19 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
     if (n) {
       uint16_t l16;
       k = (uint8_t)(k + n);
-      __asm__ volatile(
-        "1:\n\t"
-        "ld %A[l], %a[c]\n\t"
-        "ldd %B[l], %a[c]+1\n\t"
-        "st %a[c], %A[v]\n\t"
-        "std %a[c]+1, %B[v]\n\t"
-        "add %A[v], %A[l]\n\t"
-        "adc %B[v], %B[l]\n\t"
-        "adiw %A[c], %[size]\n\t"
-        "dec %[n]\n\t"
-        "brne 1b"
-        : [v] "+r"(v16), [n] "+d"(n), [l] "=&r"(l16), [c] "+b"(c)
-        : [size] "n"(sizeof(allan_cell_t))
-        : "memory");
+      __asm__ volatile("1:\n\t"
+                       "ld %A[l], %a[c]\n\t"
+                       "ldd %B[l], %a[c]+1\n\t"
+                       "st %a[c], %A[v]\n\t"
+                       "std %a[c]+1, %B[v]\n\t"
+                       "add %A[v], %A[l]\n\t"
+                       "adc %B[v], %B[l]\n\t"
+                       "adiw %A[c], %[size]\n\t"
+                       "dec %[n]\n\t"
+                       "brne 1b"
+                       : [v] "+r"(v16), [n] "+d"(n), [l] "=&r"(l16), [c] "+b"(c)
+                       : [size] "n"(sizeof(allan_cell_t))
+                       : "memory");
     }
   }
 #else
@@ -347,31 +346,30 @@ static __attribute__((noinline)) void cascade_up(allan_t *a, uint8_t ch, uint16_
       uint8_t n = (uint8_t)(top - k);
       allan_sum_t l;
       k = top;
-      __asm__ volatile(
-        "1:\n\t"
-        "ld %A[l], %a[c]\n\t"
-        "ldd %B[l], %a[c]+1\n\t"
-        "ld %C[l], %a[h]\n\t"
-        "st %a[c], %A[v]\n\t"
-        "std %a[c]+1, %B[v]\n\t"
-        "st %a[h]+, %C[v]\n\t"
-        "add %A[v], %A[l]\n\t"
-        "adc %B[v], %B[l]\n\t"
-        "adc %C[v], %C[l]\n\t"
-        "adiw %A[c], %[size]\n\t"
-        "dec %[n]\n\t"
-        "brne 1b"
-        : [v] "+r"(v), [n] "+d"(n), [l] "=&r"(l), [c] "+b"(c), [h] "+e"(hi)
-        : [size] "n"(sizeof(allan_cell_t))
-        : "memory");
+      __asm__ volatile("1:\n\t"
+                       "ld %A[l], %a[c]\n\t"
+                       "ldd %B[l], %a[c]+1\n\t"
+                       "ld %C[l], %a[h]\n\t"
+                       "st %a[c], %A[v]\n\t"
+                       "std %a[c]+1, %B[v]\n\t"
+                       "st %a[h]+, %C[v]\n\t"
+                       "add %A[v], %A[l]\n\t"
+                       "adc %B[v], %B[l]\n\t"
+                       "adc %C[v], %C[l]\n\t"
+                       "adiw %A[c], %[size]\n\t"
+                       "dec %[n]\n\t"
+                       "brne 1b"
+                       : [v] "+r"(v), [n] "+d"(n), [l] "=&r"(l), [c] "+b"(c), [h] "+e"(hi)
+                       : [size] "n"(sizeof(allan_cell_t))
+                       : "memory");
     }
 #else
     for (; k < top; k++, c++, hi++) {
       last = c->sum_lo | ((allan_sum_t)*hi << 16);
-#if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
+#  if ALLAN_LEVELS > ALLAN_WIDE_LEVEL
       if (k >= ALLAN_WIDE_LEVEL && range_breaks(a, ch, k))
         cell_saturate(c, acc_ext(a, ch, k)); /* cannot vouch for this difference */
-#endif
+#  endif
       c->sum_lo = (uint16_t)v;
       *hi = (uint8_t)(v >> 16);
       /* The next level's cluster is this one and the one before it. */
@@ -418,7 +416,7 @@ static __attribute__((noinline)) void lag_catch_up(allan_t *a)
     uint16_t s0 = c[0].sum_lo, s1 = c[1].sum_lo;
     c[0].sum_lo = s0 & 0x03FFu;
     s0 = (uint16_t)((s0 >> 10) | ((s1 >> 5) & 0x07C0u)); /* level 1's previous sum */
-    s1 &= 0x07FFu;                                        /* and its new one */
+    s1 &= 0x07FFu;                                       /* and its new one */
     c[1].sum_lo = s1;
     cascade_up(a, ch, (uint16_t)(s0 + s1));
   }

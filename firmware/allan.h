@@ -39,13 +39,13 @@
 #define ALLAN_SUM_BITS 24u
 
 /* Per-level result flags. */
-#define ALLAN_FLAG_SAT   0x01u /* accumulator saturated: true sum >= its maximum */
+#define ALLAN_FLAG_SAT 0x01u   /* accumulator saturated: true sum >= its maximum */
 #define ALLAN_FLAG_RANGE 0x02u /* code range too wide for an exact 24-bit difference */
 
 /* allan_push() return codes. */
-#define ALLAN_OK         0u
-#define ALLAN_ERR_CODE   1u /* a code above ALLAN_CODE_MAX: nothing was pushed */
-#define ALLAN_ERR_FULL   2u /* sample counter at 2^32 - 1: nothing was pushed */
+#define ALLAN_OK 0u
+#define ALLAN_ERR_CODE 1u /* a code above ALLAN_CODE_MAX: nothing was pushed */
+#define ALLAN_ERR_FULL 2u /* sample counter at 2^32 - 1: nothing was pushed */
 
 #if defined(__GNUC__) && !defined(__AVR__)
 #  define ALLAN_PACKED __attribute__((packed))
@@ -60,14 +60,14 @@
 /* One channel-level: 7 bytes, plus one in sum_hi[] above the narrow levels
  * and one in acc_hi[] from level ALLAN_ACC48_FROM. */
 typedef struct ALLAN_PACKED {
-  uint16_t sum_lo;  /* last complete cluster sum, bits 0..15 (mod 2^24) */
-  uint32_t acc_lo;  /* sum of squared differences, bits 0..31 */
-  uint8_t  acc_mid; /*                             bits 32..39 */
+  uint16_t sum_lo; /* last complete cluster sum, bits 0..15 (mod 2^24) */
+  uint32_t acc_lo; /* sum of squared differences, bits 0..31 */
+  uint8_t acc_mid; /*                             bits 32..39 */
 } allan_cell_t;
 
 /* allan_t.depth: the levels the set in progress completes, and flags. */
 #define ALLAN_DEPTH_MASK 0x3Fu
-#define ALLAN_LAGGING   0x40u /* some channels lag this set (allan.c, lag_park) */
+#define ALLAN_LAGGING 0x40u   /* some channels lag this set (allan.c, lag_park) */
 #define ALLAN_TOP_FIRST 0x80u /* the top one has no pair yet */
 
 /* Lagging channels: in a set that completes ALLAN_LAG_DEPTH levels or more
@@ -99,17 +99,18 @@ typedef struct {
   uint16_t min[ALLAN_CHANNELS]; /* smallest code seen (ALLAN_CODE_MAX before any) */
   uint16_t max[ALLAN_CHANNELS]; /* largest code seen (0 before any) */
 #endif
-  uint32_t n;                   /* sample sets pushed */
-  uint8_t depth;                /* levels the set in progress completes (allan_begin),
+  uint32_t n;        /* sample sets pushed */
+  uint8_t depth;     /* levels the set in progress completes (allan_begin),
                                    | ALLAN_TOP_FIRST when the top one has no pair yet,
                                    | ALLAN_LAGGING while channels lag */
-  allan_pend_t pend;            /* levels whose pairs are deferred */
+  allan_pend_t pend; /* levels whose pairs are deferred */
 } allan_t;
 
 /* Bytes of state for a build: what `avr-size` sees of the engine. */
-#define ALLAN_STATE_BYTES \
-  (ALLAN_CHANNELS * (7u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) \
-   + (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) + 5u + sizeof(allan_pend_t))
+#define ALLAN_STATE_BYTES                                                                                    \
+  (ALLAN_CHANNELS * (7u * ALLAN_LEVELS + (ALLAN_LEVELS - ALLAN_NARROW_LEVELS) +                              \
+                     (ALLAN_LEVELS - ALLAN_ACC48_FROM) + (ALLAN_LEVELS > ALLAN_WIDE_LEVEL ? 4u : 0u)) +      \
+   5u + sizeof(allan_pend_t))
 
 /* 1 when a level's accumulator has 48 bits (written so that a zero
  * ALLAN_ACC48_FROM draws no "always true" warning). */

@@ -20,10 +20,12 @@
 #define BOARD_ADC_GYR_X 3
 #define BOARD_ADC_GYR_Y 4
 #define BOARD_ADC_GYR_Z 5
-#define BOARD_ADC_TEMP  6
-#define BOARD_ADC_MUX_LIST { BOARD_ADC_ACC_X, BOARD_ADC_ACC_Y, BOARD_ADC_ACC_Z, \
-                             BOARD_ADC_GYR_X, BOARD_ADC_GYR_Y, BOARD_ADC_GYR_Z, \
-                             BOARD_ADC_TEMP }
+#define BOARD_ADC_TEMP 6
+#define BOARD_ADC_MUX_LIST                                                                                   \
+  {                                                                                                          \
+    BOARD_ADC_ACC_X, BOARD_ADC_ACC_Y, BOARD_ADC_ACC_Z, BOARD_ADC_GYR_X, BOARD_ADC_GYR_Y, BOARD_ADC_GYR_Z,    \
+        BOARD_ADC_TEMP                                                                                       \
+  }
 
 /* Reference: AVCC, the board's regulated 3.3 V (the thesis' Vref; the
  * host converts codes to volts, the firmware never needs the value). */
@@ -31,22 +33,22 @@
 
 /* ADC clock must be 50..200 kHz for full 10-bit accuracy: pick the
  * smallest prescaler that brings F_CPU under 200 kHz. */
-#if   F_CPU / 2   <= 200000UL
+#if F_CPU / 2 <= 200000UL
 #  define BOARD_ADC_PRESCALER 2
 #  define BOARD_ADPS ((1 << ADPS0))
-#elif F_CPU / 4   <= 200000UL
+#elif F_CPU / 4 <= 200000UL
 #  define BOARD_ADC_PRESCALER 4
 #  define BOARD_ADPS ((1 << ADPS1))
-#elif F_CPU / 8   <= 200000UL
+#elif F_CPU / 8 <= 200000UL
 #  define BOARD_ADC_PRESCALER 8
 #  define BOARD_ADPS ((1 << ADPS1) | (1 << ADPS0))
-#elif F_CPU / 16  <= 200000UL
+#elif F_CPU / 16 <= 200000UL
 #  define BOARD_ADC_PRESCALER 16
 #  define BOARD_ADPS ((1 << ADPS2))
-#elif F_CPU / 32  <= 200000UL
+#elif F_CPU / 32 <= 200000UL
 #  define BOARD_ADC_PRESCALER 32
 #  define BOARD_ADPS ((1 << ADPS2) | (1 << ADPS0))
-#elif F_CPU / 64  <= 200000UL
+#elif F_CPU / 64 <= 200000UL
 #  define BOARD_ADC_PRESCALER 64
 #  define BOARD_ADPS ((1 << ADPS2) | (1 << ADPS1))
 #else
@@ -58,7 +60,7 @@
 #endif
 
 /* MMA7260Q g-select: GS1 on PD6, GS2 on PD7 (00=1.5g 01=2g 10=4g 11=6g). */
-#define BOARD_GSEL_DDR  DDRD
+#define BOARD_GSEL_DDR DDRD
 #define BOARD_GSEL_PORT PORTD
 #define BOARD_GSEL1_BIT PD6
 #define BOARD_GSEL2_BIT PD7
@@ -73,11 +75,11 @@
 #if BOARD_PROBES
 #  define BOARD_PROBE_INIT() (DDRB |= (1 << PB0) | (1 << PB1) | (1 << PB2))
 #  define BOARD_PROBE_ALLAN_ON() (PORTB |= (1 << PB2))
-#  define BOARD_PROBE_ALLAN_OFF() (PORTB &= (uint8_t)~(1 << PB2))
+#  define BOARD_PROBE_ALLAN_OFF() (PORTB &= (uint8_t) ~(1 << PB2))
 #  define BOARD_PROBE_SAMPLE_ON() (PORTB |= (1 << PB0))
-#  define BOARD_PROBE_SAMPLE_OFF() (PORTB &= (uint8_t)~(1 << PB0))
+#  define BOARD_PROBE_SAMPLE_OFF() (PORTB &= (uint8_t) ~(1 << PB0))
 #  define BOARD_PROBE_ISR_ON() (PORTB |= (1 << PB1))
-#  define BOARD_PROBE_ISR_OFF() (PORTB &= (uint8_t)~(1 << PB1))
+#  define BOARD_PROBE_ISR_OFF() (PORTB &= (uint8_t) ~(1 << PB1))
 #else
 #  define BOARD_PROBE_INIT() ((void)0)
 #  define BOARD_PROBE_ALLAN_ON() ((void)0)

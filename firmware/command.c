@@ -7,10 +7,10 @@
 /* Words, in the order of the CMD_* ids starting at CMD_REPORT, and the
  * argument each takes. */
 static const char cmd_words[] PROGMEM =
-  "report\0reset\0stop\0start\0rate\0status\0help\0interval\0mode\0range\0save\0load\0defaults\0echo\0units";
-static const uint8_t cmd_arg[] PROGMEM = {ARG_NONE, ARG_NONE,    ARG_NONE, ARG_COUNT, ARG_RATE,
-                                          ARG_NONE, ARG_NONE,    ARG_SECONDS, ARG_MODE, ARG_RANGE,
-                                          ARG_NONE, ARG_NONE,    ARG_NONE, ARG_ONOFF, ARG_UNITS};
+    "report\0reset\0stop\0start\0rate\0status\0help\0interval\0mode\0range\0save\0load\0defaults\0echo\0units";
+static const uint8_t cmd_arg[] PROGMEM = {ARG_NONE, ARG_NONE, ARG_NONE,    ARG_COUNT, ARG_RATE,
+                                          ARG_NONE, ARG_NONE, ARG_SECONDS, ARG_MODE,  ARG_RANGE,
+                                          ARG_NONE, ARG_NONE, ARG_NONE,    ARG_ONOFF, ARG_UNITS};
 
 const char *command_word(uint8_t id)
 {
@@ -72,8 +72,10 @@ uint8_t command_parse(const char *line, command_t *out)
       return CMD_ERR_ARG;
     } else if (kind >= ARG_MODE) {
       uint8_t count = kind == ARG_MODE ? VOCAB_MODES : kind == ARG_RANGE ? VOCAB_RANGES : 2;
-      uint8_t v = vocab_find(kind == ARG_MODE ? vocab_modes : kind == ARG_RANGE ? vocab_ranges :
-                             kind == ARG_ONOFF ? vocab_onoff : vocab_units,
+      uint8_t v = vocab_find(kind == ARG_MODE  ? vocab_modes :
+                             kind == ARG_RANGE ? vocab_ranges :
+                             kind == ARG_ONOFF ? vocab_onoff :
+                                                 vocab_units,
                              count, p, len);
       if (v == count)
         return CMD_ERR_ARG;

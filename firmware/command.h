@@ -22,13 +22,13 @@ enum {
   CMD_STATUS,
   CMD_HELP,
   CMD_INTERVAL,
-  CMD_MODE,     /* arg: MODE_* */
-  CMD_RANGE,    /* arg: RANGE_* (g-select code) */
+  CMD_MODE,  /* arg: MODE_* */
+  CMD_RANGE, /* arg: RANGE_* (g-select code) */
   CMD_SAVE,
   CMD_LOAD,
   CMD_DEFAULTS,
-  CMD_ECHO,     /* arg: 0 off, 1 on; none: show the setting */
-  CMD_UNITS     /* arg: 0 phys, 1 counts; none: show the setting */
+  CMD_ECHO, /* arg: 0 off, 1 on; none: show the setting */
+  CMD_UNITS /* arg: 0 phys, 1 counts; none: show the setting */
 };
 #define CMD_COUNT 15 /* commands, CMD_REPORT .. CMD_UNITS */
 
@@ -39,15 +39,14 @@ enum { ARG_NONE, ARG_COUNT, ARG_RATE, ARG_SECONDS, ARG_MODE, ARG_RANGE, ARG_ONOF
 const char *command_word(uint8_t id);
 uint8_t command_arg_kind(uint8_t id);
 
-
 /* Error codes of `error:<code>` replies. */
-#define CMD_OK          0
+#define CMD_OK 0
 #define CMD_ERR_UNKNOWN 1
-#define CMD_ERR_ARG     2
-#define CMD_ERR_LONG    3
-#define CMD_ERR_STATE   4
-#define CMD_ERR_LOST    5 /* bytes of the line were lost on the way in */
-#define CMD_ERR_BYTE    6 /* a byte no command holds: NUL, a control, 8-bit */
+#define CMD_ERR_ARG 2
+#define CMD_ERR_LONG 3
+#define CMD_ERR_STATE 4
+#define CMD_ERR_LOST 5    /* bytes of the line were lost on the way in */
+#define CMD_ERR_BYTE 6    /* a byte no command holds: NUL, a control, 8-bit */
 #define CMD_ERR_TIMEOUT 7 /* no end of line within CONSOLE_TIMEOUT_MS of silence */
 
 typedef struct {

@@ -110,14 +110,16 @@
 #ifdef BAUD
 #  include "link.h"
 #  if MODE_DEFAULT == MODE_RAW || MODE_DEFAULT == MODE_BOTH
-#    define CONFIG_LINK_BYTES (FS_DEFAULT * LINK_RAW_ROW + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
+#    define CONFIG_LINK_BYTES                                                                                \
+      (FS_DEFAULT * LINK_RAW_ROW + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
 #    if MODE_DEFAULT == MODE_RAW
 #      define CONFIG_LINK_WAIT (LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW)
 #    else
 #      define CONFIG_LINK_WAIT (LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW)
 #    endif
 #  elif MODE_DEFAULT == MODE_BINARY
-#    define CONFIG_LINK_BYTES (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
+#    define CONFIG_LINK_BYTES                                                                                \
+      (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
 #    define CONFIG_LINK_WAIT (UART_STEP_MAX + LINK_FRAME)
 #  else
 #    define CONFIG_LINK_BYTES 0

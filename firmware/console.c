@@ -10,7 +10,7 @@
 #include "uart.h"
 
 /* The timeout in clock ticks, rounded up. */
-#define CONSOLE_TIMEOUT_TICKS \
+#define CONSOLE_TIMEOUT_TICKS                                                                                \
   ((CONSOLE_TIMEOUT_MS * (F_CPU / 1000UL) + CLOCK_TICK_CYCLES - 1UL) / CLOCK_TICK_CYCLES)
 #if CONSOLE_TIMEOUT_TICKS > 250
 #  error "CONSOLE_TIMEOUT_MS is longer than the console's clock can count at this F_CPU (clock.h)"
@@ -22,21 +22,21 @@
 
 /* flags */
 #define READY 1  /* the line is complete (or refused) and waits to run */
-#define RUN   2  /* taken: the end of its echo frees it */
-#define OPEN  4  /* an echo line is on the screen: "> " out, its CR LF not yet */
-#define DROP  8  /* that echo line was dropped: "^C" CR LF due */
-#define STAR  16 /* the line's check `*XXXX` has begun: bytes go to sum */
+#define RUN 2    /* taken: the end of its echo frees it */
+#define OPEN 4   /* an echo line is on the screen: "> " out, its CR LF not yet */
+#define DROP 8   /* that echo line was dropped: "^C" CR LF due */
+#define STAR 16  /* the line's check `*XXXX` has begun: bytes go to sum */
 #define DIGIT 32 /* the check's hex digits so far, in the 3 top bits (7: malformed) */
 #define DIGITS (DIGIT * 7)
 
 static struct {
   char text[COMMAND_LINE_MAX + 1];
   uint8_t len;
-  uint8_t err;   /* the CMD_ERR_* that refuses the line, 0 if none */
+  uint8_t err; /* the CMD_ERR_* that refuses the line, 0 if none */
   uint8_t flags;
-  uint8_t shown; /* characters of text on the screen (echo) */
-  uint8_t keep;  /* of them, still equal to text */
-  uint16_t sum;  /* the check's digits so far (not in text, not echoed) */
+  uint8_t shown;                  /* characters of text on the screen (echo) */
+  uint8_t keep;                   /* of them, still equal to text */
+  uint16_t sum;                   /* the check's digits so far (not in text, not echoed) */
   uint16_t count[CONSOLE_COUNTS]; /* console.h's console_count() */
 } con;
 
@@ -63,11 +63,11 @@ static void feed(uint8_t c)
   if (c == '\r' || c == '\n') {
     if ((f & STAR) && (uint8_t)(f & DIGITS) != 4 * DIGIT)
       con.err = CMD_ERR_LOST; /* a check cut short, changed or malformed */
-    con.flags = f & (uint8_t)~(STAR | DIGITS);
+    con.flags = f & (uint8_t) ~(STAR | DIGITS);
     if (con.len || con.err) /* blank lines are ignored (an echo line "> " stays open) */
       con.flags |= READY;
   } else if (c == 0x03 || c == 0x1B) {
-    f &= (uint8_t)~(STAR | DIGITS);
+    f &= (uint8_t) ~(STAR | DIGITS);
     if (f & OPEN)
       f |= DROP; /* shown: marked as dropped */
     con.flags = f;
@@ -79,7 +79,7 @@ static void feed(uint8_t c)
     d = (uint8_t)(d + (d > 9 ? 'A' - 10 : '0'));
     con.sum = (uint16_t)(con.sum << 4);
     if (d != c || (f & 4 * DIGIT)) /* 4 digits already (or malformed) */
-      f |= DIGITS; /* never 4 digits again: refused at the end */
+      f |= DIGITS;                 /* never 4 digits again: refused at the end */
     else
       f += DIGIT;
     con.flags = f;
@@ -136,7 +136,7 @@ static void end_line(void)
   }
   uart_write('\r');
   uart_write('\n');
-  con.flags &= (uint8_t)~(OPEN | DROP);
+  con.flags &= (uint8_t) ~(OPEN | DROP);
   con.shown = con.keep = 0;
 }
 

@@ -21,7 +21,7 @@
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
 {
-  uint8_t port = BOARD_GSEL_PORT & (uint8_t)~((1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT));
+  uint8_t port = BOARD_GSEL_PORT & (uint8_t) ~((1 << BOARD_GSEL1_BIT) | (1 << BOARD_GSEL2_BIT));
   if (range & 1u)
     port |= (1 << BOARD_GSEL1_BIT);
   if (range & 2u)
@@ -151,7 +151,8 @@ static __attribute__((noinline)) void run_load(void)
   if (loaded != CFG_SAVED) {
     settings = before; /* nothing usable saved: keep what is in force */
     settings_source = source;
-    switchboard_error(CMD_ERR_STATE, CMD_LOAD, loaded == CFG_INFEASIBLE ? link_slow_P : PSTR("nothing saved\0save first"));
+    switchboard_error(CMD_ERR_STATE, CMD_LOAD,
+                      loaded == CFG_INFEASIBLE ? link_slow_P : PSTR("nothing saved\0save first"));
     return;
   }
   switchboard_ok_word(PSTR("loaded"), reset_tail_P, apply_settings());
@@ -183,12 +184,8 @@ static void execute(const command_t *cmd)
     sample_feed();
     switchboard_ok_n(PSTR("stopped n="), sample_engine.n);
     break;
-  case CMD_START:
-    run_start(cmd);
-    break;
-  case CMD_RATE:
-    run_rate(cmd->arg);
-    break;
+  case CMD_START: run_start(cmd); break;
+  case CMD_RATE: run_rate(cmd->arg); break;
   case CMD_INTERVAL:
     if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
       switchboard_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long\0"));
@@ -197,9 +194,7 @@ static void execute(const command_t *cmd)
       switchboard_ok_n(PSTR("interval="), cmd->arg);
     }
     break;
-  case CMD_MODE:
-    run_mode((uint8_t)cmd->arg);
-    break;
+  case CMD_MODE: run_mode((uint8_t)cmd->arg); break;
   case CMD_RANGE:
     settings.range = (uint8_t)cmd->arg;
     switchboard_ok_word(reset_range_P + (apply_settings() ? 0 : 6), vocab_ranges, settings.range);
@@ -207,16 +202,12 @@ static void execute(const command_t *cmd)
   case CMD_SAVE:
     settings_save(); /* replied when the last byte is written */
     break;
-  case CMD_LOAD:
-    run_load();
-    break;
+  case CMD_LOAD: run_load(); break;
   case CMD_DEFAULTS:
     settings_defaults();
     switchboard_ok_word(PSTR("defaults"), reset_tail_P, apply_settings());
     break;
-  case CMD_STATUS:
-    switchboard_status();
-    break;
+  case CMD_STATUS: switchboard_status(); break;
   case CMD_ECHO:
     if (cmd->has_arg)
       settings.echo = (uint8_t)cmd->arg;
@@ -227,9 +218,7 @@ static void execute(const command_t *cmd)
       settings.counts = (uint8_t)cmd->arg;
     switchboard_ok_word(PSTR("units="), vocab_units, settings.counts);
     break;
-  default: /* CMD_HELP */
-    switchboard_help();
-    break;
+  default: /* CMD_HELP */ switchboard_help(); break;
   }
 }
 
@@ -275,8 +264,9 @@ void control_poll(void)
   poll_commands();
   /* A periodic report never waits on a half-typed line: an echo line on
    * the screen is ended first, and shown again after the report. */
-  if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY && !settings_saving() &&
-      !switchboard_busy() && sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz && console_close())
+  if (settings.interval_s && settings.mode != MODE_RAW && settings.mode != MODE_BINARY &&
+      !settings_saving() && !switchboard_busy() &&
+      sample_stats.since_report >= (uint32_t)settings.interval_s * settings.rate_hz && console_close())
     switchboard_report(); /* its header restarts the interval */
 }
 

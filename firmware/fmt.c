@@ -11,8 +11,8 @@
 uint8_t fmt_u32(char *buf, uint32_t v)
 {
   /* Digits from the top by repeated subtraction: no division, no buffer. */
-  static const uint32_t pow10[9] PROGMEM = {1000000000ul, 100000000ul, 10000000ul, 1000000ul,
-                                    100000ul, 10000ul, 1000ul, 100ul, 10ul};
+  static const uint32_t pow10[9] PROGMEM = {1000000000ul, 100000000ul, 10000000ul, 1000000ul, 100000ul,
+                                            10000ul,      1000ul,      100ul,      10ul};
   uint8_t n = 0, i;
   for (i = 0; i < 9; i++) {
     uint32_t p = pgm_read_dword(&pow10[i]);
@@ -63,10 +63,10 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
     /* With m in [2^31, 2^32), value in [2^(31+e), 2^(32+e)). */
     uint8_t s = (uint8_t)-e;
     r = e >= -21 ? 1000u : e < -25 ? 0u : (uint16_t)(m >> s);
-    if (r >= 1000u) {            /* divide by 10 */
+    if (r >= 1000u) { /* divide by 10 */
       m /= 10u;
       j--;
-    } else if (r < 100u) {       /* multiply by 10 = by 0.625 * 16 */
+    } else if (r < 100u) { /* multiply by 10 = by 0.625 * 16 */
       m = (m >> 1) + (m >> 3);
       e = (int8_t)(e + 4);
       j++;
@@ -151,8 +151,8 @@ int8_t fmt_adev(uint32_t *mant, uint16_t acc_hi, uint32_t acc_lo, uint32_t pairs
     p <<= 1;
     e++;
   }
-  q = a / p;           /* in (2^15, 2^17]: 16 significant bits */
-  e--;                 /* the 2 of 2 * pairs */
+  q = a / p; /* in (2^15, 2^17]: 16 significant bits */
+  e--;       /* the 2 of 2 * pairs */
   /* sqrt needs an even exponent and a mantissa near 2^30. */
   if (e & 1) {
     q <<= 1;

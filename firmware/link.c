@@ -26,11 +26,11 @@ uint8_t link_fits(uint8_t mode, uint16_t fs, uint32_t baud)
 #ifdef BAUD
 /* By rate, in vocab_rates' order: the percent of raw and both (the same
  * rows), of binary, and which modes fit (bit MODE_*). */
-#define LINK_ENTRY(baud, hz)                                                                        \
-  {LINK_PERCENT(MODE_RAW, hz##ul, baud), LINK_PERCENT(MODE_BINARY, hz##ul, baud),                   \
-   (uint8_t)((1u << MODE_ALLAN) | (LINK_FITS(MODE_RAW, hz##ul, baud) ? 1u << MODE_RAW : 0u) |       \
-             (LINK_FITS(MODE_BINARY, hz##ul, baud) ? 1u << MODE_BINARY : 0u) |                      \
-             (LINK_FITS(MODE_BOTH, hz##ul, baud) ? 1u << MODE_BOTH : 0u))},
+#  define LINK_ENTRY(baud, hz)                                                                               \
+    {LINK_PERCENT(MODE_RAW, hz##ul, baud), LINK_PERCENT(MODE_BINARY, hz##ul, baud),                          \
+     (uint8_t)((1u << MODE_ALLAN) | (LINK_FITS(MODE_RAW, hz##ul, baud) ? 1u << MODE_RAW : 0u) |              \
+               (LINK_FITS(MODE_BINARY, hz##ul, baud) ? 1u << MODE_BINARY : 0u) |                             \
+               (LINK_FITS(MODE_BOTH, hz##ul, baud) ? 1u << MODE_BOTH : 0u))},
 static const struct {
   uint16_t rows, frames;
   uint8_t fits;

@@ -20,25 +20,28 @@
 #define LINK_COUNT_EVERY 100u
 #define LINK_FRAME 13u      /* one binary frame */
 #define LINK_REPLY_MAX 131u /* longest reply line: status, with every field at its longest (rx= included) */
-#define LINK_REPORT_MAX 313u /* longest report line: the header with every count at its maximum (rx= included) */
+#define LINK_REPORT_MAX                                                                                      \
+  313u /* longest report line: the header with every count at its maximum (rx= included) */
 #define LINK_USE_PERCENT 90u /* of BAUD/10 bytes per second, at most */
 
 /* The rules, as expressions of constants when their arguments are (the
  * device's table below, config.h's check of the defaults), and the
  * functions that apply them to any mode, rate and baud (the unit tests). */
 #define LINK_COUNT_BYTES_(fs) (((fs) * (uint32_t)LINK_COUNT_LINE + LINK_COUNT_EVERY - 1u) / LINK_COUNT_EVERY)
-#define LINK_BYTES_PER_S(mode, fs) \
-  ((mode) == MODE_RAW || (mode) == MODE_BOTH ? (fs) * (uint32_t)LINK_RAW_ROW + LINK_COUNT_BYTES_(fs) \
-   : (mode) == MODE_BINARY ? (fs) * (uint32_t)LINK_FRAME + LINK_COUNT_BYTES_(fs) : 0u)
-#define LINK_WAIT_BYTES(mode) \
-  ((mode) == MODE_RAW ? LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW \
-   : (mode) == MODE_BOTH ? LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW \
-   : (mode) == MODE_BINARY ? UART_STEP_MAX + LINK_FRAME : 0u)
-#define LINK_PERCENT(mode, fs, baud) \
+#define LINK_BYTES_PER_S(mode, fs)                                                                           \
+  ((mode) == MODE_RAW || (mode) == MODE_BOTH ? (fs) * (uint32_t)LINK_RAW_ROW + LINK_COUNT_BYTES_(fs) :       \
+   (mode) == MODE_BINARY                     ? (fs) * (uint32_t)LINK_FRAME + LINK_COUNT_BYTES_(fs) :         \
+                                               0u)
+#define LINK_WAIT_BYTES(mode)                                                                                \
+  ((mode) == MODE_RAW    ? LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW :                                   \
+   (mode) == MODE_BOTH   ? LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW :                                  \
+   (mode) == MODE_BINARY ? UART_STEP_MAX + LINK_FRAME :                                                      \
+                           0u)
+#define LINK_PERCENT(mode, fs, baud)                                                                         \
   ((uint16_t)((LINK_BYTES_PER_S(mode, fs) * 100u + (baud) / 10u - 1u) / ((baud) / 10u)))
-#define LINK_FITS(mode, fs, baud) \
-  (LINK_BYTES_PER_S(mode, fs) * 100u <= ((baud) / 10u) * LINK_USE_PERCENT && \
-   (uint32_t)LINK_WAIT_BYTES(mode) * (fs) * 100u <= 2u * ((baud) / 10u) * LINK_USE_PERCENT)
+#define LINK_FITS(mode, fs, baud)                                                                            \
+  (LINK_BYTES_PER_S(mode, fs) * 100u <= ((baud) / 10u) * LINK_USE_PERCENT &&                                 \
+   (uint32_t)LINK_WAIT_BYTES(mode) * (fs)*100u <= 2u * ((baud) / 10u) * LINK_USE_PERCENT)
 
 /* Bytes per second the mode sends at rate fs, worst case, reports aside. */
 uint32_t link_bytes_per_s(uint8_t mode, uint16_t fs);

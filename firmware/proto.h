@@ -18,7 +18,7 @@ typedef void (*proto_sink_t)(uint8_t c);
 #else
 void proto_init(proto_sink_t sink);
 #endif
-void proto_begin(void);                 /* '$', CRC restarts */
+void proto_begin(void); /* '$', CRC restarts */
 
 /* A line whose body also goes into the bound CRC (CRC-16/MODBUS over the
  * bodies of every such line since proto_bound_restart()): a report's H
@@ -26,12 +26,12 @@ void proto_begin(void);                 /* '$', CRC restarts */
 void proto_begin_bound(void);
 void proto_bound_restart(void);
 uint16_t proto_bound(void);
-void proto_putc(char c);                /* one body character */
-void proto_puts(const char *s);         /* body text from RAM */
-void proto_puts_P(const char *s);       /* body text from flash (PSTR) */
-void proto_u32(uint32_t v);             /* decimal */
+void proto_putc(char c);                    /* one body character */
+void proto_puts(const char *s);             /* body text from RAM */
+void proto_puts_P(const char *s);           /* body text from flash (PSTR) */
+void proto_u32(uint32_t v);                 /* decimal */
 void proto_hex(uint32_t v, uint8_t digits); /* digits: 0..8 */
-void proto_end(void);                   /* '*', CRC, CR LF */
+void proto_end(void);                       /* '*', CRC, CR LF */
 
 /* One byte outside any line (raw rows, binary frames), straight to the
  * sink: no escaping, no CRC. */

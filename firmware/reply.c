@@ -25,7 +25,7 @@ static struct {
     struct {
       const char *text_P;
       union {
-        uint32_t n;         /* REPLY_TAIL_NUM */
+        uint32_t n; /* REPLY_TAIL_NUM */
         struct {
           const char *list_P; /* REPLY_TAIL_WORD: word n of this list */
           uint8_t n;
@@ -97,13 +97,13 @@ static const struct {
   const char *list, *pre, *post;
   uint8_t count;
 } allowed[] PROGMEM = {
-  {0, count_P, 0, 0},                              /* ARG_COUNT */
-  {0, 0, hz_P, VOCAB_RATE_COUNT},                           /* ARG_RATE */
-  {0, seconds_P, 0, 0},                            /* ARG_SECONDS */
-  {vocab_modes, 0, 0, VOCAB_MODES},                /* ARG_MODE */
-  {vocab_ranges, 0, g_P, VOCAB_RANGES},            /* ARG_RANGE */
-  {vocab_onoff, open_P, close_P, 2},               /* ARG_ONOFF */
-  {vocab_units, open_P, close_P, 2},               /* ARG_UNITS */
+    {0, count_P, 0, 0},                   /* ARG_COUNT */
+    {0, 0, hz_P, VOCAB_RATE_COUNT},       /* ARG_RATE */
+    {0, seconds_P, 0, 0},                 /* ARG_SECONDS */
+    {vocab_modes, 0, 0, VOCAB_MODES},     /* ARG_MODE */
+    {vocab_ranges, 0, g_P, VOCAB_RANGES}, /* ARG_RANGE */
+    {vocab_onoff, open_P, close_P, 2},    /* ARG_ONOFF */
+    {vocab_units, open_P, close_P, 2},    /* ARG_UNITS */
 };
 
 /* Piece k of the arguments of a command of this kind, as help shows
@@ -148,10 +148,11 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
 /* A line refused before any command is known: two words a code from 1,
  * what is wrong and what is allowed, as reply_set_error's texts (codes 2
  * and 4 always name their command: empty words). */
-static const char refused_P[] PROGMEM = "unknown command\0see help\0\0\0line too long\0" "16 chars\0\0\0"
+static const char refused_P[] PROGMEM = "unknown command\0see help\0\0\0line too long\0"
+                                        "16 chars\0\0\0"
                                         "input lost\0resend\0bad byte\0printable ASCII\0timed out\0resend";
-#if CMD_ERR_UNKNOWN != 1 || CMD_ERR_ARG != 2 || CMD_ERR_LONG != 3 || CMD_ERR_STATE != 4 || CMD_ERR_LOST != 5 || \
-    CMD_ERR_BYTE != 6 || CMD_ERR_TIMEOUT != 7
+#if CMD_ERR_UNKNOWN != 1 || CMD_ERR_ARG != 2 || CMD_ERR_LONG != 3 || CMD_ERR_STATE != 4 ||                   \
+    CMD_ERR_LOST != 5 || CMD_ERR_BYTE != 6 || CMD_ERR_TIMEOUT != 7
 #  error "refused_P holds the codes 1..7 in order"
 #endif
 
@@ -184,7 +185,7 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
       proto_puts_P(PSTR("; "));
       proto_puts_P(text);
     } else if (put_allowed(command_arg_kind(rpl.tail), (uint8_t)(step - 3), 1)) {
-end:
+    end:
       proto_end();
       return REPLY_DONE;
     }
@@ -210,9 +211,7 @@ static __attribute__((noinline)) uint8_t step_plain(uint8_t step)
     else if (rpl.tail == REPLY_TAIL_WORD)
       proto_puts_P(vocab_word(rpl.tail_value.word.list_P, rpl.tail_value.word.n));
     break;
-  default:
-    proto_end();
-    return REPLY_DONE;
+  default: proto_end(); return REPLY_DONE;
   }
   return REPLY_MORE;
 }
@@ -227,15 +226,13 @@ static const char setting_keys_P[] PROGMEM = "run\0mode\0range\0units\0cfg\0fs\0
 
 void reply_put_setting(uint8_t k, char sep, uint8_t counts)
 {
-  uint16_t n; /* every value fits */
+  uint16_t n;           /* every value fits */
   const char *list = 0; /* a word of this list, at n */
   proto_putc(sep);
   proto_puts_P(vocab_word(setting_keys_P, k));
   proto_putc('=');
   switch (k) {
-  case 0:
-    n = adc_running();
-    break;
+  case 0: n = adc_running(); break;
   case 1:
     list = vocab_modes;
     n = settings.mode;
@@ -252,15 +249,9 @@ void reply_put_setting(uint8_t k, char sep, uint8_t counts)
     list = vocab_sources;
     n = settings_source;
     break;
-  case 5:
-    n = adc_rate();
-    break;
-  case 6:
-    n = settings.interval_s;
-    break;
-  default:
-    n = link_percent_here(settings.mode, adc_rate());
-    break;
+  case 5: n = adc_rate(); break;
+  case 6: n = settings.interval_s; break;
+  default: n = link_percent_here(settings.mode, adc_rate()); break;
   }
   if (list)
     proto_puts_P(vocab_word(list, (uint8_t)n));

@@ -12,9 +12,9 @@
 
 /* Codes of a reply: 0 is `ok`, 1..127 the `error:<code>` of command.h,
  * and the two multi-field replies. */
-#define REPLY_OK     0
+#define REPLY_OK 0
 #define REPLY_STATUS 0xFE
-#define REPLY_HELP   0xFF
+#define REPLY_HELP 0xFF
 
 /* What follows the reply's text: nothing, a decimal number, or a word
  * from flash (a vocab.h name). */
@@ -45,9 +45,9 @@ void reply_put_setting(uint8_t k, char sep, uint8_t counts);
 /* One step of the reply: REPLY_MORE (call again with step + 1),
  * REPLY_LINE_DONE (a line of a multi-line reply is out: the next starts
  * at step 0; others may write between them), REPLY_DONE. */
-#define REPLY_MORE      0
+#define REPLY_MORE 0
 #define REPLY_LINE_DONE 1
-#define REPLY_DONE      2
+#define REPLY_DONE 2
 uint8_t reply_step(uint8_t step);
 
 #endif /* REPLY_H */

@@ -24,16 +24,24 @@
  * T..., V, then the summary a person reads, last on the screen: S title,
  * S head, S rows, S caption and terms rows; E. */
 enum {
-  PART_HEADER, PART_ROW, PART_TERMS, PART_CHECK, PART_SUM_TITLE, PART_SUM_HEAD, PART_SUM_ROW,
-  PART_SUM_CAPTION, PART_SUM_TERMS, PART_END
+  PART_HEADER,
+  PART_ROW,
+  PART_TERMS,
+  PART_CHECK,
+  PART_SUM_TITLE,
+  PART_SUM_HEAD,
+  PART_SUM_ROW,
+  PART_SUM_CAPTION,
+  PART_SUM_TERMS,
+  PART_END
 };
 
 static struct {
   uint8_t part, ch, level;
-  uint16_t seq;   /* of the report being written; +1 when one starts */
-  uint8_t run_id; /* +1 with every new run (report_new_run) */
+  uint16_t seq;        /* of the report being written; +1 when one starts */
+  uint8_t run_id;      /* +1 with every new run (report_new_run) */
   uint8_t reset_cause; /* MCUSR's PORF EXTRF BORF WDRF */
-  uint8_t counts; /* the units setting as the report began (in its header): a
+  uint8_t counts;      /* the units setting as the report began (in its header): a
                     `units` typed while it is sent takes effect with the next one */
   union {
     struct { /* an L row's snapshot */
@@ -42,9 +50,9 @@ static struct {
       uint32_t acc_lo;
       uint32_t pairs;
     };
-    struct {                 /* after the L rows, for the terms: */
-      uint32_t b_key;        /* B's search in a T line: the least deviation so far; value_at's mant */
-      uint8_t n_level1;      /* N's level + 1, the same for every channel; 0: no terms */
+    struct {            /* after the L rows, for the terms: */
+      uint32_t b_key;   /* B's search in a T line: the least deviation so far; value_at's mant */
+      uint8_t n_level1; /* N's level + 1, the same for every channel; 0: no terms */
       uint8_t b_level[ALLAN_CHANNELS]; /* B's level of each channel (its search's so far) */
     };
   };
@@ -138,7 +146,10 @@ static void put_causes(void)
 static __attribute__((noinline)) void step_identity(uint8_t step)
 {
   switch (step) {
-  case 0: put_key_u32(PSTR("proto="), PROTO_VERSION); proto_puts_P(PSTR(",fw=")); break;
+  case 0:
+    put_key_u32(PSTR("proto="), PROTO_VERSION);
+    proto_puts_P(PSTR(",fw="));
+    break;
   case 1: proto_puts_P(PSTR(FW_VERSION)); break;
   default: proto_puts_P(PSTR(",mcu=" FW_MCU_NAME)); break;
   }
@@ -257,9 +268,7 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
     proto_putc(',');
     proto_hex(rep.flags, 2);
     break;
-  default:
-    proto_end();
-    return 1;
+  default: proto_end(); return 1;
   }
   return 0;
 }
@@ -432,14 +441,15 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
  * channel) and the units of N and B. */
 #define TEXT_STEP "\001"
 #define TEXT_RANGE "\002"
-#define TEXT_PCT "\003" /* AT_PCT */
-#define TEXT_TAU "\004" /* AT_TAU */
+#define TEXT_PCT "\003"   /* AT_PCT */
+#define TEXT_TAU "\004"   /* AT_TAU */
 #define TEXT_UNITS "\005" /* the text goes on in the units' own words */
 
 static const char title_P[] PROGMEM = "Allan deviation " TEXT_STEP "by tau (s): " TEXT_STEP TEXT_UNITS;
 static const char title_phys_P[] PROGMEM = "accel mg at +-" TEXT_RANGE TEXT_STEP " g, gyro deg/s";
 static const char title_counts_P[] PROGMEM = "ADC counts";
-static const char caption_P[] PROGMEM = "N at " TEXT_TAU " s +-" TEXT_STEP TEXT_PCT "%: " TEXT_STEP TEXT_UNITS;
+static const char caption_P[] PROGMEM =
+    "N at " TEXT_TAU " s +-" TEXT_STEP TEXT_PCT "%: " TEXT_STEP TEXT_UNITS;
 static const char caption_phys_P[] PROGMEM = "m/s/rt(h), deg/rt(h)" TEXT_STEP "; B: mg, deg/h";
 static const char caption_counts_P[] PROGMEM = "count rt(s)" TEXT_STEP "; B: counts";
 

@@ -8,8 +8,8 @@
 
 #include "reset.h"
 
-#define RESET_CANARY 0x5EC0u   /* noise matches it 1 time in 65536 */
-#define RESET_WDT_ARMED 0xA7u  /* the marker: one pattern, not "non-zero" */
+#define RESET_CANARY 0x5EC0u  /* noise matches it 1 time in 65536 */
+#define RESET_WDT_ARMED 0xA7u /* the marker: one pattern, not "non-zero" */
 #define RESET_MCUSR_BITS ((1u << PORF) | (1u << EXTRF) | (1u << BORF) | (1u << WDRF))
 /* optiboot's version word, at the very end of flash: major, minor */
 #define RESET_BOOT_VERSION_ADDR (FLASHEND - 1u)
@@ -30,7 +30,7 @@ extern const char __data_load_end[]; /* end of the firmware's flash image */
  * optiboot's page buffer holds right after writing it. */
 static uint8_t reset_page_buffer_is_last_page(void)
 {
-  uint16_t page = ((uint16_t)__data_load_end - 1u) & (uint16_t)~(SPM_PAGESIZE - 1u);
+  uint16_t page = ((uint16_t)__data_load_end - 1u) & (uint16_t) ~(SPM_PAGESIZE - 1u);
   const uint8_t *ram = (const uint8_t *)RAMSTART;
   uint8_t i = 0;
   do {

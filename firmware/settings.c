@@ -109,7 +109,9 @@ uint8_t settings_poll(void)
   /* update: a byte already holding its value is not rewritten (wear). */
   /* The CRC is worked out again for each byte rather than kept: RAM is
    * scarcer than the few hundred cycles this costs. */
-  eeprom_update_byte((uint8_t *)(uintptr_t)pos, record_byte(pos, pos > sizeof(settings_t) ? record_crc(SETTINGS_VERSION, &settings) : 0));
+  eeprom_update_byte(
+      (uint8_t *)(uintptr_t)pos,
+      record_byte(pos, pos > sizeof(settings_t) ? record_crc(SETTINGS_VERSION, &settings) : 0));
   if (--save_left)
     return 0;
   settings_source = CFG_SAVED;

@@ -18,9 +18,9 @@ typedef struct {
   uint8_t range;       /* RANGE_* */
   /* One byte, as in version 2 records before `units` (whose echo byte
    * was 0 or 1: counts 0, physical units, for them). */
-  uint8_t echo : 1;    /* 1: typed characters are echoed (console.h) */
-  uint8_t counts : 1;  /* 1: `units counts`, the summary in ADC counts; 0: physical units */
-  uint8_t unused : 6;  /* 0 in a valid record */
+  uint8_t echo : 1;                   /* 1: typed characters are echoed (console.h) */
+  uint8_t counts : 1;                 /* 1: `units counts`, the summary in ADC counts; 0: physical units */
+  uint8_t unused : 6;                 /* 0 in a valid record */
 } __attribute__((packed)) settings_t; /* the EEPROM record holds it byte for byte, on the AVR and natively */
 
 extern settings_t settings;

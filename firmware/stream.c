@@ -12,11 +12,11 @@
 
 /* Where the stream's own line stands. */
 enum {
-  LINE_NONE,        /* between lines */
-  LINE_ROW_HALF,    /* a raw row's first half is written */
-  LINE_COUNT_DUE,   /* a count line waits for a line boundary */
-  LINE_COUNT_HALF,  /* a count line's rows are written */
-  LINE_COUNT_LAST   /* a count line's drops are written */
+  LINE_NONE,       /* between lines */
+  LINE_ROW_HALF,   /* a raw row's first half is written */
+  LINE_COUNT_DUE,  /* a count line waits for a line boundary */
+  LINE_COUNT_HALF, /* a count line's rows are written */
+  LINE_COUNT_LAST  /* a count line's drops are written */
 };
 
 static struct {

@@ -19,10 +19,11 @@ enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_ECHO };
 
 /* flags */
 #define REPORT_NEXT 1 /* a report waits for the current job to end */
-#define PAUSED      2 /* a report waits for the reply written between its lines */
-#define HOLD_ROWS   4 /* a new run's rows wait for the reply that started it */
-#define REPLY_NEXT  8 /* a reply waits for the echo of its command line */
-#define ROW_GAP    16 /* ... and then for a row or frame, so that the two never
+#define PAUSED 2      /* a report waits for the reply written between its lines */
+#define HOLD_ROWS 4   /* a new run's rows wait for the reply that started it */
+#define REPLY_NEXT 8  /* a reply waits for the echo of its command line */
+#define ROW_GAP                                                                                              \
+  16 /* ... and then for a row or frame, so that the two never
                        * hold the stream back together (link.h's budget) */
 
 static struct {
@@ -139,7 +140,7 @@ void switchboard_abort_report(void)
 {
   if (out.job == JOB_REPORT)
     out.job = JOB_NONE;
-  out.flags &= (uint8_t)~(PAUSED | REPORT_NEXT);
+  out.flags &= (uint8_t) ~(PAUSED | REPORT_NEXT);
 }
 
 void switchboard_new_run(void)
@@ -196,7 +197,7 @@ void switchboard_poll(void)
         break; /* the engine's waiting work, a piece: the loop feeds it first */
       if (done == REPORT_MORE && uart_tx_room() == room) {
         out.step++; /* a step that only computed (a T line's search): the loop */
-        break;     /* feeds the engine before the next one */
+        break;      /* feeds the engine before the next one */
       }
       out.step = done == REPORT_MORE ? (uint8_t)(out.step + 1) : 0;
       done = done == REPORT_DONE;

@@ -21,11 +21,11 @@
 void switchboard_init(uint8_t reset_cause);
 
 /* Queue jobs (replies and echo only when switchboard_can_interject()). */
-void switchboard_echo(void);                                    /* the rest of the taken line's echo (console.h), whole */
+void switchboard_echo(void); /* the rest of the taken line's echo (console.h), whole */
 void switchboard_boot(void);
-void switchboard_report(void);                                  /* a whole report, after the current job */
-void switchboard_ok(const char *text_P);                        /* `ok` or `ok <text>` */
-void switchboard_ok_n(const char *text_P, uint32_t n);          /* `ok <text><n>` */
+void switchboard_report(void);                         /* a whole report, after the current job */
+void switchboard_ok(const char *text_P);               /* `ok` or `ok <text>` */
+void switchboard_ok_n(const char *text_P, uint32_t n); /* `ok <text><n>` */
 void switchboard_ok_word(const char *text_P, const char *list_P, uint8_t n); /* `ok <text><word n of list>` */
 /* `error:<code> <command>: <what>; <allowed>`: see reply_set_error(),
  * whose text_P says what is wrong and what is allowed.
@@ -33,8 +33,8 @@ void switchboard_ok_word(const char *text_P, const char *list_P, uint8_t n); /* 
  * too long, bytes lost), naming its first word. */
 void switchboard_error(uint8_t code, uint8_t id, const char *text_P);
 void switchboard_refuse(uint8_t code, const char *line);
-void switchboard_status(void);                                  /* `ok status ...` */
-void switchboard_help(void);                                    /* `ok help <command> <args>`, a line each */
+void switchboard_status(void); /* `ok status ...` */
+void switchboard_help(void);   /* `ok help <command> <args>`, a line each */
 
 /* 1 while a job or a stream line is being written. */
 uint8_t switchboard_busy(void);

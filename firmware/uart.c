@@ -7,7 +7,6 @@
 #include <avr/io.h>
 #include <util/atomic.h>
 
-
 #ifndef BAUD
 #  error "BAUD must be given (the Makefile passes 115200 by default)"
 #endif
@@ -20,7 +19,7 @@
 #define UART_UBRR_2X ((F_CPU + 4UL * BAUD) / (8UL * BAUD) - 1UL)
 #define UART_REAL_1X (F_CPU / (16UL * (UART_UBRR_1X + 1UL)))
 #define UART_REAL_2X (F_CPU / (8UL * (UART_UBRR_2X + 1UL)))
-#define UART_ERR(real) ((real) > BAUD ? ((real) - BAUD) * 10000UL / BAUD : (BAUD - (real)) * 10000UL / BAUD)
+#define UART_ERR(real) ((real) > BAUD ? ((real)-BAUD) * 10000UL / BAUD : (BAUD - (real)) * 10000UL / BAUD)
 
 #if UART_UBRR_1X <= 4095 && UART_ERR(UART_REAL_1X) <= UART_ERR(UART_REAL_2X) && UART_ERR(UART_REAL_1X) <= 200
 #  define UART_UBRR UART_UBRR_1X
@@ -33,9 +32,10 @@
 #endif
 
 #define UART_TX_SIZE (UART_STEP_MAX + 1) /* one output step always fits */
-#define UART_RX_SIZE 8  /* a power of two */
+#define UART_RX_SIZE 8                   /* a power of two */
 #if UART_TX_SIZE - 1 != UART_STEP_MAX
-#  error "the TX ring holds one whole output step, no more (console.c's echo counts on uart_tx_room() <= UART_STEP_MAX)"
+#  error                                                                                                     \
+      "the TX ring holds one whole output step, no more (console.c's echo counts on uart_tx_room() <= UART_STEP_MAX)"
 #endif
 
 static volatile uint8_t tx_buf[UART_TX_SIZE];
@@ -131,7 +131,7 @@ ISR(USART_UDRE_vect)
   t = tx_next(t);
   tx_tail = t;
   if (t == tx_head)
-    UCSR0B &= (uint8_t)~(1 << UDRIE0);
+    UCSR0B &= (uint8_t) ~(1 << UDRIE0);
 }
 
 ISR(USART_RX_vect)

@@ -23,8 +23,8 @@
 #define UNITS_ACC_MV_PER_G_4G 300.0
 #define UNITS_ACC_MV_PER_G_6G 200.0
 #define UNITS_GYRO_MV_PER_DPS 3.3
-#define UNITS_G0 9.80665        /* m/s^2 per g */
-#define UNITS_B_FLOOR 0.664     /* Allan deviation of flicker noise / B (IEEE 952) */
+#define UNITS_G0 9.80665    /* m/s^2 per g */
+#define UNITS_B_FLOOR 0.664 /* Allan deviation of flicker noise / B (IEEE 952) */
 
 /* Quantities: the Allan deviation (mg, deg/s), N = sigma sqrt(tau) (VRW
  * m/s/sqrt(h), ARW deg/sqrt(h)) and B = sigma / 0.664 (mg, deg/h); in

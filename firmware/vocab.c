@@ -4,7 +4,10 @@
 #include "pgm.h"
 
 const char vocab_modes[] PROGMEM = "allan\0raw\0binary\0both";
-const char vocab_ranges[] PROGMEM = "1.5\0" "2\0" "4\0" "6";
+const char vocab_ranges[] PROGMEM = "1.5\0"
+                                    "2\0"
+                                    "4\0"
+                                    "6";
 const char vocab_sources[] PROGMEM = "saved\0blank\0corrupt\0defaults\0infeasible";
 const char vocab_causes[] PROGMEM = "por\0ext\0bor\0wdt";
 const char vocab_onoff[] PROGMEM = "off\0on";

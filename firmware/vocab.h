@@ -14,18 +14,18 @@
 #define PROTO_VERSION 1
 
 /* Output modes; the names are vocab_modes, in this order. */
-#define MODE_ALLAN  0
-#define MODE_RAW    1
+#define MODE_ALLAN 0
+#define MODE_RAW 1
 #define MODE_BINARY 2
-#define MODE_BOTH   3
+#define MODE_BOTH 3
 #define VOCAB_MODES 4
 
 /* Accelerometer ranges: the MMA7260Q's g-select code GS2 GS1 (1.5, 2, 4,
  * 6 g); the names are vocab_ranges, in this order. */
 #define RANGE_1G5 0
-#define RANGE_2G  1
-#define RANGE_4G  2
-#define RANGE_6G  3
+#define RANGE_2G 1
+#define RANGE_4G 2
+#define RANGE_6G 3
 #define VOCAB_RANGES 4
 
 /* The supported sample rates in Hz, ascending: the one list (an X-macro:

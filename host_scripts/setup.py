@@ -6,6 +6,7 @@ imu_allan.stats.kernels falls back to its numpy path.  In a checkout,
 `make ext` (run by `make deps`, `make pytest` and `make bench`) builds it in
 place next to kernels.py.
 """
+
 import sys
 
 from setuptools import Extension, setup
@@ -15,5 +16,14 @@ ARGS = [] if sys.platform == "win32" else ["-O3", "-std=gnu99", "-Wno-psabi"]
 
 SOURCES = [f"imu_allan/stats/{f}.c" for f in ("_ckernels", "ck_core", "ck_octave", "ck_phase")]
 
-setup(ext_modules=[Extension("imu_allan.stats._ckernels", SOURCES, depends=["imu_allan/stats/ckernels.h"],
-                             extra_compile_args=ARGS, optional=True)])
+setup(
+    ext_modules=[
+        Extension(
+            "imu_allan.stats._ckernels",
+            SOURCES,
+            depends=["imu_allan/stats/ckernels.h"],
+            extra_compile_args=ARGS,
+            optional=True,
+        )
+    ]
+)

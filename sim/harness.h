@@ -40,17 +40,28 @@
 
 #define PROG "imu-sim"
 #define NEUTRAL_CODE 512
-#define ROW_WIN 64          /* rows kept for channels that lag behind */
-#define LINE_MAX_LEN 256    /* protocol bodies are at most 200 chars */
-#define PAINT 0xA5          /* SRAM fill for the stack high-water mark */
-#define LOG_CAP 20          /* simavr messages shown without -v */
+#define ROW_WIN 64       /* rows kept for channels that lag behind */
+#define LINE_MAX_LEN 256 /* protocol bodies are at most 200 chars */
+#define PAINT 0xA5       /* SRAM fill for the stack high-water mark */
+#define LOG_CAP 20       /* simavr messages shown without -v */
 
 enum { EXIT_OK = 0, EXIT_FAIL = 1, EXIT_INPUT = 2, EXIT_TIMEOUT = 3 };
 
 /* Harness states: each but RUN and DONE waits for one device line.
  * TERM: terminal mode (--pty), where the user drives the device. */
-enum { ST_BOOT, ST_STOP, ST_RATE, ST_RESET, ST_START, ST_RUN,
-       ST_REPORT_H, ST_REPORT_E, ST_DRAIN, ST_DONE, ST_TERM };
+enum {
+  ST_BOOT,
+  ST_STOP,
+  ST_RATE,
+  ST_RESET,
+  ST_START,
+  ST_RUN,
+  ST_REPORT_H,
+  ST_REPORT_E,
+  ST_DRAIN,
+  ST_DONE,
+  ST_TERM
+};
 
 typedef struct {
   int level;
@@ -77,7 +88,7 @@ struct harness {
   uint64_t seed;
   /* board mode (sim_board.c) */
   const char *board, *bootloader, *isp_hex;
-  volatile int reset_seen;    /* the MCU was reset since the last look */
+  volatile int reset_seen; /* the MCU was reset since the last look */
 
   avr_t *avr;
   avr_adc_t *adc;
@@ -87,7 +98,7 @@ struct harness {
   /* protocol state */
   int state;
   avr_cycle_count_t deadline, timeout_cycles;
-  int fail;                   /* exit code of a failure found in a callback */
+  int fail; /* exit code of a failure found in a callback */
   char fail_msg[320];
 
   /* ADC rows */
@@ -123,15 +134,15 @@ struct harness {
   pulse_t pb0, pb1, pb2;
   avr_cycle_count_t slept;
   uint16_t bss_end;
-  uint16_t sp_min;            /* lowest stack pointer seen */
-  uint32_t sp_min_pc;         /* program counter (bytes) when it was seen */
+  uint16_t sp_min;    /* lowest stack pointer seen */
+  uint32_t sp_min_pc; /* program counter (bytes) when it was seen */
   double wall_s;
 
   /* faults injected (sim_fault.c), and the batch run's restarts after a
    * reset: the final run covers rows first_row .. nrows - 1 */
   fault_t fault;
   uint64_t first_row, restarts;
-  int report_retries;         /* 'report' sent again after an error:5 */
+  int report_retries; /* 'report' sent again after an error:5 */
 
   /* simavr log */
   char last_error[200];
@@ -142,8 +153,8 @@ struct harness {
   /* Calls up, set by whoever runs the device (the driver, the terminal):
    * lower rooms report through them and never name the rooms above. */
   void (*on_line)(harness_t *h, char *body, size_t len, int crc_ok);
-  void (*on_byte)(harness_t *h, uint8_t c);   /* every device byte */
-  void (*on_scan)(harness_t *h);              /* mux 6 of a row converted */
+  void (*on_byte)(harness_t *h, uint8_t c); /* every device byte */
+  void (*on_scan)(harness_t *h);            /* mux 6 of a row converted */
 };
 
 /* A peripheral of avr by kind ("adc", "uart", "timer") and name (0: any). */

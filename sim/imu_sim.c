@@ -28,12 +28,12 @@
 #include "sim_io.h"
 #include "avr_eeprom.h"
 
-
 /* Inputs are checked before anything is simulated. */
 static void open_inputs(harness_t *h)
 {
   char err[320];
-  if (h->adc_path && rows_open(&h->rows, h->adc_path, &h->nrows, err, sizeof err))
+  if (h->adc_path &&
+      rows_open(&h->rows, h->adc_path, &h->nrows, err, sizeof err))
     die(EXIT_INPUT, "%s", err);
   if (h->pty) {
     /* rows go round and round: no end */
@@ -48,7 +48,7 @@ static void open_inputs(harness_t *h)
       die(EXIT_INPUT, "%s", err);
   }
   if (h->board) {
-    h->no_wait = 1;    /* the board is powered from the start */
+    h->no_wait = 1; /* the board is powered from the start */
     return;
   }
   if (access(h->elf_path, R_OK))
@@ -92,9 +92,10 @@ static void make_avr(harness_t *h, elf_firmware_t *fw)
   avr_global_logger_set(logger);
   memset(fw, 0, sizeof *fw);
   if (h->board)
-    ;   /* no ELF: the flash comes from the board's file (board_open) */
+    ; /* no ELF: the flash comes from the board's file (board_open) */
   else if (elf_read_firmware(h->elf_path, fw) || !fw->flashsize)
-    die(EXIT_INPUT, "%s: no firmware could be loaded from this ELF", h->elf_path);
+    die(EXIT_INPUT, "%s: no firmware could be loaded from this ELF",
+        h->elf_path);
   if (h->mcu)
     snprintf(fw->mmcu, sizeof fw->mmcu, "%s", h->mcu);
   else if (!fw->mmcu[0])
@@ -103,7 +104,7 @@ static void make_avr(harness_t *h, elf_firmware_t *fw)
     fw->frequency = h->freq;
   else if (!fw->frequency)
     fw->frequency = 10000000;
-  fw->avcc = fw->aref = 1023;   /* mV == code, see code_to_mv() */
+  fw->avcc = fw->aref = 1023; /* mV == code, see code_to_mv() */
 
   h->log_quiet = 1;
   h->avr = avr_make_mcu_by_name(fw->mmcu);
@@ -144,7 +145,8 @@ static void load_eeprom(harness_t *h)
   uint8_t ee[4096];
   FILE *f = fopen(h->eeprom_path, "rb");
   if (!f)
-    die(EXIT_INPUT, "--eeprom: cannot read '%s': %s", h->eeprom_path, strerror(errno));
+    die(EXIT_INPUT, "--eeprom: cannot read '%s': %s", h->eeprom_path,
+        strerror(errno));
   size_t n = fread(ee, 1, sizeof ee, f);
   fclose(f);
   if (n > avr->e2end + 1u)
@@ -174,17 +176,19 @@ static int outcome(harness_t *h, int st)
 {
   avr_t *avr = h->avr;
   if (st == cpu_Crashed || st == cpu_Stopped) {
-    snprintf(h->fail_msg, sizeof h->fail_msg, "the firmware crashed at t=%.6f s "
-             "(cycle %llu, PC 0x%04x)%s%s", sim_time(h),
-             (unsigned long long)avr->cycle, (unsigned)avr->pc,
+    snprintf(h->fail_msg, sizeof h->fail_msg,
+             "the firmware crashed at t=%.6f s "
+             "(cycle %llu, PC 0x%04x)%s%s",
+             sim_time(h), (unsigned long long)avr->cycle, (unsigned)avr->pc,
              h->last_error[0] ? ": " : "", h->last_error);
     return EXIT_FAIL;
   }
   if (st == cpu_Done) {
     /* simavr has already freed the AVR's memories here. */
-    snprintf(h->fail_msg, sizeof h->fail_msg, "the firmware halted at t=%.6f s "
-             "(cycle %llu): sleep with interrupts disabled", sim_time(h),
-             (unsigned long long)avr->cycle);
+    snprintf(h->fail_msg, sizeof h->fail_msg,
+             "the firmware halted at t=%.6f s "
+             "(cycle %llu): sleep with interrupts disabled",
+             sim_time(h), (unsigned long long)avr->cycle);
     return EXIT_FAIL;
   }
   return h->fail ? h->fail : EXIT_OK;
@@ -192,8 +196,9 @@ static int outcome(harness_t *h, int st)
 
 int main(int argc, char **argv)
 {
-  static harness_t state = { .timeout_s = 5.0, .dev_n = -1, .dev_drops = -1,
-                             .sp_min = 0xFFFF, .seed = 1 };
+  static harness_t state = {
+    .timeout_s = 5.0, .dev_n = -1, .dev_drops = -1, .sp_min = 0xFFFF, .seed = 1
+  };
   harness_t *h = &state;
   elf_firmware_t fw;
 
@@ -205,7 +210,7 @@ int main(int argc, char **argv)
   if (h->eeprom_path)
     load_eeprom(h);
   if (!h->board)
-    paint_sram(h, &fw);    /* a board's firmware has no ELF to tell .bss */
+    paint_sram(h, &fw); /* a board's firmware has no ELF to tell .bss */
 
   struct timespec t0, t1;
   clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -215,12 +220,13 @@ int main(int argc, char **argv)
     h->state = ST_TERM;
     h->armed = 1;
     st = term_run(h);
-    term_started(&t0);    /* wall time from power-up, not from the wait */
+    term_started(&t0); /* wall time from power-up, not from the wait */
   } else {
     st = drive_run(h);
   }
   clock_gettime(CLOCK_MONOTONIC, &t1);
-  h->wall_s = (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9;
+  h->wall_s =
+      (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9;
   if (h->out)
     fflush(h->out);
 
@@ -230,7 +236,8 @@ int main(int argc, char **argv)
          (unsigned long long)h->errors, h->last_error);
   if (h->bss_end && h->sp_min < h->bss_end)
     warn("stack overflow: the stack pointer went down to 0x%04x, below the "
-         "end of .bss at 0x%04x", (unsigned)h->sp_min, (unsigned)h->bss_end);
+         "end of .bss at 0x%04x",
+         (unsigned)h->sp_min, (unsigned)h->bss_end);
   if (h->pty)
     term_summary(h, st);
   else
@@ -246,7 +253,8 @@ int main(int argc, char **argv)
     board_close(h);
   term_close();
   if (h->out && fclose(h->out))
-    die(EXIT_FAIL, "%s: %s", h->out_path ? h->out_path : "stdout", strerror(errno));
+    die(EXIT_FAIL, "%s: %s", h->out_path ? h->out_path : "stdout",
+        strerror(errno));
   rows_close(&h->rows);
   uart_in_free(h->uin, h->nuin);
   if (st != cpu_Done)

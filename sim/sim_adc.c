@@ -12,15 +12,16 @@
 #include "sim_fault.h"
 #include "sim_msg.h"
 
-
 uint64_t adc_rows_consumed(const harness_t *h)
 {
-  return h->conv[ROW_COLUMNS - 1] < h->nrows ? h->conv[ROW_COLUMNS - 1] : h->nrows;
+  return h->conv[ROW_COLUMNS - 1] < h->nrows ? h->conv[ROW_COLUMNS - 1] :
+                                               h->nrows;
 }
 
 /* The next input row: from the file, or (terminal mode) from the file
  * again from its start once it ends, or from the synthetic IMU. */
-static int next_row(harness_t *h, uint16_t code[ROW_COLUMNS], char *err, size_t errlen)
+static int next_row(harness_t *h, uint16_t code[ROW_COLUMNS], char *err,
+                    size_t errlen)
 {
   if (h->synthetic) {
     synth_next(&h->synth, code);
@@ -65,7 +66,8 @@ static uint16_t serve(harness_t *h, int ch)
         lagger = c;
       }
     if (h->loaded >= lag + ROW_WIN) {
-      fail(h, EXIT_FAIL, "t=%.6f s: mux %d ran %d conversions ahead of mux %d; "
+      fail(h, EXIT_FAIL,
+           "t=%.6f s: mux %d ran %d conversions ahead of mux %d; "
            "imu-sim serves row i to the i-th conversion of each channel",
            sim_time(h), ch, ROW_WIN, lagger);
       return NEUTRAL_CODE;
@@ -73,7 +75,8 @@ static uint16_t serve(harness_t *h, int ch)
     char err[256];
     int got = next_row(h, h->win[h->loaded % ROW_WIN], err, sizeof err);
     if (got <= 0) {
-      fail(h, EXIT_INPUT, "%s", got < 0 ? err : "ADC file changed while running");
+      fail(h, EXIT_INPUT, "%s",
+           got < 0 ? err : "ADC file changed while running");
       return NEUTRAL_CODE;
     }
     h->loaded++;
@@ -99,7 +102,8 @@ static const char *ref_name(uint16_t ref)
 static uint32_t code_to_mv(harness_t *h, uint16_t code)
 {
   avr_t *avr = h->avr;
-  uint8_t refi = avr_regbit_get_array(avr, h->adc->ref, ARRAY_SIZE(h->adc->ref));
+  uint8_t refi =
+      avr_regbit_get_array(avr, h->adc->ref, ARRAY_SIZE(h->adc->ref));
   uint16_t ref = h->adc->ref_values[refi];
   uint32_t vref;
   switch (ref) {
@@ -111,14 +115,18 @@ static uint32_t code_to_mv(harness_t *h, uint16_t code)
   if (ref != ADC_VREF_AVCC && !h->ref_warned) {
     h->ref_warned = 1;
     warn("t=%.6f s: the firmware converts against %s (board.h: AVCC); "
-         "codes are delivered exactly anyway", sim_time(h), ref_name(ref));
+         "codes are delivered exactly anyway",
+         sim_time(h), ref_name(ref));
   }
   return ((uint32_t)code * vref + 1022) / 1023;
 }
 
 static void adc_trigger(avr_irq_t *irq, uint32_t value, void *param)
 {
-  union { avr_adc_mux_t mux; uint32_t v; } e = { .v = value };
+  union {
+    avr_adc_mux_t mux;
+    uint32_t v;
+  } e = { .v = value };
   harness_t *h = param;
   avr_t *avr = h->avr;
   avr_adc_t *p = h->adc;
@@ -131,7 +139,8 @@ static void adc_trigger(avr_irq_t *irq, uint32_t value, void *param)
    * simavr computes it when ADCL is read.  Latch a result the firmware
    * has not read yet before the new values go in. */
   if (p->read_status == 0) {
-    uint16_t reg = (uint16_t)(h->last_code << (avr_regbit_get(avr, p->adlar) ? 6 : 0));
+    uint16_t reg =
+        (uint16_t)(h->last_code << (avr_regbit_get(avr, p->adlar) ? 6 : 0));
     avr->data[p->r_adcl] = (uint8_t)reg;
     avr->data[p->r_adch] = (uint8_t)(reg >> 8);
     p->read_status = 1;
@@ -144,8 +153,8 @@ static void adc_trigger(avr_irq_t *irq, uint32_t value, void *param)
     if (!h->mux_warned) {
       h->mux_warned = 1;
       warn("t=%.6f s: the firmware converts mux kind %u source %u, not an "
-           "IMU column (mux 0..6); it reads 0", sim_time(h),
-           (unsigned)e.mux.kind, (unsigned)e.mux.src);
+           "IMU column (mux 0..6); it reads 0",
+           sim_time(h), (unsigned)e.mux.kind, (unsigned)e.mux.src);
     }
     code = 0;
   } else if (!h->armed || !avr_regbit_get(avr, p->adc.enable)) {

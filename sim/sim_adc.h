@@ -9,7 +9,7 @@
 
 #include "harness.h"
 
-void adc_connect(harness_t *h);          /* hooks the ADC's trigger */
-uint64_t adc_rows_consumed(const harness_t *h);   /* whole rows converted */
+void adc_connect(harness_t *h);                 /* hooks the ADC's trigger */
+uint64_t adc_rows_consumed(const harness_t *h); /* whole rows converted */
 
 #endif /* SIM_ADC_H */

@@ -37,13 +37,13 @@
 
 static struct {
   char flash_path[4096], eeprom_path[4096];
-  uint8_t *flash_saved;           /* what the flash file holds */
+  uint8_t *flash_saved; /* what the flash file holds */
   uint8_t eeprom_saved[4096];
-  uint32_t boot_start;            /* byte address; 0: no bootloader */
+  uint32_t boot_start; /* byte address; 0: no bootloader */
   uint32_t flash_writes, eeprom_writes, spm_dropped;
-  void (*mcu_reset)(avr_t *avr);  /* the core's own reset hook */
+  void (*mcu_reset)(avr_t *avr); /* the core's own reset hook */
   int resets;
-  harness_t *h;                   /* for the reset hook, which has no pointer */
+  harness_t *h; /* for the reset hook, which has no pointer */
 } b;
 
 static volatile sig_atomic_t hang_request;
@@ -60,7 +60,7 @@ static int spm_guard_ioctl(avr_io_t *io, uint32_t ctl, void *param)
   uint32_t flash_len = io->avr->flashend + 1u;
   uint32_t bls_start = b.boot_start ? b.boot_start : flash_len - flash_len / 8u;
   if (io->avr->pc >= bls_start)
-    return -1;      /* the flash module's */
+    return -1; /* the flash module's */
   b.spm_dropped++;
   return 0;
 }
@@ -74,7 +74,8 @@ static void on_hang_signal(int sig)
 }
 
 /* Reads PATH (up to LEN bytes) into BUF; 1 if it existed. */
-static int load_file(const avr_t *avr, const char *path, uint8_t *buf, size_t len, const char *what)
+static int load_file(const avr_t *avr, const char *path, uint8_t *buf,
+                     size_t len, const char *what)
 {
   FILE *f = fopen(path, "rb");
   if (!f) {
@@ -86,8 +87,10 @@ static int load_file(const avr_t *avr, const char *path, uint8_t *buf, size_t le
   int extra = fgetc(f) != EOF;
   fclose(f);
   if (n != len || extra)
-    die(EXIT_INPUT, "%s: %zu bytes, not the %zu of the %s's %s (delete it "
-        "for a blank chip)", path, n + (size_t)extra, len, avr->mmcu, what);
+    die(EXIT_INPUT,
+        "%s: %zu bytes, not the %zu of the %s's %s (delete it "
+        "for a blank chip)",
+        path, n + (size_t)extra, len, avr->mmcu, what);
   return 1;
 }
 
@@ -111,8 +114,8 @@ static uint32_t put_hex(avr_t *avr, const char *path, const char *what)
     die(EXIT_INPUT, "%s %s: not an Intel hex file", what, path);
   for (int i = 0; i < n; i++) {
     if (chunks[i].baseaddr + chunks[i].size > avr->flashend + 1u)
-      die(EXIT_INPUT, "%s %s: bytes at 0x%x-0x%x, beyond the %s's flash",
-          what, path, (unsigned)chunks[i].baseaddr,
+      die(EXIT_INPUT, "%s %s: bytes at 0x%x-0x%x, beyond the %s's flash", what,
+          path, (unsigned)chunks[i].baseaddr,
           (unsigned)(chunks[i].baseaddr + chunks[i].size - 1), avr->mmcu);
     memcpy(avr->flash + chunks[i].baseaddr, chunks[i].data, chunks[i].size);
     if (chunks[i].baseaddr < low)
@@ -163,7 +166,9 @@ void board_open(harness_t *h)
 
   memset(b.eeprom_saved, 0xFF, ee_len);
   load_file(avr, b.eeprom_path, b.eeprom_saved, ee_len, "EEPROM");
-  avr_eeprom_desc_t d = { .ee = b.eeprom_saved, .offset = 0, .size = (uint32_t)ee_len };
+  avr_eeprom_desc_t d = { .ee = b.eeprom_saved,
+                          .offset = 0,
+                          .size = (uint32_t)ee_len };
   avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &d);
 
   /* BOOTRST: the reset vector is the boot section's start */
@@ -215,7 +220,7 @@ void board_poll(harness_t *h)
     hang_request = 0;
     uint32_t end = b.boot_start ? b.boot_start : flash_len;
     for (uint32_t a = 0; a + 1 < end; a += 2)
-      if (avr->flash[a] == 0xFF && avr->flash[a + 1] == 0xCF) {   /* rjmp . */
+      if (avr->flash[a] == 0xFF && avr->flash[a + 1] == 0xCF) { /* rjmp . */
         avr->pc = a;
         if (h->verbose)
           fprintf(stderr, PROG ": hung at 0x%04x (SIGUSR1)\n", (unsigned)a);
@@ -232,7 +237,8 @@ void board_close(harness_t *h)
   board_poll(h);
   if (b.spm_dropped)
     warn("%u SPM instructions outside the boot loader section were ignored, "
-         "as the chip ignores them", (unsigned)b.spm_dropped);
+         "as the chip ignores them",
+         (unsigned)b.spm_dropped);
   if (h->verbose)
     fprintf(stderr, PROG ": %d resets, flash saved %u times, EEPROM %u times\n",
             b.resets, (unsigned)b.flash_writes, (unsigned)b.eeprom_writes);

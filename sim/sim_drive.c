@@ -16,10 +16,17 @@
 
 /* What each state waits for, for the timeout message. */
 static const char *const st_wait[] = {
-  "the boot line ($B)", "the reply to 'stop'", "the reply to 'rate'",
-  "the reply to 'reset'", "the reply to 'start'", "a sample",
-  "the final report's header ($H with n = the rows)", "the report end ($E)",
-  "", "", "",
+  "the boot line ($B)",
+  "the reply to 'stop'",
+  "the reply to 'rate'",
+  "the reply to 'reset'",
+  "the reply to 'start'",
+  "a sample",
+  "the final report's header ($H with n = the rows)",
+  "the report end ($E)",
+  "",
+  "",
+  "",
 };
 
 /* --uart-in text whose row has come. */
@@ -44,7 +51,8 @@ static void finish_run(harness_t *h)
   release_uart_in(h);
   /* a noisy link may have eaten the CR of a user line: close it first, so
    * that 'report' is not glued to its end */
-  if (h->fault.loss > 0 || h->fault.flip > 0 || h->fault.overrun > 0 || h->fault.no_flow)
+  if (h->fault.loss > 0 || h->fault.flip > 0 || h->fault.overrun > 0 ||
+      h->fault.no_flow)
     h->user_line_len = 1;
   serial_send_cmd(h, "report");
   set_state(h, ST_REPORT_H);
@@ -58,7 +66,7 @@ static void finish_run(harness_t *h)
 static void restart(harness_t *h)
 {
   h->restarts++;
-  h->armed = 0;     /* conversions read 512 and take no row until 'ok stopped' */
+  h->armed = 0; /* conversions read 512 and take no row until 'ok stopped' */
   serial_send_cmd(h, "stop");
   set_state(h, ST_STOP);
 }
@@ -72,7 +80,8 @@ static void rearm(harness_t *h)
   for (int c = 0; c < ROW_COLUMNS; c++)
     h->conv[c] = k;
   if (k >= h->nrows)
-    fail(h, EXIT_FAIL, "the device was reset after the last row: no row left to "
+    fail(h, EXIT_FAIL,
+         "the device was reset after the last row: no row left to "
          "run again");
   h->first_row = k;
 }
@@ -88,15 +97,19 @@ static int reply_is(const char *body, const char *prefix)
 static void on_reply(harness_t *h, int ok, const char *body)
 {
   static const char *const cmd[] = {
-    [ST_STOP] = "stop", [ST_RATE] = "rate", [ST_RESET] = "reset",
+    [ST_STOP] = "stop",   [ST_RATE] = "rate",       [ST_RESET] = "reset",
     [ST_START] = "start", [ST_REPORT_H] = "report",
   };
   switch (h->state) {
-  case ST_STOP: case ST_RATE: case ST_RESET: case ST_START:
+  case ST_STOP:
+  case ST_RATE:
+  case ST_RESET:
+  case ST_START:
     /* Set-up: no user input has been sent yet, so every reply is ours
      * (after a restart, user input may still be on its way). */
     if (!ok && !h->restarts) {
-      fail(h, EXIT_FAIL, "the device answered '%s' with '%s'", cmd[h->state], body);
+      fail(h, EXIT_FAIL, "the device answered '%s' with '%s'", cmd[h->state],
+           body);
       return;
     }
     break;
@@ -108,9 +121,8 @@ static void on_reply(harness_t *h, int ok, const char *body)
     if (!ok && reply_is(body, "error:5") && fault_any(&h->fault) &&
         h->report_retries++ < 3)
       serial_send_cmd(h, "report");
-    return;     /* 'ok' needs nothing: the report itself is awaited */
-  default:
-    return;     /* a reply to user input */
+    return;        /* 'ok' needs nothing: the report itself is awaited */
+  default: return; /* a reply to user input */
   }
   switch (h->state) {
   case ST_STOP:
@@ -118,7 +130,7 @@ static void on_reply(harness_t *h, int ok, const char *body)
       return;
     if (h->restarts)
       rearm(h);
-    h->armed = 1;   /* the next conversion of each channel gets row 0 */
+    h->armed = 1; /* the next conversion of each channel gets row 0 */
     if (h->fs) {
       serial_send_cmd(h, "rate %u", h->fs);
       set_state(h, ST_RATE);
@@ -136,7 +148,8 @@ static void on_reply(harness_t *h, int ok, const char *body)
   case ST_RESET:
     if (strcmp(body, "ok reset"))
       return;
-    serial_send_cmd(h, "start %llu", (unsigned long long)(h->nrows - h->first_row));
+    serial_send_cmd(h, "start %llu",
+                    (unsigned long long)(h->nrows - h->first_row));
     set_state(h, ST_START);
     break;
   case ST_START:
@@ -148,8 +161,7 @@ static void on_reply(harness_t *h, int ok, const char *body)
     else
       release_uart_in(h);
     break;
-  default:
-    break;
+  default: break;
   }
 }
 
@@ -162,7 +174,7 @@ static long long key_value(const char *body, const char *key)
 static void on_line(harness_t *h, char *body, size_t len, int crc_ok)
 {
   if (h->state == ST_DRAIN || h->state == ST_DONE)
-    return;     /* the run is over: only the last LF is awaited */
+    return; /* the run is over: only the last LF is awaited */
   /* In terminal mode lines are only watched for a reboot: bad lines are
    * the user's business (and binary frames look like garbage). */
   if (!crc_ok && h->bad_crc++ == 0 && !h->pty)
@@ -174,7 +186,7 @@ static void on_line(harness_t *h, char *body, size_t len, int crc_ok)
     on_reply(h, 0, body);
   } else if (!strncmp(body, "B,", 2)) {
     if (h->boots++) {
-      if (!h->board && !h->fault.resets)   /* one the harness did not cause */
+      if (!h->board && !h->fault.resets) /* one the harness did not cause */
         warn("t=%.6f s: the device rebooted (boot line #%llu)", sim_time(h),
              (unsigned long long)h->boots);
       if (h->state != ST_BOOT)
@@ -186,14 +198,16 @@ static void on_line(harness_t *h, char *body, size_t len, int crc_ok)
   } else if (!strncmp(body, "H,", 2)) {
     /* The final report: the one that covers every row (the device stopped
      * there by itself), whoever asked for it. */
-    if (h->state == ST_REPORT_H && key_value(body, ",n=") == (long long)(h->nrows - h->first_row)) {
+    if (h->state == ST_REPORT_H &&
+        key_value(body, ",n=") == (long long)(h->nrows - h->first_row)) {
       h->report_seq = strtoul(body + 2, NULL, 10);
       h->dev_n = key_value(body, ",n=");
       h->dev_drops = key_value(body, ",drops=");
       set_state(h, ST_REPORT_E);
     }
   } else if (!strncmp(body, "E,", 2)) {
-    if (h->state == ST_REPORT_E && strtoul(body + 2, NULL, 10) == h->report_seq) {
+    if (h->state == ST_REPORT_E &&
+        strtoul(body + 2, NULL, 10) == h->report_seq) {
       /* let the line's LF out too: the run ends at the LF, or after a
        * few byte times of silence */
       h->state = ST_DRAIN;
@@ -244,20 +258,22 @@ int drive_run(harness_t *h)
       break;
     watch_sp(h);
     if (avr->cycle >= h->fault.next_at && fault_poll(h)) {
-      serial_after_reset(h);    /* simavr dropped the cycle timers */
+      serial_after_reset(h); /* simavr dropped the cycle timers */
       h->deadline = avr->cycle + h->timeout_cycles;
     }
     if (avr->cycle >= h->deadline) {
       if (h->state == ST_DRAIN)
         break;
       if (h->state == ST_RUN)
-        fail(h, EXIT_TIMEOUT, "timeout: no sample for %g simulated s after "
-             "row %llu of %llu (t=%.3f s)", h->timeout_s,
-             (unsigned long long)adc_rows_consumed(h),
+        fail(h, EXIT_TIMEOUT,
+             "timeout: no sample for %g simulated s after "
+             "row %llu of %llu (t=%.3f s)",
+             h->timeout_s, (unsigned long long)adc_rows_consumed(h),
              (unsigned long long)h->nrows, sim_time(h));
       else
-        fail(h, EXIT_TIMEOUT, "timeout: waited %g simulated s for %s (t=%.3f s)",
-             h->timeout_s, st_wait[h->state], sim_time(h));
+        fail(h, EXIT_TIMEOUT,
+             "timeout: waited %g simulated s for %s (t=%.3f s)", h->timeout_s,
+             st_wait[h->state], sim_time(h));
     }
   }
   return st;
@@ -267,14 +283,16 @@ void drive_summary(harness_t *h, int code)
 {
   if (h->stray_conv)
     warn("%llu conversions took rows after 'stop' was acknowledged and "
-         "before 'start' reached the device", (unsigned long long)h->stray_conv);
+         "before 'start' reached the device",
+         (unsigned long long)h->stray_conv);
   if (h->extra_conv)
     warn("the device converted %llu channels (%llu scans) after the last row "
          "(it dropped samples?); they read the last row again",
          (unsigned long long)h->extra_conv, (unsigned long long)h->extra_scans);
   if (code == EXIT_OK && h->dev_drops > 0)
     warn("the final report says drops=%lld", h->dev_drops);
-  if (code == EXIT_OK && h->dev_n >= 0 && (uint64_t)h->dev_n != h->nrows - h->first_row)
+  if (code == EXIT_OK && h->dev_n >= 0 &&
+      (uint64_t)h->dev_n != h->nrows - h->first_row)
     warn("the final report says n=%lld, %llu rows were fed", h->dev_n,
          (unsigned long long)(h->nrows - h->first_row));
   if (h->bad_crc > 1)
@@ -284,7 +302,8 @@ void drive_summary(harness_t *h, int code)
          (unsigned long long)h->bytes_lost);
   if (code == EXIT_OK && h->uin_next < h->nuin)
     warn("%ld --uart-in lines were never sent (first: line %lu, index %llu > "
-         "%llu rows)", h->nuin - h->uin_next, h->uin[h->uin_next].line,
+         "%llu rows)",
+         h->nuin - h->uin_next, h->uin[h->uin_next].line,
          (unsigned long long)h->uin[h->uin_next].index,
          (unsigned long long)h->nrows);
 }

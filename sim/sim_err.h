@@ -8,6 +8,6 @@
 #include <stddef.h>
 
 void err_set(char *err, size_t errlen, const char *fmt, ...)
-  __attribute__((format(printf, 3, 4)));
+    __attribute__((format(printf, 3, 4)));
 
 #endif /* SIM_ERR_H */

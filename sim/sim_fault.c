@@ -49,8 +49,8 @@ static double parse_num(const char *s, const char *opt, double lo, double hi)
   char *end;
   double v = strtod(s, &end);
   if (!*s || *end || !(v >= lo && v <= hi))
-    die(EXIT_INPUT, "%s: '%s' is not a number from %g to %g (see --help)",
-        opt, s, lo, hi);
+    die(EXIT_INPUT, "%s: '%s' is not a number from %g to %g (see --help)", opt,
+        s, lo, hi);
   return v;
 }
 
@@ -60,7 +60,8 @@ void fault_parse_adc(fault_t *f, const char *arg)
   snprintf(buf, sizeof buf, "%s", arg);
   char *eq = strchr(buf, '='), *at = strchr(buf, '@');
   if (!eq || (at && at < eq))
-    die(EXIT_INPUT, "--adc-fault: '%s' is not CH=CODE|stuck[@ROW] (see --help)", arg);
+    die(EXIT_INPUT, "--adc-fault: '%s' is not CH=CODE|stuck[@ROW] (see --help)",
+        arg);
   *eq = 0;
   if (at)
     *at = 0;
@@ -69,7 +70,8 @@ void fault_parse_adc(fault_t *f, const char *arg)
     if (!strcmp(buf, channel_names[c]) || (buf[0] == '0' + c && !buf[1]))
       f->adc_ch = c;
   if (f->adc_ch < 0)
-    die(EXIT_INPUT, "--adc-fault: no channel '%s' (ax ay az gx gy gz temp, or 0..6)", buf);
+    die(EXIT_INPUT,
+        "--adc-fault: no channel '%s' (ax ay az gx gy gz temp, or 0..6)", buf);
   if (!strcmp(eq + 1, "stuck")) {
     f->adc_kind = ADC_FAULT_STUCK;
   } else {
@@ -85,12 +87,15 @@ void fault_parse_eeprom(fault_t *f, const char *arg)
   snprintf(buf, sizeof buf, "%s", arg);
   char *at = strchr(buf, '@'), *colon = strchr(buf, ':');
   if (!at || f->nee == FAULT_EE_MAX)
-    die(EXIT_INPUT, "--eeprom-flip: '%s' is not ADDR[:MASK]@SEC, or more than %d "
-        "(see --help)", arg, FAULT_EE_MAX);
+    die(EXIT_INPUT,
+        "--eeprom-flip: '%s' is not ADDR[:MASK]@SEC, or more than %d "
+        "(see --help)",
+        arg, FAULT_EE_MAX);
   *at = 0;
   if (colon)
     *colon = 0;
-  f->ee[f->nee].addr = (uint16_t)parse_num(buf, "--eeprom-flip address", 0, 4095);
+  f->ee[f->nee].addr =
+      (uint16_t)parse_num(buf, "--eeprom-flip address", 0, 4095);
   f->ee[f->nee].mask = colon ? (uint8_t)strtoul(colon + 1, NULL, 0) : 0x01;
   if (!f->ee[f->nee].mask)
     die(EXIT_INPUT, "--eeprom-flip: mask '%s' flips no bit", colon + 1);
@@ -102,7 +107,8 @@ void fault_parse_power(fault_t *f, int kind, const char *arg)
 {
   const char *opt = kind == POWER_CUT ? "--power-cut" : "--brown-out";
   if (f->power)
-    die(EXIT_INPUT, "%s: one power event a run (--power-cut or --brown-out)", opt);
+    die(EXIT_INPUT, "%s: one power event a run (--power-cut or --brown-out)",
+        opt);
   f->power = kind;
   if (!strcmp(arg, "report"))
     f->power_when = WHEN_REPORT;
@@ -121,12 +127,13 @@ static void schedule(harness_t *h)
   for (int i = 0; i < f->nee; i++)
     if (!f->ee[i].done && f->ee[i].t < first)
       first = f->ee[i].t;
-  if (f->power && !f->power_done && f->power_when == WHEN_TIME && f->power_t < first)
+  if (f->power && !f->power_done && f->power_when == WHEN_TIME &&
+      f->power_t < first)
     first = f->power_t;
   if (f->power_due)
     first = 0;
-  f->next_at = isinf(first) ? ~(avr_cycle_count_t)0
-                            : (avr_cycle_count_t)(first * h->avr->frequency);
+  f->next_at = isinf(first) ? ~(avr_cycle_count_t)0 :
+                              (avr_cycle_count_t)(first * h->avr->frequency);
 }
 
 /* The firmware sets EEPE: a byte is being written (a `save`). */
@@ -137,7 +144,7 @@ static void eecr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
   (void)addr;
   if (ee && (v >> ee->eepe.bit & 1) && h->fault.power &&
       h->fault.power_when == WHEN_SAVE && !h->fault.power_done) {
-    h->fault.power_due = 1;   /* cut right after the first byte */
+    h->fault.power_due = 1; /* cut right after the first byte */
     h->fault.next_at = 0;
   }
 }
@@ -218,7 +225,7 @@ int fault_device_byte(harness_t *h, uint8_t *c)
     ;
   } else if (f->prev_dollar && *c == 'L' && h->state != ST_BOOT &&
              h->state != ST_REPORT_H && h->state != ST_REPORT_E) {
-    f->power_due = 1;         /* a report has begun: cut it midway */
+    f->power_due = 1; /* a report has begun: cut it midway */
     f->next_at = 0;
   }
   f->prev_dollar = *c == '$';
@@ -241,7 +248,7 @@ uint16_t fault_adc(harness_t *h, int ch, uint64_t row, uint16_t code)
   if (!f->adc_kind || ch != f->adc_ch)
     return code;
   if (row + 1 == f->adc_row || (row == 0 && f->adc_row == 0))
-    f->stuck_code = code;     /* the value it sticks at */
+    f->stuck_code = code; /* the value it sticks at */
   if (row < f->adc_row)
     return code;
   f->adc_faulted++;
@@ -260,9 +267,9 @@ static void power_event(harness_t *h)
   if (h->verbose)
     fprintf(stderr, PROG ": t=%.6f s: %s\n", sim_time(h),
             f->power == POWER_CUT ? "power cut" : "brown-out");
-  avr_reset(avr);     /* every I/O register to 0, MCUSR too */
-  avr_regbit_set(avr, f->power == POWER_CUT ? avr->reset_flags.porf
-                                            : avr->reset_flags.borf);
+  avr_reset(avr); /* every I/O register to 0, MCUSR too */
+  avr_regbit_set(avr, f->power == POWER_CUT ? avr->reset_flags.porf :
+                                              avr->reset_flags.borf);
 }
 
 int fault_poll(harness_t *h)

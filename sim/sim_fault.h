@@ -23,34 +23,42 @@ enum { ADC_FAULT_NONE, ADC_FAULT_CODE, ADC_FAULT_STUCK };
 
 typedef struct {
   /* options */
-  double loss, flip;          /* per byte on the link, each way */
-  uint64_t rng;               /* xorshift state (--fault-seed) */
-  int no_flow;                /* --no-flow-control */
-  double overrun;             /* --uart-overrun: per host byte */
+  double loss, flip; /* per byte on the link, each way */
+  uint64_t rng;      /* xorshift state (--fault-seed) */
+  int no_flow;       /* --no-flow-control */
+  double overrun;    /* --uart-overrun: per host byte */
   int adc_kind, adc_ch;
   uint16_t adc_code;
   uint64_t adc_row;
-  struct { double t; uint16_t addr; uint8_t mask; int done; } ee[FAULT_EE_MAX];
+  struct {
+    double t;
+    uint16_t addr;
+    uint8_t mask;
+    int done;
+  } ee[FAULT_EE_MAX];
   int nee;
   int power, power_when;
   double power_t;
   /* state */
-  int link_on;                /* the link is noisy now (set by the runner) */
+  int link_on; /* the link is noisy now (set by the runner) */
   int power_done, power_due, prev_dollar, dor_pending;
   uint16_t stuck_code;
-  avr_cycle_count_t next_at;  /* when fault_poll() has work; ~0: never */
+  avr_cycle_count_t next_at; /* when fault_poll() has work; ~0: never */
   /* what happened */
-  uint64_t in_lost, in_flipped, in_frame_errors, in_data_flips, out_lost, out_flipped;
-  uint64_t overruns, overruns_injected, dor_events, ee_flipped, resets, adc_faulted;
+  uint64_t in_lost, in_flipped, in_frame_errors, in_data_flips, out_lost,
+      out_flipped;
+  uint64_t overruns, overruns_injected, dor_events, ee_flipped, resets,
+      adc_faulted;
 } fault_t;
 
 /* Options (from sim_cli.c); each returns 0, or dies with a message. */
-void fault_parse_adc(fault_t *f, const char *arg);      /* CH=CODE|stuck[@ROW] */
-void fault_parse_eeprom(fault_t *f, const char *arg);   /* ADDR[:MASK]@SEC */
-void fault_parse_power(fault_t *f, int kind, const char *arg);  /* SEC|report|save */
+void fault_parse_adc(fault_t *f, const char *arg);    /* CH=CODE|stuck[@ROW] */
+void fault_parse_eeprom(fault_t *f, const char *arg); /* ADDR[:MASK]@SEC */
+void fault_parse_power(fault_t *f, int kind,
+                       const char *arg); /* SEC|report|save */
 int fault_any(const fault_t *f);
 
-void fault_connect(struct harness *h);    /* after the MCU is made */
+void fault_connect(struct harness *h); /* after the MCU is made */
 /* A host byte about to reach the UART: 0 lost on the line, else 1 with
  * *c as it arrives and *fe set when its stop bit was hit. */
 int fault_host_byte(struct harness *h, uint8_t *c, int *fe);

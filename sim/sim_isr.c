@@ -8,13 +8,13 @@
 
 static struct {
   avr_t *avr;
-  uint32_t table_end;         /* bytes: the vector table ends here */
-  int cur;                    /* vector running, -1: none */
-  uint16_t sp0;               /* SP at its first instruction (PC pushed) */
+  uint32_t table_end; /* bytes: the vector table ends here */
+  int cur;            /* vector running, -1: none */
+  uint16_t sp0;       /* SP at its first instruction (PC pushed) */
   avr_cycle_count_t t0;
   sim_isr_stat_t stat[SIM_ISR_VECTORS];
   uint64_t adsc_max[SIM_ISR_VECTORS];
-} isr = {.cur = -1};
+} isr = { .cur = -1 };
 
 static uint16_t sp(void)
 {
@@ -73,13 +73,13 @@ uint64_t sim_isr_adsc_max(uint8_t vector)
 
 sim_isr_stat_t sim_isr_stat(uint8_t vector)
 {
-  sim_isr_stat_t none = {0, 0, 0};
+  sim_isr_stat_t none = { 0, 0, 0 };
   return vector < SIM_ISR_VECTORS ? isr.stat[vector] : none;
 }
 
 sim_isr_stat_t sim_isr_all(void)
 {
-  sim_isr_stat_t all = {0, 0, 0};
+  sim_isr_stat_t all = { 0, 0, 0 };
   for (unsigned v = 0; v < SIM_ISR_VECTORS; v++) {
     all.count += isr.stat[v].count;
     all.sum += isr.stat[v].sum;

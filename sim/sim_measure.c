@@ -67,7 +67,7 @@ static harness_t *sleep_h;
 static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
 {
   (void)avr;
-  sleep_h->slept += how_long + 1;   /* the core then adds 1 + how_long cycles */
+  sleep_h->slept += how_long + 1; /* the core then adds 1 + how_long cycles */
 }
 
 /* 1 if PATH is an AVR ELF executable. */
@@ -160,10 +160,15 @@ static void mean_max(const pulse_t *p, char mean[32], char max[32])
   snprintf(max, 32, "%llu", (unsigned long long)p->max);
 }
 
-typedef struct { const char *key; char val[40]; int text; } stat_kv_t;
+typedef struct {
+  const char *key;
+  char val[40];
+  int text;
+} stat_kv_t;
 
 /* One "key value" a line, or a JSON object (closing F if it is a file). */
-static void write_stats(const harness_t *h, FILE *f, const stat_kv_t *kv, int n, int json)
+static void write_stats(const harness_t *h, FILE *f, const stat_kv_t *kv, int n,
+                        int json)
 {
   for (int i = 0; i < n; i++) {
     if (!json)
@@ -211,8 +216,8 @@ void print_stats(harness_t *h, int json)
   }
   stat_kv_t kv[64];
   int n = 0;
-#define KV(k, ...) \
-  (kv[n].key = (k), kv[n].text = 0, \
+#define KV(k, ...)                                                             \
+  (kv[n].key = (k), kv[n].text = 0,                                            \
    snprintf(kv[n].val, sizeof kv[n].val, __VA_ARGS__), n++)
   KV("mcu", "%s", avr->mmcu);
   kv[n - 1].text = 1;
@@ -234,14 +239,19 @@ void print_stats(harness_t *h, int json)
   KV("isr_cycles_mean", "%s", imean);
   KV("isr_cycles_max", "%s", imax);
   /* Whole interrupts, vector to reti (sim_isr.c), not the probe's window. */
-  sim_isr_stat_t adc_isr = sim_isr_stat(h->adc->adc.vector), any_isr = sim_isr_all();
-  KV("isr_adc_cycles_mean", "%.1f", adc_isr.count ? (double)adc_isr.sum / adc_isr.count : 0.0);
+  sim_isr_stat_t adc_isr = sim_isr_stat(h->adc->adc.vector),
+                 any_isr = sim_isr_all();
+  KV("isr_adc_cycles_mean", "%.1f",
+     adc_isr.count ? (double)adc_isr.sum / adc_isr.count : 0.0);
   KV("isr_adc_cycles_max", "%llu", (unsigned long long)adc_isr.max);
   KV("isr_any_cycles_max", "%llu", (unsigned long long)any_isr.max);
-  KV("adsc_after_adc_vector_max", "%llu", (unsigned long long)sim_isr_adsc_max(h->adc->adc.vector));
+  KV("adsc_after_adc_vector_max", "%llu",
+     (unsigned long long)sim_isr_adsc_max(h->adc->adc.vector));
   avr_timer_t *t1 = (avr_timer_t *)find_io(avr, "timer", '1');
   KV("adsc_after_tick_max", "%llu",
-     (unsigned long long)(t1 ? sim_isr_adsc_max(t1->comp[AVR_TIMER_COMPA].interrupt.vector) : 0));
+     (unsigned long long)(t1 ? sim_isr_adsc_max(
+                                   t1->comp[AVR_TIMER_COMPA].interrupt.vector) :
+                               0));
   KV("cpu_busy_fraction", "%.6f", busy);
   KV("cycles_total", "%llu", (unsigned long long)avr->cycle);
   KV("cycles_slept", "%llu", (unsigned long long)h->slept);
@@ -268,7 +278,8 @@ void print_stats(harness_t *h, int json)
   KV("fault_out_lost", "%llu", (unsigned long long)fl->out_lost);
   KV("fault_out_flipped", "%llu", (unsigned long long)fl->out_flipped);
   KV("fault_overruns", "%llu", (unsigned long long)fl->overruns);
-  KV("fault_overruns_injected", "%llu", (unsigned long long)fl->overruns_injected);
+  KV("fault_overruns_injected", "%llu",
+     (unsigned long long)fl->overruns_injected);
   KV("fault_dor_events", "%llu", (unsigned long long)fl->dor_events);
   KV("fault_eeprom_flipped", "%llu", (unsigned long long)fl->ee_flipped);
   KV("fault_resets", "%llu", (unsigned long long)fl->resets);
@@ -280,7 +291,6 @@ void print_stats(harness_t *h, int json)
 #undef KV
   write_stats(h, f, kv, n, json);
 }
-
 
 void measure_connect(harness_t *h)
 {

@@ -8,7 +8,7 @@
 
 #include "harness.h"
 
-void measure_connect(harness_t *h);   /* hooks PB0..PB2 and the sleep callback */
+void measure_connect(harness_t *h); /* hooks PB0..PB2 and the sleep callback */
 int elf_is_avr(const char *path);
 uint16_t elf_bss_end(const char *path);
 void print_stats(harness_t *h, int json);

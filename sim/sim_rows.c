@@ -29,8 +29,8 @@ static int strip(char *s)
 }
 
 /* One non-blank line into code[]: 0 or -1 with err "NAME:LINE: ...". */
-static int parse_row(rows_t *r, char *s, uint16_t code[ROW_COLUMNS],
-                     char *err, size_t errlen)
+static int parse_row(rows_t *r, char *s, uint16_t code[ROW_COLUMNS], char *err,
+                     size_t errlen)
 {
   char *tok[ROW_COLUMNS];
   int n = 0;
@@ -42,8 +42,8 @@ static int parse_row(rows_t *r, char *s, uint16_t code[ROW_COLUMNS],
     n++;
   }
   if (n != ROW_COLUMNS) {
-    err_set(err, errlen, "%s:%lu: expected %d columns, got %d",
-         r->name, r->line, ROW_COLUMNS, n);
+    err_set(err, errlen, "%s:%lu: expected %d columns, got %d", r->name,
+            r->line, ROW_COLUMNS, n);
     return -1;
   }
   for (int i = 0; i < ROW_COLUMNS; i++) {
@@ -52,12 +52,12 @@ static int parse_row(rows_t *r, char *s, uint16_t code[ROW_COLUMNS],
     long v = strtol(tok[i], &end, 10);
     if (*end || end == tok[i] || errno) {
       err_set(err, errlen, "%s:%lu: column %d: '%.20s' is not an integer",
-           r->name, r->line, i + 1, tok[i]);
+              r->name, r->line, i + 1, tok[i]);
       return -1;
     }
     if (v < 0 || v > ROW_CODE_MAX) {
-      err_set(err, errlen, "%s:%lu: column %d: %ld is outside 0..%d",
-           r->name, r->line, i + 1, v, ROW_CODE_MAX);
+      err_set(err, errlen, "%s:%lu: column %d: %ld is outside 0..%d", r->name,
+              r->line, i + 1, v, ROW_CODE_MAX);
       return -1;
     }
     code[i] = (uint16_t)v;
@@ -83,8 +83,8 @@ int rows_next(rows_t *r, uint16_t code[ROW_COLUMNS], char *err, size_t errlen)
   }
 }
 
-int rows_open(rows_t *r, const char *path, uint64_t *nrows,
-              char *err, size_t errlen)
+int rows_open(rows_t *r, const char *path, uint64_t *nrows, char *err,
+              size_t errlen)
 {
   struct stat st;
   memset(r, 0, sizeof *r);
@@ -105,14 +105,14 @@ int rows_open(rows_t *r, const char *path, uint64_t *nrows,
     char chunk[65536];
     size_t n;
     if (!tmp) {
-      err_set(err, errlen, "%s: cannot create a temporary file: %s",
-           r->name, strerror(errno));
+      err_set(err, errlen, "%s: cannot create a temporary file: %s", r->name,
+              strerror(errno));
       return -1;
     }
     while ((n = fread(chunk, 1, sizeof chunk, r->f)) > 0)
       if (fwrite(chunk, 1, n, tmp) != n) {
         err_set(err, errlen, "%s: cannot spool to a temporary file: %s",
-             r->name, strerror(errno));
+                r->name, strerror(errno));
         fclose(tmp);
         return -1;
       }
@@ -165,9 +165,12 @@ void rows_close(rows_t *r)
 
 static int hexval(int c)
 {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  if (c >= '0' && c <= '9')
+    return c - '0';
+  if (c >= 'a' && c <= 'f')
+    return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F')
+    return c - 'A' + 10;
   return -1;
 }
 
@@ -189,11 +192,25 @@ static uint8_t *unescape(const char *p, size_t *len, const char *name,
     }
     p++;
     switch (*p) {
-    case 'r': b[k++] = '\r'; p++; break;
-    case 'n': b[k++] = '\n'; p++; break;
-    case 't': b[k++] = '\t'; p++; break;
-    case '0': b[k++] = 0; p++; break;
-    case '\\': case '"': case '\'': b[k++] = (uint8_t)*p++; break;
+    case 'r':
+      b[k++] = '\r';
+      p++;
+      break;
+    case 'n':
+      b[k++] = '\n';
+      p++;
+      break;
+    case 't':
+      b[k++] = '\t';
+      p++;
+      break;
+    case '0':
+      b[k++] = 0;
+      p++;
+      break;
+    case '\\':
+    case '"':
+    case '\'': b[k++] = (uint8_t)*p++; break;
     case 'x': {
       int h1 = hexval(p[1]), h2 = h1 < 0 ? -1 : hexval(p[2]);
       if (h1 < 0) {
@@ -213,8 +230,10 @@ static uint8_t *unescape(const char *p, size_t *len, const char *name,
     default:
       free(b);
       if (*p)
-        err_set(err, errlen, "%s:%lu: unknown escape '\\%c' (use \\r \\n "
-                "\\t \\\\ \\xNN)", name, line, *p);
+        err_set(err, errlen,
+                "%s:%lu: unknown escape '\\%c' (use \\r \\n "
+                "\\t \\\\ \\xNN)",
+                name, line, *p);
       else
         err_set(err, errlen, "%s:%lu: line ends with a lone '\\'", name, line);
       return NULL;
@@ -257,9 +276,11 @@ long uart_in_load(const char *path, uart_in_t **out, char *err, size_t errlen)
     if (*p++ != '\t')
       goto bad_format;
     if (n && idx < v[n - 1].index) {
-      err_set(err, errlen, "%s:%lu: sample index %llu is below the previous "
-           "line's %llu (lines must be in time order)", name, line,
-           (unsigned long long)idx, (unsigned long long)v[n - 1].index);
+      err_set(err, errlen,
+              "%s:%lu: sample index %llu is below the previous "
+              "line's %llu (lines must be in time order)",
+              name, line, (unsigned long long)idx,
+              (unsigned long long)v[n - 1].index);
       goto error;
     }
     if (n == cap) {
@@ -281,7 +302,8 @@ long uart_in_load(const char *path, uart_in_t **out, char *err, size_t errlen)
     n++;
     continue;
   bad_format:
-    err_set(err, errlen, "%s:%lu: expected <sample_index><TAB><text>", name, line);
+    err_set(err, errlen, "%s:%lu: expected <sample_index><TAB><text>", name,
+            line);
     goto error;
   }
   if (ferror(f)) {

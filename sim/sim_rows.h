@@ -18,9 +18,9 @@
  * lines starting with '$' (protocol lines in a raw capture of the device:
  * count lines, replies) are skipped. */
 typedef struct {
-  const char *name;     /* for messages: the path, or "stdin" */
+  const char *name; /* for messages: the path, or "stdin" */
   FILE *f;
-  unsigned long line;   /* line number of the last line read */
+  unsigned long line; /* line number of the last line read */
   char *buf;
   size_t cap;
 } rows_t;
@@ -30,8 +30,8 @@ typedef struct {
  * an anonymous temporary file on the way.  On success returns 0, the row
  * count in *nrows, and leaves the stream at the first row.  On failure
  * returns -1 with one line (without "imu-sim: ") in err. */
-int rows_open(rows_t *r, const char *path, uint64_t *nrows,
-              char *err, size_t errlen);
+int rows_open(rows_t *r, const char *path, uint64_t *nrows, char *err,
+              size_t errlen);
 
 /* Next row into code[]: 1 row, 0 end of file, -1 error (message in err). */
 int rows_next(rows_t *r, uint16_t code[ROW_COLUMNS], char *err, size_t errlen);
@@ -46,7 +46,7 @@ void rows_close(rows_t *r);
  * escapes \r \n \t \\ \xNN (also \0 \" \').  Loaded whole (these files are
  * short); indexes must not decrease. */
 typedef struct {
-  uint64_t index;   /* send when this many rows have been consumed */
+  uint64_t index; /* send when this many rows have been consumed */
   uint8_t *bytes;
   size_t len;
   unsigned long line;

@@ -32,17 +32,19 @@ avr_cycle_count_t serial_byte_cycles(harness_t *h)
   uint32_t ubrr = avr_regbit_get(avr, u->ubrrl) |
                   (uint32_t)avr_regbit_get(avr, u->ubrrh) << 8;
   uint32_t bits = 10 + avr_regbit_get(avr, u->usbs);
-  return (avr_cycle_count_t)bits * (ubrr + 1) * (avr_regbit_get(avr, u->u2x) ? 8 : 16);
+  return (avr_cycle_count_t)bits * (ubrr + 1) *
+         (avr_regbit_get(avr, u->u2x) ? 8 : 16);
 }
 
 /* Sends the next queued byte, then comes back one byte time later.  While
  * simavr's receive FIFO is full (XOFF) it waits, polling the FIFO once a
  * byte time, so a missed XON cannot stall it. */
-static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *param)
+static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when,
+                                  void *param)
 {
   harness_t *h = param;
   if (!h->txq_len) {
-    h->tx_busy = 0;      /* restarted by tx_push() */
+    h->tx_busy = 0; /* restarted by tx_push() */
     return 0;
   }
   /* Without flow control the sender never waits: the chip's receive
@@ -59,7 +61,7 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
     h->txq_head = 0;
   h->bytes_in++;
   if (!avr_regbit_get(avr, h->uart->rxen))
-    h->bytes_lost++;     /* simavr drops it, as the hardware would */
+    h->bytes_lost++; /* simavr drops it, as the hardware would */
   else if (fault_host_byte(h, &c, &fe) && !fault_rx_full(h)) {
     avr_raise_irq(h->uart_irq + UART_IRQ_INPUT, c | (fe ? UART_INPUT_FE : 0));
     fault_host_byte_delivered(h);
@@ -84,8 +86,8 @@ static void tx_kick(harness_t *h)
     return;
   avr_cycle_count_t now = h->avr->cycle;
   h->tx_busy = 1;
-  avr_cycle_timer_register(h->avr, h->tx_free_at > now ? h->tx_free_at - now : 1,
-                           tx_timer, h);
+  avr_cycle_timer_register(
+      h->avr, h->tx_free_at > now ? h->tx_free_at - now : 1, tx_timer, h);
 }
 
 void serial_push(harness_t *h, const uint8_t *b, size_t n)
@@ -192,7 +194,7 @@ static void uart_out(avr_irq_t *irq, uint32_t value, void *param)
   uint8_t c = (uint8_t)value;
   (void)irq;
   if (!fault_device_byte(h, &c))
-    return;     /* lost on the link */
+    return; /* lost on the link */
   if (h->out)
     putc(c, h->out);
   h->bytes_out++;

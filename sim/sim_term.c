@@ -26,12 +26,14 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen)
   p->opens = -1;
   p->master = posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK);
   if (p->master < 0) {
-    err_set(err, errlen, "cannot create a pseudo-terminal: %s", strerror(errno));
+    err_set(err, errlen, "cannot create a pseudo-terminal: %s",
+            strerror(errno));
     return -1;
   }
   if (grantpt(p->master) || unlockpt(p->master) ||
       ptsname_r(p->master, p->slave, sizeof p->slave)) {
-    err_set(err, errlen, "cannot set up the pseudo-terminal: %s", strerror(errno));
+    err_set(err, errlen, "cannot set up the pseudo-terminal: %s",
+            strerror(errno));
     goto error;
   }
   /* Raw mode on the slave: echo there would send the device's own output
@@ -55,7 +57,8 @@ int pty_open(pty_t *p, const char *link, char *err, size_t errlen)
     struct stat st;
     char tmp[4096];
     if (lstat(link, &st) == 0 && !S_ISLNK(st.st_mode)) {
-      err_set(err, errlen, "--link %s: exists and is not a symbolic link", link);
+      err_set(err, errlen, "--link %s: exists and is not a symbolic link",
+              link);
       close(p->master);
       p->master = -1;
       return -2;
@@ -83,7 +86,7 @@ int pty_state(const pty_t *p, int *readable)
   struct pollfd q = { .fd = p->master, .events = POLLIN };
   *readable = 0;
   if (poll(&q, 1, 0) < 0)
-    return 1;   /* EINTR: assume nothing changed */
+    return 1; /* EINTR: assume nothing changed */
   if (q.revents & (POLLHUP | POLLERR | POLLNVAL))
     return 0;
   *readable = (q.revents & POLLIN) != 0;
@@ -156,7 +159,8 @@ static uint64_t splitmix64(uint64_t *s)
 /* Uniform in (0, 1). */
 static double uniform(synth_t *s)
 {
-  return ((double)(splitmix64(&s->state) >> 11) + 0.5) * (1.0 / 9007199254740992.0);
+  return ((double)(splitmix64(&s->state) >> 11) + 0.5) *
+         (1.0 / 9007199254740992.0);
 }
 
 /* Standard normal (Box-Muller, both values used). */

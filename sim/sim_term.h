@@ -12,10 +12,10 @@
 #include "sim_rows.h"
 
 typedef struct {
-  int master;            /* non-blocking; the device's side */
-  int opens;             /* inotify on the slave (pty_opened), or -1 */
-  char slave[128];       /* what a terminal opens, e.g. /dev/pts/7 */
-  char *link;            /* symlink to slave we made, or NULL */
+  int master;      /* non-blocking; the device's side */
+  int opens;       /* inotify on the slave (pty_opened), or -1 */
+  char slave[128]; /* what a terminal opens, e.g. /dev/pts/7 */
+  char *link;      /* symlink to slave we made, or NULL */
 } pty_t;
 
 /* Create a pseudo-terminal in raw mode (no echo, no line editing, no

@@ -25,15 +25,15 @@ static volatile sig_atomic_t stop_signal;
 
 static struct {
   pty_t pty;
-  FILE *info;                 /* the real stdout: the device path */
-  int connected;              /* a terminal has the slave open */
-  uint8_t obuf[4096];         /* device bytes not yet written to the master */
+  FILE *info;         /* the real stdout: the device path */
+  int connected;      /* a terminal has the slave open */
+  uint8_t obuf[4096]; /* device bytes not yet written to the master */
   size_t olen;
-  uint64_t unheard;           /* bytes sent while no terminal was open */
-  uint64_t dropped;           /* bytes the terminal did not read in time */
-  uint64_t from_term;         /* bytes read from the terminal */
-  uint64_t resyncs;           /* times the host fell behind real time */
-  uint64_t flushed;           /* host bytes lost to a closed line or a reset */
+  uint64_t unheard;   /* bytes sent while no terminal was open */
+  uint64_t dropped;   /* bytes the terminal did not read in time */
+  uint64_t from_term; /* bytes read from the terminal */
+  uint64_t resyncs;   /* times the host fell behind real time */
+  uint64_t flushed;   /* host bytes lost to a closed line or a reset */
   avr_cycle_count_t slice, next_io, c0;
   struct timespec t0;
 } t = { .pty = { .master = -1 } };
@@ -50,7 +50,7 @@ static void sleep_s(double s)
   if (s <= 0)
     return;
   struct timespec ts = { (time_t)s, (long)((s - (double)(time_t)s) * 1e9) };
-  nanosleep(&ts, NULL);       /* a signal ends it early: fine */
+  nanosleep(&ts, NULL); /* a signal ends it early: fine */
 }
 
 /* Is a terminal there?  Reads what it typed while the harness has room
@@ -65,7 +65,7 @@ static void drop_host_bytes(harness_t *h)
 {
   uint8_t buf[256];
   t.flushed += serial_drop_queued(h);
-  for (;;) {      /* what the closed terminal left in the pty */
+  for (;;) { /* what the closed terminal left in the pty */
     ssize_t n = read(t.pty.master, buf, sizeof buf);
     if (n <= 0 && !(n < 0 && errno == EINTR))
       break;
@@ -84,7 +84,7 @@ static void term_poll(harness_t *h)
       fprintf(stderr, PROG ": t=%.3f s: terminal %s\n", sim_time(h),
               now ? "opened" : "closed");
     if (!now || opened > 0)
-      drop_host_bytes(h);          /* they went with the last line */
+      drop_host_bytes(h); /* they went with the last line */
     /* DTR auto-reset: every open, even a close and open between two
      * looks (inotify counts them); without inotify, a change seen */
     if (h->board && (opened > 0 || (opened < 0 && now && !t.connected))) {
@@ -110,7 +110,7 @@ static void term_poll(harness_t *h)
     if (n < 0 && errno == EINTR)
       continue;
     if (n < 0 && errno != EAGAIN)
-      t.connected = 0;        /* EIO: the terminal went away */
+      t.connected = 0; /* EIO: the terminal went away */
     break;
   }
 }
@@ -123,7 +123,7 @@ static void term_flush(harness_t *h)
 {
   size_t off = 0;
   if (h->out && t.olen)
-    fflush(h->out);    /* -o: a copy others may read while the device runs */
+    fflush(h->out); /* -o: a copy others may read while the device runs */
   while (off < t.olen) {
     if (!t.connected) {
       t.unheard += t.olen - off;
@@ -167,11 +167,13 @@ static void term_out(harness_t *h, uint8_t c)
 static void term_pace(harness_t *h)
 {
   for (;;) {
-    double ahead = (double)(h->avr->cycle - t.c0) / h->avr->frequency - since(&t.t0);
+    double ahead =
+        (double)(h->avr->cycle - t.c0) / h->avr->frequency - since(&t.t0);
     if (ahead < -0.25) {
       if (!t.resyncs++)
         warn("t=%.3f s: the host cannot keep up with real time; "
-             "simulated time runs slower", sim_time(h));
+             "simulated time runs slower",
+             sim_time(h));
       clock_gettime(CLOCK_MONOTONIC, &t.t0);
       t.c0 = h->avr->cycle;
       return;
@@ -196,9 +198,11 @@ static void term_pace(harness_t *h)
  * more than a slice of simulated time at once (simavr jumps a sleeping
  * CPU to its next timer event, which for a stopped device can be far
  * away), and a byte typed meanwhile reaches it within a slice. */
-static avr_cycle_count_t term_tick(avr_t *avr, avr_cycle_count_t when, void *param)
+static avr_cycle_count_t term_tick(avr_t *avr, avr_cycle_count_t when,
+                                   void *param)
 {
-  (void)avr; (void)param;
+  (void)avr;
+  (void)param;
   return when + t.slice;
 }
 
@@ -227,7 +231,7 @@ static void term_after_reset(harness_t *h)
 {
   avr_t *avr = h->avr;
   h->reset_seen = 0;
-  t.flushed += serial_drop_queued(h);   /* bytes on the wire during the reset */
+  t.flushed += serial_drop_queued(h); /* bytes on the wire during the reset */
   if (avr->cycle < t.c0) {
     clock_gettime(CLOCK_MONOTONIC, &t.t0);
     t.c0 = avr->cycle;
@@ -245,8 +249,9 @@ static int term_stuck(harness_t *h)
 {
   avr_t *avr = h->avr;
   warn("t=%.3f s: the firmware crashed (PC 0x%04x)%s%s; the board is stuck "
-       "until it is reset (open the port)", sim_time(h), (unsigned)avr->pc,
-       h->last_error[0] ? ": " : "", h->last_error);
+       "until it is reset (open the port)",
+       sim_time(h), (unsigned)avr->pc, h->last_error[0] ? ": " : "",
+       h->last_error);
   while (!stop_signal && avr->state != cpu_Running) {
     sleep_s(0.001);
     term_flush(h);
@@ -277,7 +282,7 @@ int term_run(harness_t *h)
   int readable, st = cpu_Running;
 
   memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_stop_signal;     /* no SA_RESTART: sleeps end early */
+  sa.sa_handler = on_stop_signal; /* no SA_RESTART: sleeps end early */
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, NULL);
   sigaction(SIGTERM, &sa, NULL);
@@ -285,15 +290,16 @@ int term_run(harness_t *h)
   signal(SIGPIPE, SIG_IGN);
 
   h->on_byte = term_out;
-  h->fault.link_on = 1;     /* the whole session goes over the link */
+  h->fault.link_on = 1; /* the whole session goes over the link */
   h->on_line = on_line;
   fprintf(t.info, PROG ": device on %s\n", t.pty.slave);
   if (t.pty.link)
     fprintf(t.info, PROG ": linked as %s\n", t.pty.link);
   fflush(t.info);
   if (!h->no_wait) {
-    fprintf(stderr, PROG ": the device powers up when a terminal opens it "
-            "(%s%s, %s; Ctrl-C ends)\n",
+    fprintf(stderr,
+            PROG ": the device powers up when a terminal opens it "
+                 "(%s%s, %s; Ctrl-C ends)\n",
             h->synthetic ? "synthetic IMU" : "ADC rows from ",
             h->synthetic ? "" : h->adc_path, h->fast ? "fast" : "real time");
     while (!stop_signal && !pty_state(&t.pty, &readable))
@@ -301,7 +307,7 @@ int term_run(harness_t *h)
     sleep_s(OPEN_GRACE_S);
   }
 
-  t.slice = avr->frequency / (h->fast ? 200 : 1000);   /* 5 or 1 ms */
+  t.slice = avr->frequency / (h->fast ? 200 : 1000); /* 5 or 1 ms */
   clock_gettime(CLOCK_MONOTONIC, &t.t0);
   t.c0 = avr->cycle;
   t.next_io = avr->cycle + t.slice;
@@ -331,7 +337,7 @@ int term_run(harness_t *h)
     if (h->reset_seen)
       term_after_reset(h);
     if (h->board && ++slices % 50 == 0)
-      board_poll(h);           /* every 50 ms (250 ms with --fast) */
+      board_poll(h); /* every 50 ms (250 ms with --fast) */
     if (!h->fast)
       term_pace(h);
   }
@@ -350,10 +356,11 @@ void term_open(harness_t *h)
   int r = pty_open(&t.pty, h->link_path, err, sizeof err);
   if (r)
     die(r == -2 ? EXIT_INPUT : EXIT_FAIL, "%s", err);
-  atexit(term_cleanup);     /* the link goes, however imu-sim ends */
-  if (h->board && pty_opened(&t.pty) < 0)     /* start counting opens */
+  atexit(term_cleanup); /* the link goes, however imu-sim ends */
+  if (h->board && pty_opened(&t.pty) < 0) /* start counting opens */
     warn("no inotify on %s: a close and open faster than a millisecond "
-         "may not reset the board", t.pty.slave);
+         "may not reset the board",
+         t.pty.slave);
 }
 
 void term_started(struct timespec *t0)
@@ -364,17 +371,21 @@ void term_started(struct timespec *t0)
 void term_summary(harness_t *h, int st)
 {
   if (h->verbose && t.flushed)
-    fprintf(stderr, PROG ": %llu bytes from the terminal were lost to a reset "
-            "or a closed line\n", (unsigned long long)t.flushed);
+    fprintf(stderr,
+            PROG ": %llu bytes from the terminal were lost to a reset "
+                 "or a closed line\n",
+            (unsigned long long)t.flushed);
   if (t.dropped)
     warn("%llu device bytes were lost: the terminal did not read them",
          (unsigned long long)t.dropped);
   if (h->bytes_lost)
     warn("%llu bytes from the terminal were lost: the device's receiver "
-         "was disabled", (unsigned long long)h->bytes_lost);
+         "was disabled",
+         (unsigned long long)h->bytes_lost);
   if (st != cpu_Crashed && st != cpu_Stopped && st != cpu_Done)
-    fprintf(stderr, PROG ": stopped at t=%.1f simulated s (%.1f s of wall "
-            "time); %llu bytes from the terminal, %llu to it\n",
+    fprintf(stderr,
+            PROG ": stopped at t=%.1f simulated s (%.1f s of wall "
+                 "time); %llu bytes from the terminal, %llu to it\n",
             sim_time(h), h->wall_s, (unsigned long long)t.from_term,
             (unsigned long long)(h->bytes_out - t.unheard - t.dropped));
 }

@@ -6,9 +6,9 @@
  * simavr 1.6 otherwise mis-loads) and is not part of the .hex.
  */
 #ifdef HAVE_SIMAVR_SECTION
-#include <avr/avr_mcu_section.h>
+#  include <avr/avr_mcu_section.h>
 
-#include "config.h"
+#  include "config.h"
 
 AVR_MCU(F_CPU, FW_MCU_NAME);
 #else

@@ -9,6 +9,7 @@ reference, analyze IMU noise.  The public Python API (api.py):
 The API's names are loaded on first use (PEP 562), so that ``imu-allan
 --help`` and the serial commands start without importing numpy and scipy.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -16,8 +17,19 @@ from typing import Any
 from ._version import __version__
 from .channels import CHANNELS
 
-_API = ("Capture", "Deviation", "DeviceReport", "adev", "device_reports", "hdev", "mdev",
-        "noise_terms", "oadev", "read_capture", "read_rows")
+_API = (
+    "Capture",
+    "Deviation",
+    "DeviceReport",
+    "adev",
+    "device_reports",
+    "hdev",
+    "mdev",
+    "noise_terms",
+    "oadev",
+    "read_capture",
+    "read_rows",
+)
 
 __all__ = ["CHANNELS", *_API, "__version__"]
 
@@ -25,6 +37,7 @@ __all__ = ["CHANNELS", *_API, "__version__"]
 def __getattr__(name: str) -> Any:
     if name in _API:
         from . import api
+
         return getattr(api, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

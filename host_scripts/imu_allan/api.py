@@ -18,6 +18,7 @@ serial log, checked), ``device_reports`` (every complete on-device report),
 ``read_rows`` (a thesis rows file).  ``noise_terms(data, rate, taus)`` fits
 the IEEE 952 terms (IEEE Std 952-1997 annex C: Q, N, B, K, R).
 """
+
 from __future__ import annotations
 
 from typing import Callable, NamedTuple, Union
@@ -28,16 +29,27 @@ from numpy.typing import ArrayLike
 from .device.capture import Capture, read_capture
 from .device.files import PathLike, read_blocks
 from .device.records import DeviceReport, decode_blocks
-from .sources.rows import read_rows
 from .noise import terms
+from .sources.rows import read_rows
 from .stats import allan, edf
 
 Taus = Union[str, ArrayLike]
 Variance = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 """A statistic of stats/allan.py: (samples, cluster sizes) -> (variances, terms)."""
 
-__all__ = ["Deviation", "adev", "oadev", "mdev", "hdev", "noise_terms", "read_capture",
-           "device_reports", "read_rows", "Capture", "DeviceReport"]
+__all__ = [
+    "Deviation",
+    "adev",
+    "oadev",
+    "mdev",
+    "hdev",
+    "noise_terms",
+    "read_capture",
+    "device_reports",
+    "read_rows",
+    "Capture",
+    "DeviceReport",
+]
 
 
 class Deviation(NamedTuple):
@@ -89,6 +101,7 @@ def noise_terms(data: ArrayLike, rate: float = 1.0, taus: Taus = "octave") -> te
     (Gauss-Markov: value sigma, ``.extra["tau_c"]``); ``result.fitted`` the
     catalogue model (docs/analysis.md)."""
     from .noise.fit import fit_curve
+
     x, ms = _grid(data, rate, taus, "oavar")
     var, _ = allan.oavar(x, ms)
     efn = edf.edf_function(ms, np.full(ms.size, x.size + 1), np.ones(ms.size, dtype=np.int64))
@@ -100,8 +113,9 @@ def device_reports(path: PathLike) -> list[DeviceReport]:
     return decode_blocks(read_blocks(path)).reports
 
 
-def _deviation(data: ArrayLike, rate: float, taus: Taus, fn: Variance, stat: str, d: int,
-               overlapping: bool, modified: bool = False) -> Deviation:
+def _deviation(
+    data: ArrayLike, rate: float, taus: Taus, fn: Variance, stat: str, d: int, overlapping: bool, modified: bool = False
+) -> Deviation:
     x, ms = _grid(data, rate, taus, stat)
     var, ns = fn(x, ms)
     ok = np.isfinite(var) & (var > 0)
@@ -111,8 +125,14 @@ def _deviation(data: ArrayLike, rate: float, taus: Taus, fn: Variance, stat: str
     if d == 3:
         alpha = np.maximum(alpha, -4)
     stride = np.ones(ms.size, dtype=np.int64) if overlapping else ms
-    table = edf.edf_points(ms, np.full(ms.size, x.size + 1), stride, d=d, modified=modified,
-                           alphas=tuple(sorted(set(int(a) for a in alpha))) or (0,))
+    table = edf.edf_points(
+        ms,
+        np.full(ms.size, x.size + 1),
+        stride,
+        d=d,
+        modified=modified,
+        alphas=tuple(sorted(set(int(a) for a in alpha))) or (0,),
+    )
     e = np.empty(ms.size)
     for a, vals in table.items():
         e[alpha == a] = vals[alpha == a]

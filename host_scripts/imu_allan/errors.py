@@ -1,4 +1,5 @@
 """The one exception the command line turns into a single-line message."""
+
 from __future__ import annotations
 
 

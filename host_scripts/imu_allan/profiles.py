@@ -16,6 +16,7 @@ generic  ``--scale CH=VALUE[UNIT]``: VALUE rate units per input unit. UNIT is
          optional: m/s^2 (default for a*), g, mg, ug; deg/s (default for g*),
          dps, rad/s, mrad/s, deg/h. Channels without a scale stay in counts.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,17 +41,16 @@ KIND = {"ax": "acc", "ay": "acc", "az": "acc", "gx": "gyro", "gy": "gyro", "gz":
 RATE_UNIT = {"acc": "m/s^2", "gyro": "deg/s"}
 UNIT_FACTORS = {
     "acc": {"m/s^2": 1.0, "m/s2": 1.0, "m/s/s": 1.0, "g": G0, "mg": G0 * 1e-3, "ug": G0 * 1e-6},
-    "gyro": {"deg/s": 1.0, "dps": 1.0, "rad/s": 180.0 / math.pi, "mrad/s": 0.18 / math.pi,
-             "deg/h": 1.0 / 3600.0},
+    "gyro": {"deg/s": 1.0, "dps": 1.0, "rad/s": 180.0 / math.pi, "mrad/s": 0.18 / math.pi, "deg/h": 1.0 / 3600.0},
 }
 
 
 @dataclass(frozen=True)
 class ChannelScale:
     channel: str
-    unit: str            # "m/s^2", "deg/s" or "count"
-    per_count: float     # unit per input unit
-    zero: float = 0.0    # input value of zero rate (thesis: Vref/2, i.e. code 512)
+    unit: str  # "m/s^2", "deg/s" or "count"
+    per_count: float  # unit per input unit
+    zero: float = 0.0  # input value of zero rate (thesis: Vref/2, i.e. code 512)
     source: str = ""
 
     @property
@@ -77,20 +77,33 @@ def thesis_profile(range_g: str = "1.5") -> Profile:
     chans = {}
     for ch in CHANNELS:
         if KIND[ch] == "acc":
-            chans[ch] = ChannelScale(ch, "m/s^2", acc, ADC_STEPS / 2,
-                                     f"MMA7260Q {sens:g} mV/g at {rg} g, Vref {VREF} V, 10-bit ADC")
+            chans[ch] = ChannelScale(
+                ch, "m/s^2", acc, ADC_STEPS / 2, f"MMA7260Q {sens:g} mV/g at {rg} g, Vref {VREF} V, 10-bit ADC"
+            )
         else:
-            chans[ch] = ChannelScale(ch, "deg/s", gyro, ADC_STEPS / 2,
-                                     f"LISY300AL {GYRO_SENSITIVITY_V_PER_DPS * 1000:g} mV/(deg/s), "
-                                     f"Vref {VREF} V, 10-bit ADC")
-    return Profile("thesis", chans, [
-        f"thesis board: accelerometer range {rg} g, one count = {acc:.6g} m/s^2 "
-        f"({acc / G0 * 1000:.4g} mg), gyroscope one count = {gyro:.6g} deg/s"])
+            chans[ch] = ChannelScale(
+                ch,
+                "deg/s",
+                gyro,
+                ADC_STEPS / 2,
+                f"LISY300AL {GYRO_SENSITIVITY_V_PER_DPS * 1000:g} mV/(deg/s), Vref {VREF} V, 10-bit ADC",
+            )
+    return Profile(
+        "thesis",
+        chans,
+        [
+            f"thesis board: accelerometer range {rg} g, one count = {acc:.6g} m/s^2 "
+            f"({acc / G0 * 1000:.4g} mg), gyroscope one count = {gyro:.6g} deg/s"
+        ],
+    )
 
 
 def counts_profile() -> Profile:
-    return Profile("counts", {ch: ChannelScale(ch, "count", 1.0, 0.0, "ADC counts") for ch in CHANNELS},
-                   ["all channels in ADC counts"])
+    return Profile(
+        "counts",
+        {ch: ChannelScale(ch, "count", 1.0, 0.0, "ADC counts") for ch in CHANNELS},
+        ["all channels in ADC counts"],
+    )
 
 
 def normalize_range(text: Optional[str]) -> str:
@@ -126,8 +139,9 @@ def parse_scales(specs: list[str]) -> dict[str, tuple[float, str]]:
                 continue
             m = _SCALE.match(item)
             if not m:
-                raise InputError(f"--scale {item!r}: expected CH=VALUE[UNIT], e.g. gx=0.05 or "
-                                 "gx=0.001rad/s or ax=0.0039g")
+                raise InputError(
+                    f"--scale {item!r}: expected CH=VALUE[UNIT], e.g. gx=0.05 or gx=0.001rad/s or ax=0.0039g"
+                )
             ch, val, unit = m.group(1), m.group(2), m.group(3)
             if ch not in CHANNELS:
                 raise InputError(f"--scale {item!r}: unknown channel {ch!r} (channels: {' '.join(CHANNELS)})")
@@ -144,8 +158,9 @@ def parse_scales(specs: list[str]) -> dict[str, tuple[float, str]]:
             kind = KIND[ch]
             unit = unit or RATE_UNIT[kind]
             if unit.lower() not in {u.lower() for u in UNIT_FACTORS[kind]}:
-                raise InputError(f"--scale {item!r}: unit {unit!r} is not a {kind} rate unit "
-                                 f"({', '.join(UNIT_FACTORS[kind])})")
+                raise InputError(
+                    f"--scale {item!r}: unit {unit!r} is not a {kind} rate unit ({', '.join(UNIT_FACTORS[kind])})"
+                )
             out[ch] = (v, unit)
     return out
 
@@ -158,8 +173,7 @@ def unit_factor(ch: str, unit: str) -> float:
     raise InputError(f"{ch}: unit {unit!r} is not a {KIND[ch]} rate unit ({', '.join(table)})")
 
 
-def build_profile(name: Optional[str], scales: dict[str, tuple[float, str]],
-                  range_g: Optional[str] = None) -> Profile:
+def build_profile(name: Optional[str], scales: dict[str, tuple[float, str]], range_g: Optional[str] = None) -> Profile:
     """``--profile`` (default thesis when no scale is given) with ``--scale`` on top."""
     if name is None:
         base = counts_profile() if scales else thesis_profile(range_g or "1.5")
@@ -173,8 +187,9 @@ def build_profile(name: Optional[str], scales: dict[str, tuple[float, str]],
     else:
         raise InputError(f"unknown profile {name!r} (one of {', '.join(PROFILES)}, or --scale)")
     for ch, (v, unit) in scales.items():
-        base.channels[ch] = ChannelScale(ch, RATE_UNIT[KIND[ch]], v * unit_factor(ch, unit), 0.0,
-                                         f"--scale {ch}={v:g}{unit}")
+        base.channels[ch] = ChannelScale(
+            ch, RATE_UNIT[KIND[ch]], v * unit_factor(ch, unit), 0.0, f"--scale {ch}={v:g}{unit}"
+        )
     return base
 
 
@@ -189,8 +204,9 @@ def resolve_range(given: Optional[str], header_range: Optional[str]) -> Optional
     return hr
 
 
-def scales_for_input(name: str, channels: list[str], integer: bool, units: dict[str, str],
-                     scales: dict[str, tuple[float, str]]) -> dict[str, tuple[float, str]]:
+def scales_for_input(
+    name: str, channels: list[str], integer: bool, units: dict[str, str], scales: dict[str, tuple[float, str]]
+) -> dict[str, tuple[float, str]]:
     """The scales of an input that is not plain ADC codes (a CSV): the units
     its header names, unless ``--scale`` says otherwise; values that are not
     10-bit codes need a unit for every channel."""
@@ -200,14 +216,18 @@ def scales_for_input(name: str, channels: list[str], integer: bool, units: dict[
             try:
                 given.update(parse_scales([f"{ch}=1{unit}"]))
             except InputError:
-                raise InputError(f"'{name}': column {ch} has unit [{unit}], not a rate unit "
-                                 "this tool knows (m/s^2, g, mg, deg/s, rad/s ...)") from None
+                raise InputError(
+                    f"'{name}': column {ch} has unit [{unit}], not a rate unit "
+                    "this tool knows (m/s^2, g, mg, deg/s, rad/s ...)"
+                ) from None
     missing = [c for c in channels if c not in given]
     if missing and not integer:
-        raise InputError(f"'{name}': the values are not 10-bit ADC codes, so the thesis scale "
-                         f"does not apply: give the unit of {', '.join(missing)} with --scale "
-                         f"(e.g. --scale {missing[0]}=1{'rad/s' if missing[0][0] == 'g' else 'm/s^2'}), "
-                         "or --profile counts")
+        raise InputError(
+            f"'{name}': the values are not 10-bit ADC codes, so the thesis scale "
+            f"does not apply: give the unit of {', '.join(missing)} with --scale "
+            f"(e.g. --scale {missing[0]}=1{'rad/s' if missing[0][0] == 'g' else 'm/s^2'}), "
+            "or --profile counts"
+        )
     return given
 
 
@@ -218,12 +238,27 @@ TERM_UNIT = {"Q": "{u}*s", "N": "{u}*sqrt(s)", "B": "{u}", "K": "{u}/sqrt(s)", "
 
 # (unit label, factor from the JSON unit) per kind and term, for people
 LITERATURE = {
-    "gyro": {"Q": ("deg", 1.0), "N": ("deg/sqrt(h)", 60.0), "B": ("deg/h", 3600.0),
-             "K": ("deg/h/sqrt(h)", 216000.0), "R": ("deg/h^2", 3600.0 ** 2)},
-    "acc": {"Q": ("m/s", 1.0), "N": ("m/s/sqrt(h)", 60.0), "B": ("ug", 1e6 / G0),
-            "K": ("m/s/h/sqrt(h)", 216000.0), "R": ("m/s/h^2", 3600.0 ** 2)},
-    "counts": {"Q": ("count*s", 1.0), "N": ("count*sqrt(s)", 1.0), "B": ("count", 1.0),
-               "K": ("count/sqrt(s)", 1.0), "R": ("count/s", 1.0)},
+    "gyro": {
+        "Q": ("deg", 1.0),
+        "N": ("deg/sqrt(h)", 60.0),
+        "B": ("deg/h", 3600.0),
+        "K": ("deg/h/sqrt(h)", 216000.0),
+        "R": ("deg/h^2", 3600.0**2),
+    },
+    "acc": {
+        "Q": ("m/s", 1.0),
+        "N": ("m/s/sqrt(h)", 60.0),
+        "B": ("ug", 1e6 / G0),
+        "K": ("m/s/h/sqrt(h)", 216000.0),
+        "R": ("m/s/h^2", 3600.0**2),
+    },
+    "counts": {
+        "Q": ("count*s", 1.0),
+        "N": ("count*sqrt(s)", 1.0),
+        "B": ("count", 1.0),
+        "K": ("count/sqrt(s)", 1.0),
+        "R": ("count/s", 1.0),
+    },
 }
 
 

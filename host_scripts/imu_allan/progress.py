@@ -2,6 +2,7 @@
 take, and the progress line device/ and analysis/ ask for.  Nothing is drawn
 unless a drawer is installed: the command line installs the stderr line of
 render/progress.py (``use``); a library caller gets the quiet one."""
+
 from __future__ import annotations
 
 import time

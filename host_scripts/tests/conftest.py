@@ -1,6 +1,7 @@
 """Helpers shared by the tests: an encoder of device logs written from
 scratch (CRC from binascii, acc from plain Python ints), independent of the
 package's own code."""
+
 from __future__ import annotations
 
 import binascii
@@ -26,27 +27,46 @@ def line(body: str, lower: bool = False) -> bytes:
 
 def exact_acc(codes: Sequence[int], m: int, pairs: int) -> int:
     """Sum of squared differences of consecutive m-sums, plain Python ints."""
-    s = [sum(codes[j * m:(j + 1) * m]) for j in range(pairs + 1)]
+    s = [sum(codes[j * m : (j + 1) * m]) for j in range(pairs + 1)]
     return sum((s[j] - s[j - 1]) ** 2 for j in range(1, pairs + 1))
 
 
-def header_body(seq: int, levels: int, n: int, fs: int = 100, drops: int = 0,
-                run: int = 0, extra: str = "") -> str:
-    return (f"H,{seq},proto=1,fw=0.1.0,mcu=atmega168,fcpu=10000000,baud=115200,fs={fs},"
-            f"levels={levels},n={n},drops={drops},clips=0:1:2:3:4:5:6,temp=63.2:50:68,"
-            f"run={run},reset=por+ext{extra}")
+def header_body(seq: int, levels: int, n: int, fs: int = 100, drops: int = 0, run: int = 0, extra: str = "") -> str:
+    return (
+        f"H,{seq},proto=1,fw=0.1.0,mcu=atmega168,fcpu=10000000,baud=115200,fs={fs},"
+        f"levels={levels},n={n},drops={drops},clips=0:1:2:3:4:5:6,temp=63.2:50:68,"
+        f"run={run},reset=por+ext{extra}"
+    )
 
 
-def report_lines(rows: np.ndarray, levels: int, seq: int = 0, fs: int = 100, drops: int = 0,
-                 tweak: Optional[Callable[[str, int, int, int, int], tuple[int, int, int]]] = None,
-                 header_n: Optional[int] = None, extra: str = "") -> list[bytes]:
+def report_lines(
+    rows: np.ndarray,
+    levels: int,
+    seq: int = 0,
+    fs: int = 100,
+    drops: int = 0,
+    tweak: Optional[Callable[[str, int, int, int, int], tuple[int, int, int]]] = None,
+    header_n: Optional[int] = None,
+    extra: str = "",
+) -> list[bytes]:
     """A complete report for codes ``rows`` (shape (N, 7)) as the device sends it
     at the end of a stopped run of N samples (or, with ``header_n``, while
     running: the header says n = header_n, the rows cover all N samples).
     ``tweak(ch, level, pairs, acc, flags)`` may alter a row's (pairs, acc, flags)."""
     n = len(rows)
-    out = [line(header_body(seq, levels, n if header_n is None else header_n, fs, drops,
-                            run=0 if header_n is None else 1, extra=extra))]
+    out = [
+        line(
+            header_body(
+                seq,
+                levels,
+                n if header_n is None else header_n,
+                fs,
+                drops,
+                run=0 if header_n is None else 1,
+                extra=extra,
+            )
+        )
+    ]
     for c, ch in enumerate(CH):
         codes = [int(v) for v in rows[:, c]]
         for k in range(levels):
@@ -90,10 +110,12 @@ def run_cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str,
             rc = int(exc.code or 0)
         out, err = capsys.readouterr()
         return rc, out, err
+
     return run
 
 
 # ---- raw rows and binary frames, encoded independently of imu_allan.stream ------
+
 
 def raw_row(codes: Sequence[int]) -> bytes:
     """One raw row as the device sends it: 7 codes, tab-separated, CR LF."""

@@ -1,6 +1,7 @@
 """Recording-length advice (advice.py): the interval arithmetic, the device's
 rule (exact pair counts), the advised time checked by recording it, and the
 analyze JSON and text that carry it."""
+
 from __future__ import annotations
 
 import json
@@ -34,8 +35,8 @@ def test_device_advice_time_is_when_the_level_holds_the_pairs() -> None:
     codes = np.rint(512 + rng.normal(0, 3, (6, 30000))).astype(np.int64)
     rep = dynamic.device_reports_from_rows(codes, 100, 30000)[-1]
     adv = advice.device_advice(rep)
-    for ch, terms in adv.items():
-        for name, a in terms.items():
+    for _ch, terms in adv.items():
+        for _name, a in terms.items():
             m = 1 << a["level"]
             assert a["pct"] == pytest.approx(100 / math.sqrt(2 * (30000 // m - 1)))
             for target, pairs in ((10, 50), (25, 8)):
@@ -54,8 +55,27 @@ def test_analyze_reports_warm_up_and_record_times(tmp_path: Path) -> None:
     x[3] += 120 * (1 - np.exp(-np.minimum(t, warm) / (warm / 2)))
     rows = tmp_path / "cold.tsv"
     np.savetxt(rows, np.rint(x.T).astype(int), fmt="%d", delimiter="\t")
-    run = lambda *a: subprocess.run([sys.executable, "-m", "imu_allan.cli", "analyze", str(rows), "--fs", "100",  # noqa: E731
-                                     "--no-model", "--channels", "gx,gy", *a], capture_output=True, text=True, cwd=HOST)
+
+    def run(*a):
+        return subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "imu_allan.cli",
+                "analyze",
+                str(rows),
+                "--fs",
+                "100",  # noqa: E731
+                "--no-model",
+                "--channels",
+                "gx,gy",
+                *a,
+            ],
+            capture_output=True,
+            text=True,
+            cwd=HOST,
+        )
+
     proc = run("--json")
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)

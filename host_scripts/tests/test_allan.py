@@ -1,6 +1,7 @@
 """Allan-family statistics against allantools (<= 1e-9 relative), against the
 published NBS/NIST SP 1065 test values, and the streaming engine against
 the in-memory computation and the device's exact integers."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,8 +24,9 @@ def _data(kind: str, n: int, seed: int) -> np.ndarray:
     if kind == "walk":
         return np.cumsum(rng.standard_normal(n)) + 0.5 * rng.standard_normal(n)
     if kind == "codes":  # integer ADC codes with a random walk, the exact-integer path
-        return np.clip(np.rint(500 + 2 * rng.standard_normal(n) + np.cumsum(0.05 * rng.standard_normal(n))),
-                       0, 1023).astype(np.uint16)
+        return np.clip(
+            np.rint(500 + 2 * rng.standard_normal(n) + np.cumsum(0.05 * rng.standard_normal(n))), 0, 1023
+        ).astype(np.uint16)
     raise ValueError(kind)
 
 
@@ -42,8 +44,7 @@ def test_against_allantools(kind: str, stat: str, taus: str) -> None:
     x = _data(kind, n, hash((kind, stat, taus)) % 1000)
     ms = allan.tau_grid(taus, allan.max_m("oavar" if stat in ("adev", "oadev") else "mvar", n))
     ms = ms[ms <= n // 4]  # where allantools reports every statistic
-    t, ref, _, _ = getattr(allantools, stat)(x.astype(np.float64), rate=1.0, data_type="freq",
-                                               taus=ms.astype(float))
+    t, ref, _, _ = getattr(allantools, stat)(x.astype(np.float64), rate=1.0, data_type="freq", taus=ms.astype(float))
     got = _ours(stat, x, np.round(t).astype(np.int64))
     assert got.size == ref.size > 3
     np.testing.assert_allclose(got, ref, rtol=REL)
@@ -64,8 +65,12 @@ def test_engine_octave_equals_allantools_and_in_memory() -> None:
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.integers(3, 5000), st.lists(st.integers(1, 900), min_size=1, max_size=8),
-       st.integers(0, 2**31 - 1), st.sampled_from([4, 16, 64]))
+@given(
+    st.integers(3, 5000),
+    st.lists(st.integers(1, 900), min_size=1, max_size=8),
+    st.integers(0, 2**31 - 1),
+    st.sampled_from([4, 16, 64]),
+)
 def test_engine_does_not_depend_on_the_cut(n: int, cuts: list[int], seed: int, block: int) -> None:
     """Any block size and any cut of the stream give the same numbers (integers: bit for bit)."""
     rng = np.random.default_rng(seed)
@@ -78,7 +83,7 @@ def test_engine_does_not_depend_on_the_cut(n: int, cuts: list[int], seed: int, b
     for c in cuts * (n // max(sum(cuts), 1) + 1):
         if pos >= n:
             break
-        eng.push(x[:, pos:pos + c])
+        eng.push(x[:, pos : pos + c])
         pos += c
     eng.push(x[:, pos:])
     b = eng.finish()
@@ -111,30 +116,35 @@ def test_streaming_beyond_exact_max_uses_strided_offsets(monkeypatch: pytest.Mon
     r = eng.finish()
     full = allan.octave_oavar(x)
     exact = r.stride == 1
-    np.testing.assert_allclose(r.oavar[exact, 0], full.oavar[:exact.sum(), 0], rtol=1e-13)
+    np.testing.assert_allclose(r.oavar[exact, 0], full.oavar[: exact.sum(), 0], rtol=1e-13)
     assert (r.stride[~exact] == 64).all()
     X = np.concatenate(([0.0], np.cumsum(x - x[: allan.BLOCK].mean())))
     for k in np.flatnonzero(~exact):
         m, D = int(r.ms[k]), int(r.stride[k])
         P = X[::D]
         q = m // D
-        d = P[2 * q:] - 2 * P[q:-q] + P[:-2 * q]
+        d = P[2 * q :] - 2 * P[q:-q] + P[: -2 * q]
         assert d.size == r.terms[k]
         assert abs(np.dot(d, d) / (2.0 * m * m * d.size) / r.oavar[k, 0] - 1) < 1e-9
-    np.testing.assert_allclose(r.avar[:, 0], full.avar[:r.ms.size, 0], rtol=1e-12)
+    np.testing.assert_allclose(r.avar[:, 0], full.avar[: r.ms.size, 0], rtol=1e-12)
 
 
 # ---- published values (NIST SP 1065 / NBS, as allantools' own tests use) --------------------
 
-NBS14_PHASE = [0.00000, 103.11111, 123.22222, 157.33333, 166.44444, 48.55555, -96.33333, -2.22222,
-               111.88889, 0.00000]
+NBS14_PHASE = [0.00000, 103.11111, 123.22222, 157.33333, 166.44444, 48.55555, -96.33333, -2.22222, 111.88889, 0.00000]
 NBS14_FREQ = [892.0, 809.0, 823.0, 798.0, 671.0, 644.0, 883.0, 903.0, 677.0]
-NBS14_10 = {"adev": (91.22945, 115.8082), "oadev": (91.22945, 85.95287), "mdev": (91.22945, 74.78849),
-            "ohdev": (70.80607, 85.61487)}
-NBS14_1000 = {"adev": (2.922319e-01, 9.965736e-02, 3.897804e-02),
-              "oadev": (2.922319e-01, 9.159953e-02, 3.241343e-02),
-              "mdev": (2.922319e-01, 6.172376e-02, 2.170921e-02),
-              "ohdev": (2.943883e-01, 9.581083e-02, 3.237638e-02)}
+NBS14_10 = {
+    "adev": (91.22945, 115.8082),
+    "oadev": (91.22945, 85.95287),
+    "mdev": (91.22945, 74.78849),
+    "ohdev": (70.80607, 85.61487),
+}
+NBS14_1000 = {
+    "adev": (2.922319e-01, 9.965736e-02, 3.897804e-02),
+    "oadev": (2.922319e-01, 9.159953e-02, 3.241343e-02),
+    "mdev": (2.922319e-01, 6.172376e-02, 2.170921e-02),
+    "ohdev": (2.943883e-01, 9.581083e-02, 3.237638e-02),
+}
 
 
 def _nbs14_1000() -> np.ndarray:

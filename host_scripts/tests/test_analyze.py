@@ -1,21 +1,22 @@
 """`imu-allan analyze`: inputs chosen by content, units, the JSON contract,
 the exports (CSV, Kalibr, imu_utils, PNG) and one-line errors."""
+
 from __future__ import annotations
 
 import json
-import re
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import line, raw_row, report_lines, thesis_like, write_rows
+
 from imu_allan.profiles import G0, thesis_profile
 
 CH = ("ax", "ay", "az", "gx", "gy", "gz")
-ACC_COUNT = thesis_profile().scale("ax").per_count     # m/s^2 per count at 1.5 g
-GYRO_COUNT = thesis_profile().scale("gx").per_count    # deg/s per count
+ACC_COUNT = thesis_profile().scale("ax").per_count  # m/s^2 per count at 1.5 g
+GYRO_COUNT = thesis_profile().scale("gx").per_count  # deg/s per count
 
 
 @pytest.fixture(scope="module")
@@ -54,8 +55,17 @@ def _white_n(rows: np.ndarray, c: int, scale: float, fs: float = 100.0) -> float
 def test_help_is_for_newcomers(run_cli) -> None:
     rc, out, _ = run_cli("analyze", "--help")
     assert rc == 0 and out.startswith("usage: imu-allan analyze")
-    for phrase in ("bias instability", "rate random walk", "--fs HZ", "--scale", "Kalibr", "examples:",
-                   "95 %", "docs/analysis.md", "exit status"):
+    for phrase in (
+        "bias instability",
+        "rate random walk",
+        "--fs HZ",
+        "--scale",
+        "Kalibr",
+        "examples:",
+        "95 %",
+        "docs/analysis.md",
+        "exit status",
+    ):
         assert phrase in out, phrase
     rc, out, _ = run_cli("--help")
     assert "analyze" in out
@@ -68,10 +78,11 @@ def test_rows_json_contract(run_cli, files, rows) -> None:
     for c in CH:
         ch = doc["channels"][c]
         assert ch["unit"] == ("m/s^2" if c[0] == "a" else "deg/s")
-        # the IEEE 952 five always; a band limit LP, Gauss-Markov processes GM1, GM2... and an oscillation SIN when fitted
+        # the IEEE 952 five always; a band limit LP, Gauss-Markov processes GM1, GM2...
+        # and an oscillation SIN when fitted
         assert set(ch["terms"]) >= {"N", "B", "K", "Q", "R"}
         assert all(k in ("LP", "SIN") or re.fullmatch(r"GM\d", k) for k in set(ch["terms"]) - {"N", "B", "K", "Q", "R"})
-        for k, t in ch["terms"].items():
+        for _k, t in ch["terms"].items():
             assert t is None or (set(t) >= {"value", "low", "high"} and t["low"] <= t["value"] <= t["high"])
         assert ch["term_units"]["N"] == f"{ch['unit']}*sqrt(s)" and ch["term_units"]["K"] == f"{ch['unit']}/sqrt(s)"
         pts = ch["curve"]
@@ -138,8 +149,8 @@ def test_range_changes_the_accelerometer_scale(run_cli, files) -> None:
 def test_csv_with_time_and_units(run_cli, tmp_path: Path) -> None:
     rng = np.random.default_rng(4)
     n, fs = 6000, 200.0
-    g = rng.standard_normal((n, 3)) * 0.01      # rad/s, white: N = 0.01 / sqrt(200) rad/s*sqrt(s)
-    a = rng.standard_normal((n, 3)) * 0.002     # g
+    g = rng.standard_normal((n, 3)) * 0.01  # rad/s, white: N = 0.01 / sqrt(200) rad/s*sqrt(s)
+    a = rng.standard_normal((n, 3)) * 0.002  # g
     t = 1000.0 + np.arange(n) / fs
     p = tmp_path / "imu.csv"
     with open(p, "w") as f:
@@ -174,14 +185,17 @@ def test_generic_scale_on_codes(run_cli, files) -> None:
     assert doc["channels"]["gx"]["unit"] == "count"
 
 
-@pytest.mark.parametrize("content,message", [
-    (b"", "is empty"),
-    (b"\x00\x01\x02\x03" * 100, "binary data"),
-    (b"1 2 3 4 5\n6 7 8 9 10\n", "5 numeric columns and no header"),
-    (b"# only a comment\n\n", "holds no data"),
-    (b"foo,bar\n1,2\n", "no column named like a sensor channel"),
-    (b"ax,ay\n1,2\n3,x\n", "line 3"),
-])
+@pytest.mark.parametrize(
+    "content,message",
+    [
+        (b"", "is empty"),
+        (b"\x00\x01\x02\x03" * 100, "binary data"),
+        (b"1 2 3 4 5\n6 7 8 9 10\n", "5 numeric columns and no header"),
+        (b"# only a comment\n\n", "holds no data"),
+        (b"foo,bar\n1,2\n", "no column named like a sensor channel"),
+        (b"ax,ay\n1,2\n3,x\n", "line 3"),
+    ],
+)
 def test_bad_inputs_are_one_line(run_cli, tmp_path: Path, content: bytes, message: str) -> None:
     p = tmp_path / "in.dat"
     p.write_bytes(content)
@@ -189,12 +203,15 @@ def test_bad_inputs_are_one_line(run_cli, tmp_path: Path, content: bytes, messag
     assert rc == 2 and out == "" and err.count("\n") == 1 and message in err, err
 
 
-@pytest.mark.parametrize("argv,message", [
-    (("--channels", "gq"), "unknown channel 'gq'"),
-    (("--scale", "gx=abc"), "expected CH=VALUE[UNIT]"),
-    (("--scale", "gx=1m/s^2"), "not a gyro rate unit"),
-    (("--scale", "gx=-1"), "the scale must be a positive number"),
-])
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (("--channels", "gq"), "unknown channel 'gq'"),
+        (("--scale", "gx=abc"), "expected CH=VALUE[UNIT]"),
+        (("--scale", "gx=1m/s^2"), "not a gyro rate unit"),
+        (("--scale", "gx=-1"), "the scale must be a positive number"),
+    ],
+)
 def test_bad_options_are_one_line(run_cli, files, argv, message) -> None:
     rc, out, err = run_cli("analyze", files["rows"], "--fs", "100", *argv)
     assert rc == 2 and out == "" and err.count("\n") == 1 and message in err, err
@@ -202,8 +219,21 @@ def test_bad_options_are_one_line(run_cli, files, argv, message) -> None:
 
 def test_exports(run_cli, files) -> None:
     d = files["dir"]
-    rc, out, err = run_cli("analyze", files["rows"], "--fs", "100", "--csv", "--curves", d / "c.csv",
-                           "--kalibr", d / "imu.yaml", "--imu-utils", d / "iu.yaml", "--plot", d / "figs")
+    rc, out, err = run_cli(
+        "analyze",
+        files["rows"],
+        "--fs",
+        "100",
+        "--csv",
+        "--curves",
+        d / "c.csv",
+        "--kalibr",
+        d / "imu.yaml",
+        "--imu-utils",
+        d / "iu.yaml",
+        "--plot",
+        d / "figs",
+    )
     assert rc == 0, err
     head, *body = out.splitlines()
     assert head.startswith("channel,unit,term,name,value,low,high") and len(body) == 30
@@ -215,7 +245,7 @@ def test_exports(run_cli, files) -> None:
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
     doc = _json(run_cli, files["rows"], "--fs", "100", "--no-model")
     kal = (d / "imu.yaml").read_text()
-    vals = dict(l.split("#")[0].split(":") for l in kal.splitlines() if l and not l.startswith("#"))
+    vals = dict(ln.split("#")[0].split(":") for ln in kal.splitlines() if ln and not ln.startswith("#"))
     n_gyro = max(doc["channels"][c]["terms"]["N"]["value"] for c in ("gx", "gy", "gz")) * math.pi / 180
     assert float(vals["gyroscope_noise_density"]) == pytest.approx(n_gyro, rel=1e-5)
     n_acc = max(doc["channels"][c]["terms"]["N"]["value"] for c in ("ax", "ay", "az"))
@@ -231,6 +261,7 @@ def test_other_tau_grids_and_stdin(run_cli, files, monkeypatch) -> None:
     assert [p["tau_s"] for p in doc["channels"]["gx"]["curve"]][:4] == [0.01, 0.02, 0.04, 0.1]
     import io
     import sys
+
     monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(files["log"].read_bytes())))
     doc = _json(run_cli, "-", "--no-model", "--channels", "gy")
     assert doc["source"]["file"] == "<stdin>" and doc["source"]["kind"] == "device-log"
@@ -265,10 +296,20 @@ def test_files_larger_than_memory_are_streamed(run_cli, files) -> None:
 
 
 def test_kalibr_needs_physical_units(run_cli, files) -> None:
-    rc, out, err = run_cli("analyze", files["rows"], "--fs", "100", "--profile", "counts", "--no-model",
-                           "--kalibr", files["dir"] / "k.yaml")
-    assert rc == 2 and err == ("imu-allan analyze: --kalibr needs channels in physical units: use the "
-                               "thesis profile or --scale\n")
+    rc, out, err = run_cli(
+        "analyze",
+        files["rows"],
+        "--fs",
+        "100",
+        "--profile",
+        "counts",
+        "--no-model",
+        "--kalibr",
+        files["dir"] / "k.yaml",
+    )
+    assert rc == 2 and err == (
+        "imu-allan analyze: --kalibr needs channels in physical units: use the thesis profile or --scale\n"
+    )
 
 
 @pytest.mark.filterwarnings("error::UserWarning")  # matplotlib's "cannot be log-scaled" included
@@ -287,24 +328,35 @@ def test_a_constant_channel_is_analyzed_and_plotted_with_a_note(tmp_path: Path, 
     assert all(p["dev"] is None for p in doc["channels"]["gx"]["curve"])
     assert doc["channels"]["gy"]["terms"]["N"] is not None
     assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == [
-        "adev_accelerometer.png", "adev_gyroscope.png", "psd_accelerometer.png", "psd_gyroscope.png"]
+        "adev_accelerometer.png",
+        "adev_gyroscope.png",
+        "psd_accelerometer.png",
+        "psd_gyroscope.png",
+    ]
 
 
-@pytest.mark.parametrize("change,message", [
-    (line("ok reset rate=250"), "the sample rate changes midway (100, then 250 Hz)"),
-    (line("ok reset range=4"), "the accelerometer range changes midway (1.5, then 4 g)"),
-])
-def test_a_capture_whose_rate_or_range_changes_is_refused(change: bytes, message: str, tmp_path: Path,
-                                                          run_cli) -> None:
+@pytest.mark.parametrize(
+    "change,message",
+    [
+        (line("ok reset rate=250"), "the sample rate changes midway (100, then 250 Hz)"),
+        (line("ok reset range=4"), "the accelerometer range changes midway (1.5, then 4 g)"),
+    ],
+)
+def test_a_capture_whose_rate_or_range_changes_is_refused(change: bytes, message: str, tmp_path: Path, run_cli) -> None:
     rows = [raw_row([500 + i % 7, 1, 2, 3, 4, 5, 6]) for i in range(400)]
     cap = tmp_path / "cap.log"
-    cap.write_bytes(line("ok status run=1 fs=100 mode=raw range=1.5") + b"".join(rows[:200]) + change
-                    + b"".join(rows[200:]))
+    cap.write_bytes(
+        line("ok status run=1 fs=100 mode=raw range=1.5") + b"".join(rows[:200]) + change + b"".join(rows[200:])
+    )
     rc, out, err = run_cli("analyze", cap, "--fs", "100")
     assert rc == 2 and out == "" and err.count("\n") == 1 and message in err, err
     same = tmp_path / "same.log"  # a reply that restates the same rate is no change
-    same.write_bytes(line("ok status run=1 fs=100 mode=raw range=1.5") + b"".join(rows[:200])
-                     + line("ok rate=100") + b"".join(rows[200:]))
+    same.write_bytes(
+        line("ok status run=1 fs=100 mode=raw range=1.5")
+        + b"".join(rows[:200])
+        + line("ok rate=100")
+        + b"".join(rows[200:])
+    )
     rc, _, err = run_cli("analyze", same, "--fs", "100", "--no-model")
     assert rc == 0, err
 
@@ -318,16 +370,19 @@ def _csv_with_time(path: Path, head: str, t: np.ndarray) -> Path:
     return path
 
 
-@pytest.mark.parametrize("head,t", [
-    ("%time", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),          # rostopic echo -p: ns
-    ("field.header.stamp", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),
-    ("time", 5_000_000 * np.arange(3000)),                                         # ns from 0
-    ("timestamp", 5000 * np.arange(3000)),                                         # us from 0
-    ("t", 5 * np.arange(3000)),                                                    # ms from 0
-    ("time", 1_700_000_000.0 + 0.005 * np.arange(3000)),                          # epoch seconds
-    ("time [us]", 5000 * np.arange(3000)),
-    ("time_ms", 5 * np.arange(3000)),
-])
+@pytest.mark.parametrize(
+    "head,t",
+    [
+        ("%time", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),  # rostopic echo -p: ns
+        ("field.header.stamp", 1_700_000_000_000_000_000 + 5_000_000 * np.arange(3000)),
+        ("time", 5_000_000 * np.arange(3000)),  # ns from 0
+        ("timestamp", 5000 * np.arange(3000)),  # us from 0
+        ("t", 5 * np.arange(3000)),  # ms from 0
+        ("time", 1_700_000_000.0 + 0.005 * np.arange(3000)),  # epoch seconds
+        ("time [us]", 5000 * np.arange(3000)),
+        ("time_ms", 5 * np.arange(3000)),
+    ],
+)
 def test_csv_time_column_in_any_unit(head: str, t: np.ndarray, tmp_path: Path, run_cli) -> None:
     """A CSV time column in integer ns, us, ms or s, told from its name or its magnitude: 200 Hz every time."""
     path = _csv_with_time(tmp_path / "imu.csv", head, t)
@@ -369,6 +424,7 @@ def test_a_capture_is_read_once(tmp_path: Path, run_cli, monkeypatch) -> None:
     """A capture was once opened to peek, decoded to count, decoded again and
     read a third time for the PSD; now its bytes are read in one pass."""
     import builtins
+
     rows = [raw_row([500 + (i * 7) % 13, 1, 2, 3 + i % 5, 4, 5, 6]) for i in range(3000)]
     cap = tmp_path / "cap.log"
     cap.write_bytes(line("ok mode=raw") + b"".join(rows))
@@ -379,6 +435,7 @@ def test_a_capture_is_read_once(tmp_path: Path, run_cli, monkeypatch) -> None:
         if str(file) == str(cap):
             opened.append(str(file))
         return real_open(file, *a, **k)
+
     monkeypatch.setattr(builtins, "open", counting_open)
     rc, out, err = run_cli("analyze", cap, "--fs", "100", "--json", "--memory", "1")
     assert rc == 0, err

@@ -1,6 +1,7 @@
 """The public Python API (imu_allan.adev ...): the same numbers as allantools
 and as a direct evaluation of the definitions, intervals around the value,
 and the device side reading a log."""
+
 from __future__ import annotations
 
 import math
@@ -13,8 +14,7 @@ import imu_allan
 allantools = pytest.importorskip("allantools")
 
 
-@pytest.mark.parametrize("ours,theirs", [("adev", "adev"), ("oadev", "oadev"), ("mdev", "mdev"),
-                                         ("hdev", "ohdev")])
+@pytest.mark.parametrize("ours,theirs", [("adev", "adev"), ("oadev", "oadev"), ("mdev", "mdev"), ("hdev", "ohdev")])
 def test_same_numbers_as_allantools(ours: str, theirs: str) -> None:
     x = np.random.default_rng(4).standard_normal(5000) + 0.01 * np.arange(5000) ** 0.5
     dev = getattr(imu_allan, ours)(x, rate=50.0, taus="decade")

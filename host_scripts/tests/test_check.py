@@ -1,4 +1,5 @@
 """`imu-allan check` against logs encoded in the test from exact Python ints."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -42,6 +43,7 @@ def test_agreement_at_15_levels_on_generated_rows(tmp_path: Path, run_cli) -> No
 def test_acc_off_by_one_fails(tmp_path: Path, run_cli, rows) -> None:
     def tweak(ch, k, pairs, acc, flags):
         return pairs, acc + (1 if (ch, k) == ("gx", 3) else 0), flags
+
     log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=tweak))
     rc, out, _ = run_cli("check", log, data)
     assert rc == 1
@@ -52,16 +54,17 @@ def test_acc_off_by_one_fails(tmp_path: Path, run_cli, rows) -> None:
 def test_flags(tmp_path: Path, run_cli, rows) -> None:
     def range_flag(ch, k, pairs, acc, flags):
         return (pairs, 2**48 - 1, 0x03) if (ch, k) == ("az", 10) else (pairs, acc, flags)
+
     log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=range_flag))
     rc, out, _ = run_cli("check", log, data)
     assert rc == 0 and "flagged (not compared) 1" in out and "az level 10 sat+range" in out
 
     def false_sat(ch, k, pairs, acc, flags):
         return (pairs, 2**48 - 1, 0x01) if (ch, k) == ("ay", 0) else (pairs, acc, flags)
+
     log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=false_sat))
     rc, out, _ = run_cli("check", log, data)
-    assert rc == 1 and "ay level 0: SAT flag set with acc 281474976710655 (0xFFFFFFFFFFFF) but " \
-        "the exact sum is" in out
+    assert rc == 1 and "ay level 0: SAT flag set with acc 281474976710655 (0xFFFFFFFFFFFF) but the exact sum is" in out
 
 
 def test_saturation_is_a_lower_bound(tmp_path: Path, run_cli) -> None:
@@ -69,10 +72,11 @@ def test_saturation_is_a_lower_bound(tmp_path: Path, run_cli) -> None:
     2^40 - 1 after 958 pairs, so a 40-bit accumulator saturates there."""
     rows = np.zeros((33_000, 7), dtype=int)
     rows[(np.arange(33_000) // 32) % 2 == 1, :6] = 1023
-    assert exact_acc([int(v) for v in rows[:, 0]], 32, 1030) == 1030 * (32 * 1023)**2 > 2**40
+    assert exact_acc([int(v) for v in rows[:, 0]], 32, 1030) == 1030 * (32 * 1023) ** 2 > 2**40
 
     def sat40(ch, k, pairs, acc, flags):
         return (pairs, 2**40 - 1, 0x01) if (ch, k) in (("ax", 5), ("gz", 5)) else (pairs, acc, flags)
+
     log, data = _files(tmp_path, rows, report_lines(rows, 6, tweak=sat40))
     rc, out, _ = run_cli("check", log, data)
     assert rc == 0, out
@@ -80,6 +84,7 @@ def test_saturation_is_a_lower_bound(tmp_path: Path, run_cli) -> None:
 
     def wrong_value(ch, k, pairs, acc, flags):
         return (pairs, 2**44, 0x01) if (ch, k) == ("ax", 5) else (pairs, acc, flags)
+
     log, data = _files(tmp_path, rows, report_lines(rows, 6, tweak=wrong_value))
     rc, out, _ = run_cli("check", log, data)
     assert rc == 1 and "a saturated acc is 2^40-1 or 2^48-1" in out
@@ -113,6 +118,7 @@ def test_pairs_must_follow_n_in_a_stopped_run(tmp_path: Path, run_cli, rows) -> 
         if (ch, k) == ("gy", 2):
             return pairs - 1, exact_acc(codes, 4, pairs - 1), flags
         return pairs, acc, flags
+
     log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=fewer))
     rc, out, err = run_cli("check", log, data)
     assert rc == 1 and "gy level 2: pairs 748 < floor(n/m) - 1 = 749" in err  # refused by the decoder
@@ -148,8 +154,8 @@ def test_each_row_is_held_to_its_accumulator_width(tmp_path: Path, run_cli) -> N
         if k < 11 and acc >= 2**40 - 1:
             return pairs, 2**40 - 1, 0x01
         return pairs, acc, flags
-    log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=saturate_40, extra=",acc48=11"),
-                       file_rows=rows)
+
+    log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=saturate_40, extra=",acc48=11"), file_rows=rows)
     rc, out, _ = run_cli("check", log, data)
     assert rc == 0, out
     assert "ax level 9 sat" in out
@@ -160,7 +166,7 @@ def test_each_row_is_held_to_its_accumulator_width(tmp_path: Path, run_cli) -> N
 
     def saturate_48(ch, k, pairs, acc, flags):
         return (pairs, 2**48 - 1, 0x01) if k == 9 else saturate_40(ch, k, pairs, acc, flags)
-    log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=saturate_48, extra=",acc48=11"),
-                       file_rows=rows)
+
+    log, data = _files(tmp_path, rows, report_lines(rows, 12, tweak=saturate_48, extra=",acc48=11"), file_rows=rows)
     rc, out, _ = run_cli("check", log, data)
     assert rc == 1 and "ax level 9: SAT flag set" in out

@@ -4,14 +4,16 @@ sums for float data, Python integers for integer codes (exact equality).
 Every grid (octave, log, all), every input kind (random, walk, ramp,
 constant, short), every input type the kernels read, the streamed (memmap)
 path on a file, and tiny tiles so that every stage boundary is crossed."""
+
 import numpy as np
 import pytest
 
 from imu_allan.stats import allan, kernels
 
 pytestmark = pytest.mark.skipif(not kernels.COMPILED, reason="the compiled kernels are not built (make ext)")
-needs_longdouble = pytest.mark.skipif(np.finfo(np.longdouble).nmant < 60,
-                                      reason="long double is no wider than float64 here")
+needs_longdouble = pytest.mark.skipif(
+    np.finfo(np.longdouble).nmant < 60, reason="long double is no wider than float64 here"
+)
 
 
 def inputs(n: int, seed: int = 3) -> dict:
@@ -33,7 +35,7 @@ def ref_sums(x: np.ndarray, ms, overlapping: bool) -> np.ndarray:
     for m in ms:
         P = X if overlapping else X[::m]
         s = m if overlapping else 1
-        d = P[2 * s:] - 2 * P[s:-s] + P[:-2 * s]
+        d = P[2 * s :] - 2 * P[s:-s] + P[: -2 * s]
         out.append(float(np.sum(d * d)) if d.size else np.nan)
     return np.array(out)
 
@@ -66,7 +68,7 @@ def close(a, b, rtol):
 @pytest.mark.parametrize("stream", [False, True])
 def test_octave_compiled_numpy_and_reference_agree(n, stream):
     for x in inputs(n, seed=n).values():
-        off = float(kernels.offset(x[:kernels.HEAD]))
+        off = float(kernels.offset(x[: kernels.HEAD]))
         ms = allan.tau_grid("octave", n // 2)
         c, terms = kernels.octave_oavar_sums(x, off, stream=stream)
         p, terms_p = kernels.octave_oavar_sums_numpy(x, off)
@@ -87,7 +89,7 @@ def test_tiny_tiles_cross_every_stage_and_chain(n, tile, split, chunk, monkeypat
     monkeypatch.setattr(kernels, "OCTAVE_TILE", tile)
     monkeypatch.setattr(kernels, "OCTAVE_SPLIT", split)
     x = inputs(n, seed=n)["walk+white"]
-    off = float(kernels.offset(x[:kernels.HEAD]))
+    off = float(kernels.offset(x[: kernels.HEAD]))
     ms = allan.tau_grid("octave", n // 2)
     for stream in (False, True):
         close(kernels.octave_oavar_sums(x, off, stream=stream)[0], ref_sums(x, ms, True), 1e-13)
@@ -103,9 +105,12 @@ def test_any_grid_compiled_matches_reference(kind, n, overlapping):
     at ~1e-12 of a term; exact-rational check of the worst m: 1.8e-13)."""
     ms = allan.tau_grid(kind, n // 2)
     for name, x in inputs(n, seed=7).items():
-        off = float(kernels.offset(x[:kernels.HEAD]))
-        close(kernels.any_m_sums(x, off, ms, overlapping), ref_sums(x, ms, overlapping),
-              3e-13 if name == "ramp" else 1e-13)
+        off = float(kernels.offset(x[: kernels.HEAD]))
+        close(
+            kernels.any_m_sums(x, off, ms, overlapping),
+            ref_sums(x, ms, overlapping),
+            3e-13 if name == "ramp" else 1e-13,
+        )
 
 
 def test_any_grid_through_the_api_matches_the_numpy_path(monkeypatch):
@@ -128,8 +133,8 @@ def test_integer_codes_exact_on_every_grid(n):
     """Codes small enough that every partial sum and square is an exact float64
     integer: the kernels' sums equal Python's integer sums exactly."""
     codes = np.random.default_rng(n).integers(-40, 40, n).astype(np.int16)
-    off = 0.0 if kernels.offset(codes[:kernels.HEAD]) == 0 else float(kernels.offset(codes[:kernels.HEAD]))
-    c = (codes.astype(np.int64) - int(off))
+    off = 0.0 if kernels.offset(codes[: kernels.HEAD]) == 0 else float(kernels.offset(codes[: kernels.HEAD]))
+    c = codes.astype(np.int64) - int(off)
     octave = allan.tau_grid("octave", n // 2)
     assert list(kernels.octave_oavar_sums(codes, off)[0]) == exact_sums(c, octave, True)
     assert list(kernels.octave_oavar_sums(codes, off, stream=True)[0]) == exact_sums(c, octave, True)
@@ -139,8 +144,9 @@ def test_integer_codes_exact_on_every_grid(n):
     assert list(kernels.any_m_sums(codes, off, log, False)) == exact_sums(c, log, False)
 
 
-@pytest.mark.parametrize("dtype", [np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32,
-                                   np.int64, np.uint64, np.float32])
+@pytest.mark.parametrize(
+    "dtype", [np.int8, np.uint8, np.int16, np.uint16, np.int32, np.uint32, np.int64, np.uint64, np.float32]
+)
 def test_every_input_type_reads_as_float64(dtype):
     x = np.random.default_rng(1).integers(0, 100, 20_000).astype(dtype)
     wide = x.astype(np.float64)
@@ -194,11 +200,11 @@ def test_large_integer_codes_exact_sums_rounded_once(n, stream, monkeypatch):
     monkeypatch.setattr(kernels, "OCTAVE_TILE", 1 << 10)
     rng = np.random.default_rng(n)
     codes = (np.cumsum(rng.integers(-(1 << 20), 1 << 20, n)) % (1 << 25)).astype(np.int32)
-    off = float(kernels.offset(codes[:kernels.HEAD]))
+    off = float(kernels.offset(codes[: kernels.HEAD]))
     c = codes.astype(np.int64) - int(off)
     octave = allan.tau_grid("octave", n // 2)
     want = [float(v) for v in exact_sums(c, octave, True)]
-    assert max(want) > 2.0 ** 64
+    assert max(want) > 2.0**64
     assert list(kernels.octave_oavar_sums(codes, off, stream=stream)[0]) == want
     assert list(kernels.octave_avar_sums(codes, off, 1 << 5)[0]) == [float(v) for v in exact_sums(c, octave, False)]
     log = allan.tau_grid("log", n // 2)
@@ -210,7 +216,7 @@ def test_integers_too_large_for_exact_sums_take_the_float_path():
     """int64 codes of 2^45: partial sums beyond 2^52, so no exact mode; the
     float path still matches the long double reference."""
     x = np.random.default_rng(9).integers(-(1 << 45), 1 << 45, 1000)
-    off = float(kernels.offset(x[:kernels.HEAD]))
+    off = float(kernels.offset(x[: kernels.HEAD]))
     assert kernels._exact(x, off) == 0
     assert kernels._exact(x >> 30, 0.0) == 1  # 2^15: exact again
     ms = allan.tau_grid("octave", 500)

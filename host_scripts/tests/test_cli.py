@@ -1,4 +1,5 @@
 """The command line: help, one-line errors, exit codes, the sim wrapper."""
+
 from __future__ import annotations
 
 import os
@@ -26,12 +27,15 @@ def test_no_command_is_a_usage_error(run_cli) -> None:
     assert rc == 2 and "COMMAND" in err
 
 
-@pytest.mark.parametrize("argv", [
-    ("decode", "/nonexistent/dev.log"),
-    ("reference", "/nonexistent/rows.txt", "--fs", "100"),
-    ("check", "/nonexistent/dev.log", "/nonexistent/rows.txt"),
-    ("rows", "/nonexistent/dev.log", "-o", "/nonexistent/rows.txt"),
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ("decode", "/nonexistent/dev.log"),
+        ("reference", "/nonexistent/rows.txt", "--fs", "100"),
+        ("check", "/nonexistent/dev.log", "/nonexistent/rows.txt"),
+        ("rows", "/nonexistent/dev.log", "-o", "/nonexistent/rows.txt"),
+    ],
+)
 def test_missing_file_is_one_line(run_cli, argv) -> None:
     rc, out, err = run_cli(*argv)
     assert rc == 2 and out == ""
@@ -46,10 +50,20 @@ def test_wrong_column_count_is_one_line(tmp_path: Path, run_cli) -> None:
     assert err == f"imu-allan reference: {p}: line 3: 6 columns, expected 7 (ax ay az gx gy gz temp)\n"
 
 
-@pytest.mark.parametrize("argv", [("reference", "x.txt"), ("decode",), ("gen", "-n", "1"),
-                                  ("rows", "x.log"), ("cmd", "--port", "/dev/null"),
-                                  ("monitor",), ("cmd", "--port", "p", "--timeout", "0", "x"),
-                                  ("reference", "x", "--fs", "-3"), ("decode", "x", "--json", "--csv")])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ("reference", "x.txt"),
+        ("decode",),
+        ("gen", "-n", "1"),
+        ("rows", "x.log"),
+        ("cmd", "--port", "/dev/null"),
+        ("monitor",),
+        ("cmd", "--port", "p", "--timeout", "0", "x"),
+        ("reference", "x", "--fs", "-3"),
+        ("decode", "x", "--json", "--csv"),
+    ],
+)
 def test_usage_errors_are_one_line(run_cli, argv) -> None:
     rc, out, err = run_cli(*argv)
     assert rc == 2 and err.count("\n") == 1 and "--help" in err
@@ -64,6 +78,7 @@ def test_console_script_has_no_traceback(tmp_path: Path) -> None:
 
 # ---- sim: a thin wrapper, tried with a fake harness --------------------------------
 
+
 @pytest.fixture
 def fake_sim(tmp_path: Path, monkeypatch) -> Path:
     sim = tmp_path / "imu-sim"
@@ -77,12 +92,23 @@ def test_sim_passes_options_through(tmp_path: Path, run_cli, fake_sim: Path) -> 
     elf, adc, uart = tmp_path / "fw.elf", tmp_path / "adc.txt", tmp_path / "cmds.txt"
     for p in (elf, adc, uart):
         p.write_text("x")
-    rc, _, _ = run_cli("sim", "--adc", adc, "--fs", "200", "--uart-in", uart, "--firmware", elf,
-                       "--stats", "-o", tmp_path / "dev.log")
+    rc, _, _ = run_cli(
+        "sim", "--adc", adc, "--fs", "200", "--uart-in", uart, "--firmware", elf, "--stats", "-o", tmp_path / "dev.log"
+    )
     assert rc == 3  # the harness's exit status
     args = (tmp_path / "args").read_text().splitlines()
-    assert args == ["--adc", str(adc), "--fs", "200", "--uart-in", str(uart),
-                    "-o", str(tmp_path / "dev.log"), "--stats", str(elf)]
+    assert args == [
+        "--adc",
+        str(adc),
+        "--fs",
+        "200",
+        "--uart-in",
+        str(uart),
+        "-o",
+        str(tmp_path / "dev.log"),
+        "--stats",
+        str(elf),
+    ]
     run_cli("sim", "--adc", adc, "--firmware", elf, "--stats", tmp_path / "st.json", "-o", "x.log")
     assert f"--stats={tmp_path / 'st.json'}" in (tmp_path / "args").read_text().splitlines()
 
@@ -113,10 +139,17 @@ def test_default_paths_point_into_the_checkout() -> None:
 
 # ---- output errors: one line, exit 2 (a full disk or a closed pipe is no crash) ---------
 
+
 def _run(args: list[str], stdout: object, tmp: Path) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
-    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], stdout=stdout,
-                          stderr=subprocess.PIPE, cwd=tmp, env=env, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "imu_allan.cli", *args],
+        stdout=stdout,
+        stderr=subprocess.PIPE,
+        cwd=tmp,
+        env=env,
+        timeout=120,
+    )
 
 
 @pytest.fixture()
@@ -127,12 +160,15 @@ def small_rows(tmp_path: Path) -> Path:
 
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
-@pytest.mark.parametrize("argv", [
-    ["gen", "-n", "200000", "-o", "/dev/full"],
-    ["rows", "{rows}", "-o", "/dev/full"],
-    ["gen", "-n", "10", "-o", "{tmp}/x.txt", "--json-params", "/dev/full"],
-    ["analyze", "{rows}", "--fs", "100", "--no-model", "--curves", "/dev/full"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["gen", "-n", "200000", "-o", "/dev/full"],
+        ["rows", "{rows}", "-o", "/dev/full"],
+        ["gen", "-n", "10", "-o", "{tmp}/x.txt", "--json-params", "/dev/full"],
+        ["analyze", "{rows}", "--fs", "100", "--no-model", "--curves", "/dev/full"],
+    ],
+)
 def test_a_full_disk_is_one_line(argv: list[str], small_rows: Path, tmp_path: Path) -> None:
     args = [a.format(rows=small_rows, tmp=tmp_path) for a in argv]
     proc = _run(args, subprocess.DEVNULL, tmp_path)
@@ -142,8 +178,9 @@ def test_a_full_disk_is_one_line(argv: list[str], small_rows: Path, tmp_path: Pa
 
 
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
-@pytest.mark.parametrize("argv", [["gen", "-n", "200000", "-o", "-"], ["reference", "{rows}", "--fs", "100"],
-                                  ["rows", "{rows}", "-o", "-"]])
+@pytest.mark.parametrize(
+    "argv", [["gen", "-n", "200000", "-o", "-"], ["reference", "{rows}", "--fs", "100"], ["rows", "{rows}", "-o", "-"]]
+)
 def test_a_full_or_closed_stdout_is_one_line(argv: list[str], small_rows: Path, tmp_path: Path) -> None:
     args = [a.format(rows=small_rows) for a in argv]
     with open("/dev/full", "wb") as full:
@@ -151,8 +188,14 @@ def test_a_full_or_closed_stdout_is_one_line(argv: list[str], small_rows: Path, 
     err = proc.stderr.decode()
     assert proc.returncode == 2 and err.count("\n") == 1 and "No space left on device" in err, err
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
-    closed = subprocess.run(" ".join([sys.executable, "-m", "imu_allan.cli", *args]) + " >&-", shell=True,
-                            stderr=subprocess.PIPE, cwd=tmp_path, env=env, timeout=120)
+    closed = subprocess.run(
+        " ".join([sys.executable, "-m", "imu_allan.cli", *args]) + " >&-",
+        shell=True,
+        stderr=subprocess.PIPE,
+        cwd=tmp_path,
+        env=env,
+        timeout=120,
+    )
     err = closed.stderr.decode()
     assert closed.returncode == 2 and err.count("\n") == 1 and "cannot write stdout" in err, err
 
@@ -179,6 +222,7 @@ def test_rows_tells_lost_from_failed(tmp_path: Path, run_cli) -> None:
 @pytest.mark.parametrize("text,want", [("250", 250), ("0250", 250), ("1000", 1000), ("50", 50)])
 def test_sim_rate_is_one_of_the_device_rates(text: str, want: int) -> None:
     from imu_allan.cli.args import build_parser
+
     args = build_parser().parse_args(["sim", "--adc", "x.txt", "--fs", text, "-o", "y.log"])
     assert args.fs == want  # decimal, never octal
 
@@ -190,15 +234,20 @@ def test_sim_refuses_other_rates(text: str, run_cli) -> None:
     assert f"{text!r} is not a rate of the device (50, 100, 200, 250, 500, 1000, 1250, 1500 Hz)" in err
 
 
-@pytest.mark.parametrize("content,argv,message", [
-    (b"", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
-    (b"# only a comment\n", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
-    (b"t,ax,ay,az,gx,gy,gz\n", ("analyze", "{f}"), "'{f}': line 1 is a header, and no data row follows it"),
-    (b"-1\t2\t3\t4\t5\t6\t7\n1\t2\t3\t4\t5\t6\t7\n", ("analyze", "{f}", "--fs", "100"),
-     "'{f}': line 1: '-1' is not a 10-bit ADC code"),
-])
-def test_messages_name_the_real_cause(content: bytes, argv: tuple, message: str, tmp_path: Path,
-                                      run_cli) -> None:
+@pytest.mark.parametrize(
+    "content,argv,message",
+    [
+        (b"", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
+        (b"# only a comment\n", ("reference", "{f}", "--fs", "100"), "'{f}' holds no rows"),
+        (b"t,ax,ay,az,gx,gy,gz\n", ("analyze", "{f}"), "'{f}': line 1 is a header, and no data row follows it"),
+        (
+            b"-1\t2\t3\t4\t5\t6\t7\n1\t2\t3\t4\t5\t6\t7\n",
+            ("analyze", "{f}", "--fs", "100"),
+            "'{f}': line 1: '-1' is not a 10-bit ADC code",
+        ),
+    ],
+)
+def test_messages_name_the_real_cause(content: bytes, argv: tuple, message: str, tmp_path: Path, run_cli) -> None:
     f = tmp_path / "in.txt"
     f.write_bytes(content)
     rc, out, err = run_cli(*(a.format(f=f) for a in argv))
@@ -207,6 +256,7 @@ def test_messages_name_the_real_cause(content: bytes, argv: tuple, message: str,
 
 def test_stdin_is_named_stdin(monkeypatch, run_cli) -> None:
     import io
+
     data = b"1\t2\t3\t4\t5\t6\t7\n" * 10 + b"1\t2\t3\t4\t5\t6\n"
     monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
     rc, _, err = run_cli("analyze", "-", "--fs", "100")

@@ -2,6 +2,7 @@
 stack: building the parser (every subcommand's --help text included) imports
 no numpy, scipy, matplotlib or pyserial.  Checked in a fresh interpreter
 through sys.modules, not by timing (timing lives in `make bench`)."""
+
 from __future__ import annotations
 
 import json
@@ -20,9 +21,16 @@ def _loaded_after(code: str) -> dict:
         "import json, sys\n" + code + "\n"
         f"heavy = sorted(m for m in sys.modules if m.split('.')[0] in {HEAVY!r})\n"
         "print(json.dumps({'heavy': heavy, 'ours': sorted(m for m in sys.modules "
-        "if m.startswith('imu_allan'))}))\n")
-    out = subprocess.run([sys.executable, "-c", probe], cwd=HOST, capture_output=True,
-                         text=True, check=True, env={"PYTHONPATH": str(HOST), "PATH": "/usr/bin:/bin"})
+        "if m.startswith('imu_allan'))}))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe],
+        cwd=HOST,
+        capture_output=True,
+        text=True,
+        check=True,
+        env={"PYTHONPATH": str(HOST), "PATH": "/usr/bin:/bin"},
+    )
     return json.loads(out.stdout.splitlines()[-1])
 
 
@@ -32,11 +40,15 @@ def test_building_the_parser_imports_no_numerical_stack() -> None:
     assert "imu_allan.cli.args" in got["ours"]  # the probe really built it
 
 
-@pytest.mark.parametrize("words", [["--help"], ["gen", "--help"], ["analyze", "--help"], ["dynamic", "--help"],
-                                   ["monitor", "--help"], ["--version"]])
+@pytest.mark.parametrize(
+    "words",
+    [["--help"], ["gen", "--help"], ["analyze", "--help"], ["dynamic", "--help"], ["monitor", "--help"], ["--version"]],
+)
 def test_help_texts_import_no_numerical_stack(words: list[str]) -> None:
-    code = ("from imu_allan.cli.main import main\n"
-            f"try:\n    main({words!r})\nexcept SystemExit as e:\n    assert e.code == 0, e.code")
+    code = (
+        "from imu_allan.cli.main import main\n"
+        f"try:\n    main({words!r})\nexcept SystemExit as e:\n    assert e.code == 0, e.code"
+    )
     assert _loaded_after(code)["heavy"] == []
 
 

@@ -1,13 +1,15 @@
 """Decoding device logs: hand-written lines, corruption, the JSON contract."""
+
 from __future__ import annotations
 
 import json
 import math
 from pathlib import Path
 
-from hypothesis import HealthCheck, given, settings, strategies as st
-
 from conftest import CH, header_body, line, report_lines, thesis_like
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
 from imu_allan.device.records import decode_bytes
 
 ROW_KEYS = {"channel", "level", "m", "tau_s", "pairs", "covers", "acc", "avar", "adev", "flags"}
@@ -18,8 +20,12 @@ def hand_report(seq: int = 5) -> list[bytes]:
     out = [line(header_body(seq, 2, 1000, fs=200, run=1))]
     for c, ch in enumerate(CH):
         out.append(line(f"L,{seq},{ch},0,999,{1000 * (c + 1):012X},00"))
-        out.append(line(f"L,{seq},{ch},1,499,"
-                        f"{0xFFFFFFFFFFFF if ch == 'gy' else 4000 * (c + 1):012X},{'03' if ch == 'gy' else '00'}"))
+        out.append(
+            line(
+                f"L,{seq},{ch},1,499,"
+                f"{0xFFFFFFFFFFFF if ch == 'gy' else 4000 * (c + 1):012X},{'03' if ch == 'gy' else '00'}"
+            )
+        )
     out.append(line(f"S,{seq},   tau_s       ax       ay       az       gx       gy       gz"))
     out.append(line(f"E,{seq},12"))
     return out
@@ -27,8 +33,7 @@ def hand_report(seq: int = 5) -> list[bytes]:
 
 def test_hand_written_report_json(tmp_path: Path, run_cli) -> None:
     log = tmp_path / "dev.log"
-    log.write_bytes(line("B,proto=1,fw=0.1.0,mcu=atmega168,reset=por") + line("ok started")
-                    + b"".join(hand_report()))
+    log.write_bytes(line("B,proto=1,fw=0.1.0,mcu=atmega168,reset=por") + line("ok started") + b"".join(hand_report()))
     rc, out, err = run_cli("decode", log, "--json")
     assert rc == 0, err
     doc = json.loads(out)
@@ -58,10 +63,13 @@ def test_hand_written_report_json(tmp_path: Path, run_cli) -> None:
 def test_a_level_without_pairs(tmp_path: Path, run_cli) -> None:
     """A stopped run of 3 samples: level 1 (m = 2) has one cluster, no pair."""
     log = tmp_path / "dev.log"
-    log.write_bytes(line(header_body(4, 2, 3, fs=200, run=0))
-                    + b"".join(line(f"L,4,{ch},0,2,{2 * (c + 1):012X},00") + line(f"L,4,{ch},1,0,{0:012X},00")
-                               for c, ch in enumerate(CH))
-                    + line("E,4,12"))
+    log.write_bytes(
+        line(header_body(4, 2, 3, fs=200, run=0))
+        + b"".join(
+            line(f"L,4,{ch},0,2,{2 * (c + 1):012X},00") + line(f"L,4,{ch},1,0,{0:012X},00") for c, ch in enumerate(CH)
+        )
+        + line("E,4,12")
+    )
     rc, out, err = run_cli("decode", log, "--json")
     assert rc == 0, err
     gz1 = json.loads(out)["rows"][11]
@@ -121,6 +129,7 @@ def test_no_complete_report_exits_1(tmp_path: Path, run_cli) -> None:
 def test_stdin(monkeypatch, run_cli) -> None:
     import io
     import sys
+
     data = b"".join(hand_report())
     monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(data)))
     rc, out, _ = run_cli("decode", "-", "--json")
@@ -173,8 +182,14 @@ def test_each_loss_spoils_its_report() -> None:
 
 def test_tolerated_noise_keeps_the_report() -> None:
     base = hand_report()
-    noisy = ([b"\x00\xffboot garbage\r\n", line("xyz,1")] + base[:3] + [line("ok"), b"zz\n"]
-             + base[3:-2] + [line("error:2 bad argument")] + base[-2:])
+    noisy = (
+        [b"\x00\xffboot garbage\r\n", line("xyz,1")]
+        + base[:3]
+        + [line("ok"), b"zz\n"]
+        + base[3:-2]
+        + [line("error:2 bad argument")]
+        + base[-2:]
+    )
     res = _decode(noisy)
     assert len(res.reports) == 1
     assert res.errors["unknown_records"] == 1 and res.errors["garbage_bytes"] == 16
@@ -206,7 +221,7 @@ def _corrupt(data: bytes, ops) -> bytes:
         if kind == "flip" and pos < len(buf):
             buf[pos] ^= arg
         elif kind == "drop":
-            del buf[pos:pos + arg]
+            del buf[pos : pos + arg]
         elif kind in ("insert", "dollar"):
             buf[pos:pos] = arg
         elif kind == "truncate":
@@ -219,8 +234,7 @@ def test_truth_is_what_was_encoded() -> None:
     assert _TRUTH[(8, "gx", 0)].pairs == 299
 
 
-@settings(max_examples=300, derandomize=True, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=300, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(_op, min_size=1, max_size=4))
 def test_random_corruption_never_yields_a_wrong_row(ops) -> None:
     res = decode_bytes(_corrupt(_LOG, ops))

@@ -3,6 +3,7 @@ rows) that passed its line CRC by collision but contradicts the report's rows
 is refused, counted and said; seq going backwards without a boot line is
 said; CR, LF and CR LF line ends read alike; a line without end costs no
 more memory than MAX_LINE."""
+
 from __future__ import annotations
 
 import json
@@ -11,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import CH, exact_acc, line, report_lines, thesis_like
 
 from imu_allan.device.framing import MAX_LINE, LineSplitter, split_frames
@@ -31,9 +31,9 @@ def _terms(rows: np.ndarray, ch: str) -> tuple[int, float, int, float]:
         m, pairs = 1 << k, max(n // (1 << k) - 1, 0)
         if pairs:
             adev[k] = (pairs, math.sqrt(exact_acc(codes, m, pairs) / (2 * m * m * pairs)))
-    kn = min(adev, key=lambda k: (abs(2 ** k - FS), k))
+    kn = min(adev, key=lambda k: (abs(2**k - FS), k))
     kb = min((k for k in adev if adev[k][0] >= 8), key=lambda k: (adev[k][1], k))
-    return kn, adev[kn][1] * math.sqrt(2 ** kn / FS), kb, adev[kb][1] / 0.664
+    return kn, adev[kn][1] * math.sqrt(2**kn / FS), kb, adev[kb][1] / 0.664
 
 
 def _sig3(v: float) -> str:
@@ -65,17 +65,19 @@ def test_a_collided_t_line_beyond_the_levels_is_refused(run3000) -> None:
     rep = res.reports[0]
     assert "gx" not in rep.terms and sorted(rep.terms) == ["ax", "ay", "az", "gy", "gz"]
     assert res.errors["inconsistent_lines"] == 1
-    assert res.warnings == ["report seq 0: refused the T line of gx (gx B: level 17, beyond the "
-                            "report's 15 levels)"]
+    assert res.warnings == ["report seq 0: refused the T line of gx (gx B: level 17, beyond the report's 15 levels)"]
     assert rep.refused == ["T line of gx (gx B: level 17, beyond the report's 15 levels)"]
 
 
-@pytest.mark.parametrize("fudge, said", [
-    (lambda kn, n, kb, b: (kn, n, 10, b), "level 10, whose row has 1 pairs (the term needs 8)"),
-    (lambda kn, n, kb, b: (kn + 1, n, kb, b), "device used level"),
-    (lambda kn, n, kb, b: (kn, n * 1.02, kb, b), "beyond the printed precision"),
-    (lambda kn, n, kb, b: (kn, n, kb, b * 3), "beyond the printed precision"),
-])
+@pytest.mark.parametrize(
+    "fudge, said",
+    [
+        (lambda kn, n, kb, b: (kn, n, 10, b), "level 10, whose row has 1 pairs (the term needs 8)"),
+        (lambda kn, n, kb, b: (kn + 1, n, kb, b), "device used level"),
+        (lambda kn, n, kb, b: (kn, n * 1.02, kb, b), "beyond the printed precision"),
+        (lambda kn, n, kb, b: (kn, n, kb, b * 3), "beyond the printed precision"),
+    ],
+)
 def test_a_t_line_the_rows_contradict_is_refused(run3000, fudge, said) -> None:
     _, lines, terms = run3000
     t = [_t(ch, *_fmt(fudge(*terms[ch]) if ch == "az" else terms[ch])) for ch in CH]
@@ -91,8 +93,10 @@ def _fmt(t: tuple[int, float, int, float]) -> tuple[int, str, int, str]:
 @pytest.mark.parametrize("value", ["1.234", "1e3", "nan", "inf", "1_0", " 1", "-1", "0x1F", "1.2E-4"])
 def test_a_t_value_not_printed_as_the_device_prints_is_unparsable(run3000, value) -> None:
     _, lines, terms = run3000
-    t = [_t(ch, terms[ch][0], value if ch == "ay" else _sig3(terms[ch][1]), terms[ch][2],
-            _sig3(terms[ch][3])) for ch in CH]
+    t = [
+        _t(ch, terms[ch][0], value if ch == "ay" else _sig3(terms[ch][1]), terms[ch][2], _sig3(terms[ch][3]))
+        for ch in CH
+    ]
     res = decode_bytes(_with_t(lines, t))
     assert "ay" not in res.reports[0].terms and res.errors["unparsable"] == 1
 
@@ -121,12 +125,14 @@ def test_a_running_report_takes_terms_its_rows_may_have_reached() -> None:
 def _summary_terms(terms: dict, rows: np.ndarray, seq: int = 0, b_scale: float = 1.0) -> list[bytes]:
     """The summary's terms part in counts (header without units=: counts)."""
     kn = terms["ax"][0]
-    pn = len(rows) // 2 ** kn - 1
-    out = [line(f"S,{seq},N at {_sig3(2 ** kn / FS)} s +-{_sig3(100 / math.sqrt(2 * pn))}%: "
-                "count rt(s); B: counts")]
-    cells = {"N": [terms[ch][1] for ch in CH], "B": [terms[ch][3] * b_scale for ch in CH],
-             "+-%": [100 / math.sqrt(2 * (len(rows) // 2 ** terms[ch][2] - 1)) for ch in CH],
-             "tau_s": [2 ** terms[ch][2] / FS for ch in CH]}
+    pn = len(rows) // 2**kn - 1
+    out = [line(f"S,{seq},N at {_sig3(2**kn / FS)} s +-{_sig3(100 / math.sqrt(2 * pn))}%: count rt(s); B: counts")]
+    cells = {
+        "N": [terms[ch][1] for ch in CH],
+        "B": [terms[ch][3] * b_scale for ch in CH],
+        "+-%": [100 / math.sqrt(2 * (len(rows) // 2 ** terms[ch][2] - 1)) for ch in CH],
+        "tau_s": [2 ** terms[ch][2] / FS for ch in CH],
+    }
     for name, vals in cells.items():
         out.append(line(f"S,{seq}," + f"{name:>9}" + "".join(f"{_sig3(v):>9}" for v in vals)))
     return out
@@ -147,6 +153,7 @@ def test_the_summary_terms_rows_are_checked_by_decode(run3000) -> None:
 
 def test_check_lists_what_decode_refused(tmp_path: Path, run3000, run_cli) -> None:
     from conftest import write_rows
+
     rows, lines, terms = run3000
     t = [_t(ch, *_fmt(terms[ch])) for ch in CH]
     t[0] = _t("ax", terms["ax"][0], _sig3(terms["ax"][1]), 17, "0")
@@ -174,6 +181,7 @@ def test_seq_going_backwards_without_a_boot_line_is_said(tmp_path: Path, run_cli
     assert rc == 0 and doc["header"]["seq"] == 3 and doc["errors"]["seq_backwards"] == 1
     assert doc["warnings"] == res.warnings and "warning: report seq 3 comes after seq 7" in err
     from imu_allan.render.screen import Monitor
+
     mon = Monitor("port", 115200, str(tmp_path / "m.log"))  # the monitor's decoder says it too
     mon.decoder.feed(b"".join(newer + older))
     assert mon.decoder.counts["seq_backwards"] == 1
@@ -191,7 +199,7 @@ def test_every_line_end_reads_alike(end: bytes, run3000) -> None:
     # fed in pieces of 1 to 7 bytes: a CR LF cut in two still reads as one line end
     splitter, bodies, at, step = LineSplitter(), [], 0, 1
     while at < len(data):
-        bodies += splitter.feed(data[at:at + step])
+        bodies += splitter.feed(data[at : at + step])
         at, step = at + step, step % 7 + 1
     bodies += splitter.finish()
     assert bodies == split_frames(want_data := data).bodies and len(bodies) == len(lines) + 6
@@ -200,13 +208,14 @@ def test_every_line_end_reads_alike(end: bytes, run3000) -> None:
 
 def test_a_cr_only_capture_of_raw_rows_verifies_its_blocks() -> None:
     from imu_allan.device.framing import crc16_modbus
+
     codes = thesis_like(200, 14)
     raw = [("\t".join(str(int(v)) for v in r) + "\r\n").encode() for r in codes]
-    counts = [line(f"C,{k},0,{crc16_modbus(b''.join(raw[k - 100:k])):04X}") for k in (100, 200)]
+    counts = [line(f"C,{k},0,{crc16_modbus(b''.join(raw[k - 100 : k])):04X}") for k in (100, 200)]
     data = line("ok mode=raw") + b"".join(raw[:100]) + counts[0] + b"".join(raw[100:]) + counts[1]
     for text in (data, data.replace(b"\r\n", b"\r")):
         dec = StreamDecoder(line_start=True, verified_only=True)
-        got = [dec.feed(text[i:i + 333]).samples for i in range(0, len(text), 333)]
+        got = [dec.feed(text[i : i + 333]).samples for i in range(0, len(text), 333)]
         got.append(dec.finish().samples)
         assert np.concatenate(got, axis=1).T.tolist() == codes.tolist()
         assert dec.counts["blocks_verified"] == 2 and dec.counts["blocks_bad"] == 0
@@ -233,8 +242,14 @@ def test_the_console_firmware_rx_counters_are_read_and_older_headers_still(tmp_p
     new.write_bytes(b"".join(report_lines(rows, 3, extra=",rx=1:2:3:65535")))
     old.write_bytes(b"".join(report_lines(rows, 3)))
     rc, out, _ = run_cli("decode", new)
-    assert rc == 0 and ("link since power-up: 1 UART overruns, 2 bytes lost to the full receive ring, "
-                        "3 command lines refused (error:5), 65535 timed out (error:7)") in out
+    assert (
+        rc == 0
+        and (
+            "link since power-up: 1 UART overruns, 2 bytes lost to the full receive ring, "
+            "3 command lines refused (error:5), 65535 timed out (error:7)"
+        )
+        in out
+    )
     rc, doc, _ = run_cli("decode", "--json", new)
     assert json.loads(doc)["header"]["extra"] == {"rx": "1:2:3:65535"}
     rc, out, _ = run_cli("decode", old)

@@ -1,6 +1,7 @@
 """The noise terms the device reads off its own deviations (T records,
 docs/protocol.md): decoded into ``decode --json``'s ``terms`` and recomputed
 by ``imu-allan check`` from the report's integers."""
+
 from __future__ import annotations
 
 import json
@@ -27,9 +28,9 @@ def _terms(rows: np.ndarray, ch: str, fs: int = FS, levels: int = LEVELS) -> tup
         m, pairs = 1 << k, max(n // (1 << k) - 1, 0)
         if pairs:
             adev[k] = (pairs, math.sqrt(exact_acc(codes, m, pairs) / (2 * m * m * pairs)))
-    kn = min(adev, key=lambda k: (abs(2 ** k / fs - 1), k))
+    kn = min(adev, key=lambda k: (abs(2**k / fs - 1), k))
     kb = min((k for k in adev if adev[k][0] >= 8), key=lambda k: (adev[k][1], k))
-    return kn, adev[kn][1] * math.sqrt(2 ** kn / fs), kb, adev[kb][1] / 0.664
+    return kn, adev[kn][1] * math.sqrt(2**kn / fs), kb, adev[kb][1] / 0.664
 
 
 def _log(tmp_path: Path, rows: np.ndarray, t_lines: list[bytes]) -> Path:
@@ -57,11 +58,19 @@ def test_decode_json_holds_the_device_terms(tmp_path: Path, run_cli) -> None:
     assert sorted(terms) == sorted(CH)
     for ch in CH:
         kn, n, kb, b = _terms(rows, ch)
-        pn, pb = len(rows) // 2 ** kn - 1, len(rows) // 2 ** kb - 1
-        assert terms[ch]["N"] == {"value": float(_sig3(n)), "tau_s": 2 ** kn / FS,
-                                  "pairs": pn, "pct": round(100 / math.sqrt(2 * pn), 3)}
-        assert terms[ch]["B"] == {"value": float(_sig3(b)), "tau_s": 2 ** kb / FS,
-                                  "pairs": pb, "pct": round(100 / math.sqrt(2 * pb), 3)}
+        pn, pb = len(rows) // 2**kn - 1, len(rows) // 2**kb - 1
+        assert terms[ch]["N"] == {
+            "value": float(_sig3(n)),
+            "tau_s": 2**kn / FS,
+            "pairs": pn,
+            "pct": round(100 / math.sqrt(2 * pn), 3),
+        }
+        assert terms[ch]["B"] == {
+            "value": float(_sig3(b)),
+            "tau_s": 2**kb / FS,
+            "pairs": pb,
+            "pct": round(100 / math.sqrt(2 * pb), 3),
+        }
 
 
 def test_check_recomputes_the_terms(tmp_path: Path, run_cli) -> None:
@@ -76,22 +85,25 @@ def test_check_fails_a_term_beyond_the_printed_precision(tmp_path: Path, run_cli
     rows = thesis_like(3000, 7)
     data = write_rows(tmp_path / "rows.txt", rows)
 
-    def off(ch, kn, n, kb, b):   # B of gy 1.5 units of its third digit high
+    def off(ch, kn, n, kb, b):  # B of gy 1.5 units of its third digit high
         return (kn, n, kb, b + 1.5 * 10 ** (math.floor(math.log10(b)) - 2)) if ch == "gy" else (kn, n, kb, b)
+
     rc, out, _ = run_cli("check", _log(tmp_path, rows, _t_lines(rows, off)), data)
     assert rc != 0 and "gy B: device" in out and "beyond the printed precision" in out
 
     def level(ch, kn, n, kb, b):  # N read at the wrong octave
         return (kn + 1, n, kb, b) if ch == "ax" else (kn, n, kb, b)
+
     rc, out, _ = run_cli("check", _log(tmp_path, rows, _t_lines(rows, level)), data)
     assert rc != 0 and "ax N: device used level" in out
 
 
 def test_a_term_needs_its_pairs_and_a_dash_only_without_them(tmp_path: Path, run_cli) -> None:
-    rows = thesis_like(12, 8)      # 12 samples: level 0 has 11 pairs, level 1 only 5
+    rows = thesis_like(12, 8)  # 12 samples: level 0 has 11 pairs, level 1 only 5
     lines = report_lines(rows, LEVELS)
-    t = [line(f"T,0,{ch},{_terms(rows, ch)[0]},{_sig3(_terms(rows, ch)[1])},0,"
-              f"{_sig3(_terms(rows, ch)[3])}") for ch in CH]
+    t = [
+        line(f"T,0,{ch},{_terms(rows, ch)[0]},{_sig3(_terms(rows, ch)[1])},0,{_sig3(_terms(rows, ch)[3])}") for ch in CH
+    ]
     log = tmp_path / "dev.log"
     log.write_bytes(b"".join(lines[:-1] + t + lines[-1:]))
     rc, out, _ = run_cli("decode", "--json", log)

@@ -2,6 +2,7 @@
 many seeds, from raw rows (sliding windows) and from the device's reports as
 the host emulates them; false alarms within the stated level; a lost report
 and a reset handled; the command's JSON, CSV and plot."""
+
 from __future__ import annotations
 
 import json
@@ -37,8 +38,10 @@ def codes(seed: int, warm: bool) -> np.ndarray:
 
 def both(c: np.ndarray) -> list[dynamic.Verdict]:
     reps = dynamic.device_reports_from_rows(c, FS, 15 * FS)
-    return [dynamic.assess(dynamic.from_reports(reps)),
-            dynamic.assess(dynamic.from_samples(c.astype(float), FS, list(CHANNELS)))]
+    return [
+        dynamic.assess(dynamic.from_reports(reps)),
+        dynamic.assess(dynamic.from_samples(c.astype(float), FS, list(CHANNELS))),
+    ]
 
 
 SEEDS = range(10)
@@ -72,9 +75,9 @@ def test_false_alarms_at_most_the_stated_level(verdicts) -> None:
     probability about 1 % if the rate were 5 %.  (Measured over 30 seeds of
     the stationary run: 8 of 180 from reports, 5 of 180 from raw windows.)"""
     alarms = trials = 0
-    for (s, warm), vs in verdicts.items():
+    for (_s, warm), vs in verdicts.items():
         for v in vs:
-            for ch in (("ay", "az", "gy", "gz") if warm else CHANNELS):
+            for ch in ("ay", "az", "gy", "gz") if warm else CHANNELS:
                 trials += 1
                 alarms += (v.warmup_s[ch] is not None) or not v.stationary[ch]
     assert trials == 200 and alarms < 18, alarms
@@ -109,8 +112,7 @@ def test_temperature_bins_when_the_temperature_moves() -> None:
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True, text=True,
-                          cwd=HOST)
+    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True, text=True, cwd=HOST)
 
 
 def test_dynamic_command_json_csv_and_plot(tmp_path: Path) -> None:

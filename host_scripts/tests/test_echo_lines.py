@@ -1,5 +1,6 @@
 """The device's echo of typed lines ("> ..." CR LF, docs/protocol.md) is
 neither data nor garbage for the decoders, in report logs and raw captures."""
+
 from __future__ import annotations
 
 from conftest import line, raw_row, report_lines, thesis_like
@@ -7,7 +8,7 @@ from conftest import line, raw_row, report_lines, thesis_like
 from imu_allan.device.records import decode_bytes
 from imu_allan.device.stream import StreamDecoder
 
-ECHO = b"> stat\b \bus\r\n"   # typed with a Backspace
+ECHO = b"> stat\b \bus\r\n"  # typed with a Backspace
 
 
 def test_report_log_with_echo_lines_has_no_garbage() -> None:
@@ -21,9 +22,13 @@ def test_report_log_with_echo_lines_has_no_garbage() -> None:
 
 def test_raw_capture_with_echo_lines_keeps_every_row() -> None:
     rows = thesis_like(250, 4)
-    data = b"".join(raw_row(r) for r in rows[:120]) + b"> status\r\n" + line("ok status run=1") \
+    data = (
+        b"".join(raw_row(r) for r in rows[:120])
+        + b"> status\r\n"
+        + line("ok status run=1")
         + b"".join(raw_row(r) for r in rows[120:])
-    dec = StreamDecoder(line_start=True)   # the capture starts at a line's start
+    )
+    dec = StreamDecoder(line_start=True)  # the capture starts at a line's start
     replies = dec.feed(data).replies + dec.finish().replies
     got = dec.counts
     assert got["rows"] == 250 and got["bad_rows"] == 0 and got["garbage_bytes"] == 0, got

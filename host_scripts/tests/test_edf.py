@@ -1,5 +1,6 @@
 """Equivalent degrees of freedom and chi-squared intervals, against allantools.ci,
 and the coverage of the intervals on simulated noise."""
+
 from __future__ import annotations
 
 import contextlib
@@ -25,9 +26,14 @@ def _ref(*args, **kw):
 
 def test_greenhall_against_allantools() -> None:
     compared = 0
-    for alpha, d, m, N, ov, mod in itertools.product([2, 1, 0, -1, -2, -3, -4], [1, 2, 3],
-                                                    [1, 2, 3, 8, 64, 1024], [10, 100, 1000, 100_000],
-                                                    [False, True], [False, True]):
+    for alpha, d, m, N, ov, mod in itertools.product(
+        [2, 1, 0, -1, -2, -3, -4],
+        [1, 2, 3],
+        [1, 2, 3, 8, 64, 1024],
+        [10, 100, 1000, 100_000],
+        [False, True],
+        [False, True],
+    ):
         if alpha + 2 * d <= 1:
             continue
         ref = _ref(alpha, d, m, N, overlapping=ov, modified=mod)

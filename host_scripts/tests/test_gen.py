@@ -1,4 +1,5 @@
 """Synthetic streams: reproducible, and the noise model's parameters come back."""
+
 from __future__ import annotations
 
 import json
@@ -27,7 +28,7 @@ def test_reproducible_and_self_describing(tmp_path: Path, run_cli) -> None:
     assert not np.array_equal(a, c)
     head = (tmp_path / "a.txt").read_text().splitlines()[0]
     assert head.startswith("# imu-allan gen ") and "gx=1.5" in head and "--seed 9" in head
-    argv = shlex.split(head[len("# imu-allan "):])  # the header's command remakes the file
+    argv = shlex.split(head[len("# imu-allan ") :])  # the header's command remakes the file
     assert run_cli(*argv, "-o", tmp_path / "d.txt")[0] == 0
     assert (tmp_path / "d.txt").read_bytes() == (tmp_path / "a.txt").read_bytes()
     assert a.shape == (7, 5000) and np.abs(a.mean(axis=1) - THESIS["offset"]).max() < 1
@@ -41,8 +42,18 @@ def test_chunking_does_not_change_the_stream() -> None:
 
 
 def test_json_params(tmp_path: Path, run_cli) -> None:
-    _gen(run_cli, tmp_path / "a.txt", "-n", 10, "--gm-tau", "5", "--drift", "gz=-0.5",
-         "--json-params", tmp_path / "p.json")
+    _gen(
+        run_cli,
+        tmp_path / "a.txt",
+        "-n",
+        10,
+        "--gm-tau",
+        "5",
+        "--drift",
+        "gz=-0.5",
+        "--json-params",
+        tmp_path / "p.json",
+    )
     p = json.loads((tmp_path / "p.json").read_text())
     assert p["n"] == 10 and p["seed"] == 1 and p["fs_hz"] == 100.0 and p["kind"] == "noise"
     assert p["gm_tau"] == dict.fromkeys(p["channels"], 5.0)
@@ -52,8 +63,20 @@ def test_json_params(tmp_path: Path, run_cli) -> None:
 
 
 def test_white_noise_sigma_is_recovered(tmp_path: Path, run_cli) -> None:
-    x = _gen(run_cli, tmp_path / "w.txt", "-n", 200_000, "--gm-sigma", "0", "--rrw", "0",
-             "--white", "ax=5,ay=20", "--offset", "ay=512")
+    x = _gen(
+        run_cli,
+        tmp_path / "w.txt",
+        "-n",
+        200_000,
+        "--gm-sigma",
+        "0",
+        "--rrw",
+        "0",
+        "--white",
+        "ax=5,ay=20",
+        "--offset",
+        "ay=512",
+    )
     want = np.array([5, 20] + list(THESIS["white"][2:6]))
     sd = x[:6].std(axis=1)  # + quantization noise, 1/12 count^2 (sigma >= 0.5)
     assert np.allclose(sd, np.sqrt(want**2 + 1 / 12), rtol=0.03)
@@ -61,8 +84,26 @@ def test_white_noise_sigma_is_recovered(tmp_path: Path, run_cli) -> None:
 
 def test_gauss_markov_is_recovered(tmp_path: Path, run_cli) -> None:
     fs, tau, sigma = 100.0, 1.0, 30.0
-    x = _gen(run_cli, tmp_path / "g.txt", "-n", 200_000, "--fs", fs, "--white", "0",
-             "--rrw", "0", "--gm-sigma", sigma, "--gm-tau", tau, "--offset", 512, "--seed", 2)
+    x = _gen(
+        run_cli,
+        tmp_path / "g.txt",
+        "-n",
+        200_000,
+        "--fs",
+        fs,
+        "--white",
+        "0",
+        "--rrw",
+        "0",
+        "--gm-sigma",
+        sigma,
+        "--gm-tau",
+        tau,
+        "--offset",
+        512,
+        "--seed",
+        2,
+    )
     for row in x[:6]:
         y = row - row.mean()
         assert y.std() == pytest.approx(sigma, rel=0.1)
@@ -89,12 +130,15 @@ def test_scenario_kinds(tmp_path: Path, run_cli) -> None:
     assert gx[-10_000:].mean() - gx[:10_000].mean() == pytest.approx(0.2 * 900, rel=0.05)
 
 
-@pytest.mark.parametrize("args, message", [
-    (("--white", "gq=1"), "unknown channel 'gq'"),
-    (("--white", "x"), "expected a number or CH=NUMBER"),
-    (("--gm-tau", "0"), "out of range"),
-    (("--fs", "0"), "must be a positive number"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("--white", "gq=1"), "unknown channel 'gq'"),
+        (("--white", "x"), "expected a number or CH=NUMBER"),
+        (("--gm-tau", "0"), "out of range"),
+        (("--fs", "0"), "must be a positive number"),
+    ],
+)
 def test_bad_parameters_are_one_line(tmp_path: Path, run_cli, args, message) -> None:
     rc, out, err = run_cli("gen", "-n", 10, *args, "-o", tmp_path / "x.txt")
     assert rc == 2 and message in err and err.count("\n") == 1

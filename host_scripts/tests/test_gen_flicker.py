@@ -1,5 +1,6 @@
 """`imu-allan gen --flicker`: IEEE 952 bias instability as a bank of Gauss-Markov
 processes; streams without it are unchanged."""
+
 from __future__ import annotations
 
 import io
@@ -9,8 +10,8 @@ import numpy as np
 
 from imu_allan.noise import gen
 from imu_allan.noise import streams as noise
-from imu_allan.stats import allan
 from imu_allan.render.progress import Progress
+from imu_allan.stats import allan
 
 
 def test_flicker_floor_is_0664_b() -> None:
@@ -83,17 +84,17 @@ def test_progress_erases_exactly_the_columns_it_wrote() -> None:
     tty = _Tty()
     with Progress("x" * 70, None, stream=tty, delay=0.0) as p:
         p.last = -1.0
-        p.show("y" * 5)          # 76 columns: "x" * 70, a space, "yyyyy"
+        p.show("y" * 5)  # 76 columns: "x" * 70, a space, "yyyyy"
         drawn = tty.getvalue()
     assert drawn.startswith("\r" + "x" * 70 + " yyyyy")
-    assert tty.getvalue()[len(drawn):] == "\r" + " " * 76 + "\r"
+    assert tty.getvalue()[len(drawn) :] == "\r" + " " * 76 + "\r"
     long = _Tty()  # StringIO has no terminal: 80 columns, so at most 79 drawn
     with Progress("z" * 100, None, stream=long, delay=0.0) as p:
         p.last = -1.0
         p.show("!")
         line = long.getvalue()
     assert line == "\r" + "z" * 79
-    assert long.getvalue()[len(line):] == "\r" + " " * 79 + "\r"
+    assert long.getvalue()[len(line) :] == "\r" + " " * 79 + "\r"
 
 
 def test_progress_shorter_line_blanks_what_the_longer_left() -> None:

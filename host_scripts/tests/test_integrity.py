@@ -6,6 +6,7 @@ Corruptions are brute-forced: every value of a field (or of the last hex
 digits of ``acc``) is tried, and the ones that keep the line's CRC are fed to
 the decoder.  Line runs are deleted, duplicated and moved at random across a
 log holding three runs separated by resets."""
+
 from __future__ import annotations
 
 import binascii
@@ -14,8 +15,8 @@ import random
 
 import numpy as np
 import pytest
-
 from conftest import CH, exact_acc, header_body, line, thesis_like
+
 from imu_allan.device.records import decode_bytes
 
 FS = 100
@@ -48,8 +49,7 @@ def _report(codes: np.ndarray, levels: int, seq: int, running_n: int | None = No
     out.append(line(f"S,{seq},{'tau_s':>9}" + "".join(f"{ch:>9}" for ch in CH)))
     for k in range(levels):
         if (CH[0], k) in adev:
-            out.append(line(f"S,{seq},{_sig3((1 << k) / FS):>9}"
-                            + "".join(f"{_sig3(adev[ch, k]):>9}" for ch in CH)))
+            out.append(line(f"S,{seq},{_sig3((1 << k) / FS):>9}" + "".join(f"{_sig3(adev[ch, k]):>9}" for ch in CH)))
     out.append(line(f"E,{seq},{6 * levels}"))
     return out
 
@@ -63,8 +63,9 @@ def _crc_keepers(prefix: bytes, variants: list[bytes], want: int) -> list[bytes]
 def _accepted_rows(data: bytes) -> dict[int, dict[tuple[str, int], tuple[int, int, str]]]:
     out = {}
     for rep in decode_bytes(data).reports:
-        out[rep.seq] = {(r.channel, r.level): (r.pairs, r.flags, _sig3(math.sqrt(r.avar)) if r.pairs else "-")
-                        for r in rep.rows}
+        out[rep.seq] = {
+            (r.channel, r.level): (r.pairs, r.flags, _sig3(math.sqrt(r.avar)) if r.pairs else "-") for r in rep.rows
+        }
     return out
 
 
@@ -89,11 +90,16 @@ def test_crc_preserving_changes_never_give_a_wrong_number(running: bool) -> None
         # pairs and flags together: every pairs of the same width, every flags byte
         width = len(f[4])
         head = b",".join(f[:4]) + b","
-        variants += [head + b"%0*d" % (width, p) + b"," + f[5] + b",%02X" % fl
-                     for p in range(10 ** width) for fl in (0, 1, 2, 3)]
+        variants += [
+            head + b"%0*d" % (width, p) + b"," + f[5] + b",%02X" % fl for p in range(10**width) for fl in (0, 1, 2, 3)
+        ]
         # channel and level: every other row key with the acc's last 2 digits free
-        variants += [b"L,3," + ch.encode() + b",%d," % k + f[4] + b"," + f[5][:10] + b"%02X" % v + b"," + f[6]
-                     for ch in CH for k in range(LEVELS) for v in range(256)]
+        variants += [
+            b"L,3," + ch.encode() + b",%d," % k + f[4] + b"," + f[5][:10] + b"%02X" % v + b"," + f[6]
+            for ch in CH
+            for k in range(LEVELS)
+            for v in range(256)
+        ]
         for body2 in _crc_keepers(b"", [v for v in variants if v != body], want):
             tried += 1
             changed = list(lines)
@@ -173,7 +179,7 @@ def test_a_report_spliced_from_two_runs_is_refused() -> None:
     H and first rows lost: the rest of that run's report completes the first."""
     lines, _ = _log_with_resets()
     cut_end = 1 + 26  # boot, then the cut report's H and 25 rows
-    spliced = lines[:cut_end] + lines[cut_end + 1 + 1 + 25:]  # 'ok reset', B's H and 25 rows gone
+    spliced = lines[:cut_end] + lines[cut_end + 1 + 1 + 25 :]  # 'ok reset', B's H and 25 rows gone
     res = decode_bytes(b"".join(spliced))
     assert 0 not in [r.seq for r in res.reports]
     assert res.errors["inconsistent_reports"] == 1 and "pairs" in res.refused[0]
@@ -202,7 +208,7 @@ def test_missing_reports_are_counted() -> None:
 
 def test_lower_case_hex_is_refused() -> None:
     rep = _report(CODES[:500], 3, seq=1)
-    low = [rep[0]] + [l[:-6] + l[-6:-2].lower() + l[-2:] for l in rep[1:2]] + rep[2:]
+    low = [rep[0]] + [ln[:-6] + ln[-6:-2].lower() + ln[-2:] for ln in rep[1:2]] + rep[2:]
     res = decode_bytes(b"".join(low))
     assert not res.reports and (res.errors["malformed"] == 1 or rep[1][-6:-2] == rep[1][-6:-2].lower())
     body = rep[1][1:-7].decode()

@@ -6,6 +6,7 @@ The logs come from the firmware ELF run in the simulator harness (imu-sim).
 Corruptions are made so that every line keeps a valid CRC-16 (an undetected
 line error): either the line CRC is recomputed after the change, or a field
 is brute-forced for the values that keep the CRC as sent."""
+
 from __future__ import annotations
 
 import binascii
@@ -18,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import thesis_like, write_rows
+
 from imu_allan.device.capture import decode_stream
 from imu_allan.device.records import decode_bytes
 
@@ -51,9 +52,13 @@ def logs(tmp_path_factory) -> dict[str, bytes]:
     d = tmp_path_factory.mktemp("vlogs")
     adc = write_rows(d / "adc.tsv", thesis_like(ROWS, 3))
     out = {}
-    for name, uart in (("report", None), ("splice", "1000\treport\\r\n1030\treset\\r\n1400\treport\\r\n"),
-                       ("raw", "0\tmode raw\\r\n"), ("binary", "0\tmode binary\\r\n"),
-                       ("both", "0\tmode both\\r\n1500\treport\\r\n")):
+    for name, uart in (
+        ("report", None),
+        ("splice", "1000\treport\\r\n1030\treset\\r\n1400\treport\\r\n"),
+        ("raw", "0\tmode raw\\r\n"),
+        ("binary", "0\tmode binary\\r\n"),
+        ("both", "0\tmode both\\r\n1500\treport\\r\n"),
+    ):
         cmd = [str(SIM), "--adc", str(adc), "-o", str(d / f"{name}.log")]
         if name == "both":
             cmd += ["--fs", "50"]  # rows and reports share the link up to 50 Hz
@@ -126,8 +131,11 @@ def test_crc16_preserving_acc_changes_are_refused(logs) -> None:
         want = binascii.crc_hqx(body, 0xFFFF)
         state = binascii.crc_hqx(prefix, 0xFFFF)
         suffix = b"," + flags
-        keep = [v for v in (b"%05X" % k for k in range(1 << 20))
-                if binascii.crc_hqx(suffix, binascii.crc_hqx(v, state)) == want and v != acc[7:]]
+        keep = [
+            v
+            for v in (b"%05X" % k for k in range(1 << 20))
+            if binascii.crc_hqx(suffix, binascii.crc_hqx(v, state)) == want and v != acc[7:]
+        ]
         for v in keep:
             new = prefix + v + suffix
             assert _line(new) == b"$%s*%04X\r\n" % (new, want)  # the line CRC still holds
@@ -146,13 +154,13 @@ def test_runs_spliced_across_a_reset_are_refused(logs) -> None:
     log = logs["splice"]
     bodies = _bodies(log)
     h = [i for i, b in enumerate(bodies) if b.startswith(b"H,")]
-    first, second = bodies[h[0]: h[1]], bodies[h[1]: h[2]]
+    first, second = bodies[h[0] : h[1]], bodies[h[1] : h[2]]
     cut = [b for b in first if b.startswith(b"L,")]
     assert 0 < len(cut) < 90 and b"ok reset" in first  # the first report was cut by the reset
     intact = decode_bytes(log)
     assert [r.seq for r in intact.reports] == [1, 2]
     # a splice of two runs: the second header and the rows after it lost
-    rest = [b for b in second[1 + len(cut):]]
+    rest = [b for b in second[1 + len(cut) :]]
     spliced = b"".join(_line(b) for b in bodies[: h[0]] + [first[0]] + cut + rest)
     assert decode_bytes(spliced).reports == []
     # worse: the later lines also carry the first report's seq (a restart of seq)
@@ -184,8 +192,12 @@ def _rows_cli(tmp_path: Path, log: bytes) -> tuple[int, np.ndarray, str]:
     src.write_bytes(log)
     out = tmp_path / "rows.tsv"
     env = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
-    p = subprocess.run([sys.executable, "-m", "imu_allan.cli", "rows", str(src), "-o", str(out)],
-                       capture_output=True, text=True, env=env)
+    p = subprocess.run(
+        [sys.executable, "-m", "imu_allan.cli", "rows", str(src), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     got = np.loadtxt(out, dtype=np.int64, comments="#", ndmin=2) if out.is_file() else None
     return p.returncode, got, p.stderr
 
@@ -214,7 +226,7 @@ def test_a_changed_raw_digit_drops_its_block(logs, tmp_path) -> None:
     starts = [m.start() for m in re.finditer(rb"\n\d", log)]
     at = starts[1234] + 1  # the first digit of a row in the 13th block
     d = log[at]
-    bad = log[:at] + bytes([d + 1 if d < 0x39 else d - 1]) + log[at + 1:]
+    bad = log[:at] + bytes([d + 1 if d < 0x39 else d - 1]) + log[at + 1 :]
     dec = decode_stream(bad)
     assert dec.counts["bad_rows"] == 0 and dec.counts["blocks_bad"] == 1  # the row still parses
     rc, got, err = _rows_cli(tmp_path, bad)
@@ -225,7 +237,7 @@ def test_a_changed_raw_digit_drops_its_block(logs, tmp_path) -> None:
 def test_a_lost_raw_row_drops_its_block(logs, tmp_path) -> None:
     log = logs["raw"]
     starts = [m.start() + 1 for m in re.finditer(rb"\n\d", log)]
-    bad = log[: starts[555]] + log[starts[556]:]
+    bad = log[: starts[555]] + log[starts[556] :]
     rc, got, err = _rows_cli(tmp_path, bad)
     assert rc == 3 and "99 rows dropped" in err
     assert np.array_equal(got, np.delete(_truth(logs), np.s_[500:600], axis=0))
@@ -235,18 +247,17 @@ def test_a_binary_frame_changed_with_its_own_crc_drops_its_block(logs, tmp_path)
     log = bytearray(logs["binary"])
     frames = [m.start() for m in re.finditer(rb"\xa5", bytes(log))]
     at = next(p for p in frames if p > len(log) // 2)
-    body = bytearray(log[at + 1: at + 11])
+    body = bytearray(log[at + 1 : at + 11])
     body[3] ^= 0x01  # a code's low bit
     c = binascii.crc_hqx(bytes(body), 0xFFFF)
-    log[at + 1: at + 13] = bytes(body) + bytes([c >> 8, c & 0xFF])
+    log[at + 1 : at + 13] = bytes(body) + bytes([c >> 8, c & 0xFF])
     rc, got, err = _rows_cli(tmp_path, bytes(log))
     assert rc == 3 and "100 rows dropped" in err and "1 bad blocks" in err
     assert got.shape[0] == ROWS - 100
 
 
 def test_old_count_lines_are_written_unverified(logs, tmp_path) -> None:
-    old = re.sub(rb"\$(C,\d+,\d+),[0-9A-F]{4}\*[0-9A-F]{4}\r\n",
-                 lambda m: _line(m.group(1)), logs["raw"])
+    old = re.sub(rb"\$(C,\d+,\d+),[0-9A-F]{4}\*[0-9A-F]{4}\r\n", lambda m: _line(m.group(1)), logs["raw"])
     rc, got, err = _rows_cli(tmp_path, old)
     assert rc == 0 and np.array_equal(got, _truth(logs))
     assert "unverified" in err and "no block CRC" in err

@@ -2,6 +2,7 @@
 import going down a rank (or staying in its room), no import loops between
 modules, no file over 600 lines, no function over 80 lines without a reason
 given in a ``# long: ...`` comment on its ``def`` line."""
+
 from __future__ import annotations
 
 import ast
@@ -15,19 +16,21 @@ MAX_FUNCTION_LINES = 80
 # module (the leaves of rank 0 share one room).
 LAYERS: tuple[tuple[int, str, tuple[str, ...]], ...] = (
     (0, "leaves", ("_version", "_firmware_facts", "errors", "channels", "profiles", "progress")),
-    (1, "device", ("device",)),      # bytes from the board into typed records
-    (1, "stats", ("stats",)),        # estimators and intervals
-    (2, "sources", ("sources",)),    # every input format into samples
-    (2, "noise", ("noise",)),        # noise processes: simulate, theory, fit
+    (1, "device", ("device",)),  # bytes from the board into typed records
+    (1, "stats", ("stats",)),  # estimators and intervals
+    (2, "sources", ("sources",)),  # every input format into samples
+    (2, "noise", ("noise",)),  # noise processes: simulate, theory, fit
     (3, "analysis", ("analysis",)),  # samples and reports into finished documents
-    (4, "render", ("render",)),      # documents and live states into text, files, figures, screens
-    (5, "cli", ("cli",)),            # the imu-allan command
+    (4, "render", ("render",)),  # documents and live states into text, files, figures, screens
+    (5, "cli", ("cli",)),  # the imu-allan command
     (6, "public", ("__init__", "api")),  # the Python API
 )
 # Upward or sideways imports allowed for now, each with the move that removes it
 # (none left: keep it empty).
 ALLOWED: dict[tuple[str, str], str] = {}
-KNOWN_LONG = {("terms.py", "fit_terms"): "noise/terms.py: the IEEE 952 iterated weighted fit in one piece (identify.py drives it)"}
+KNOWN_LONG = {
+    ("terms.py", "fit_terms"): "noise/terms.py: the IEEE 952 iterated weighted fit in one piece (identify.py drives it)"
+}
 
 
 def _module_name(path: Path) -> str:
@@ -137,11 +140,15 @@ def test_every_import_goes_down_the_layers() -> None:
 
 
 def test_the_layer_check_finds_an_upward_import() -> None:
-    graph = {"imu_allan.device.records": {"imu_allan.channels", "imu_allan.render.text"},
-             "imu_allan.render.text": {"imu_allan.device.records"}, "imu_allan.channels": set()}
+    graph = {
+        "imu_allan.device.records": {"imu_allan.channels", "imu_allan.render.text"},
+        "imu_allan.render.text": {"imu_allan.device.records"},
+        "imu_allan.channels": set(),
+    }
     assert _wrong_way(graph) == ["imu_allan.device.records (device, rank 1) -> imu_allan.render.text (render, rank 4)"]
     assert _wrong_way({"imu_allan.sources.rows": {"imu_allan.noise.gen"}, "imu_allan.noise.gen": set()}) == [
-        "imu_allan.sources.rows (sources, rank 2) -> imu_allan.noise.gen (noise, rank 2)"]
+        "imu_allan.sources.rows (sources, rank 2) -> imu_allan.noise.gen (noise, rank 2)"
+    ]
 
 
 def test_file_and_function_sizes() -> None:
@@ -154,7 +161,10 @@ def test_file_and_function_sizes() -> None:
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 size = node.end_lineno - node.lineno + 1
-                if (size > MAX_FUNCTION_LINES and "# long:" not in lines[node.lineno - 1]
-                        and (path.name, node.name) not in KNOWN_LONG):
+                if (
+                    size > MAX_FUNCTION_LINES
+                    and "# long:" not in lines[node.lineno - 1]
+                    and (path.name, node.name) not in KNOWN_LONG
+                ):
                     long_functions.append(f"{path.name}:{node.lineno} {node.name} {size}")
     assert long_files == [] and long_functions == []

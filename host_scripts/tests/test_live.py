@@ -1,4 +1,5 @@
 """`imu-allan rows`, and `cmd` / `monitor` against a fake device on a pseudo-terminal."""
+
 from __future__ import annotations
 
 import io
@@ -29,11 +30,11 @@ def _raw(codes: np.ndarray) -> bytes:
 
 
 def _rows_file(path: Path) -> list[list[int]]:
-    return [list(map(int, ln.split("\t"))) for ln in path.read_text().splitlines()
-            if not ln.startswith("#")]
+    return [list(map(int, ln.split("\t"))) for ln in path.read_text().splitlines() if not ln.startswith("#")]
 
 
 # ---- rows -------------------------------------------------------------------------
+
 
 def test_rows_from_raw_capture(tmp_path: Path, run_cli) -> None:
     codes = random_codes(1000, 1)
@@ -89,6 +90,7 @@ def test_rows_without_samples_exits_1(tmp_path: Path, run_cli) -> None:
 
 # ---- a fake device on a pseudo-terminal -------------------------------------------
 
+
 class FakeDevice:
     """The master side of a pty: answers each command line with ``answer(cmd)``."""
 
@@ -122,7 +124,7 @@ class FakeDevice:
 
     def _write(self, data: bytes) -> None:
         for i in range(0, len(data), 512):
-            os.write(self.master, data[i:i + 512])
+            os.write(self.master, data[i : i + 512])
 
     def stop(self) -> None:
         self._stop.set()
@@ -146,12 +148,12 @@ def _ref_crc16(data: bytes) -> int:
 def device() -> Iterator[Callable[..., FakeDevice]]:
     made: list[FakeDevice] = []
 
-    def make(answer: Callable[[str], bytes] = lambda c: b"", first: bytes = b"",
-             hold: float = 5.0) -> FakeDevice:
+    def make(answer: Callable[[str], bytes] = lambda c: b"", first: bytes = b"", hold: float = 5.0) -> FakeDevice:
         d = FakeDevice(answer, first, hold)
         d.thread.start()
         made.append(d)
         return d
+
     yield make
     for d in made:
         d.stop()
@@ -161,9 +163,13 @@ def _traffic() -> bytes:
     """What a busy device sends besides a reply: frames (with '$', CR, LF inside),
     raw rows, a report, garbage."""
     codes = random_codes(40, 4)
-    return (b"".join(bin_frame(i, r) for i, r in enumerate(codes[:20])) + b"\x00garbage\r\n"
-            + b"".join(raw_row(r) for r in codes[20:]) + b"".join(report_lines(thesis_like(20, 2), 2))
-            + line("ok not-this-one")[:-3])  # a cut line that looks like a reply
+    return (
+        b"".join(bin_frame(i, r) for i, r in enumerate(codes[:20]))
+        + b"\x00garbage\r\n"
+        + b"".join(raw_row(r) for r in codes[20:])
+        + b"".join(report_lines(thesis_like(20, 2), 2))
+        + line("ok not-this-one")[:-3]
+    )  # a cut line that looks like a reply
 
 
 def test_cmd_ok(device, run_cli) -> None:
@@ -178,6 +184,7 @@ def test_cmd_appends_the_lines_check() -> None:
     is the CRC of the text as received (a flipped bit gets error:5)."""
     from imu_allan.device.link import command_line
     from imu_allan.errors import InputError
+
     assert _ref_crc16(b"123456789") == 0x29B1  # the CRC's check value
     assert command_line(["interval", "36"]) == b"interval 36*%04X\r" % _ref_crc16(b"interval 36")
     assert command_line(["start 4294967295"]).startswith(b"start 4294967295*")
@@ -211,8 +218,16 @@ def _monitor_stream() -> tuple[bytes, np.ndarray]:
     rep = report_lines(rows, 4, seq=9, extra=",mode=both,range=1.5,cfg=saved")
     codes = random_codes(30, 6)
     frames = b"".join(bin_frame(i, r) for i, r in enumerate(codes))
-    data = (b"\xa5\x00garbage" + BOOT + line("ok mode=both") + frames + b"$L,9,ax,0,12*0000\r\n"
-            + b"".join(rep[:5]) + b"".join(rep) + line("ok"))
+    data = (
+        b"\xa5\x00garbage"
+        + BOOT
+        + line("ok mode=both")
+        + frames
+        + b"$L,9,ax,0,12*0000\r\n"
+        + b"".join(rep[:5])
+        + b"".join(rep)
+        + line("ok")
+    )
     return data, rows
 
 
@@ -226,7 +241,7 @@ def test_monitor_once(device, run_cli, tmp_path: Path, monkeypatch) -> None:
     assert "reply: ok mode=both" in out and "frames 30" in out
     assert "bad_crc 1" in out and "incomplete_reports 1" in out
     adev = np.sqrt(np.mean(np.diff(rows[:, 0].astype(float)) ** 2) / 2)
-    table = out[out.index("tau_s"):].splitlines()
+    table = out[out.index("tau_s") :].splitlines()
     assert table[0].split() == ["tau_s", "ax", "ay", "az", "gx", "gy", "gz"]
     assert table[1].split()[:2] == ["0.0100", f"{adev:#.3g}".rstrip(".")]
     assert len([t for t in table[1:] if t[:10].strip().replace(".", "").isdigit()]) == 4
@@ -235,8 +250,7 @@ def test_monitor_once(device, run_cli, tmp_path: Path, monkeypatch) -> None:
     assert rc == 0 and json.loads(out)["header"]["seq"] == 9
 
 
-def test_monitor_default_log_name_and_lost_port(device, run_cli, tmp_path: Path,
-                                                monkeypatch) -> None:
+def test_monitor_default_log_name_and_lost_port(device, run_cli, tmp_path: Path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
     dev = device(first=line("ok") + raw_row([1] * 7) * 3, hold=0.6)
     rc, out, err = run_cli("monitor", "--port", dev.path, "--once")
@@ -256,6 +270,7 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
     (no newline, so nothing scrolls), cut to the width (80x24 when the size
     cannot be asked), and the normal screen back at the end."""
     from imu_allan.cli.monitor import run_monitor
+
     data, _ = _monitor_stream()
     dev = device(first=data)
     out, err = _Tty(), io.StringIO()
@@ -275,12 +290,13 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
 
 def test_monitor_view_rate_and_losses() -> None:
     from imu_allan.render.screen import Monitor
+
     codes = random_codes(1000, 7)
     mon = Monitor("/dev/x", 115200, "x.log")
     data = _raw(codes).replace(raw_row(codes[450]), b"")  # one row lost
     step = len(data) // 10
     for k in range(11):  # 10 pieces over 2 s: ~500 rows/s
-        mon.feed(data[k * step:(k + 1) * step], now=100 + 0.2 * k)
+        mon.feed(data[k * step : (k + 1) * step], now=100 + 0.2 * k)
     text = mon.render()
     assert "no complete report yet" in text and "replies: ok mode=raw" in text
     assert "rows 999, frames 0" in text and "lost: rows 1, frames 0" in text
@@ -298,9 +314,16 @@ def test_rows_says_the_drops_of_the_count_lines(tmp_path: Path, run_cli) -> None
     (count lines once said drops=5 while rows printed 'rows lost 0')."""
     rows = [b"%d\t1\t2\t3\t4\t5\t6\r\n" % i for i in range(300)]
     cap = tmp_path / "cap.log"
-    cap.write_bytes(line("ok mode=raw") + b"".join(rows[:100]) + line("C,100,2")
-                    + b"".join(rows[100:200]) + line("C,200,5") + line("ok reset")
-                    + b"".join(rows[200:300]) + line("C,100,1"))
+    cap.write_bytes(
+        line("ok mode=raw")
+        + b"".join(rows[:100])
+        + line("C,100,2")
+        + b"".join(rows[100:200])
+        + line("C,200,5")
+        + line("ok reset")
+        + b"".join(rows[200:300])
+        + line("C,100,1")
+    )
     rc, _, err = run_cli("rows", cap, "-o", tmp_path / "r.txt")
     assert rc == 3 and "rows lost 0" in err and "device drops 6" in err, err  # 5 in the first run, 1 after
     rc, out, err = run_cli("analyze", cap, "--fs", "100", "--no-model", "--json")

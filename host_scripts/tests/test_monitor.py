@@ -1,11 +1,12 @@
 """The monitor's pieces without a terminal: the command line editor (the
 bytes a terminal sends for each key) and the view cut to a terminal size."""
+
 from __future__ import annotations
 
 import pytest
-
 from conftest import line, report_lines, thesis_like
 from test_live import device  # noqa: F401  (the fake device on a pseudo-terminal)
+
 from imu_allan.render.screen import Monitor
 from imu_allan.render.terminal import LineEditor
 
@@ -61,10 +62,10 @@ def test_the_view_fits_the_terminal(columns: int, rows: int) -> None:
     assert lines[-2] == "replies: ok" and lines[-4].startswith("samples: rows 0"[:columns])
     room = rows - 5
     if len(body) <= room:
-        assert lines[1:1 + len(body)] == [b[:columns] for b in body]
+        assert lines[1 : 1 + len(body)] == [b[:columns] for b in body]
     else:
         shown = room - 1
-        assert lines[1:1 + shown] == [b[:columns] for b in body[:shown]]
+        assert lines[1 : 1 + shown] == [b[:columns] for b in body[:shown]]
         assert lines[room] == f"-- lines 1-{shown} of {len(body)}; PgUp/PgDn scroll --"[:columns]
 
 
@@ -73,7 +74,7 @@ def test_scrolling_stops_at_the_ends() -> None:
     body = mon.report_text().rstrip("\n").split("\n")
     shown = 24 - 5 - 1
     lines, _, scroll = mon.screen(80, 24, typed="", scroll=1000)
-    assert scroll == len(body) - shown and lines[1:1 + shown] == body[-shown:]
+    assert scroll == len(body) - shown and lines[1 : 1 + shown] == body[-shown:]
     _, _, scroll = mon.screen(80, 24, typed="", scroll=-5)
     assert scroll == 0
 
@@ -86,11 +87,14 @@ def test_a_long_command_line_shows_its_end() -> None:
 
 def test_a_port_held_by_another_program_is_busy_in_one_line(device, run_cli, tmp_path) -> None:  # noqa: F811
     import serial
+
     dev = device(hold=5.0)
     holder = serial.Serial(dev.path, 115200, exclusive=True)  # as picocom or a monitor holds it
     try:
-        for argv in (("cmd", "--port", dev.path, "status"),
-                     ("monitor", "--port", dev.path, "--once", "--log", tmp_path / "m.log")):
+        for argv in (
+            ("cmd", "--port", dev.path, "status"),
+            ("monitor", "--port", dev.path, "--once", "--log", tmp_path / "m.log"),
+        ):
             rc, out, err = run_cli(*argv)
             assert rc == 2 and out == "" and err.count("\n") == 1
             assert f"port busy: '{dev.path}' is open in another program" in err

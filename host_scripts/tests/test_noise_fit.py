@@ -9,6 +9,7 @@ Kasdin, Proc. IEEE 83, 1995: h_k = h_{k-1} (k - 1 + alpha/2) / k, innovation
 variance B^2 for a one-sided PSD B^2 / (pi f)) and the AR(1) recursion for a
 Gauss-Markov process.  The truth is known: N (the white level at low
 frequency), B, K, T."""
+
 from __future__ import annotations
 
 import math
@@ -22,8 +23,8 @@ from imu_allan.noise import AR1, LP, RW, Flicker, Model
 
 FS = 1000.0
 N_TRUE = 0.01
-B_TRUE = 0.006       # floor 0.664 B = 0.004: above the white line beyond ~6 s
-K_TRUE = 8e-4        # crosses the white line near 20 s
+B_TRUE = 0.006  # floor 0.664 B = 0.004: above the white line beyond ~6 s
+K_TRUE = 8e-4  # crosses the white line near 20 s
 GM_SIGMA, GM_T = 0.03, 2.0
 
 
@@ -37,7 +38,7 @@ def _independent(n: int, seed: int, order: int, fc: float, extra: str) -> np.nda
     else:  # two sampled RC poles in cascade (critically damped, not a Butterworth)
         p = math.exp(-2 * math.pi * fc / FS)
         b, a = [(1 - p) ** 2], [1.0, -2 * p, p * p]
-    x = signal.lfilter(b, a, w)[:n]          # unit DC gain: the low-frequency density stays N^2
+    x = signal.lfilter(b, a, w)[:n]  # unit DC gain: the low-frequency density stays N^2
     if extra == "flicker":
         k = np.arange(1, n)
         h = np.concatenate(([1.0], np.cumprod((k - 1 + 0.5) / k)))
@@ -62,11 +63,11 @@ def _check(fit, extra: str) -> None:
     t = fit.terms
     assert t["N"].value is not None, fit.notes
     assert abs(t["N"].value / N_TRUE - 1) < 0.10, (t["N"].value, fit.fitted)
-    assert t["Q"].value is None, fit.fitted          # a low-pass never looks like quantization
+    assert t["Q"].value is None, fit.fitted  # a low-pass never looks like quantization
     if extra == "flicker":
         b = t["B"].value
         if b is None:  # a bank of slow GM processes may stand in for the 1/f floor: read it off
-            b = math.sqrt(fit.model(np.array([20.0]))[0] - N_TRUE ** 2 / 20.0) / math.sqrt(2 * math.log(2) / math.pi)
+            b = math.sqrt(fit.model(np.array([20.0]))[0] - N_TRUE**2 / 20.0) / math.sqrt(2 * math.log(2) / math.pi)
         assert abs(b / B_TRUE - 1) < 0.35, (b, fit.fitted)
     if extra == "rrw":
         assert t["K"].value is not None and abs(t["K"].value / K_TRUE - 1) < 0.35, fit.fitted
@@ -77,10 +78,20 @@ def _check(fit, extra: str) -> None:
         assert GM_T / 2 < T < GM_T * 2, fit.fitted
 
 
-CASES = [(1, FS / 100, "none"), (1, FS / 20, "none"), (1, FS / 4, "none"),
-         (2, FS / 100, "none"), (2, FS / 20, "none"), (2, FS / 4, "none"),
-         (1, FS / 20, "flicker"), (2, FS / 100, "rrw"), (2, FS / 20, "gm"), (1, FS / 4, "gm"),
-         (2, FS / 4, "flicker"), (1, FS / 100, "rrw")]
+CASES = [
+    (1, FS / 100, "none"),
+    (1, FS / 20, "none"),
+    (1, FS / 4, "none"),
+    (2, FS / 100, "none"),
+    (2, FS / 20, "none"),
+    (2, FS / 4, "none"),
+    (1, FS / 20, "flicker"),
+    (2, FS / 100, "rrw"),
+    (2, FS / 20, "gm"),
+    (1, FS / 4, "gm"),
+    (2, FS / 4, "flicker"),
+    (1, FS / 100, "rrw"),
+]
 
 
 @pytest.mark.parametrize("order,fc,extra", CASES)
@@ -89,10 +100,24 @@ def test_fit_recovers_lowpassed_white_noise_from_an_independent_generator(order,
     _check(api.noise_terms(x, FS), extra)
 
 
-@pytest.mark.parametrize("fc,extra", [(FS / 20, "none"), (FS / 4, "gm"), pytest.param(
-    FS / 4, "rrw", marks=pytest.mark.xfail(strict=True, reason=(
-        "known gap: on this stream the rise at the last octaves is taken as a ramp R, not K "
-        "(the two trade there; N is right)")))])
+@pytest.mark.parametrize(
+    "fc,extra",
+    [
+        (FS / 20, "none"),
+        (FS / 4, "gm"),
+        pytest.param(
+            FS / 4,
+            "rrw",
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason=(
+                    "known gap: on this stream the rise at the last octaves is taken as a ramp R, not K "
+                    "(the two trade there; N is right)"
+                ),
+            ),
+        ),
+    ],
+)
 def test_fit_recovers_two_rc_poles_in_cascade(fc, extra) -> None:
     x = _independent(1 << 19, 5, 3, fc, extra)
     _check(api.noise_terms(x, FS), extra)

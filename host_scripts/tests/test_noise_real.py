@@ -6,6 +6,7 @@ readings agree on: the Welch PSD (scipy.signal.welch) between 1 and 10 Hz,
 and allantools' overlapping ADEV times sqrt(tau) on the flat -1/2 part of
 the curve.  The part's own filter bends the short-tau end below that line;
 the fit's band limit must take it, not N."""
+
 from __future__ import annotations
 
 import gzip
@@ -14,9 +15,9 @@ import math
 import numpy as np
 import pytest
 from scipy import signal
+from test_real_recording import NAME, REPO, _find
 
 from imu_allan import api
-from test_real_recording import NAME, REPO, _find
 
 FS = 100.0
 GYROS = (3, 4, 5)
@@ -27,8 +28,9 @@ ACCS = (0, 1, 2)
 def data() -> np.ndarray:
     src = _find()
     if src is None:
-        pytest.skip(f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} "
-                    "and $IMU_ALLAN_DATA")
+        pytest.skip(
+            f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} and $IMU_ALLAN_DATA"
+        )
     with gzip.open(src, "rt") as f:
         return np.loadtxt(f, dtype=np.float64)
 
@@ -36,8 +38,9 @@ def data() -> np.ndarray:
 def _white_level(x: np.ndarray) -> tuple[float, float]:
     """(PSD level, ADEV sqrt(tau) level), both as N in units * sqrt(s)."""
     import allantools
+
     f, p = signal.welch(x - x.mean(), fs=FS, nperseg=1 << 16)
-    psd_n = math.sqrt(np.median(p[(f >= 1) & (f <= 10)]) / 2.0)   # one-sided 2 N^2
+    psd_n = math.sqrt(np.median(p[(f >= 1) & (f <= 10)]) / 2.0)  # one-sided 2 N^2
     taus = np.array([0.04, 0.08, 0.16])
     t, ad, _, _ = allantools.oadev(x, rate=FS, data_type="freq", taus=taus)
     return psd_n, float(np.median(ad * np.sqrt(t)))
@@ -51,21 +54,26 @@ def fits(data: np.ndarray) -> dict:
 @pytest.mark.parametrize("c", GYROS)
 def test_gyro_N_is_the_white_level_the_psd_and_the_flat_line_agree_on(data, fits, c) -> None:
     psd_n, line_n = _white_level(data[:, c])
-    assert abs(psd_n / line_n - 1) < 0.05          # the two readings agree: a white level exists
+    assert abs(psd_n / line_n - 1) < 0.05  # the two readings agree: a white level exists
     ref = 0.5 * (psd_n + line_n)
     n = fits[c].terms["N"]
     assert n.value is not None and abs(n.value / ref - 1) < 0.05, (n, ref, fits[c].fitted)
     # inside its interval, give or take the 2 % by which the two readings of the level differ
     assert n.low <= ref * 1.02 and ref * 0.98 <= n.high, (n, ref)
     import allantools
+
     t, ad, _, _ = allantools.oadev(data[:, c], rate=FS, data_type="freq", taus=np.array([0.01]))
-    if ad[0] * math.sqrt(t[0]) < 0.9 * ref:     # where the part's filter bends the short end
-        assert "LP" in fits[c].terms             # the filter is a term, not a bias on N
+    if ad[0] * math.sqrt(t[0]) < 0.9 * ref:  # where the part's filter bends the short end
+        assert "LP" in fits[c].terms  # the filter is a term, not a bias on N
 
 
-ACC_GAP = pytest.mark.xfail(strict=True, reason=(
-    "known gap: flicker and a rate random walk start right above the white part and the 1.7 s "
-    "oscillation is not taken as a sinusoid on this axis: N comes out 6-9 % high"))
+ACC_GAP = pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known gap: flicker and a rate random walk start right above the white part and the 1.7 s "
+        "oscillation is not taken as a sinusoid on this axis: N comes out 6-9 % high"
+    ),
+)
 
 
 @pytest.mark.parametrize("c", [0, pytest.param(1, marks=ACC_GAP), pytest.param(2, marks=ACC_GAP)])
@@ -96,7 +104,7 @@ def test_the_first_1000_s_give_N_with_a_wider_interval(data, fits, c) -> None:
 
 @pytest.mark.parametrize("c", GYROS)
 def test_a_known_rate_random_walk_added_to_a_gyro_is_recovered(data, fits, c) -> None:
-    K = 0.1   # counts / sqrt(s): five times the recording's own
+    K = 0.1  # counts / sqrt(s): five times the recording's own
     walk = np.cumsum(np.random.default_rng(c).standard_normal(data.shape[0])) * K / math.sqrt(FS)
     fit = api.noise_terms(data[:, c] + walk, FS)
     k = fit.terms["K"]

@@ -2,6 +2,7 @@
 on octave grids: against an extended-precision reference computed straight
 from the definitions, against allantools, and with tiny tiles so that every
 stage boundary and tile edge is crossed at small n."""
+
 import numpy as np
 import pytest
 
@@ -32,7 +33,7 @@ def reference(x: np.ndarray, overlapping: bool) -> np.ndarray:
         m = 1 << k
         P = X if overlapping else X[::m]
         s = m if overlapping else 1
-        d = P[2 * s:] - 2 * P[s:-s] + P[:-2 * s]
+        d = P[2 * s :] - 2 * P[s:-s] + P[: -2 * s]
         out.append(float(np.sum(d * d) / (2 * m * m * d.size)))
     return np.array(out)
 
@@ -51,8 +52,9 @@ def octave_grid(n: int) -> np.ndarray:
     return allan.tau_grid("octave", n // 2)
 
 
-needs_longdouble = pytest.mark.skipif(np.finfo(np.longdouble).nmant < 60,
-                                      reason="long double is no wider than float64 here")
+needs_longdouble = pytest.mark.skipif(
+    np.finfo(np.longdouble).nmant < 60, reason="long double is no wider than float64 here"
+)
 
 
 @needs_longdouble
@@ -75,7 +77,7 @@ def test_tiny_tiles_cross_every_stage_and_tile_edge(n, monkeypatch, path):
     monkeypatch.setattr(kernels, "OCTAVE_TILE", 1 << 7)
     monkeypatch.setattr(kernels, "OCTAVE_SPLIT", 1 << 4)
     x = processes(n, seed=n)["walk+white"]
-    off = float(kernels.offset(x[:kernels.HEAD]))
+    off = float(kernels.offset(x[: kernels.HEAD]))
     sums, terms = kernels.octave_oavar_sums(x, off)
     ms = 1 << np.arange(sums.size)
     np.testing.assert_allclose(sums / (2.0 * ms * ms * terms), reference(x, True), rtol=1e-12, atol=0)
@@ -92,11 +94,11 @@ def test_octave_kernels_match_allantools(n, name, path):
     _, dev, _, ns = allantools.oadev(x, rate=1.0, data_type="freq", taus="octave")
     v, terms = allan.oavar(x, octave_grid(n))
     k = dev.size
-    np.testing.assert_allclose(v[:k], dev ** 2, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(v[:k], dev**2, rtol=1e-12, atol=0)
     assert list(terms[:k]) == list(ns)
     _, dev, _, ns = allantools.adev(x, rate=1.0, data_type="freq", taus="octave")
     v, pairs = allan.avar(x, octave_grid(n))
-    np.testing.assert_allclose(v[:dev.size], dev ** 2, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(v[: dev.size], dev**2, rtol=1e-12, atol=0)
 
 
 def test_trends_agree_with_allantools_to_its_own_rounding():
@@ -107,7 +109,7 @@ def test_trends_agree_with_allantools_to_its_own_rounding():
         x = processes(n)[name]
         _, dev, _, _ = allantools.oadev(x, rate=1.0, data_type="freq", taus="octave")
         v, _ = allan.oavar(x, octave_grid(n))
-        np.testing.assert_allclose(v[:dev.size], dev ** 2, rtol=1e-9, atol=0, err_msg=name)
+        np.testing.assert_allclose(v[: dev.size], dev**2, rtol=1e-9, atol=0, err_msg=name)
 
 
 def test_integer_codes_and_float_codes_give_the_same_values(path):

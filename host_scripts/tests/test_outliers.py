@@ -1,6 +1,7 @@
 """Spikes and bursts found before the statistics (outliers.py and its use by
 ``analyze``): found where they were put, nothing found where there are none,
 left out of N and B by default and kept with ``--outliers keep``."""
+
 from __future__ import annotations
 
 import json
@@ -9,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import report_lines, thesis_like, write_rows
 from test_real_recording import NAME, REPO, _find
 
@@ -24,10 +24,12 @@ FS = 100.0
 
 def _analyze(data: np.ndarray, mode: str = "replace", name: str = "memory") -> dict:
     """``analyze`` of (6, n) codes held in memory (counts, no model)."""
-    src = Source(name, SampleSource("rows", name, list(CHANNELS), lambda: iter([data]), True, fs=FS,
-                                    n_hint=data.shape[1]), None)
-    return analyze(src, build_profile("counts", {}, None),
-                   Options(fs=FS, model=False, extra_curves=False, outliers=mode)).doc
+    src = Source(
+        name, SampleSource("rows", name, list(CHANNELS), lambda: iter([data]), True, fs=FS, n_hint=data.shape[1]), None
+    )
+    return analyze(
+        src, build_profile("counts", {}, None), Options(fs=FS, model=False, extra_curves=False, outliers=mode)
+    ).doc
 
 
 def _quiet(n: int, seed: int, sd: tuple[float, ...] = (1.0, 1.2, 1.5, 6.0, 6.5, 7.5)) -> np.ndarray:
@@ -48,8 +50,9 @@ def _mad_sigma(d: np.ndarray) -> float:
 def real() -> np.ndarray:
     path = _find()
     if path is None:
-        pytest.skip(f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} "
-                    "and $IMU_ALLAN_DATA")
+        pytest.skip(
+            f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} and $IMU_ALLAN_DATA"
+        )
     blocks = list(load(str(path)).samples.open_blocks())
     return np.concatenate(blocks, axis=1)[:6].astype(np.float64)
 
@@ -85,7 +88,8 @@ def test_nothing_is_flagged_on_the_clean_real_recording(clean_doc: dict) -> None
 
 
 def test_hundred_spikes_in_the_real_recording_are_all_found_and_n_b_stay_within_3_percent(
-        spiked: tuple[np.ndarray, np.ndarray, np.ndarray], clean_doc: dict) -> None:
+    spiked: tuple[np.ndarray, np.ndarray, np.ndarray], clean_doc: dict
+) -> None:
     x, where, chan = spiked
     doc = _analyze(x)
     for c, ch in enumerate(CHANNELS):
@@ -152,10 +156,11 @@ def test_a_knock_on_the_bench_is_one_event_with_its_time(tmp_path: Path, run_cli
     x = _quiet(n, 3)
     t = np.arange(100) / FS
     for c in range(6):
-        x[c, t0:t0 + 100] += np.rint(80 * (1 + c) * np.exp(-t / 0.25) * np.sin(2 * np.pi * 12 * t + c))
+        x[c, t0 : t0 + 100] += np.rint(80 * (1 + c) * np.exp(-t / 0.25) * np.sin(2 * np.pi * 12 * t + c))
     rows = np.vstack([x, np.full((1, n), 300)]).T.astype(int)
-    rc, out, err = run_cli("analyze", write_rows(tmp_path / "knock.txt", rows), "--fs", 100, "--json",
-                           "--no-model", "--profile", "counts")
+    rc, out, err = run_cli(
+        "analyze", write_rows(tmp_path / "knock.txt", rows), "--fs", 100, "--json", "--no-model", "--profile", "counts"
+    )
     assert rc == 0, err
     doc = json.loads(out)
     ev = doc["outliers"]["events"]
@@ -172,10 +177,11 @@ def test_a_knock_is_said_next_to_the_numbers(tmp_path: Path, run_cli) -> None:
     x = _quiet(n, 4)
     t = np.arange(100) / FS
     sd = np.array([1.0, 1.2, 1.5, 6.0, 6.5, 7.5])[:, None]
-    x[:, t0:t0 + 100] += np.rint(60 * sd * np.exp(-t / 0.25) * np.sin(2 * np.pi * 9 * t))
+    x[:, t0 : t0 + 100] += np.rint(60 * sd * np.exp(-t / 0.25) * np.sin(2 * np.pi * 9 * t))
     rows = np.vstack([x, np.full((1, n), 300)]).T.astype(int)
-    rc, out, err = run_cli("analyze", write_rows(tmp_path / "knock.txt", rows), "--fs", 100,
-                           "--no-model", "--profile", "counts")
+    rc, out, err = run_cli(
+        "analyze", write_rows(tmp_path / "knock.txt", rows), "--fs", 100, "--no-model", "--profile", "counts"
+    )
     assert rc == 0, err
     block = out.split("\ngx [count]\n")[1].split("\n\n")[0]
     said = block.split("outliers:")[1].split("  N random walk")[0]  # before the terms
@@ -234,8 +240,7 @@ def test_replaced_samples_lie_on_the_line_between_their_neighbours() -> None:
 
 
 @pytest.mark.parametrize("fraction", [0.3, 0.5])
-def test_a_recording_that_is_mostly_spikes_is_refused_in_one_line(tmp_path: Path, run_cli,
-                                                                  fraction: float) -> None:
+def test_a_recording_that_is_mostly_spikes_is_refused_in_one_line(tmp_path: Path, run_cli, fraction: float) -> None:
     n = 20_000
     rng = np.random.default_rng(8)
     x = _quiet(n, 8)
@@ -278,12 +283,13 @@ def test_thermal_finds_a_knock_before_its_regression(tmp_path: Path, run_cli) ->
     """A thermal cycle with a knock in it: one event, replaced before the
     bias-against-temperature regression, which still holds the true tempco."""
     from imu_allan.analysis import thermal
+
     fs, n, t0 = 50.0, 50 * 600, 50 * 350
     rng = np.random.default_rng(12)
     temp = np.rint(300 + 20 * np.sin(2 * np.pi * np.arange(n) / (fs * 300)))
     x = 512 + 2.0 * rng.standard_normal((6, n)) + 0.15 * (temp - 300)
     t = np.arange(50) / fs
-    x[:, t0:t0 + 50] += 150 * np.exp(-t / 0.25) * np.sin(2 * np.pi * 7 * t + 1)
+    x[:, t0 : t0 + 50] += 150 * np.exp(-t / 0.25) * np.sin(2 * np.pi * 7 * t + 1)
     rows = np.vstack([np.rint(x), temp]).T.astype(int)
     path = write_rows(tmp_path / "cycle.txt", rows)
     doc = thermal.study(str(path), fs=fs, segments=1)

@@ -1,10 +1,12 @@
 """Framing and CRC, against binascii.crc_hqx (an independent CRC-16/CCITT-FALSE)."""
+
 import os
 
 import numpy as np
-from hypothesis import given, settings, strategies as st
-
 from conftest import crc, line
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from imu_allan.device.framing import MAX_BODY, crc16, crc16_many, frame, split_frames
 
 
@@ -35,18 +37,23 @@ def test_split_counts_every_kind_of_loss() -> None:
     good = [line("ok"), line("ok started"), line("B,proto=1,fw=0.1.0,mcu=atmega168,reset=por")]
     bad_crc = bytearray(line("E,1,6"))
     bad_crc[3] ^= 0x01  # one bit of the body
-    data = (b"noise\r\n" + good[0] + bytes(bad_crc)
-            + b"$E,1,6\r\n"                          # no *CRC: malformed
-            + b"$E,1,6*12G4\r\n"                     # not hex: malformed
-            + b"$L,1,ax,0,3" + good[1]               # restart at the next $
-            + line("ok").replace(b"\r\n", b"\n")     # bare LF is fine
-            + line("ok", lower=True)                 # lower-case hex: never sent, malformed
-            + b"xx" + good[2]
-            + b"$L,1,ax,0,3,000")                    # end of input mid-line
+    data = (
+        b"noise\r\n"
+        + good[0]
+        + bytes(bad_crc)
+        + b"$E,1,6\r\n"  # no *CRC: malformed
+        + b"$E,1,6*12G4\r\n"  # not hex: malformed
+        + b"$L,1,ax,0,3"
+        + good[1]  # restart at the next $
+        + line("ok").replace(b"\r\n", b"\n")  # bare LF is fine
+        + line("ok", lower=True)  # lower-case hex: never sent, malformed
+        + b"xx"
+        + good[2]
+        + b"$L,1,ax,0,3,000"
+    )  # end of input mid-line
     f = split_frames(data)
     assert f.bodies == ["ok", "ok started", "ok", "B,proto=1,fw=0.1.0,mcu=atmega168,reset=por"]
-    assert f.errors == {"bad_crc": 1, "malformed": 3, "restarted": 1, "truncated": 1,
-                        "garbage_bytes": 7}
+    assert f.errors == {"bad_crc": 1, "malformed": 3, "restarted": 1, "truncated": 1, "garbage_bytes": 7}
 
 
 def test_body_limits() -> None:

@@ -1,4 +1,5 @@
 """Welch PSD (as scipy / pwelch), the terms' PSD levels, the thesis model and FIT%."""
+
 from __future__ import annotations
 
 import math
@@ -8,8 +9,8 @@ import pytest
 import scipy.signal
 
 from imu_allan.noise import model
-from imu_allan.stats import allan, psd
 from imu_allan.noise.streams import Flicker
+from imu_allan.stats import allan, psd
 
 
 def test_welch_streams_like_scipy() -> None:
@@ -20,8 +21,9 @@ def test_welch_streams_like_scipy() -> None:
     for part in np.array_split(x, 9, axis=1):
         w.push(part)
     f, p = w.result()
-    f2, p2 = scipy.signal.welch(x, 100.0, window=np.hamming(n), nperseg=n, noverlap=n // 2,
-                                nfft=16384, detrend="constant", axis=-1)
+    f2, p2 = scipy.signal.welch(
+        x, 100.0, window=np.hamming(n), nperseg=n, noverlap=n // 2, nfft=16384, detrend="constant", axis=-1
+    )
     np.testing.assert_allclose(f, f2)
     np.testing.assert_allclose(p, p2, rtol=1e-10)
     assert n == 50_000 // 4.5 and w.nfft == 16384  # pwelch: 8 segments, half overlapping, 2^k FFT
@@ -31,9 +33,11 @@ def test_term_levels_match_simulated_noise() -> None:
     fs, n = 100.0, 1 << 19
     rng = np.random.default_rng(1)
     N, K, B = 0.05, 0.01, 0.03
-    cases = {"N": N * math.sqrt(fs) * rng.standard_normal(n),
-             "K": np.cumsum(K / math.sqrt(fs) * rng.standard_normal(n)),
-             "B": Flicker(B, fs, n, np.random.SeedSequence(2)).take(0, n)}
+    cases = {
+        "N": N * math.sqrt(fs) * rng.standard_normal(n),
+        "K": np.cumsum(K / math.sqrt(fs) * rng.standard_normal(n)),
+        "B": Flicker(B, fs, n, np.random.SeedSequence(2)).take(0, n),
+    }
     for k, x in cases.items():
         w = psd.Welch(1, fs, 1 << 14)
         w.push(x[None, :])

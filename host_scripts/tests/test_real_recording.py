@@ -5,6 +5,7 @@ The recording is not part of the project: it is read from the data folder
 beside the repository (``<repo>/../shared/data``, or beside a folder further
 up), or from $IMU_ALLAN_DATA (the file or its folder),
 and the tests are skipped, saying so, only where it is absent."""
+
 from __future__ import annotations
 
 import json
@@ -19,8 +20,13 @@ NAME = "adis16405_imu2_codes.tsv.gz"
 SCALE = "gx=0.05,gy=0.05,gz=0.05,ax=0.00333g,ay=0.00333g,az=0.00333g"
 REPO = Path(__file__).resolve().parents[2]
 B_READOFF = math.sqrt(2 * math.log(2) / math.pi)  # 0.664, IEEE 952: ADEV of flicker of coefficient B
-BASIS = {"Q": lambda t: 3 / t ** 2, "N": lambda t: 1 / t, "B": lambda t: B_READOFF ** 2 + 0 * t,
-         "K": lambda t: t / 3, "R": lambda t: t ** 2 / 2}
+BASIS = {
+    "Q": lambda t: 3 / t**2,
+    "N": lambda t: 1 / t,
+    "B": lambda t: B_READOFF**2 + 0 * t,
+    "K": lambda t: t / 3,
+    "R": lambda t: t**2 / 2,
+}
 
 
 def _find() -> Path | None:
@@ -36,8 +42,9 @@ def _find() -> Path | None:
 def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     src = _find()
     if src is None:
-        pytest.skip(f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} "
-                    "and $IMU_ALLAN_DATA")
+        pytest.skip(
+            f"the real recording {NAME} is absent: looked in {REPO.parent / 'shared' / 'data'} and $IMU_ALLAN_DATA"
+        )
     return src  # read as shipped, gzip and all, as a user's command line does
 
 
@@ -49,9 +56,11 @@ def _analyze(run_cli, path: Path, *extra: str) -> dict:
 
 @pytest.fixture(scope="module")
 def doc(recording: Path) -> dict:
-    from imu_allan.cli.main import main
     import contextlib
     import io
+
+    from imu_allan.cli.main import main
+
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):
         assert main(["analyze", str(recording), "--fs", "100", "--scale", SCALE, "--no-model", "--json"]) == 0
@@ -70,8 +79,13 @@ def test_gyros_match_the_datasheet_and_the_curve(doc: dict) -> None:
         assert t["B"] is not None and 0.005 <= t["B"]["value"] <= 0.015, (ch, t["B"])
 
 
-@pytest.mark.xfail(strict=True, reason=("known gap: az's N comes out 9 % above the white level the "
-                                        "PSD and the flat line agree on (0.00483 against 0.00442 m/s^2/sqrt(s))"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known gap: az's N comes out 9 % above the white level the "
+        "PSD and the flat line agree on (0.00483 against 0.00442 m/s^2/sqrt(s))"
+    ),
+)
 def test_accelerometers_velocity_random_walk(doc: dict) -> None:
     """Datasheet VRW 0.2 m/s/sqrt(h) = 0.0033 m/s/sqrt(s)."""
     for ch in ("ax", "ay", "az"):
@@ -90,8 +104,13 @@ def test_b_is_reported_and_sits_on_the_curves_floor(doc: dict) -> None:
         assert 1 <= lo < hi  # a flat region, well past the white noise
 
 
-@pytest.mark.xfail(strict=True, reason=("known gap: ay's and az's N come out 7-9 % above the white level, "
-                                        "so N's line lies above the curve's 95 % interval at 0.04-0.16 s"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known gap: ay's and az's N come out 7-9 % above the white level, "
+        "so N's line lies above the curve's 95 % interval at 0.04-0.16 s"
+    ),
+)
 def test_no_term_line_or_bound_above_the_curve(doc: dict) -> None:
     """Every value and the upper bound of every term left out, drawn as its term's line, stays under
     the curve's own 95 % interval (outside the short-tau region the sensor's filter
@@ -108,9 +127,9 @@ def test_no_term_line_or_bound_above_the_curve(doc: dict) -> None:
             ub = c["upper_bounds"][k]
             assert ub is not None and math.isfinite(ub), (ch, k, c["term_notes"].get(k))
             # the value, and the bound of a term left out (an interval's top is not capped by the curve)
-            for v in ([t["value"]] if t else [ub]):
+            for v in [t["value"]] if t else [ub]:
                 # within the curve's interval widened by the model error the fit may grant (5 %)
-                assert np.all(v * v * f(tau) <= high * 1.05 ** 2), (ch, k, v)
+                assert np.all(v * v * f(tau) <= high * 1.05**2), (ch, k, v)
 
 
 def test_unexplained_ranges_are_named(doc: dict) -> None:
@@ -121,9 +140,10 @@ def test_unexplained_ranges_are_named(doc: dict) -> None:
     # the accelerometers' hump near 0.5 s (an oscillation of about 0.7 Hz; visible in the raw curve)
     for ch in ("ax", "ay", "az"):
         kinds = [(r["kind"], r["tau_s"]) for r in doc["channels"][ch]["fit"]["unexplained"]]
-        sine = doc["channels"][ch]["terms"].get("SIN")   # or fitted as a sinusoid of that period
-        assert (any(k in ("hump", "oscillation") and lo <= 0.64 <= hi for k, (lo, hi) in kinds)
-                or (sine is not None and 1.5 < 1 / sine["f0_hz"] < 2.0)), (ch, kinds, sine)
+        sine = doc["channels"][ch]["terms"].get("SIN")  # or fitted as a sinusoid of that period
+        assert any(k in ("hump", "oscillation") and lo <= 0.64 <= hi for k, (lo, hi) in kinds) or (
+            sine is not None and 1.5 < 1 / sine["f0_hz"] < 2.0
+        ), (ch, kinds, sine)
 
 
 def test_the_grid_does_not_move_the_terms(recording: Path, run_cli, doc: dict) -> None:

@@ -1,4 +1,5 @@
 """The float64 reference against allantools (an independent implementation)."""
+
 import allantools
 import numpy as np
 import pytest

@@ -1,22 +1,24 @@
 """Reading and writing thesis rows."""
+
 from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import thesis_like, write_rows
+
 from imu_allan.errors import InputError
 from imu_allan.sources.rows import format_rows, iter_blocks, read_rows
 
 
 def test_reads_comments_blank_lines_crlf_and_spaces(tmp_path: Path) -> None:
     p = tmp_path / "r.txt"
-    p.write_bytes(b"# thesis rows\n\n498\t494\t791\t520\t497\t498\t63  # first\r\n"
-                  b"   \n0 1023 7 8 9 10 11\n#end\n1\t2\t3\t4\t5\t6\t0007")  # no final newline
+    p.write_bytes(
+        b"# thesis rows\n\n498\t494\t791\t520\t497\t498\t63  # first\r\n"
+        b"   \n0 1023 7 8 9 10 11\n#end\n1\t2\t3\t4\t5\t6\t0007"
+    )  # no final newline
     got = read_rows(p)
     assert got.dtype == np.uint16 and got.shape == (7, 3)
-    assert got.T.tolist() == [[498, 494, 791, 520, 497, 498, 63], [0, 1023, 7, 8, 9, 10, 11],
-                              [1, 2, 3, 4, 5, 6, 7]]
+    assert got.T.tolist() == [[498, 494, 791, 520, 497, 498, 63], [0, 1023, 7, 8, 9, 10, 11], [1, 2, 3, 4, 5, 6, 7]]
 
 
 @pytest.mark.parametrize("block", [7, 64, 1000, 1 << 20])
@@ -27,15 +29,18 @@ def test_block_boundaries_do_not_matter(tmp_path: Path, block: int) -> None:
     assert np.array_equal(got.T, rows)
 
 
-@pytest.mark.parametrize("text, message", [
-    (b"1 2 3 4 5 6 7\n1 2 3 4 5 6\n", "line 2: 6 columns, expected 7"),
-    (b"#c\n1 2 3 4 5 6 7 8\n", "line 2: 8 columns, expected 7"),
-    (b"1 2 3 4 5 6 7\n\n1 2 3 4.5 5 6 7\n", "line 3: unexpected '.'"),
-    (b"1 2 3 4 5 6 -7\n", "line 1: unexpected '-'"),
-    (b"1 2 3 4 5 6 7\n1 2 3 4 5 6 1024\n", "line 2: code 1024 out of range 0..1023"),
-    (b"1 2 3 4 5 6 99999999999\n", "line 1: code out of range"),
-    (b"1 2 3 4 5 6 7\x00\n", "line 1: unexpected byte 0x00"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (b"1 2 3 4 5 6 7\n1 2 3 4 5 6\n", "line 2: 6 columns, expected 7"),
+        (b"#c\n1 2 3 4 5 6 7 8\n", "line 2: 8 columns, expected 7"),
+        (b"1 2 3 4 5 6 7\n\n1 2 3 4.5 5 6 7\n", "line 3: unexpected '.'"),
+        (b"1 2 3 4 5 6 -7\n", "line 1: unexpected '-'"),
+        (b"1 2 3 4 5 6 7\n1 2 3 4 5 6 1024\n", "line 2: code 1024 out of range 0..1023"),
+        (b"1 2 3 4 5 6 99999999999\n", "line 1: code out of range"),
+        (b"1 2 3 4 5 6 7\x00\n", "line 1: unexpected byte 0x00"),
+    ],
+)
 def test_malformed_rows_name_file_and_line(tmp_path: Path, text: bytes, message: str) -> None:
     p = tmp_path / "bad.txt"
     p.write_bytes(text)
@@ -90,6 +95,7 @@ def test_a_gzip_file_reads_like_the_plain_one(tmp_path, run_cli) -> None:
     """The real recording ships as .tsv.gz: read decompressed, by its magic bytes."""
     import gzip
     import json
+
     plain = tmp_path / "imu.txt"
     rc, _, err = run_cli("gen", "-n", "5000", "--seed", "4", "-o", plain)
     assert rc == 0, err

@@ -1,6 +1,7 @@
 """The continuous sensor model (sensor.py): exact OU updates at arbitrary instants,
 the aliasing law of a band-limited gyro sampled across and above its bandwidth,
 the ADC's sampling instants, model files."""
+
 from __future__ import annotations
 
 import json
@@ -9,11 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from imu_allan.noise import sensor
-from imu_allan.noise import terms
+from imu_allan.errors import InputError
+from imu_allan.noise import sensor, terms
 from imu_allan.stats import edf
 from imu_allan.stats.allan import octave_oavar
-from imu_allan.errors import InputError
 
 
 def test_ou_uniform_steps_have_the_analytic_variance_and_autocorrelation():
@@ -23,12 +23,12 @@ def test_ou_uniform_steps_have_the_analytic_variance_and_autocorrelation():
     a = math.exp(-h / T)
     var = x.var()
     # the variance of a sample variance of an AR(1) series: 2 sigma^4 (1 + a^2) / (1 - a^2) / n
-    sd_var = sigma ** 2 * math.sqrt(2 * (1 + a * a) / (1 - a * a) / n)
-    assert abs(var - sigma ** 2) < 4 * sd_var
+    sd_var = sigma**2 * math.sqrt(2 * (1 + a * a) / (1 - a * a) / n)
+    assert abs(var - sigma**2) < 4 * sd_var
     r1 = np.corrcoef(x[:-1], x[1:])[0, 1]
     assert abs(r1 - a) < 4 * math.sqrt((1 - a * a) ** 2 / n) * 3
     r3 = np.corrcoef(x[:-3], x[3:])[0, 1]
-    assert abs(r3 - a ** 3) < 0.02
+    assert abs(r3 - a**3) < 0.02
 
 
 def test_ou_irregular_instants_follow_exp_of_each_gap():
@@ -41,15 +41,14 @@ def test_ou_irregular_instants_follow_exp_of_each_gap():
     assert abs(x.var() - 1.0) < 0.03
     for g in (0.005, 0.08):
         sel = np.flatnonzero(gaps[1:] == g)  # pairs (x[i], x[i+1]) that are g apart
-        r = np.mean(x[sel] * x[sel + 1]) / sigma ** 2
+        r = np.mean(x[sel] * x[sel + 1]) / sigma**2
         assert abs(r - math.exp(-g / T)) < 0.015, (g, r)
 
 
 def test_walk_variance_grows_as_k2_t():
     K, h = 0.5, 0.01
     w = sensor.Walk(K, np.random.default_rng(2))
-    paths = np.stack([sensor.Walk(K, np.random.default_rng(s)).at(np.arange(1001) * h)
-                      for s in range(400)])
+    paths = np.stack([sensor.Walk(K, np.random.default_rng(s)).at(np.arange(1001) * h) for s in range(400)])
     v = paths[:, -1].var()
     assert abs(v - K * K * 10.0) < 0.25 * K * K * 10.0
     assert w.at(np.arange(5) * h)[0] == 0.0
@@ -148,18 +147,43 @@ def test_gen_model_writes_the_model_rows(tmp_path):
     import subprocess
     import sys
     from pathlib import Path
+
     repo = Path(__file__).resolve().parents[2]
     mf = tmp_path / "m.json"
     mf.write_text(json.dumps({"temperature": {"ramp_c_per_s": 0.01}}))
     out = tmp_path / "g.tsv"
     env = dict(os.environ, PYTHONPATH=str(repo / "host_scripts"))
-    p = subprocess.run([sys.executable, "-m", "imu_allan.cli", "gen", "--model", str(mf), "--fs", "250",
-                        "-n", "3000", "--seed", "4", "-o", str(out)], capture_output=True, text=True, env=env)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "imu_allan.cli",
+            "gen",
+            "--model",
+            str(mf),
+            "--fs",
+            "250",
+            "-n",
+            "3000",
+            "--seed",
+            "4",
+            "-o",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert p.returncode == 0, p.stderr
     from imu_allan.sources.rows import read_rows
+
     got = read_rows(str(out))
     want = sensor.Board(sensor.load_model(str(mf)), 250.0, 3000, seed=4).codes(0, 3000)
     assert np.array_equal(got, want)
-    p = subprocess.run([sys.executable, "-m", "imu_allan.cli", "gen", "--model", str(tmp_path / "none.json"),
-                        "-o", str(out)], capture_output=True, text=True, env=env)
+    p = subprocess.run(
+        [sys.executable, "-m", "imu_allan.cli", "gen", "--model", str(tmp_path / "none.json"), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert p.returncode == 2 and "none.json" in p.stderr and len(p.stderr.splitlines()) == 1

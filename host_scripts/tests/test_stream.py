@@ -1,15 +1,17 @@
 """Mixed captures: raw rows, count lines, binary frames, reports and replies,
 encoded here from the tables of docs/protocol.md (conftest), not by the package."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
-
 from conftest import bin_frame, line, random_codes, raw_row, report_lines, thesis_like
-from imu_allan.device.records import decode_bytes
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
 from imu_allan.device.capture import decode_stream
 from imu_allan.device.framing import encode_frame
+from imu_allan.device.records import decode_bytes
 from imu_allan.device.stream import StreamDecoder
 
 BOOT = line("B,proto=1,fw=0.2.0,mcu=atmega168,reset=por")
@@ -60,8 +62,14 @@ def test_binary_capture_gives_every_frame() -> None:
 def test_frames_may_cut_into_a_text_line() -> None:
     codes = random_codes(4, 4)
     reply = line("ok status run=1 mode=binary")
-    data = (bin_frame(0, codes[0]) + reply[:7] + bin_frame(1, codes[1]) + bin_frame(2, codes[2])
-            + reply[7:] + bin_frame(3, codes[3]))
+    data = (
+        bin_frame(0, codes[0])
+        + reply[:7]
+        + bin_frame(1, codes[1])
+        + bin_frame(2, codes[2])
+        + reply[7:]
+        + bin_frame(3, codes[3])
+    )
     res = decode_stream(data)
     assert res.samples.T.tolist() == codes.tolist()
     assert res.replies == ["ok status run=1 mode=binary"] and res.counts["frames_lost"] == 0
@@ -71,14 +79,19 @@ def test_frames_may_cut_into_a_text_line() -> None:
 def test_pieces_of_any_size_give_the_same_result(size: int) -> None:
     codes = random_codes(600, 5)
     rows = thesis_like(64, 6)
-    data = b"".join([b"\x01\xa5junk", BOOT, line("ok mode=both")] + raw_capture(codes[:300])
-                    + report_lines(rows, 3, seq=1) + [line("ok mode=binary")]
-                    + bin_capture(codes[300:]) + [b"\xa5\x01"])
+    data = b"".join(
+        [b"\x01\xa5junk", BOOT, line("ok mode=both")]
+        + raw_capture(codes[:300])
+        + report_lines(rows, 3, seq=1)
+        + [line("ok mode=binary")]
+        + bin_capture(codes[300:])
+        + [b"\xa5\x01"]
+    )
     whole = decode_stream(data)
     dec = StreamDecoder()
     got, reports, replies = [], [], []
     for i in range(0, len(data), size):
-        ch = dec.feed(data[i:i + size])
+        ch = dec.feed(data[i : i + size])
         got.append(ch.samples)
         reports += ch.reports
         replies += ch.replies
@@ -95,9 +108,17 @@ def test_pieces_of_any_size_give_the_same_result(size: int) -> None:
 
 def test_bad_rows_are_counted_and_skipped() -> None:
     good = random_codes(5, 7)
-    bad = [b"1\t2\t3\t4\t5\t6\r\n", b"1\t2\t3\t4\t5\t6\t7\t8\r\n", b"1\t2\t3\t4\t5\t6\t1024\r\n",
-           b"1\t2\t3\t4\t5\t6\t00001\r\n", b"1 2 3 4 5 6 7\r\n", b"1\t2\t3\tx\t5\t6\t7\r\n",
-           b"1\t2\t3\t4\t5\t6\t7\x00\r\n", b"\t1\t2\t3\t4\t5\t6\r\n", b"1\t\t2\t3\t4\t5\t6\r\n"]
+    bad = [
+        b"1\t2\t3\t4\t5\t6\r\n",
+        b"1\t2\t3\t4\t5\t6\t7\t8\r\n",
+        b"1\t2\t3\t4\t5\t6\t1024\r\n",
+        b"1\t2\t3\t4\t5\t6\t00001\r\n",
+        b"1 2 3 4 5 6 7\r\n",
+        b"1\t2\t3\tx\t5\t6\t7\r\n",
+        b"1\t2\t3\t4\t5\t6\t7\x00\r\n",
+        b"\t1\t2\t3\t4\t5\t6\r\n",
+        b"1\t\t2\t3\t4\t5\t6\r\n",
+    ]
     data = b"\r\n" + b"".join(raw_row(good[0]) + b + raw_row(good[i % 4 + 1]) for i, b in enumerate(bad))
     res = decode_stream(data + b"\r\n\n")  # empty lines are not rows, nor bad ones
     assert res.counts["bad_rows"] == len(bad) and res.counts["rows"] == 2 * len(bad)
@@ -107,8 +128,7 @@ def test_bad_rows_are_counted_and_skipped() -> None:
 def test_first_line_and_cut_rows_are_never_used() -> None:
     codes = random_codes(3, 8)
     row = raw_row(codes[0])
-    res = decode_stream(row[3:] + raw_row(codes[1]) + row[:-4] + line("C,5") + raw_row(codes[2])
-                        + row[:5])
+    res = decode_stream(row[3:] + raw_row(codes[1]) + row[:-4] + line("C,5") + raw_row(codes[2]) + row[:5])
     assert res.samples.T.tolist() == codes[1:].tolist()
     assert res.counts["truncated"] == 1 and res.counts["bad_rows"] == 0
     assert decode_stream(row, line_start=True).samples.T.tolist() == [codes[0].tolist()]
@@ -158,7 +178,7 @@ def test_binary_count_lines_count_frames_and_restarts_are_not_losses() -> None:
     assert c["rows_lost"] == c["frames_lost"] == 0 and c["count_lines"] == 8
     assert c["count_unchecked"] == 1 and res.samples.shape[1] == 900
     del units[150]  # frame 148
-    del units[40]   # frame 40
+    del units[40]  # frame 40
     c = decode_stream(b"".join(units)).counts
     assert c["frames_lost"] == 2 and c["rows_lost"] == 1  # frame 40 precedes the first count line
 
@@ -171,6 +191,7 @@ def test_count_going_down_is_a_restart() -> None:
 
 
 # ---- random corruption never yields a wrong sample --------------------------------
+
 
 def _mixed() -> tuple[list[tuple[str, bytes]], list[list[int]], object]:
     """A capture going through modes both and binary: units tagged 'row', 'frame'
@@ -187,8 +208,7 @@ def _mixed() -> tuple[list[tuple[str, bytes]], list[list[int]], object]:
     for i, r in enumerate(codes[230:]):
         units.append(("frame", bin_frame(i, r)))
         if i == 50:
-            units += [("text", reply[:9]), ("frame", bin_frame(i + 1, codes[231 + i])),
-                      ("text", reply[9:])]
+            units += [("text", reply[:9]), ("frame", bin_frame(i + 1, codes[231 + i])), ("text", reply[9:])]
     del units[[i for i, u in enumerate(units) if u == ("text", reply[9:])][0] + 1]  # sent above
     units.append(("text", line("ok")))
     truth = decode_bytes(b"".join(report_lines(rows, 3, seq=4))).reports[0]
@@ -198,16 +218,18 @@ def _mixed() -> tuple[list[tuple[str, bytes]], list[list[int]], object]:
 _UNITS, _CODES, _REPORT = _mixed()
 _CHECKED = [i for i, (k, _) in enumerate(_UNITS) if k != "row"]
 _NO_TAB = st.binary(min_size=1, max_size=12).filter(lambda b: b"\t" not in b)
-_NOISE = st.binary(min_size=1, max_size=12).map(
-    lambda b: bytes(x for x in b if not (0x30 <= x <= 0x39 or x in (9, 10)))).filter(bool)
+_NOISE = (
+    st.binary(min_size=1, max_size=12)
+    .map(lambda b: bytes(x for x in b if not (0x30 <= x <= 0x39 or x in (9, 10))))
+    .filter(bool)
+)
 
 _op = st.one_of(
     st.tuples(st.just("flip"), st.sampled_from(_CHECKED), st.integers(0, 40), st.integers(1, 255)),
     st.tuples(st.just("cut"), st.sampled_from(_CHECKED), st.integers(0, 40), st.integers(1, 30)),
     st.tuples(st.just("insert"), st.sampled_from(_CHECKED), st.integers(0, 40), _NO_TAB),
     st.tuples(st.just("noise"), st.integers(0, len(_UNITS) - 1), st.integers(0, 40), _NOISE),
-    st.tuples(st.just("dollar"), st.integers(0, len(_UNITS) - 1), st.integers(0, 40),
-              st.sampled_from([b"$", b"\xa5"])),
+    st.tuples(st.just("dollar"), st.integers(0, len(_UNITS) - 1), st.integers(0, 40), st.sampled_from([b"$", b"\xa5"])),
     st.tuples(st.just("drop"), st.integers(0, len(_UNITS) - 1), st.just(0), st.just(0)),
 )
 
@@ -223,7 +245,7 @@ def _corrupt(ops, truncate_at) -> bytes:
         if kind == "flip" and pos < len(u):
             u[pos] ^= arg
         elif kind == "cut":
-            del u[pos:pos + arg]
+            del u[pos : pos + arg]
         elif kind in ("insert", "noise", "dollar"):
             u[pos:pos] = arg
         elif kind == "drop":
@@ -241,13 +263,15 @@ def test_mixed_capture_decodes_whole() -> None:
     res = decode_stream(_corrupt([], None))
     assert res.samples.T.tolist() == _CODES
     assert [r.rows for r in res.reports] == [_REPORT.rows]
-    assert all(v == 0 for k, v in res.counts.items() if k not in ("rows", "frames", "count_lines", "count_lines_nocrc", "rows_unverified"))
+    assert all(
+        v == 0
+        for k, v in res.counts.items()
+        if k not in ("rows", "frames", "count_lines", "count_lines_nocrc", "rows_unverified")
+    )
 
 
-@settings(max_examples=250, derandomize=True, deadline=None,
-          suppress_health_check=[HealthCheck.too_slow])
-@given(st.lists(_op, min_size=1, max_size=5),
-       st.one_of(st.none(), st.integers(0, sum(len(u) for _, u in _UNITS))))
+@settings(max_examples=250, derandomize=True, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(_op, min_size=1, max_size=5), st.one_of(st.none(), st.integers(0, sum(len(u) for _, u in _UNITS))))
 def test_random_corruption_never_yields_a_wrong_sample(ops, truncate_at) -> None:
     data = _corrupt(ops, truncate_at)
     res = decode_stream(data)
@@ -257,7 +281,7 @@ def test_random_corruption_never_yields_a_wrong_sample(ops, truncate_at) -> None
         assert rep.seq == 4 and rep.rows == _REPORT.rows
     assert set(res.replies) <= {"ok mode=both", "ok mode=binary", "ok status run=1 n=400", "ok"}
     dec = StreamDecoder()  # in pieces: the same
-    pieces = [dec.feed(data[i:i + 97]).samples for i in range(0, len(data), 97)]
+    pieces = [dec.feed(data[i : i + 97]).samples for i in range(0, len(data), 97)]
     pieces.append(dec.finish().samples)
     assert np.concatenate(pieces, axis=1).T.tolist() == got
 

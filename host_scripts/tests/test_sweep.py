@@ -2,6 +2,7 @@
 firmware in simavr, fed by a band-limited gyro model: the N the device's report
 gives at each rate is the aliasing law's, the JSON has its promised shape, and
 an interrupted sweep resumes."""
+
 from __future__ import annotations
 
 import json
@@ -14,8 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from imu_allan.noise import sensor
 from imu_allan.analysis import sweep
+from imu_allan.noise import sensor
 
 REPO = Path(__file__).resolve().parents[2]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
@@ -31,7 +32,7 @@ def test_power_law_recovers_a_known_exponent_and_says_so():
     rng = np.random.default_rng(5)
     fs = [50.0, 100.0, 200.0, 250.0, 500.0, 1000.0]
     # values scattered by their stated 1-sigma (rel 0.05 at 95 % -> sd 2.55 % in log)
-    pts = [_pt(0.3 * f ** -0.5 * math.exp(rng.normal(0, 0.0255)), 0.05) for f in fs]
+    pts = [_pt(0.3 * f**-0.5 * math.exp(rng.normal(0, 0.0255)), 0.05) for f in fs]
     fit = sweep.power_law(fs, pts)
     assert fit["low"] <= -0.5 <= fit["high"]
     assert fit["high"] < 0 and fit["verdict"] == "falls with Fs"
@@ -55,14 +56,15 @@ def _built() -> None:
         pytest.skip(f"BUILD={BUILD}: {ELF.name} or imu-sim not built there (run 'make sim')")
     proc = subprocess.run(["make", "-C", str(REPO), "firmware", "sim"], capture_output=True, text=True)
     if proc.returncode != 0 or not (ELF.is_file() and SIM.is_file()):
-        pytest.skip("cannot build the firmware and imu-sim here ('make firmware sim' failed: "
-                    f"{(proc.stderr.strip().splitlines() or ['?'])[-1]})")
+        pytest.skip(
+            "cannot build the firmware and imu-sim here ('make firmware sim' failed: "
+            f"{(proc.stderr.strip().splitlines() or ['?'])[-1]})"
+        )
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"), IMU_SIM=str(SIM))
-    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True,
-                          text=True, env=env)
+    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True, text=True, env=env)
 
 
 def test_sim_sweep_of_a_band_limited_gyro(tmp_path):
@@ -72,8 +74,25 @@ def test_sim_sweep_of_a_band_limited_gyro(tmp_path):
     mf = tmp_path / "gyro.json"
     mf.write_text(json.dumps(model))
     d = tmp_path / "sweep"
-    args = ["sweep", "--sim", "--model", str(mf), "--rates", "50,500", "--seconds", "60",
-            "--dir", str(d), "--fit-from", "0.2", "--terms", "N,B,K", "--firmware", str(ELF), "--json"]
+    args = [
+        "sweep",
+        "--sim",
+        "--model",
+        str(mf),
+        "--rates",
+        "50,500",
+        "--seconds",
+        "60",
+        "--dir",
+        str(d),
+        "--fit-from",
+        "0.2",
+        "--terms",
+        "N,B,K",
+        "--firmware",
+        str(ELF),
+        "--json",
+    ]
     p = _cli(*args)
     assert p.returncode == 0, p.stderr
     doc = json.loads(p.stdout)
@@ -106,8 +125,19 @@ def test_sim_sweep_of_a_band_limited_gyro(tmp_path):
 def test_sweep_usage_errors(tmp_path):
     p = _cli("sweep", "--sim", "--rates", "100,x", "--seconds", "1")
     assert p.returncode == 2 and "not a list of rates" in p.stderr
-    p = _cli("sweep", "--port", "/dev/null-x", "--model", "m.json", "--rates", "100", "--seconds", "1",
-             "--dir", str(tmp_path))
+    p = _cli(
+        "sweep",
+        "--port",
+        "/dev/null-x",
+        "--model",
+        "m.json",
+        "--rates",
+        "100",
+        "--seconds",
+        "1",
+        "--dir",
+        str(tmp_path),
+    )
     assert p.returncode == 2 and "go with --sim" in p.stderr
 
 
@@ -117,17 +147,20 @@ def test_port_sweep_drives_the_device_on_a_pty(tmp_path):
     _built()
     pytest.importorskip("serial")
     link = tmp_path / "tty"
-    proc = subprocess.Popen([str(SIM), "--pty", "--link", str(link), "--synthetic", str(ELF)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [str(SIM), "--pty", "--link", str(link), "--synthetic", str(ELF)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     try:
         import time
+
         deadline = time.monotonic() + 10
         while not link.is_symlink():
             assert proc.poll() is None and time.monotonic() < deadline, "imu-sim --pty did not start"
             time.sleep(0.05)
         d = tmp_path / "sweep"
-        p = _cli("sweep", "--port", str(link), "--rates", "100,250", "--seconds", "3", "--dir", str(d),
-                 "--json")
+        p = _cli("sweep", "--port", str(link), "--rates", "100,250", "--seconds", "3", "--dir", str(d), "--json")
         assert p.returncode == 0, p.stderr
         doc = json.loads(p.stdout)
         for k, fs in (("100", 100), ("250", 250)):

@@ -1,6 +1,7 @@
 """IEEE 952 noise terms: each term recovered from streams built for it, the
 ones absent reported as not identifiable, intervals that hold the truth, and
 the correlation constants the fit relies on."""
+
 from __future__ import annotations
 
 import math
@@ -9,8 +10,8 @@ import numpy as np
 import pytest
 
 from imu_allan.noise import terms
-from imu_allan.stats import allan, edf
 from imu_allan.noise.streams import Flicker
+from imu_allan.stats import allan, edf
 
 FS = 100.0
 
@@ -26,7 +27,7 @@ def _stream(n: int, seed: int, Q=0.0, N=0.0, B=0.0, K=0.0, R=0.0, fs: float = FS
     rng = np.random.default_rng(seed)
     x = N * math.sqrt(fs) * rng.standard_normal(n)
     if Q:
-        x += Q * fs * np.diff(rng.standard_normal(n + 1))       # white angle noise
+        x += Q * fs * np.diff(rng.standard_normal(n + 1))  # white angle noise
     if K:
         x += np.cumsum(K / math.sqrt(fs) * rng.standard_normal(n))
     if R:

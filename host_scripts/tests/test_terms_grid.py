@@ -2,6 +2,7 @@
 every tau grid (octave, decade, log: the log one reaching m = n/2, EDF about 1)
 gives terms that hold the truth and each other within their 95 % intervals,
 and a stream with a hump the five terms cannot make gets that range named."""
+
 from __future__ import annotations
 
 import math
@@ -14,14 +15,16 @@ from imu_allan.stats import allan, edf
 
 FS = 100.0
 WHITE, FLICKER, RRW = 2.0, 0.3, 0.002  # counts per sample, counts (B), counts per step
-TRUTH = {"N": math.sqrt((WHITE ** 2 + 1 / 12) / FS),  # the ADC's rounding adds 1/12 count^2 of white
-         "B": FLICKER, "K": RRW * math.sqrt(FS)}
+TRUTH = {
+    "N": math.sqrt((WHITE**2 + 1 / 12) / FS),  # the ADC's rounding adds 1/12 count^2 of white
+    "B": FLICKER,
+    "K": RRW * math.sqrt(FS),
+}
 
 
 @pytest.fixture(scope="module")
 def codes() -> np.ndarray:
-    p = gen.make_params(n=1 << 20, seed=7, white=WHITE, flicker=FLICKER, rrw=RRW, gm_sigma=0,
-                        drift=0, offset=512)
+    p = gen.make_params(n=1 << 20, seed=7, white=WHITE, flicker=FLICKER, rrw=RRW, gm_sigma=0, drift=0, offset=512)
     return np.concatenate(list(gen.generate(p)), axis=1)[3].astype(np.int64)
 
 
@@ -84,6 +87,7 @@ def test_each_term_stays_under_the_curve(codes: np.ndarray) -> None:
     ms, f = _identify(codes, "octave")
     v, _ = allan.oavar(codes, ms)
     from imu_allan.noise.terms import ALPHA, TERMS, basis
+
     A = basis(ms / FS)
     alpha = np.array([ALPHA[TERMS[j]] for j in np.argmax(A * f.coef, axis=1)])  # as the document draws it
     e = edf.edf_function(ms, np.full(ms.size, codes.size + 1), np.ones(ms.size, dtype=np.int64))(alpha)
@@ -91,14 +95,16 @@ def test_each_term_stays_under_the_curve(codes: np.ndarray) -> None:
     for j, k in enumerate(TERMS):
         t = f.terms[k]
         for bound in (t.upper, t.high or 0.0):
-            assert np.all(bound ** 2 * A[:, j] <= hi * 1.000001), k
+            assert np.all(bound**2 * A[:, j] <= hi * 1.000001), k
 
 
 def test_analyze_terms_and_fit_percent_do_not_depend_on_taus(tmp_path, run_cli) -> None:
     """Through the command line: --taus octave, decade and log show different curves but
     the same terms, intervals and thesis-model FIT% (all from the octave points)."""
     import json
+
     from conftest import write_rows
+
     p = gen.make_params(n=1 << 15, seed=11, white=1.5, flicker=0.4, rrw=0.01, gm_sigma=0)
     rows = write_rows(tmp_path / "imu.txt", np.concatenate(list(gen.generate(p)), axis=1).T)
     docs = {}

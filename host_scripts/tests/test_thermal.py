@@ -1,6 +1,7 @@
 """imu-allan thermal: a known temperature coefficient (and a quadratic one) recovered
 within the tool's 95 % interval from the sensor model's rows; the block covariance
 against simulation; the JSON shape; bad input."""
+
 from __future__ import annotations
 
 import json
@@ -13,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from imu_allan.analysis import thermal
 from imu_allan.cli.study import write_model_rows
 from imu_allan.noise import sensor
-from imu_allan.analysis import thermal
 
 REPO = Path(__file__).resolve().parents[2]
 TEMPCO = {"ax": 0.3, "ay": -0.2, "az": 0.0, "gx": 0.15, "gy": 0.05, "gz": -0.1}
@@ -24,8 +25,10 @@ TEMPCO = {"ax": 0.3, "ay": -0.2, "az": 0.0, "gx": 0.15, "gy": 0.05, "gz": -0.1}
 @pytest.fixture(scope="module")
 def capture(tmp_path_factory) -> tuple[Path, sensor.SensorModel]:
     d = tmp_path_factory.mktemp("thermal")
-    spec = {"temperature": {"start_c": 25.0, "ramp_c_per_s": 0.0, "sine_c": 8.0, "period_s": 1200.0},
-            "channels": {ch: {"tempco": v} for ch, v in TEMPCO.items()}}
+    spec = {
+        "temperature": {"start_c": 25.0, "ramp_c_per_s": 0.0, "sine_c": 8.0, "period_s": 1200.0},
+        "channels": {ch: {"tempco": v} for ch, v in TEMPCO.items()},
+    }
     spec["channels"]["gz"]["tempco2"] = 0.02
     mf = d / "model.json"
     mf.write_text(json.dumps(spec))
@@ -74,8 +77,13 @@ def test_removing_the_thermal_bias_lowers_the_long_tau_deviation(doc):
     assert doc["temperature"]["unit"] == "degC" and not doc["temperature"]["one_way"]
 
 
-@pytest.mark.xfail(strict=True, reason=("known gap: with the whole-curve fit the segments' N intervals "
-                                        "are narrower and ax's N slope excludes 0 (low 1.2e-4)"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known gap: with the whole-curve fit the segments' N intervals "
+        "are narrower and ax's N slope excludes 0 (low 1.2e-4)"
+    ),
+)
 def test_noise_terms_against_temperature_hold_the_model_constant(doc):
     """The model's N does not change with temperature: every channel's N slope holds 0,
     and the segments' N agree with the whole record's."""
@@ -116,8 +124,7 @@ def test_block_covariance_of_white_noise_is_diagonal():
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
     env = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
-    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True,
-                          text=True, env=env)
+    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True, text=True, env=env)
 
 
 def test_cli_json_shape_and_errors(capture, tmp_path):

@@ -2,6 +2,7 @@
 N, B, K (imu_allan.noise.thesis) as ``imu-allan gen`` streams, analyzed from the
 raw rows and from a device log encoded here from exact integers (the host
 side of the simulator run), recovered within 10 %."""
+
 from __future__ import annotations
 
 import json
@@ -10,13 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import line
+
 from imu_allan import profiles
-from imu_allan.noise import thesis
 from imu_allan.analysis import pipeline as analysis
+from imu_allan.noise import gen, thesis
 from imu_allan.sources import detect as sources
-from imu_allan.noise import gen
 
 CH = ("ax", "ay", "az", "gx", "gy", "gz")
 
@@ -31,14 +31,18 @@ def _device_log(codes: np.ndarray, path: Path, levels: int = 15) -> Path:
     the exact sum of squared differences of consecutive m-sums (int64 here:
     codes < 1024, far from overflow at these lengths)."""
     n = codes.shape[1]
-    out = [line(f"H,7,proto=1,fw=0.2.0,mcu=atmega168,fcpu=10000000,baud=115200,fs=100,levels={levels},"
-                f"acc48=11,n={n},drops=0,run=0,mode=allan,range=1.5")]
+    out = [
+        line(
+            f"H,7,proto=1,fw=0.2.0,mcu=atmega168,fcpu=10000000,baud=115200,fs=100,levels={levels},"
+            f"acc48=11,n={n},drops=0,run=0,mode=allan,range=1.5"
+        )
+    ]
     for c, ch in enumerate(CH):
         x = codes[c].astype(np.int64)
         for k in range(levels):
             m = 1 << k
             pairs = max(n // m - 1, 0)
-            d = np.diff(x[:(pairs + 1) * m].reshape(pairs + 1, m).sum(axis=1))
+            d = np.diff(x[: (pairs + 1) * m].reshape(pairs + 1, m).sum(axis=1))
             acc = int(np.dot(d, d))
             assert acc < 2**40
             out.append(line(f"L,7,{ch},{k},{pairs},{acc:012X},00"))
@@ -48,9 +52,10 @@ def _device_log(codes: np.ndarray, path: Path, levels: int = 15) -> Path:
 
 
 def _in_memory(codes: np.ndarray) -> sources.Source:
-    blocks = lambda: (codes[:6, i:i + 65536] for i in range(0, codes.shape[1], 65536))  # noqa: E731
-    return sources.Source("gen", sources.SampleSource("rows", "gen", list(CH), blocks, True,
-                                                      n_hint=codes.shape[1]), None)
+    blocks = lambda: (codes[:6, i : i + 65536] for i in range(0, codes.shape[1], 65536))  # noqa: E731
+    return sources.Source(
+        "gen", sources.SampleSource("rows", "gen", list(CH), blocks, True, n_hint=codes.shape[1]), None
+    )
 
 
 def _check(doc: dict, tol: float, which: dict[str, tuple[str, ...]]) -> dict[str, dict[str, float]]:
@@ -78,15 +83,21 @@ def codes() -> np.ndarray:
 
 
 def test_recovered_from_the_raw_rows(codes: np.ndarray) -> None:
-    doc = analysis.analyze(_in_memory(codes), profiles.thesis_profile(), analysis.Options(fs=100.0, model=False,
-                                                                                  extra_curves=False)).doc
+    doc = analysis.analyze(
+        _in_memory(codes), profiles.thesis_profile(), analysis.Options(fs=100.0, model=False, extra_curves=False)
+    ).doc
     # az's K (7.5e-6 g/sqrt(s)) only rises above its B beyond ~400 s: checked by its interval only
     errors = _check(doc, 0.10, {"N": CH, "B": CH, "K": ("ax", "ay")})
     assert max(abs(e["N"]) for e in errors.values()) < 0.02
 
 
-@pytest.mark.xfail(strict=True, reason=("known gap: the whole-curve fit of the device's non-overlapping "
-                                        "curve gives ay's K 10.6 % high on this seed (tolerance 10 %)"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "known gap: the whole-curve fit of the device's non-overlapping "
+        "curve gives ay's K 10.6 % high on this seed (tolerance 10 %)"
+    ),
+)
 def test_recovered_from_the_device_log(codes: np.ndarray, tmp_path: Path, run_cli) -> None:
     """The device's non-overlapping curve stops at tau = 164 s (15 levels at 100 Hz)."""
     log = _device_log(codes[:, : 1 << 20], tmp_path / "device.log")
@@ -104,6 +115,7 @@ def test_device_and_rows_agree(codes: np.ndarray, tmp_path: Path, run_cli) -> No
     rows = tmp_path / "imu.txt"
     with open(rows, "wb") as f:
         from imu_allan.sources.rows import format_rows
+
         f.write(b"# thesis parameters\n" + format_rows(short))
     log = _device_log(short, tmp_path / "device.log", levels=15)
     rc, out, err = run_cli("analyze", rows, "--fs", "100", "--device", log, "--json", "--no-model")
@@ -118,7 +130,7 @@ def test_thesis_units() -> None:
     """The table's accelerometer numbers are in g: sigma_sensor = 7.57e-3 g is ~1.9
     counts, the scatter of the thesis' own rows (sigma_AVRW / sqrt(100) = N)."""
     c = thesis.per_count_native("ax")
-    assert c == pytest.approx(0.00403, rel=1e-3)          # the thesis' 'resolution 0.00403 g'
+    assert c == pytest.approx(0.00403, rel=1e-3)  # the thesis' 'resolution 0.00403 g'
     assert thesis.per_count_native("gx") == pytest.approx(0.977, rel=1e-3)
     assert thesis.TABLE_100HZ["ax"][3] / c == pytest.approx(1.88, rel=0.01)
     for ch in ("ax", "az", "gx"):  # N = sigma_AVRW / sqrt(Fs) (ay repeats ax's N; gy, gz are 13-16 % off)

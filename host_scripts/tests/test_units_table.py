@@ -2,6 +2,7 @@
 (profiles.py) hold the same facts of the thesis board: one home each, checked
 here.  The factors the firmware derives from them are recomputed from
 profiles.py and compared with the C expressions' inputs."""
+
 from __future__ import annotations
 
 import re
@@ -28,8 +29,7 @@ def test_firmware_board_facts_match_profiles():
     assert d["UNITS_GYRO_MV_PER_DPS"] / 1000 == pytest.approx(profiles.GYRO_SENSITIVITY_V_PER_DPS, rel=1e-12)
     assert d["UNITS_G0"] == pytest.approx(profiles.G0, rel=1e-12)
     for name, rg in (("1G5", "1.5"), ("2G", "2"), ("4G", "4"), ("6G", "6")):
-        assert d[f"UNITS_ACC_MV_PER_G_{name}"] / 1000 == pytest.approx(
-            profiles.ACC_SENSITIVITY_V_PER_G[rg], rel=1e-12)
+        assert d[f"UNITS_ACC_MV_PER_G_{name}"] / 1000 == pytest.approx(profiles.ACC_SENSITIVITY_V_PER_G[rg], rel=1e-12)
 
 
 def test_summary_scales_are_the_thesis_resolution():
@@ -40,10 +40,11 @@ def test_summary_scales_are_the_thesis_resolution():
     class H:
         def __init__(self, rg):
             self.range_g, self.extra = rg, {"units": "phys"}
+
     for rg, mg in (("1.5", 4.03), ("2", 5.37), ("4", 10.7), ("6", 16.1)):
         s = scales(H(rg))
         assert s["ax"].adev == pytest.approx(mg, rel=5e-3)  # the thesis rounds to 3 digits
         assert s["gx"].adev == pytest.approx(0.977, rel=1e-3)
-        assert s["gx"].N == pytest.approx(0.9765625 * 60)          # deg/sqrt(h) per count*sqrt(s)
+        assert s["gx"].N == pytest.approx(0.9765625 * 60)  # deg/sqrt(h) per count*sqrt(s)
         assert s["gx"].B == pytest.approx(0.9765625 * 3600 / 0.664)  # deg/h per count, /0.664
         assert s["ax"].N == pytest.approx(s["ax"].adev * 9.80665e-3 * 60)  # m/s/sqrt(h)

@@ -15,6 +15,7 @@ a level has pairs = floor(n / m) - 1 after n samples: the time after which the
 level of each term holds enough pairs is exact, given that the term stays at
 the same level.
 """
+
 from __future__ import annotations
 
 import math
@@ -67,8 +68,9 @@ predicted from the points' EDFs matches the one the fit gives, on white noise
 (N) and on white plus flicker noise (B), within about 10 %."""
 
 
-def term_edf(curve: list[dict[str, Any]], tau_range: Optional[list[float]], term: str,
-             overlapping: bool) -> Optional[float]:
+def term_edf(
+    curve: list[dict[str, Any]], tau_range: Optional[list[float]], term: str, overlapping: bool
+) -> Optional[float]:
     """The degrees of freedom behind a term: the EDFs of the fitted octave points
     in its tau range, summed, times (1 - r) / (1 + r) for the correlation r of
     neighbouring octaves (the number of independent points in a chain of them)."""
@@ -101,7 +103,8 @@ def add_to_analysis(doc: dict[str, Any], level: float = LEVEL) -> None:
             term["expected_pct"] = 100 * halfwidth(nu, level) if nu else None
             for target in TARGETS_PCT:
                 term[f"record_s_for_{target}pct"] = (
-                    duration * edf_for(target / 100, level) / nu if nu and duration else None)
+                    duration * edf_for(target / 100, level) / nu if nu and duration else None
+                )
 
 
 def fmt_time(s: Optional[float]) -> str:
@@ -119,8 +122,10 @@ def fmt_time(s: Optional[float]) -> str:
 def analysis_text(doc: dict[str, Any]) -> str:
     """The advice block of ``analyze``'s text."""
     duration = (doc.get("source") or {}).get("duration_s") or 0.0
-    lines = [f"Recording length (estimate: the model holds, each point's EDF grows with time; "
-             f"95 % intervals; recorded {fmt_time(duration)}):"]
+    lines = [
+        f"Recording length (estimate: the model holds, each point's EDF grows with time; "
+        f"95 % intervals; recorded {fmt_time(duration)}):"
+    ]
     for name, ch in doc.get("channels", {}).items():
         parts = []
         for k, term in (ch.get("terms") or {}).items():
@@ -157,6 +162,7 @@ def device_advice(report: Any) -> dict[str, dict[str, dict[str, Any]]]:
     levels = {ch: {k: getattr(t, k).level for k in ("N", "B")} for ch, t in report.terms.items()}
     if not levels:  # no T lines (an older firmware, or the host's emulation): the device's rule
         from .check import expected_terms
+
         for ch in sorted({r.channel for r in report.rows}):
             levels[ch] = {k: (v[0] if v else None) for k, v in expected_terms(report, ch).items()}
     for ch, lv in levels.items():
@@ -166,8 +172,13 @@ def device_advice(report: Any) -> dict[str, dict[str, dict[str, Any]]]:
             row = rows.get((ch, level)) if level is not None else None
             if row is None or row.pairs < 1:
                 continue
-            item = {"level": level, "tau_s": row.m / fs, "pairs": row.pairs,
-                    "pct": 100.0 / math.sqrt(2 * row.pairs), "now_s": h.n / fs}
+            item = {
+                "level": level,
+                "tau_s": row.m / fs,
+                "pairs": row.pairs,
+                "pct": 100.0 / math.sqrt(2 * row.pairs),
+                "now_s": h.n / fs,
+            }
             for target in TARGETS_PCT:
                 item[f"record_s_for_{target}pct"] = (pairs_for(target) + 1) * row.m / fs
             out[ch][name] = item
@@ -184,7 +195,7 @@ def monitor_line(report: Any, columns: int = 80) -> str:
     ch, b = worst
     more = b["record_s_for_10pct"] - b["now_s"]
     text = f"record: B +-{b['pct']:.0f} % now (worst {ch}, tau {b['tau_s']:.3g} s); "
-    text += (f"+-10 % after about {fmt_time(more)} more" if more > 0 else "+-10 % reached")
+    text += f"+-10 % after about {fmt_time(more)} more" if more > 0 else "+-10 % reached"
     n_pct = max((a["N"]["pct"] for a in adv.values() if "N" in a), default=None)
     if n_pct is not None:
         tail = f"; N +-{n_pct:.2g} %"

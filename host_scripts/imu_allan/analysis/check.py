@@ -16,6 +16,7 @@ recomputed from the report's integers (``expected_terms``) and must agree
 within the printed precision (half a unit in the third significant digit,
 plus the device's fixed-point error, ``TERM_REL``).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -26,10 +27,9 @@ import numpy as np
 from ..channels import CHANNELS
 from ..device.files import PathLike
 from ..device.records import ACC_MAX, FLAG_RANGE, FLAG_SAT, DeviceHeader, DeviceReport, flag_names
-from ..sources.rows import iter_blocks
 from ..device.summary import summary_units
-from ..device.termcheck import (B_MIN_PAIRS, TERM_REL, expected_terms, printed_tol,  # noqa: F401
-                                summary_terms_problems, term_problems)
+from ..device.termcheck import B_MIN_PAIRS, TERM_REL, expected_terms, printed_tol, summary_terms_problems, term_problems  # noqa: F401
+from ..sources.rows import iter_blocks
 from ..stats.reference import OctaveCascade
 
 REL_TOL = 1e-12
@@ -39,11 +39,11 @@ SAT_VALUES = ((1 << 40) - 1, ACC_MAX)
 @dataclass
 class CheckResult:
     file_rows: int = 0
-    rows: int = 0          # L rows in the report
-    compared: int = 0      # rows without flags, compared exactly
-    terms: int = 0         # device noise terms (T records) recomputed
+    rows: int = 0  # L rows in the report
+    compared: int = 0  # rows without flags, compared exactly
+    terms: int = 0  # device noise terms (T records) recomputed
     summary_terms: int = 0  # values of the summary's terms rows (N, B, +-%) recomputed
-    exact: int = 0         # ... whose acc equals the host's exact sum
+    exact: int = 0  # ... whose acc equals the host's exact sum
     flagged: list[str] = field(default_factory=list)
     max_rel: float = 0.0
     mismatches: list[str] = field(default_factory=list)
@@ -104,15 +104,16 @@ def check_report(report: DeviceReport, rows_path: PathLike, fs_hz: Optional[floa
             # its width: 2^48 - 1 per docs/protocol.md; 2^40 - 1 for the
             # narrower accumulators of some builds); the true sum is at least that.
             if r.acc not in SAT_VALUES or true < r.acc or (acc48 is not None and r.acc != width_max):
-                bad(f"{where}: SAT flag set with acc {r.acc} (0x{r.acc:012X}) but the exact "
-                    f"sum is {true} (0x{true:012X})" + (
-                        "" if r.acc in SAT_VALUES else "; a saturated acc is 2^40-1 or 2^48-1"))
+                bad(
+                    f"{where}: SAT flag set with acc {r.acc} (0x{r.acc:012X}) but the exact "
+                    f"sum is {true} (0x{true:012X})"
+                    + ("" if r.acc in SAT_VALUES else "; a saturated acc is 2^40-1 or 2^48-1")
+                )
             else:
                 res.flagged.append(f"{where} sat")
             continue
         if true >= width_max:
-            bad(f"{where}: SAT flag clear but the exact sum {true} is at least "
-                f"{width_max} (the accumulator's maximum)")
+            bad(f"{where}: SAT flag clear but the exact sum {true} is at least {width_max} (the accumulator's maximum)")
             continue
         res.compared += 1
         rel = 0.0
@@ -121,13 +122,14 @@ def check_report(report: DeviceReport, rows_path: PathLike, fs_hz: Optional[floa
             rel = abs(r.avar - want) / abs(want) if want else (0.0 if r.avar == 0 else float("inf"))
             res.max_rel = max(res.max_rel, rel)
         if r.acc != true:
-            bad(f"{where}: acc {r.acc} (0x{r.acc:012X}) but the exact sum is {true} "
-                f"(0x{true:012X}), off by {r.acc - true:+d}")
+            bad(
+                f"{where}: acc {r.acc} (0x{r.acc:012X}) but the exact sum is {true} "
+                f"(0x{true:012X}), off by {r.acc - true:+d}"
+            )
             continue
         res.exact += 1
         if rel > REL_TOL:
-            bad(f"{where}: avar {r.avar!r} vs float64 reference {want!r} "
-                f"(relative difference {rel:.3g} > {REL_TOL:g})")
+            bad(f"{where}: avar {r.avar!r} vs float64 reference {want!r} (relative difference {rel:.3g} > {REL_TOL:g})")
     _check_terms(report, res)
     _check_summary_terms(report, res)
     return res
@@ -167,28 +169,27 @@ def _check_header(h: DeviceHeader, fs_hz: Optional[float], res: CheckResult) -> 
     if h.drops is None:
         bad("header: no drops count (cannot tell whether rows line up with the file)")
     elif h.drops:
-        bad(f"header: drops={h.drops}: the device lost sample sets, its rows no longer "
-            "line up with the file")
+        bad(f"header: drops={h.drops}: the device lost sample sets, its rows no longer line up with the file")
     if h.n > res.file_rows:
         bad(f"header: n={h.n} samples but the file has only {res.file_rows} rows")
 
 
-def summary(res: CheckResult, report: DeviceReport, log_name: str, rows_name: str,
-            max_listed: int = 10) -> str:
+def summary(res: CheckResult, report: DeviceReport, log_name: str, rows_name: str, max_listed: int = 10) -> str:
     h = report.header
     lines = [
         f"check: report seq {report.seq} of {log_name} (n {h.n}, levels {h.levels}, "
         f"fs {h.fs_hz} Hz) against {rows_name} ({res.file_rows} rows)",
         f"rows: {res.rows}; compared exactly {res.compared}, exact {res.exact}; "
         f"flagged (not compared) {len(res.flagged)}",
-        f"max relative difference of avar vs float64 reference: {res.max_rel:.3g} "
-        f"(limit {REL_TOL:g})",
+        f"max relative difference of avar vs float64 reference: {res.max_rel:.3g} (limit {REL_TOL:g})",
     ]
     if res.terms:
         lines.append(f"noise terms (T): {res.terms} recomputed from the report's integers")
     if res.summary_terms:
-        lines.append(f"summary terms (N, B, +-% in {summary_units(report.header)} units): "
-                     f"{res.summary_terms} recomputed from the report's integers")
+        lines.append(
+            f"summary terms (N, B, +-% in {summary_units(report.header)} units): "
+            f"{res.summary_terms} recomputed from the report's integers"
+        )
     if res.flagged:
         lines.append("flagged: " + ", ".join(res.flagged))
     if res.ok:

@@ -22,6 +22,7 @@ two-sided p-value below the Sidak level that keeps the whole channel's
 false-alarm rate at ``1 - level`` over all windows and taus tested.  The
 warm-up is the leading stretch of departing windows.
 """
+
 from __future__ import annotations
 
 import functools
@@ -59,18 +60,19 @@ TEMP_MOVE = 2.0
 class Windows:
     """Per window w, channel c, octave level l: the Allan variance (code^2 or input
     units^2), its pooling weight (pairs or terms), its EDF; nan where none."""
-    source: str                 # "device reports" or "raw samples"
+
+    source: str  # "device reports" or "raw samples"
     fs: float
     channels: list[str]
-    ms: np.ndarray              # (L,) cluster sizes
-    t0: np.ndarray              # (W,) s since the run's start
+    ms: np.ndarray  # (L,) cluster sizes
+    t0: np.ndarray  # (W,) s since the run's start
     t1: np.ndarray
     temp: list[Optional[dict]]  # {"mean", "min", "max"} codes, or None
-    var: np.ndarray             # (W, C, L)
-    weight: np.ndarray          # (W, C, L)
-    edf: np.ndarray             # (W, C, L)
-    whole: np.ndarray           # (C, L) the whole record's variance
-    overlap: float = 0.0        # fraction of a window shared with the next one
+    var: np.ndarray  # (W, C, L)
+    weight: np.ndarray  # (W, C, L)
+    edf: np.ndarray  # (W, C, L)
+    whole: np.ndarray  # (C, L) the whole record's variance
+    overlap: float = 0.0  # fraction of a window shared with the next one
     acc: Optional[list] = None  # device: [w][c][l] exact integer sums (None where none)
     pairs: Optional[np.ndarray] = None  # device: (W, C, L) pairs of each window
     notes: list[str] = field(default_factory=list)
@@ -168,15 +170,22 @@ def from_reports(reports: Sequence[DeviceReport], channels: Optional[Sequence[st
                 p = int(pairs_w[w, c, k])
                 if p > 0 and math.isfinite(var[w, c, k]):
                     edfs[w, c, k] = _edf(int(alphas[c, k]), int(ms[k]), (p + 1) * int(ms[k]) + 1, int(ms[k]))
-    return Windows("device reports", fs, chans, ms, t0, t1, temps, var, pairs_w.astype(np.float64), edfs,
-                   whole, 0.0, accs, pairs_w)
+    return Windows(
+        "device reports", fs, chans, ms, t0, t1, temps, var, pairs_w.astype(np.float64), edfs, whole, 0.0, accs, pairs_w
+    )
 
 
 # ---- windows from raw samples ----------------------------------------------------------
 
 
-def from_samples(data: np.ndarray, fs: float, channels: Sequence[str], window_s: Optional[float] = None,
-                 step_s: Optional[float] = None, temp: Optional[np.ndarray] = None) -> Windows:
+def from_samples(
+    data: np.ndarray,
+    fs: float,
+    channels: Sequence[str],
+    window_s: Optional[float] = None,
+    step_s: Optional[float] = None,
+    temp: Optional[np.ndarray] = None,
+) -> Windows:
     """Sliding windows over (channels, n) samples; the overlapping AVAR at the
     octave taus that hold at least about ten clusters in a window."""
     data = np.asarray(data, dtype=np.float64)
@@ -186,8 +195,8 @@ def from_samples(data: np.ndarray, fs: float, channels: Sequence[str], window_s:
     step = max(int(round(step_s * fs)), 1) if step_s else max(size // 2, 1)
     if (n - size) // step + 1 > MAX_WINDOWS:
         from ..errors import InputError
-        raise InputError(f"{(n - size) // step + 1} windows: more than {MAX_WINDOWS}; "
-                         "give a longer --window or --step")
+
+        raise InputError(f"{(n - size) // step + 1} windows: more than {MAX_WINDOWS}; give a longer --window or --step")
     starts = list(range(0, n - size + 1, step)) or [0]
     ms = np.array([1 << k for k in range(40) if (1 << k) * 10 <= size], dtype=np.int64)
     W, L = len(starts), ms.size
@@ -199,26 +208,40 @@ def from_samples(data: np.ndarray, fs: float, channels: Sequence[str], window_s:
     temps: list[Optional[dict]] = []
     for w, a in enumerate(starts):
         for c in range(C):
-            v, terms = allan.oavar(data[c, a:a + size], ms)
+            v, terms = allan.oavar(data[c, a : a + size], ms)
             var[w, c], weight[w, c] = v, terms
             edfs[w, c] = [_edf(int(alphas[c, k]), int(ms[k]), size + 1, 1) for k in range(L)]
         if temp is not None and temp.size >= a + size:
-            t = temp[a:a + size]
+            t = temp[a : a + size]
             temps.append({"mean": round(float(t.mean()), 1), "min": int(t.min()), "max": int(t.max())})
         else:
             temps.append(None)
     t0 = np.array(starts, dtype=np.float64) / fs
-    return Windows("raw samples", fs, list(channels), ms, t0, t0 + size / fs, temps, var, weight, edfs,
-                   whole, 1.0 - step / size if step < size else 0.0)
+    return Windows(
+        "raw samples",
+        fs,
+        list(channels),
+        ms,
+        t0,
+        t0 + size / fs,
+        temps,
+        var,
+        weight,
+        edfs,
+        whole,
+        1.0 - step / size if step < size else 0.0,
+    )
 
 
-def device_reports_from_rows(codes: np.ndarray, fs: float, every: int, levels: int = 15,
-                             channels: Sequence[str] = CHANNELS) -> list[DeviceReport]:
+def device_reports_from_rows(
+    codes: np.ndarray, fs: float, every: int, levels: int = 15, channels: Sequence[str] = CHANNELS
+) -> list[DeviceReport]:
     """The reports the device would send every ``every`` samples of (channels, n)
     integer codes, with the exact cumulative ``acc`` and ``pairs`` of its
     ``L`` rows (no flags): the host's emulation, for tests and the docs."""
     from ..device.records import DeviceHeader
     from ..stats.kernels import exact_sumsq
+
     codes = np.asarray(codes, dtype=np.int64)
     C, n = codes.shape
     csum = np.concatenate((np.zeros((C, 1), np.int64), np.cumsum(codes, axis=1)), axis=1)
@@ -232,10 +255,29 @@ def device_reports_from_rows(codes: np.ndarray, fs: float, every: int, levels: i
                 if nclu < 2:
                     rows.append(LRow(channels[c], k, 0, 0, 0))
                     continue
-                s = csum[c, m:nclu * m + 1:m] - csum[c, 0:(nclu - 1) * m + 1:m]
+                s = csum[c, m : nclu * m + 1 : m] - csum[c, 0 : (nclu - 1) * m + 1 : m]
                 rows.append(LRow(channels[c], k, nclu - 1, exact_sumsq(np.diff(s)[None, :])[0], 0))
-        head = DeviceHeader(1, None, None, None, None, fs, levels, None, end, 0, None, None, True,
-                            "allan", None, None, None, seq, {"id": "0"})
+        head = DeviceHeader(
+            1,
+            None,
+            None,
+            None,
+            None,
+            fs,
+            levels,
+            None,
+            end,
+            0,
+            None,
+            None,
+            True,
+            "allan",
+            None,
+            None,
+            None,
+            seq,
+            {"id": "0"},
+        )
         out.append(DeviceReport(seq, head, rows))
     return out
 
@@ -279,11 +321,11 @@ def _alphas(whole: np.ndarray, ms: np.ndarray) -> np.ndarray:
 @dataclass
 class Verdict:
     level: float
-    p: np.ndarray               # (W, C, L) two-sided p-values, nan where untested
-    threshold: np.ndarray       # (C,) the per-point level (Sidak over the points tested)
-    hit: np.ndarray             # (W, C, L) the points that depart (p below it, effect above MIN_EFFECT)
-    departs: np.ndarray         # (W, C) bool
-    ref_var: np.ndarray         # (W, C, L) the pooled reference each window was tested against
+    p: np.ndarray  # (W, C, L) two-sided p-values, nan where untested
+    threshold: np.ndarray  # (C,) the per-point level (Sidak over the points tested)
+    hit: np.ndarray  # (W, C, L) the points that depart (p below it, effect above MIN_EFFECT)
+    departs: np.ndarray  # (W, C) bool
+    ref_var: np.ndarray  # (W, C, L) the pooled reference each window was tested against
     warmup_s: dict[str, Optional[float]]
     stationary: dict[str, bool]
     tau_range_s: dict[str, Optional[tuple[float, float]]]
@@ -308,7 +350,7 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
         K = int(tested[:, c].sum())
         thr[c] = 1.0 - level ** (1.0 / K) if K else 0.0
         later = (ws.t0 + ws.t1) / 2 >= mid  # the reference: the later half (a sensor settles, it does
-        ref = later                          # not unsettle), less the windows of it that depart
+        ref = later  # not unsettle), less the windows of it that depart
         for it in range(20):
             iterations = max(iterations, it + 1)
             for w in range(W):
@@ -328,8 +370,9 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
     return Verdict(level, p, thr, hit, departs, ref_var, warm, stat, taus, iterations)
 
 
-def _test_window(ws: Windows, w: int, c: int, ref: np.ndarray, tested: np.ndarray,
-                 p: np.ndarray, ref_var: np.ndarray) -> None:
+def _test_window(
+    ws: Windows, w: int, c: int, ref: np.ndarray, tested: np.ndarray, p: np.ndarray, ref_var: np.ndarray
+) -> None:
     others = [j for j in range(len(ws.t0)) if ref[j] and not ws.overlaps(w, j)]
     if not others:
         p[w, c] = np.nan
@@ -352,8 +395,9 @@ def _test_window(ws: Windows, w: int, c: int, ref: np.ndarray, tested: np.ndarra
     p[w, c] = out
 
 
-def _warmup(ws: Windows, dep: np.ndarray, hits: np.ndarray
-            ) -> tuple[Optional[float], bool, Optional[tuple[float, float]]]:
+def _warmup(
+    ws: Windows, dep: np.ndarray, hits: np.ndarray
+) -> tuple[Optional[float], bool, Optional[tuple[float, float]]]:
     """The leading stretch of departing windows (one calm window inside it
     bridged): its end, in s; whether nothing departs after it; the taus at
     which later windows depart."""
@@ -407,5 +451,16 @@ def temperature_bins(ws: Windows, move: float = TEMP_MOVE) -> list[dict]:
     return out
 
 
-__all__ = ["Windows", "Verdict", "from_reports", "from_samples", "runs", "new_run", "assess",
-           "temperature_bins", "device_reports_from_rows", "LEVEL", "TEMP_MOVE"]
+__all__ = [
+    "Windows",
+    "Verdict",
+    "from_reports",
+    "from_samples",
+    "runs",
+    "new_run",
+    "assess",
+    "temperature_bins",
+    "device_reports_from_rows",
+    "LEVEL",
+    "TEMP_MOVE",
+]

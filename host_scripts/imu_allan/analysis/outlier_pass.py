@@ -4,6 +4,7 @@ before the statistics, replaced (or kept, ``--outliers keep``), and reported:
 
 Both series' octave curves are computed when anything is found, so the report
 says how much N and B move with the outliers in and out."""
+
 from __future__ import annotations
 
 import math
@@ -12,11 +13,11 @@ from typing import Any, Optional
 
 import numpy as np
 
-from . import outliers
 from ..errors import InputError
-from ..noise.fit import fit_curve
 from ..noise import terms
+from ..noise.fit import fit_curve
 from ..stats import allan
+from . import outliers
 
 
 @dataclass
@@ -24,14 +25,22 @@ class OutlierPass:
     """The spikes and bursts of the samples in memory, and the octave curves of
     the series the statistics did not use (the raw one when they were replaced,
     the replaced one when kept), to tell how much N and B move."""
+
     scan: outliers.OutlierScan
     mode: str
     other: Optional[allan.OctaveResult]
 
 
-def outlier_pass(name: str, data: np.ndarray, res: allan.OctaveResult, chans: list[str], fs: float,
-                 mode: str, exact_max: Optional[int], notes: list[str]
-                 ) -> tuple[np.ndarray, allan.OctaveResult, OutlierPass]:
+def outlier_pass(
+    name: str,
+    data: np.ndarray,
+    res: allan.OctaveResult,
+    chans: list[str],
+    fs: float,
+    mode: str,
+    exact_max: Optional[int],
+    notes: list[str],
+) -> tuple[np.ndarray, allan.OctaveResult, OutlierPass]:
     """Scan ``data``; when replacing, the cleaned series and its octave curves
     take the place of the raw ones. A recording that is mostly spikes is refused."""
     found = outliers.scan(data, fs)
@@ -48,11 +57,12 @@ def outlier_pass(name: str, data: np.ndarray, res: allan.OctaveResult, chans: li
     res_clean = eng.finish()
     ev = [e for e in found.events if not e.step]
     if mode == "replace":
-        notes.append(f"outliers: {found.count} samples in {_events(len(ev))} replaced by the line "
-                     "between their neighbours before the statistics (--outliers keep keeps them)")
+        notes.append(
+            f"outliers: {found.count} samples in {_events(len(ev))} replaced by the line "
+            "between their neighbours before the statistics (--outliers keep keeps them)"
+        )
         return cleaned, res_clean, OutlierPass(found, "replace", res)
-    notes.append(f"outliers: {found.count} samples in {_events(len(ev))} kept in the statistics "
-                 "(--outliers keep)")
+    notes.append(f"outliers: {found.count} samples in {_events(len(ev))} kept in the statistics (--outliers keep)")
     return data, res, OutlierPass(found, "keep", res_clean)
 
 
@@ -60,8 +70,9 @@ def _events(k: int) -> str:
     return f"{k} event{'s' * (k != 1)} (spikes, bursts)"
 
 
-def outliers_json(op: Optional[OutlierPass], c_i: int, fs: float, k2: float, efn: Any,
-                  fit: terms.FitResult) -> dict[str, Any]:
+def outliers_json(
+    op: Optional[OutlierPass], c_i: int, fs: float, k2: float, efn: Any, fit: terms.FitResult
+) -> dict[str, Any]:
     """``channels.<ch>.outliers``: samples flagged, one time per event, the
     events, the lone level shifts kept, and how N and B move with them."""
     if op is None:
@@ -69,9 +80,14 @@ def outliers_json(op: Optional[OutlierPass], c_i: int, fs: float, k2: float, efn
     ch = op.scan.channels[c_i]
     ev = op.scan.channel_events(c_i)
     out: dict[str, Any] = {
-        "checked": True, "mode": op.mode, "count": ch.count, "times_s": [e.start / fs for e, _ in ev],
-        "events": [{"start_s": e.start / fs, "duration_s": (e.stop - e.start) / fs,
-                    "samples": k, "peak_sigma": e.peak} for e, k in ev],
+        "checked": True,
+        "mode": op.mode,
+        "count": ch.count,
+        "times_s": [e.start / fs for e, _ in ev],
+        "events": [
+            {"start_s": e.start / fs, "duration_s": (e.stop - e.start) / fs, "samples": k, "peak_sigma": e.peak}
+            for e, k in ev
+        ],
         "steps_s": [e.start / fs for e in op.scan.channel_steps(c_i)],
         "scale": ch.scale * math.sqrt(k2),
         "threshold_sigma": outliers.SPIKE_SIGMA,
@@ -92,14 +108,23 @@ def _change(without: Optional[float], with_: Optional[float]) -> dict[str, Optio
 
 def outliers_doc(op: Optional[OutlierPass], chans: list[str], mode: str) -> dict[str, Any]:
     """The document's ``outliers``: the method and every event across channels."""
-    head: dict[str, Any] = {"checked": op is not None, "mode": mode,
-                            "threshold_sigma": outliers.SPIKE_SIGMA,
-                            "false_alarm_per_difference": math.erfc(outliers.SPIKE_SIGMA / math.sqrt(2)),
-                            "method": "first differences against 1.4826 MAD (docs/analysis.md)"}
+    head: dict[str, Any] = {
+        "checked": op is not None,
+        "mode": mode,
+        "threshold_sigma": outliers.SPIKE_SIGMA,
+        "false_alarm_per_difference": math.erfc(outliers.SPIKE_SIGMA / math.sqrt(2)),
+        "method": "first differences against 1.4826 MAD (docs/analysis.md)",
+    }
     if op is not None:
         fs = op.scan.fs
-        head["events"] = [{"start_s": e.start / fs, "duration_s": (e.stop - e.start) / fs,
-                           "kind": "step" if e.step else ("spike" if e.stop - e.start <= 2 else "burst"),
-                           "channels": [chans[c] for c in e.channels], "peak_sigma": e.peak}
-                          for e in op.scan.events]
+        head["events"] = [
+            {
+                "start_s": e.start / fs,
+                "duration_s": (e.stop - e.start) / fs,
+                "kind": "step" if e.step else ("spike" if e.stop - e.start <= 2 else "burst"),
+                "channels": [chans[c] for c in e.channels],
+                "peak_sigma": e.peak,
+            }
+            for e in op.scan.events
+        ]
     return head

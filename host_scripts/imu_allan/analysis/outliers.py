@@ -48,6 +48,7 @@ tell); dense spikes one by one (closer than ``BRIDGE_S`` they are replaced
 as one span, the good samples between them with them); what the sensor did
 during a burst (the line between its ends is no measurement).
 """
+
 from __future__ import annotations
 
 import math
@@ -86,6 +87,7 @@ this many: only the lower half of the counts is read)."""
 @dataclass(frozen=True)
 class ChannelScan:
     """One channel's disturbances: its difference scale and the spans replaced."""
+
     scale: float
     """Robust standard deviation of the first differences (input units)."""
     quantum: float
@@ -108,6 +110,7 @@ class ChannelScan:
 class Event:
     """A disturbance on one or more channels: samples [start, stop) (stop ==
     start for a step), the channels that saw it, and its size."""
+
     start: int
     stop: int
     channels: tuple[int, ...]
@@ -122,6 +125,7 @@ class Event:
 @dataclass
 class OutlierScan:
     """What ``scan`` found in a (channels, n) array sampled at ``fs``."""
+
     n: int
     fs: float
     channels: list[ChannelScan]
@@ -170,13 +174,14 @@ def scale_of_differences(d: np.ndarray) -> tuple[float, float, float, float]:
         kr = np.rint(k)
         quantized = float(np.mean(np.abs(k - kr) < 1e-6)) > 0.999 and float(np.median(np.abs(kr))) < GRID_MAX
     if quantized:
-        cnt = np.bincount(np.clip(np.rint(d / q), -GRID_MAX, GRID_MAX).astype(np.int64) + GRID_MAX,
-                          minlength=2 * GRID_MAX + 1)
+        cnt = np.bincount(
+            np.clip(np.rint(d / q), -GRID_MAX, GRID_MAX).astype(np.int64) + GRID_MAX, minlength=2 * GRID_MAX + 1
+        )
         mid = int(np.searchsorted(np.cumsum(cnt), d.size / 2))  # the median's cell
         med = q * (mid - GRID_MAX)
         folded = cnt[mid:].copy()  # counts of |k - median| = 0, 1, 2 ...
-        left = cnt[:mid + 1][::-1]
-        folded[1:left.size] += left[1:folded.size]
+        left = cnt[: mid + 1][::-1]
+        folded[1 : left.size] += left[1 : folded.size]
         mad = q * _grouped_quantile(folded, 0.5)
         q1 = q * _grouped_quantile(folded, 0.25)
     else:
@@ -220,9 +225,14 @@ def _merge(starts: np.ndarray, stops: np.ndarray, gap: int) -> tuple[np.ndarray,
     return s[first], np.maximum.reduceat(t, first) if s.size else t, group
 
 
-def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
-         extend_sigma: float = EXTEND_SIGMA, merge_s: float = MERGE_S,
-         bridge_s: float = BRIDGE_S) -> OutlierScan:
+def scan(
+    data: np.ndarray,
+    fs: float,
+    spike_sigma: float = SPIKE_SIGMA,
+    extend_sigma: float = EXTEND_SIGMA,
+    merge_s: float = MERGE_S,
+    bridge_s: float = BRIDGE_S,
+) -> OutlierScan:
     """Find the spikes, bursts and steps of ``data`` ((channels, n), any units)."""
     data = np.atleast_2d(np.asarray(data, dtype=np.float64))
     C, n = data.shape
@@ -272,8 +282,7 @@ def scan(data: np.ndarray, fs: float, spike_sigma: float = SPIKE_SIGMA,
         masks = np.bitwise_or.reduceat(np.left_shift(1, ch[order].astype(np.int64)), first)
         for e in range(es.size):
             members = tuple(c for c in range(C) if int(masks[e]) >> c & 1)
-            res.events.append(Event(int(es[e]), int(et[e]) if moved[e] else int(es[e]), members,
-                                    float(peaks[e])))
+            res.events.append(Event(int(es[e]), int(et[e]) if moved[e] else int(es[e]), members, float(peaks[e])))
     return res
 
 
@@ -302,9 +311,13 @@ def mostly_spikes(found: OutlierScan, names: Optional[list[str]] = None) -> Opti
     for c, ch in enumerate(found.channels):
         name = names[c] if names else f"channel {c}"
         if found.n and ch.count > MOSTLY * found.n:
-            return (f"{name}: {100.0 * ch.count / found.n:.3g} % of the samples are spikes or bursts "
-                    f"(more than {100 * MOSTLY:.0f} %)")
+            return (
+                f"{name}: {100.0 * ch.count / found.n:.3g} % of the samples are spikes or bursts "
+                f"(more than {100 * MOSTLY:.0f} %)"
+            )
         if ch.core_ratio > CORE_RATIO:
-            return (f"{name}: mostly spikes (the typical sample-to-sample jump is {ch.core_ratio:.3g} "
-                    "times the quiet quarter's: no noise floor left to measure them against)")
+            return (
+                f"{name}: mostly spikes (the typical sample-to-sample jump is {ch.core_ratio:.3g} "
+                "times the quiet quarter's: no noise floor left to measure them against)"
+            )
     return None

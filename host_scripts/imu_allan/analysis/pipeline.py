@@ -15,6 +15,7 @@ model simulated from the terms with its FIT% (model.py).
 All statistics are float64 in the input's units (ADC counts for codes) and
 scaled to the channel's rate unit u at the end (variances times scale^2).
 """
+
 from __future__ import annotations
 
 import math
@@ -25,15 +26,15 @@ import numpy as np
 
 from .._version import __version__
 from ..channels import CHANNELS, CODE_MAX
-from ..noise.fit import fit_curve as fit_noise
-from ..noise import model, terms
-from ..stats import allan, edf, psd
-from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 from ..device.records import DeviceReport, flag_names
 from ..errors import InputError
+from ..noise import model, terms
+from ..noise.fit import fit_curve as fit_noise
 from ..profiles import Profile, term_unit, to_si_rad
 from ..progress import Progress
 from ..sources.detect import SampleSource, Source
+from ..stats import allan, edf, psd
+from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 
 LEVEL = 0.95
 
@@ -61,6 +62,7 @@ class Options:
 class HostPass:
     """What one pass over the samples gave: the octave engine's result, the
     samples themselves when they fit in memory, and the Welch PSD."""
+
     n: int
     octave: allan.OctaveResult
     data: Optional[np.ndarray]
@@ -78,6 +80,7 @@ class HostPass:
 class Analysis:
     """The result of ``analyze``: the ``--json`` document (every float finite
     or None, ready for render/text.py) and each channel's fit of the noise terms."""
+
     doc: dict[str, Any]
     fits: dict[str, terms.FitResult]
 
@@ -85,9 +88,10 @@ class Analysis:
 @dataclass
 class _Curve:
     """One statistic of one channel at its taus, in input units squared."""
+
     ms: np.ndarray
     var: np.ndarray
-    N: np.ndarray           # phase points behind each value (samples + 1)
+    N: np.ndarray  # phase points behind each value (samples + 1)
     stride: np.ndarray
     flags: list[list[str]] = field(default_factory=list)
 
@@ -101,12 +105,25 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
     chans = _channels(samples.channels if samples is not None else list(CHANNELS), opts.channels)
     doc: dict[str, Any] = {
         "tool": f"imu-allan analyze {__version__}",
-        "source": {"file": src.name, "kind": samples.kind if samples is not None else "device-log",
-                   "fs_hz": fs, "n": None, "duration_s": None, "device_header": _jsonable(
-                       report.header.as_dict()) if report is not None else None},
-        "profile": {"name": profile.name,
-                    "channels": {c: {"unit": profile.scale(c).unit, "per_count": profile.scale(c).per_count,
-                                     "source": profile.scale(c).source} for c in chans}},
+        "source": {
+            "file": src.name,
+            "kind": samples.kind if samples is not None else "device-log",
+            "fs_hz": fs,
+            "n": None,
+            "duration_s": None,
+            "device_header": _jsonable(report.header.as_dict()) if report is not None else None,
+        },
+        "profile": {
+            "name": profile.name,
+            "channels": {
+                c: {
+                    "unit": profile.scale(c).unit,
+                    "per_count": profile.scale(c).per_count,
+                    "source": profile.scale(c).source,
+                }
+                for c in chans
+            },
+        },
         "options": {"taus": opts.taus, "level": LEVEL, "model": opts.model, "seed": opts.seed},
         "channels": {},
         "notes": notes,
@@ -123,8 +140,7 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
     fits: dict[str, terms.FitResult] = {}
     fit_curves: dict[str, list[tuple[int, float]]] = {}
     for c_i, ch in enumerate(chans):
-        doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report,
-                                                                 opts, notes)
+        doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
     doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
     if opts.model:
         _model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
@@ -182,8 +198,10 @@ def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options
                 kept_bytes += b.shape[1] * C * 8
                 if kept_bytes > opts.memory_budget:
                     kept = None
-                    notes.append(f"more samples than --memory allows ({opts.memory_budget / 2**20:.0f} MB): "
-                                 "octave overlapping and non-overlapping ADEV and the PSD only, streamed")
+                    notes.append(
+                        f"more samples than --memory allows ({opts.memory_budget / 2**20:.0f} MB): "
+                        "octave overlapping and non-overlapping ADEV and the PSD only, streamed"
+                    )
             bar.update(n)
     if n < 4:
         raise InputError(f"'{samples.name}': {n} samples: too few for any statistic")
@@ -191,8 +209,7 @@ def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options
     data = np.concatenate(kept, axis=1) if kept is not None else None
     found = None
     if data is not None:
-        data, res, found = outlier_pass(samples.name, data, res, chans, fs, opts.outliers,
-                                        opts.exact_max, notes)
+        data, res, found = outlier_pass(samples.name, data, res, chans, fs, opts.outliers, opts.exact_max, notes)
     else:
         notes.append("outliers not checked: the samples were streamed (more than --memory allows)")
     welch = psd.Welch(C, fs, psd.segment_length(n))  # pwelch's segments need n: a second pass if streamed
@@ -207,8 +224,15 @@ def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options
         welch.push(data)
     if opts.taus != "octave" and data is None:
         notes.append(f"--taus {opts.taus} needs the samples in memory: octave taus used instead")
-    return HostPass(n, res, data, welch.result(), opts.taus if data is not None else "octave",
-                    clipped if samples.integer else None, found)
+    return HostPass(
+        n,
+        res,
+        data,
+        welch.result(),
+        opts.taus if data is not None else "octave",
+        clipped if samples.integer else None,
+        found,
+    )
 
 
 def _host_curves(host: HostPass, c_i: int, extra: bool = True) -> dict[str, _Curve]:
@@ -247,20 +271,32 @@ def device_curve(report: DeviceReport, ch: str) -> _Curve:
     """The on-device octave AVAR of ``ch`` as a curve (levels with pairs, by m)."""
     rows = sorted((r for r in report.rows if r.channel == ch and r.pairs > 0), key=lambda r: r.level)
     ms = np.array([r.m for r in rows], dtype=np.int64)
-    return _Curve(ms, np.array([r.avar for r in rows]), np.array([r.covers + 1 for r in rows]),
-                  ms.copy(), [flag_names(r.flags) for r in rows])
+    return _Curve(
+        ms,
+        np.array([r.avar for r in rows]),
+        np.array([r.covers + 1 for r in rows]),
+        ms.copy(),
+        [flag_names(r.flags) for r in rows],
+    )
 
 
 # ---- one channel ----------------------------------------------------------------------------
 
 
-def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[HostPass],
-             report: Optional[DeviceReport], opts: Options, notes: list[str]
-             ) -> tuple[dict[str, Any], terms.FitResult, list[tuple[int, float]]]:
+def _channel(
+    ch: str,
+    c_i: int,
+    profile: Profile,
+    fs: float,
+    host: Optional[HostPass],
+    report: Optional[DeviceReport],
+    opts: Options,
+    notes: list[str],
+) -> tuple[dict[str, Any], terms.FitResult, list[tuple[int, float]]]:
     """One channel's JSON object, its fit of the noise terms, and the (m, deviation)
     points of the fit's octave grid (FIT% is computed on them whatever --taus shows)."""
     sc = profile.scale(ch)
-    k2 = sc.per_count ** 2
+    k2 = sc.per_count**2
     curves = _host_curves(host, c_i, opts.extra_curves) if host is not None else {}
     dev = device_curve(report, ch) if report is not None else None
     if host is not None:
@@ -275,8 +311,10 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
     else:  # pragma: no cover - the source always has one
         raise InputError("nothing to analyze")
     if host is not None and not np.any(main.var > 0):
-        notes.append(f"{ch} is constant (the same code in every sample): Allan deviation 0 at every "
-                     "tau, no noise term to fit (a stuck or disconnected sensor?)")
+        notes.append(
+            f"{ch} is constant (the same code in every sample): Allan deviation 0 at every "
+            "tau, no noise term to fit (a stuck or disconnected sensor?)"
+        )
     efn = edf.edf_function(fitc.ms, fitc.N, fitc.stride)
     fit = fit_noise(fitc.ms / fs, fitc.var * k2, efn, fs=fs, mask=mask, overlapping=overlapping)
     used = np.isin(main.ms, fitc.ms[fit.used])
@@ -284,25 +322,34 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         "unit": sc.unit,
         "kind": sc.kind,
         "scale_per_count": sc.per_count,
-        "term_units": {**{k: term_unit(sc, k) for k in terms.TERMS},
-                       **{k: ("Hz" if k == "LP" else sc.unit) for k in fit.terms if k not in terms.TERMS}},
+        "term_units": {
+            **{k: term_unit(sc, k) for k in terms.TERMS},
+            **{k: ("Hz" if k == "LP" else sc.unit) for k in fit.terms if k not in terms.TERMS},
+        },
         "terms": {k: term_json(t) for k, t in fit.terms.items()},
         "term_notes": _term_notes(fit, _clipping(ch, c_i, host, report, notes)),
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items() if k in terms.TERMS},
         "b_classic": _b_classic(fit),
-        "fit": {"statistic": stat, "grid": "octave", "chi2_dof": _num(fit.chi2_red),
-                "tau_window_s": ([float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)]
-                                 if fit.used.any() else None),
-                "points": int(fit.used.sum()), "notes": fit.notes,
-                "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]}
-                                for r in fit.unexplained],
-                **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs)},
+        "fit": {
+            "statistic": stat,
+            "grid": "octave",
+            "chi2_dof": _num(fit.chi2_red),
+            "tau_window_s": (
+                [float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)] if fit.used.any() else None
+            ),
+            "points": int(fit.used.sum()),
+            "notes": fit.notes,
+            "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]} for r in fit.unexplained],
+            **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs),
+        },
         "curve": _points(main, fs, k2, fit, d=2, modified=False, used=used),
     }
     # the fit's own octave points with their EDFs, whatever grid --taus shows: what the
     # recording-length advice counts (docs/dynamic.md)
-    out["fit"]["octave_points"] = [{"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u)} for p, u in
-                                   zip(_points(fitc, fs, k2, fit, d=2, modified=False), fit.used)]
+    out["fit"]["octave_points"] = [
+        {"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u)}
+        for p, u in zip(_points(fitc, fs, k2, fit, d=2, modified=False), fit.used)
+    ]
     extra = {}
     for name, d, mod in (("adev", 2, False), ("mdev", 2, True), ("hdev", 3, False)):
         cv = curves.get({"adev": "avar", "mdev": "mvar", "hdev": "hvar"}[name])
@@ -315,25 +362,42 @@ def _channel(ch: str, c_i: int, profile: Profile, fs: float, host: Optional[Host
         out["device"] = _device_json(dev, fs, k2, fit, main)
     if host is not None:
         f, p = host.psd
-        fb, pb = psd.log_bins(f, p[c_i:c_i + 1] * k2)
+        fb, pb = psd.log_bins(f, p[c_i : c_i + 1] * k2)
         lines = psd.term_psd(fb, fit.values(), fs)
-        out["psd"] = {"method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
-                      "unit": f"({sc.unit})^2/Hz", "f_hz": _list(fb), "psd": _list(pb[0]),
-                      "terms": {k: _list(v) for k, v in lines.items()}}
+        out["psd"] = {
+            "method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
+            "unit": f"({sc.unit})^2/Hz",
+            "f_hz": _list(fb),
+            "psd": _list(pb[0]),
+            "terms": {k: _list(v) for k, v in lines.items()},
+        }
     si = to_si_rad(sc)
-    out["si"] = {"unit": "rad/s" if sc.unit == "deg/s" else sc.unit,
-                 "terms": {k: (None if v is None else {kk: (vv * si if isinstance(vv, float) and k != "LP"
-                                                            and kk not in NOT_RATE else vv)
-                                                       for kk, vv in v.items()})
-                           for k, v in out["terms"].items()}}
+    out["si"] = {
+        "unit": "rad/s" if sc.unit == "deg/s" else sc.unit,
+        "terms": {
+            k: (
+                None
+                if v is None
+                else {
+                    kk: (vv * si if isinstance(vv, float) and k != "LP" and kk not in NOT_RATE else vv)
+                    for kk, vv in v.items()
+                }
+            )
+            for k, v in out["terms"].items()
+        },
+    }
     fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
-    fit_curve = [(int(m), float(math.sqrt(v * k2))) for m, v, f in zip(fitc.ms, fitc.var, fl)
-                 if math.isfinite(v) and v > 0 and not f]  # FIT%'s grid
+    fit_curve = [
+        (int(m), float(math.sqrt(v * k2)))
+        for m, v, f in zip(fitc.ms, fitc.var, fl)
+        if math.isfinite(v) and v > 0 and not f
+    ]  # FIT%'s grid
     return out, fit, fit_curve
 
 
-def _clipping(ch: str, c_i: int, host: Optional[HostPass], report: Optional[DeviceReport],
-              notes: list[str]) -> Optional[str]:
+def _clipping(
+    ch: str, c_i: int, host: Optional[HostPass], report: Optional[DeviceReport], notes: list[str]
+) -> Optional[str]:
     """Samples of ``ch`` at code 0 or 1023 (from the samples, else the device
     header): a note for the document, and the one its terms carry."""
     if host is not None and host.clipped is not None:
@@ -344,8 +408,10 @@ def _clipping(ch: str, c_i: int, host: Optional[HostPass], report: Optional[Devi
         return None
     if k == 0:
         return None
-    text = (f"{ch} clipped: {k} samples at code 0 or {CODE_MAX} ({100.0 * k / max(n, 1):.3g} % of {n}; "
-            "any clipped sample is reported)")
+    text = (
+        f"{ch} clipped: {k} samples at code 0 or {CODE_MAX} ({100.0 * k / max(n, 1):.3g} % of {n}; "
+        "any clipped sample is reported)"
+    )
     notes.append(text + ": its deviations and terms are biased")
     return f"clipped channel ({k} samples at code 0 or {CODE_MAX}): biased"
 
@@ -369,8 +435,12 @@ def term_json(t: terms.Term) -> Optional[dict[str, Any]]:
     tau_c (s) and its interval, the band limit (LP, value = fc) fc (Hz) and order."""
     if t.value is None:
         return None
-    out = {"value": t.value, "low": t.low, "high": t.high,
-           "tau_range_s": [t.tau_range[0], t.tau_range[1]] if t.tau_range else None}
+    out = {
+        "value": t.value,
+        "low": t.low,
+        "high": t.high,
+        "tau_range_s": [t.tau_range[0], t.tau_range[1]] if t.tau_range else None,
+    }
     for k, v in t.extra.items():
         out[k] = _num(v) if isinstance(v, float) else v
     return out
@@ -384,20 +454,26 @@ def fit_extras(fit: terms.FitResult, tau: np.ndarray) -> dict[str, Any]:
         return {}
     grid = np.exp(np.linspace(math.log(float(tau.min())), math.log(float(tau.max())), 60))
     parts = comps(grid)
-    return {"model": repr(fit.fitted),
-            "slope_reading": {k: {"value": _num(v["value"]), "tau_s": v["tau_s"]}
-                              for k, v in fit.slope.items()},
-            "components": {"tau_s": _list(grid),
-                           "adev": {k: _list(np.sqrt(np.maximum(v, 0.0))) for k, v in parts.items()},
-                           "total_adev": _list(np.sqrt(fit.model(grid)))}}
+    return {
+        "model": repr(fit.fitted),
+        "slope_reading": {k: {"value": _num(v["value"]), "tau_s": v["tau_s"]} for k, v in fit.slope.items()},
+        "components": {
+            "tau_s": _list(grid),
+            "adev": {k: _list(np.sqrt(np.maximum(v, 0.0))) for k, v in parts.items()},
+            "total_adev": _list(np.sqrt(fit.model(grid))),
+        },
+    }
 
 
 def _b_classic(fit: terms.FitResult) -> Optional[dict[str, Any]]:
     b = fit.b_classic
     if b is None:
         return None
-    return {"value": b["value"], "tau_s": b["tau_s"],
-            "rule": "min(ADEV) / 0.664 over the points with EDF >= 10 (the thesis' sigma_B)"}
+    return {
+        "value": b["value"],
+        "tau_s": b["tau_s"],
+        "rule": "min(ADEV) / 0.664 over the points with EDF >= 10 (the thesis' sigma_B)",
+    }
 
 
 def _alphas(fit: terms.FitResult, tau: np.ndarray) -> tuple[np.ndarray, list[str]]:
@@ -412,8 +488,9 @@ def _alphas(fit: terms.FitResult, tau: np.ndarray) -> tuple[np.ndarray, list[str
     return np.array([terms.ALPHA.get(d, -1) for d in dom], dtype=np.int64), dom
 
 
-def _points(cv: _Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modified: bool,
-            used: Optional[np.ndarray] = None) -> list[dict[str, Any]]:
+def _points(
+    cv: _Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modified: bool, used: Optional[np.ndarray] = None
+) -> list[dict[str, Any]]:
     tau = cv.ms / fs
     alpha, dom = _alphas(fit, tau)
     if d == 3:
@@ -424,11 +501,15 @@ def _points(cv: _Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modi
     out = []
     for i in range(tau.size):
         ok = bool(np.isfinite(var[i]) and var[i] > 0)
-        pt = {"tau_s": float(tau[i]), "m": int(cv.ms[i]),
-              "dev": _num(math.sqrt(var[i])) if ok else None,
-              "low": _num(math.sqrt(lo[i])) if ok else None,
-              "high": _num(math.sqrt(hi[i])) if ok else None,
-              "edf": _num(e[i]), "noise": dom[i]}
+        pt = {
+            "tau_s": float(tau[i]),
+            "m": int(cv.ms[i]),
+            "dev": _num(math.sqrt(var[i])) if ok else None,
+            "low": _num(math.sqrt(lo[i])) if ok else None,
+            "high": _num(math.sqrt(hi[i])) if ok else None,
+            "edf": _num(e[i]),
+            "noise": dom[i],
+        }
         if int(cv.stride[i]) not in (1, int(cv.ms[i])):
             pt["stride"] = int(cv.stride[i])
         if used is not None:
@@ -440,8 +521,9 @@ def _points(cv: _Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modi
 
 
 def _edf_for(cv: _Curve, alpha: np.ndarray, d: int, modified: bool) -> np.ndarray:
-    table = edf.edf_points(cv.ms, cv.N, cv.stride, d=d, modified=modified,
-                           alphas=tuple(sorted(set(int(a) for a in alpha))))
+    table = edf.edf_points(
+        cv.ms, cv.N, cv.stride, d=d, modified=modified, alphas=tuple(sorted(set(int(a) for a in alpha)))
+    )
     out = np.empty(cv.ms.size)
     for a, vals in table.items():
         out[alpha == a] = vals[alpha == a]
@@ -464,10 +546,17 @@ def _device_json(dev: _Curve, fs: float, k2: float, fit: terms.FitResult, host: 
             within += 1
         else:
             outside.append(p["tau_s"])
-    return {"curve": pts, "agreement": {"checked": checked, "within": within, "level": LEVEL,
-                                        "outside_tau_s": outside,
-                                        "rule": "host overlapping ADEV inside the 95 % interval of "
-                                                "the device's non-overlapping value (EDF from its pairs)"}}
+    return {
+        "curve": pts,
+        "agreement": {
+            "checked": checked,
+            "within": within,
+            "level": LEVEL,
+            "outside_tau_s": outside,
+            "rule": "host overlapping ADEV inside the 95 % interval of "
+            "the device's non-overlapping value (EDF from its pairs)",
+        },
+    }
 
 
 # ---- the thesis model ---------------------------------------------------------------------
@@ -482,17 +571,27 @@ def _tau_b(fit: terms.FitResult) -> Optional[float]:
     return None
 
 
-def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult],
-               fit_curves: dict[str, list[tuple[int, float]]], chans: list[str],
-               profile: Profile, fs: float, host: Optional[HostPass], report: Optional[DeviceReport],
-               opts: Options) -> None:
+def _model_all(
+    doc: dict[str, Any],
+    fits: dict[str, terms.FitResult],
+    fit_curves: dict[str, list[tuple[int, float]]],
+    chans: list[str],
+    profile: Profile,
+    fs: float,
+    host: Optional[HostPass],
+    report: Optional[DeviceReport],
+    opts: Options,
+) -> None:
     params = []
     for ch in chans:
         fit = fits[ch]
         vals = {k: (fit.terms[k].value if fit.terms[k].value is not None else None) for k in terms.TERMS}
         params.append(model.from_terms(vals, fs, _tau_b(fit)))
-    n = host.n if host is not None else (max((r.covers for r in report.rows if r.pairs), default=0)
-                                             if report is not None else 0)
+    n = (
+        host.n
+        if host is not None
+        else (max((r.covers for r in report.rows if r.pairs), default=0) if report is not None else 0)
+    )
     if n < 4:
         return
     C = len(chans)
@@ -514,9 +613,9 @@ def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult],
                 welch.push(b)
             if data is not None:
                 L = b.shape[1]
-                s = data[:, done:done + L] * scale[:, None] - means[:, None]  # type: ignore[index]
+                s = data[:, done : done + L] * scale[:, None] - means[:, None]  # type: ignore[index]
                 sig_num += np.sum((s - b) ** 2, axis=1)
-                sig_den += np.sum(s ** 2, axis=1)
+                sig_den += np.sum(s**2, axis=1)
             done += b.shape[1]
             bar.update(done)
     res = eng.finish()
@@ -527,8 +626,7 @@ def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult],
         out: dict[str, Any] = {"params": mp.as_dict(), "fit_percent": {}}
         # ADEV curves on the fit's octave grid whatever --taus shows, so FIT% does not depend on it
         sim = {int(m): v for m, v in zip(res.ms, res.oavar[:, i] if host is not None else res.avar[:, i])}
-        pts = [(m, d) for m, d in fit_curves[ch]
-               if m in sim and math.isfinite(sim[m]) and sim[m] > 0]
+        pts = [(m, d) for m, d in fit_curves[ch] if m in sim and math.isfinite(sim[m]) and sim[m] > 0]
         pairs = [(d, math.sqrt(sim[m])) for m, d in pts]
         out["curve"] = [{"tau_s": m / fs, "dev": math.sqrt(sim[m])} for m, _ in pts]
         if pairs:
@@ -536,13 +634,12 @@ def _model_all(doc: dict[str, Any], fits: dict[str, terms.FitResult],
             out["fit_percent"]["adev_log10"] = model.fit_percent(s_, m_)
             out["fit_percent"]["adev_log10_nrmse"] = model.fit_nrmse(s_, m_)
         if f is not None and "psd" in c and p.shape[1]:
-            fb, pb = psd.log_bins(f, p[i:i + 1])
+            fb, pb = psd.log_bins(f, p[i : i + 1])
             sp = np.array(c["psd"]["psd"])
             if sp.size == pb.shape[1] and sp.size:
                 ok = (sp > 0) & (pb[0] > 0)
                 out["fit_percent"]["psd_log10"] = model.fit_percent(np.log10(sp[ok]), np.log10(pb[0][ok]))
-                out["fit_percent"]["psd_log10_nrmse"] = model.fit_nrmse(np.log10(sp[ok]),
-                                                                        np.log10(pb[0][ok]))
+                out["fit_percent"]["psd_log10_nrmse"] = model.fit_nrmse(np.log10(sp[ok]), np.log10(pb[0][ok]))
                 out["psd"] = _list(pb[0])
         if data is not None and sig_den[i] > 0:
             out["fit_percent"]["signal"] = (1.0 - math.sqrt(sig_num[i] / sig_den[i])) * 100.0

@@ -27,6 +27,7 @@ along the range (for instance the aliasing knee near the sensor's bandwidth).
 Resumable: every finished rate is written to ``DIR/sweep.json``; the same
 command run again skips the rates already there.
 """
+
 from __future__ import annotations
 
 import json
@@ -56,21 +57,28 @@ Z95 = 1.959963984540054
 
 @dataclass
 class SweepConfig:
-    source: str                        # "sim" or "port:<name>"
+    source: str  # "sim" or "port:<name>"
     rates: list[float]
     seconds: float
     profile: str = "counts"
     model: Optional[dict[str, Any]] = None
     seed: int = 1
     average: int = 1
-    fit_from: Optional[float] = None   # s: fit the terms only at tau >= fit_from
-    terms: Optional[tuple[str, ...]] = None   # the terms allowed in the fit (default all five)
+    fit_from: Optional[float] = None  # s: fit the terms only at tau >= fit_from
+    terms: Optional[tuple[str, ...]] = None  # the terms allowed in the fit (default all five)
 
     def key(self) -> dict[str, Any]:
         """What must match for a saved rate to be reused."""
-        return {"source": self.source, "seconds": self.seconds, "profile": self.profile,
-                "model": self.model, "seed": self.seed, "average": self.average, "fit_from": self.fit_from,
-                "terms": list(self.terms) if self.terms else None}
+        return {
+            "source": self.source,
+            "seconds": self.seconds,
+            "profile": self.profile,
+            "model": self.model,
+            "seed": self.seed,
+            "average": self.average,
+            "fit_from": self.fit_from,
+            "terms": list(self.terms) if self.terms else None,
+        }
 
 
 @dataclass
@@ -100,12 +108,15 @@ def open_sweep(config: SweepConfig, directory: str, restart: bool = False) -> Sw
             with open(sw.state_path) as f:
                 doc = json.load(f)
         except (OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"'{sw.state_path}': unreadable sweep state ({exc}); "
-                             "remove it or give --restart") from None
+            raise InputError(
+                f"'{sw.state_path}': unreadable sweep state ({exc}); remove it or give --restart"
+            ) from None
         if doc.get("version") != STATE_VERSION or doc.get("config") != config.key():
-            raise InputError(f"'{sw.state_path}' holds a sweep with other settings "
-                             "(source, seconds, model, seed, average, profile, --fit-from or --terms): use another --dir, "
-                             "or --restart to discard it")
+            raise InputError(
+                f"'{sw.state_path}' holds a sweep with other settings "
+                "(source, seconds, model, seed, average, profile, --fit-from or --terms): use another --dir, "
+                "or --restart to discard it"
+            )
         sw.results = {k: v for k, v in doc.get("rates", {}).items()}
     return sw
 
@@ -140,13 +151,20 @@ def run(sw: Sweep, measure: Measure, say: Callable[[str], None]) -> None:
 # ---- one rate: the device's final report -> terms ---------------------------------------------
 
 
-def analyze_log(log: str, fs: float, profile_name: str, seed: int,
-                fit_from: Optional[float] = None, allowed: Optional[tuple[str, ...]] = None) -> dict[str, Any]:
+def analyze_log(
+    log: str,
+    fs: float,
+    profile_name: str,
+    seed: int,
+    fit_from: Optional[float] = None,
+    allowed: Optional[tuple[str, ...]] = None,
+) -> dict[str, Any]:
     """Terms and the thesis' figures from the last complete report of ``log``;
     with ``fit_from`` (s), the terms are fitted only to the points at tau >= fit_from."""
-    from .pipeline import Options, analyze
     from ..profiles import build_profile
     from ..sources.detect import load
+    from .pipeline import Options, analyze
+
     src = load(log)
     rep = src.report
     if rep is None:
@@ -160,43 +178,77 @@ def analyze_log(log: str, fs: float, profile_name: str, seed: int,
     clips = hdr.clips or {}
     clipped = {ch: v for ch, v in clips.items() if ch in CHANNELS and v}
     if clipped:
-        notes.append(f"codes at 0 or 1023 at {fs:g} Hz: "
-                     + ", ".join(f"{ch} {v}" for ch, v in clipped.items())
-                     + " (the clipped channels' terms are biased low)")
+        notes.append(
+            f"codes at 0 or 1023 at {fs:g} Hz: "
+            + ", ".join(f"{ch} {v}" for ch, v in clipped.items())
+            + " (the clipped channels' terms are biased low)"
+        )
     profile = build_profile(profile_name, {}, None)
     doc = analyze(src, profile, Options(fs=fs, seed=seed)).doc
     chans = {}
     for ch, c in doc["channels"].items():
-        chans[ch] = {"unit": c["unit"], "terms": c["terms"], "upper_bounds": c["upper_bounds"],
-                     "term_units": c["term_units"], "b_classic": c["b_classic"],
-                     "fit_percent": (c.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
-                     "chi2_dof": c["fit"]["chi2_dof"], "fit_notes": c["fit"]["notes"]}
+        chans[ch] = {
+            "unit": c["unit"],
+            "terms": c["terms"],
+            "upper_bounds": c["upper_bounds"],
+            "term_units": c["term_units"],
+            "b_classic": c["b_classic"],
+            "fit_percent": (c.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
+            "chi2_dof": c["fit"]["chi2_dof"],
+            "fit_notes": c["fit"]["notes"],
+        }
         if fit_from or allowed:
             refit(chans[ch], rep, ch, fs, profile.scale(ch).per_count ** 2, fit_from or 0.0, allowed)
         chans[ch]["derived"] = derived({**c, "terms": chans[ch]["terms"]}, fs)
-    return {"fs_hz": fs, "n": hdr.n, "drops": hdr.drops, "clips": hdr.clips,
-            "temp": hdr.temp, "log": os.path.basename(log), "channels": chans, "notes": notes}
+    return {
+        "fs_hz": fs,
+        "n": hdr.n,
+        "drops": hdr.drops,
+        "clips": hdr.clips,
+        "temp": hdr.temp,
+        "log": os.path.basename(log),
+        "channels": chans,
+        "notes": notes,
+    }
 
 
-def refit(out: dict[str, Any], rep: Any, ch: str, fs: float, k2: float, fit_from: float,
-          allowed: Optional[tuple[str, ...]] = None) -> None:
+def refit(
+    out: dict[str, Any],
+    rep: Any,
+    ch: str,
+    fs: float,
+    k2: float,
+    fit_from: float,
+    allowed: Optional[tuple[str, ...]] = None,
+) -> None:
     """The IEEE 952 fit of the device curve restricted to tau >= fit_from and to the
     ``allowed`` terms (replaces the terms)."""
     from ..noise import terms
-    from ..stats import edf
     from ..noise.fit import fit_curve
+    from ..stats import edf
     from .pipeline import device_curve, term_json
+
     cv = device_curve(rep, ch)
     tau = cv.ms / fs
     mask = np.array([not f for f in cv.flags], dtype=bool) & (tau >= fit_from * (1 - 1e-9))
-    fit = fit_curve(tau, cv.var * k2, edf.edf_function(cv.ms, cv.N, cv.stride), fs=fs, mask=mask,
-                    overlapping=False, allowed=tuple(allowed or terms.TERMS))
+    fit = fit_curve(
+        tau,
+        cv.var * k2,
+        edf.edf_function(cv.ms, cv.N, cv.stride),
+        fs=fs,
+        mask=mask,
+        overlapping=False,
+        allowed=tuple(allowed or terms.TERMS),
+    )
     out["terms"] = {k: term_json(t) for k, t in fit.terms.items()}
-    out["upper_bounds"] = {k: (t.upper if math.isfinite(t.upper) else None) for k, t in fit.terms.items()
-                           if k in terms.TERMS}
+    out["upper_bounds"] = {
+        k: (t.upper if math.isfinite(t.upper) else None) for k, t in fit.terms.items() if k in terms.TERMS
+    }
     out["chi2_dof"] = fit.chi2_red if math.isfinite(fit.chi2_red) else None
-    out["fit_notes"] = fit.notes + [f"terms {','.join(allowed or terms.TERMS)} fitted at tau >= "
-                                    f"{fit_from:g} s (FIT% is of the fit of all terms over the whole curve)"]
+    out["fit_notes"] = fit.notes + [
+        f"terms {','.join(allowed or terms.TERMS)} fitted at tau >= "
+        f"{fit_from:g} s (FIT% is of the fit of all terms over the whole curve)"
+    ]
 
 
 def _scaled(term: Optional[dict[str, Any]], f: float) -> Optional[dict[str, Any]]:
@@ -211,9 +263,13 @@ def derived(c: dict[str, Any], fs: float) -> dict[str, Optional[dict[str, Any]]]
     p0 = next((p for p in c["curve"] if p["m"] == 1 and p["dev"]), None)
     sensor = None if p0 is None else {"value": p0["dev"], "low": p0["low"], "high": p0["high"]}
     r = math.sqrt(1.0 / fs)
-    return {"sigma_sensor": sensor, "N_tau0": _scaled(sensor, r),
-            "sigma_AVRW": _scaled(t.get("N"), math.sqrt(fs)), "sigma_BIAS": _scaled(t.get("B"), GM_PER_B),
-            "sigma_ARRW": _scaled(t.get("K"), r)}
+    return {
+        "sigma_sensor": sensor,
+        "N_tau0": _scaled(sensor, r),
+        "sigma_AVRW": _scaled(t.get("N"), math.sqrt(fs)),
+        "sigma_BIAS": _scaled(t.get("B"), GM_PER_B),
+        "sigma_ARRW": _scaled(t.get("K"), r),
+    }
 
 
 def quantity(res: dict[str, Any], ch: str, q: str) -> Optional[dict[str, Any]]:
@@ -255,9 +311,16 @@ def power_law(fs: list[float], vals: list[dict[str, Any]]) -> Optional[dict[str,
     else:
         q, var_b = Z95, cov[1, 1]
     b, half = float(coef[1]), float(q * math.sqrt(var_b))
-    out.update({"exponent": b, "low": b - half, "high": b + half,
-                "verdict": "independent of Fs" if b - half <= 0 <= b + half else
-                           ("grows with Fs" if b > 0 else "falls with Fs")})
+    out.update(
+        {
+            "exponent": b,
+            "low": b - half,
+            "high": b + half,
+            "verdict": "independent of Fs"
+            if b - half <= 0 <= b + half
+            else ("grows with Fs" if b > 0 else "falls with Fs"),
+        }
+    )
     return out
 
 
@@ -275,19 +338,27 @@ def dependence(results: dict[str, Any], channels: list[str]) -> dict[str, Any]:
 
 
 def document(sw: Sweep) -> dict[str, Any]:
-    rates = {k: sw.results[k] for k in sorted(sw.results, key=float)
-             if float(k) in [float(r) for r in sw.config.rates]}
+    rates = {k: sw.results[k] for k in sorted(sw.results, key=float) if float(k) in [float(r) for r in sw.config.rates]}
     chans = [c for c in CHANNELS if any(c in r["channels"] for r in rates.values())]
-    return {"tool": "imu-allan sweep", "source": sw.config.source, "seconds": sw.config.seconds,
-            "profile": sw.config.profile, "average": sw.config.average, "fit_from": sw.config.fit_from,
-            "terms": list(sw.config.terms) if sw.config.terms else None, "rates": rates,
-            "dependence": dependence(rates, chans),
-            "definitions": {
-                "sigma_sensor": "ADEV at tau0 = 1/Fs (device level 0)",
-                "N_tau0": "the thesis' read-off of N: ADEV(tau0) sqrt(tau0)",
-                "sigma_AVRW": "N sqrt(Fs)", "sigma_BIAS": "1.0755 B (Gauss-Markov sigma)",
-                "sigma_ARRW": "K / sqrt(Fs)",
-                "exponent": "b of q = c Fs^b, weighted least squares on log q, 95 % interval"}}
+    return {
+        "tool": "imu-allan sweep",
+        "source": sw.config.source,
+        "seconds": sw.config.seconds,
+        "profile": sw.config.profile,
+        "average": sw.config.average,
+        "fit_from": sw.config.fit_from,
+        "terms": list(sw.config.terms) if sw.config.terms else None,
+        "rates": rates,
+        "dependence": dependence(rates, chans),
+        "definitions": {
+            "sigma_sensor": "ADEV at tau0 = 1/Fs (device level 0)",
+            "N_tau0": "the thesis' read-off of N: ADEV(tau0) sqrt(tau0)",
+            "sigma_AVRW": "N sqrt(Fs)",
+            "sigma_BIAS": "1.0755 B (Gauss-Markov sigma)",
+            "sigma_ARRW": "K / sqrt(Fs)",
+            "exponent": "b of q = c Fs^b, weighted least squares on log q, 95 % interval",
+        },
+    }
 
 
 # ---- text ---------------------------------------------------------------------------------------
@@ -305,45 +376,71 @@ def text(doc: dict[str, Any]) -> str:
     lines = []
     for k, res in doc["rates"].items():
         lines.append(f"Fs = {k} Hz: n {res['n']} samples, drops {res['drops']}, temp code {res.get('temp')}")
-        head = ("ch", "N [95 %]", "B [95 %]", "K [95 %]", "N_tau0", "sigma_sensor", "sigma_BIAS",
-                "sigma_AVRW", "sigma_ARRW", "FIT%")
+        head = (
+            "ch",
+            "N [95 %]",
+            "B [95 %]",
+            "K [95 %]",
+            "N_tau0",
+            "sigma_sensor",
+            "sigma_BIAS",
+            "sigma_AVRW",
+            "sigma_ARRW",
+            "FIT%",
+        )
         rows = [head]
         for ch, c in res["channels"].items():
             t, d = c["terms"], c["derived"]
             fit = c.get("fit_percent")
-            rows.append((ch, _v(t.get("N")), _v(t.get("B")), _v(t.get("K")), _v(d["N_tau0"], False),
-                         _v(d["sigma_sensor"], False), _v(d["sigma_BIAS"], False),
-                         _v(d["sigma_AVRW"], False), _v(d["sigma_ARRW"], False),
-                         "-" if fit is None else f"{fit:.1f}"))
+            rows.append(
+                (
+                    ch,
+                    _v(t.get("N")),
+                    _v(t.get("B")),
+                    _v(t.get("K")),
+                    _v(d["N_tau0"], False),
+                    _v(d["sigma_sensor"], False),
+                    _v(d["sigma_BIAS"], False),
+                    _v(d["sigma_AVRW"], False),
+                    _v(d["sigma_ARRW"], False),
+                    "-" if fit is None else f"{fit:.1f}",
+                )
+            )
         widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
         lines += ["  " + "  ".join(s.rjust(w) for s, w in zip(r, widths)) for r in rows]
         lines += [f"  note: {n}" for n in res.get("notes", [])]
         law = (res.get("sim") or {}).get("N_law")
         if law:
-            lines.append("  the model's N by the aliasing law: "
-                         + "  ".join(f"{ch} {v:.3g}" for ch, v in law.items()))
+            lines.append("  the model's N by the aliasing law: " + "  ".join(f"{ch} {v:.3g}" for ch, v in law.items()))
         lines.append("")
     units = next(iter(doc["rates"].values()))["channels"] if doc["rates"] else {}
     if units:
         u = next(iter(units.values()))
-        lines.append(f"units: N {u['term_units'].get('N')}, B {u['term_units'].get('B')}, "
-                     f"K {u['term_units'].get('K')}, sigmas {u['unit']}")
+        lines.append(
+            f"units: N {u['term_units'].get('N')}, B {u['term_units'].get('B')}, "
+            f"K {u['term_units'].get('K')}, sigmas {u['unit']}"
+        )
         lines.append("")
     lines.append("Dependence on Fs (power law q ~ Fs^b, b with its 95 % interval):")
     for ch, qs in doc["dependence"].items():
         parts = []
         for q, f in qs.items():
-            s = f"{q} {f['verdict'].replace(' with Fs', '').replace(' of Fs', '')} " \
+            s = (
+                f"{q} {f['verdict'].replace(' with Fs', '').replace(' of Fs', '')} "
                 f"(b = {f['exponent']:+.2f} [{f['low']:+.2f}, {f['high']:+.2f}]"
+            )
             if f.get("power_law_fits") is False:
                 s += ", not one power law"
             parts.append(s + ")")
         lines.append(f"  {ch}: " + "; ".join(parts) if parts else f"  {ch}: fewer than 2 rates")
-    if not doc.get("fit_from") and any((qs.get("B") or {}).get("verdict") == "grows with Fs"
-                                       for qs in doc["dependence"].values()):
-        lines.append("note: a B that grows with Fs is usually the sensor's analog low-pass, whose "
-                     "correlation near tau0 the IEEE 952 terms take for bias instability: fit above it "
-                     "with --terms N,B,K --fit-from 0.2 (docs/thesis-questions.md)")
+    if not doc.get("fit_from") and any(
+        (qs.get("B") or {}).get("verdict") == "grows with Fs" for qs in doc["dependence"].values()
+    ):
+        lines.append(
+            "note: a B that grows with Fs is usually the sensor's analog low-pass, whose "
+            "correlation near tau0 the IEEE 952 terms take for bias instability: fit above it "
+            "with --terms N,B,K --fit-from 0.2 (docs/thesis-questions.md)"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -358,9 +455,10 @@ def say_stderr(msg: str) -> None:
 def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = False) -> Measure:
     """Each rate: rows from the sensor model at that rate's ADC instants, the real
     firmware in imu-sim on them (rate set as after 'rate'), its log."""
+    from ..device.simrun import sim_command
     from ..noise.sensor import Board, SensorModel
     from ..sources.rows import format_rows
-    from ..device.simrun import sim_command
+
     cfg = sw.config
     model = SensorModel(cfg.model)  # type: ignore[arg-type]
 
@@ -390,23 +488,35 @@ def sim_measure(sw: Sweep, firmware: Optional[str] = None, keep_rows: bool = Fal
                 time.sleep(0.2)
             err = proc.stderr.read() if proc.stderr else ""
         if proc.returncode != 0:
-            raise InputError(f"imu-sim failed at {fs:g} Hz (exit {proc.returncode}): "
-                             f"{err.strip().splitlines()[-1] if err.strip() else 'no message'}")
+            raise InputError(
+                f"imu-sim failed at {fs:g} Hz (exit {proc.returncode}): "
+                f"{err.strip().splitlines()[-1] if err.strip() else 'no message'}"
+            )
         if not keep_rows:
             os.unlink(rows)
         mean = s1 / n
         std = np.sqrt(np.maximum(s2 / n - mean * mean, 0.0))
-        from ..noise.sensor import aliased_n, SENSORS
-        law = {ch: aliased_n(model.channel(ch)["N"], model.channel(ch)["bandwidth_hz"], fs,
-                             average=cfg.average) for ch in SENSORS}
-        return {"sim": {"series_std": dict(zip(CHANNELS, std[:6].tolist())), "N_law": law,
-                        "seconds_wall": time.monotonic() - t0}}
+        from ..noise.sensor import SENSORS, aliased_n
+
+        law = {
+            ch: aliased_n(model.channel(ch)["N"], model.channel(ch)["bandwidth_hz"], fs, average=cfg.average)
+            for ch in SENSORS
+        }
+        return {
+            "sim": {
+                "series_std": dict(zip(CHANNELS, std[:6].tolist())),
+                "N_law": law,
+                "seconds_wall": time.monotonic() - t0,
+            }
+        }
+
     return measure
 
 
 def port_measure(sw: Sweep, port: str, baud: int) -> Measure:
     """Each rate on a real board: rate, reset, wait, report; every byte logged."""
     from ..device.link import open_port
+
     cfg = sw.config
 
     def measure(fs: float, log: str) -> dict[str, Any]:
@@ -426,6 +536,7 @@ def port_measure(sw: Sweep, port: str, baud: int) -> Measure:
         finally:
             ser.close()
         return {"port": {"seq": rep.seq}}
+
     return measure
 
 
@@ -434,6 +545,7 @@ class _Link:
 
     def __init__(self, ser: Any, log: Any) -> None:
         from ..device.stream import StreamDecoder
+
         self.ser, self.log, self.dec = ser, log, StreamDecoder()
         self.replies: list[str] = []
         self.reports: list[Any] = []
@@ -498,5 +610,6 @@ class _Link:
             for r in self.reports:
                 if abs(float(r.header.fs_hz) - fs) < 1e-9 * fs and (r.header.n or 0) >= n_min:
                     return r
-        raise InputError(f"no complete report at {fs:g} Hz with at least {n_min} samples "
-                         f"within {timeout:g} s of 'report'")
+        raise InputError(
+            f"no complete report at {fs:g} Hz with at least {n_min} samples within {timeout:g} s of 'report'"
+        )

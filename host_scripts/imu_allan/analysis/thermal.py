@@ -33,6 +33,7 @@ of the corrected series, plus the thermal term, is the thermal noise
 model; its FIT% on log10 ADEV is given for the raw series with and without
 the thermal term, and the thermal term's FIT% on the block means.
 """
+
 from __future__ import annotations
 
 import math
@@ -59,14 +60,19 @@ def read_with_temperature(path: str) -> tuple[np.ndarray, Optional[float], str]:
     Read through the one file reader (sources.load); only the sources that
     carry the temperature column (rows files, captures with samples) qualify."""
     from ..sources.detect import load
+
     src = load(path)
     s = src.samples
     if s is None:
-        raise InputError(f"'{src.name}': a device capture without raw rows or binary frames "
-                         "(the thermal study needs the samples: mode raw or both)")
+        raise InputError(
+            f"'{src.name}': a device capture without raw rows or binary frames "
+            "(the thermal study needs the samples: mode raw or both)"
+        )
     if s.open_temperature is None:
-        raise InputError(f"'{src.name}': no temperature column (a {s.kind} file; the thermal study "
-                         "reads rows files and device captures)")
+        raise InputError(
+            f"'{src.name}': no temperature column (a {s.kind} file; the thermal study "
+            "reads rows files and device captures)"
+        )
     chans = [b for b in s.open_blocks()]
     temps = [t for t in s.open_temperature()]
     if not chans:
@@ -91,7 +97,7 @@ def block_covariance(centres: np.ndarray, D: float, terms: dict[str, Optional[fl
         t_hi = 4.0 * (centres[-1] + D)
         while T < t_hi:
             x = D / T
-            same = 2.0 / (x * x) * (x - 1.0 + math.exp(-x))          # block mean of OU, variance factor
+            same = 2.0 / (x * x) * (x - 1.0 + math.exp(-x))  # block mean of OU, variance factor
             apart = (math.sinh(x / 2) / (x / 2)) ** 2 if x < 50 else math.inf
             with np.errstate(over="ignore", invalid="ignore"):
                 off = np.where(lag > 0, np.exp(-lag / T) * apart, 0.0)
@@ -136,12 +142,14 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
         half = Z95 * math.sqrt(max(float(cov[j, j]), 0.0))
         return {"value": float(b[j]), "low": float(b[j] - half), "high": float(b[j] + half)}
 
-    out: dict[str, Any] = {"blocks": int(bias.size), "t_ref": t0, "chi2_dof": chi1 / dof1,
-                           "linear": iv(b1, cov1, 1)}
+    out: dict[str, Any] = {"blocks": int(bias.size), "t_ref": t0, "chi2_dof": chi1 / dof1, "linear": iv(b1, cov1, 1)}
     gain = chi1 - chi2
     need = CHI2_1_95 * max(1.0, chi2 / dof2)
-    out["quadratic_test"] = {"chi2_gain": gain, "needed": need,
-                             "p_value": float(stats.chi2.sf(gain / max(1.0, chi2 / dof2), 1))}
+    out["quadratic_test"] = {
+        "chi2_gain": gain,
+        "needed": need,
+        "p_value": float(stats.chi2.sf(gain / max(1.0, chi2 / dof2), 1)),
+    }
     if gain >= need:
         out["quadratic"] = {"c1": iv(b2, cov2, 1), "c2": iv(b2, cov2, 2)}
         out["coef"] = [float(b2[0]), float(b2[1]), float(b2[2])]
@@ -152,16 +160,26 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
 
 def _stuck_notes(x: np.ndarray) -> list[str]:
     """A note per channel whose every sample is the same code (a stuck or railed channel)."""
-    return [f"{ch}: every sample is {x[c][0]:g}: a stuck channel (no noise, no temperature "
-            "dependence can be measured); its tempco is 0 by construction"
-            for c, ch in enumerate(CHANNELS) if x.shape[1] and x[c].min() == x[c].max()]
+    return [
+        f"{ch}: every sample is {x[c][0]:g}: a stuck channel (no noise, no temperature "
+        "dependence can be measured); its tempco is 0 by construction"
+        for c, ch in enumerate(CHANNELS)
+        if x.shape[1] and x[c].min() == x[c].max()
+    ]
 
 
-def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[float, float]] = None,
-          profile: str = "counts", segments: int = SEGMENTS, outliers_mode: str = "replace") -> dict[str, Any]:
-    from .pipeline import Options, analyze
+def study(
+    path: str,
+    fs: Optional[float] = None,
+    temp_scale: Optional[tuple[float, float]] = None,
+    profile: str = "counts",
+    segments: int = SEGMENTS,
+    outliers_mode: str = "replace",
+) -> dict[str, Any]:
     from ..profiles import build_profile
     from ..sources.detect import SampleSource, Source
+    from .pipeline import Options, analyze
+
     codes, fs_file, kind = read_with_temperature(path)
     if fs is None:
         fs = fs_file
@@ -177,25 +195,26 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
     T = codes[6].astype(np.float64) * scale + off
     L = max(n // BLOCKS, 1)
     nb = n // L
-    Tb = T[:nb * L].reshape(nb, L).mean(axis=1)
+    Tb = T[: nb * L].reshape(nb, L).mean(axis=1)
     centres = (np.arange(nb) + 0.5) * L
     T_smooth = np.interp(np.arange(n), centres, Tb)
     span = float(Tb.max() - Tb.min())
     notes = []
     if span < 3 * scale:
-        notes.append(f"the temperature moved only {span:.3g} {t_unit}: no tempco can be told apart "
-                     "from the noise")
+        notes.append(f"the temperature moved only {span:.3g} {t_unit}: no tempco can be told apart from the noise")
     d = np.diff(Tb)
     mono = bool(np.all(d >= -3 * scale / math.sqrt(L)) or np.all(d <= 3 * scale / math.sqrt(L)))
     if mono:
-        notes.append("the temperature went one way only (a ramp): a drift of the bias at the same time "
-                     "(e.g. rate random walk) is indistinguishable from a thermal bias; a cycle up and "
-                     "down separates them")
+        notes.append(
+            "the temperature went one way only (a ramp): a drift of the bias at the same time "
+            "(e.g. rate random walk) is indistinguishable from a thermal bias; a cycle up and "
+            "down separates them"
+        )
     prof = build_profile(profile, {}, None)
     x = codes[:6].astype(np.float64)
     notes += _stuck_notes(x)
     x, spikes = _outliers(path, x, fs, outliers_mode, notes)  # before the block means and the terms
-    xb = x[:, :nb * L].reshape(6, nb, L).mean(axis=2)
+    xb = x[:, : nb * L].reshape(6, nb, L).mean(axis=2)
     t_s = centres / fs
     D = L / fs
 
@@ -208,16 +227,20 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
         return out
 
     def counts_terms(data: np.ndarray) -> dict[str, Any]:
-        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda: iter([data]), False, fs=fs,
-                                        n_hint=n), None)
-        doc = analyze(src, build_profile("counts", {}, None),
-                             Options(fs=fs, extra_curves=False, model=False,
-                                                    outliers="keep")).doc
+        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda: iter([data]), False, fs=fs, n_hint=n), None)
+        doc = analyze(
+            src, build_profile("counts", {}, None), Options(fs=fs, extra_curves=False, model=False, outliers="keep")
+        ).doc
         # a term the data cannot pin down still moves the bias: its 95 % upper bound
         # stands for it (conservative intervals rather than too narrow ones)
-        return {ch: {k: (v or {}).get("value") or c["upper_bounds"].get(k) for k, v in c["terms"].items()
-                     if k in ("N", "B", "K")}
-                for ch, c in doc["channels"].items()}
+        return {
+            ch: {
+                k: (v or {}).get("value") or c["upper_bounds"].get(k)
+                for k, v in c["terms"].items()
+                if k in ("N", "B", "K")
+            }
+            for ch, c in doc["channels"].items()
+        }
 
     # 1) ordinary least squares; 2) the noise terms of what is left give the blocks'
     # covariance; 3) generalized least squares with it (estimate and intervals)
@@ -225,103 +248,158 @@ def study(path: str, fs: Optional[float] = None, temp_scale: Optional[tuple[floa
     noise = counts_terms(remove(regs))
     regs = [regress(Tb, xb[c], block_covariance(t_s, D, noise[ch])) for c, ch in enumerate(CHANNELS)]
     corrected = remove(regs)
-    chans = {ch: _channel_doc(regs[c], ch, prof, t_unit, Tb, xb[c], D, noise[ch])
-             for c, ch in enumerate(CHANNELS)}
+    chans = {ch: _channel_doc(regs[c], ch, prof, t_unit, Tb, xb[c], D, noise[ch]) for c, ch in enumerate(CHANNELS)}
     _before_after(chans, path, kind, x, corrected, T_smooth, fs, prof)
     if segments > 1:
         _terms_by_temperature(chans, corrected, T, fs, segments, path, kind, prof, t_unit)
-    return {"tool": "imu-allan thermal", "file": path, "fs_hz": fs, "n": n,
-            "temperature": {"unit": t_unit, "min": float(Tb.min()), "max": float(Tb.max()),
-                            "mean": float(T.mean()), "one_way": mono,
-                            "scale": {"c_per_count": scale, "offset_c": off} if temp_scale else None},
-            "profile": profile, "channels": chans, "outliers": spikes, "notes": notes}
+    return {
+        "tool": "imu-allan thermal",
+        "file": path,
+        "fs_hz": fs,
+        "n": n,
+        "temperature": {
+            "unit": t_unit,
+            "min": float(Tb.min()),
+            "max": float(Tb.max()),
+            "mean": float(T.mean()),
+            "one_way": mono,
+            "scale": {"c_per_count": scale, "offset_c": off} if temp_scale else None,
+        },
+        "profile": profile,
+        "channels": chans,
+        "outliers": spikes,
+        "notes": notes,
+    }
 
 
-
-
-def _outliers(path: str, x: np.ndarray, fs: float, mode: str, notes: list[str]
-              ) -> tuple[np.ndarray, dict[str, Any]]:
+def _outliers(path: str, x: np.ndarray, fs: float, mode: str, notes: list[str]) -> tuple[np.ndarray, dict[str, Any]]:
     """Spikes and bursts (outliers.py) found once, before the regression and the
     terms (whose own analyses then keep what they are given): replaced, or kept."""
     from . import outliers
+
     found = outliers.scan(x, fs)
     why = outliers.mostly_spikes(found, list(CHANNELS))
     if why and mode == "replace":
         raise InputError(f"'{path}': refused: {why}; --outliers keep studies it as it is")
     ev = [e for e in found.events if not e.step]
     if found.count:
-        notes.append(f"outliers: {found.count} samples in {len(ev)} event{'s' * (len(ev) != 1)} (spikes, bursts) "
-                     + ("replaced by the line between their neighbours" if mode == "replace"
-                        else "kept (--outliers keep)"))
-    summary = {"mode": mode, "count": {ch: found.channels[c].count for c, ch in enumerate(CHANNELS)},
-               "times_s": [e.start / fs for e in ev],
-               "channels": [[CHANNELS[c] for c in e.channels] for e in ev]}
+        notes.append(
+            f"outliers: {found.count} samples in {len(ev)} event{'s' * (len(ev) != 1)} (spikes, bursts) "
+            + ("replaced by the line between their neighbours" if mode == "replace" else "kept (--outliers keep)")
+        )
+    summary = {
+        "mode": mode,
+        "count": {ch: found.channels[c].count for c, ch in enumerate(CHANNELS)},
+        "times_s": [e.start / fs for e in ev],
+        "channels": [[CHANNELS[c] for c in e.channels] for e in ev],
+    }
     return (outliers.replace(x, found) if mode == "replace" and found.count else x), summary
 
 
-def _before_after(chans: dict[str, Any], path: str, kind: str, x: np.ndarray, corrected: np.ndarray,
-                  T_smooth: np.ndarray, fs: float, prof: Any) -> None:
+def _before_after(
+    chans: dict[str, Any],
+    path: str,
+    kind: str,
+    x: np.ndarray,
+    corrected: np.ndarray,
+    T_smooth: np.ndarray,
+    fs: float,
+    prof: Any,
+) -> None:
     """The Allan deviation, terms and FIT% of each channel before and after removing
     its thermal bias, into ``chans``."""
-    from .pipeline import Options, analyze
     from ..sources.detect import SampleSource, Source
+    from .pipeline import Options, analyze
+
     n = x.shape[1]
     docs = {}
     for name, data in (("before", x), ("after", corrected)):
-        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda d=data: iter([d]), False, fs=fs,
-                                        n_hint=n), None)
+        src = Source(
+            path, SampleSource(kind, path, list(CHANNELS), lambda d=data: iter([d]), False, fs=fs, n_hint=n), None
+        )
         docs[name] = analyze(src, prof, Options(fs=fs, extra_curves=False, seed=1, outliers="keep")).doc
     for ch in CHANNELS:
         b, a = docs["before"]["channels"][ch], docs["after"]["channels"][ch]
         chans[ch]["terms_before"] = b["terms"]
         chans[ch]["terms_after"] = a["terms"]
         chans[ch]["term_units"] = b["term_units"]
-        chans[ch]["adev_before"] = [{"tau_s": p["tau_s"], "dev": p["dev"], "low": p["low"], "high": p["high"]}
-                                    for p in b["curve"]]
-        chans[ch]["adev_after"] = [{"tau_s": p["tau_s"], "dev": p["dev"], "low": p["low"], "high": p["high"]}
-                                   for p in a["curve"]]
+        chans[ch]["adev_before"] = [
+            {"tau_s": p["tau_s"], "dev": p["dev"], "low": p["low"], "high": p["high"]} for p in b["curve"]
+        ]
+        chans[ch]["adev_after"] = [
+            {"tau_s": p["tau_s"], "dev": p["dev"], "low": p["low"], "high": p["high"]} for p in a["curve"]
+        ]
         chans[ch]["fit_percent"] = {
             "noise_model_on_raw": (b.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
             "noise_model_on_corrected": (a.get("model") or {}).get("fit_percent", {}).get("adev_log10"),
-            "noise_plus_thermal_on_raw": _with_thermal(a, b, chans[ch], T_smooth, fs, prof.scale(ch).per_count)}
+            "noise_plus_thermal_on_raw": _with_thermal(a, b, chans[ch], T_smooth, fs, prof.scale(ch).per_count),
+        }
 
-def _channel_doc(reg: dict[str, Any], ch: str, prof: Any, t_unit: str, Tb: np.ndarray, xb_c: np.ndarray,
-                 D: float, noise_ch: dict[str, Any]) -> dict[str, Any]:
+
+def _channel_doc(
+    reg: dict[str, Any],
+    ch: str,
+    prof: Any,
+    t_unit: str,
+    Tb: np.ndarray,
+    xb_c: np.ndarray,
+    D: float,
+    noise_ch: dict[str, Any],
+) -> dict[str, Any]:
     """One channel's thermal regression in the channel's units."""
     k = prof.scale(ch).per_count
     unit = f"{prof.scale(ch).unit}/{t_unit}".replace("count/", "counts/")
-    thermal_b = np.array([reg["coef"][1] * (t - reg["t_ref"]) + reg["coef"][2] * (t - reg["t_ref"]) ** 2
-                          for t in Tb])
-    return {"tempco": {**{kk: v * k for kk, v in reg["linear"].items()}, "unit": unit},
-            "model": "quadratic" if "quadratic" in reg else "linear",
-            "quadratic": None if "quadratic" not in reg else {
-                "c1": {kk: v * k for kk, v in reg["quadratic"]["c1"].items()},
-                "c2": {kk: v * k for kk, v in reg["quadratic"]["c2"].items()},
-                "unit_c2": f"{prof.scale(ch).unit}/{t_unit}^2".replace("count/", "counts/"),
-                "t_ref": reg["t_ref"]},
-            "quadratic_test": reg["quadratic_test"],
-            "regression": {"method": "GLS on block means, covariance from the noise terms "
-                                     "(counts) of the series with the OLS thermal bias removed",
-                           "blocks": reg["blocks"], "block_s": D, "chi2_dof": reg["chi2_dof"],
-                           "noise_terms_counts": noise_ch},
-            "thermal_fit_percent_block_means": _fit(xb_c - xb_c.mean(), thermal_b - thermal_b.mean())}
+    thermal_b = np.array([reg["coef"][1] * (t - reg["t_ref"]) + reg["coef"][2] * (t - reg["t_ref"]) ** 2 for t in Tb])
+    return {
+        "tempco": {**{kk: v * k for kk, v in reg["linear"].items()}, "unit": unit},
+        "model": "quadratic" if "quadratic" in reg else "linear",
+        "quadratic": None
+        if "quadratic" not in reg
+        else {
+            "c1": {kk: v * k for kk, v in reg["quadratic"]["c1"].items()},
+            "c2": {kk: v * k for kk, v in reg["quadratic"]["c2"].items()},
+            "unit_c2": f"{prof.scale(ch).unit}/{t_unit}^2".replace("count/", "counts/"),
+            "t_ref": reg["t_ref"],
+        },
+        "quadratic_test": reg["quadratic_test"],
+        "regression": {
+            "method": "GLS on block means, covariance from the noise terms "
+            "(counts) of the series with the OLS thermal bias removed",
+            "blocks": reg["blocks"],
+            "block_s": D,
+            "chi2_dof": reg["chi2_dof"],
+            "noise_terms_counts": noise_ch,
+        },
+        "thermal_fit_percent_block_means": _fit(xb_c - xb_c.mean(), thermal_b - thermal_b.mean()),
+    }
 
-def _terms_by_temperature(chans: dict[str, Any], data: np.ndarray, T: np.ndarray, fs: float, segments: int,
-                          path: str, kind: str, prof: Any, t_unit: str) -> None:
+
+def _terms_by_temperature(
+    chans: dict[str, Any],
+    data: np.ndarray,
+    T: np.ndarray,
+    fs: float,
+    segments: int,
+    path: str,
+    kind: str,
+    prof: Any,
+    t_unit: str,
+) -> None:
     """N and B of the thermally corrected series in consecutive segments (each at its own
     mean temperature), and the slope of each against temperature with its 95 % interval."""
-    from .pipeline import Options, analyze
     from ..sources.detect import SampleSource, Source
+    from .pipeline import Options, analyze
+
     n = data.shape[1]
     L = n // segments
     temps, docs = [], []
     for i in range(segments):
-        seg = data[:, i * L:(i + 1) * L]
-        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda d=seg: iter([d]), False, fs=fs,
-                                        n_hint=L), None)
-        docs.append(analyze(src, prof, Options(fs=fs, extra_curves=False, model=False,
-                                                    outliers="keep")).doc)
-        temps.append(float(T[i * L:(i + 1) * L].mean()))
+        seg = data[:, i * L : (i + 1) * L]
+        src = Source(
+            path, SampleSource(kind, path, list(CHANNELS), lambda d=seg: iter([d]), False, fs=fs, n_hint=L), None
+        )
+        docs.append(analyze(src, prof, Options(fs=fs, extra_curves=False, model=False, outliers="keep")).doc)
+        temps.append(float(T[i * L : (i + 1) * L].mean()))
     for ch in CHANNELS:
         out: dict[str, Any] = {"temperature": temps, "unit": t_unit, "segment_s": L / fs}
         for q in ("N", "B"):
@@ -334,8 +412,15 @@ def _terms_by_temperature(chans: dict[str, Any], data: np.ndarray, T: np.ndarray
 def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Optional[dict[str, Any]]:
     """Weighted least-squares slope of value against x (weights from the 95 % intervals),
     its 95 % interval (Student t, widened by the scatter) and a verdict."""
-    pts = [(xi, v) for xi, v in zip(x, vals) if v and v.get("value") is not None
-           and v.get("low") is not None and v.get("high") is not None and v["high"] > v["low"]]
+    pts = [
+        (xi, v)
+        for xi, v in zip(x, vals)
+        if v
+        and v.get("value") is not None
+        and v.get("low") is not None
+        and v.get("high") is not None
+        and v["high"] > v["low"]
+    ]
     if len(pts) < 2 or np.ptp([p[0] for p in pts]) == 0:
         return None
     xs = np.array([p[0] for p in pts])
@@ -350,29 +435,45 @@ def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Option
     half = float(q * math.sqrt(cov[1, 1] * max(red, 1.0)))
     b = float(beta[1])
     rel = b / float(np.average(y, weights=w))
-    return {"value": b, "low": b - half, "high": b + half, "relative_per_unit": rel,
-            "verdict": "independent of temperature" if b - half <= 0 <= b + half else
-                       ("grows with temperature" if b > 0 else "falls with temperature")}
+    return {
+        "value": b,
+        "low": b - half,
+        "high": b + half,
+        "relative_per_unit": rel,
+        "verdict": "independent of temperature"
+        if b - half <= 0 <= b + half
+        else ("grows with temperature" if b > 0 else "falls with temperature"),
+    }
 
 
 def _fit(s: np.ndarray, m: np.ndarray) -> Optional[float]:
     from ..noise.model import fit_percent
+
     return fit_percent(s, m)
 
 
-def _with_thermal(after: dict[str, Any], before: dict[str, Any], ch: dict[str, Any], T: np.ndarray,
-                  fs: float, k: float) -> Optional[float]:
+def _with_thermal(
+    after: dict[str, Any], before: dict[str, Any], ch: dict[str, Any], T: np.ndarray, fs: float, k: float
+) -> Optional[float]:
     """FIT% (log10 ADEV) of noise model + thermal term against the raw series' curve."""
     from ..noise import model
     from ..stats.allan import oadev_octave
+
     mp = (after.get("model") or {}).get("params")
     if not mp:
         return None
-    p = model.ModelParams(fs=fs, white=mp["white_sigma"], gm_sigma=mp["gm_sigma"], gm_tau=mp["gm_tau_s"],
-                          rrw=mp["rrw_sigma"], quant=mp["Q"], ramp=mp["R"])
+    p = model.ModelParams(
+        fs=fs,
+        white=mp["white_sigma"],
+        gm_sigma=mp["gm_sigma"],
+        gm_tau=mp["gm_tau_s"],
+        rrw=mp["rrw_sigma"],
+        quant=mp["Q"],
+        ramp=mp["R"],
+    )
     sim = np.concatenate(list(model.simulate(p, T.size, seed=7)))
     q = ch["quadratic"]
-    c1 = (q["c1"]["value"] if q else ch["tempco"]["value"])
+    c1 = q["c1"]["value"] if q else ch["tempco"]["value"]
     c2 = q["c2"]["value"] if q else 0.0
     dT = T - (q["t_ref"] if q else T.mean())
     sim += c1 * dT + c2 * dT * dT
@@ -392,31 +493,64 @@ def _iv(v: Optional[dict[str, Any]]) -> str:
 
 def text(doc: dict[str, Any]) -> str:
     t = doc["temperature"]
-    lines = [f"{doc['file']}: {doc['n']} samples at {doc['fs_hz']:g} Hz ({doc['n'] / doc['fs_hz']:.0f} s); "
-             f"temperature {t['min']:.4g} .. {t['max']:.4g} {t['unit']} (block means)", ""]
-    head = ("ch", "tempco [95 %]", "unit", "model", "N before", "N after", "B before", "B after",
-            "K before", "K after", "R before", "R after", "FIT% raw", "FIT% +thermal")
+    lines = [
+        f"{doc['file']}: {doc['n']} samples at {doc['fs_hz']:g} Hz ({doc['n'] / doc['fs_hz']:.0f} s); "
+        f"temperature {t['min']:.4g} .. {t['max']:.4g} {t['unit']} (block means)",
+        "",
+    ]
+    head = (
+        "ch",
+        "tempco [95 %]",
+        "unit",
+        "model",
+        "N before",
+        "N after",
+        "B before",
+        "B after",
+        "K before",
+        "K after",
+        "R before",
+        "R after",
+        "FIT% raw",
+        "FIT% +thermal",
+    )
     rows = [head]
     for ch, c in doc["channels"].items():
         fp = c["fit_percent"]
         f = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
-        rows.append((ch, _iv(c["tempco"]), c["tempco"]["unit"], c["model"],
-                     _iv(c["terms_before"].get("N")), _iv(c["terms_after"].get("N")),
-                     _iv(c["terms_before"].get("B")), _iv(c["terms_after"].get("B")),
-                     _iv(c["terms_before"].get("K")), _iv(c["terms_after"].get("K")),
-                     _iv(c["terms_before"].get("R")), _iv(c["terms_after"].get("R")),
-                     f(fp["noise_model_on_raw"]), f(fp["noise_plus_thermal_on_raw"])))
+        rows.append(
+            (
+                ch,
+                _iv(c["tempco"]),
+                c["tempco"]["unit"],
+                c["model"],
+                _iv(c["terms_before"].get("N")),
+                _iv(c["terms_after"].get("N")),
+                _iv(c["terms_before"].get("B")),
+                _iv(c["terms_after"].get("B")),
+                _iv(c["terms_before"].get("K")),
+                _iv(c["terms_after"].get("K")),
+                _iv(c["terms_before"].get("R")),
+                _iv(c["terms_after"].get("R")),
+                f(fp["noise_model_on_raw"]),
+                f(fp["noise_plus_thermal_on_raw"]),
+            )
+        )
     widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
     lines += ["  ".join(s.rjust(w) for s, w in zip(r, widths)) for r in rows]
     for ch, c in doc["channels"].items():
         if c["quadratic"]:
             q = c["quadratic"]
-            lines.append(f"{ch}: quadratic supported (F-test p = {c['quadratic_test']['p_value']:.2g}): "
-                         f"c1 {_iv(q['c1'])}, c2 {_iv(q['c2'])} {q['unit_c2']} around {q['t_ref']:.4g}")
+            lines.append(
+                f"{ch}: quadratic supported (F-test p = {c['quadratic_test']['p_value']:.2g}): "
+                f"c1 {_iv(q['c1'])}, c2 {_iv(q['c2'])} {q['unit_c2']} around {q['t_ref']:.4g}"
+            )
     u = next(iter(doc["channels"].values()))["term_units"]
-    lines.append(f"units: N {u['N']}, B {u['B']}, K {u['K']}, R {u['R']}; FIT%: the thesis' formula on "
-                 "log10 ADEV of the raw series, for the noise model of its own terms (raw) and for the "
-                 "noise model of the corrected series plus the thermal term (+thermal)")
+    lines.append(
+        f"units: N {u['N']}, B {u['B']}, K {u['K']}, R {u['R']}; FIT%: the thesis' formula on "
+        "log10 ADEV of the raw series, for the noise model of its own terms (raw) and for the "
+        "noise model of the corrected series plus the thermal term (+thermal)"
+    )
     for ch, c in doc["channels"].items():
         bt = c.get("terms_by_temperature")
         if not bt:
@@ -425,9 +559,14 @@ def text(doc: dict[str, Any]) -> str:
         for q in ("N", "B"):
             vals = ", ".join(f"{v['value']:.3g}" if v else "-" for v in bt[q])
             sl = bt[f"{q}_slope"]
-            parts.append(f"{q} {vals}" + (f" ({sl['verdict']}: slope {sl['value']:.2g} "
-                                         f"[{sl['low']:.2g}, {sl['high']:.2g}] per {bt['unit']})" if sl else ""))
-        lines.append(f"{ch} at {', '.join(f'{t:.4g}' for t in bt['temperature'])} {bt['unit']}: "
-                     + "; ".join(parts))
+            parts.append(
+                f"{q} {vals}"
+                + (
+                    f" ({sl['verdict']}: slope {sl['value']:.2g} [{sl['low']:.2g}, {sl['high']:.2g}] per {bt['unit']})"
+                    if sl
+                    else ""
+                )
+            )
+        lines.append(f"{ch} at {', '.join(f'{t:.4g}' for t in bt['temperature'])} {bt['unit']}: " + "; ".join(parts))
     lines += [f"note: {n}" for n in doc["notes"]]
     return "\n".join(lines) + "\n"

@@ -20,23 +20,36 @@ def adev_list(var: np.ndarray) -> list[Optional[float]]:
     return [json_num(math.sqrt(v)) if json_num(v) is not None and v >= 0 else None for v in var]
 
 
-
-def load_windows(path: str, source: str = "auto", fs: Optional[float] = None,
-                 channels: Optional[list[str]] = None, window_s: Optional[float] = None,
-                 step_s: Optional[float] = None) -> tuple[Any, list[str]]:
+def load_windows(
+    path: str,
+    source: str = "auto",
+    fs: Optional[float] = None,
+    channels: Optional[list[str]] = None,
+    window_s: Optional[float] = None,
+    step_s: Optional[float] = None,
+) -> tuple[Any, list[str]]:
     """The windows of ``path`` (dynamic.Windows) and notes about the choice."""
     from ..sources.detect import load
+
     return windows_of(load(path), path, source, fs, channels, window_s, step_s)
 
 
-def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = None,
-               channels: Optional[list[str]] = None, window_s: Optional[float] = None,
-               step_s: Optional[float] = None) -> tuple[Any, list[str]]:
+def windows_of(
+    src: Any,
+    path: str,
+    source: str = "auto",
+    fs: Optional[float] = None,
+    channels: Optional[list[str]] = None,
+    window_s: Optional[float] = None,
+    step_s: Optional[float] = None,
+) -> tuple[Any, list[str]]:
     """``load_windows`` for a source already loaded (sources.load)."""
     import numpy as np
-    from . import dynamic
+
     from ..channels import CHANNELS
     from ..device.records import decode_bytes
+    from . import dynamic
+
     notes: list[str] = []
     reports = []
     # a device log (no samples) is read again for all its reports; a capture's
@@ -50,13 +63,14 @@ def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = 
         if not runs:
             raise InputError(f"'{src.name}': no complete device report in it")
         if len(runs) > 1:
-            notes.append(f"{len(runs)} runs (a reset between reports): the last one used, "
-                         f"{len(runs[-1])} reports")
+            notes.append(f"{len(runs)} runs (a reset between reports): the last one used, {len(runs[-1])} reports")
         chans = [c for c in CHANNELS if channels is None or c in channels]
         return dynamic.from_reports(runs[-1], chans), notes
     if src.samples is None:
-        raise InputError(f"'{src.name}': a single device report and no samples: nothing to split in "
-                         "windows (record with periodic reports: 'interval 60')")
+        raise InputError(
+            f"'{src.name}': a single device report and no samples: nothing to split in "
+            "windows (record with periodic reports: 'interval 60')"
+        )
     rate = src.samples.fs or fs or (float(src.report.header.fs_hz) if src.report else None)
     if rate is None:
         raise InputError("the sample rate is unknown: give --fs HZ")
@@ -66,8 +80,10 @@ def windows_of(src: Any, path: str, source: str = "auto", fs: Optional[float] = 
         blocks.append(b[sel])
         size += b.shape[1] * len(sel) * 8
         if size > MEMORY:
-            raise InputError(f"'{src.name}': more than {MEMORY >> 20} MB of samples: too large for "
-                             "windows in memory (cut the file, or record with periodic device reports)")
+            raise InputError(
+                f"'{src.name}': more than {MEMORY >> 20} MB of samples: too large for "
+                "windows in memory (cut the file, or record with periodic device reports)"
+            )
     data = np.concatenate(blocks, axis=1).astype(np.float64)
     temp = None
     if src.samples.open_temperature is not None:

@@ -1,4 +1,5 @@
 """``python -m imu_allan.cli``: the ``imu-allan`` command."""
+
 import sys
 
 from .main import main

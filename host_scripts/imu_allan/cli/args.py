@@ -1,5 +1,6 @@
 """The ``imu-allan`` argument parser: every word, option and --help text
 (main.py runs the commands)."""
+
 from __future__ import annotations
 
 import argparse
@@ -10,8 +11,7 @@ from ..channels import CHANNELS, FS_LIMITS_HZ, RATES_HZ
 
 EXIT_LOST = 3
 """Exit status of a command that did its work but found data lost on the way."""
-EPILOG_EXIT = ("exit status: 0 success, 1 {one}, 2 usage, input or output error (one line on "
-               "stderr)")
+EPILOG_EXIT = "exit status: 0 success, 1 {one}, 2 usage, input or output error (one line on stderr)"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -44,8 +44,7 @@ def _device_rate(text: str) -> int:
     t = text.strip()
     v = int(t) if t.isdigit() and t.isascii() else None
     if v not in RATES_HZ:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a rate of the device "
-                                         f"({', '.join(map(str, RATES_HZ))} Hz)")
+        raise argparse.ArgumentTypeError(f"{text!r} is not a rate of the device ({', '.join(map(str, RATES_HZ))} Hz)")
     return v
 
 
@@ -98,8 +97,9 @@ def _levels(text: str) -> int:
 
 def _add_format(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--json", action="store_true",
-                   help="print JSON: {header, rows, errors} (a stable interface for scripts)")
+    g.add_argument(
+        "--json", action="store_true", help="print JSON: {header, rows, errors} (a stable interface for scripts)"
+    )
     g.add_argument("--csv", action="store_true", help="print CSV, one line per row, with a header line")
 
 
@@ -115,7 +115,8 @@ def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.Argum
             "m = 1, 2, 4, ... (octave 'levels'), the exact integer sum behind the\n"
             "non-overlapping Allan variance, and sends it over the serial link in\n"
             "the format of docs/protocol.md. These tools read those logs, compute\n"
-            "the same statistic on the host, compare both, and make test data."),
+            "the same statistic on the host, compare both, and make test data."
+        ),
         epilog=(
             "typical session:\n"
             "  imu-allan gen -n 200000 --seed 1 -o imu.txt      # synthetic IMU rows\n"
@@ -130,7 +131,8 @@ def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.Argum
             "  imu-allan cmd --port /dev/ttyUSB0 mode raw       # one command, prints its reply\n"
             "  imu-allan rows capture.log -o imu.txt            # raw/binary capture -> rows file\n\n"
             "Units: Allan variance in ADC counts^2 (deviation in counts), tau in\n"
-            "seconds. Run 'imu-allan COMMAND --help' for a command's options."),
+            "seconds. Run 'imu-allan COMMAND --help' for a command's options."
+        ),
     )
     parser.add_argument("--version", action="version", version=f"imu-allan {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -150,7 +152,8 @@ def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.Argum
 
 def _add_decode(sub: Any) -> None:
     p = sub.add_parser(
-        "decode", help="print the Allan table of a device log",
+        "decode",
+        help="print the Allan table of a device log",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Read a log of what the device sent (any bytes: a serial capture,\n"
@@ -166,8 +169,10 @@ def _add_decode(sub: Any) -> None:
             "terms rows) are held to the report's rows: one they contradict is left\n"
             "out, counted and said in a warning on stderr, as is a report whose seq\n"
             "goes backwards without a boot line (an older report replayed). Lines\n"
-            "may end in LF, CR LF or CR."),
-        epilog=EPILOG_EXIT.format(one="no complete report in the log"))
+            "may end in LF, CR LF or CR."
+        ),
+        epilog=EPILOG_EXIT.format(one="no complete report in the log"),
+    )
     p.add_argument("log", metavar="LOG", help="device log file, or - for stdin")
     _add_format(p)
     p.add_argument("--all", action="store_true", help="every complete report, not only the last")
@@ -175,7 +180,8 @@ def _add_decode(sub: Any) -> None:
 
 def _add_reference(sub: Any) -> None:
     p = sub.add_parser(
-        "reference", help="compute the Allan table of a rows file on the host (float64)",
+        "reference",
+        help="compute the Allan table of a rows file on the host (float64)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Compute the non-overlapping Allan variance at m = 1, 2, 4, ...\n"
@@ -184,18 +190,26 @@ def _add_reference(sub: Any) -> None:
             "shape as 'decode'; 'acc' is the exact integer the device would send.\n\n"
             "Rows file (thesis format): one sample set per line, 7 integer codes\n"
             "0..1023 separated by tabs or spaces: ax ay az gx gy gz temp.\n"
-            "'#' starts a comment; blank lines are ignored."),
-        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)")
+            "'#' starts a comment; blank lines are ignored."
+        ),
+        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)",
+    )
     p.add_argument("file", metavar="FILE", help="rows file, or - for stdin")
     p.add_argument("--fs", type=_fs, required=True, metavar="HZ", help="sample rate of the rows, Hz")
-    p.add_argument("--levels", type=_levels, default=15, metavar="L",
-                   help="octave levels, m = 1 .. 2^(L-1) (default 15, the ATmega168 firmware's)")
+    p.add_argument(
+        "--levels",
+        type=_levels,
+        default=15,
+        metavar="L",
+        help="octave levels, m = 1 .. 2^(L-1) (default 15, the ATmega168 firmware's)",
+    )
     _add_format(p)
 
 
 def _add_check(sub: Any) -> None:
     p = sub.add_parser(
-        "check", help="compare a device log with the reference computed from the same rows",
+        "check",
+        help="compare a device log with the reference computed from the same rows",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Check the last complete report of LOG against FILE, the rows the\n"
@@ -206,18 +220,21 @@ def _add_check(sub: Any) -> None:
             "variance (must agree within 1e-12 relative). Flagged rows (sat,\n"
             "range) are listed, not compared; a sat row's exact sum must reach\n"
             "its acc (the saturation value).\n"
-            "The header must show no drops and at most as many samples as FILE."),
-        epilog=EPILOG_EXIT.format(one="any mismatch, or no complete report"))
+            "The header must show no drops and at most as many samples as FILE."
+        ),
+        epilog=EPILOG_EXIT.format(one="any mismatch, or no complete report"),
+    )
     p.add_argument("log", metavar="LOG", help="device log file (- for stdin)")
     p.add_argument("file", metavar="FILE", help="rows file the device sampled (- for stdin)")
-    p.add_argument("--fs", type=_fs, metavar="HZ",
-                   help="expected sample rate: a report with another fs is a mismatch")
+    p.add_argument("--fs", type=_fs, metavar="HZ", help="expected sample rate: a report with another fs is a mismatch")
 
 
 def _add_gen(sub: Any) -> None:
     from ..noise.words import HELP, KINDS, PROFILES, UNITS
+
     p = sub.add_parser(
-        "gen", help="write a synthetic IMU rows file (thesis noise model)",
+        "gen",
+        help="write a synthetic IMU rows file (thesis noise model)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Write N rows of synthetic 10-bit ADC codes (ax ay az gx gy gz temp)\n"
@@ -229,15 +246,17 @@ def _add_gen(sub: Any) -> None:
             "lines are '#' comments with the command that reproduces it.\n\n"
             "Noise parameters take a number (every channel) or a list such as\n"
             "'gx=0.9,gy=0.6' (channels not named keep their default). Units:\n"
-            + "".join(f"  --{k.replace('_', '-'):<9} {v}\n" for k, v in UNITS.items()) +
-            "\nKinds (--kind):\n"
+            + "".join(f"  --{k.replace('_', '-'):<9} {v}\n" for k, v in UNITS.items())
+            + "\nKinds (--kind):\n"
             "  noise   the noise model above (default)\n"
             "  walk    random walks (rrw 2 counts/step) reflected at 0 and 1023\n"
             "  drift   the noise model plus linear drifts of a few hundredths count/s\n"
             "  clip    mid-scale with white noise of 400 counts: hits 0 and 1023 often\n"
             "  square  full-scale square waves 0/1023, half period 1, 2, 4 .. 32\n"
-            "          samples for ax .. gz (noise parameters unused)"),
-        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)")
+            "          samples for ax .. gz (noise parameters unused)"
+        ),
+        epilog="exit status: 0 success, 2 usage, input or output error (one line on stderr)",
+    )
     p.add_argument("-n", type=_count, default=100_000, metavar="N", help="rows (default 100000)")
     p.add_argument("--fs", type=_fs, default=100, metavar="HZ", help="sample rate, Hz (default 100)")
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S", help="random seed (default 1)")
@@ -246,39 +265,51 @@ def _add_gen(sub: Any) -> None:
     for name, text in HELP.items():
         p.add_argument(f"--{name.replace('_', '-')}", metavar="SPEC", help=text)
     p.add_argument("--json-params", metavar="PFILE", help="also write the exact parameters used, as JSON")
-    p.add_argument("--model", metavar="MFILE",
-                   help="rows of the continuous sensor model (JSON, docs/thesis-questions.md) at the ADC's instants")
+    p.add_argument(
+        "--model",
+        metavar="MFILE",
+        help="rows of the continuous sensor model (JSON, docs/thesis-questions.md) at the ADC's instants",
+    )
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="rows file to write (- for stdout)")
 
 
 def _add_sim(sub: Any) -> None:
     p = sub.add_parser(
-        "sim", help="run the firmware in the simulator on a rows file",
+        "sim",
+        help="run the firmware in the simulator on a rows file",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Run the firmware (an AVR ELF) in the simulator harness imu-sim, its\n"
             "ADC fed from a rows file, and write what the device sent to LOG.\n"
             "Nothing is built here: 'make' builds the firmware, 'make sim' the\n"
             "harness. The harness is $IMU_SIM, else build/host/imu-sim of this\n"
-            "checkout, else imu-sim on PATH. Its exit status is returned."),
-        epilog="then: imu-allan decode LOG, imu-allan check LOG FILE")
+            "checkout, else imu-sim on PATH. Its exit status is returned."
+        ),
+        epilog="then: imu-allan decode LOG, imu-allan check LOG FILE",
+    )
     p.add_argument("--adc", metavar="FILE", help="rows file the ADC reads (or --model)")
-    p.add_argument("--model", metavar="MFILE",
-                   help="feed the ADC from the sensor model instead: --seconds S of it at --fs")
+    p.add_argument(
+        "--model", metavar="MFILE", help="feed the ADC from the sensor model instead: --seconds S of it at --fs"
+    )
     p.add_argument("--seconds", type=_seconds, default=60.0, metavar="S", help="with --model (default 60)")
-    p.add_argument("--fs", type=_device_rate, metavar="HZ",
-                   help=f"sample rate to set on the device, Hz: one of {', '.join(map(str, RATES_HZ))}")
+    p.add_argument(
+        "--fs",
+        type=_device_rate,
+        metavar="HZ",
+        help=f"sample rate to set on the device, Hz: one of {', '.join(map(str, RATES_HZ))}",
+    )
     p.add_argument("--uart-in", metavar="FILE", help="commands to send to the device")
-    p.add_argument("--firmware", metavar="ELF",
-                   help="firmware ELF (default build/avr-atmega168/imu-allan.elf)")
-    p.add_argument("--stats", nargs="?", const=True, metavar="SFILE",
-                   help="ask the harness for run statistics (to SFILE if given)")
+    p.add_argument("--firmware", metavar="ELF", help="firmware ELF (default build/avr-atmega168/imu-allan.elf)")
+    p.add_argument(
+        "--stats", nargs="?", const=True, metavar="SFILE", help="ask the harness for run statistics (to SFILE if given)"
+    )
     p.add_argument("-o", "--output", required=True, metavar="LOG", help="device log to write")
 
 
 def _add_rows(sub: Any) -> None:
     p = sub.add_parser(
-        "rows", help="turn a raw or binary capture into a rows file",
+        "rows",
+        help="turn a raw or binary capture into a rows file",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Read a capture of the device in output mode raw, binary or both (any\n"
@@ -303,18 +334,20 @@ def _add_rows(sub: Any) -> None:
             "rows), rows lost (per count lines), frames lost, bad frames (CRC\n"
             "failed) and the sample sets the device itself lost (drops, per its\n"
             "count lines). Damaged data is never written: what cannot be checked\n"
-            "is left out."),
+            "is left out."
+        ),
         epilog=EPILOG_EXIT.format(one="no rows or frames were found")
         + f", {EXIT_LOST} written, but rows or frames were lost or bad on the way (the summary "
-          "line says how many)")
+        "line says how many)",
+    )
     p.add_argument("log", metavar="LOG", help="capture file, or - for stdin")
-    p.add_argument("-o", "--output", required=True, metavar="FILE",
-                   help="rows file to write (- for stdout)")
+    p.add_argument("-o", "--output", required=True, metavar="FILE", help="rows file to write (- for stdout)")
 
 
 def _add_monitor(sub: Any) -> None:
     p = sub.add_parser(
-        "monitor", help="live view of a device on a serial port (and log everything)",
+        "monitor",
+        help="live view of a device on a serial port (and log everything)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Open the serial port and show, on a full screen that fits the terminal\n"
@@ -331,26 +364,44 @@ def _add_monitor(sub: Any) -> None:
             "(e.g. status, mode raw, rate 250, report); Backspace edits, Esc\n"
             "drops the line, Up/Down recall earlier ones. Ctrl-C quits.\n\n"
             "The port is locked while the monitor runs: another program opening\n"
-            "it (imu-allan cmd, picocom) is told it is busy."),
-        epilog=("exit status: 0 on Ctrl-C (or, with --once, after a report), 1 the port "
-                "was lost, 2 usage error or the port cannot be opened (or is busy)"))
+            "it (imu-allan cmd, picocom) is told it is busy."
+        ),
+        epilog=(
+            "exit status: 0 on Ctrl-C (or, with --once, after a report), 1 the port "
+            "was lost, 2 usage error or the port cannot be opened (or is busy)"
+        ),
+    )
     p.add_argument("--port", required=True, metavar="PORT", help="serial port, e.g. /dev/ttyUSB0")
-    p.add_argument("--baud", type=_baud, default=115200, metavar="B",
-                   help="baud rate (default 115200, the firmware's default BAUD)")
-    p.add_argument("--log", metavar="FILE",
-                   help="file to append everything received to "
-                        "(default imu-allan-YYYYmmdd-HHMMSS.log here)")
-    p.add_argument("--once", action="store_true",
-                   help="exit after the first complete report (for scripts)")
+    p.add_argument(
+        "--baud",
+        type=_baud,
+        default=115200,
+        metavar="B",
+        help="baud rate (default 115200, the firmware's default BAUD)",
+    )
+    p.add_argument(
+        "--log",
+        metavar="FILE",
+        help="file to append everything received to (default imu-allan-YYYYmmdd-HHMMSS.log here)",
+    )
+    p.add_argument("--once", action="store_true", help="exit after the first complete report (for scripts)")
 
 
 def _command_synopsis(width: int = 76) -> str:
     """The device's commands with their arguments, in its own order and words
     (the firmware's tables, through _firmware_facts), wrapped to ``width``."""
     from .._firmware_facts import COMMAND_ARGS, MODES, ONOFF, RANGES_G, UNITS
-    arg = {"none": "", "count": " [count]", "rate": " <hz>", "seconds": " <s>",
-           "mode": f" <{'|'.join(MODES)}>", "range": f" <{'|'.join(RANGES_G)}>",
-           "onoff": f" [{'|'.join(ONOFF)}]", "units": f" [{'|'.join(UNITS)}]"}
+
+    arg = {
+        "none": "",
+        "count": " [count]",
+        "rate": " <hz>",
+        "seconds": " <s>",
+        "mode": f" <{'|'.join(MODES)}>",
+        "range": f" <{'|'.join(RANGES_G)}>",
+        "onoff": f" [{'|'.join(ONOFF)}]",
+        "units": f" [{'|'.join(UNITS)}]",
+    }
     words = [w + arg[kind] for w, kind in COMMAND_ARGS.items()]
     lines, line = [], "  "
     for w in words:
@@ -363,26 +414,31 @@ def _command_synopsis(width: int = 76) -> str:
 
 def _add_cmd(sub: Any) -> None:
     p = sub.add_parser(
-        "cmd", help="send one command to the device and print its reply",
+        "cmd",
+        help="send one command to the device and print its reply",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Send WORDS, joined by spaces, as one command line to the device and\n"
             "print its reply ('ok ...' or 'error:<code> <reason>'); whatever else\n"
             "the device sends meanwhile (reports, raw rows, binary frames) is\n"
-            "ignored. Commands (docs/protocol.md):\n"
-            + _command_synopsis() + "\n\n"
-            "example: imu-allan cmd --port /dev/ttyUSB0 rate 250"),
+            "ignored. Commands (docs/protocol.md):\n" + _command_synopsis() + "\n\n"
+            "example: imu-allan cmd --port /dev/ttyUSB0 rate 250"
+        ),
         epilog="a line answered 'error:5 input lost' (the device lost some of its bytes and ran "
-               "nothing) is sent again, 3 times in all.\n"
-               "exit status: 0 reply ok, 1 error reply or no reply in time, 2 usage error "
-               "or the port cannot be opened")
+        "nothing) is sent again, 3 times in all.\n"
+        "exit status: 0 reply ok, 1 error reply or no reply in time, 2 usage error "
+        "or the port cannot be opened",
+    )
     p.add_argument("--port", required=True, metavar="PORT", help="serial port, e.g. /dev/ttyUSB0")
     p.add_argument("--baud", type=_baud, default=115200, metavar="B", help="baud rate (default 115200)")
-    p.add_argument("--timeout", type=_seconds, default=3.0, metavar="S",
-                   help="seconds to wait for the reply (default 3; a command waits while "
-                        "a report is being sent)")
+    p.add_argument(
+        "--timeout",
+        type=_seconds,
+        default=3.0,
+        metavar="S",
+        help="seconds to wait for the reply (default 3; a command waits while a report is being sent)",
+    )
     p.add_argument("words", nargs="+", metavar="WORDS", help="the command and its argument")
-
 
 
 def _nonnegative_seconds(text: str) -> float:
@@ -414,10 +470,12 @@ def _megabytes(text: str) -> int:
     return v
 
 
-OUTLIERS_HELP = ("spikes and bursts (a knock on the bench), found on the sample-to-sample jumps: "
-                 "replace (default; by the line between their neighbours, so they stay out of the "
-                 "statistics; the summary says how much N and B would move) or keep (counted and "
-                 "listed only); a recording that is mostly spikes is refused unless kept")
+OUTLIERS_HELP = (
+    "spikes and bursts (a knock on the bench), found on the sample-to-sample jumps: "
+    "replace (default; by the line between their neighbours, so they stay out of the "
+    "statistics; the summary says how much N and B would move) or keep (counted and "
+    "listed only); a recording that is mostly spikes is refused unless kept"
+)
 
 
 ANALYZE_DESCRIPTION = (
@@ -443,7 +501,8 @@ ANALYZE_DESCRIPTION = (
     "the table also shows deg/sqrt(h), deg/h, m/s/sqrt(h), ug ... The thesis\n"
     "profile converts ADC codes (MMA7260Q at --range, LISY300AL, Vref 3.3 V);\n"
     "--scale gives your own sensor's scale per channel. Every conversion is\n"
-    "written out in docs/analysis.md.")
+    "written out in docs/analysis.md."
+)
 
 ANALYZE_EPILOG = (
     "examples:\n"
@@ -451,59 +510,96 @@ ANALYZE_EPILOG = (
     "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
     "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
     "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
-    "exit status: 0 success, 2 usage, input or output error (one line on stderr)")
+    "exit status: 0 success, 2 usage, input or output error (one line on stderr)"
+)
 
 
 def _add_analyze(sub: Any) -> None:
-    from ..stats import TAU_KINDS
     from ..profiles import PROFILES, RANGES
+    from ..stats import TAU_KINDS
+
     p = sub.add_parser(
-        "analyze", help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",
+        "analyze",
+        help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        description=ANALYZE_DESCRIPTION, epilog=ANALYZE_EPILOG)
+        description=ANALYZE_DESCRIPTION,
+        epilog=ANALYZE_EPILOG,
+    )
     p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
-    p.add_argument("--fs", type=_fs, metavar="HZ",
-                   help="sample rate, Hz: required for rows files and CSV without a time column "
-                        "(a device log's header gives it)")
-    p.add_argument("--profile", choices=PROFILES,
-                   help="unit conversion: thesis (the thesis board, default for ADC codes) or counts "
-                        "(no conversion)")
-    p.add_argument("--scale", action="append", default=[], metavar="CH=VALUE[UNIT]",
-                   help="your sensor's scale: rate units per count (or per CSV unit), e.g. gx=0.0175 "
-                        "(deg/s), gx=1rad/s, ax=0.0039g; repeat or separate with commas; channels "
-                        "without one stay in counts (or keep the --profile's scale)")
-    p.add_argument("--range", choices=RANGES, metavar="G",
-                   help="thesis accelerometer range in g (1.5, 2, 4, 6) when the device header does "
-                        "not say (default 1.5)")
-    p.add_argument("--device", metavar="LOG",
-                   help="device log of the same run: its on-device results are overlaid and checked")
-    p.add_argument("--taus", choices=TAU_KINDS, default="octave",
-                   help="tau grid of the host's curves: octave (default; m = 1, 2, 4 ...), decade "
-                        "(1, 2, 4, 10 ...), log (10 per decade) or all (every m; slow)")
-    p.add_argument("--channels", type=_channel_list, metavar="LIST",
-                   help="channels to analyze, e.g. gx,gy,gz (default all)")
+    p.add_argument(
+        "--fs",
+        type=_fs,
+        metavar="HZ",
+        help="sample rate, Hz: required for rows files and CSV without a time column (a device log's header gives it)",
+    )
+    p.add_argument(
+        "--profile",
+        choices=PROFILES,
+        help="unit conversion: thesis (the thesis board, default for ADC codes) or counts (no conversion)",
+    )
+    p.add_argument(
+        "--scale",
+        action="append",
+        default=[],
+        metavar="CH=VALUE[UNIT]",
+        help="your sensor's scale: rate units per count (or per CSV unit), e.g. gx=0.0175 "
+        "(deg/s), gx=1rad/s, ax=0.0039g; repeat or separate with commas; channels "
+        "without one stay in counts (or keep the --profile's scale)",
+    )
+    p.add_argument(
+        "--range",
+        choices=RANGES,
+        metavar="G",
+        help="thesis accelerometer range in g (1.5, 2, 4, 6) when the device header does not say (default 1.5)",
+    )
+    p.add_argument(
+        "--device", metavar="LOG", help="device log of the same run: its on-device results are overlaid and checked"
+    )
+    p.add_argument(
+        "--taus",
+        choices=TAU_KINDS,
+        default="octave",
+        help="tau grid of the host's curves: octave (default; m = 1, 2, 4 ...), decade "
+        "(1, 2, 4, 10 ...), log (10 per decade) or all (every m; slow)",
+    )
+    p.add_argument(
+        "--channels", type=_channel_list, metavar="LIST", help="channels to analyze, e.g. gx,gy,gz (default all)"
+    )
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--json", action="store_true",
-                   help="print the analysis as JSON (a stable interface, see docs/analysis.md)")
+    g.add_argument(
+        "--json", action="store_true", help="print the analysis as JSON (a stable interface, see docs/analysis.md)"
+    )
     g.add_argument("--csv", action="store_true", help="print the noise terms as CSV")
     p.add_argument("--curves", metavar="FILE", help="write every curve (tau, deviation, interval, EDF) as CSV")
     p.add_argument("--plot", metavar="DIR", help="write PNG figures (Allan deviation, PSD) to DIR")
-    p.add_argument("--kalibr", metavar="FILE",
-                   help="write a Kalibr imu.yaml (continuous-time noise densities and random walks)")
-    p.add_argument("--imu-utils", metavar="FILE",
-                   help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)")
-    p.add_argument("--no-model", action="store_true",
-                   help="skip the thesis model's simulation and FIT%% (faster)")
-    p.add_argument("--skip", type=_nonnegative_seconds, metavar="SECONDS",
-                   help="leave out the first SECONDS of the record (a warm-up); a device log alone is cut "
-                        "at its first report after them (its report minus that one)")
-    p.add_argument("--no-warmup", action="store_true",
-                   help="do not test the record's windows for a warm-up (see imu-allan dynamic)")
-    p.add_argument("--seed", type=_positive_int, default=1, metavar="S",
-                   help="random seed of the model simulation (default 1)")
+    p.add_argument(
+        "--kalibr", metavar="FILE", help="write a Kalibr imu.yaml (continuous-time noise densities and random walks)"
+    )
+    p.add_argument(
+        "--imu-utils", metavar="FILE", help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)"
+    )
+    p.add_argument("--no-model", action="store_true", help="skip the thesis model's simulation and FIT%% (faster)")
+    p.add_argument(
+        "--skip",
+        type=_nonnegative_seconds,
+        metavar="SECONDS",
+        help="leave out the first SECONDS of the record (a warm-up); a device log alone is cut "
+        "at its first report after them (its report minus that one)",
+    )
+    p.add_argument(
+        "--no-warmup",
+        action="store_true",
+        help="do not test the record's windows for a warm-up (see imu-allan dynamic)",
+    )
+    p.add_argument(
+        "--seed", type=_positive_int, default=1, metavar="S", help="random seed of the model simulation (default 1)"
+    )
     p.add_argument("--outliers", choices=("replace", "keep"), default="replace", help=OUTLIERS_HELP)
-    p.add_argument("--memory", type=_megabytes, default=1024, metavar="MB",
-                   help="samples kept in memory for the non-octave statistics (default 1024 MB); "
-                        "larger files are streamed: octave Allan deviations and PSD only")
-
-
+    p.add_argument(
+        "--memory",
+        type=_megabytes,
+        default=1024,
+        metavar="MB",
+        help="samples kept in memory for the non-octave statistics (default 1024 MB); "
+        "larger files are streamed: octave Allan deviations and PSD only",
+    )

@@ -1,5 +1,6 @@
 """The ``imu-allan dynamic`` command: windowed Allan deviation over time, the
 warm-up and stationarity (dynamic.py), in text, JSON, CSV and a heat map."""
+
 from __future__ import annotations
 
 import argparse
@@ -13,8 +14,10 @@ from ..errors import InputError
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
     from .args import _channel_list, _fs
+
     p = sub.add_parser(
-        "dynamic", help="Allan deviation window by window: is the sensor settled? (warm-up, stationarity)",
+        "dynamic",
+        help="Allan deviation window by window: is the sensor settled? (warm-up, stationarity)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Split a recording into windows of time and compute the Allan deviation in\n"
@@ -31,24 +34,45 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
             "some tau lies beyond its interval, at --level confidence per channel over all\n"
             "windows and taus together. The warm-up is the leading stretch of departing\n"
             "windows; departures after it make the channel non-stationary (with the taus\n"
-            "affected). Deviations are in the input's units (ADC counts for codes)."),
+            "affected). Deviations are in the input's units (ADC counts for codes)."
+        ),
         epilog=(
             "examples:\n"
             "  imu-allan dynamic device.log                    # windows from the reports\n"
             "  imu-allan dynamic imu.txt --fs 100 --window 300 --plot dyn.png\n"
             "  imu-allan dynamic device.log --json             # see docs/dynamic.md\n\n"
-            "exit status: 0 success, 2 usage or input error (one line on stderr)"))
+            "exit status: 0 success, 2 usage or input error (one line on stderr)"
+        ),
+    )
     p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV")
     p.add_argument("--fs", type=_fs, metavar="HZ", help="sample rate of a rows file or CSV without time column")
-    p.add_argument("--from", dest="source", choices=("auto", "reports", "samples"), default="auto",
-                   help="windows from the device's reports or from the samples (default: the reports "
-                        "of a device log, the samples of a capture, rows file or CSV)")
-    p.add_argument("--window", type=_positive_seconds, metavar="S",
-                   help="raw samples: window length, s (default: a sixteenth of the record)")
-    p.add_argument("--step", type=_positive_seconds, metavar="S",
-                   help="raw samples: windows start every S seconds (default: half a window)")
-    p.add_argument("--level", type=_level, default=0.95, metavar="P",
-                   help="confidence of the departure test per channel, 0.5-0.9999 (default 0.95)")
+    p.add_argument(
+        "--from",
+        dest="source",
+        choices=("auto", "reports", "samples"),
+        default="auto",
+        help="windows from the device's reports or from the samples (default: the reports "
+        "of a device log, the samples of a capture, rows file or CSV)",
+    )
+    p.add_argument(
+        "--window",
+        type=_positive_seconds,
+        metavar="S",
+        help="raw samples: window length, s (default: a sixteenth of the record)",
+    )
+    p.add_argument(
+        "--step",
+        type=_positive_seconds,
+        metavar="S",
+        help="raw samples: windows start every S seconds (default: half a window)",
+    )
+    p.add_argument(
+        "--level",
+        type=_level,
+        default=0.95,
+        metavar="P",
+        help="confidence of the departure test per channel, 0.5-0.9999 (default 0.95)",
+    )
     p.add_argument("--channels", type=_channel_list, metavar="LIST", help="channels, e.g. gx,gy,gz")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--json", action="store_true", help="print the windows as JSON (docs/dynamic.md)")
@@ -82,6 +106,7 @@ def cmd_dynamic(args: argparse.Namespace) -> int:
     from ..analysis import dynamic
     from ..analysis.windows import load_windows
     from ..render import dynamic as dynamic_render
+
     ws, notes = load_windows(args.file, args.source, args.fs, args.channels, args.window, args.step)
     verdict = dynamic.assess(ws, args.level)
     doc = dynamic_render.build_doc(ws, verdict, args.file, f"imu-allan dynamic {__version__}", notes)
@@ -93,6 +118,7 @@ def cmd_dynamic(args: argparse.Namespace) -> int:
         print(f"imu-allan dynamic: wrote {args.plot}", file=sys.stderr)
     if args.json:
         from ..render.formats import to_json
+
         sys.stdout.write(to_json(doc))
     elif args.csv:
         sys.stdout.write(dynamic_render.csv(doc))

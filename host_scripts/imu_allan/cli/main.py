@@ -1,6 +1,7 @@
 """The ``imu-allan`` command line: each command reads with the device layer,
 computes with the stats layer (or analysis/) and prints with render/.
 No domain logic lives here; the parser and every --help text are in args.py."""
+
 from __future__ import annotations
 
 import argparse
@@ -11,31 +12,36 @@ import sys
 from typing import Any, BinaryIO, Iterator, Optional
 
 from ..channels import CHANNELS
-from .study import add_subcommands
-from .args import EXIT_LOST, build_parser
 from ..errors import InputError
+from .args import EXIT_LOST, build_parser
+from .study import add_subcommands
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    from ..render import formats, text as render
     from ..device.files import read_blocks
     from ..device.records import decode_blocks
+    from ..render import formats
+    from ..render import text as render
+
     res = decode_blocks(read_blocks(args.log))
     _warn("decode", res.warnings)
     if not res.reports:
         lost = ", ".join(f"{k} {v}" for k, v in res.errors.items() if v) or "the log is empty"
-        print(f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})"
-              + _refused(res.refused), file=sys.stderr)
+        print(
+            f"imu-allan decode: no complete report in '{args.log}' (not used: {lost})" + _refused(res.refused),
+            file=sys.stderr,
+        )
         return 1
     docs = [render.report_doc(r) for r in (res.reports if args.all else res.reports[-1:])]
     if args.json:
         if args.all:
-            sys.stdout.write(formats.to_json({"reports": docs, "errors": res.errors,
-                                             "warnings": res.warnings}))
+            sys.stdout.write(formats.to_json({"reports": docs, "errors": res.errors, "warnings": res.warnings}))
         else:
-            sys.stdout.write(formats.to_json({**docs[0], "errors": res.errors,
-                                             "complete_reports": len(res.reports),
-                                             "warnings": res.warnings}))
+            sys.stdout.write(
+                formats.to_json(
+                    {**docs[0], "errors": res.errors, "complete_reports": len(res.reports), "warnings": res.warnings}
+                )
+            )
     elif args.csv:
         sys.stdout.write(formats.to_csv(docs, with_seq=args.all))
     else:
@@ -52,8 +58,7 @@ def _warn(command: str, warnings: list[str]) -> None:
     for w in warnings[:WARNINGS_SHOWN]:
         print(f"imu-allan {command}: warning: {w}", file=sys.stderr)
     if len(warnings) > WARNINGS_SHOWN:
-        print(f"imu-allan {command}: warning: ... and {len(warnings) - WARNINGS_SHOWN} more",
-              file=sys.stderr)
+        print(f"imu-allan {command}: warning: ... and {len(warnings) - WARNINGS_SHOWN} more", file=sys.stderr)
 
 
 def _refused(reasons: list[str]) -> str:
@@ -61,9 +66,11 @@ def _refused(reasons: list[str]) -> str:
 
 
 def cmd_reference(args: argparse.Namespace) -> int:
-    from ..render import formats, text as render
+    from ..render import formats
+    from ..render import text as render
     from ..sources.rows import iter_blocks
     from ..stats.reference import OctaveCascade
+
     cascade = OctaveCascade(args.levels, len(CHANNELS))
     for block in iter_blocks(args.file):
         cascade.push(block[: len(CHANNELS)])
@@ -83,13 +90,13 @@ def cmd_check(args: argparse.Namespace) -> int:
     from ..analysis.check import check_report, summary
     from ..device.files import read_blocks
     from ..device.records import decode_blocks
+
     if args.log == "-" and args.file == "-":
         raise InputError("LOG and FILE cannot both be stdin")
     res = decode_blocks(read_blocks(args.log))
     _warn("check", res.warnings)
     if not res.reports:
-        print(f"imu-allan check: no complete report in '{args.log}'" + _refused(res.refused),
-              file=sys.stderr)
+        print(f"imu-allan check: no complete report in '{args.log}'" + _refused(res.refused), file=sys.stderr)
         return 1
     rep = res.reports[-1]
     result = check_report(rep, args.file, args.fs)
@@ -100,13 +107,20 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_gen(args: argparse.Namespace) -> int:
     if args.model:
         from .study import gen_from_model
+
         return gen_from_model(args)
-    from ..sources.rows import format_rows
     from ..noise.gen import PARAMS, generate, make_params
-    params = make_params(n=args.n, fs_hz=args.fs, seed=args.seed, kind=args.kind,
-                         profile=args.profile, **{p: getattr(args, p) for p in PARAMS})
-    head = (f"# {params.command()}\n"
-            f"# columns: {' '.join(params.channels)} (10-bit ADC codes), {params.fs_hz:g} Hz\n")
+    from ..sources.rows import format_rows
+
+    params = make_params(
+        n=args.n,
+        fs_hz=args.fs,
+        seed=args.seed,
+        kind=args.kind,
+        profile=args.profile,
+        **{p: getattr(args, p) for p in PARAMS},
+    )
+    head = f"# {params.command()}\n# columns: {' '.join(params.channels)} (10-bit ADC codes), {params.fs_hz:g} Hz\n"
     with _output(args.output) as f:
         f.write(head.encode())
         for block in generate(params):
@@ -119,25 +133,29 @@ def cmd_gen(args: argparse.Namespace) -> int:
 def cmd_sim(args: argparse.Namespace) -> int:
     if args.model or not args.adc:
         from .study import sim_from_model
+
         return sim_from_model(args)
     from ..device.simrun import run, sim_command
-    return run(sim_command(args.adc, args.output, fs=args.fs, uart_in=args.uart_in,
-                           firmware=args.firmware, stats=args.stats), adc=args.adc,
-               fs=args.fs)
+
+    return run(
+        sim_command(args.adc, args.output, fs=args.fs, uart_in=args.uart_in, firmware=args.firmware, stats=args.stats),
+        adc=args.adc,
+        fs=args.fs,
+    )
 
 
 def cmd_rows(args: argparse.Namespace) -> int:
     from ..device.capture import decode_chunks
     from ..device.files import input_name, read_blocks
-    from ..sources.rows import format_rows
     from ..device.stream import LOSS_KEYS, StreamDecoder
+    from ..sources.rows import format_rows
+
     name = input_name(args.log)
     dec = StreamDecoder(verified_only=True)
     written = frames = 0
     blocks = read_blocks(args.log)
     with _output(args.output) as dst:
-        dst.write(f"# imu-allan rows {name}\n"
-                  f"# columns: ax ay az gx gy gz temp (10-bit ADC codes)\n".encode())
+        dst.write(f"# imu-allan rows {name}\n# columns: ax ay az gx gy gz temp (10-bit ADC codes)\n".encode())
         for chunk in decode_chunks(blocks, dec):
             if chunk.samples.shape[1]:
                 dst.write(format_rows(chunk.samples))
@@ -145,32 +163,45 @@ def cmd_rows(args: argparse.Namespace) -> int:
                 frames += int(chunk.from_frame.sum())
     c = dec.counts
     if written == 0:
-        print(f"imu-allan rows: no raw rows or binary frames in '{name}' "
-              f"(bad rows {c['bad_rows']}, bad frames {c['bad_frames']})", file=sys.stderr)
+        print(
+            f"imu-allan rows: no raw rows or binary frames in '{name}' "
+            f"(bad rows {c['bad_rows']}, bad frames {c['bad_frames']})",
+            file=sys.stderr,
+        )
         return 1
     if c["blocks_verified"] or c["blocks_bad"]:
-        checked = (f"; {c['blocks_verified']} blocks verified by their count line's CRC, "
-                   f"{c['rows_dropped']} rows dropped ({c['blocks_bad']} bad blocks holding "
-                   f"{c['rows_in_bad_blocks']} rows: a row changed, lost or added; "
-                   f"{c['rows_unverified']} rows written unverified: no block CRC covers them)")
+        checked = (
+            f"; {c['blocks_verified']} blocks verified by their count line's CRC, "
+            f"{c['rows_dropped']} rows dropped ({c['blocks_bad']} bad blocks holding "
+            f"{c['rows_in_bad_blocks']} rows: a row changed, lost or added; "
+            f"{c['rows_unverified']} rows written unverified: no block CRC covers them)"
+        )
     else:
-        checked = ("; unverified: the capture's count lines carry no block CRC (older firmware)"
-                   if c["count_lines"] else "; unverified: no count lines")
-    print(f"imu-allan rows: {written} rows written to {args.output} ({written - frames} from raw "
-          f"rows, {frames} from binary frames){checked}; bad rows {c['bad_rows']}, rows lost "
-          f"{c['rows_lost']} (count lines), frames lost {c['frames_lost']}, "
-          f"bad frames {c['bad_frames']}, device drops {c['device_drops']} (sample sets the "
-          "device itself lost, per its count lines)", file=sys.stderr)
+        checked = (
+            "; unverified: the capture's count lines carry no block CRC (older firmware)"
+            if c["count_lines"]
+            else "; unverified: no count lines"
+        )
+    print(
+        f"imu-allan rows: {written} rows written to {args.output} ({written - frames} from raw "
+        f"rows, {frames} from binary frames){checked}; bad rows {c['bad_rows']}, rows lost "
+        f"{c['rows_lost']} (count lines), frames lost {c['frames_lost']}, "
+        f"bad frames {c['bad_frames']}, device drops {c['device_drops']} (sample sets the "
+        "device itself lost, per its count lines)",
+        file=sys.stderr,
+    )
     return EXIT_LOST if c["rows_dropped"] or any(c[k] for k in LOSS_KEYS) else 0
 
 
 def cmd_monitor(args: argparse.Namespace) -> int:
     from .monitor import run_monitor
+
     return run_monitor(args.port, args.baud, args.log, args.once)
 
 
 def cmd_cmd(args: argparse.Namespace) -> int:
     from ..device.link import PortError, command_line, open_port, send_command
+
     line = command_line(args.words)
     ser = open_port(args.port, args.baud)
     try:
@@ -184,8 +215,7 @@ def cmd_cmd(args: argparse.Namespace) -> int:
     finally:
         ser.close()
     if reply is None:
-        print(f"imu-allan cmd: no reply from {args.port} within {args.timeout:g} s",
-              file=sys.stderr)
+        print(f"imu-allan cmd: no reply from {args.port} within {args.timeout:g} s", file=sys.stderr)
         return 1
     print(reply)
     return 0 if reply.startswith("ok") else 1
@@ -196,13 +226,16 @@ CMD_TRIES = 3
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from ..render import formats, text as render
     from ..analysis.pipeline import Options, analyze
     from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
+    from ..render import formats
+    from ..render import text as render
     from ..sources.detect import load, load_device_report
+
     scales = parse_scales(args.scale)
     src = load(args.file)
     from ..analysis.warmup import skipped, warmup_section, warmup_text
+
     src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
     if skip_note:
         src.notes.append(skip_note)
@@ -213,11 +246,19 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if samples is not None and args.profile is None and (samples.units or not samples.integer):
         scales = scales_for_input(src.name, samples.channels, samples.integer, samples.units, scales)
     profile = build_profile(args.profile, scales, range_g)
-    opts = Options(fs=args.fs, taus=args.taus, channels=args.channels, model=not args.no_model,
-                   seed=args.seed, memory_budget=args.memory * 2**20, outliers=args.outliers)
+    opts = Options(
+        fs=args.fs,
+        taus=args.taus,
+        channels=args.channels,
+        model=not args.no_model,
+        seed=args.seed,
+        memory_budget=args.memory * 2**20,
+        outliers=args.outliers,
+    )
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
     from ..analysis import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
+
     if not args.no_warmup:
         quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
         warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
@@ -231,6 +272,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         written.append(_write_text(args.imu_utils, formats.imu_utils_yaml(doc)))
     if args.plot:
         from ..render.plots import write_plots
+
         written += write_plots(doc, args.plot)
     if args.json:
         sys.stdout.write(formats.to_json(doc))
@@ -274,9 +316,17 @@ def _write_text(path: str, text: str) -> str:
     return path
 
 
-COMMANDS = {"analyze": cmd_analyze, "decode": cmd_decode, "reference": cmd_reference, "check": cmd_check,
-            "gen": cmd_gen, "sim": cmd_sim, "rows": cmd_rows, "monitor": cmd_monitor,
-            "cmd": cmd_cmd}
+COMMANDS = {
+    "analyze": cmd_analyze,
+    "decode": cmd_decode,
+    "reference": cmd_reference,
+    "check": cmd_check,
+    "gen": cmd_gen,
+    "sim": cmd_sim,
+    "rows": cmd_rows,
+    "monitor": cmd_monitor,
+    "cmd": cmd_cmd,
+}
 
 
 class _ClosedStream:
@@ -293,10 +343,13 @@ class _ClosedStream:
 
 def main(argv: Optional[list[str]] = None) -> int:
     handlers = dict(COMMANDS)
+
     def more(sub: Any) -> None:
         handlers.update(add_subcommands(sub))  # sweep, thermal
         from .dynamic import add_subcommands as add_dynamic
+
         handlers.update(add_dynamic(sub))  # dynamic
+
     parser = build_parser(more)
     args = parser.parse_args(argv)
     if args.command is None:
@@ -317,8 +370,12 @@ def main(argv: Optional[list[str]] = None) -> int:
     except KeyboardInterrupt:
         return 130
     except OSError as exc:  # stdout full, closed, or its reader gone: one line, exit 2
-        if not isinstance(exc, BrokenPipeError) and exc.errno not in (errno.EPIPE, errno.EBADF,
-                                                                       errno.ENOSPC, errno.EIO):
+        if not isinstance(exc, BrokenPipeError) and exc.errno not in (
+            errno.EPIPE,
+            errno.EBADF,
+            errno.ENOSPC,
+            errno.EIO,
+        ):
             raise
         _quiet_stdout()
         print(f"imu-allan {args.command}: cannot write stdout: {exc.strerror or exc}", file=sys.stderr)
@@ -329,6 +386,7 @@ def _draw_progress() -> None:
     """Long work shows its progress line on stderr (a terminal only)."""
     from .. import progress
     from ..render.progress import Progress
+
     progress.use(Progress)
 
 

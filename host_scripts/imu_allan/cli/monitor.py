@@ -1,5 +1,6 @@
 """``imu-allan monitor``: the loop that wires a port (device/link.py) to the
 live view (render/screen.py) and to the log file."""
+
 from __future__ import annotations
 
 import sys
@@ -9,8 +10,14 @@ from ..device.link import PortError
 from ..errors import InputError
 
 
-def run_monitor(port: str, baud: int, log_path: Optional[str], once: bool,
-                out: Optional[IO[str]] = None, err: Optional[IO[str]] = None) -> int:
+def run_monitor(
+    port: str,
+    baud: int,
+    log_path: Optional[str],
+    once: bool,
+    out: Optional[IO[str]] = None,
+    err: Optional[IO[str]] = None,
+) -> int:
     """The monitor: a full-screen view when ``out`` (stdout by default) is a
     terminal, taking commands typed on stdin when that is a terminal too;
     plain lines otherwise.  Returns the exit status (0, or 1 when the port
@@ -18,6 +25,7 @@ def run_monitor(port: str, baud: int, log_path: Optional[str], once: bool,
     from ..device.link import default_log_name, open_port
     from ..render.screen import Monitor, run_plain, run_screen
     from ..render.terminal import stdin_is_terminal
+
     out = out or sys.stdout
     err = err or sys.stderr
     log_path = log_path or default_log_name()
@@ -38,14 +46,15 @@ def run_monitor(port: str, baud: int, log_path: Optional[str], once: bool,
             out.write(mon.render())
     except PortError as exc:
         why = str(exc)
-        print(f"imu-allan monitor: {port}: " + (why if why.startswith("cannot write")
-                                                 else f"connection lost ({why})"), file=err)
+        print(
+            f"imu-allan monitor: {port}: " + (why if why.startswith("cannot write") else f"connection lost ({why})"),
+            file=err,
+        )
         status = 1
     except KeyboardInterrupt:
         pass
     finally:
         ser.close()
         log.close()
-    print(f"imu-allan monitor: {mon.reports} complete reports, {mon.stream_line()}; "
-          f"log {log_path}", file=err)
+    print(f"imu-allan monitor: {mon.reports} complete reports, {mon.stream_line()}; log {log_path}", file=err)
     return status

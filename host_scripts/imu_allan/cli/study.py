@@ -2,6 +2,7 @@
 (section 9: more sample rates, thermal models, the dependence of the terms
 on sample rate and temperature). ``add_subcommands`` registers them on the
 main parser and returns their handlers."""
+
 from __future__ import annotations
 
 import argparse
@@ -20,14 +21,14 @@ def default_sweep_dir(cwd: Optional[Path] = None) -> Path:
     other outputs go and git ignores them; ./imu-allan-sweep elsewhere."""
     here = (cwd or Path.cwd()).resolve()
     for d in (here, *here.parents):
-        if (d / "Makefile").is_file() and (d / "firmware" / "vocab.h").is_file() \
-                and (d / "host_scripts").is_dir():
+        if (d / "Makefile").is_file() and (d / "firmware" / "vocab.h").is_file() and (d / "host_scripts").is_dir():
             return d / "build" / SWEEP_DIR
     return here / SWEEP_DIR
 
 
 def _rates(text: str) -> list[float]:
     from ..channels import RATES_HZ
+
     try:
         out = [float(x) for x in text.replace(" ", "").split(",") if x]
     except ValueError:
@@ -36,8 +37,9 @@ def _rates(text: str) -> list[float]:
         raise argparse.ArgumentTypeError(f"rates must be positive numbers of Hz: {text!r}")
     other = [r for r in out if r not in RATES_HZ]
     if other:  # the device (and the firmware in the simulator) takes only its own rates
-        raise argparse.ArgumentTypeError(f"{other[0]:g} Hz is not a rate of the device "
-                                         f"({', '.join(map(str, RATES_HZ))} Hz)")
+        raise argparse.ArgumentTypeError(
+            f"{other[0]:g} Hz is not a rate of the device ({', '.join(map(str, RATES_HZ))} Hz)"
+        )
     if len(set(out)) < len(out):
         raise argparse.ArgumentTypeError(f"a rate given twice: {text!r}")
     return sorted(out)
@@ -60,7 +62,8 @@ def _temp_scale(text: str) -> tuple[float, float]:
     if not TEMP_SCALE_MIN <= scale <= TEMP_SCALE_MAX or not abs(offset) <= TEMP_OFFSET_MAX:
         raise argparse.ArgumentTypeError(
             f"C_PER_COUNT must be in {TEMP_SCALE_MIN:g} .. {TEMP_SCALE_MAX:g} and OFFSET_C within "
-            f"+-{TEMP_OFFSET_MAX:g}: {text!r}")
+            f"+-{TEMP_OFFSET_MAX:g}: {text!r}"
+        )
     return scale, offset
 
 
@@ -80,8 +83,10 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
 def _add_sweep(sub: Any) -> None:
     from ..channels import RATES_HZ
     from .args import _positive_int, _seconds
+
     p = sub.add_parser(
-        "sweep", help="on-device Allan results at several sample rates; terms against Fs",
+        "sweep",
+        help="on-device Allan results at several sample rates; terms against Fs",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Drive the device through each rate of --rates: 'rate', 'reset', sample\n"
@@ -97,40 +102,71 @@ def _add_sweep(sub: Any) -> None:
             "sampled at the instants the device's ADC samples at each rate, so noise\n"
             "above Fs/2 aliases as on the bench. --port drives a real board.\n\n"
             "Resumable: each finished rate is saved in DIR/sweep.json (-o/--dir); the\n"
-            "same command again continues with the rates still missing."),
-        epilog="exit status: 0 success, 2 usage or input error")
+            "same command again continues with the rates still missing."
+        ),
+        epilog="exit status: 0 success, 2 usage or input error",
+    )
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--port", metavar="PORT", help="serial port of the board")
     g.add_argument("--sim", action="store_true", help="the firmware in the simulator, fed by the sensor model")
     p.add_argument("--baud", type=_positive_int, default=115200, help="with --port (default 115200)")
     p.add_argument("--model", metavar="FILE", help="sensor model (JSON) for --sim (default: thesis-like)")
-    p.add_argument("--rates", type=_rates, required=True, metavar="LIST",
-                   help=f"rates in Hz, e.g. 100,250,1000 (the device offers {', '.join(map(str, RATES_HZ))})")
+    p.add_argument(
+        "--rates",
+        type=_rates,
+        required=True,
+        metavar="LIST",
+        help=f"rates in Hz, e.g. 100,250,1000 (the device offers {', '.join(map(str, RATES_HZ))})",
+    )
     p.add_argument("--seconds", type=_seconds, required=True, metavar="S", help="seconds of samples per rate")
-    p.add_argument("-o", "--dir", dest="dir", metavar="DIR",
-                   help=f"state and device logs (default: build/{SWEEP_DIR} of the imu-allan checkout "
-                        f"the command runs in, else ./{SWEEP_DIR})")
+    p.add_argument(
+        "-o",
+        "--dir",
+        dest="dir",
+        metavar="DIR",
+        help=f"state and device logs (default: build/{SWEEP_DIR} of the imu-allan checkout "
+        f"the command runs in, else ./{SWEEP_DIR})",
+    )
     p.add_argument("--restart", action="store_true", help="discard a saved sweep in DIR")
-    p.add_argument("--profile", choices=("counts", "thesis"), default="counts",
-                   help="units: counts (default) or thesis (m/s^2, deg/s)")
+    p.add_argument(
+        "--profile",
+        choices=("counts", "thesis"),
+        default="counts",
+        help="units: counts (default) or thesis (m/s^2, deg/s)",
+    )
     p.add_argument("--seed", type=_positive_int, default=1, metavar="S", help="--sim: random seed")
-    p.add_argument("--average", type=_positive_int, default=1, metavar="M",
-                   help="--sim: model a device that averages M ADC scans per sample (anti-alias)")
+    p.add_argument(
+        "--average",
+        type=_positive_int,
+        default=1,
+        metavar="M",
+        help="--sim: model a device that averages M ADC scans per sample (anti-alias)",
+    )
     p.add_argument("--firmware", metavar="ELF", help="--sim: firmware ELF")
     p.add_argument("--keep-rows", action="store_true", help="--sim: keep each rate's rows file in DIR")
-    p.add_argument("--fit-from", type=_seconds, metavar="TAU",
-                   help="fit the terms only at tau >= TAU seconds (e.g. above the sensors' low-pass "
-                        "time constants; default: the whole curve, as 'analyze')")
-    p.add_argument("--terms", type=_terms, metavar="LIST",
-                   help="terms allowed in the fit, e.g. N,B,K (the thesis' model; default Q,N,B,K,R)")
+    p.add_argument(
+        "--fit-from",
+        type=_seconds,
+        metavar="TAU",
+        help="fit the terms only at tau >= TAU seconds (e.g. above the sensors' low-pass "
+        "time constants; default: the whole curve, as 'analyze')",
+    )
+    p.add_argument(
+        "--terms",
+        type=_terms,
+        metavar="LIST",
+        help="terms allowed in the fit, e.g. N,B,K (the thesis' model; default Q,N,B,K,R)",
+    )
     p.add_argument("--json", action="store_true", help="print JSON: {rates, dependence, ...}")
     p.add_argument("--plot", metavar="DIR", help="write terms-vs-fs.png to DIR")
 
 
 def _add_thermal(sub: Any) -> None:
     from .args import _fs, _positive_int
+
     p = sub.add_parser(
-        "thermal", help="bias against temperature; noise terms before and after removing it",
+        "thermal",
+        help="bias against temperature; noise terms before and after removing it",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Read a raw-rows capture (thesis rows with the temperature column, or a\n"
@@ -142,19 +178,38 @@ def _add_thermal(sub: Any) -> None:
             "the thesis' noise model, with its FIT%.\n\n"
             "The temperature column is in ADC codes unless --temp-scale gives degC\n"
             "per count and the offset in degC (the thesis does not name its sensor;\n"
-            "an LM35 on the 3.3 V 10-bit ADC would be 0.3223,0)."),
-        epilog="exit status: 0 success, 2 usage or input error")
+            "an LM35 on the 3.3 V 10-bit ADC would be 0.3223,0)."
+        ),
+        epilog="exit status: 0 success, 2 usage or input error",
+    )
     p.add_argument("file", metavar="FILE", help="rows file or raw capture with the temperature column")
     p.add_argument("--fs", type=_fs, metavar="HZ", help="sample rate (required for a rows file)")
-    p.add_argument("--temp-scale", type=_temp_scale, metavar="C_PER_COUNT,OFFSET_C",
-                   help="temperature channel scale (default: codes)")
-    p.add_argument("--profile", choices=("counts", "thesis"), default="counts",
-                   help="units: counts (default) or thesis (m/s^2, deg/s)")
-    p.add_argument("--segments", type=_positive_int, default=3, metavar="K",
-                   help="N and B in K consecutive segments against their temperature (default 3; 1: off)")
-    p.add_argument("--outliers", choices=("replace", "keep"), default="replace",
-                   help="spikes and bursts: replace (default; before the regression and the terms) "
-                        "or keep (counted only); see imu-allan analyze --help")
+    p.add_argument(
+        "--temp-scale",
+        type=_temp_scale,
+        metavar="C_PER_COUNT,OFFSET_C",
+        help="temperature channel scale (default: codes)",
+    )
+    p.add_argument(
+        "--profile",
+        choices=("counts", "thesis"),
+        default="counts",
+        help="units: counts (default) or thesis (m/s^2, deg/s)",
+    )
+    p.add_argument(
+        "--segments",
+        type=_positive_int,
+        default=3,
+        metavar="K",
+        help="N and B in K consecutive segments against their temperature (default 3; 1: off)",
+    )
+    p.add_argument(
+        "--outliers",
+        choices=("replace", "keep"),
+        default="replace",
+        help="spikes and bursts: replace (default; before the regression and the terms) "
+        "or keep (counted only); see imu-allan analyze --help",
+    )
     p.add_argument("--json", action="store_true", help="print JSON: {channels: {gx: {tempco, ...}}}")
     p.add_argument("--plot", metavar="DIR", help="write thermal.png to DIR")
 
@@ -162,25 +217,44 @@ def _add_thermal(sub: Any) -> None:
 def cmd_sweep(args: argparse.Namespace) -> int:
     from ..analysis import sweep
     from ..errors import InputError
+
     if args.port and (args.model or args.average != 1 or args.keep_rows):
         raise InputError("--model, --average and --keep-rows go with --sim")
     model = None
     if args.sim:
         model = _load_model(args.model).doc
-    cfg = sweep.SweepConfig(source="sim" if args.sim else f"port:{args.port}", rates=args.rates,
-                            seconds=args.seconds, profile=args.profile, model=model, seed=args.seed,
-                            average=args.average, fit_from=args.fit_from, terms=args.terms)
+    cfg = sweep.SweepConfig(
+        source="sim" if args.sim else f"port:{args.port}",
+        rates=args.rates,
+        seconds=args.seconds,
+        profile=args.profile,
+        model=model,
+        seed=args.seed,
+        average=args.average,
+        fit_from=args.fit_from,
+        terms=args.terms,
+    )
     sw = sweep.open_sweep(cfg, args.dir or str(default_sweep_dir()), restart=args.restart)
-    measure = (sweep.sim_measure(sw, args.firmware, args.keep_rows) if args.sim
-               else sweep.port_measure(sw, args.port, args.baud))
+    measure = (
+        sweep.sim_measure(sw, args.firmware, args.keep_rows)
+        if args.sim
+        else sweep.port_measure(sw, args.port, args.baud)
+    )
     sweep.run(sw, measure, sweep.say_stderr)
     return _emit("sweep", sweep.document(sw), sweep, args)
 
 
 def cmd_thermal(args: argparse.Namespace) -> int:
     from ..analysis import thermal
-    doc = thermal.study(args.file, fs=args.fs, temp_scale=args.temp_scale, profile=args.profile,
-                        segments=max(args.segments, 1), outliers_mode=args.outliers)
+
+    doc = thermal.study(
+        args.file,
+        fs=args.fs,
+        temp_scale=args.temp_scale,
+        profile=args.profile,
+        segments=max(args.segments, 1),
+        outliers_mode=args.outliers,
+    )
     return _emit("thermal", doc, thermal, args)
 
 
@@ -188,6 +262,7 @@ def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespa
     """The plot (--plot DIR) and the document as text or JSON (--json)."""
     if args.plot:
         from ..render import plots
+
         path = getattr(plots, f"{command}_plot")(doc, args.plot)
         print(f"imu-allan {command}: wrote {path}", file=sys.stderr)
     sys.stdout.write(json.dumps(doc, indent=1) + "\n" if args.json else module.text(doc))
@@ -199,17 +274,18 @@ def _load_model(path: Any) -> Any:
     section that is not an object) refused in one line like its other errors."""
     from ..errors import InputError
     from ..noise.sensor import load_model
+
     try:
         return load_model(path)
     except (UnicodeDecodeError, AttributeError, TypeError) as exc:
-        raise InputError(f"'{path}': not a sensor model (a JSON object of objects: "
-                         f"{type(exc).__name__})") from None
+        raise InputError(f"'{path}': not a sensor model (a JSON object of objects: {type(exc).__name__})") from None
 
 
 def write_model_rows(path: str, model: Any, fs: float, n: int, seed: int = 1) -> None:
     """A rows file (thesis format) of the sensor model's board sampled at fs."""
     from ..noise.sensor import Board, rows_header
     from ..sources.rows import write_rows
+
     write_rows(path, rows_header(fs, n, seed), Board(model, fs, n, seed=seed).blocks())
 
 
@@ -217,6 +293,7 @@ def gen_from_model(args: argparse.Namespace) -> int:
     """``imu-allan gen --model FILE``: rows of the continuous sensor model (sensor.py)."""
     from ..errors import InputError
     from ..noise.gen import PARAMS
+
     given = [f"--{p.replace('_', '-')}" for p in PARAMS if getattr(args, p, None) is not None]
     if args.kind != "noise" or args.json_params:
         given.append("--kind" if args.kind != "noise" else "--json-params")
@@ -234,6 +311,7 @@ def sim_from_model(args: argparse.Namespace) -> int:
 
     from ..device.simrun import run, sim_command
     from ..errors import InputError
+
     if args.adc and args.model:
         raise InputError("--adc and --model: give one")
     if not args.model:
@@ -243,7 +321,8 @@ def sim_from_model(args: argparse.Namespace) -> int:
     os.close(fd)
     try:
         write_model_rows(rows, _load_model(args.model), fs, int(round(args.seconds * fs)))
-        return run(sim_command(rows, args.output, fs=f"{fs:g}", uart_in=args.uart_in,
-                               firmware=args.firmware, stats=args.stats))
+        return run(
+            sim_command(rows, args.output, fs=f"{fs:g}", uart_in=args.uart_in, firmware=args.firmware, stats=args.stats)
+        )
     finally:
         os.unlink(rows)

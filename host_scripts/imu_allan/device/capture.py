@@ -7,6 +7,7 @@ reads, ``monitor`` feeds a port); ``read_capture`` and ``decode_stream`` keep
 everything (``analyze``: the samples stay in memory, 14 bytes per sample set,
 so the file is read once whatever the statistics need).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -47,7 +48,8 @@ def collect(chunks: Iterable[Chunk], dec: StreamDecoder) -> Capture:
         reports=[r for ch in parts for r in ch.reports],
         replies=[r for ch in parts for r in ch.replies],
         boots=[bt for ch in parts for bt in ch.boots],
-        counts=dict(dec.counts))
+        counts=dict(dec.counts),
+    )
 
 
 def decode_stream(data: bytes, line_start: bool = False) -> Capture:
@@ -56,8 +58,7 @@ def decode_stream(data: bytes, line_start: bool = False) -> Capture:
     return collect(decode_chunks([data], dec), dec)
 
 
-def read_capture(path: PathLike, first: Optional[bytes] = None,
-                 rest: Optional[Iterable[bytes]] = None) -> Capture:
+def read_capture(path: PathLike, first: Optional[bytes] = None, rest: Optional[Iterable[bytes]] = None) -> Capture:
     """Decode the file ``path`` in one pass.  A caller that already read the
     first block (to look at it) passes it as ``first`` and the iterator of the
     remaining blocks as ``rest``, so that nothing is read twice."""

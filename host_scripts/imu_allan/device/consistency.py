@@ -30,6 +30,7 @@ host can check, for free:
 
 ``problem(report, ...)`` returns the first failure as one line, or None.
 """
+
 from __future__ import annotations
 
 import math
@@ -90,8 +91,10 @@ def _rows_vs_n(rep: "DeviceReport", moving: bool) -> Optional[str]:
         if r.pairs < least:
             return f"{_where(r)}: pairs {r.pairs} < floor(n/m) - 1 = {least} (n={n})"
         if (r.pairs + 1) * r.m > most and r.pairs:
-            return (f"{_where(r)}: pairs {r.pairs} cover {(r.pairs + 1) * r.m} samples, more than "
-                    f"n={n} plus {REPORT_SECONDS_MAX} s of samples ({most})")
+            return (
+                f"{_where(r)}: pairs {r.pairs} cover {(r.pairs + 1) * r.m} samples, more than "
+                f"n={n} plus {REPORT_SECONDS_MAX} s of samples ({most})"
+            )
         if not moving and r.pairs != least:
             return f"{_where(r)}: pairs {r.pairs} in a stopped run of n={n} (expected {least})"
     return None
@@ -102,8 +105,10 @@ def _rows_vs_rows(rep: "DeviceReport") -> Optional[str]:
     for r in rep.rows:
         high = (r.pairs + 2) * r.m if r.pairs else 2 * r.m
         if low >= high:
-            return (f"{_where(r)}: pairs {r.pairs} means fewer than {high} samples, but "
-                    f"{_where(low_at)} was sent earlier with at least {low}")
+            return (
+                f"{_where(r)}: pairs {r.pairs} means fewer than {high} samples, but "
+                f"{_where(low_at)} was sent earlier with at least {low}"
+            )
         if r.pairs and (r.pairs + 1) * r.m > low:
             low, low_at = (r.pairs + 1) * r.m, r
     return None

@@ -1,5 +1,6 @@
 """The one way bytes are read from a file or stdin (``-``): in blocks, with a
 read error turned into one line naming the file."""
+
 from __future__ import annotations
 
 import gzip

@@ -9,6 +9,7 @@ This module only knows bytes and lines, not records: it cuts a byte stream
 into the bodies of intact lines and counts everything it had to throw away
 (records.py parses the bodies, stream.py mixes lines, raw rows and frames).
 """
+
 from __future__ import annotations
 
 import re
@@ -175,7 +176,7 @@ class LineSplitter:
         """The bodies of the intact lines that ended in ``data``."""
         bodies: list[str] = []
         for at in range(0, len(data), SPLIT_BYTES):
-            bodies += self._step(data[at:at + SPLIT_BYTES])
+            bodies += self._step(data[at : at + SPLIT_BYTES])
         return bodies
 
     def finish(self) -> list[str]:
@@ -218,7 +219,7 @@ class LineSplitter:
         bodies: list[str] = []
         found = dollar_lines(buf, b, ls[has], nl[has], d, err)
         for at in range(0, len(found), _CHECK_BATCH):
-            batch = found[at:at + _CHECK_BATCH]
+            batch = found[at : at + _CHECK_BATCH]
             crcs = crc16_many([body for _, body, _ in batch]).tolist()
             for (_, body, sent), got in zip(batch, crcs):
                 if sent == got:
@@ -243,8 +244,9 @@ class LineSplitter:
         err[last] += 1
 
 
-def dollar_lines(buf: bytes, b: np.ndarray, starts: np.ndarray, stops: np.ndarray,
-                 dollars: np.ndarray, errors: dict[str, int]) -> list[tuple[int, bytes, int]]:
+def dollar_lines(
+    buf: bytes, b: np.ndarray, starts: np.ndarray, stops: np.ndarray, dollars: np.ndarray, errors: dict[str, int]
+) -> list[tuple[int, bytes, int]]:
     """The one cutter of ``$`` lines (``LineSplitter`` and the stream decoder use
     it): of the lines [starts, stops) of ``buf`` (``b`` its bytes; stops: the
     line's end, before CR LF), each holding a ``$`` (``dollars``: every ``$`` of

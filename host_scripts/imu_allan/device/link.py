@@ -7,6 +7,7 @@ be in flight at once: everything goes through ``stream.StreamDecoder``).
 pyserial is imported only here.  The live view over a port is
 render/screen.py; the ``monitor`` and ``cmd`` commands wire them (cli/).
 """
+
 from __future__ import annotations
 
 import errno as _errno
@@ -40,8 +41,9 @@ def open_port(port: str, baud: int, timeout: float = READ_TIMEOUT) -> Any:
     except (serial.SerialException, OSError, ValueError) as exc:
         errno = getattr(exc, "errno", None)
         if errno in (_errno.EAGAIN, _errno.EWOULDBLOCK, _errno.EBUSY):
-            raise InputError(f"port busy: '{port}' is open in another program "
-                             "(imu-allan monitor, a terminal?); close it first") from None
+            raise InputError(
+                f"port busy: '{port}' is open in another program (imu-allan monitor, a terminal?); close it first"
+            ) from None
         why = os.strerror(errno) if isinstance(errno, int) else str(exc)
         raise InputError(f"cannot open port '{port}': {why}") from None
 
@@ -74,6 +76,7 @@ def send_command(ser: Any, line: bytes, timeout: float) -> Optional[str]:
     once.  A multi-line reply (``ok help ...``) is returned whole, its lines
     joined by newlines."""
     import serial  # type: ignore[import-untyped]
+
     dec = StreamDecoder()
     resent = False
     try:
@@ -147,8 +150,9 @@ class PortReader:
         if self._empty == 0:
             self._empty_since = now
         self._empty += 1
-        if not os.path.exists(self.port) or (self._empty >= self.LOST_EMPTY_READS
-                                              and now - self._empty_since >= self.LOST_AFTER_S):
+        if not os.path.exists(self.port) or (
+            self._empty >= self.LOST_EMPTY_READS and now - self._empty_since >= self.LOST_AFTER_S
+        ):
             raise PortError("the device hung up")
         if self._empty > 20:
             time.sleep(0.01)  # a hang-up makes select return at once: do not spin

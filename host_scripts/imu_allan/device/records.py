@@ -13,6 +13,7 @@ Records are typed: ``DeviceHeader`` (an H record), ``Boot`` (a B record),
 ``LRow`` (an L row) and ``DeviceReport`` (one whole report: header and rows).
 ``DeviceHeader.as_dict()`` is the ``header`` object of ``decode --json``.
 """
+
 from __future__ import annotations
 
 import re
@@ -21,9 +22,9 @@ from typing import Any, Iterable, Optional
 
 from ..channels import CHANNELS, FS_LIMITS_HZ
 from .consistency import problem
-from .termcheck import sig3_problem, summary_terms_problems, term_problems
-from .summary import TERM_ROWS
 from .framing import LINE_ERRORS, MODBUS_INIT, LineSplitter, crc16_modbus
+from .summary import TERM_ROWS
+from .termcheck import sig3_problem, summary_terms_problems, term_problems
 
 PROTO = 1
 """The sample rates the device accepts (`rate <hz>`, docs/protocol.md)."""
@@ -32,9 +33,17 @@ FLAG_RANGE = 0x02
 ACC_MAX = (1 << 48) - 1
 """Saturation value of an accumulator (the SAT flag)."""
 
-ERROR_KEYS = LINE_ERRORS + ("unparsable", "unknown_records", "orphan_lines", "incomplete_reports",
-                            "inconsistent_reports", "missing_reports", "report_check_failed",
-                            "inconsistent_lines", "seq_backwards")
+ERROR_KEYS = LINE_ERRORS + (
+    "unparsable",
+    "unknown_records",
+    "orphan_lines",
+    "incomplete_reports",
+    "inconsistent_reports",
+    "missing_reports",
+    "report_check_failed",
+    "inconsistent_lines",
+    "seq_backwards",
+)
 """Keys of ``DecodeResult.errors`` (all always present).  ``report_check_failed``: a
 whole report refused by its ``V`` check line (a missing, repeated or malformed ``V``
 from a firmware that sends them, an ``id`` other than the header's, or a CRC that
@@ -84,6 +93,7 @@ class LRow:
 @dataclass(frozen=True)
 class Boot:
     """A B record: the device (re)started."""
+
     version: Optional[int]
     fw: Optional[str]
     mcu: Optional[str]
@@ -94,6 +104,7 @@ class Boot:
 class DeviceHeader:
     """An H record. Field names and order are the keys of ``decode --json``'s
     ``header`` (docs/protocol.md); None where the device did not send the key."""
+
     version: int
     fw: Optional[str]
     mcu: Optional[str]
@@ -124,6 +135,7 @@ class DeviceTerm:
     the octave level it used and the value as printed (3 significant digits),
     N in count*sqrt(s), B in counts; level and value None when the device had
     no level to take it from (``-``)."""
+
     level: Optional[int]
     value: Optional[float]
 
@@ -131,6 +143,7 @@ class DeviceTerm:
 @dataclass(frozen=True)
 class DeviceTerms:
     """A T record: ``T,<seq>,<ch>,<level N>,<N>,<level B>,<B>``."""
+
     channel: str
     N: DeviceTerm
     B: DeviceTerm
@@ -141,6 +154,7 @@ class DeviceReport:
     """One whole report of the device: its header and every L row, in channel
     then level order; the noise terms of its T records by channel (firmware
     that sends them)."""
+
     seq: int
     header: DeviceHeader
     rows: list[LRow] = field(default_factory=list)
@@ -220,13 +234,33 @@ def _reset(text: str) -> list[str]:
 
 def parse_boot(items: list[str]) -> Boot:
     kv = _pairs(items)
-    return Boot(version=_uint(kv["proto"], "proto") if "proto" in kv else None,
-                fw=kv.get("fw"), mcu=kv.get("mcu"),
-                reset_cause=_reset(kv["reset"]) if "reset" in kv else None)
+    return Boot(
+        version=_uint(kv["proto"], "proto") if "proto" in kv else None,
+        fw=kv.get("fw"),
+        mcu=kv.get("mcu"),
+        reset_cause=_reset(kv["reset"]) if "reset" in kv else None,
+    )
 
 
-_HEADER_KEYS = {"proto", "fw", "mcu", "fcpu", "baud", "fs", "levels", "acc48", "n", "drops",
-                "clips", "temp", "run", "mode", "range", "cfg", "reset"}
+_HEADER_KEYS = {
+    "proto",
+    "fw",
+    "mcu",
+    "fcpu",
+    "baud",
+    "fs",
+    "levels",
+    "acc48",
+    "n",
+    "drops",
+    "clips",
+    "temp",
+    "run",
+    "mode",
+    "range",
+    "cfg",
+    "reset",
+}
 
 
 def parse_header(seq: int, items: list[str]) -> DeviceHeader:
@@ -257,20 +291,37 @@ def parse_header(seq: int, items: list[str]) -> DeviceHeader:
         parts = kv["temp"].split(":")
         if len(parts) != 3:
             raise BodyError(f"temp: {kv['temp']!r}")
-        temp = {"mean": float(_number(parts[0], "temp")), "min": _uint(parts[1], "temp"),
-                "max": _uint(parts[2], "temp")}
+        temp = {
+            "mean": float(_number(parts[0], "temp")),
+            "min": _uint(parts[1], "temp"),
+            "max": _uint(parts[2], "temp"),
+        }
     running = None
     if "run" in kv:
         if kv["run"] not in ("0", "1"):
             raise BodyError(f"run: {kv['run']!r}")
         running = kv["run"] == "1"
     return DeviceHeader(
-        version=version, fw=kv.get("fw"), mcu=kv.get("mcu"), fcpu_hz=opt_uint("fcpu"),
-        baud=opt_uint("baud"), fs_hz=fs, levels=levels, acc48_from=opt_uint("acc48"),
-        n=_uint(kv["n"], "n", _COUNT_MAX), drops=opt_uint("drops"), clips=clips, temp=temp, running=running,
-        mode=kv.get("mode"), range_g=kv.get("range"), cfg=kv.get("cfg"),
-        reset_cause=_reset(kv["reset"]) if "reset" in kv else None, seq=seq,
-        extra={k: v for k, v in kv.items() if k not in _HEADER_KEYS})
+        version=version,
+        fw=kv.get("fw"),
+        mcu=kv.get("mcu"),
+        fcpu_hz=opt_uint("fcpu"),
+        baud=opt_uint("baud"),
+        fs_hz=fs,
+        levels=levels,
+        acc48_from=opt_uint("acc48"),
+        n=_uint(kv["n"], "n", _COUNT_MAX),
+        drops=opt_uint("drops"),
+        clips=clips,
+        temp=temp,
+        running=running,
+        mode=kv.get("mode"),
+        range_g=kv.get("range"),
+        cfg=kv.get("cfg"),
+        reset_cause=_reset(kv["reset"]) if "reset" in kv else None,
+        seq=seq,
+        extra={k: v for k, v in kv.items() if k not in _HEADER_KEYS},
+    )
 
 
 def parse_row(fields: list[str]) -> LRow:
@@ -385,10 +436,10 @@ class Assembler:
         self.refused: list[str] = []
         """Why each report that arrived whole was refused (consistency.py), in order."""
         self._open: Optional[DeviceReport] = None
-        self._summary: list[str] = []   # the open report's S lines
-        self._moving = False            # a reply came inside the open report
-        self._bound = MODBUS_INIT       # CRC-16/MODBUS of the open report's H and L bodies
-        self._check: list[str] = []     # the open report's V line(s), after V,<seq>,
+        self._summary: list[str] = []  # the open report's S lines
+        self._moving = False  # a reply came inside the open report
+        self._bound = MODBUS_INIT  # CRC-16/MODBUS of the open report's H and L bodies
+        self._check: list[str] = []  # the open report's V line(s), after V,<seq>,
         self._last_seq: Optional[int] = None  # of the last H/L/S/E seen since boot
         self._doubled: set[str] = set()  # channels of the open report with two T lines
         self.warnings: list[str] = []
@@ -494,8 +545,7 @@ class Assembler:
         cover them."""
         refused = []
         for ch in sorted(rep.terms, key=CHANNELS.index):
-            bad = (["two T lines"] if ch in self._doubled
-                   else term_problems(rep, rep.terms[ch], moving)[0])
+            bad = ["two T lines"] if ch in self._doubled else term_problems(rep, rep.terms[ch], moving)[0]
             if bad:
                 del rep.terms[ch]
                 refused.append(f"T line of {ch} ({'; '.join(bad)})")
@@ -503,7 +553,7 @@ class Assembler:
         bad = summary_terms_problems(rep, summary, moving)[0]
         if bad:  # the caption and the rows under it
             at = next(i for i, t in enumerate(summary) if t.startswith("N at "))
-            summary = summary[:at] + summary[at + 1 + len(TERM_ROWS):]
+            summary = summary[:at] + summary[at + 1 + len(TERM_ROWS) :]
             refused.append(f"summary's terms rows ({'; '.join(bad)})")
         rep.summary = summary
         for why in refused:
@@ -525,9 +575,11 @@ class Assembler:
                 self.errors["missing_reports"] += gap
             elif header and seq != last and (last - seq) % (_SEQ_MAX + 1) < (_SEQ_MAX + 1) // 2:
                 self.errors["seq_backwards"] += 1
-                self.warnings.append(f"report seq {seq} comes after seq {last} without a boot line: "
-                                     "an older report replayed, or a reset whose boot line was "
-                                     "lost (the reports are in file order)")
+                self.warnings.append(
+                    f"report seq {seq} comes after seq {last} without a boot line: "
+                    "an older report replayed, or a reset whose boot line was "
+                    "lost (the reports are in file order)"
+                )
         self._last_seq = seq
 
 
@@ -577,13 +629,11 @@ def check_problem(header: DeviceHeader, checks: list[str], bound: int) -> Option
     if run != m.group(1):
         return f"V says id={m.group(1)}, the header id={run}: rows of two runs"
     if int(m.group(2), 16) != bound:
-        return (f"V crc={m.group(2)}, the H and L bodies received give {bound:04X}: "
-                "a row changed or from another report")
+        return f"V crc={m.group(2)}, the H and L bodies received give {bound:04X}: a row changed or from another report"
     return None
 
 
 def _complete(rep: DeviceReport, count: int) -> bool:
     levels = rep.header.levels
     keys = {(r.channel, r.level) for r in rep.rows}
-    return (count == len(rep.rows) == len(keys) == len(CHANNELS) * levels
-            and all(r.level < levels for r in rep.rows))
+    return count == len(rep.rows) == len(keys) == len(CHANNELS) * levels and all(r.level < levels for r in rep.rows)

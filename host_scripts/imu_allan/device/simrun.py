@@ -5,6 +5,7 @@ The harness (built by ``make sim``) takes
 This module only finds the binaries and passes the options through; it
 builds nothing.
 """
+
 from __future__ import annotations
 
 import os
@@ -40,8 +41,14 @@ def find_sim() -> Path:
     raise InputError(f"simulator harness not found: {DEFAULT_SIM} (run 'make sim')")
 
 
-def sim_command(adc: str, output: str, fs: Optional[str] = None, uart_in: Optional[str] = None,
-                firmware: Optional[str] = None, stats: Union[bool, str, None] = None) -> list[str]:
+def sim_command(
+    adc: str,
+    output: str,
+    fs: Optional[str] = None,
+    uart_in: Optional[str] = None,
+    firmware: Optional[str] = None,
+    stats: Union[bool, str, None] = None,
+) -> list[str]:
     """The imu-sim command line (checks the inputs exist)."""
     elf = Path(firmware) if firmware else DEFAULT_ELF
     if not elf.is_file():
@@ -64,14 +71,16 @@ def sim_command(adc: str, output: str, fs: Optional[str] = None, uart_in: Option
     return cmd
 
 
-def run(cmd: list[str], adc: Optional[str] = None, fs: Union[str, float, None] = None,
-        stream: Optional[TextIO] = None) -> int:
+def run(
+    cmd: list[str], adc: Optional[str] = None, fs: Union[str, float, None] = None, stream: Optional[TextIO] = None
+) -> int:
     """Run the harness, streams passed through; its exit code (128+N on signal N).
 
     On a terminal (``stream``, stderr by default) a progress line shows how
     far imu-sim has read the ``adc`` rows file: simulated seconds (with ``fs``
     or the rate a ``gen`` header names), speed and time left."""
     from ..progress import Progress
+
     stream = stream if stream is not None else sys.stderr
     try:
         proc = subprocess.Popen(cmd)
@@ -148,10 +157,10 @@ class _AdcWatch:
         done = frac * self.rows
         if self.fs:
             sim, total = done / self.fs, self.rows / self.fs
-            return (f"{sim:,.0f} of {total:,.0f} s simulated ({frac:.0%}), "
-                    f"{sim / wall:,.1f}x real time, {left:,.0f} s left")
-        return (f"row {done:,.0f} of {self.rows:,} ({frac:.0%}), {done / wall:,.0f} rows/s, "
-                f"{left:,.0f} s left")
+            return (
+                f"{sim:,.0f} of {total:,.0f} s simulated ({frac:.0%}), {sim / wall:,.1f}x real time, {left:,.0f} s left"
+            )
+        return f"row {done:,.0f} of {self.rows:,} ({frac:.0%}), {done / wall:,.0f} rows/s, {left:,.0f} s left"
 
 
 def _count_rows(path: str) -> tuple[int, int]:
@@ -161,7 +170,7 @@ def _count_rows(path: str) -> tuple[int, int]:
     last = b"\n"
     with open(path, "rb") as f:
         first = f.read(1 << 16)
-        while head < len(first) and first[head:head + 1] == b"#":
+        while head < len(first) and first[head : head + 1] == b"#":
             head = first.find(b"\n", head) + 1 or len(first)
         f.seek(0)
         for block in iter(lambda: f.read(1 << 22), b""):

@@ -71,6 +71,7 @@ Resync rules, in the order they apply:
 Records (reports, replies, boots) go through ``decode.Assembler``, with the
 same error counts as ``decode_bytes``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -78,10 +79,30 @@ from typing import Optional
 
 import numpy as np
 
-from .framing import (CODE_MAX, FRAME_BYTES, FRAME_CODES, SYNC, cr_line_ends, dollar_lines,
-                      crc16_many, crc16_modbus, frame_bytes, frame_codes, frame_crc_ok)
-from .records import (ERROR_KEYS, Assembler, BodyError, Boot, DeviceReport, parse_count,
-                      parse_count_block, resets_run, restarts_output)
+from .framing import (
+    CODE_MAX,
+    FRAME_BYTES,
+    FRAME_CODES,
+    SYNC,
+    cr_line_ends,
+    crc16_many,
+    crc16_modbus,
+    dollar_lines,
+    frame_bytes,
+    frame_codes,
+    frame_crc_ok,
+)
+from .records import (
+    ERROR_KEYS,
+    Assembler,
+    BodyError,
+    Boot,
+    DeviceReport,
+    parse_count,
+    parse_count_block,
+    resets_run,
+    restarts_output,
+)
 
 NCOL = FRAME_CODES  # ax ay az gx gy gz temp
 MAX_CARRY = 4096
@@ -91,10 +112,23 @@ MAX_WAITING_FRAMES = 64
 firmware cuts a line into steps of at most 20 bytes); beyond, the line is
 given up as malformed."""
 
-STREAM_KEYS = ("rows", "bad_rows", "count_lines", "rows_lost", "count_unchecked",
-               "frames", "bad_frames", "frames_lost", "device_drops",
-               "blocks_verified", "blocks_bad", "rows_in_bad_blocks", "rows_unverified",
-               "count_lines_nocrc", "rows_dropped")
+STREAM_KEYS = (
+    "rows",
+    "bad_rows",
+    "count_lines",
+    "rows_lost",
+    "count_unchecked",
+    "frames",
+    "bad_frames",
+    "frames_lost",
+    "device_drops",
+    "blocks_verified",
+    "blocks_bad",
+    "rows_in_bad_blocks",
+    "rows_unverified",
+    "count_lines_nocrc",
+    "rows_dropped",
+)
 """Counters of raw rows and binary frames; ``counts`` also holds ``ERROR_KEYS``."""
 
 LOSS_KEYS = ("bad_rows", "rows_lost", "bad_frames", "frames_lost", "device_drops", "blocks_bad")
@@ -114,8 +148,10 @@ held some 60 bytes of them per byte)."""
 
 def _joined(parts: list["Chunk"]) -> "Chunk":
     """The chunks of consecutive steps as one."""
-    out = Chunk(samples=np.concatenate([p.samples for p in parts], axis=1),
-                from_frame=np.concatenate([p.from_frame for p in parts]))
+    out = Chunk(
+        samples=np.concatenate([p.samples for p in parts], axis=1),
+        from_frame=np.concatenate([p.from_frame for p in parts]),
+    )
     for p in parts:
         out.reports += p.reports
         out.replies += p.replies
@@ -179,24 +215,24 @@ def _text(chunk: bytes) -> int:
     return len(chunk) - chunk.count(b"\r") - chunk.count(b"\n")
 
 
-def _row_bytes(res: bytes, ls: np.ndarray, lf: np.ndarray, rows_at: np.ndarray,
-               lone: np.ndarray) -> list[bytes]:
+def _row_bytes(res: bytes, ls: np.ndarray, lf: np.ndarray, rows_at: np.ndarray, lone: np.ndarray) -> list[bytes]:
     """Each raw row's bytes for its block CRC, as received from its first digit
     through its LF; a row ended by a CR alone is taken with the CR LF the
     device sent."""
     if lone.size == 0:
-        return [res[int(ls[i]): int(lf[i]) + 1] for i in rows_at.tolist()]
+        return [res[int(ls[i]) : int(lf[i]) + 1] for i in rows_at.tolist()]
     ends = set(lone.tolist())
-    return [res[int(ls[i]): int(lf[i])] + b"\r\n" if int(lf[i]) in ends else res[int(ls[i]): int(lf[i]) + 1]
-            for i in rows_at.tolist()]
+    return [
+        res[int(ls[i]) : int(lf[i])] + b"\r\n" if int(lf[i]) in ends else res[int(ls[i]) : int(lf[i]) + 1]
+        for i in rows_at.tolist()
+    ]
 
 
 ECHO = 0x3E
 """'>': the device's echo of a typed command line starts with "> " (docs/protocol.md)."""
 
 
-def _rows(b: np.ndarray, ls: np.ndarray, le: np.ndarray, cand: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray, int]:
+def _rows(b: np.ndarray, ls: np.ndarray, le: np.ndarray, cand: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """Raw rows among whole lines [ls, le) (le: index of the LF) of ``b``.
 
     ``cand``: the lines that may be rows (whole, without '$').  Returns the
@@ -251,25 +287,25 @@ class StreamDecoder:
     def __init__(self, line_start: bool = False, verified_only: bool = False) -> None:
         self.counts: dict[str, int] = dict.fromkeys(STREAM_KEYS + ERROR_KEYS, 0)
         self._asm = Assembler(self.counts)
-        self._pending = b""          # raw bytes from the first undecided 0xA5
-        self._carry = b""            # text after the last LF, waiting for its end
+        self._pending = b""  # raw bytes from the first undecided 0xA5
+        self._carry = b""  # text after the last LF, waiting for its end
         self._carry_line_start = line_start
         self._dpos = np.zeros(0, dtype=np.int64)  # frames waiting behind the carry
         self._dseq = np.zeros(0, dtype=np.int64)
         self._dcodes = np.zeros((NCOL, 0), dtype=np.uint16)
         self._dbytes: list[bytes] = []
         self._verified_only = verified_only
-        self._crc_seen = False       # a count line with a block CRC came
-        self._held_from = 0          # global index of the first held sample
+        self._crc_seen = False  # a count line with a block CRC came
+        self._held_from = 0  # global index of the first held sample
         self._held_bytes: list[bytes] = []  # each held sample's bytes, as received
         self._held = np.zeros((NCOL, 0), dtype=np.uint16)
         self._held_frame = np.zeros(0, dtype=bool)
         self._marker: Optional[int] = None  # sample index of the last restart marker
-        self._samples = 0            # samples returned so far
+        self._samples = 0  # samples returned so far
         self._count_base: Optional[tuple[int, int]] = None  # (count, samples then)
         self._count_restart = False
-        self._drops_before = 0       # device drops of the runs before this one (count lines)
-        self._run_drops = 0          # this run's, from its last count line
+        self._drops_before = 0  # device drops of the runs before this one (count lines)
+        self._run_drops = 0  # this run's, from its last count line
         self._last_seq: Optional[int] = None
         self._frame_restart = False
         self._done = False
@@ -290,8 +326,10 @@ class StreamDecoder:
         data = bytes(data)
         if len(data) <= FEED_BYTES:
             return self._process(self._pending + data, final=False)
-        parts = [self._process(self._pending + data[at:at + FEED_BYTES], final=False)
-                 for at in range(0, len(data), FEED_BYTES)]
+        parts = [
+            self._process(self._pending + data[at : at + FEED_BYTES], final=False)
+            for at in range(0, len(data), FEED_BYTES)
+        ]
         return _joined(parts)
 
     def finish(self) -> Chunk:
@@ -355,19 +393,22 @@ class StreamDecoder:
 
         bodies: list[tuple[int, str]] = []
         if found:
-            crcs = [v for at in range(0, len(found), _CRC_BATCH)
-                    for v in crc16_many([body for _, body, _ in found[at:at + _CRC_BATCH]]).tolist()]
-            bodies = [(key, body.decode("ascii")) for (key, body, sent), got in zip(found, crcs)
-                      if sent == got]
+            crcs = [
+                v
+                for at in range(0, len(found), _CRC_BATCH)
+                for v in crc16_many([body for _, body, _ in found[at : at + _CRC_BATCH]]).tolist()
+            ]
+            bodies = [(key, body.decode("ascii")) for (key, body, sent), got in zip(found, crcs) if sent == got]
             c["bad_crc"] += len(found) - len(bodies)
 
         # samples in stream order
         fkey = 2 * fpos
         keys = np.concatenate((rkey, fkey))
         order = np.argsort(keys, kind="stable")
-        out = Chunk(samples=np.concatenate((rows, fcodes), axis=1)[:, order],
-                    from_frame=np.concatenate((np.zeros(rows_at.size, dtype=bool),
-                                               np.ones(fpos.size, dtype=bool)))[order])
+        out = Chunk(
+            samples=np.concatenate((rows, fcodes), axis=1)[:, order],
+            from_frame=np.concatenate((np.zeros(rows_at.size, dtype=bool), np.ones(fpos.size, dtype=bool)))[order],
+        )
         skeys = keys[order]
         self._hold(_row_bytes(res, ls, lf, rows_at, lone) + fbytes, order, out)
         self._frame_gaps(fkey, fseq, [k for k, body in bodies if restarts_output(body)])
@@ -384,8 +425,7 @@ class StreamDecoder:
         self._held = np.concatenate((self._held, out.samples), axis=1)
         self._held_frame = np.concatenate((self._held_frame, out.from_frame))
 
-    def _release(self, final: bool, released: list[tuple[np.ndarray, np.ndarray]],
-                 out: Chunk) -> None:
+    def _release(self, final: bool, released: list[tuple[np.ndarray, np.ndarray]], out: Chunk) -> None:
         """Give up what waits too long (or everything, at the end); with
         ``verified_only`` the chunk's samples become the released ones."""
         limit = self._samples - HOLD_MAX
@@ -394,13 +434,14 @@ class StreamDecoder:
         elif self._held_from < limit:
             self._settle(limit, limit, released)
         if self._verified_only:
-            out.samples = (np.concatenate([s for s, _ in released], axis=1) if released
-                           else np.zeros((NCOL, 0), dtype=np.uint16))
-            out.from_frame = (np.concatenate([f for _, f in released]) if released
-                              else np.zeros(0, dtype=bool))
+            out.samples = (
+                np.concatenate([s for s, _ in released], axis=1) if released else np.zeros((NCOL, 0), dtype=np.uint16)
+            )
+            out.from_frame = np.concatenate([f for _, f in released]) if released else np.zeros(0, dtype=bool)
 
-    def _settle(self, start: int, end: int, released: list[tuple[np.ndarray, np.ndarray]],
-                verdict: Optional[bool] = None) -> None:
+    def _settle(
+        self, start: int, end: int, released: list[tuple[np.ndarray, np.ndarray]], verdict: Optional[bool] = None
+    ) -> None:
         """Let go of the held samples before ``end``: those before ``start``
         no block CRC vouched for, those in [start, end) verified (``verdict``
         True), bad (False) or unverified (None)."""
@@ -426,8 +467,9 @@ class StreamDecoder:
         self._held = self._held[:, b:]
         self._held_frame = self._held_frame[b:]
 
-    def _count_block(self, here: int, value: int, block: Optional[int],
-                     released: list[tuple[np.ndarray, np.ndarray]]) -> None:
+    def _count_block(
+        self, here: int, value: int, block: Optional[int], released: list[tuple[np.ndarray, np.ndarray]]
+    ) -> None:
         """A count line after ``here`` samples: verify the block it closes."""
         c = self.counts
         if block is None:
@@ -443,8 +485,11 @@ class StreamDecoder:
         if not tries:
             tries.append((max(here - value, self._held_from), value))  # the capture's first block
         for start, sent in tries:
-            if start >= self._held_from and here - start == sent and crc16_modbus(
-                    b"".join(self._held_bytes[start - self._held_from: here - self._held_from])) == block:
+            if (
+                start >= self._held_from
+                and here - start == sent
+                and crc16_modbus(b"".join(self._held_bytes[start - self._held_from : here - self._held_from])) == block
+            ):
                 c["blocks_verified"] += 1
                 self._settle(start, here, released, True)
                 return
@@ -456,8 +501,7 @@ class StreamDecoder:
         c["rows_in_bad_blocks"] += here - max(start, self._held_from)
         self._settle(max(start, self._held_from), here, released, False)
 
-    def _cut_frames(self, buf: bytes, final: bool
-                    ) -> tuple[bytes, np.ndarray, np.ndarray, np.ndarray, list[bytes]]:
+    def _cut_frames(self, buf: bytes, final: bool) -> tuple[bytes, np.ndarray, np.ndarray, np.ndarray, list[bytes]]:
         """Take the intact binary frames out of ``buf`` (rule 1): the text left
         (behind the carried text), and the frames (those waiting from the last
         step first): their positions in that text, sequence numbers and codes."""
@@ -504,8 +548,9 @@ class StreamDecoder:
         elif not ended and dollars:
             c["malformed"] += 1  # a line that never ended
 
-    def _dollar_lines(self, res: bytes, r: np.ndarray, starts: np.ndarray, ends: np.ndarray,
-                      dollars: np.ndarray) -> list[tuple[int, bytes, int]]:
+    def _dollar_lines(
+        self, res: bytes, r: np.ndarray, starts: np.ndarray, ends: np.ndarray, dollars: np.ndarray
+    ) -> list[tuple[int, bytes, int]]:
         """The whole lines [starts, ends) (ends: their LF) that hold a '$':
         garbage before the first '$' counted here, the rest cut by framing's
         one line cutter (``dollar_lines``): candidates (key, body, sent CRC)."""
@@ -529,8 +574,13 @@ class StreamDecoder:
         self._last_seq = int(fseq[-1])
         self._frame_restart = len(marks) > int(m[-1])
 
-    def _records(self, bodies: list[tuple[int, str]], skeys: np.ndarray, out: Chunk,
-                 released: list[tuple[np.ndarray, np.ndarray]]) -> None:
+    def _records(
+        self,
+        bodies: list[tuple[int, str]],
+        skeys: np.ndarray,
+        out: Chunk,
+        released: list[tuple[np.ndarray, np.ndarray]],
+    ) -> None:
         asm, c = self._asm, self.counts
         n_rep, n_rpl, n_boot = len(asm.reports), len(asm.replies), len(asm.boots)
         for key, body in bodies:

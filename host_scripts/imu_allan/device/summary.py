@@ -17,6 +17,7 @@ B           mg / deg/h                       count
 B = min sigma / 0.664 (IEEE 952's flicker floor); sqrt(s) to sqrt(h) is 60.
 A header without ``units`` (firmware before the setting) printed counts.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -62,6 +63,7 @@ def scales(header: Any) -> dict[str, Scale]:
 class SummaryTerms:
     """The terms part of a summary: N's tau and +-% (caption) and, per channel,
     the N, B, B's +-% and B's tau cells as printed."""
+
     n_tau: float
     n_pct: float
     rows: dict[str, dict[str, float]]
@@ -75,7 +77,7 @@ def parse_terms(summary: list[str]) -> Optional[SummaryTerms]:
             head = text[5:].split(":")[0]  # "1.28 s +-3.27%"
             tau, _, pct = head.partition(" s +-")
             rows: dict[str, dict[str, float]] = {ch: {} for ch in CHANNELS}
-            for name, line in zip(TERM_ROWS, summary[i + 1:i + 1 + len(TERM_ROWS)]):
+            for name, line in zip(TERM_ROWS, summary[i + 1 : i + 1 + len(TERM_ROWS)]):
                 cells = line.split()
                 if len(cells) != 1 + len(CHANNELS) or cells[0] != name:
                     raise ValueError(f"summary terms row {line.strip()!r}: expected {name} and 6 values")
@@ -88,5 +90,4 @@ def parse_terms(summary: list[str]) -> Optional[SummaryTerms]:
 def is_text_line(text: str) -> bool:
     """The title, the column heading, the caption and the terms rows (not a level's row)."""
     cells = text.split()
-    return (not cells or text.startswith("Allan deviation ") or text.startswith("N at ")
-            or cells[0] in TERM_ROWS)
+    return not cells or text.startswith("Allan deviation ") or text.startswith("N at ") or cells[0] in TERM_ROWS

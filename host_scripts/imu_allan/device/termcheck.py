@@ -18,6 +18,7 @@ line is guarded by its own line CRC alone, which lets one corrupted line in
   level as the rows give them, within the printed precision (half a unit of
   the third digit, plus the device's fixed-point error ``TERM_REL``).
 """
+
 from __future__ import annotations
 
 import math
@@ -26,7 +27,8 @@ from typing import Any, Optional
 
 from ..channels import CHANNELS
 from .consistency import REPORT_SECONDS_MAX, SUMMARY_MIN_PAIRS, SUMMARY_TOLERANCE
-from .summary import B_FACTOR, TERM_ROWS, parse_terms as parse_summary_terms, scales
+from .summary import B_FACTOR, TERM_ROWS, scales
+from .summary import parse_terms as parse_summary_terms
 
 DeviceReport = DeviceTerms = Any  # records.py's classes (it imports this module)
 
@@ -138,8 +140,9 @@ def term_problems(report: DeviceReport, term: DeviceTerms, moving: bool) -> tupl
             bad.append(f"{where}: level {got.level}, beyond the report's {h.levels} levels")
             continue
         if got.level not in may:
-            bad.append(f"{where}: level {got.level}, whose row has {rows[got.level].pairs} pairs "
-                       f"(the term needs {need})")
+            bad.append(
+                f"{where}: level {got.level}, whose row has {rows[got.level].pairs} pairs (the term needs {need})"
+            )
             continue
         if name == "N" and got.level not in _allowed_n_levels(report, ch, moving):
             bad.append(f"{where}: device used level {got.level}, expected {want['N'][0] if want['N'] else '-'}")
@@ -147,15 +150,17 @@ def term_problems(report: DeviceReport, term: DeviceTerms, moving: bool) -> tupl
         row = rows[got.level]
         if not row.pairs:
             continue  # reached while the report was sent: nothing to compare yet
-        value = (math.sqrt(row.avar * row.m / fs) if name == "N" else math.sqrt(row.avar) / B_FACTOR)
+        value = math.sqrt(row.avar * row.m / fs) if name == "N" else math.sqrt(row.avar) / B_FACTOR
         if name == "B" and not moving and want["B"] is not None and got.level != want["B"][0]:
             # a near tie of the minimum may fall either way in fixed point
             if abs(value - want["B"][1]) > TERM_REL * want["B"][1]:
                 bad.append(f"{where}: device used level {got.level}, expected {want['B'][0]}")
                 continue
         if not _close_enough(got.value, value, row, moving):
-            bad.append(f"{where}: device {got.value:g}, recomputed {value:.6g} "
-                       f"({'beyond the printed precision' if not moving else 'too far apart'})")
+            bad.append(
+                f"{where}: device {got.value:g}, recomputed {value:.6g} "
+                f"({'beyond the printed precision' if not moving else 'too far apart'})"
+            )
         elif not moving:
             agreed += 1
     return bad, agreed
@@ -167,7 +172,7 @@ def summary_terms_problems(report: DeviceReport, summary: list[str], moving: boo
     head = next((i for i, text in enumerate(summary) if text.startswith("N at ")), None)
     if head is None:
         return [], 0
-    form = _summary_form(summary[head:head + 1 + len(TERM_ROWS)])
+    form = _summary_form(summary[head : head + 1 + len(TERM_ROWS)])
     if form:
         return [f"summary: {form}"], 0
     try:
@@ -183,6 +188,7 @@ def summary_terms_problems(report: DeviceReport, summary: list[str], moving: boo
 
     def level_of(tau: float) -> Optional[int]:
         return next((k for k in range(h.levels) if abs(tau - (1 << k) / fs) <= printed_tol((1 << k) / fs)), None)
+
     n_level = level_of(got.n_tau)
     if n_level is None:
         return [f"summary: N at {got.n_tau:g} s is not a tau of this report"], 0
@@ -204,17 +210,22 @@ def summary_terms_problems(report: DeviceReport, summary: list[str], moving: boo
             continue
         nrow, brow = rows[n_level], rows[b_level]
         want = expected_terms(report, ch)
-        if not moving and want["B"] is not None and b_level != want["B"][0] and abs(
-                math.sqrt(brow.avar) / B_FACTOR - want["B"][1]) > TERM_REL * want["B"][1]:
-            bad.append(f"{ch} B: summary at tau {cells['tau_s']:g} s, the rows give "
-                       f"{(1 << want['B'][0]) / fs:.4g} s")
+        if (
+            not moving
+            and want["B"] is not None
+            and b_level != want["B"][0]
+            and abs(math.sqrt(brow.avar) / B_FACTOR - want["B"][1]) > TERM_REL * want["B"][1]
+        ):
+            bad.append(f"{ch} B: summary at tau {cells['tau_s']:g} s, the rows give {(1 << want['B'][0]) / fs:.4g} s")
             continue
         checks = []
         if nrow.pairs:
             checks.append(("N", cells["N"], math.sqrt(nrow.avar * nrow.m / fs) * units[ch].N, nrow))
         if brow.pairs:
-            checks += [("B", cells["B"], math.sqrt(brow.avar) * units[ch].B, brow),
-                       ("B +-%", cells["+-%"], 100 / math.sqrt(2 * brow.pairs), brow)]
+            checks += [
+                ("B", cells["B"], math.sqrt(brow.avar) * units[ch].B, brow),
+                ("B +-%", cells["+-%"], 100 / math.sqrt(2 * brow.pairs), brow),
+            ]
         for name, shown, value, row in checks:
             if not _close_enough(shown, value, row, moving):
                 bad.append(f"{ch} {name}: summary shows {shown:g}, recomputed {value:.6g}")

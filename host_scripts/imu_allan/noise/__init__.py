@@ -7,6 +7,7 @@ words.py) and the continuous sensor model (sensor.py).
 The processes are loaded on first use (PEP 562), so that the CLI parser can read
 words.py without importing numpy.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -17,5 +18,6 @@ __all__ = ["AR1", "GM", "LP", "QN", "RW", "WN", "Flicker", "Model", "Process", "
 def __getattr__(name: str) -> Any:
     if name in __all__:
         from . import processes
+
         return getattr(processes, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -33,6 +33,7 @@ costs less than 3.84 is dropped.  Intervals (95 %): from the covariance of
 all parameters (Jacobian of the whitened residuals), chi-squared shaped for
 the c (never below 0), log-normal for fc and T.
 """
+
 from __future__ import annotations
 
 import math
@@ -44,9 +45,9 @@ from numpy.typing import ArrayLike
 from scipy import optimize, stats
 
 from ..stats.edf import alpha_from_slope
-from .terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic, usable_points
 from .processes import AR1, LP, QN, RW, WN, Model, Ramp, Sine
-from .reading import to_model, _compare, _linear_term, _unexplained, slope_reading
+from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
+from .terms import B_FACTOR, CHI2_1_95, TERMS, EdfFn, FitResult, Term, _nnls, _thin, b_classic, usable_points
 
 MAX_GM = 2
 SINE = False
@@ -65,10 +66,10 @@ LINEAR = ("Q", "N", "B", "K", "R")
 
 @dataclass
 class Structure:
-    linear: tuple[str, ...] = LINEAR     # which IEEE 952 columns are free
-    lp: int = 0                          # 0: white N; 1 or 2: N low-passed (order)
+    linear: tuple[str, ...] = LINEAR  # which IEEE 952 columns are free
+    lp: int = 0  # 0: white N; 1 or 2: N low-passed (order)
     ngm: int = 0
-    sine: int = 0                        # 1: a sinusoid (amplitude, frequency)
+    sine: int = 0  # 1: a sinusoid (amplitude, frequency)
 
     def names(self) -> list[str]:
         return list(self.linear) + [f"GM{j + 1}" for j in range(self.ngm)] + ["SIN"] * self.sine
@@ -106,6 +107,7 @@ class CurveFit(FitResult):
     """FitResult of the whole-curve fit: ``terms`` holds Q N B K R and, when
     fitted, LP (fc, order) and GM1, GM2 (tau_c); ``fitted`` the catalogue
     model; ``slope`` the IEEE 952 slope reading beside it."""
+
     fs: float = 1.0
     fitted: Model = field(default_factory=Model)
     structure: Structure = field(default_factory=Structure)
@@ -137,9 +139,18 @@ class _Gls:
     statistical part correlated between octaves (terms.RHO), the model error
     (``floor``, relative sd of AVAR) independent from point to point."""
 
-    def __init__(self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray,
-                 kind: str, floor: float = 0.0, robust: Optional[np.ndarray] = None) -> None:
+    def __init__(
+        self,
+        t: np.ndarray,
+        ref: np.ndarray,
+        e: np.ndarray,
+        alpha: np.ndarray,
+        kind: str,
+        floor: float = 0.0,
+        robust: Optional[np.ndarray] = None,
+    ) -> None:
         from .terms import RHO, _cholesky
+
         sd = ref * np.sqrt(2.0 / e)
         rho = RHO[kind]
         lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
@@ -160,8 +171,7 @@ class _Gls:
 class _Problem:
     """The points of one curve and their covariance model."""
 
-    def __init__(self, t: np.ndarray, y: np.ndarray, fs: float, edf_of, kind: str,
-                 floor: float = 0.0) -> None:
+    def __init__(self, t: np.ndarray, y: np.ndarray, fs: float, edf_of, kind: str, floor: float = 0.0) -> None:
         self.t, self.y, self.fs, self.m = t, y, fs, t * fs
         self.edf_of, self.kind = edf_of, kind
         self.floor = floor
@@ -214,6 +224,7 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
 
     def f(th: np.ndarray) -> float:
         return p.solve(s, _clip(s, th, bnds))[1]
+
     if new is not None:
         lo, hi = bnds[new]
         best = (math.inf, theta[new])
@@ -226,13 +237,17 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
     if theta.size == 1:
         lo, hi = bnds[0]
         step = (hi - lo) / 16
-        r = optimize.minimize_scalar(lambda x: f(np.array([x])), bounds=(max(lo, theta[0] - step),
-                                     min(hi, theta[0] + step)), method="bounded",
-                                     options={"xatol": 1e-3})
+        r = optimize.minimize_scalar(
+            lambda x: f(np.array([x])),
+            bounds=(max(lo, theta[0] - step), min(hi, theta[0] + step)),
+            method="bounded",
+            options={"xatol": 1e-3},
+        )
         theta = np.array([r.x]) if r.fun <= f(theta) else theta
     else:
-        r = optimize.minimize(f, theta, method="Nelder-Mead",
-                              options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": 30 * theta.size})
+        r = optimize.minimize(
+            f, theta, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": 30 * theta.size}
+        )
         if r.fun <= f(theta):
             theta = np.asarray(r.x)
     theta = _clip(s, theta, bnds)
@@ -247,12 +262,13 @@ GM_LP_FACTOR = 10.0
 def _clip(s: Structure, th: np.ndarray, bnds: list[tuple[float, float]]) -> np.ndarray:
     th = np.clip(th, [b[0] for b in bnds], [b[1] for b in bnds])
     if s.lp and s.ngm:
-        th[1:1 + s.ngm] = np.maximum(th[1:1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
+        th[1 : 1 + s.ngm] = np.maximum(th[1 : 1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
     return th
 
 
-def _fit_structure(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int],
-                   rounds: int = 2) -> tuple[np.ndarray, np.ndarray, float]:
+def _fit_structure(
+    p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int], rounds: int = 2
+) -> tuple[np.ndarray, np.ndarray, float]:
     """(theta, c, chi2) of a structure, the weights iterated with its model."""
     theta = theta0
     for _ in range(rounds):
@@ -280,9 +296,16 @@ def _test(gain: float, chi2_big: float, dof_big: int, params: int) -> bool:
     return gain >= q * max(1.0, chi2_big / max(dof_big, 1))
 
 
-def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float] = None,
-              mask: Optional[np.ndarray] = None, overlapping: bool = True,
-              allowed: tuple[str, ...] = TERMS, extended: bool = True) -> CurveFit:
+def fit_curve(
+    tau: ArrayLike,
+    avar: ArrayLike,
+    edf_fn: EdfFn,
+    fs: Optional[float] = None,
+    mask: Optional[np.ndarray] = None,
+    overlapping: bool = True,
+    allowed: tuple[str, ...] = TERMS,
+    extended: bool = True,
+) -> CurveFit:
     """Fit the catalogue to the curve (tau s, avar u^2) at the sample rate fs.
 
     ``edf_fn(alphas)`` gives each point's EDF (edf.edf_function); ``mask`` the
@@ -301,9 +324,18 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     kind = "overlapping" if overlapping else "nonoverlapping"
     if idx.size < 2:
         terms = {k: Term(k, None, None, None, None, 0.0, math.inf, "no data") for k in TERMS}
-        return CurveFit(terms, np.zeros(5), np.zeros((5, 5)), math.nan, fitted, np.zeros(tau.size, np.int64),
-                        np.full(tau.size, np.nan), None, ["fewer than 2 usable points: nothing to fit"],
-                        fs=fs)
+        return CurveFit(
+            terms,
+            np.zeros(5),
+            np.zeros((5, 5)),
+            math.nan,
+            fitted,
+            np.zeros(tau.size, np.int64),
+            np.full(tau.size, np.nan),
+            None,
+            ["fewer than 2 usable points: nothing to fit"],
+            fs=fs,
+        )
     t, y = tau[idx], avar[idx]
 
     def edf_of(alpha: np.ndarray) -> np.ndarray:
@@ -315,24 +347,27 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     lin = tuple(k for k in LINEAR if k in allowed)
     notes: list[str] = []
 
-    def select(sub: np.ndarray, floor: float, robust: bool = False,
-               sine: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
+    def select(
+        sub: np.ndarray, floor: float, robust: bool = False, sine: bool = False
+    ) -> tuple[_Problem, Structure, np.ndarray]:
         def edf_sub(alpha: np.ndarray) -> np.ndarray:
             a = np.zeros(t.size, dtype=np.int64)
             a[sub] = alpha
             return edf_of(a)[sub]
+
         p = _Problem(t[sub], y[sub], fs, edf_sub, kind, floor)
         p.robust_on, p.sine_on = robust, sine or SINE
         s, theta, c, chi2 = _stepwise(p, Structure(lin), np.zeros(0))
         if extended and "N" in lin and sub.size >= 4:
             s, theta, c, chi2 = _extend(p, s, theta, c, chi2, lin)
         return p, s, theta
+
     keep = np.arange(t.size)
     p, s, theta = select(keep, 0.0)
     c, chi2, _ = p.solve(s, theta)
     floor = _set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
     if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
-        c, _, A = p.solve(s, theta)   # a sinusoid only where the curve shows an oscillation's hump
+        c, _, A = p.solve(s, theta)  # a sinusoid only where the curve shows an oscillation's hump
         osc = any(r["kind"] == "oscillation" for r in _unexplained(p, A @ c, p.e))
         s1, th1 = s, theta
         p, s, theta = select(keep, floor, robust=True, sine=osc)
@@ -347,8 +382,9 @@ def fit_curve(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, fs: Optional[float
     return res
 
 
-def _stepwise(p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...] = ()
-              ) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+def _stepwise(
+    p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...] = ()
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
     """Drop the linear terms the others can do without (chi2 gain < 3.84, F test)."""
     theta, c, chi2 = _fit_structure(p, s, theta, None)
     while True:
@@ -374,8 +410,9 @@ def _stepwise(p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...
         theta, c, chi2 = _fit_structure(p, s, theta, None, rounds=1)
 
 
-def _extend(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float,
-            lin: tuple[str, ...]) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+def _extend(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float, lin: tuple[str, ...]
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
     """Band limit, then Gauss-Markov processes, each kept only when the data need it."""
     # every allowed term again (a misfit short end may have pushed some out), but Q:
     # a quantization's rise and a filter's bend would only trade against each other
@@ -389,7 +426,7 @@ def _extend(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: f
     dof = max(p.t.size - int(np.sum(c2 > 0)) - 1, 1)
     if c2[s2.names().index("N")] > 0 and _test(chi2 - chi2b, chi2b, dof, 1):
         s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
-    for j in range(MAX_GM):
+    for _j in range(MAX_GM):
         s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1)
         if p.t.size - (len(s2.linear) + s2.ngm + len(s2.nonlinear())) < 2:
             break
@@ -406,8 +443,9 @@ def _extend(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: f
     return s, theta, c, chi2
 
 
-def _try_sine(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
-              ) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+def _try_sine(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
     """A sinusoid, kept when it lowers chi2 by the 95 % point of chi2(2) and is a fifth
     of the model somewhere."""
     if not s.sine and p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 2) >= 2:
@@ -459,6 +497,7 @@ def _set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof:
         p.floor = f
         p.set_reference(mod)
         return float(np.sum((p.yw - p.gls.white(A) @ c) ** 2)) / dof
+
     if red(0.0) <= 1.0:
         return 0.0
     top = 2.0 * MODEL_ERR
@@ -475,8 +514,9 @@ def _set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof:
     return hi
 
 
-def _covariance(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw: np.ndarray,
-                inflate: float) -> tuple[np.ndarray, np.ndarray]:
+def _covariance(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw: np.ndarray, inflate: float
+) -> tuple[np.ndarray, np.ndarray]:
     """sd of every c and every log fc / log T: the inverse of J'J, J the Jacobian of the
     whitened residuals (active c analytically, fc and T numerically), widened by ``inflate``."""
     act = np.flatnonzero(c > 0)
@@ -491,33 +531,57 @@ def _covariance(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw:
     scale[scale == 0] = 1.0
     cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
     sd_c = np.zeros(c.size)
-    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[:act.size], 0.0))
-    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size:], 0.0))
+    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[: act.size], 0.0))
+    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size :], 0.0))
     return sd_c, sd_th
 
 
-def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar: np.ndarray,
-            used: np.ndarray, fitted: np.ndarray, idx: np.ndarray, notes: list[str]) -> CurveFit:
+def _result(
+    p: _Problem,
+    s: Structure,
+    theta: np.ndarray,
+    tau: np.ndarray,
+    avar: np.ndarray,
+    used: np.ndarray,
+    fitted: np.ndarray,
+    idx: np.ndarray,
+    notes: list[str],
+) -> CurveFit:
     c, chi2, A = p.solve(s, theta)
     names = s.names()
     dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
     floor = _set_floor(p, s, theta, c, dof)
     if floor > 0:
         c, chi2, A = p.solve(s, theta)
-        notes.append(f"model error granted to the processes: {floor / 2 * 100:.2g} % of the deviation "
-                     f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)")
+        notes.append(
+            f"model error granted to the processes: {floor / 2 * 100:.2g} % of the deviation "
+            f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)"
+        )
     gm_alive = [j for j in range(s.ngm) if c[names.index(f"GM{j + 1}")] > 0]
     chi2_red = chi2 / dof
     inflate = max(1.0, chi2_red)
     if chi2_red > 2.0:
-        notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
-                     "widened accordingly")
+        notes.append(
+            f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
+        )
     Aw = p.gls.white(A)
     sd_c, sd_th = _covariance(p, s, theta, c, Aw, inflate)
     fitted_model = to_model(s, theta, c)
     grid = np.exp(np.linspace(math.log(p.t[0]), math.log(p.t[-1]), 200))
-    res = CurveFit({}, np.zeros(5), np.zeros((5, 5)), chi2_red, fitted, np.zeros(tau.size, np.int64),
-                   np.full(tau.size, np.nan), None, notes, fs=p.fs, fitted=fitted_model, structure=s)
+    res = CurveFit(
+        {},
+        np.zeros(5),
+        np.zeros((5, 5)),
+        chi2_red,
+        fitted,
+        np.zeros(tau.size, np.int64),
+        np.full(tau.size, np.nan),
+        None,
+        notes,
+        fs=p.fs,
+        fitted=fitted_model,
+        structure=s,
+    )
     comps = res.components(grid)
     total = sum(comps.values()) if comps else np.zeros(grid.size)
     terms: dict[str, Term] = {}
@@ -527,19 +591,30 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar:
             terms[k] = _linear_term(k, c[j], sd_c[j], comps.get(k), total, grid)
         else:
             up = _upper(p, s, theta, c, k)
-            why = ("left out of the fit" if up is None else
-                   f"not in the data (the model does without it; at most {up:.3g})")
+            why = (
+                "left out of the fit"
+                if up is None
+                else f"not in the data (the model does without it; at most {up:.3g})"
+            )
             terms[k] = Term(k, None, None, None, None, 0.0, 0.0 if up is None else up, why)
     i_th = 0
     if s.lp:
         fc, sd = math.exp(theta[0]), sd_th[0]
         lo, hi = fc * math.exp(-Z95 * sd), min(fc * math.exp(Z95 * sd), 0.5 * p.fs)
         rng = (float(p.t[0]), float(min(p.t[-1], 4.0 / (2 * math.pi * fc))))
-        terms["LP"] = Term("LP", fc, lo, hi, rng, fc, hi,
-                           f"the white noise N reaches the samples through a {'one' if s.lp == 1 else 'two'}"
-                           f"-pole low-pass of {fc:.3g} Hz: the curve bends under N's line below about "
-                           f"{1 / (2 * math.pi * fc):.3g} s",
-                           extra={"fc": fc, "fc_low": lo, "fc_high": hi, "order": s.lp})
+        terms["LP"] = Term(
+            "LP",
+            fc,
+            lo,
+            hi,
+            rng,
+            fc,
+            hi,
+            f"the white noise N reaches the samples through a {'one' if s.lp == 1 else 'two'}"
+            f"-pole low-pass of {fc:.3g} Hz: the curve bends under N's line below about "
+            f"{1 / (2 * math.pi * fc):.3g} s",
+            extra={"fc": fc, "fc_low": lo, "fc_high": hi, "order": s.lp},
+        )
         i_th = 1
     for n_out, j in enumerate(gm_alive):
         name = f"GM{j + 1}"
@@ -551,7 +626,8 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar:
         if T > p.t[-1]:
             term.note = (term.note + "; " if term.note else "") + (
                 f"its correlation time {T:.3g} s is longer than the curve's last tau: over these taus it "
-                f"acts as a rate random walk K = {math.sqrt(c[k]) * math.sqrt(2.0 / T):.3g}")
+                f"acts as a rate random walk K = {math.sqrt(c[k]) * math.sqrt(2.0 / T):.3g}"
+            )
         terms[term.name] = term
     if s.sine and c[names.index("SIN")] > 0:
         k = names.index("SIN")
@@ -559,7 +635,8 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar:
         term = _linear_term("SIN", c[k], sd_c[k], comps.get("SIN"), total, grid)
         term.extra = {"f0_hz": f0, "f0_low": f0 * math.exp(-Z95 * sdf), "f0_high": f0 * math.exp(Z95 * sdf)}
         term.note = (term.note + "; " if term.note else "") + (
-            f"an oscillation of {f0:.3g} Hz (period {1 / f0:.3g} s), amplitude {math.sqrt(c[k]):.3g}")
+            f"an oscillation of {f0:.3g} Hz (period {1 / f0:.3g} s), amplitude {math.sqrt(c[k]):.3g}"
+        )
         terms["SIN"] = term
     res.terms = terms
     res.coef = np.array([c[names.index(k)] if k in names else 0.0 for k in TERMS])
@@ -571,7 +648,8 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, tau: np.ndarray, avar:
     res.unexplained = _unexplained(p, A @ c, e)
     off = p.robust > 1.0
     if off.any():
-        notes.append("points far off the model (more than 3 sd) counted as 3 sd: "
-                     + ", ".join(f"{v:.3g} s" for v in p.t[off]))
+        notes.append(
+            "points far off the model (more than 3 sd) counted as 3 sd: " + ", ".join(f"{v:.3g} s" for v in p.t[off])
+        )
     notes.extend(r["text"] for r in res.unexplained)
     return res

@@ -21,6 +21,7 @@ floor is 0.664 B. The processes are those of the one simulator, noise.py.
 Every (channel, noise source) draws from its own stream spawned from the seed,
 so a file depends only on the parameters, never on how it was cut in chunks.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -31,11 +32,11 @@ from typing import Iterator, Optional
 
 import numpy as np
 
+from ..channels import CODE_MAX, COLUMNS
 from ..errors import InputError
 from .streams import NoiseParams, NoiseProcess
-from ..channels import CODE_MAX, COLUMNS
-
 from .words import HELP, KINDS, PARAMS, PROFILES, UNITS  # noqa: F401  (their home: words.py)
+
 CHUNK = 1 << 17
 
 # The thesis board at rest (order ax ay az gx gy gz temp), of the order the
@@ -80,8 +81,13 @@ class GenParams:
 
     def command(self) -> str:
         """The ``imu-allan gen`` arguments that reproduce this file."""
-        parts = [f"-n {self.n}", f"--fs {self.fs_hz!r}", f"--seed {self.seed}",
-                 f"--kind {self.kind}", f"--profile {self.profile}"]
+        parts = [
+            f"-n {self.n}",
+            f"--fs {self.fs_hz!r}",
+            f"--seed {self.seed}",
+            f"--kind {self.kind}",
+            f"--profile {self.profile}",
+        ]
         for p in PARAMS:
             values = getattr(self, p)
             if p == "flicker" and not any(values.get(c, 0.0) for c in self.channels):
@@ -91,9 +97,14 @@ class GenParams:
         return "imu-allan gen " + " ".join(parts)
 
 
-def make_params(n: int = 100_000, fs_hz: float = 100.0, seed: int = 1, kind: str = "noise",
-                profile: str = "thesis", **overrides: Optional[str | float | dict[str, float]]
-                ) -> GenParams:
+def make_params(
+    n: int = 100_000,
+    fs_hz: float = 100.0,
+    seed: int = 1,
+    kind: str = "noise",
+    profile: str = "thesis",
+    **overrides: Optional[str | float | dict[str, float]],
+) -> GenParams:
     """Defaults of ``profile`` adjusted for ``kind``, then ``overrides``.
 
     An override is a number (every channel), a dict, or a spec string
@@ -126,14 +137,18 @@ def make_params(n: int = 100_000, fs_hz: float = 100.0, seed: int = 1, kind: str
             raise TypeError(f"unknown parameter {p}")
         if spec is None:
             continue
-        base[p].update(parse_spec(spec, p) if isinstance(spec, str)
-                       else spec if isinstance(spec, dict) else dict.fromkeys(COLUMNS, float(spec)))
+        base[p].update(
+            parse_spec(spec, p)
+            if isinstance(spec, str)
+            else spec
+            if isinstance(spec, dict)
+            else dict.fromkeys(COLUMNS, float(spec))
+        )
     for p in PARAMS:
         for c, v in base[p].items():
             if not math.isfinite(v) or (p != "drift" and p != "offset" and v < 0) or (p == "gm_tau" and v <= 0):
                 raise InputError(f"--{p.replace('_', '-')} {c}={v}: out of range")
-    return GenParams(n=n, fs_hz=float(fs_hz), seed=seed, kind=kind, profile=profile,
-                     boundary=boundary, **base)
+    return GenParams(n=n, fs_hz=float(fs_hz), seed=seed, kind=kind, profile=profile, boundary=boundary, **base)
 
 
 def parse_spec(spec: str, what: str = "value") -> dict[str, float]:
@@ -146,12 +161,12 @@ def parse_spec(spec: str, what: str = "value") -> dict[str, float]:
             ch, _, val = item.partition("=")
             ch = ch.strip()
             if ch not in COLUMNS:
-                raise InputError(f"--{what.replace('_', '-')}: unknown channel {ch!r} "
-                                 f"(channels: {' '.join(COLUMNS)})")
+                raise InputError(f"--{what.replace('_', '-')}: unknown channel {ch!r} (channels: {' '.join(COLUMNS)})")
             out[ch] = float(val)
     except ValueError:
-        raise InputError(f"--{what.replace('_', '-')} {spec!r}: expected a number or "
-                         "CH=NUMBER[,CH=NUMBER...]") from None
+        raise InputError(
+            f"--{what.replace('_', '-')} {spec!r}: expected a number or CH=NUMBER[,CH=NUMBER...]"
+        ) from None
     return out
 
 
@@ -162,13 +177,27 @@ def generate(p: GenParams, chunk: int = CHUNK) -> Iterator[np.ndarray]:
         return
     nch = len(p.channels)
     streams = [np.random.default_rng(s) for s in np.random.SeedSequence(p.seed).spawn(3 * nch)]
-    flicker_seeds = np.random.SeedSequence(p.seed).spawn(4 * nch)[3 * nch:]
+    flicker_seeds = np.random.SeedSequence(p.seed).spawn(4 * nch)[3 * nch :]
     offset = np.array([p.offset[c] for c in p.channels])
-    procs = [NoiseProcess(NoiseParams(white=p.white[ch], gm_sigma=p.gm_sigma[ch], gm_tau=p.gm_tau[ch],
-                                      rrw=p.rrw[ch], flicker=p.flicker[ch], ramp=p.drift[ch]),
-                          p.fs_hz, p.n, white_rng=streams[c], gm_rng=streams[nch + c],
-                          rrw_rng=streams[2 * nch + c], flicker_seed=flicker_seeds[c])
-             for c, ch in enumerate(p.channels)]
+    procs = [
+        NoiseProcess(
+            NoiseParams(
+                white=p.white[ch],
+                gm_sigma=p.gm_sigma[ch],
+                gm_tau=p.gm_tau[ch],
+                rrw=p.rrw[ch],
+                flicker=p.flicker[ch],
+                ramp=p.drift[ch],
+            ),
+            p.fs_hz,
+            p.n,
+            white_rng=streams[c],
+            gm_rng=streams[nch + c],
+            rrw_rng=streams[2 * nch + c],
+            flicker_seed=flicker_seeds[c],
+        )
+        for c, ch in enumerate(p.channels)
+    ]
     done = 0
     while done < p.n:
         c_len = min(chunk, p.n - done)

@@ -27,6 +27,7 @@ placed above every point. Three steps, each a published practice:
    these are bounds of the constrained fit (bounded least squares), and they
    cap every interval and every upper bound.
 """
+
 from __future__ import annotations
 
 import math
@@ -52,8 +53,9 @@ GM_PEAK = 1.89
 """ADEV of a first-order Gauss-Markov process of correlation time T peaks at tau = 1.89 T."""
 
 
-def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None,
-             overlapping: bool = True) -> FitResult:
+def identify(
+    tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None, overlapping: bool = True
+) -> FitResult:
     """The IEEE 952 terms of the curve (tau, avar), fitted where they explain it.
 
     Same arguments and result as terms.fit_terms; the result's
@@ -95,8 +97,9 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
     sig = {"B": flat} if flat else None
 
     def fit_at(floor: float) -> FitResult:
-        return fit_terms(tau, avar, edf_fn, mask=full_mask, overlapping=overlapping, floor=floor, caps=caps,
-                         signature=sig)
+        return fit_terms(
+            tau, avar, edf_fn, mask=full_mask, overlapping=overlapping, floor=floor, caps=caps, signature=sig
+        )
 
     floor = _floor(fit_at)
     fit = fit_at(floor)
@@ -106,8 +109,11 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
         if np.any(caps2 < caps * (1 - 1e-9)):
             caps = caps2
             fit = fit_at(floor)
-    fit.notes.insert(0, f"model error granted to the terms: {floor / 2 * 100:.2g} % of the deviation "
-                        f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)")
+    fit.notes.insert(
+        0,
+        f"model error granted to the terms: {floor / 2 * 100:.2g} % of the deviation "
+        f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)",
+    )
     hi = hi_m
     model = fit.model(t)
     fit.unexplained = _regions(t, y, model, keep)
@@ -115,19 +121,23 @@ def identify(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.n
         fit.notes.append(r["text"])
     for k, term in fit.terms.items():
         j = TERMS.index(k)
-        if (term.value is not None and term.high is not None and not term.note
-                and term.high >= math.sqrt(caps[j]) * (1 - 1e-9)):
+        if (
+            term.value is not None
+            and term.high is not None
+            and not term.note
+            and term.high >= math.sqrt(caps[j]) * (1 - 1e-9)
+        ):
             tj = float(t[~deficit][np.argmin(hi[~deficit] / A[~deficit, j])])
-            term.note = (f"its 95 % interval stops where its line meets the curve's upper 95 % limit "
-                         f"(at {tj:.3g} s)")
+            term.note = f"its 95 % interval stops where its line meets the curve's upper 95 % limit (at {tj:.3g} s)"
     e_full = np.full(tau.size, np.nan)
     e_full[idx] = e
     fit.b_classic = b_classic(tau, avar, usable, e_full)  # over the whole curve, not the kept points
     return fit
 
 
-def _trim(A: np.ndarray, y: np.ndarray, e: np.ndarray, band_lo: np.ndarray,
-          band_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _trim(
+    A: np.ndarray, y: np.ndarray, e: np.ndarray, band_lo: np.ndarray, band_hi: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The points the terms explain: drop the worst point outside its widened
     95 % band, one at a time, refitting each time; returns (keep, model)."""
     keep = np.ones(y.size, dtype=bool)
@@ -187,6 +197,7 @@ def _quick(A: np.ndarray, y: np.ndarray, e: np.ndarray, keep: np.ndarray, coef: 
     """Model AVAR at every point from a diagonal-weight NNLS on the kept points
     (model-based weights, three rounds): fast enough to redo per point set aside."""
     from .terms import _nnls
+
     ref = y.copy()
     c = np.zeros(A.shape[1])
     for _ in range(3):
@@ -219,38 +230,53 @@ def _regions(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) 
             low = float(np.nanmin(rr))
             if i == 0:
                 kind = "short-tau correlation"
-                text = (f"{where}: the curve lies below the terms (down to {low:.2f} of them): samples "
-                        "correlated at short tau, by the sensor's own low-pass filter or decimation")
+                text = (
+                    f"{where}: the curve lies below the terms (down to {low:.2f} of them): samples "
+                    "correlated at short tau, by the sensor's own low-pass filter or decimation"
+                )
             else:
                 kind = "dip"
-                text = (f"{where}: the curve dips below the terms (down to {low:.2f} of them): the "
-                        "null of an oscillation, or a filtered band")
+                text = (
+                    f"{where}: the curve dips below the terms (down to {low:.2f} of them): the "
+                    "null of an oscillation, or a filtered band"
+                )
             ratio = low
         else:
             p = i + int(np.nanargmax(rr))
             ratio = float(r[p])
             if p == n - 1:
                 kind = "rise"
-                text = (f"{where}: the curve rises above the terms at long tau (up to {ratio:.2f} times "
-                        "them): drift, temperature, or a slow Gauss-Markov process")
+                text = (
+                    f"{where}: the curve rises above the terms at long tau (up to {ratio:.2f} times "
+                    "them): drift, temperature, or a slow Gauss-Markov process"
+                )
             else:
                 # how the excess over the terms falls after its peak (ADEV slope)
                 ex0, ex1 = y[p] - model[p], y[p + 1] - model[p + 1]
-                fall = (0.5 * math.log(ex1 / ex0) / math.log(t[p + 1] / t[p]) if ex1 > 0
-                        else -math.inf)
+                fall = 0.5 * math.log(ex1 / ex0) / math.log(t[p + 1] / t[p]) if ex1 > 0 else -math.inf
                 if fall <= -0.75:
                     kind = "oscillation"
-                    text = (f"{where}: a hump up to {ratio:.2f} times the terms, peaking at {t[p]:.3g} s, "
-                            f"its excess falling {_slope(fall)}: an oscillation of period about "
-                            f"{t[p] / SINE_PEAK:.3g} s (a sinusoid's ADEV peaks at 0.371 T)")
+                    text = (
+                        f"{where}: a hump up to {ratio:.2f} times the terms, peaking at {t[p]:.3g} s, "
+                        f"its excess falling {_slope(fall)}: an oscillation of period about "
+                        f"{t[p] / SINE_PEAK:.3g} s (a sinusoid's ADEV peaks at 0.371 T)"
+                    )
                 else:
                     kind = "hump"
-                    text = (f"{where}: a hump up to {ratio:.2f} times the terms, peaking at {t[p]:.3g} s: "
-                            f"a Gauss-Markov process of correlation time about {t[p] / GM_PEAK:.3g} s "
-                            "(its ADEV peaks at 1.89 T)")
-        out.append({"tau_s": [span[0], span[1]], "kind": kind, "ratio": ratio,
-                    "text": f"not explained by the terms (outside the points' 95 % intervals widened by "
-                            f"{TOL * 100:g} %), left out of the fit: {text}"})
+                    text = (
+                        f"{where}: a hump up to {ratio:.2f} times the terms, peaking at {t[p]:.3g} s: "
+                        f"a Gauss-Markov process of correlation time about {t[p] / GM_PEAK:.3g} s "
+                        "(its ADEV peaks at 1.89 T)"
+                    )
+        out.append(
+            {
+                "tau_s": [span[0], span[1]],
+                "kind": kind,
+                "ratio": ratio,
+                "text": f"not explained by the terms (outside the points' 95 % intervals widened by "
+                f"{TOL * 100:g} %), left out of the fit: {text}",
+            }
+        )
         i = j + 1
     return out
 

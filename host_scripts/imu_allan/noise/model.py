@@ -35,6 +35,7 @@ What it measures depends on x:
     ``compare``/``goodnessOfFit``), which is unit-free: 100 % perfect, 0 % no
     better than a constant.
 """
+
 from __future__ import annotations
 
 import math
@@ -58,16 +59,22 @@ CHUNK = 1 << 17
 @dataclass
 class ModelParams:
     fs: float
-    white: float = 0.0       # sigma per sample, u
-    gm_sigma: float = 0.0    # u
-    gm_tau: float = 1.0      # s
-    rrw: float = 0.0         # u per step
-    quant: float = 0.0       # Q, u*s
-    ramp: float = 0.0        # R, u/s
+    white: float = 0.0  # sigma per sample, u
+    gm_sigma: float = 0.0  # u
+    gm_tau: float = 1.0  # s
+    rrw: float = 0.0  # u per step
+    quant: float = 0.0  # Q, u*s
+    ramp: float = 0.0  # R, u/s
 
     def as_dict(self) -> dict[str, float]:
-        return {"white_sigma": self.white, "gm_sigma": self.gm_sigma, "gm_tau_s": self.gm_tau,
-                "rrw_sigma": self.rrw, "Q": self.quant, "R": self.ramp}
+        return {
+            "white_sigma": self.white,
+            "gm_sigma": self.gm_sigma,
+            "gm_tau_s": self.gm_tau,
+            "rrw_sigma": self.rrw,
+            "Q": self.quant,
+            "R": self.ramp,
+        }
 
 
 def gm_avar(tau: ArrayLike, sigma: float, T: float) -> np.ndarray:
@@ -79,12 +86,12 @@ def gm_avar(tau: ArrayLike, sigma: float, T: float) -> np.ndarray:
     return sigma * sigma * np.where(small, 2.0 * x / 3.0, v)
 
 
-def from_terms(values: dict[str, Optional[float]], fs: float,
-               tau_b: Optional[float]) -> ModelParams:
+def from_terms(values: dict[str, Optional[float]], fs: float, tau_b: Optional[float]) -> ModelParams:
     """The thesis model of identified terms (None or 0: absent)."""
     N, B, K = values.get("N") or 0.0, values.get("B") or 0.0, values.get("K") or 0.0
-    p = ModelParams(fs=fs, white=N * math.sqrt(fs), rrw=K / math.sqrt(fs),
-                    quant=values.get("Q") or 0.0, ramp=values.get("R") or 0.0)
+    p = ModelParams(
+        fs=fs, white=N * math.sqrt(fs), rrw=K / math.sqrt(fs), quant=values.get("Q") or 0.0, ramp=values.get("R") or 0.0
+    )
     if B and tau_b:
         p.gm_sigma = B_FLOOR * B / GM_PEAK_ADEV
         p.gm_tau = tau_b / GM_PEAK_X
@@ -95,9 +102,15 @@ def simulate(p: ModelParams, n: int, seed: int = 0, chunk: int = CHUNK) -> Itera
     """The model's samples, in blocks (1-D float64), independent of the chunking
     (the one simulator of noise.py, one random stream per process)."""
     rw, rg, rk, rq = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
-    proc = NoiseProcess(NoiseParams(white=p.white, gm_sigma=p.gm_sigma, gm_tau=p.gm_tau, rrw=p.rrw,
-                                    quant=p.quant, ramp=p.ramp),
-                        p.fs, n, white_rng=rw, gm_rng=rg, rrw_rng=rk, quant_rng=rq)
+    proc = NoiseProcess(
+        NoiseParams(white=p.white, gm_sigma=p.gm_sigma, gm_tau=p.gm_tau, rrw=p.rrw, quant=p.quant, ramp=p.ramp),
+        p.fs,
+        n,
+        white_rng=rw,
+        gm_rng=rg,
+        rrw_rng=rk,
+        quant_rng=rq,
+    )
     done = 0
     while done < n:
         x = np.zeros(min(chunk, n - done))

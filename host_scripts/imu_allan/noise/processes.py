@@ -19,6 +19,7 @@ makes each tau O(1).  Non-stationary processes have their own exact forms
 
 PSDs are one-sided, u^2/Hz, at f in (0, fs/2] (the convention of psd.py).
 """
+
 from __future__ import annotations
 
 import functools
@@ -57,12 +58,14 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
         for ci, pi in zip(c, p):
             tot = tot + 2.0 * np.real(ci * _geo_sum(mm, complex(pi) if np.iscomplexobj(pi) else float(pi)))
         return tot
+
     return (4.0 * S(m) - S(2.0 * m)) / (2.0 * m * m)
 
 
 class Process:
     """One latent process.  Subclasses define ``params`` (name -> value),
     ``avar(m, fs)``, ``psd(f, fs)``, ``simulator(fs, n, seed)`` and ``meaning``."""
+
     name = "?"
     meaning = ""
 
@@ -89,8 +92,7 @@ class Process:
         return self.simulator(fs, n, ss).take(n)
 
     def __repr__(self) -> str:
-        args = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                         for k, v in self.params().items())
+        args = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
 
     def params(self) -> dict[str, float]:  # pragma: no cover - abstract
@@ -111,6 +113,7 @@ class _Stream:
 class QN(Process):
     """Angle quantization Q [u s]: white angle noise, y_i = Q fs (e_i - e_{i-1}).
     AVAR = 3 Q^2 / tau^2 exactly at every m (IEEE 952 C.1)."""
+
     Q: float
     name = "Q"
     meaning = "angle (velocity) quantization noise Q: white noise of the integrated signal"
@@ -146,6 +149,7 @@ class _Diff(_Stream):
 class WN(Process):
     """White rate noise N [u sqrt(s)] (angle / velocity random walk, Kalibr's
     noise density): sigma per sample N sqrt(fs); AVAR = N^2 / tau exactly."""
+
     N: float
     name = "N"
     meaning = "white rate noise N (angle/velocity random walk; Kalibr noise_density)"
@@ -154,10 +158,10 @@ class WN(Process):
         return {"N": self.N}
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
-        return self.N ** 2 * fs / _m(m)
+        return self.N**2 * fs / _m(m)
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
-        return np.full(np.shape(f), 2.0 * self.N ** 2)
+        return np.full(np.shape(f), 2.0 * self.N**2)
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
         return _White(self.N * math.sqrt(fs), np.random.default_rng(seed))
@@ -184,8 +188,10 @@ def lowpass_filter(fc: float, fs: float, order: int) -> tuple[np.ndarray, np.nda
         k = math.tan(math.pi * fc / fs)
         g = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
         b0 = k * k * g
-        return (np.array([b0, 2.0 * b0, b0]),
-                np.array([1.0, 2.0 * (k * k - 1.0) * g, (1.0 - math.sqrt(2.0) * k + k * k) * g]))
+        return (
+            np.array([b0, 2.0 * b0, b0]),
+            np.array([1.0, 2.0 * (k * k - 1.0) * g, (1.0 - math.sqrt(2.0) * k + k * k) * g]),
+        )
     raise ValueError(f"low-pass order must be 1 or 2, got {order}")
 
 
@@ -194,16 +200,17 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
     poles): r(0) and (c, p) with r(k) = sum c_i p_i^k for k >= 1, by residues:
     r(k) = sum_i Res_{p_i} H(z) H(1/z) z^(k-1), plus H(0) H(inf) at k = 0."""
     na = a.size - 1
-    bp = np.concatenate((b, np.zeros(na + 1 - b.size)))      # numerator in powers of z, degree na
+    bp = np.concatenate((b, np.zeros(na + 1 - b.size)))  # numerator in powers of z, degree na
     p = np.roots(a).astype(np.complex128)
 
     def H(z: np.ndarray) -> np.ndarray:
         return np.polyval(bp, z) / np.polyval(a, z)
+
     c = np.empty(na, dtype=np.complex128)
     for i in range(na):  # over the poles (one or two)
         others = np.prod([p[i] - p[j] for j in range(na) if j != i]) if na > 1 else 1.0
         c[i] = np.polyval(bp, p[i]) / others * H(1.0 / p[i]) / p[i]
-    h0 = bp[-1] / a[-1]                                         # H(0) (z -> 0 of the z-polynomial form)
+    h0 = bp[-1] / a[-1]  # H(0) (z -> 0 of the z-polynomial form)
     r0 = float(np.real(h0 * bp[0] + np.sum(c)))
     return r0, c, p
 
@@ -212,7 +219,7 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
 def _lp_shape(fc: float, fs: float, order: int) -> tuple:
     b, a = lowpass_filter(fc, fs, order)
     r0, c, p = filter_autocov(b, a)
-    dc = float(np.sum(b) / np.sum(a))   # unit white in -> low-frequency gain dc
+    dc = float(np.sum(b) / np.sum(a))  # unit white in -> low-frequency gain dc
     return b, a, r0, c, p, dc
 
 
@@ -222,12 +229,15 @@ class LP(Process):
     (band-limited white noise): N [u sqrt(s)] is its LOW-FREQUENCY density in
     the samples (the level of the -1/2 line at long tau, what a navigation
     filter needs); below ~1/(2 pi fc) the curve bends under that line."""
+
     N: float
     fc: float
     order: int = 1
     name = "LP"
-    meaning = ("white rate noise through the sensor's low-pass (band-limited white): N is its "
-               "low-frequency density, fc the cutoff")
+    meaning = (
+        "white rate noise through the sensor's low-pass (band-limited white): N is its "
+        "low-frequency density, fc the cutoff"
+    )
 
     def params(self) -> dict[str, float]:
         return {"N": self.N, "fc": self.fc, "order": self.order}
@@ -237,18 +247,18 @@ class LP(Process):
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         b, a, r0, c, p, dc = self._shape(fs)
-        scale = self.N ** 2 * fs / dc ** 2     # input variance per sample so that the output's LF density is N^2
+        scale = self.N**2 * fs / dc**2  # input variance per sample so that the output's LF density is N^2
         return scale * avar_from_poles(m, r0, c, p)
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
         b, a, *_rest, dc = self._shape(fs)
         _, h = signal.freqz(b, a, worN=_m(f), fs=fs)
-        return 2.0 * self.N ** 2 * np.abs(h) ** 2 / dc ** 2
+        return 2.0 * self.N**2 * np.abs(h) ** 2 / dc**2
 
     def variance(self, fs: float) -> float:
         """Variance of the samples, u^2."""
         b, a, r0, c, p, dc = self._shape(fs)
-        return self.N ** 2 * fs / dc ** 2 * r0
+        return self.N**2 * fs / dc**2 * r0
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
         b, a, r0, c, p, dc = self._shape(fs)
@@ -276,6 +286,7 @@ class AR1(Process):
     AR(1) with phi = exp(-dt / T), stationary variance sigma^2; its ADEV peaks at
     tau = 1.89 T with 0.617 sigma (Kalibr: a bias whose T is longer than the
     record acts as a random walk K = sigma sqrt(2 / T))."""
+
     sigma: float
     T: float
     name = "GM"
@@ -289,13 +300,13 @@ class AR1(Process):
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         ph = self.phi(fs)
-        s2 = self.sigma ** 2
+        s2 = self.sigma**2
         return avar_from_poles(m, s2, np.array([s2]), np.array([ph]))
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
         ph = self.phi(fs)
         w = 2.0 * np.pi * _m(f) / fs
-        return 2.0 * self.sigma ** 2 * (1 - ph * ph) / (1 - 2 * ph * np.cos(w) + ph * ph) / fs
+        return 2.0 * self.sigma**2 * (1 - ph * ph) / (1 - 2 * ph * np.cos(w) + ph * ph) / fs
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
         return _AR1(self.sigma, self.phi(fs), np.random.default_rng(seed))
@@ -320,6 +331,7 @@ class Flicker(Process):
     1.5 % of it from 4 dt to a quarter of the record).  Simulation: a bank of
     Gauss-Markov processes, correlation times 8^k dt up to 4 records, each of
     variance B^2 ln 8 / pi, the slow ones drawn every T fs / 32 samples and held."""
+
     B: float
     name = "B"
     meaning = "flicker rate noise B (bias instability; the flat floor of ADEV at 0.664 B)"
@@ -328,10 +340,10 @@ class Flicker(Process):
         return {"B": self.B}
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
-        return np.full(np.shape(m), B_FACTOR * self.B ** 2)
+        return np.full(np.shape(m), B_FACTOR * self.B**2)
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
-        return self.B ** 2 / (np.pi * _m(f))
+        return self.B**2 / (np.pi * _m(f))
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
         return _FlickerBank(self.B, fs, n, seed)
@@ -349,12 +361,20 @@ class _FlickerBank(_Stream):
         self.procs = []
         self.pos = 0
         for k, ss in enumerate(seed.spawn(count)):
-            T = t_lo * r ** k
+            T = t_lo * r**k
             D = 1 << max(int(math.floor(math.log2(max(T * fs / 32.0, 1.0)))), 0)
             a = math.exp(-D / (fs * T))
             rng = np.random.default_rng(ss)
-            self.procs.append({"D": D, "a": a, "b": sigma * math.sqrt(1.0 - a * a), "rng": rng,
-                               "q": -1, "v": sigma * rng.standard_normal()})
+            self.procs.append(
+                {
+                    "D": D,
+                    "a": a,
+                    "b": sigma * math.sqrt(1.0 - a * a),
+                    "rng": rng,
+                    "q": -1,
+                    "v": sigma * rng.standard_normal(),
+                }
+            )
 
     def take(self, length: int) -> np.ndarray:
         start = self.pos
@@ -365,15 +385,14 @@ class _FlickerBank(_Stream):
             D, q_first, q_last = g["D"], start // g["D"], (start + length - 1) // g["D"]
             new = q_last - g["q"]
             if new > 0:
-                y, _ = signal.lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new),
-                                      zi=[g["a"] * g["v"]])
+                y, _ = signal.lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new), zi=[g["a"] * g["v"]])
                 vals = np.concatenate(([g["v"]], y)) if q_first == g["q"] else y
                 g["q"], g["v"] = q_last, float(y[-1])
             else:
                 vals = np.array([g["v"]])
             held = np.repeat(vals, D) if D > 1 else vals
             off = start - q_first * D
-            out += held[off:off + length]
+            out += held[off : off + length]
         self.pos += length
         return out
 
@@ -382,6 +401,7 @@ class _FlickerBank(_Stream):
 class RW(Process):
     """Rate random walk K [u / sqrt(s)]: steps of sd K / sqrt(fs).  Exact
     discrete AVAR (K^2 / fs) (2 m^2 + 1) / (6 m) = K^2 tau / 3 + K^2 / (6 fs^2 tau)."""
+
     K: float
     name = "K"
     meaning = "rate random walk K (Kalibr random_walk; ADEV rising as tau^+1/2)"
@@ -391,10 +411,10 @@ class RW(Process):
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         m = _m(m)
-        return self.K ** 2 / fs * (2.0 * m * m + 1.0) / (6.0 * m)
+        return self.K**2 / fs * (2.0 * m * m + 1.0) / (6.0 * m)
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
-        return self.K ** 2 / (2.0 * np.pi ** 2 * _m(f) ** 2)
+        return self.K**2 / (2.0 * np.pi**2 * _m(f) ** 2)
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
         return _Walk(self.K / math.sqrt(fs), np.random.default_rng(seed))
@@ -415,6 +435,7 @@ class _Walk(_Stream):
 @dataclass(repr=False)
 class Ramp(Process):
     """Rate ramp R [u / s] (a drift): AVAR = R^2 tau^2 / 2 exactly."""
+
     R: float
     name = "R"
     meaning = "rate ramp R (a steady drift)"
@@ -424,10 +445,10 @@ class Ramp(Process):
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         t = _m(m) / fs
-        return self.R ** 2 * t * t / 2.0
+        return self.R**2 * t * t / 2.0
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
-        return self.R ** 2 / (2.0 * np.pi) ** 3 / _m(f) ** 3 * 2.0
+        return self.R**2 / (2.0 * np.pi) ** 3 / _m(f) ** 3 * 2.0
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
         return _Ramp(self.R / fs)
@@ -448,6 +469,7 @@ class Sine(Process):
     """A sinusoid of amplitude A [u] and frequency f0 [Hz] (random phase):
     AVAR = A^2 sin^4(pi f0 m dt) / (m sin(pi f0 dt))^2, the continuous
     A^2 sin^4(pi f0 tau) / (pi f0 tau)^2 (ADEV peak at tau = 0.371 / f0) at fine dt."""
+
     A: float
     f0: float
     name = "S"
@@ -459,7 +481,7 @@ class Sine(Process):
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         m = _m(m)
         x = np.pi * self.f0 / fs
-        return self.A ** 2 * np.sin(x * m) ** 4 / (m * np.sin(x)) ** 2
+        return self.A**2 * np.sin(x * m) ** 4 / (m * np.sin(x)) ** 2
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
         f = _m(f)
@@ -490,6 +512,7 @@ class _SineStream(_Stream):
 class Model:
     """A sum of independent processes: AVAR and PSD add; each process draws
     from its own random stream (adding one never changes the others)."""
+
     parts: list[Process] = field(default_factory=list)
 
     def __add__(self, other: "Process | Model") -> "Model":

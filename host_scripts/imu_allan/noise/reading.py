@@ -1,6 +1,7 @@
 """The reading of a whole-curve fit (fit.py): each process as a term with its 95 %
 interval and tau range, upper bounds of the absent IEEE 952 terms, the IEEE 952
 slope reading beside the fit, and the points the model leaves unexplained."""
+
 from __future__ import annotations
 
 import math
@@ -9,14 +10,13 @@ from typing import Any, Optional
 import numpy as np
 from scipy import stats
 
-from .terms import B_FACTOR, Term
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
+from .terms import B_FACTOR, Term
 
 Z95 = 1.959963984540054
 
 
-def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total: np.ndarray,
-                 grid: np.ndarray) -> Term:
+def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total: np.ndarray, grid: np.ndarray) -> Term:
     est = math.sqrt(c)
     if sd > 0:
         nu = 2.0 * (c / sd) ** 2
@@ -34,18 +34,29 @@ def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total:
             rng = (float(grid[dom][0]), float(grid[dom][-1]))
         else:
             i = int(np.argmax(share))
-            near = share >= 0.5 * share[i]      # where it counts most: within half its largest share
+            near = share >= 0.5 * share[i]  # where it counts most: within half its largest share
             rng = (float(grid[near][0]), float(grid[near][-1]))
-            note = (f"nowhere the larger part of the curve (at most {share[i] * 100:.0f} %, at {grid[i]:.3g} s); "
-                    "its range: where its share is at least half that")
+            note = (
+                f"nowhere the larger part of the curve (at most {share[i] * 100:.0f} %, at {grid[i]:.3g} s); "
+                "its range: where its share is at least half that"
+            )
     if c < Z95 * sd:
-        return Term(k, None, None, None, rng, est, hi,
-                    f"not identifiable: its 95 % interval includes 0 (estimate {est:.3g}, at most {hi:.3g})")
+        return Term(
+            k,
+            None,
+            None,
+            None,
+            rng,
+            est,
+            hi,
+            f"not identifiable: its 95 % interval includes 0 (estimate {est:.3g}, at most {hi:.3g})",
+        )
     return Term(k, est, lo, hi, rng, est, hi, note)
 
 
 def _unexplained_all(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) -> list[dict]:
     from .identify import _regions
+
     k = np.zeros(t.size, dtype=bool)
     k[keep] = True
     return _regions(t, y, model, k)
@@ -54,6 +65,7 @@ def _unexplained_all(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.n
 def _unexplained(p: Any, model: np.ndarray, e: np.ndarray) -> list[dict]:
     from ..stats.edf import chi2_interval
     from .identify import TOL, _regions
+
     lo, hi = chi2_interval(p.y, e)
     keep = (model >= lo / (1 + TOL) ** 2) & (model <= hi * (1 + TOL) ** 2)
     return _regions(p.t, p.y, model, keep)
@@ -70,9 +82,13 @@ def slope_reading(t: np.ndarray, y: np.ndarray, e: np.ndarray, tol: float = 0.12
     lt, la = np.log(t), np.log(adev)
     sl = np.diff(la) / np.diff(lt)
     out: dict[str, dict] = {}
-    read = {"Q": lambda a, x: a * x / math.sqrt(3), "N": lambda a, x: a * np.sqrt(x),
-            "B": lambda a, x: a / math.sqrt(B_FACTOR), "K": lambda a, x: a * np.sqrt(3 / x),
-            "R": lambda a, x: a * math.sqrt(2) / x}
+    read = {
+        "Q": lambda a, x: a * x / math.sqrt(3),
+        "N": lambda a, x: a * np.sqrt(x),
+        "B": lambda a, x: a / math.sqrt(B_FACTOR),
+        "K": lambda a, x: a * np.sqrt(3 / x),
+        "R": lambda a, x: a * math.sqrt(2) / x,
+    }
     for k, mu in SLOPE.items():
         ok = np.zeros(t.size, dtype=bool)
         for i in range(t.size):
@@ -96,9 +112,11 @@ def _compare(res: Any, notes: list[str]) -> None:
             continue
         ratio = t.value / r["value"]
         if abs(math.log(ratio)) > math.log(1.25):
-            notes.append(f"{k}: the whole-curve fit gives {t.value:.3g}, the IEEE 952 slope reading "
-                         f"{r['value']:.3g} ({r['tau_s'][0]:.3g} .. {r['tau_s'][1]:.3g} s): the other "
-                         "processes share those points")
+            notes.append(
+                f"{k}: the whole-curve fit gives {t.value:.3g}, the IEEE 952 slope reading "
+                f"{r['value']:.3g} ({r['tau_s'][0]:.3g} .. {r['tau_s'][1]:.3g} s): the other "
+                "processes share those points"
+            )
 
 
 def to_model(s: Any, theta: np.ndarray, c: np.ndarray) -> Model:

@@ -54,6 +54,7 @@ Model file (JSON), every key optional (missing ones keep the defaults)::
      "channels": {"gx": {"offset": 520, "N": 0.048, "bandwidth_hz": 88, "B": 0.056,
                          "K": 0, "gm_sigma": 0, "gm_tau": 10, "tempco": 0.1, "tempco2": 0}}}
 """
+
 from __future__ import annotations
 
 import copy
@@ -71,22 +72,38 @@ from ..errors import InputError
 SENSORS = COLUMNS[:6]
 F_ADC = 10_000_000 / 64
 CHANNEL_KEYS = ("offset", "N", "bandwidth_hz", "B", "K", "gm_sigma", "gm_tau", "tempco", "tempco2")
-UNITS = {"offset": "counts", "N": "counts*sqrt(s) (sqrt of the two-sided white density, before the low-pass)",
-         "bandwidth_hz": "Hz (first-order low-pass corner)", "B": "counts (IEEE 952 bias instability)",
-         "K": "counts/sqrt(s) (rate random walk)", "gm_sigma": "counts (Gauss-Markov bias sigma)",
-         "gm_tau": "s (Gauss-Markov correlation time)", "tempco": "counts/degC",
-         "tempco2": "counts/degC^2"}
+UNITS = {
+    "offset": "counts",
+    "N": "counts*sqrt(s) (sqrt of the two-sided white density, before the low-pass)",
+    "bandwidth_hz": "Hz (first-order low-pass corner)",
+    "B": "counts (IEEE 952 bias instability)",
+    "K": "counts/sqrt(s) (rate random walk)",
+    "gm_sigma": "counts (Gauss-Markov bias sigma)",
+    "gm_tau": "s (Gauss-Markov correlation time)",
+    "tempco": "counts/degC",
+    "tempco2": "counts/degC^2",
+}
 FLICKER_T_MIN = 1e-3
 FLICKER_RATIO = 8.0
 
 
-def _thesis_channel(sigma_counts: float, bandwidth: float, B: float, K: float, offset: float,
-                    tempco: float) -> dict[str, float]:
+def _thesis_channel(
+    sigma_counts: float, bandwidth: float, B: float, K: float, offset: float, tempco: float
+) -> dict[str, float]:
     # The thesis' sigma_sensor at 100 Hz includes the ADC's 1/12 count^2 of rounding;
     # the sampled low-passed noise has variance pi f_c N^2 at any rate.
-    N = math.sqrt(max(sigma_counts ** 2 - 1.0 / 12.0, 0.0) / (math.pi * bandwidth))
-    return {"offset": offset, "N": N, "bandwidth_hz": bandwidth, "B": B, "K": K,
-            "gm_sigma": 0.0, "gm_tau": 10.0, "tempco": tempco, "tempco2": 0.0}
+    N = math.sqrt(max(sigma_counts**2 - 1.0 / 12.0, 0.0) / (math.pi * bandwidth))
+    return {
+        "offset": offset,
+        "N": N,
+        "bandwidth_hz": bandwidth,
+        "B": B,
+        "K": K,
+        "gm_sigma": 0.0,
+        "gm_tau": 10.0,
+        "tempco": tempco,
+        "tempco2": 0.0,
+    }
 
 
 # Thesis section 7 at 100 Hz, in counts of the board at 1.5 g (4.028 mg and
@@ -95,8 +112,15 @@ def _thesis_channel(sigma_counts: float, bandwidth: float, B: float, K: float, o
 # illustrative (of the order of the datasheets' zero-level drifts), not measured.
 DEFAULT_MODEL: dict[str, Any] = {
     "adc": {"clock_hz": F_ADC, "conversion_clocks": 14.0, "start_clocks": 1.0},
-    "temperature": {"start_c": 20.3, "ramp_c_per_s": 0.0, "sine_c": 0.0, "period_s": 3600.0,
-                    "c_per_count": 3.3 / 1024 / 0.010, "offset_c": 0.0, "noise": 0.3},
+    "temperature": {
+        "start_c": 20.3,
+        "ramp_c_per_s": 0.0,
+        "sine_c": 0.0,
+        "period_s": 3600.0,
+        "c_per_count": 3.3 / 1024 / 0.010,
+        "offset_c": 0.0,
+        "noise": 0.3,
+    },
     "channels": {
         "ax": _thesis_channel(1.879, 350.0, 0.0837, 0.0104, 498.0, 0.2),
         "ay": _thesis_channel(2.341, 350.0, 0.1020, 0.0218, 494.0, 0.2),
@@ -153,8 +177,7 @@ def load_model(path: Optional[str]) -> SensorModel:
     for section in ("adc", "temperature"):
         for k, v in (doc.get(section) or {}).items():
             if k not in m.doc[section]:
-                raise InputError(f"'{path}': unknown key {section}.{k} "
-                                 f"(known: {', '.join(m.doc[section])})")
+                raise InputError(f"'{path}': unknown key {section}.{k} (known: {', '.join(m.doc[section])})")
             m.doc[section][k] = _number(v, f"{section}.{k}", path)
     for ch, params in (doc.get("channels") or {}).items():
         if ch not in SENSORS:
@@ -272,8 +295,10 @@ class Flicker:
         t_hi = max(4.0 * duration, 8.0 * FLICKER_T_MIN)
         count = int(math.ceil(math.log(t_hi / FLICKER_T_MIN) / math.log(FLICKER_RATIO))) + 1
         sigma = B * math.sqrt(math.log(FLICKER_RATIO) / math.pi)
-        self.bank = [OU(sigma, FLICKER_T_MIN * FLICKER_RATIO ** k, np.random.default_rng(s))
-                     for k, s in enumerate(seed.spawn(count))]
+        self.bank = [
+            OU(sigma, FLICKER_T_MIN * FLICKER_RATIO**k, np.random.default_rng(s))
+            for k, s in enumerate(seed.spawn(count))
+        ]
 
     def at(self, t: np.ndarray) -> np.ndarray:
         out = np.zeros(np.asarray(t).size)
@@ -306,8 +331,11 @@ class Board:
             s = ss[c].spawn(4)
             d: dict[str, Any] = {"p": p}
             if p["N"]:
-                d["lp"] = OU(lowpass_sigma(p["N"], p["bandwidth_hz"]),
-                             1.0 / (2 * math.pi * p["bandwidth_hz"]), np.random.default_rng(s[0]))
+                d["lp"] = OU(
+                    lowpass_sigma(p["N"], p["bandwidth_hz"]),
+                    1.0 / (2 * math.pi * p["bandwidth_hz"]),
+                    np.random.default_rng(s[0]),
+                )
             if p["gm_sigma"]:
                 d["gm"] = OU(p["gm_sigma"], p["gm_tau"], np.random.default_rng(s[1]))
             if p["K"]:
@@ -342,8 +370,9 @@ class Board:
                 x += p["tempco"] * dT + p["tempco2"] * dT * dT
             out[c] = x
         tp = self.model.doc["temperature"]
-        out[6] = ((self.model.temperature(t[6]) - tp["offset_c"]) / tp["c_per_count"]
-                  + tp["noise"] * self.temp_rng.standard_normal(t[6].size))
+        out[6] = (self.model.temperature(t[6]) - tp["offset_c"]) / tp["c_per_count"] + tp[
+            "noise"
+        ] * self.temp_rng.standard_normal(t[6].size)
         codes = np.clip(np.rint(out), 0, CODE_MAX)
         if M > 1:  # the device's average of M scans (integer mean, rounded)
             codes = np.rint(codes.reshape(len(COLUMNS), count, M).mean(axis=2))
@@ -352,6 +381,8 @@ class Board:
 
 def rows_header(fs: float, n: int, seed: int = 1, average: int = 1) -> bytes:
     """The comment lines that open a rows file of the board (``Board.blocks`` its rows)."""
-    return (f"# imu-allan sensor model, fs {fs:g} Hz, {n} rows, seed {seed}"
-            f"{f', average {average}' if average > 1 else ''}\n"
-            f"# columns: {' '.join(COLUMNS)} (10-bit ADC codes)\n").encode()
+    return (
+        f"# imu-allan sensor model, fs {fs:g} Hz, {n} rows, seed {seed}"
+        f"{f', average {average}' if average > 1 else ''}\n"
+        f"# columns: {' '.join(COLUMNS)} (10-bit ADC codes)\n"
+    ).encode()

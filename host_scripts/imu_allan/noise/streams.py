@@ -25,6 +25,7 @@ little).  The slow ones are drawn once every T_k fs / 32 samples and held
 (their share of the variance at shorter taus is negligible), so the cost is
 that of about two full-rate processes.
 """
+
 from __future__ import annotations
 
 import math
@@ -37,13 +38,14 @@ import numpy as np
 @dataclass
 class NoiseParams:
     """One channel's processes, in the unit u of the signal (0: absent)."""
-    white: float = 0.0       # sigma per sample, u
-    gm_sigma: float = 0.0    # stationary sigma of the Gauss-Markov bias, u
-    gm_tau: float = 1.0      # its correlation time, s
-    rrw: float = 0.0         # sigma of each random-walk step, u
-    flicker: float = 0.0     # IEEE 952 B, u
-    quant: float = 0.0       # Q, u*s
-    ramp: float = 0.0        # R, u/s
+
+    white: float = 0.0  # sigma per sample, u
+    gm_sigma: float = 0.0  # stationary sigma of the Gauss-Markov bias, u
+    gm_tau: float = 1.0  # its correlation time, s
+    rrw: float = 0.0  # sigma of each random-walk step, u
+    flicker: float = 0.0  # IEEE 952 B, u
+    quant: float = 0.0  # Q, u*s
+    ramp: float = 0.0  # R, u/s
 
 
 class NoiseProcess:
@@ -53,11 +55,19 @@ class NoiseProcess:
     Ramp) with its own generator (``white_rng`` ...); ``flicker_seed`` spawns
     the flicker bank's; ``n`` (the record length) sets the bank's slowest time."""
 
-    def __init__(self, p: NoiseParams, fs: float, n: int, white_rng: np.random.Generator,
-                 gm_rng: np.random.Generator, rrw_rng: np.random.Generator,
-                 quant_rng: Optional[np.random.Generator] = None,
-                 flicker_seed: Optional[np.random.SeedSequence] = None) -> None:
+    def __init__(
+        self,
+        p: NoiseParams,
+        fs: float,
+        n: int,
+        white_rng: np.random.Generator,
+        gm_rng: np.random.Generator,
+        rrw_rng: np.random.Generator,
+        quant_rng: Optional[np.random.Generator] = None,
+        flicker_seed: Optional[np.random.SeedSequence] = None,
+    ) -> None:
         from . import processes as cat
+
         self.p, self.fs = p, fs
         self.model = cat.Model()
         self.streams = []
@@ -97,6 +107,7 @@ class Flicker:
 
     def __init__(self, b: float, fs: float, n: int, seed: np.random.SeedSequence) -> None:
         from . import processes as cat
+
         self._bank = cat.Flicker(b).simulator(fs, n, seed)
         self._done = 0
 

@@ -40,6 +40,7 @@ instead of a value.
 The classic read-off of the bias instability, min(ADEV) / 0.664 (the
 thesis' sigma_B), is returned beside the fit.
 """
+
 from __future__ import annotations
 
 import math
@@ -68,7 +69,7 @@ EdfFn = Callable[[np.ndarray], np.ndarray]
 def basis(tau: np.ndarray) -> np.ndarray:
     """(points, 5) matrix: AVAR per unit coefficient of Q^2, N^2, B^2, K^2, R^2."""
     t = np.asarray(tau, dtype=np.float64)
-    return np.stack([3.0 / t ** 2, 1.0 / t, np.full_like(t, B_FACTOR), t / 3.0, t ** 2 / 2.0], axis=1)
+    return np.stack([3.0 / t**2, 1.0 / t, np.full_like(t, B_FACTOR), t / 3.0, t**2 / 2.0], axis=1)
 
 
 def model_avar(tau: np.ndarray, values: dict[str, Optional[float]]) -> np.ndarray:
@@ -80,12 +81,12 @@ def model_avar(tau: np.ndarray, values: dict[str, Optional[float]]) -> np.ndarra
 @dataclass
 class Term:
     name: str
-    value: Optional[float]          # None when not identifiable
+    value: Optional[float]  # None when not identifiable
     low: Optional[float]
     high: Optional[float]
-    tau_range: Optional[tuple[float, float]]   # where it dominates (share >= 1/2)
-    estimate: float                 # the fitted coefficient's square root (0 if none)
-    upper: float                    # 95 % upper bound (always available)
+    tau_range: Optional[tuple[float, float]]  # where it dominates (share >= 1/2)
+    estimate: float  # the fitted coefficient's square root (0 if none)
+    upper: float  # 95 % upper bound (always available)
     note: str = ""
     extra: dict = field(default_factory=dict)
     """Parameters beyond the value (LP: fc, order; GM: tau_c) and their intervals."""
@@ -98,13 +99,13 @@ class Term:
 @dataclass
 class FitResult:
     terms: dict[str, Term]
-    coef: np.ndarray                # c = (Q^2, N^2, B^2, K^2, R^2)
-    cov: np.ndarray                 # 5 x 5 (zero rows for terms at 0)
+    coef: np.ndarray  # c = (Q^2, N^2, B^2, K^2, R^2)
+    cov: np.ndarray  # 5 x 5 (zero rows for terms at 0)
     chi2_red: float
-    used: np.ndarray                # bool per input point
-    alpha: np.ndarray               # noise type used for each point's EDF
-    edf: np.ndarray                 # EDF used for each point (nan if unused)
-    b_classic: Optional[dict] = None   # {"value", "tau_s", "low", "high"}
+    used: np.ndarray  # bool per input point
+    alpha: np.ndarray  # noise type used for each point's EDF
+    edf: np.ndarray  # EDF used for each point (nan if unused)
+    b_classic: Optional[dict] = None  # {"value", "tau_s", "low", "high"}
     notes: list[str] = field(default_factory=list)
     unexplained: list[dict] = field(default_factory=list)
     """tau ranges the terms do not explain (identify.py): {"tau_s", "kind", "ratio", "text"}."""
@@ -122,6 +123,7 @@ class FitResult:
 def local_alpha(tau: np.ndarray, avar: np.ndarray) -> np.ndarray:
     """Noise type from the local log-log slope of AVAR (neighbours on each side)."""
     from ..stats.edf import alpha_from_slope
+
     lt, la = np.log(tau), np.log(avar)
     out = np.zeros(tau.size, dtype=np.int64)
     for i in range(tau.size):  # over curve points (tens), not samples
@@ -131,8 +133,10 @@ def local_alpha(tau: np.ndarray, avar: np.ndarray) -> np.ndarray:
     return out
 
 
-RHO = {"overlapping": {2: 0.42, 1: 0.42, 0: 0.50, -1: 0.68, -2: 0.86},
-       "nonoverlapping": {2: 0.29, 1: 0.29, 0: 0.35, -1: 0.56, -2: 0.83}}
+RHO = {
+    "overlapping": {2: 0.42, 1: 0.42, 0: 0.50, -1: 0.68, -2: 0.86},
+    "nonoverlapping": {2: 0.29, 1: 0.29, 0: 0.35, -1: 0.56, -2: 0.83},
+}
 """Correlation of AVAR estimates one octave apart, per noise type (simulated)."""
 PER_OCTAVE = 8
 """Denser curves are thinned to this many points per octave for the fit."""
@@ -150,8 +154,9 @@ def _thin(t: np.ndarray) -> np.ndarray:
 class _Gls:
     """Whitening by the Cholesky factor of the estimates' covariance."""
 
-    def __init__(self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray,
-                 kind: str, floor: float = 0.0) -> None:
+    def __init__(
+        self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray, kind: str, floor: float = 0.0
+    ) -> None:
         sd = ref * np.sqrt(2.0 / e + floor * floor)
         rho = RHO[kind]
         lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
@@ -188,8 +193,7 @@ def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np
         c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
         return c / scale
     hi = np.where(np.isfinite(ub), ub * scale, np.inf)
-    r = optimize.lsq_linear(Aw / scale, yw, bounds=(np.zeros(hi.size), np.maximum(hi, 1e-300)),
-                            method="bvls")
+    r = optimize.lsq_linear(Aw / scale, yw, bounds=(np.zeros(hi.size), np.maximum(hi, 1e-300)), method="bvls")
     return np.clip(r.x, 0.0, hi) / scale
 
 
@@ -202,11 +206,18 @@ def usable_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike] =
     return used
 
 
-def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.ndarray] = None,
-              overlapping: bool = True, iterations: int = 5,
-              allowed: tuple[str, ...] = TERMS, floor: float = 0.0,
-              caps: Optional[np.ndarray] = None,
-              signature: Optional[dict[str, tuple[float, float]]] = None) -> FitResult:
+def fit_terms(
+    tau: ArrayLike,
+    avar: ArrayLike,
+    edf_fn: EdfFn,
+    mask: Optional[np.ndarray] = None,
+    overlapping: bool = True,
+    iterations: int = 5,
+    allowed: tuple[str, ...] = TERMS,
+    floor: float = 0.0,
+    caps: Optional[np.ndarray] = None,
+    signature: Optional[dict[str, tuple[float, float]]] = None,
+) -> FitResult:
     """Fit the IEEE 952 terms to the points (tau, avar) not masked out.
 
     ``edf_fn(alphas)`` gives each point's EDF for a noise type per point;
@@ -294,8 +305,10 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     chi2_red = float(np.sum((yw - Aw @ coef) ** 2) / dof)
     inflate = max(1.0, chi2_red)
     if chi2_red > 2.0:
-        notes.append(f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
-                     "widened accordingly (noise not of the IEEE 952 kinds, or drift?)")
+        notes.append(
+            f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
+            "widened accordingly (noise not of the IEEE 952 kinds, or drift?)"
+        )
     if active.any():
         cov_a = np.linalg.pinv(Aw[:, active].T @ Aw[:, active]) * inflate
         ia = np.flatnonzero(active)
@@ -306,13 +319,13 @@ def fit_terms(tau: ArrayLike, avar: ArrayLike, edf_fn: EdfFn, mask: Optional[np.
     terms = {}
     for j, k in enumerate(TERMS):
         cap = math.sqrt(ub[j]) if ub is not None and math.isfinite(ub[j]) else math.inf
-        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate, cap,
-                         (signature or {}).get(k))
+        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate, cap, (signature or {}).get(k))
         if k in dropped:
-            terms[k].note = (f"not identifiable: the other terms explain the curve as well "
-                             f"(chi2 gain {dropped[k][0]:.3g} < {dropped[k][1]:.3g}; at most {_fmt(terms[k].upper)})")
-    return FitResult(terms, coef, cov, chi2_red, fitted, alpha_all, edf_all,
-                     b_classic(tau, avar, used, edf_all), notes)
+            terms[k].note = (
+                f"not identifiable: the other terms explain the curve as well "
+                f"(chi2 gain {dropped[k][0]:.3g} < {dropped[k][1]:.3g}; at most {_fmt(terms[k].upper)})"
+            )
+    return FitResult(terms, coef, cov, chi2_red, fitted, alpha_all, edf_all, b_classic(tau, avar, used, edf_all), notes)
 
 
 def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray, ub: Optional[np.ndarray] = None) -> float:
@@ -321,10 +334,18 @@ def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray, ub: Optional[np.ndar
     return float(np.sum((yw - Aw @ c) ** 2))
 
 
-def _irls(A: np.ndarray, y: np.ndarray, t: np.ndarray, cols: np.ndarray, alpha: np.ndarray,
-          edf_of: Callable[[np.ndarray], np.ndarray], kind: str,
-          iterations: int, floor: float = 0.0,
-          ub: Optional[np.ndarray] = None) -> tuple[np.ndarray, np.ndarray, _Gls]:
+def _irls(
+    A: np.ndarray,
+    y: np.ndarray,
+    t: np.ndarray,
+    cols: np.ndarray,
+    alpha: np.ndarray,
+    edf_of: Callable[[np.ndarray], np.ndarray],
+    kind: str,
+    iterations: int,
+    floor: float = 0.0,
+    ub: Optional[np.ndarray] = None,
+) -> tuple[np.ndarray, np.ndarray, _Gls]:
     """Iterated GLS-NNLS: covariance from the model, EDF and correlation from the noise types."""
     ref = y.copy()
     coef = np.zeros(len(TERMS))
@@ -342,9 +363,20 @@ def _irls(A: np.ndarray, y: np.ndarray, t: np.ndarray, cols: np.ndarray, alpha: 
     return coef, alpha, gls
 
 
-def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw: np.ndarray,
-          grid: np.ndarray, active: np.ndarray, allowed: bool, inflate: float,
-          cap: float = math.inf, signature: Optional[tuple[float, float]] = None) -> Term:
+def _term(
+    k: str,
+    j: int,
+    coef: np.ndarray,
+    cov: np.ndarray,
+    Aw: np.ndarray,
+    yw: np.ndarray,
+    grid: np.ndarray,
+    active: np.ndarray,
+    allowed: bool,
+    inflate: float,
+    cap: float = math.inf,
+    signature: Optional[tuple[float, float]] = None,
+) -> Term:
     """One term's value, interval, range and bound; ``cap`` (term units) is the
     largest value whose line stays under the curve's 95 % interval: no
     interval or bound goes above it."""
@@ -354,11 +386,20 @@ def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw:
     sd = math.sqrt(max(cov[j, j], 0.0))
     upper = min(_upper(j, Aw, yw, active, inflate), cap)
     if not math.isfinite(upper):
-        return Term(k, None, None, None, None, math.sqrt(max(c, 0.0)), math.inf,
-                    "cannot be bounded by these data (no point constrains it)")
+        return Term(
+            k,
+            None,
+            None,
+            None,
+            None,
+            math.sqrt(max(c, 0.0)),
+            math.inf,
+            "cannot be bounded by these data (no point constrains it)",
+        )
     if c <= 0:
-        return Term(k, None, None, None, None, 0.0, upper,
-                    f"not in the data (fitted coefficient 0; at most {_fmt(upper)})")
+        return Term(
+            k, None, None, None, None, 0.0, upper, f"not in the data (fitted coefficient 0; at most {_fmt(upper)})"
+        )
     estimate = math.sqrt(c)
     if sd > 0:
         nu = 2.0 * (c / sd) ** 2  # the coefficient's own degrees of freedom
@@ -380,17 +421,40 @@ def _term(k: str, j: int, coef: np.ndarray, cov: np.ndarray, Aw: np.ndarray, yw:
             sel = Gb[:, j] * c_hi >= 0.5 * (mod + Gb[:, j] * (c_hi - c))
             rng = (float(grid[sel][0]), float(grid[sel][-1]))
     if c < Z95 * sd:
-        return Term(k, None, None, None, rng, estimate, upper,
-                    f"not identifiable: its 95 % interval includes 0 (estimate {_fmt(estimate)}, "
-                    f"at most {_fmt(upper)})")
+        return Term(
+            k,
+            None,
+            None,
+            None,
+            rng,
+            estimate,
+            upper,
+            f"not identifiable: its 95 % interval includes 0 (estimate {_fmt(estimate)}, at most {_fmt(upper)})",
+        )
     if rng is None and signature is not None:
-        return Term(k, estimate, lo, hi, signature, estimate, hi,
-                    f"from the curve's flat region {_fmt(signature[0])} .. {_fmt(signature[1])} s, "
-                    "where it shares the floor with the neighbouring terms (nowhere half of the model)")
+        return Term(
+            k,
+            estimate,
+            lo,
+            hi,
+            signature,
+            estimate,
+            hi,
+            f"from the curve's flat region {_fmt(signature[0])} .. {_fmt(signature[1])} s, "
+            "where it shares the floor with the neighbouring terms (nowhere half of the model)",
+        )
     if rng is None:
-        return Term(k, None, None, None, None, estimate, upper,
-                    f"not identifiable: dominates nowhere in the measured range (estimate "
-                    f"{_fmt(estimate)}, at most {_fmt(upper)})")
+        return Term(
+            k,
+            None,
+            None,
+            None,
+            None,
+            estimate,
+            upper,
+            f"not identifiable: dominates nowhere in the measured range (estimate "
+            f"{_fmt(estimate)}, at most {_fmt(upper)})",
+        )
     return Term(k, estimate, lo, hi, rng, estimate, hi)
 
 
@@ -410,8 +474,9 @@ def _upper(j: int, Aw: np.ndarray, yw: np.ndarray, active: np.ndarray, inflate: 
     return math.sqrt(max(float(c[pos]), 0.0) + Z95 * math.sqrt(max(float(cov[pos, pos]), 0.0)))
 
 
-def b_classic(tau: np.ndarray, avar: np.ndarray, used: np.ndarray,
-              edf: Optional[np.ndarray] = None, min_edf: float = 10.0) -> Optional[dict]:
+def b_classic(
+    tau: np.ndarray, avar: np.ndarray, used: np.ndarray, edf: Optional[np.ndarray] = None, min_edf: float = 10.0
+) -> Optional[dict]:
     """The thesis' read-off: B = min(ADEV) / 0.664 and the tau of that minimum,
     over the points with at least ``min_edf`` degrees of freedom (the last few
     points of a curve scatter by a factor of 2 and more: their minimum says

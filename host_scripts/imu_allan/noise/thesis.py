@@ -22,6 +22,7 @@ To counts with the thesis profile (1.5 g range):
 with c = 3.3 / 1024 / 0.8 g = 4.0283e-3 g (accelerometers) and
 3.3 / 1024 / 0.0033 = 0.97656 deg/s (gyroscopes) per count.
 """
+
 from __future__ import annotations
 
 import math

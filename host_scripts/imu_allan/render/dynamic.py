@@ -4,6 +4,7 @@ JSON contract (docs/dynamic.md; keys may be added, none renamed):
 ``{"windows": [{"t0_s", "t1_s", "temp", "adev": {ch: [...]}, "taus_s": [...],
 "departs": {ch: bool}, ...}], "warmup_s": {ch: number or null}, ...}``.
 """
+
 from __future__ import annotations
 
 import math
@@ -12,7 +13,8 @@ from typing import Any, Optional
 import numpy as np
 
 from ..analysis.dynamic import MIN_EFFECT, Verdict, Windows, temperature_bins
-from ..analysis.windows import adev_list as _devs, json_num as _num
+from ..analysis.windows import adev_list as _devs
+from ..analysis.windows import json_num as _num
 from ..stats.edf import chi2_interval
 
 
@@ -23,11 +25,20 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
     for w in range(len(ws.t0)):
         t = ws.temp[w]
         item: dict[str, Any] = {
-            "t0_s": float(ws.t0[w]), "t1_s": float(ws.t1[w]),
+            "t0_s": float(ws.t0[w]),
+            "t1_s": float(ws.t1[w]),
             "temp": t["mean"] if t else None,
             "temp_range": [t["min"], t["max"]] if t else None,
-            "taus_s": taus, "adev": {}, "low": {}, "high": {}, "edf": {}, "p": {},
-            "departs": {}, "departs_at": {}, "p_min": {}}
+            "taus_s": taus,
+            "adev": {},
+            "low": {},
+            "high": {},
+            "edf": {},
+            "p": {},
+            "departs": {},
+            "departs_at": {},
+            "p_min": {},
+        }
         for c, ch in enumerate(ws.channels):
             low, high = chi2_interval(ws.var[w, c], ws.edf[w, c], v.level)
             item["adev"][ch] = _devs(ws.var[w, c])
@@ -40,33 +51,54 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
         if ws.pairs is not None:
             item["pairs"] = {ch: [int(p) for p in ws.pairs[w, c]] for c, ch in enumerate(ws.channels)}
         windows.append(item)
-    bins = [{"temp": b["temp"], "windows": b["windows"],
-             "adev": {ch: _devs(b["var"][c]) for c, ch in enumerate(ws.channels)}}
-            for b in temperature_bins(ws)]
+    bins = [
+        {
+            "temp": b["temp"],
+            "windows": b["windows"],
+            "adev": {ch: _devs(b["var"][c]) for c, ch in enumerate(ws.channels)},
+        }
+        for b in temperature_bins(ws)
+    ]
     return {
         "tool": tool,
-        "source": {"file": name, "kind": ws.source, "fs_hz": ws.fs,
-                   "duration_s": float(ws.t1.max()) if len(ws.t1) else 0.0,
-                   "windows": len(windows), "window_overlap": ws.overlap,
-                   "estimator": ("non-overlapping (the device's exact sums, report minus report)"
-                                 if ws.source == "device reports" else "overlapping, sliding windows")},
-        "test": {"level": v.level,
-                 "method": ("each window's variance at each tau against the pooled variance of the "
-                            "windows that do not depart (none overlapping it): F test with "
-                            "Greenhall's EDFs, two-sided; a window departs when a tau's p-value is "
-                            "below the per-point level, Sidak-corrected over every window and tau "
-                            f"tested and its deviation differs by more than {MIN_EFFECT:.0%}: a "
-                            f"stationary channel is flagged with probability at most {1 - v.level:.2g}"),
-                 "min_effect": MIN_EFFECT,
-                 "per_point_level": {ch: float(v.threshold[c]) for c, ch in enumerate(ws.channels)}},
+        "source": {
+            "file": name,
+            "kind": ws.source,
+            "fs_hz": ws.fs,
+            "duration_s": float(ws.t1.max()) if len(ws.t1) else 0.0,
+            "windows": len(windows),
+            "window_overlap": ws.overlap,
+            "estimator": (
+                "non-overlapping (the device's exact sums, report minus report)"
+                if ws.source == "device reports"
+                else "overlapping, sliding windows"
+            ),
+        },
+        "test": {
+            "level": v.level,
+            "method": (
+                "each window's variance at each tau against the pooled variance of the "
+                "windows that do not depart (none overlapping it): F test with "
+                "Greenhall's EDFs, two-sided; a window departs when a tau's p-value is "
+                "below the per-point level, Sidak-corrected over every window and tau "
+                f"tested and its deviation differs by more than {MIN_EFFECT:.0%}: a "
+                f"stationary channel is flagged with probability at most {1 - v.level:.2g}"
+            ),
+            "min_effect": MIN_EFFECT,
+            "per_point_level": {ch: float(v.threshold[c]) for c, ch in enumerate(ws.channels)},
+        },
         "taus_s": taus,
         "whole": {"adev": {ch: _devs(ws.whole[c]) for c, ch in enumerate(ws.channels)}},
         "windows": windows,
         "warmup_s": dict(v.warmup_s),
-        "stationary": {ch: {"stationary": v.stationary[ch],
-                            "departing_windows": int(v.departs[:, c].sum()),
-                            "tau_range_s": list(v.tau_range_s[ch]) if v.tau_range_s[ch] else None}
-                       for c, ch in enumerate(ws.channels)},
+        "stationary": {
+            ch: {
+                "stationary": v.stationary[ch],
+                "departing_windows": int(v.departs[:, c].sum()),
+                "tau_range_s": list(v.tau_range_s[ch]) if v.tau_range_s[ch] else None,
+            }
+            for c, ch in enumerate(ws.channels)
+        },
         "temp_bins": bins,
         "notes": notes + list(ws.notes),
     }
@@ -94,20 +126,22 @@ def verdict_lines(doc: dict[str, Any]) -> list[str]:
         else:
             tr = st["tau_range_s"]
             taus = f" at tau {tr[0]:.3g}-{tr[1]:.3g} s" if tr else ""
-            text += (f"; NOT stationary: {st['departing_windows']} of {doc['source']['windows']} "
-                     f"windows depart{taus}")
+            text += f"; NOT stationary: {st['departing_windows']} of {doc['source']['windows']} windows depart{taus}"
         out.append(text)
     return out
 
 
 def text(doc: dict[str, Any]) -> str:
     src, test = doc["source"], doc["test"]
-    lines = [f"{doc['tool']}: {src['file']}",
-             f"{src['windows']} windows from {src['kind']} ({src['estimator']}), "
-             f"{_fmt_s(src['duration_s'])} at {src['fs_hz']:g} Hz",
-             f"test: a window departs when its deviation at some tau lies beyond its interval "
-             f"against the rest (F test, {test['level']:.0%} confidence per channel over all "
-             f"windows and taus)", ""]
+    lines = [
+        f"{doc['tool']}: {src['file']}",
+        f"{src['windows']} windows from {src['kind']} ({src['estimator']}), "
+        f"{_fmt_s(src['duration_s'])} at {src['fs_hz']:g} Hz",
+        f"test: a window departs when its deviation at some tau lies beyond its interval "
+        f"against the rest (F test, {test['level']:.0%} confidence per channel over all "
+        f"windows and taus)",
+        "",
+    ]
     lines += ["warm-up and stationarity:"] + verdict_lines(doc) + [""]
     chans = list(doc["warmup_s"])
     lines.append("window          temp   departs    ADEV / whole record at the most departing tau")
@@ -136,12 +170,27 @@ def csv(doc: dict[str, Any]) -> str:
 
     def f(v: Any) -> str:
         return "" if v is None else f"{v:.6g}"
+
     for w in doc["windows"]:
         for ch in doc["warmup_s"]:
             for k, tau in enumerate(w["taus_s"]):
-                out.append(",".join([f(w["t0_s"]), f(w["t1_s"]), f(w["temp"]), ch, f(tau),
-                                     f(w["adev"][ch][k]), f(w["low"][ch][k]), f(w["high"][ch][k]),
-                                     f(w["edf"][ch][k]), f(w["p"][ch][k]), str(int(w["departs"][ch]))]))
+                out.append(
+                    ",".join(
+                        [
+                            f(w["t0_s"]),
+                            f(w["t1_s"]),
+                            f(w["temp"]),
+                            ch,
+                            f(tau),
+                            f(w["adev"][ch][k]),
+                            f(w["low"][ch][k]),
+                            f(w["high"][ch][k]),
+                            f(w["edf"][ch][k]),
+                            f(w["p"][ch][k]),
+                            str(int(w["departs"][ch])),
+                        ]
+                    )
+                )
     return "\n".join(out) + "\n"
 
 
@@ -149,9 +198,11 @@ def plot(doc: dict[str, Any], path: str) -> str:
     """Heat map per channel: log2 of ADEV(window, tau) / ADEV(whole record, tau),
     points that depart crossed, the warm-up's end a vertical line."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.colors import TwoSlopeNorm
+
     chans = list(doc["warmup_s"])
     rows = math.ceil(len(chans) / 2)
     fig, axes = plt.subplots(rows, 2, figsize=(12, 3.2 * rows + 1.2), squeeze=False, sharex=True)
@@ -184,18 +235,21 @@ def plot(doc: dict[str, Any], path: str) -> str:
             ax.text(warm, tau_edges[-1], f" warm-up ends {warm:.0f} s", va="top", fontsize=8)
         st = doc["stationary"][ch]
         state = "stationary" if st["stationary"] else "NOT stationary"
-        ax.set_title(f"{ch}: {state}" + (" after the warm-up" if warm is not None and st["stationary"] else ""),
-                     fontsize=10)
+        ax.set_title(
+            f"{ch}: {state}" + (" after the warm-up" if warm is not None and st["stationary"] else ""), fontsize=10
+        )
         ax.set_yscale("log")
         ax.set_ylabel("tau (s)")
         if i // 2 == rows - 1:
             ax.set_xlabel("time since the start of the run (s)")
     for j in range(len(chans), rows * 2):
         axes[j // 2][j % 2].axis("off")
-    fig.suptitle(f"Allan deviation in each window, relative to the whole record: {doc['source']['file']}\n"
-                 f"red: noisier than the whole record, blue: quieter; x: the window departs at that tau "
-                 f"beyond its interval ({doc['test']['level']:.0%} confidence over the record)",
-                 fontsize=10)
+    fig.suptitle(
+        f"Allan deviation in each window, relative to the whole record: {doc['source']['file']}\n"
+        f"red: noisier than the whole record, blue: quieter; x: the window departs at that tau "
+        f"beyond its interval ({doc['test']['level']:.0%} confidence over the record)",
+        fontsize=10,
+    )
     if mesh is not None:
         cb = fig.colorbar(mesh, ax=axes, shrink=0.8, ticks=[-1, -0.5, 0, 0.5, 1])
         cb.ax.set_yticklabels(["0.5x or less", "0.71x", "1x", "1.41x", "2x or more"])

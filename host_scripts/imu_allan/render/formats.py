@@ -1,6 +1,7 @@
 """The analysis and device documents as files for other programs: JSON, CSV
 (the device's Allan tables, the noise terms, the curves) and the YAML of
 Kalibr and imu_utils.  The text for a person is text.py."""
+
 from __future__ import annotations
 
 import csv
@@ -12,6 +13,7 @@ from typing import Any, Optional
 from ..errors import InputError
 from ..noise.terms import TERMS
 from .text import ACC, GYRO, NAMES, Doc, literature_value
+
 
 def to_json(doc: dict[str, Any]) -> str:
     """JSON text of a document (every float finite: NaN is an error)."""
@@ -36,9 +38,25 @@ def to_csv(reports: list[Doc], with_seq: bool = False) -> str:
     return buf.getvalue()
 
 
-TERM_CSV = ("channel", "unit", "term", "name", "value", "low", "high", "term_unit", "tau_min_s",
-            "tau_max_s", "identifiable", "upper_bound", "lit_value", "lit_low", "lit_high",
-            "lit_unit", "note")
+TERM_CSV = (
+    "channel",
+    "unit",
+    "term",
+    "name",
+    "value",
+    "low",
+    "high",
+    "term_unit",
+    "tau_min_s",
+    "tau_max_s",
+    "identifiable",
+    "upper_bound",
+    "lit_value",
+    "lit_low",
+    "lit_high",
+    "lit_unit",
+    "note",
+)
 
 
 def terms_csv(doc: dict[str, Any]) -> str:
@@ -51,14 +69,50 @@ def terms_csv(doc: dict[str, Any]) -> str:
             lu, lf = literature_value(c, k)
             ub = c["upper_bounds"].get(k)
             if t is None:
-                w.writerow([ch, c["unit"], k, NAMES[k], "", "", "", c["term_units"][k], "", "", "no",
-                            _r(ub), "", "", "", lu, c["term_notes"].get(k, "")])
+                w.writerow(
+                    [
+                        ch,
+                        c["unit"],
+                        k,
+                        NAMES[k],
+                        "",
+                        "",
+                        "",
+                        c["term_units"][k],
+                        "",
+                        "",
+                        "no",
+                        _r(ub),
+                        "",
+                        "",
+                        "",
+                        lu,
+                        c["term_notes"].get(k, ""),
+                    ]
+                )
             else:
                 rng = t["tau_range_s"] or [None, None]
-                w.writerow([ch, c["unit"], k, NAMES[k], _r(t["value"]), _r(t["low"]), _r(t["high"]),
-                            c["term_units"][k], _r(rng[0]), _r(rng[1]), "yes", _r(ub),
-                            _r(t["value"] * lf), _r(t["low"] * lf), _r(t["high"] * lf), lu,
-                            c["term_notes"].get(k, "")])
+                w.writerow(
+                    [
+                        ch,
+                        c["unit"],
+                        k,
+                        NAMES[k],
+                        _r(t["value"]),
+                        _r(t["low"]),
+                        _r(t["high"]),
+                        c["term_units"][k],
+                        _r(rng[0]),
+                        _r(rng[1]),
+                        "yes",
+                        _r(ub),
+                        _r(t["value"] * lf),
+                        _r(t["low"] * lf),
+                        _r(t["high"] * lf),
+                        lu,
+                        c["term_notes"].get(k, ""),
+                    ]
+                )
     return buf.getvalue()
 
 
@@ -75,9 +129,20 @@ def curves_csv(doc: dict[str, Any]) -> str:
             sets.append(("model_" + main, c["model"]["curve"]))
         for name, pts in sets:
             for p in pts:
-                w.writerow([ch, c["unit"], name, _r(p["tau_s"]), _r(p.get("dev")), _r(p.get("low")),
-                            _r(p.get("high")), _r(p.get("edf")), p.get("noise", ""),
-                            "+".join(p.get("flags", []))])
+                w.writerow(
+                    [
+                        ch,
+                        c["unit"],
+                        name,
+                        _r(p["tau_s"]),
+                        _r(p.get("dev")),
+                        _r(p.get("low")),
+                        _r(p.get("high")),
+                        _r(p.get("edf")),
+                        p.get("noise", ""),
+                        "+".join(p.get("flags", [])),
+                    ]
+                )
     return buf.getvalue()
 
 
@@ -88,8 +153,7 @@ def _r(v: Optional[float]) -> str:
 # ---- Kalibr and imu_utils ---------------------------------------------------------------
 
 
-def _axis_values(doc: dict[str, Any], axes: tuple[str, ...], term: str
-                 ) -> list[tuple[str, float, bool, str]]:
+def _axis_values(doc: dict[str, Any], axes: tuple[str, ...], term: str) -> list[tuple[str, float, bool, str]]:
     """(axis, value in SI, identified?, note) for the axes present in physical units."""
     out = []
     for ch in axes:
@@ -124,8 +188,7 @@ def _slow_gm_as_k(doc: dict[str, Any], c: dict[str, Any]) -> Optional[tuple[floa
     if not ks:
         return None
     v = math.sqrt(sum(x[0] ** 2 for x in ks))
-    return v, "includes " + ", ".join(f"{k} (tau_c {T:.3g} s, longer than the record) as K"
-                                      for _, k, T in ks)
+    return v, "includes " + ", ".join(f"{k} (tau_c {T:.3g} s, longer than the record) as K" for _, k, T in ks)
 
 
 def _worst(vals: list[tuple[str, float, bool, str]]) -> Optional[tuple[str, float, bool, str]]:
@@ -152,8 +215,10 @@ def kalibr_yaml(doc: dict[str, Any], rostopic: str = "/imu0") -> str:
         "# for unmodelled effects; that is not done here.",
     ]
     body = []
-    for group, axes, unit_n, unit_k in (("accelerometer", ACC, "m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
-                                        ("gyroscope", GYRO, "rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)")):
+    for group, axes, unit_n, unit_k in (
+        ("accelerometer", ACC, "m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
+        ("gyroscope", GYRO, "rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)"),
+    ):
         nv, kv = _axis_values(doc, axes, "N"), _axis_values(doc, axes, "K")
         if not nv and not kv:
             lines.append(f"# {group}: no channel in physical units, left out")
@@ -168,15 +233,18 @@ def kalibr_yaml(doc: dict[str, Any], rostopic: str = "/imu0") -> str:
             if n_:
                 part.append(f"N {n_[1]:.4g} {unit_n} [{n_[1] * math.sqrt(fs):.4g}]")
             if k_:
-                part.append(f"K {k_[1]:.4g} {unit_k} [{k_[1] / math.sqrt(fs):.4g}]"
-                            + (f" ({k_[3]})" if not k_[2] else ""))
+                part.append(
+                    f"K {k_[1]:.4g} {unit_k} [{k_[1] / math.sqrt(fs):.4g}]" + (f" ({k_[3]})" if not k_[2] else "")
+                )
             lines.append(" ".join(part))
         wn, wk = _worst(nv), _worst(kv)
         if wn:
             body.append(f"{group}_noise_density: {wn[1]:.6e}   # [{unit_n}] N, worst axis {wn[0]}")
         if wk:
-            body.append(f"{group}_random_walk: {wk[1]:.6e}   # [{unit_k}] K, worst axis {wk[0]}"
-                        + (f" ({wk[3]})" if not wk[2] else ""))
+            body.append(
+                f"{group}_random_walk: {wk[1]:.6e}   # [{unit_k}] K, worst axis {wk[0]}"
+                + (f" ({wk[3]})" if not wk[2] else "")
+            )
     body.append(f"rostopic: {rostopic}")
     body.append(f"update_rate: {fs:.6g}   # [Hz]")
     return "\n".join(lines + body) + "\n"
@@ -197,25 +265,29 @@ def imu_utils_yaml(doc: dict[str, Any], name: str = "imu") -> str:
         "# gyr_n. Here *_w is K as the consumers use it; B is given in the comments.",
         "# avg-axis is the mean over the axes (imu_utils' convention); the worst axis is noted.",
         "type: IMU",
-        f"name: \"{name}\"",
+        f'name: "{name}"',
     ]
-    for key, axes, unit, nk, wk in (("Gyr", GYRO, " rad/s", "gyr_n", "gyr_w"),
-                                   ("Acc", ACC, " m/s^2", "acc_n", "acc_w")):
+    for key, axes, unit, nk, wk in (
+        ("Gyr", GYRO, " rad/s", "gyr_n", "gyr_w"),
+        ("Acc", ACC, " m/s^2", "acc_n", "acc_w"),
+    ):
         nv, kv = _axis_values(doc, axes, "N"), _axis_values(doc, axes, "K")
         if not nv and not kv:
             out.append(f"# {key}: no channel in physical units, left out")
             continue
         bv = _axis_values(doc, axes, "B")
         out.append(f"{key}:")
-        out.append(f"   unit: \"{unit}\"")
+        out.append(f'   unit: "{unit}"')
         out.append("   avg-axis:")
         if nv:
-            out.append(f"      {nk}: {sum(v[1] for v in nv) / len(nv):.10e}   # worst {_worst(nv)[0]}: "
-                       f"{_worst(nv)[1]:.4g}")
+            out.append(
+                f"      {nk}: {sum(v[1] for v in nv) / len(nv):.10e}   # worst {_worst(nv)[0]}: {_worst(nv)[1]:.4g}"
+            )
         if kv:
-            out.append(f"      {wk}: {sum(v[1] for v in kv) / len(kv):.10e}   # worst {_worst(kv)[0]}: "
-                       f"{_worst(kv)[1]:.4g}" + ("; includes upper bounds" if any(not v[2] for v in kv)
-                                                else ""))
+            out.append(
+                f"      {wk}: {sum(v[1] for v in kv) / len(kv):.10e}   # worst {_worst(kv)[0]}: "
+                f"{_worst(kv)[1]:.4g}" + ("; includes upper bounds" if any(not v[2] for v in kv) else "")
+            )
         for ch, label in zip(axes, ("x-axis", "y-axis", "z-axis")):
             n_ = next((v for v in nv if v[0] == ch), None)
             k_ = next((v for v in kv if v[0] == ch), None)
@@ -228,7 +300,9 @@ def imu_utils_yaml(doc: dict[str, Any], name: str = "imu") -> str:
             if k_:
                 out.append(f"      {wk}: {k_[1]:.10e}" + (f"   # {k_[3]}" if not k_[2] else ""))
             if b_:
-                out.append(f"      # bias instability B {b_[1]:.4g} {unit.strip()}, ADEV floor 0.664 B = "
-                           f"{0.664 * b_[1]:.4g}" + (" (upper bound)" if not b_[2] else ""))
+                out.append(
+                    f"      # bias instability B {b_[1]:.4g} {unit.strip()}, ADEV floor 0.664 B = "
+                    f"{0.664 * b_[1]:.4g}" + (" (upper bound)" if not b_[2] else "")
+                )
     out.append(f"# rate: {fs:g} Hz")
     return "\n".join(out) + "\n"

@@ -2,6 +2,7 @@
 fitted terms and their slopes, device points and the thesis model; and the
 PSD with the terms' levels. One figure per sensor (accelerometers, gyros),
 one panel per axis."""
+
 from __future__ import annotations
 
 import math
@@ -12,23 +13,30 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..noise.terms import B_READOFF, TERMS, basis
 from ..profiles import LITERATURE
 from .text import NAMES
-from ..noise.terms import B_READOFF, TERMS, basis
 
 COLORS = {"Q": "tab:purple", "N": "tab:blue", "B": "tab:green", "K": "tab:orange", "R": "tab:red"}
 SLOPE_LABEL = {"Q": "-1", "N": "-1/2", "B": "0", "K": "+1/2", "R": "+1"}
 MIN_EDF_BAND = 3.0
 """Points with fewer degrees of freedom are drawn without their interval (on a log grid
 the last points reach EDF 1, whose 95 % interval spans a factor of 30 in deviation)."""
-PSD_LEVEL = {"Q": "8 Q^2 fs sin^2(pi f/fs)", "N": "2 N^2", "B": "B^2/(pi f)", "K": "K^2/(2 pi^2 f^2)",
-             "R": "R^2/(4 pi^3 f^3)"}
+PSD_LEVEL = {
+    "Q": "8 Q^2 fs sin^2(pi f/fs)",
+    "N": "2 N^2",
+    "B": "B^2/(pi f)",
+    "K": "K^2/(2 pi^2 f^2)",
+    "R": "R^2/(4 pi^3 f^3)",
+}
 
 
 def _mpl() -> Any:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     return plt
 
 
@@ -64,8 +72,11 @@ def write_plots(doc: dict[str, Any], directory: str) -> list[str]:
         if any("psd" in doc["channels"][c] for c in chans):
             files.append(_psd_figure(plt, doc, group, chans, directory))
         else:
-            why = ("a device log carries results, not samples" if doc["source"]["kind"] == "device-log"
-                   else "no PSD was computed")
+            why = (
+                "a device log carries results, not samples"
+                if doc["source"]["kind"] == "device-log"
+                else "no PSD was computed"
+            )
             print(f"imu-allan analyze: {group} PSD plot skipped: {why}", file=sys.stderr)
     return files
 
@@ -100,15 +111,27 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
         band = ok & (edf >= MIN_EDF_BAND)
         for r in c["fit"].get("unexplained", []):
             a, b = r["tau_s"]
-            ax.axvspan(a / 1.19, b * 1.19, color="tab:red", alpha=0.12, lw=0,
-                       label="not explained by the terms (left out of the fit)"
-                       if r is c["fit"]["unexplained"][0] else None)
+            ax.axvspan(
+                a / 1.19,
+                b * 1.19,
+                color="tab:red",
+                alpha=0.12,
+                lw=0,
+                label="not explained by the terms (left out of the fit)" if r is c["fit"]["unexplained"][0] else None,
+            )
         ax.fill_between(tau[band], lo[band], hi[band], color="0.85", label="95 % interval")
         ax.loglog(tau[ok], dev[ok], "o-", color="k", ms=3.5, lw=1, label=stat)
         few = ok & ~band
         if few.any():
-            ax.loglog(tau[few], dev[few], "o", mfc="white", color="k", ms=3.5,
-                      label=f"EDF < {MIN_EDF_BAND:g} (interval not drawn)")
+            ax.loglog(
+                tau[few],
+                dev[few],
+                "o",
+                mfc="white",
+                color="k",
+                ms=3.5,
+                label=f"EDF < {MIN_EDF_BAND:g} (interval not drawn)",
+            )
         if band.any():  # limits from the drawn intervals, not stretched by EDF-1 points
             top = max(float(np.max(hi[band])), float(np.max(dev[ok])))
             bottom = min(float(np.min(lo[band])), float(np.min(dev[ok])))
@@ -121,8 +144,17 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
             dt = np.array([p["tau_s"] for p in dp])
             dd = np.array([p["dev"] for p in dp])
             err = np.array([[p["dev"] - p["low"] for p in dp], [p["high"] - p["dev"] for p in dp]])
-            ax.errorbar(dt, dd, yerr=err, fmt="s", mfc="none", color="tab:brown", ms=5, capsize=2,
-                        label="device (non-overlapping)")
+            ax.errorbar(
+                dt,
+                dd,
+                yerr=err,
+                fmt="s",
+                mfc="none",
+                color="tab:brown",
+                ms=5,
+                capsize=2,
+                label="device (non-overlapping)",
+            )
         # the terms over the taus they were fitted on (not extrapolated, not over the ranges left out)
         win = c["fit"].get("tau_window_s") or ([float(tau.min()), float(tau.max())] if tau.size else None)
         grid = np.exp(np.linspace(math.log(win[0]), math.log(win[1]), 200)) if win else tau
@@ -143,15 +175,22 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
                     line[A[:, j] * coef[j] < total / 100.0] = np.nan  # only where it matters (> 1/10 in ADEV)
                     label = f"{k} {NAMES[k]} (slope {SLOPE_LABEL[k]}): {v * lf:.3g} {lu}"
                     if k == "B":  # the flat line is the deviation B makes, not B
-                        label = (f"B {NAMES[k]}: {v * lf:.3g} {lu}; line at {B_READOFF:.3f} B = "
-                                 f"{v * B_READOFF:.3g} {c['unit']}")
+                        label = (
+                            f"B {NAMES[k]}: {v * lf:.3g} {lu}; line at {B_READOFF:.3f} B = "
+                            f"{v * B_READOFF:.3g} {c['unit']}"
+                        )
                     ax.loglog(grid, line, "--", color=COLORS[k], lw=1.2, label=label)
         m = c.get("model")
         if m and m.get("curve"):
             fp = m["fit_percent"].get("adev_log10")
-            ax.loglog([p["tau_s"] for p in m["curve"]], [p["dev"] for p in m["curve"]], ":",
-                      color="0.35", lw=1.5,
-                      label="thesis model, simulated" + (f" (FIT {fp:.1f} %)" if fp is not None else ""))
+            ax.loglog(
+                [p["tau_s"] for p in m["curve"]],
+                [p["dev"] for p in m["curve"]],
+                ":",
+                color="0.35",
+                lw=1.5,
+                label="thesis model, simulated" + (f" (FIT {fp:.1f} %)" if fp is not None else ""),
+            )
         ax.set_xlabel("tau [s]")
         ax.set_ylabel(f"Allan deviation [{c['unit']}]")
         ax.set_title(f"{ch}")
@@ -165,8 +204,9 @@ def _adev_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], di
 COMPONENT_COLORS = {"LP": "tab:blue", "SIN": "tab:olive"}
 
 
-def _components(ax: Any, c: dict[str, Any], comp: dict[str, Any], tau: np.ndarray, dev: np.ndarray,
-                ok: np.ndarray) -> None:
+def _components(
+    ax: Any, c: dict[str, Any], comp: dict[str, Any], tau: np.ndarray, dev: np.ndarray, ok: np.ndarray
+) -> None:
     """Each fitted process of the whole-curve fit as its own line under the curve, and a
     residual panel (curve / model) below the axes."""
     grid = np.array(comp["tau_s"], dtype=np.float64)
@@ -181,8 +221,10 @@ def _components(ax: Any, c: dict[str, Any], comp: dict[str, Any], tau: np.ndarra
             lu, lf = lu_all[k]
             label = f"{k} {NAMES[k]}: {t['value'] * lf:.3g} {lu}"
             if k == "B":  # the flat line is the deviation B makes, not B
-                label = (f"B {NAMES[k]}: {t['value'] * lf:.3g} {lu}; line at {B_READOFF:.3f} B = "
-                         f"{t['value'] * B_READOFF:.3g} {c['unit']}")
+                label = (
+                    f"B {NAMES[k]}: {t['value'] * lf:.3g} {lu}; line at {B_READOFF:.3f} B = "
+                    f"{t['value'] * B_READOFF:.3g} {c['unit']}"
+                )
             if k == "N" and c["terms"].get("LP"):
                 label += f" (through a {c['terms']['LP']['fc']:.3g} Hz low-pass)"
         elif k.startswith("GM") and t:
@@ -193,6 +235,7 @@ def _components(ax: Any, c: dict[str, Any], comp: dict[str, Any], tau: np.ndarra
             label = k
         ax.loglog(grid, v, "--", color=COLORS.get(k, COMPONENT_COLORS.get(k, "tab:gray")), lw=1.2, label=label)
     from mpl_toolkits.axes_grid1 import make_axes_locatable
+
     rax = make_axes_locatable(ax).append_axes("bottom", size="22%", pad=0.08, sharex=ax)
     sel = ok & (tau >= grid[0] * (1 - 1e-9)) & (tau <= grid[-1] * (1 + 1e-9))
     model = np.exp(np.interp(np.log(tau[sel]), np.log(grid), np.log(total)))
@@ -227,8 +270,14 @@ def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], dir
         m = c.get("model")
         if m and m.get("psd"):
             fp = m["fit_percent"].get("psd_log10")
-            ax.loglog(f, np.array(m["psd"], dtype=float), ":", color="0.35", lw=1.5,
-                      label="thesis model" + (f" (FIT {fp:.1f} %)" if fp is not None else ""))
+            ax.loglog(
+                f,
+                np.array(m["psd"], dtype=float),
+                ":",
+                color="0.35",
+                lw=1.5,
+                label="thesis model" + (f" (FIT {fp:.1f} %)" if fp is not None else ""),
+            )
         data = np.array(p["psd"], dtype=float)
         floor = np.nanmin(data[data > 0]) / 10.0 if np.any(data > 0) else 0.0
         for k, vals in p["terms"].items():
@@ -245,13 +294,15 @@ def _psd_figure(plt: Any, doc: dict[str, Any], group: str, chans: list[str], dir
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7, loc="best")
     src = doc["source"]
-    fig.suptitle(f"{group}: {os.path.basename(src['file'])}, power spectral density (one-sided, Welch), "
-                 f"{src['n']} samples at {src['fs_hz']:g} Hz")
+    fig.suptitle(
+        f"{group}: {os.path.basename(src['file'])}, power spectral density (one-sided, Welch), "
+        f"{src['n']} samples at {src['fs_hz']:g} Hz"
+    )
     fig.tight_layout()
     return _save(plt, fig, os.path.join(directory, f"psd_{group}.png"))
 
 
-# ---- the sweep's and the thermal study's figures -------------------------------------------------------------------------------------
+# ---- the sweep's and the thermal study's figures --------------------------------------------------
 
 SWEEP_PLOTTED = ("N", "N_tau0", "B", "K", "sigma_sensor", "sigma_BIAS")
 
@@ -260,6 +311,7 @@ def sweep_plot(doc: dict[str, Any], directory: str) -> str:
     """terms-vs-fs.png of a sweep document (analysis/sweep.py): one panel per
     quantity, one series per channel, the fitted power laws."""
     from ..analysis.sweep import quantity
+
     plt = pyplot_for(directory)
     keys = list(doc["rates"])
     fig, axes = plt.subplots(2, 3, figsize=(14, 8))
@@ -274,8 +326,7 @@ def sweep_plot(doc: dict[str, Any], directory: str) -> str:
             lo = np.array([p[1].get("low") or p[1]["value"] for p in pts])
             hi = np.array([p[1].get("high") or p[1]["value"] for p in pts])
             color = f"C{i}"
-            ax.errorbar(f, v, yerr=[v - lo, hi - v], fmt="o", color=color, ms=4, capsize=2,
-                        label=ch)
+            ax.errorbar(f, v, yerr=[v - lo, hi - v], fmt="o", color=color, ms=4, capsize=2, label=ch)
             fit = doc["dependence"][ch].get(q)
             if fit and len(pts) > 1:
                 c = np.exp(np.mean(np.log(v) - fit["exponent"] * np.log(f)))
@@ -287,8 +338,10 @@ def sweep_plot(doc: dict[str, Any], directory: str) -> str:
         ax.set_xlabel("Fs, Hz")
         ax.grid(True, which="both", alpha=0.3)
     axes.flat[0].legend(fontsize=8)
-    fig.suptitle(f"imu-allan sweep ({doc['source']}, {doc['seconds']:g} s per rate, "
-                 f"{doc['profile']} units): terms against the sample rate")
+    fig.suptitle(
+        f"imu-allan sweep ({doc['source']}, {doc['seconds']:g} s per rate, "
+        f"{doc['profile']} units): terms against the sample rate"
+    )
     fig.tight_layout()
     path = os.path.join(directory, "terms-vs-fs.png")
     fig.savefig(path, dpi=100)

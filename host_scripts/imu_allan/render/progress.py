@@ -1,6 +1,7 @@
 """A plain progress line on stderr, shown only on a terminal and only for long
 work.  The work itself (device/, analysis/) asks progress.py, at rank 0, for its
 line; the command line installs this one there (cli/main.py)."""
+
 from __future__ import annotations
 
 import os
@@ -28,8 +29,14 @@ class Progress:
     start, and the erase overwrites exactly the columns last written.
     """
 
-    def __init__(self, label: str, total: Optional[float] = None, stream: Optional[TextIO] = None,
-                 delay: float = 0.5, unit: str = "") -> None:
+    def __init__(
+        self,
+        label: str,
+        total: Optional[float] = None,
+        stream: Optional[TextIO] = None,
+        delay: float = 0.5,
+        unit: str = "",
+    ) -> None:
         self.label = label
         self.total = total
         self.stream = stream if stream is not None else sys.stderr

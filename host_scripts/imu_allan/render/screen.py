@@ -3,6 +3,7 @@
 text or cut to a terminal; ``run_screen`` (full screen, with a command line)
 and ``run_plain`` (a pipe: reports and replies printed once) are the loops
 over a port that cli/monitor.py opens (device/link.py)."""
+
 from __future__ import annotations
 
 import collections
@@ -19,9 +20,20 @@ from ..errors import InputError
 _REPLIES_SHOWN = 5
 _RATE_WINDOW = 2.0
 _NON_TTY_STATS = 10.0
-_SHOWN_ERRORS = ("bad_crc", "malformed", "restarted", "unparsable", "orphan_lines",
-                 "incomplete_reports", "unknown_records", "garbage_bytes", "inconsistent_reports",
-                 "report_check_failed", "inconsistent_lines", "seq_backwards")
+_SHOWN_ERRORS = (
+    "bad_crc",
+    "malformed",
+    "restarted",
+    "unparsable",
+    "orphan_lines",
+    "incomplete_reports",
+    "unknown_records",
+    "garbage_bytes",
+    "inconsistent_reports",
+    "report_check_failed",
+    "inconsistent_lines",
+    "seq_backwards",
+)
 
 
 class Monitor:
@@ -67,32 +79,41 @@ class Monitor:
     def stream_line(self) -> str:
         c = self.decoder.counts
         rate = "?" if self.rate is None else f"{self.rate:.0f}"
-        return (f"samples: rows {c['rows']}, frames {c['frames']} ({rate}/s); "
-                f"lost: rows {c['rows_lost']}, frames {c['frames_lost']}; "
-                f"bad: rows {c['bad_rows']}, frames {c['bad_frames']}")
+        return (
+            f"samples: rows {c['rows']}, frames {c['frames']} ({rate}/s); "
+            f"lost: rows {c['rows_lost']}, frames {c['frames_lost']}; "
+            f"bad: rows {c['bad_rows']}, frames {c['bad_frames']}"
+        )
 
     def errors_line(self) -> str:
         c = self.decoder.counts
         bad = [f"{k} {c[k]}" for k in _SHOWN_ERRORS if c[k]]
         warnings = self.decoder.warnings
-        return ("not used: " + (", ".join(bad) if bad else "nothing")
-                + (f"; warning: {warnings[-1]}" if warnings else ""))
+        return (
+            "not used: " + (", ".join(bad) if bad else "nothing") + (f"; warning: {warnings[-1]}" if warnings else "")
+        )
 
     def report_text(self) -> str:
         from . import text as render
+
         if self.report is None:
             return "no complete report yet\n"
         doc = render.report_doc(self.report)
-        return (f"report seq {self.report.seq} (received {self.report_time}; "
-                f"{self.reports} complete so far)\n"
-                + self.advice_line() + "\n"
-                + render.device_header_text(doc["header"])
-                + "Allan deviation, ADC counts (! flagged: saturated or range):\n"
-                + render.device_adev_table(doc["rows"], CHANNELS))
+        return (
+            f"report seq {self.report.seq} (received {self.report_time}; "
+            f"{self.reports} complete so far)\n"
+            + self.advice_line()
+            + "\n"
+            + render.device_header_text(doc["header"])
+            + "Allan deviation, ADC counts (! flagged: saturated or range):\n"
+            + render.device_adev_table(doc["rows"], CHANNELS)
+        )
 
     def title(self) -> str:
-        return (f"imu-allan monitor: {self.port} at {self.baud} baud, {self.bytes} bytes "
-                f"(Ctrl-C quits), log {self.log_path}")
+        return (
+            f"imu-allan monitor: {self.port} at {self.baud} baud, {self.bytes} bytes "
+            f"(Ctrl-C quits), log {self.log_path}"
+        )
 
     def replies_line(self, columns: int = 0) -> str:
         """The last replies, oldest first; with ``columns``, as many of the
@@ -105,19 +126,30 @@ class Monitor:
     def advice_line(self, columns: int = 80) -> str:
         """How long to record, from the last report alone (advice.py); updated at every report."""
         from ..analysis.advice import monitor_line
+
         return monitor_line(self.report, columns) if self.report is not None else ""
 
     def render(self) -> str:
         """The whole view as text (a pipe, or a test)."""
-        lines = [self.title(), "", self.report_text().rstrip("\n"), "", self.stream_line(),
-                 self.errors_line(), self.replies_line()]
+        lines = [
+            self.title(),
+            "",
+            self.report_text().rstrip("\n"),
+            "",
+            self.stream_line(),
+            self.errors_line(),
+            self.replies_line(),
+        ]
         if self.commands:
-            lines.append("type a command and Enter to send it (help, status, mode raw, ...)"
-                         + (f"; sent: {self.sent}" if self.sent else ""))
+            lines.append(
+                "type a command and Enter to send it (help, status, mode raw, ...)"
+                + (f"; sent: {self.sent}" if self.sent else "")
+            )
         return "\n".join(lines) + "\n"
 
-    def screen(self, columns: int, rows: int, typed: Optional[str] = None,
-               scroll: int = 0) -> tuple[list[str], tuple[int, int], int]:
+    def screen(
+        self, columns: int, rows: int, typed: Optional[str] = None, scroll: int = 0
+    ) -> tuple[list[str], tuple[int, int], int]:
         """The view cut to a ``columns`` x ``rows`` terminal: the title first,
         the stream, losses, replies and the command line (``typed``, None for
         none) at the bottom, and as much of the report as fits between them,
@@ -125,15 +157,14 @@ class Monitor:
         foot = [self.stream_line(), self.errors_line(), self.replies_line(columns)]
         if typed is not None:
             prompt = "> " + typed
-            foot.append(prompt[-(columns - 1):] if len(prompt) >= columns else prompt)
+            foot.append(prompt[-(columns - 1) :] if len(prompt) >= columns else prompt)
         body = self.report_text().rstrip("\n").split("\n")
         room = max(rows - 1 - len(foot), 0)
         if len(body) > room:  # the last line of the room says what is hidden
             shown = max(room - 1, 0)
             scroll = min(max(scroll, 0), max(len(body) - shown, 0))
-            more = (f"-- lines {scroll + 1}-{scroll + shown} of {len(body)}; "
-                    "PgUp/PgDn scroll --") if room else ""
-            body = body[scroll:scroll + shown] + ([more] if room else [])
+            more = (f"-- lines {scroll + 1}-{scroll + shown} of {len(body)}; PgUp/PgDn scroll --") if room else ""
+            body = body[scroll : scroll + shown] + ([more] if room else [])
         else:
             scroll = 0
             body = body + [""] * (room - len(body))
@@ -150,10 +181,11 @@ def run_screen(ser: Any, mon: Monitor, log: IO[bytes], out: IO[str], once: bool)
     from contextlib import nullcontext
 
     from .terminal import Keys, LineEditor, Screen
+
     reader = PortReader(ser, mon.port)
     editor = LineEditor()
     scroll = 0
-    with Screen(out) as scr, (Keys(sys.stdin) if mon.commands else nullcontext()) as keys:
+    with Screen(out) as scr, Keys(sys.stdin) if mon.commands else nullcontext() as keys:
         fds = [reader.fd] + ([keys.fd] if keys is not None else [])
         drawn = 0.0
         while True:
@@ -180,13 +212,12 @@ def run_screen(ser: Any, mon: Monitor, log: IO[bytes], out: IO[str], once: bool)
                     except InputError as exc:
                         mon.sent = f"not sent: {exc}"
                 page = max(scr.lines - 6, 1)
-                scroll += sum(page if k == "page_down" else -page if k == "page_up" else 0
-                              for k in pressed)
+                scroll += sum(page if k == "page_down" else -page if k == "page_up" else 0 for k in pressed)
                 dirty = True
             if dirty or now - drawn >= 0.5 or (data and now - drawn >= 0.25):
-                lines_, cursor, scroll = mon.screen(scr.columns, scr.lines,
-                                                    editor.text if keys is not None else None,
-                                                    scroll)
+                lines_, cursor, scroll = mon.screen(
+                    scr.columns, scr.lines, editor.text if keys is not None else None, scroll
+                )
                 scr.draw(lines_, cursor)
                 drawn = now
             if once and reports:

@@ -7,6 +7,7 @@ restores the terminal on exit.  ``Keys`` puts the input terminal in cbreak
 mode without echo (Ctrl-C still interrupts) and ``LineEditor`` turns the
 bytes typed into edits of one command line.  Standard library only.
 """
+
 from __future__ import annotations
 
 import os
@@ -73,8 +74,7 @@ class Screen:
             parts.append(f"\x1b[{len(lines) + 1};1H\x1b[J")
         if cursor is not None:
             row, col = cursor
-            parts.append(f"\x1b[{min(row, self.lines - 1) + 1};{min(col, self.columns - 1) + 1}H"
-                         + SHOW)
+            parts.append(f"\x1b[{min(row, self.lines - 1) + 1};{min(col, self.columns - 1) + 1}H" + SHOW)
         self.out.write("".join(parts))
         self.out.flush()
 
@@ -90,6 +90,7 @@ class Keys:
     def __enter__(self) -> "Keys":
         import termios
         import tty
+
         self._saved = termios.tcgetattr(self.fd)
         tty.setcbreak(self.fd, termios.TCSANOW)
         attrs = termios.tcgetattr(self.fd)
@@ -99,6 +100,7 @@ class Keys:
 
     def __exit__(self, *exc: object) -> None:
         import termios
+
         if self._saved is not None:
             termios.tcsetattr(self.fd, termios.TCSAFLUSH, self._saved)
 
@@ -107,9 +109,20 @@ class Keys:
 
 
 # Keys the editor understands besides printable ASCII.
-_SEQUENCES = {b"\x1b[A": "up", b"\x1bOA": "up", b"\x1b[B": "down", b"\x1bOB": "down",
-              b"\x1b[5~": "page_up", b"\x1b[6~": "page_down", b"\x1b[C": "", b"\x1b[D": "",
-              b"\x1bOC": "", b"\x1bOD": "", b"\x1b[H": "", b"\x1b[F": ""}
+_SEQUENCES = {
+    b"\x1b[A": "up",
+    b"\x1bOA": "up",
+    b"\x1b[B": "down",
+    b"\x1bOB": "down",
+    b"\x1b[5~": "page_up",
+    b"\x1b[6~": "page_down",
+    b"\x1b[C": "",
+    b"\x1b[D": "",
+    b"\x1bOC": "",
+    b"\x1bOD": "",
+    b"\x1b[H": "",
+    b"\x1b[F": "",
+}
 
 
 class LineEditor:
@@ -139,7 +152,7 @@ class LineEditor:
         keys: list[str] = []
         i = 0
         while i < len(data):
-            ch = data[i:i + 1]
+            ch = data[i : i + 1]
             if ch == b"\x1b":
                 seq = self._sequence(data[i:])
                 if seq is None and not final:  # wait for the rest
@@ -157,7 +170,7 @@ class LineEditor:
                 i += len(seq)
                 continue
             if ch in (b"\r", b"\n"):
-                if ch == b"\n" and i and data[i - 1:i] == b"\r":
+                if ch == b"\n" and i and data[i - 1 : i] == b"\r":
                     i += 1
                     continue
                 line = self.text.strip()
@@ -165,7 +178,7 @@ class LineEditor:
                 if line:
                     lines.append(line)
                     if not self.history or self.history[-1] != line:
-                        self.history = (self.history + [line])[-self._limit:]
+                        self.history = (self.history + [line])[-self._limit :]
             elif ch in (b"\x7f", b"\x08"):
                 self.text = self.text[:-1]
             elif ch == b"\x15":  # Ctrl-U

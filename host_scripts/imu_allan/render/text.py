@@ -9,6 +9,7 @@ JSON, CSV and YAML, are formats.py, from the same documents).
 * The analysis document (``analyze``): terminal text (see docs/analysis.md
   for every unit and convention).
 """
+
 from __future__ import annotations
 
 import math
@@ -19,8 +20,7 @@ from ..device.consistency import sig3
 from ..device.records import DeviceReport, flag_names
 from ..profiles import LITERATURE
 
-NAMES = {"Q": "quantization", "N": "random walk", "B": "bias instability", "K": "rate random walk",
-         "R": "rate ramp"}
+NAMES = {"Q": "quantization", "N": "random walk", "B": "bias instability", "K": "rate random walk", "R": "rate ramp"}
 ACC, GYRO = ("ax", "ay", "az"), ("gx", "gy", "gz")
 
 
@@ -28,12 +28,14 @@ ACC, GYRO = ("ax", "ay", "az"), ("gx", "gy", "gz")
 
 Doc = dict[str, Any]
 
+
 def report_doc(rep: DeviceReport) -> Doc:
     """A complete device report as the ``{header, rows}`` document of ``decode --json``."""
     fs = rep.header.fs_hz
-    doc = {"header": rep.header.as_dict(),
-           "rows": [row_dict(r.channel, r.level, r.pairs, r.acc, r.avar, fs, flag_names(r.flags))
-                    for r in rep.rows]}
+    doc = {
+        "header": rep.header.as_dict(),
+        "rows": [row_dict(r.channel, r.level, r.pairs, r.acc, r.avar, fs, flag_names(r.flags)) for r in rep.rows],
+    }
     if rep.terms:
         doc["terms"] = terms_doc(rep, fs)
     return doc
@@ -52,8 +54,13 @@ def terms_doc(rep: DeviceReport, fs: float) -> dict[str, Any]:
         if t.level is None:
             return None
         p = pairs.get((ch, t.level), 0)
-        return {"value": t.value, "tau_s": 2 ** t.level / fs, "pairs": p,
-                "pct": round(100.0 / (2.0 * p) ** 0.5, 3) if p else None}
+        return {
+            "value": t.value,
+            "tau_s": 2**t.level / fs,
+            "pairs": p,
+            "pct": round(100.0 / (2.0 * p) ** 0.5, 3) if p else None,
+        }
+
     return {ch: {"N": one(ch, t.N), "B": one(ch, t.B)} for ch, t in rep.terms.items()}
 
 
@@ -61,8 +68,11 @@ def decode_text(docs: list[Doc], total: int, log: str, every: bool, errors: dict
     """``imu-allan decode``: the last report (or every one) and what was not used."""
     out = []
     for i, d in enumerate(docs):
-        which = f"{i + 1} of {total}" if every else (
-            "the only complete report" if total == 1 else f"the last of {total} complete reports")
+        which = (
+            f"{i + 1} of {total}"
+            if every
+            else ("the only complete report" if total == 1 else f"the last of {total} complete reports")
+        )
         out.append(f"{log}: report seq {d['header']['seq']} ({which})\n")
         out.append(device_header_text(d["header"]) + "\n")
         out.append(table(d["rows"]) + "\n")
@@ -74,22 +84,26 @@ def reference_doc(cascade: Any, file: str, fs: float) -> Doc:
     """The ``{header, rows}`` document of ``imu-allan reference`` from a
     finished ``stats.reference.OctaveCascade``."""
     pairs, acc, avar = cascade.pairs(), cascade.acc(), cascade.avar()
-    rows = [row_dict(ch, k, int(pairs[k, c]), acc[k][c], float(avar[k, c]), fs)
-            for c, ch in enumerate(CHANNELS) for k in range(cascade.levels)]
-    header = {"source": "reference", "file": file, "fs_hz": fs, "levels": cascade.levels,
-              "n": cascade.n}
+    rows = [
+        row_dict(ch, k, int(pairs[k, c]), acc[k][c], float(avar[k, c]), fs)
+        for c, ch in enumerate(CHANNELS)
+        for k in range(cascade.levels)
+    ]
+    header = {"source": "reference", "file": file, "fs_hz": fs, "levels": cascade.levels, "n": cascade.n}
     return {"header": header, "rows": rows}
 
 
 def reference_text(doc: Doc) -> str:
     h = doc["header"]
-    return (f"{h['file']}: float64 reference, n {h['n']} rows "
-            f"({h['n'] / h['fs_hz']:.6g} s at {h['fs_hz']} Hz), levels {h['levels']}\n\n"
-            + table(doc["rows"]))
+    return (
+        f"{h['file']}: float64 reference, n {h['n']} rows "
+        f"({h['n'] / h['fs_hz']:.6g} s at {h['fs_hz']} Hz), levels {h['levels']}\n\n" + table(doc["rows"])
+    )
 
 
-def row_dict(channel: str, level: int, pairs: int, acc: Optional[int], avar: float,
-             fs_hz: float, flags: Iterable[str] = ()) -> dict[str, Any]:
+def row_dict(
+    channel: str, level: int, pairs: int, acc: Optional[int], avar: float, fs_hz: float, flags: Iterable[str] = ()
+) -> dict[str, Any]:
     m = 1 << level
     ok = pairs > 0 and math.isfinite(avar)
     return {
@@ -111,12 +125,13 @@ def _g(v: Optional[float]) -> str:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    lines = [f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} "
-             f"{'avar':>12} {'adev':>12}  flags"]
+    lines = [f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} {'avar':>12} {'adev':>12}  flags"]
     for r in rows:
-        lines.append(f"{r['channel']:<4} {r['level']:>5} {r['m']:>7} {r['tau_s']:>10.6g} "
-                     f"{r['pairs']:>10} {_g(r['avar']):>12} {_g(r['adev']):>12}  "
-                     f"{' '.join(r['flags'])}".rstrip())
+        lines.append(
+            f"{r['channel']:<4} {r['level']:>5} {r['m']:>7} {r['tau_s']:>10.6g} "
+            f"{r['pairs']:>10} {_g(r['avar']):>12} {_g(r['adev']):>12}  "
+            f"{' '.join(r['flags'])}".rstrip()
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -136,20 +151,21 @@ def device_header_text(h: dict[str, Any]) -> str:
         f"drops {_v(h['drops'])}, running {running}, reset {reset}",
     ]
     if any(h.get(k) is not None for k in ("mode", "range_g", "cfg")):
-        lines.append(f"  mode {_v(h.get('mode'))}, range {_v(h.get('range_g'))} g, "
-                     f"settings {_v(h.get('cfg'))}")
+        lines.append(f"  mode {_v(h.get('mode'))}, range {_v(h.get('range_g'))} g, settings {_v(h.get('cfg'))}")
     if h["clips"] is not None:
-        lines.append("  clips (codes at 0 or 1023): "
-                     + "  ".join(f"{k} {v}" for k, v in h["clips"].items()))
+        lines.append("  clips (codes at 0 or 1023): " + "  ".join(f"{k} {v}" for k, v in h["clips"].items()))
     t = h["temp"]
-    lines.append("  temp code this interval: " + (
-        "-" if t is None else f"mean {t['mean']:g}, min {t['min']}, max {t['max']}"))
+    lines.append(
+        "  temp code this interval: " + ("-" if t is None else f"mean {t['mean']:g}, min {t['min']}, max {t['max']}")
+    )
     extra = dict(h.get("extra") or {})
     rx = _rx_counters(extra.get("rx"))
     if rx is not None:
         del extra["rx"]
-        lines.append(f"  link since power-up: {rx[0]} UART overruns, {rx[1]} bytes lost to the full "
-                     f"receive ring, {rx[2]} command lines refused (error:5), {rx[3]} timed out (error:7)")
+        lines.append(
+            f"  link since power-up: {rx[0]} UART overruns, {rx[1]} bytes lost to the full "
+            f"receive ring, {rx[2]} command lines refused (error:5), {rx[3]} timed out (error:7)"
+        )
     if extra:
         lines.append("  other keys: " + ", ".join(f"{k}={v}" for k, v in extra.items()))
     return "\n".join(lines) + "\n"
@@ -215,16 +231,27 @@ def _duration(s: float) -> str:
 
 def text(doc: dict[str, Any]) -> str:
     src = doc["source"]
-    kind = {"rows": "rows file", "csv": "CSV", "capture": "device capture",
-            "device-log": "device log (on-device results only)"}[src["kind"]]
-    lines = [f"{src['file']}: {kind}, {src['n']} samples at {src['fs_hz']:g} Hz "
-             f"({_duration(src['duration_s'])}), profile {doc['profile']['name']}"]
+    kind = {
+        "rows": "rows file",
+        "csv": "CSV",
+        "capture": "device capture",
+        "device-log": "device log (on-device results only)",
+    }[src["kind"]]
+    lines = [
+        f"{src['file']}: {kind}, {src['n']} samples at {src['fs_hz']:g} Hz "
+        f"({_duration(src['duration_s'])}), profile {doc['profile']['name']}"
+    ]
     lines += [f"  {n}" for n in doc["notes"]]
-    stat = ("the device's non-overlapping Allan deviation" if src["kind"] == "device-log"
-            else "the overlapping Allan deviation")
-    lines.append(f"Noise terms (IEEE 952) fitted to {stat} at octave taus (whatever --taus shows); "
-                 "95 % intervals; 'dominates': the tau range where the term is at least half "
-                 "the Allan variance.")
+    stat = (
+        "the device's non-overlapping Allan deviation"
+        if src["kind"] == "device-log"
+        else "the overlapping Allan deviation"
+    )
+    lines.append(
+        f"Noise terms (IEEE 952) fitted to {stat} at octave taus (whatever --taus shows); "
+        "95 % intervals; 'dominates': the tau range where the term is at least half "
+        "the Allan variance."
+    )
     for ch, c in doc["channels"].items():
         lines.append("")
         lines.append(f"{ch} [{c['unit']}]")
@@ -236,22 +263,29 @@ def text(doc: dict[str, Any]) -> str:
             if t is None:
                 note = c["term_notes"].get(k, "not identifiable")
                 ub = c["upper_bounds"].get(k)
-                bound = f" (95 % upper bound {g(ub)} {c['term_units'][k]} = {g(ub * lf if ub else None)} {lu})" \
-                    if ub is not None and not note.startswith("not in") else ""
+                bound = (
+                    f" (95 % upper bound {g(ub)} {c['term_units'][k]} = {g(ub * lf if ub else None)} {lu})"
+                    if ub is not None and not note.startswith("not in")
+                    else ""
+                )
                 lines.append(f"{head}{note.split(' (')[0]}{bound}")
                 continue
             rng = t["tau_range_s"]
-            lines.append(f"{head}{g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['term_units'][k]}"
-                         f"  = {g(t['value'] * lf)} [{g(t['low'] * lf)}, {g(t['high'] * lf)}] {lu}"
-                         + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else ""))
+            lines.append(
+                f"{head}{g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['term_units'][k]}"
+                f"  = {g(t['value'] * lf)} [{g(t['low'] * lf)}, {g(t['high'] * lf)}] {lu}"
+                + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else "")
+            )
             if c["term_notes"].get(k):  # how it was bounded or where it was read
                 lines.append(f"{'':21}{c['term_notes'][k]}")
         lines.extend(_process_lines(c))
         bc = c.get("b_classic")
         if bc:
             lu, lf = literature_value(c, "B")
-            lines.append(f"  B by the thesis' read-off min(ADEV)/0.664: {g(bc['value'])} {c['unit']} "
-                         f"= {g(bc['value'] * lf)} {lu} (minimum at {g(bc['tau_s'])} s)")
+            lines.append(
+                f"  B by the thesis' read-off min(ADEV)/0.664: {g(bc['value'])} {c['unit']} "
+                f"= {g(bc['value'] * lf)} {lu} (minimum at {g(bc['tau_s'])} s)"
+            )
         fit = c["fit"]
         extra = [f"fit chi2/dof {g(fit['chi2_dof'])} on {fit['points']} points"]
         m = c.get("model")
@@ -272,10 +306,11 @@ def text(doc: dict[str, Any]) -> str:
         dev = c.get("device")
         if dev and dev.get("agreement"):
             a = dev["agreement"]
-            lines.append(f"  device vs host: {a['within']} of {a['checked']} device points hold the host's "
-                         f"value within their {a['level'] * 100:.0f} % interval"
-                         + (f" (outside at {', '.join(g(t) for t in a['outside_tau_s'])} s)"
-                            if a["outside_tau_s"] else ""))
+            lines.append(
+                f"  device vs host: {a['within']} of {a['checked']} device points hold the host's "
+                f"value within their {a['level'] * 100:.0f} % interval"
+                + (f" (outside at {', '.join(g(t) for t in a['outside_tau_s'])} s)" if a["outside_tau_s"] else "")
+            )
     lines.append("")
     lines.append(adev_table(doc))
     return "\n".join(lines) + "\n"
@@ -290,18 +325,27 @@ def outlier_lines(c: dict[str, Any]) -> list[str]:
     if o["count"]:
         times = o["times_s"]
         at = ", ".join(g(t, 6) for t in times[:5]) + (f" ... ({len(times)} in all)" if len(times) > 5 else "")
-        how = ("replaced by the line between their neighbours" if o["mode"] == "replace"
-               else "kept in the statistics (--outliers keep)")
-        out.append(f"  outliers: {o['count']} samples in {len(times)} event{'s' * (len(times) != 1)} "
-                   f"(spikes, bursts) at {at} s: {how}")
+        how = (
+            "replaced by the line between their neighbours"
+            if o["mode"] == "replace"
+            else "kept in the statistics (--outliers keep)"
+        )
+        out.append(
+            f"  outliers: {o['count']} samples in {len(times)} event{'s' * (len(times) != 1)} "
+            f"(spikes, bursts) at {at} s: {how}"
+        )
         eff = o.get("effect") or {}
-        parts = [f"{k} {v['change_pct']:+.3g} % ({g(v['without_outliers'])} -> {g(v['with_outliers'])})"
-                 for k, v in eff.items() if v.get("change_pct") is not None]
+        parts = [
+            f"{k} {v['change_pct']:+.3g} % ({g(v['without_outliers'])} -> {g(v['with_outliers'])})"
+            for k, v in eff.items()
+            if v.get("change_pct") is not None
+        ]
         if parts:
             out.append("            with them in, " + ", ".join(parts))
     if o.get("steps_s"):
-        out.append(f"  level shifts (kept): {len(o['steps_s'])} at "
-                   + ", ".join(g(t, 6) for t in o["steps_s"][:5]) + " s")
+        out.append(
+            f"  level shifts (kept): {len(o['steps_s'])} at " + ", ".join(g(t, 6) for t in o["steps_s"][:5]) + " s"
+        )
     return out
 
 
@@ -313,15 +357,21 @@ def _process_lines(c: dict[str, Any]) -> list[str]:
         if t is None or k in NAMES:
             continue
         if k == "LP":
-            out.append(f"  LP band limit         fc {g(t['fc'])} [{g(t['fc_low'])}, {g(t['fc_high'])}] Hz, "
-                       f"{'one' if t['order'] == 1 else 'two'}-pole: the white noise N reaches the samples "
-                       f"through it (the curve bends under N's line below {g(1 / (2 * math.pi * t['fc']))} s)")
+            out.append(
+                f"  LP band limit         fc {g(t['fc'])} [{g(t['fc_low'])}, {g(t['fc_high'])}] Hz, "
+                f"{'one' if t['order'] == 1 else 'two'}-pole: the white noise N reaches the samples "
+                f"through it (the curve bends under N's line below {g(1 / (2 * math.pi * t['fc']))} s)"
+            )
         elif k.startswith("GM"):
-            out.append(f"  {k:<3} Gauss-Markov      sigma {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['unit']}"
-                       f", tau_c {g(t['tau_c'])} [{g(t['tau_c_low'])}, {g(t['tau_c_high'])}] s")
+            out.append(
+                f"  {k:<3} Gauss-Markov      sigma {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['unit']}"
+                f", tau_c {g(t['tau_c'])} [{g(t['tau_c_low'])}, {g(t['tau_c_high'])}] s"
+            )
         elif k == "SIN":
-            out.append(f"  SIN oscillation       amplitude {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] "
-                       f"{c['unit']} at {g(t['f0_hz'])} Hz")
+            out.append(
+                f"  SIN oscillation       amplitude {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] "
+                f"{c['unit']} at {g(t['f0_hz'])} Hz"
+            )
         else:
             continue
         if c["term_notes"].get(k) and k != "LP":
@@ -331,8 +381,10 @@ def _process_lines(c: dict[str, Any]) -> list[str]:
         out.append(f"  model: {fit['model']}")
     sr = fit.get("slope_reading") or {}
     if sr:
-        out.append("  IEEE 952 slope reading (cross-check): " + ", ".join(
-            f"{k} {g(v['value'])} ({g(v['tau_s'][0])} .. {g(v['tau_s'][1])} s)" for k, v in sr.items()))
+        out.append(
+            "  IEEE 952 slope reading (cross-check): "
+            + ", ".join(f"{k} {g(v['value'])} ({g(v['tau_s'][0])} .. {g(v['tau_s'][1])} s)" for k, v in sr.items())
+        )
     return out
 
 

@@ -16,6 +16,7 @@ Anything else is refused with one line saying what was found.
 Samples come as blocks (channels, samples): uint16 codes or float64 values,
 read in blocks of a few MB, never the whole file at once.
 """
+
 from __future__ import annotations
 
 import io
@@ -32,24 +33,24 @@ from ..device.capture import Capture, read_capture
 from ..device.files import BLOCK_BYTES, input_name, read_blocks
 from ..device.framing import split_frames
 from ..device.records import DeviceHeader, DeviceReport
-from .rows import iter_blocks
 from ..device.stream import LOSS_KEYS, StreamDecoder
 from ..errors import InputError, quote
+from .rows import iter_blocks
 
 SNIFF_BYTES = 1 << 16
 
 
 @dataclass
 class SampleSource:
-    kind: str                                  # "rows", "csv" or "capture"
+    kind: str  # "rows", "csv" or "capture"
     name: str
-    channels: list[str]                        # subset of CHANNELS, in file order of CHANNELS
+    channels: list[str]  # subset of CHANNELS, in file order of CHANNELS
     open_blocks: Callable[[], Iterator[np.ndarray]]
-    integer: bool                              # ADC codes
-    fs: Optional[float] = None                 # from a time column or a device header
-    n_hint: Optional[int] = None               # expected samples (progress bars), may be None
+    integer: bool  # ADC codes
+    fs: Optional[float] = None  # from a time column or a device header
+    n_hint: Optional[int] = None  # expected samples (progress bars), may be None
     size_bytes: Optional[int] = None
-    units: dict[str, str] = field(default_factory=dict)   # from the CSV header
+    units: dict[str, str] = field(default_factory=dict)  # from the CSV header
     notes: list[str] = field(default_factory=list)
     open_temperature: Optional[Callable[[], Iterator[np.ndarray]]] = None
     """Blocks of the temperature column's codes, aligned with ``open_blocks``
@@ -60,7 +61,7 @@ class SampleSource:
 class Source:
     name: str
     samples: Optional[SampleSource]
-    report: Optional[DeviceReport]             # last complete device report
+    report: Optional[DeviceReport]  # last complete device report
     complete_reports: int = 0
     errors: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
@@ -106,6 +107,7 @@ def _spool(first: bytes, rest: Iterator[bytes]) -> str:
     """Text from stdin into a temporary file (read again lazily; removed at exit)."""
     import atexit
     import tempfile
+
     tmp = tempfile.NamedTemporaryFile(prefix="imu-allan-", suffix=".in", delete=False)
     with tmp:
         tmp.write(first)
@@ -147,12 +149,16 @@ def _one_setting(name: str, cap: Capture) -> None:
         if rng is not None and rng not in ranges:
             ranges.append(rng)
     if len(rates) > 1:
-        raise InputError(f"'{name}': the sample rate changes midway ({', then '.join(f'{r:g}' for r in rates)}"
-                         " Hz): its samples are not one series; cut the capture at the change and "
-                         "analyze each part at its own rate")
+        raise InputError(
+            f"'{name}': the sample rate changes midway ({', then '.join(f'{r:g}' for r in rates)}"
+            " Hz): its samples are not one series; cut the capture at the change and "
+            "analyze each part at its own rate"
+        )
     if len(ranges) > 1:
-        raise InputError(f"'{name}': the accelerometer range changes midway ({', then '.join(ranges)} g): "
-                         "cut the capture at the change and analyze each part")
+        raise InputError(
+            f"'{name}': the accelerometer range changes midway ({', then '.join(ranges)} g): "
+            "cut the capture at the change and analyze each part"
+        )
 
 
 def is_capture(head: bytes) -> bool:
@@ -172,18 +178,26 @@ def _capture(name: str, cap: Capture) -> Source:
     n = cap.samples.shape[1]
     if n >= 2:
         _one_setting(name, cap)
-        codes = cap.samples[:len(CHANNELS)]
-        samples = SampleSource("capture", name, list(CHANNELS),
-                               lambda: (codes[:, a:a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK)),
-                               True, n_hint=n, size_bytes=None)
+        codes = cap.samples[: len(CHANNELS)]
+        samples = SampleSource(
+            "capture",
+            name,
+            list(CHANNELS),
+            lambda: (codes[:, a : a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK)),
+            True,
+            n_hint=n,
+            size_bytes=None,
+        )
         temp = cap.samples[len(CHANNELS)]
-        samples.open_temperature = lambda: (temp[a:a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK))
+        samples.open_temperature = lambda: (temp[a : a + CAPTURE_BLOCK] for a in range(0, n, CAPTURE_BLOCK))
         if src.header is not None:
             samples.fs = float(src.header.fs_hz)
         if lost:
-            samples.notes.append("samples were lost or damaged on the way ("
-                                 + ", ".join(f"{k} {v}" for k, v in lost.items())
-                                 + "): the series has gaps, which the host statistics ignore")
+            samples.notes.append(
+                "samples were lost or damaged on the way ("
+                + ", ".join(f"{k} {v}" for k, v in lost.items())
+                + "): the series has gaps, which the host statistics ignore"
+            )
         src.samples = samples
     if src.report is None and src.samples is None:
         bad = ", ".join(f"{k} {v}" for k, v in c.items() if v) or "nothing usable"
@@ -207,52 +221,152 @@ def _first_line(head: bytes) -> tuple[int, str]:
 
 def _text(path: str, name: str, head: bytes, size: int) -> Source:
     if b"\x00" in head:
-        raise InputError(f"'{name}' is binary data, neither a device capture (no intact "
-                         "records or frames) nor a rows or CSV file")
+        raise InputError(
+            f"'{name}' is binary data, neither a device capture (no intact records or frames) nor a rows or CSV file"
+        )
     try:
         lineno, line = _first_line(head)
     except InputError:
-        raise InputError(f"'{name}' is neither a device capture (no intact records or frames) "
-                         "nor text") from None
+        raise InputError(f"'{name}' is neither a device capture (no intact records or frames) nor text") from None
     if not line:
         raise InputError(f"'{name}' holds no data (only comments or blank lines)")
     if re.search(r"[A-Za-z_]", line):
         return Source(name, _csv(path, name, line, lineno, head, size), None)
     fields = line.replace(",", " ").replace(";", " ").split()
     if len(fields) == 7 and all(re.fullmatch(r"\d+", f) for f in fields):
-        return Source(name, SampleSource(
-            "rows", name, list(CHANNELS), lambda: (b[:len(CHANNELS)] for b in iter_blocks(path, name=name)),
-            True, n_hint=max(size // 26, 1), size_bytes=size,
-            open_temperature=lambda: (b[len(CHANNELS)] for b in iter_blocks(path, name=name))), None)
+        return Source(
+            name,
+            SampleSource(
+                "rows",
+                name,
+                list(CHANNELS),
+                lambda: (b[: len(CHANNELS)] for b in iter_blocks(path, name=name)),
+                True,
+                n_hint=max(size // 26, 1),
+                size_bytes=size,
+                open_temperature=lambda: (b[len(CHANNELS)] for b in iter_blocks(path, name=name)),
+            ),
+            None,
+        )
     if len(fields) == 7 and all(re.fullmatch(r"[-+]?\d+(\.\d*)?", f) for f in fields):
         bad = next(f for f in fields if not re.fullmatch(r"\d+", f))
-        raise InputError(f"'{name}': line {lineno}: {quote(bad)} is not a 10-bit ADC code (a rows file "
-                         "has 7 integer codes 0..1023: ax ay az gx gy gz temp)")
-    raise InputError(f"'{name}': line {lineno} has {len(fields)} numeric columns and no header: "
-                     "a rows file has 7 integer codes (ax ay az gx gy gz temp); for other data "
-                     "add a first line naming the columns, e.g. 't,ax,ay,az,gx,gy,gz'")
+        raise InputError(
+            f"'{name}': line {lineno}: {quote(bad)} is not a 10-bit ADC code (a rows file "
+            "has 7 integer codes 0..1023: ax ay az gx gy gz temp)"
+        )
+    raise InputError(
+        f"'{name}': line {lineno} has {len(fields)} numeric columns and no header: "
+        "a rows file has 7 integer codes (ax ay az gx gy gz temp); for other data "
+        "add a first line naming the columns, e.g. 't,ax,ay,az,gx,gy,gz'"
+    )
 
 
 _ALIASES = {
-    "ax": ("ax", "accx", "acc_x", "accel_x", "accelx", "a_x", "accelerometer_x", "linear_acceleration_x",
-           "acceleration_x", "xacc", "x_acc"),
-    "ay": ("ay", "accy", "acc_y", "accel_y", "accely", "a_y", "accelerometer_y", "linear_acceleration_y",
-           "acceleration_y", "yacc", "y_acc"),
-    "az": ("az", "accz", "acc_z", "accel_z", "accelz", "a_z", "accelerometer_z", "linear_acceleration_z",
-           "acceleration_z", "zacc", "z_acc"),
-    "gx": ("gx", "gyrx", "gyr_x", "gyro_x", "gyrox", "g_x", "wx", "w_x", "omega_x", "angular_velocity_x",
-           "rate_x", "xgyro", "x_gyro"),
-    "gy": ("gy", "gyry", "gyr_y", "gyro_y", "gyroy", "g_y", "wy", "w_y", "omega_y", "angular_velocity_y",
-           "rate_y", "ygyro", "y_gyro"),
-    "gz": ("gz", "gyrz", "gyr_z", "gyro_z", "gyroz", "g_z", "wz", "w_z", "omega_z", "angular_velocity_z",
-           "rate_z", "zgyro", "z_gyro"),
+    "ax": (
+        "ax",
+        "accx",
+        "acc_x",
+        "accel_x",
+        "accelx",
+        "a_x",
+        "accelerometer_x",
+        "linear_acceleration_x",
+        "acceleration_x",
+        "xacc",
+        "x_acc",
+    ),
+    "ay": (
+        "ay",
+        "accy",
+        "acc_y",
+        "accel_y",
+        "accely",
+        "a_y",
+        "accelerometer_y",
+        "linear_acceleration_y",
+        "acceleration_y",
+        "yacc",
+        "y_acc",
+    ),
+    "az": (
+        "az",
+        "accz",
+        "acc_z",
+        "accel_z",
+        "accelz",
+        "a_z",
+        "accelerometer_z",
+        "linear_acceleration_z",
+        "acceleration_z",
+        "zacc",
+        "z_acc",
+    ),
+    "gx": (
+        "gx",
+        "gyrx",
+        "gyr_x",
+        "gyro_x",
+        "gyrox",
+        "g_x",
+        "wx",
+        "w_x",
+        "omega_x",
+        "angular_velocity_x",
+        "rate_x",
+        "xgyro",
+        "x_gyro",
+    ),
+    "gy": (
+        "gy",
+        "gyry",
+        "gyr_y",
+        "gyro_y",
+        "gyroy",
+        "g_y",
+        "wy",
+        "w_y",
+        "omega_y",
+        "angular_velocity_y",
+        "rate_y",
+        "ygyro",
+        "y_gyro",
+    ),
+    "gz": (
+        "gz",
+        "gyrz",
+        "gyr_z",
+        "gyro_z",
+        "gyroz",
+        "g_z",
+        "wz",
+        "w_z",
+        "omega_z",
+        "angular_velocity_z",
+        "rate_z",
+        "zgyro",
+        "z_gyro",
+    ),
 }
 _TIME: dict[str, Optional[float]] = {
-    "t": None, "time": None, "timestamp": None, "stamp": None, "ts": None,  # unit from magnitude
-    "time_s": 1.0, "sec": 1.0, "secs": 1.0, "seconds": 1.0,
-    "time_ns": 1e-9, "timestamp_ns": 1e-9, "time_us": 1e-6, "timestamp_us": 1e-6,
-    "time_ms": 1e-3, "timestamp_ms": 1e-3,
-    "field_header_stamp": 1e-9, "header_stamp": 1e-9, "rosbagtimestamp": 1e-9}  # ROS: integer ns
+    "t": None,
+    "time": None,
+    "timestamp": None,
+    "stamp": None,
+    "ts": None,  # unit from magnitude
+    "time_s": 1.0,
+    "sec": 1.0,
+    "secs": 1.0,
+    "seconds": 1.0,
+    "time_ns": 1e-9,
+    "timestamp_ns": 1e-9,
+    "time_us": 1e-6,
+    "timestamp_us": 1e-6,
+    "time_ms": 1e-3,
+    "timestamp_ms": 1e-3,
+    "field_header_stamp": 1e-9,
+    "header_stamp": 1e-9,
+    "rosbagtimestamp": 1e-9,
+}  # ROS: integer ns
 """Time columns by name, and the factor to seconds (None: read from the values)."""
 FS_RANGE = (0.1, 100e3)
 """Sample rates a time column may give, Hz; outside, its unit was misread."""
@@ -316,23 +430,33 @@ def _csv(path: str, name: str, header: str, lineno: int, head: bytes, size: int)
                 if unit in _UNITS:
                     time_factor = _UNITS[unit]
     if not chan_col:
-        raise InputError(f"'{name}': line {lineno}: no column named like a sensor channel in "
-                         f"{quote(header)} (expected ax ay az gx gy gz, acc_x, gyro_x, ...)")
+        raise InputError(
+            f"'{name}': line {lineno}: no column named like a sensor channel in "
+            f"{quote(header)} (expected ax ay az gx gy gz, acc_x, gyro_x, ...)"
+        )
     chans = [ch for ch in CHANNELS if ch in chan_col]
     use = [chan_col[ch] for ch in chans]
-    src = SampleSource("csv", name, chans, lambda: _csv_blocks(path, name, lineno, delim, use,
-                                                                 time_col, len(cols)),
-                       integer=False, n_hint=max(size // max(len(header), 8), 1), size_bytes=size,
-                       units=units)
+    src = SampleSource(
+        "csv",
+        name,
+        chans,
+        lambda: _csv_blocks(path, name, lineno, delim, use, time_col, len(cols)),
+        integer=False,
+        n_hint=max(size // max(len(header), 8), 1),
+        size_bytes=size,
+        units=units,
+    )
     # first rows: are the values integer codes? a time column gives fs
-    first = next(_csv_blocks(path, name, lineno, delim, use, time_col, len(cols), max_bytes=SNIFF_BYTES,
-                             with_time=True), None)
+    first = next(
+        _csv_blocks(path, name, lineno, delim, use, time_col, len(cols), max_bytes=SNIFF_BYTES, with_time=True), None
+    )
     if first is None or not first[0].size:
         raise InputError(f"'{name}': line {lineno} is a header, and no data row follows it")
     if first is not None:
         vals, t = first
-        src.integer = bool(vals.size) and bool(np.all(vals == np.rint(vals))) and bool(
-            np.all((vals >= 0) & (vals <= 1023)))
+        src.integer = (
+            bool(vals.size) and bool(np.all(vals == np.rint(vals))) and bool(np.all((vals >= 0) & (vals <= 1023)))
+        )
         if t is not None and t.size >= 3:
             _rate_from_time(src, name, t, time_factor)
     return src
@@ -353,20 +477,31 @@ def _rate_from_time(src: SampleSource, name: str, t: np.ndarray, factor: Optiona
         fs = (t.size - 1) / span  # regular steps: the span, not one step, sets the rate
         # (epoch ns in float64 are quantized to 256 ns: one step is that coarse, the span is not)
     if not FS_RANGE[0] <= fs <= FS_RANGE[1]:
-        raise InputError(f"'{name}': the time column gives {fs:.6g} Hz (median step {med:.6g} s, unit "
-                         f"{how}), outside {FS_RANGE[0]:g} Hz .. {FS_RANGE[1]:g} Hz: give its unit in the "
-                         "header (e.g. 'time [ns]') or --fs")
+        raise InputError(
+            f"'{name}': the time column gives {fs:.6g} Hz (median step {med:.6g} s, unit "
+            f"{how}), outside {FS_RANGE[0]:g} Hz .. {FS_RANGE[1]:g} Hz: give its unit in the "
+            "header (e.g. 'time [ns]') or --fs"
+        )
     src.fs = fs
     jitter = float(np.max(np.abs(steps * factor - med)) / med)
     unit = {1e-9: "ns", 1e-6: "us", 1e-3: "ms", 1.0: "s"}.get(factor, f"{factor:g} s")
-    src.notes.append(f"sample rate {fs:.6g} Hz from the time column (in {unit}, {how}; median step "
-                     f"{med:.6g} s" + (f", steps vary by up to {jitter * 100:.0f} %, more than 1 %"
-                                       if jitter > 0.01 else "") + ")")
+    src.notes.append(
+        f"sample rate {fs:.6g} Hz from the time column (in {unit}, {how}; median step "
+        f"{med:.6g} s" + (f", steps vary by up to {jitter * 100:.0f} %, more than 1 %" if jitter > 0.01 else "") + ")"
+    )
 
 
-def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], use: list[int],
-                time_col: Optional[int], ncols: int, max_bytes: Optional[int] = None,
-                with_time: bool = False) -> Iterator[Any]:
+def _csv_blocks(
+    path: str,
+    name: str,
+    header_line: int,
+    delim: Optional[str],
+    use: list[int],
+    time_col: Optional[int],
+    ncols: int,
+    max_bytes: Optional[int] = None,
+    with_time: bool = False,
+) -> Iterator[Any]:
     """Blocks of (channels, rows) float64 after the header line (with the time
     column as a second item when ``with_time``); ``max_bytes`` reads only the start."""
     cols = use + ([time_col] if with_time and time_col is not None else [])
@@ -380,7 +515,7 @@ def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], us
                 nl = data.find(b"\n")
                 if nl < 0:
                     break
-                data, skip = data[nl + 1:], skip - 1
+                data, skip = data[nl + 1 :], skip - 1
             if skip and chunk:
                 tail = data
                 continue
@@ -389,7 +524,7 @@ def _csv_blocks(path: str, name: str, header_line: int, delim: Optional[str], us
             if body.strip():
                 arr = _parse_csv(body, name, line, delim, cols)
                 if with_time:
-                    yield (arr[:len(use)], arr[len(use)] if time_col is not None else None)
+                    yield (arr[: len(use)], arr[len(use)] if time_col is not None else None)
                 else:
                     yield arr
             line += body.count(b"\n")
@@ -407,8 +542,7 @@ def _then_end(blocks: Iterator[bytes]) -> Iterator[bytes]:
 
 def _parse_csv(body: bytes, name: str, first_line: int, delim: Optional[str], cols: list[int]) -> np.ndarray:
     try:
-        a = np.loadtxt(io.BytesIO(body), delimiter=delim, usecols=cols, comments="#", ndmin=2,
-                       dtype=np.float64)
+        a = np.loadtxt(io.BytesIO(body), delimiter=delim, usecols=cols, comments="#", ndmin=2, dtype=np.float64)
     except ValueError as exc:
         msg = str(exc)
         m = re.search(r"at row (\d+)", msg)

@@ -10,6 +10,7 @@ A capture with binary frames or damaged rows: ``imu-allan rows`` (stream.py).
 Reading is vectorized on blocks of a few MB (no per-line Python), so files of
 millions of rows read in seconds; writing is vectorized the same way.
 """
+
 from __future__ import annotations
 
 import re
@@ -17,16 +18,18 @@ from typing import Iterator, Optional
 
 import numpy as np
 
-from ..errors import InputError
-from ..device.files import BLOCK_BYTES, PathLike, input_name, read_blocks
 from ..channels import CODE_MAX, COLUMNS
+from ..device.files import BLOCK_BYTES, PathLike, input_name, read_blocks
+from ..errors import InputError
+
 _COMMENT = re.compile(rb"#[^\n]*")
 _PROTOCOL_LINE = re.compile(rb"^\$[^\n]*", re.MULTILINE)
 _POW10 = 10 ** np.arange(10, dtype=np.int64)
 
 
-def iter_blocks(path: PathLike, block_bytes: int = BLOCK_BYTES,
-                ncol: int = len(COLUMNS), name: Optional[str] = None) -> Iterator[np.ndarray]:
+def iter_blocks(
+    path: PathLike, block_bytes: int = BLOCK_BYTES, ncol: int = len(COLUMNS), name: Optional[str] = None
+) -> Iterator[np.ndarray]:
     """Yield the rows of ``path`` as uint16 arrays of shape (ncol, rows).
 
     Channel-major blocks (each channel contiguous). Raises InputError naming
@@ -44,8 +47,7 @@ def iter_blocks(path: PathLike, block_bytes: int = BLOCK_BYTES,
         tail = chunk[cut:] + held
         if len(tail) > MAX_ROW_LINE:
             at = line + chunk.count(b"\n", 0, cut)
-            raise InputError(f"{name}: line {at}: longer than "
-                             f"{MAX_ROW_LINE} bytes without a line end: not a rows file")
+            raise InputError(f"{name}: line {at}: longer than {MAX_ROW_LINE} bytes without a line end: not a rows file")
         if cut:
             yield parse_block(chunk[:cut], name, line, ncol)
             line += chunk.count(b"\n", 0, cut)
@@ -90,8 +92,10 @@ def parse_block(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarr
         i = int(np.argmin(cls))
         ch = chr(b[i])
         what = repr(ch) if ch.isprintable() else f"byte 0x{b[i]:02x}"
-        raise InputError(f"{name}: line {_line_of(b, i, first_line)}: unexpected {what} "
-                         f"(a row is {ncol} integer codes separated by tabs or spaces)")
+        raise InputError(
+            f"{name}: line {_line_of(b, i, first_line)}: unexpected {what} "
+            f"(a row is {ncol} integer codes separated by tabs or spaces)"
+        )
     digit = cls.view(np.int8) - 1  # 1 digit, 0 blank
     edge = np.flatnonzero(digit[1:] != digit[:-1]) + 1
     if digit[0]:
@@ -105,8 +109,10 @@ def parse_block(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarr
     wrong = (counts != 0) & (counts != ncol)
     if wrong.any():
         k = int(np.argmax(wrong))
-        raise InputError(f"{name}: line {first_line + k}: {counts[k]} columns, expected {ncol} "
-                         f"({' '.join(COLUMNS) if ncol == len(COLUMNS) else 'integer codes'})")
+        raise InputError(
+            f"{name}: line {first_line + k}: {counts[k]} columns, expected {ncol} "
+            f"({' '.join(COLUMNS) if ncol == len(COLUMNS) else 'integer codes'})"
+        )
     if starts.size == 0:
         return np.zeros((ncol, 0), dtype=np.uint16)
     lengths = ends - starts
@@ -121,8 +127,9 @@ def parse_block(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarr
     over = values > CODE_MAX
     if over.any():
         t = int(np.argmax(over))
-        raise InputError(f"{name}: line {_line_of(b, int(starts[t]), first_line)}: code {values[t]} "
-                         f"out of range 0..{CODE_MAX}")
+        raise InputError(
+            f"{name}: line {_line_of(b, int(starts[t]), first_line)}: code {values[t]} out of range 0..{CODE_MAX}"
+        )
     return np.ascontiguousarray(values.astype(np.uint16).reshape(-1, ncol).T)
 
 
@@ -153,8 +160,9 @@ def write_rows(path: str, head: bytes, blocks: Iterator[np.ndarray]) -> None:
     """A rows file: ``head`` (comment lines) then each block of codes (shape
     (7, rows)); ``-`` writes to stdout.  An unwritable path is one InputError."""
     import sys
+
     try:
-        with (open(path, "wb") if path != "-" else open(sys.stdout.fileno(), "wb", closefd=False)) as f:
+        with open(path, "wb") if path != "-" else open(sys.stdout.fileno(), "wb", closefd=False) as f:
             f.write(head)
             for block in blocks:
                 f.write(format_rows(block))

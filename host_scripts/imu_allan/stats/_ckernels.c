@@ -49,10 +49,12 @@ static int parse_fmt(const Py_buffer *v)
     case 'B': return U8;
     case 'h': return I16;
     case 'H': return U16;
-    case 'i': case 'l': case 'q':
-        return v->itemsize == 8 ? I64 : v->itemsize == 4 ? I32 : -1;
-    case 'I': case 'L': case 'Q':
-        return v->itemsize == 8 ? U64 : v->itemsize == 4 ? U32 : -1;
+    case 'i':
+    case 'l':
+    case 'q': return v->itemsize == 8 ? I64 : v->itemsize == 4 ? I32 : -1;
+    case 'I':
+    case 'L':
+    case 'Q': return v->itemsize == 8 ? U64 : v->itemsize == 4 ? U32 : -1;
     }
     return -1;
 }
@@ -64,7 +66,8 @@ static int get_in(PyObject *obj, Py_buffer *v, int *fmt)
     if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) return -1;
     if (v->ndim != 1 || (*fmt = parse_fmt(v)) < 0) {
         PyBuffer_Release(v);
-        PyErr_SetString(PyExc_TypeError, "x: a contiguous 1-D buffer of int8..64, uint8..64, float32 or float64");
+        PyErr_SetString(PyExc_TypeError,
+                        "x: a contiguous 1-D buffer of int8..64, uint8..64, float32 or float64");
         return -1;
     }
     return 0;
@@ -73,8 +76,8 @@ static int get_in(PyObject *obj, Py_buffer *v, int *fmt)
 static int get_out(PyObject *obj, Py_buffer *v, ssz need)
 {
     if (PyObject_GetBuffer(obj, v, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0) return -1;
-    if (v->ndim != 1 || v->itemsize != 8 || !v->format || strchr(v->format, 'd') == NULL
-        || v->shape[0] < need) {
+    if (v->ndim != 1 || v->itemsize != 8 || !v->format || strchr(v->format, 'd') == NULL ||
+        v->shape[0] < need) {
         PyBuffer_Release(v);
         PyErr_SetString(PyExc_ValueError, "out: a writable float64 buffer, one slot per level");
         return -1;
@@ -106,16 +109,18 @@ static PyObject *py_octave(PyObject *args, int kind)
     if (get_in(xo, &xv, &fmt) < 0) return NULL;
     ssz n = xv.shape[0];
     int levels = ck_levels(n);
-    if (get_out(oo, &ov, levels) < 0) { PyBuffer_Release(&xv); return NULL; }
+    if (get_out(oo, &ov, levels) < 0) {
+        PyBuffer_Release(&xv);
+        return NULL;
+    }
     ld acc[MAXLEV];
     u128 ex[MAXLEV];
     int rc;
     memset(ex, 0, sizeof ex);
-    Py_BEGIN_ALLOW_THREADS
-    rc = kind == 0 ? ck_octave_overlap(xv.buf, fmt, n, off, p1, p2, stream, acc, exact ? ex : NULL)
-                   : ck_octave_nonoverlap(xv.buf, fmt, n, off, p1, acc, exact ? ex : NULL);
-    Py_END_ALLOW_THREADS
-    for (int k = 0; k < levels; k++)  /* exact: the integer sum, rounded once */
+    Py_BEGIN_ALLOW_THREADS rc =
+        kind == 0 ? ck_octave_overlap(xv.buf, fmt, n, off, p1, p2, stream, acc, exact ? ex : NULL) :
+                    ck_octave_nonoverlap(xv.buf, fmt, n, off, p1, acc, exact ? ex : NULL);
+    Py_END_ALLOW_THREADS for (int k = 0; k < levels; k++) /* exact: the integer sum, rounded once */
         ((double *)ov.buf)[k] = exact ? (double)ex[k] : (double)acc[k];
     PyBuffer_Release(&xv);
     PyBuffer_Release(&ov);
@@ -123,8 +128,16 @@ static PyObject *py_octave(PyObject *args, int kind)
     return PyLong_FromLong(levels);
 }
 
-static PyObject *octave_overlap(PyObject *self, PyObject *args) { (void)self; return py_octave(args, 0); }
-static PyObject *octave_nonoverlap(PyObject *self, PyObject *args) { (void)self; return py_octave(args, 1); }
+static PyObject *octave_overlap(PyObject *self, PyObject *args)
+{
+    (void)self;
+    return py_octave(args, 0);
+}
+static PyObject *octave_nonoverlap(PyObject *self, PyObject *args)
+{
+    (void)self;
+    return py_octave(args, 1);
+}
 
 static PyObject *any_m(PyObject *self, PyObject *args)
 {
@@ -140,18 +153,27 @@ static PyObject *any_m(PyObject *self, PyObject *args)
     Py_buffer xv, mv, ov;
     int fmt;
     if (get_in(xo, &xv, &fmt) < 0) return NULL;
-    if (PyObject_GetBuffer(mo, &mv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) { PyBuffer_Release(&xv); return NULL; }
+    if (PyObject_GetBuffer(mo, &mv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        PyBuffer_Release(&xv);
+        return NULL;
+    }
     if (mv.ndim != 1 || mv.itemsize != 8 || parse_fmt(&mv) != I64) {
-        PyBuffer_Release(&xv); PyBuffer_Release(&mv);
+        PyBuffer_Release(&xv);
+        PyBuffer_Release(&mv);
         PyErr_SetString(PyExc_TypeError, "ms: contiguous int64");
         return NULL;
     }
-    if (get_out(oo, &ov, mv.shape[0]) < 0) { PyBuffer_Release(&xv); PyBuffer_Release(&mv); return NULL; }
+    if (get_out(oo, &ov, mv.shape[0]) < 0) {
+        PyBuffer_Release(&xv);
+        PyBuffer_Release(&mv);
+        return NULL;
+    }
     int rc;
-    Py_BEGIN_ALLOW_THREADS
-    rc = ck_any_m(xv.buf, fmt, xv.shape[0], off, mv.buf, mv.shape[0], overlapping, exact, ov.buf);
-    Py_END_ALLOW_THREADS
-    PyBuffer_Release(&xv); PyBuffer_Release(&mv); PyBuffer_Release(&ov);
+    Py_BEGIN_ALLOW_THREADS rc =
+        ck_any_m(xv.buf, fmt, xv.shape[0], off, mv.buf, mv.shape[0], overlapping, exact, ov.buf);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&xv);
+    PyBuffer_Release(&mv);
+    PyBuffer_Release(&ov);
     if (rc) return PyErr_NoMemory();
     Py_RETURN_NONE;
 }
@@ -168,9 +190,15 @@ static PyMethodDef methods[] = {
      "Sums of squared second differences of the phase at each m (nan where no term)."},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ckernels",
-                                    "Compiled Allan kernels (see kernels.py).", -1, methods,
-                                    NULL, NULL, NULL, NULL};
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT,
+                                    "_ckernels",
+                                    "Compiled Allan kernels (see kernels.py).",
+                                    -1,
+                                    methods,
+                                    NULL,
+                                    NULL,
+                                    NULL,
+                                    NULL};
 
 PyMODINIT_FUNC PyInit__ckernels(void)
 {

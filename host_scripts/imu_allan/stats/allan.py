@@ -32,6 +32,7 @@ multiples of D = exact_max / 1024 (stride D instead of 1: the same
 statistic with at least 2048 offsets per tau, its EDF computed for that
 stride), so memory stays bounded for files larger than memory.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,17 +42,17 @@ from typing import Callable, Iterable, Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .kernels import (DOT_MAX, HEAD, any_m_sums, blocked as _blocked, octave_avar_sums, octave_oavar_sums,
-                      offset, rowdots, sumsq as _ssq, sumsq_any as _sumsq)
-
 from ..progress import ProgressFn
 from . import TAU_KINDS  # noqa: F401  (numpy-free in __init__.py, for the CLI parser)
+from .kernels import DOT_MAX, HEAD, any_m_sums, octave_avar_sums, octave_oavar_sums, offset, rowdots
+from .kernels import blocked as _blocked
+from .kernels import sumsq as _ssq
+from .kernels import sumsq_any as _sumsq
 
 BLOCK = 1 << 16
 EXACT_MAX = 1 << 22
 STRIDE_OFFSETS = 1024
 """Above exact_max the overlapping estimate keeps 2 * exact_max / D >= this many offsets."""
-
 
 
 # ---- tau grids -------------------------------------------------------------------
@@ -107,11 +108,11 @@ def _prepare(x: ArrayLike) -> np.ndarray:
     tmp = np.empty(min(a.size, 1 << 18), dtype=dtype)
     for s in range(0, a.size, tmp.size):
         e = min(s + tmp.size, a.size)
-        t = tmp[:e - s]
+        t = tmp[: e - s]
         t[...] = a[s:e]  # widen first: unsigned codes must not wrap
         t -= off
-        np.cumsum(t, out=X[s + 1:e + 1])
-        X[s + 1:e + 1] += carry
+        np.cumsum(t, out=X[s + 1 : e + 1])
+        X[s + 1 : e + 1] += carry
         carry = X[e]
     return X
 
@@ -136,8 +137,9 @@ def avar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[
     return _avar_on_grid(x, ms, False, progress)
 
 
-def _avar_on_grid(x: ArrayLike, ms: Iterable[int], overlapping: bool,
-                  progress: ProgressFn) -> tuple[np.ndarray, np.ndarray]:
+def _avar_on_grid(
+    x: ArrayLike, ms: Iterable[int], overlapping: bool, progress: ProgressFn
+) -> tuple[np.ndarray, np.ndarray]:
     """The one path of oavar and avar: octave cascade, compiled any-m, or partial sums."""
     m_a = np.asarray(list(ms), dtype=np.int64)
     if _octaves(m_a):
@@ -197,8 +199,9 @@ def _octave(x: ArrayLike, ms: np.ndarray, kernel) -> tuple[np.ndarray, np.ndarra
     return out, cnt
 
 
-def _per_m(X: np.ndarray, ms: np.ndarray, progress: ProgressFn,
-           one: Callable[[int, int], Optional[tuple[float, int]]]) -> tuple[np.ndarray, np.ndarray]:
+def _per_m(
+    X: np.ndarray, ms: np.ndarray, progress: ProgressFn, one: Callable[[int, int], Optional[tuple[float, int]]]
+) -> tuple[np.ndarray, np.ndarray]:
     """The one loop over cluster sizes behind every statistic here: ``one(n, m)``
     gives (variance, terms) at m, or None where m is too long for n + 1 phase points."""
     n = X.size - 1
@@ -213,22 +216,25 @@ def _per_m(X: np.ndarray, ms: np.ndarray, progress: ProgressFn,
     return out, count
 
 
-def _second_diff(X: np.ndarray, ms: np.ndarray, overlapping: bool,
-                 progress: ProgressFn) -> tuple[np.ndarray, np.ndarray]:
+def _second_diff(
+    X: np.ndarray, ms: np.ndarray, overlapping: bool, progress: ProgressFn
+) -> tuple[np.ndarray, np.ndarray]:
     """AVAR (NIST SP 1065 eq. 11, 12) from second differences of the phase X."""
+
     def one(n: int, m: int) -> Optional[tuple[float, int]]:
         if overlapping:
             c = n - 2 * m + 1
             if c < 1:
                 return None
-            s = _blocked(c, lambda a, b: _sumsq(X[a + 2 * m:b + 2 * m] - 2 * X[a + m:b + m] + X[a:b]))
+            s = _blocked(c, lambda a, b: _sumsq(X[a + 2 * m : b + 2 * m] - 2 * X[a + m : b + m] + X[a:b]))
         else:
             c = n // m - 1
             if c < 1:
                 return None
             P = X[::m]
-            s = _sumsq(P[2:c + 2] - 2 * P[1:c + 1] + P[:c])
+            s = _sumsq(P[2 : c + 2] - 2 * P[1 : c + 1] + P[:c])
         return s / (2.0 * m * m * c), c
+
     return _per_m(X, ms, progress, one)
 
 
@@ -240,17 +246,18 @@ def mvar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple[
         e = n + 1 - 3 * m  # third differences of X
         if e < 0:
             return None
-        v0 = (X[2 * m:3 * m] - 2 * X[m:2 * m] + X[0:m]).sum()
+        v0 = (X[2 * m : 3 * m] - 2 * X[m : 2 * m] + X[0:m]).sum()
         s = float(v0) * float(v0)
         carry = v0
         for a in range(0, e, 1 << 18):  # cumulative sums with a carry across chunks
             b = min(a + (1 << 18), e)
-            w = X[a + 3 * m:b + 3 * m] - 3 * X[a + 2 * m:b + 2 * m] + 3 * X[a + m:b + m] - X[a:b]
+            w = X[a + 3 * m : b + 3 * m] - 3 * X[a + 2 * m : b + 2 * m] + 3 * X[a + m : b + m] - X[a:b]
             v = np.cumsum(w)
             v += carry
             carry = v[-1]
             s += _sumsq(v)
         return s / (2.0 * float(m) ** 4 * (e + 1)), e + 1
+
     return _per_m(X, np.asarray(list(ms), dtype=np.int64), progress, one)
 
 
@@ -262,11 +269,15 @@ def ohvar(x: ArrayLike, ms: Iterable[int], progress: ProgressFn = None) -> tuple
         c = n + 1 - 3 * m
         if c < 1:
             return None
-        s = _blocked(c, lambda a, b: _sumsq(X[a + 3 * m:b + 3 * m] - 3 * X[a + 2 * m:b + 2 * m]
-                                            + 3 * X[a + m:b + m] - X[a:b]))
+        s = _blocked(
+            c,
+            lambda a, b: _sumsq(
+                X[a + 3 * m : b + 3 * m] - 3 * X[a + 2 * m : b + 2 * m] + 3 * X[a + m : b + m] - X[a:b]
+            ),
+        )
         return s / (6.0 * m * m * c), c
-    return _per_m(X, np.asarray(list(ms), dtype=np.int64), progress, one)
 
+    return _per_m(X, np.asarray(list(ms), dtype=np.int64), progress, one)
 
 
 # ---- streaming octave engine -----------------------------------------------------------
@@ -277,22 +288,22 @@ class OctaveResult:
     """Per level k (m = 2^k) and channel: overlapping and non-overlapping AVAR."""
 
     n: int
-    ms: np.ndarray                 # (levels,)
-    oavar: np.ndarray              # (levels, channels); nan without terms
-    terms: np.ndarray              # (levels,) second differences behind oavar
-    stride: np.ndarray             # (levels,) 1 exact, D for the strided levels
-    avar: np.ndarray               # (levels, channels) non-overlapping; nan without pairs
-    pairs: np.ndarray              # (levels,) floor(n/m) - 1 (or fewer, strided levels)
+    ms: np.ndarray  # (levels,)
+    oavar: np.ndarray  # (levels, channels); nan without terms
+    terms: np.ndarray  # (levels,) second differences behind oavar
+    stride: np.ndarray  # (levels,) 1 exact, D for the strided levels
+    avar: np.ndarray  # (levels, channels) non-overlapping; nan without pairs
+    pairs: np.ndarray  # (levels,) floor(n/m) - 1 (or fewer, strided levels)
 
 
 @dataclass
 class _Level:
     m: int
-    buf: np.ndarray               # (channels, m + B): linear [tail m | block] or a ring
+    buf: np.ndarray  # (channels, m + B): linear [tail m | block] or a ring
     ring: bool
     acc: np.ndarray = field(default_factory=lambda: np.zeros(0))
     acc_n: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    views: dict = field(default_factory=dict)   # cached per-channel views of the steady state
+    views: dict = field(default_factory=dict)  # cached per-channel views of the steady state
 
     @property
     def cap(self) -> int:
@@ -307,9 +318,15 @@ class OctaveEngine:
     does not depend on how the stream was cut.
     """
 
-    def __init__(self, channels: int, exact_max: Optional[int] = EXACT_MAX, block: Optional[int] = None,
-                 total: Optional[int] = None, nonoverlapping: bool = True,
-                 _offset: Optional[np.ndarray] = None) -> None:
+    def __init__(
+        self,
+        channels: int,
+        exact_max: Optional[int] = EXACT_MAX,
+        block: Optional[int] = None,
+        total: Optional[int] = None,
+        nonoverlapping: bool = True,
+        _offset: Optional[np.ndarray] = None,
+    ) -> None:
         if channels < 1:
             raise ValueError("channels must be positive")
         self.C = channels
@@ -342,7 +359,7 @@ class OctaveEngine:
         if not a.shape[1]:
             return
         if self._x0 is None:  # an offset keeps the sums small; integral data keep an integer one
-            self._x0 = offset(a[:, :self.B])
+            self._x0 = offset(a[:, : self.B])
         if self._D and (self.total is None or self.total > 2 * self.exact_max):  # type: ignore[operator]
             self._decimate(a.astype(np.float64) - self._x0[:, None])
         i = 0
@@ -356,7 +373,7 @@ class OctaveEngine:
                 self._block(np.concatenate(self._pending, axis=1))
                 self._pending, self._pending_n = [], 0
         while L - i >= self.B:
-            self._block(a[:, i:i + self.B])
+            self._block(a[:, i : i + self.B])
             i += self.B
         if i < L:
             self._pending.append(a[:, i:].copy())
@@ -369,8 +386,7 @@ class OctaveEngine:
         if full:
             sums = buf[:, :full].reshape(self.C, -1, self._D).sum(axis=2)
             if self._coarse is None:
-                self._coarse = OctaveEngine(self.C, exact_max=None, block=self.B,
-                                            _offset=np.zeros(self.C))
+                self._coarse = OctaveEngine(self.C, exact_max=None, block=self.B, _offset=np.zeros(self.C))
             self._coarse.push(sums)
         self._dcarry = buf[:, full:].copy()
 
@@ -412,7 +428,7 @@ class OctaveEngine:
                 newpos, apos = m, 0
             if k == 0:  # the samples, offset removed
                 for c in range(C):
-                    np.subtract(x[c], self._x0[c], out=W[c, newpos:newpos + L])  # type: ignore[index]
+                    np.subtract(x[c], self._x0[c], out=W[c, newpos : newpos + L])  # type: ignore[index]
             start = 2 * m - 1 - s
             up = self._levels[k + 1] if k + 1 < len(self._levels) else None
             uppos = ((s % up.cap) if up.ring else up.m) if up is not None else 0
@@ -433,11 +449,11 @@ class OctaveEngine:
                     if up_c is not None:
                         np.add(a_c, b_c, out=up_c)
                 if not lv.ring:
-                    W[:, :m] = W[:, L:L + m]
+                    W[:, :m] = W[:, L : L + m]
                 k += 1
                 continue
-            a = W[:, apos:apos + L]
-            b = W[:, newpos:newpos + L]
+            a = W[:, apos : apos + L]
+            b = W[:, newpos : newpos + L]
             # block column t holds y_k[j], j = s - m + 1 + t; pairs (j - m, j) need j - m >= 0
             if start < L:
                 start = max(start, 0)
@@ -461,21 +477,29 @@ class OctaveEngine:
                         uppos = (s % up.cap) if up.ring else up.m
             if up is not None:
                 for c in range(C):
-                    np.add(a[c], b[c], out=up.buf[c, uppos:uppos + L])
+                    np.add(a[c], b[c], out=up.buf[c, uppos : uppos + L])
             if not lv.ring:
                 for c in range(C):
-                    W[c, :m] = W[c, L:L + m]
+                    W[c, :m] = W[c, L : L + m]
             k += 1
 
-    def _views(self, lv: _Level, up: Optional[_Level], newpos: int, apos: int,
-               uppos: int, tmp: np.ndarray) -> list[tuple[np.ndarray, ...]]:
+    def _views(
+        self, lv: _Level, up: Optional[_Level], newpos: int, apos: int, uppos: int, tmp: np.ndarray
+    ) -> list[tuple[np.ndarray, ...]]:
         B = self.B
         out = []
         for c in range(self.C):
             z = tmp[c]
             z2 = z.reshape(-1, DOT_MAX) if B % DOT_MAX == 0 else z[None, :]
-            out.append((lv.buf[c, apos:apos + B], lv.buf[c, newpos:newpos + B], z, z2,
-                        up.buf[c, uppos:uppos + B] if up is not None else None))
+            out.append(
+                (
+                    lv.buf[c, apos : apos + B],
+                    lv.buf[c, newpos : newpos + B],
+                    z,
+                    z2,
+                    up.buf[c, uppos : uppos + B] if up is not None else None,
+                )
+            )
         return out
 
     def _result(self) -> OctaveResult:
@@ -511,13 +535,11 @@ class OctaveEngine:
         return OctaveResult(n, ms[keep], ov[keep], terms[keep], stride[keep], nv[keep], pairs[keep])
 
 
-def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None,
-                 nonoverlapping: bool = True) -> OctaveResult:
+def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None, nonoverlapping: bool = True) -> OctaveResult:
     """One channel or (channels, n) in memory through the engine (exact at every level)."""
     a = np.asarray(x)
     a2 = a[None, :] if a.ndim == 1 else a
-    eng = OctaveEngine(a2.shape[0], exact_max=exact_max, total=a2.shape[1],
-                       nonoverlapping=nonoverlapping)
+    eng = OctaveEngine(a2.shape[0], exact_max=exact_max, total=a2.shape[1], nonoverlapping=nonoverlapping)
     eng.push(a2)
     return eng.finish()
 

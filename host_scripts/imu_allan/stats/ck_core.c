@@ -2,7 +2,7 @@
  * type, and the fused difference / square / moving-sum loop. */
 #include <stdlib.h>
 #if defined(__linux__)
-#include <sys/mman.h>
+#    include <sys/mman.h>
 #endif
 
 #include "ckernels.h"
@@ -26,8 +26,11 @@ void *ck_big_alloc(size_t bytes)
 /* dst[i] = x[start + i] - off as double, i < count */
 void ck_load(const void *x, int fmt, ssz start, ssz count, double off, double *dst)
 {
-#define LOAD(T) do { const T *s = (const T *)x + start; \
-        for (ssz i = 0; i < count; i++) dst[i] = (double)s[i] - off; } while (0)
+#define LOAD(T)                                                                                              \
+    do {                                                                                                     \
+        const T *s = (const T *)x + start;                                                                   \
+        for (ssz i = 0; i < count; i++) dst[i] = (double)s[i] - off;                                         \
+    } while (0)
     switch (fmt) {
     case F64: LOAD(double); break;
     case F32: LOAD(float); break;
@@ -77,10 +80,15 @@ HOT ld ck_step(const double *buf, ssz m, ssz c, ssz L, double *nxt, u128 *ex)
             for (; i + 16 <= e; i += 16) {
                 v4 x0 = ld4(buf + i), x1 = ld4(buf + i + 4), x2 = ld4(buf + i + 8), x3 = ld4(buf + i + 12);
                 v4 y0 = ld4(hi + i), y1 = ld4(hi + i + 4), y2 = ld4(hi + i + 8), y3 = ld4(hi + i + 12);
-                st4(nxt + i, x0 + y0); st4(nxt + i + 4, x1 + y1);
-                st4(nxt + i + 8, x2 + y2); st4(nxt + i + 12, x3 + y3);
+                st4(nxt + i, x0 + y0);
+                st4(nxt + i + 4, x1 + y1);
+                st4(nxt + i + 8, x2 + y2);
+                st4(nxt + i + 12, x3 + y3);
                 v4 d0 = y0 - x0, d1 = y1 - x1, d2 = y2 - x2, d3 = y3 - x3;
-                a0 += d0 * d0; a1 += d1 * d1; a2 += d2 * d2; a3 += d3 * d3;
+                a0 += d0 * d0;
+                a1 += d1 * d1;
+                a2 += d2 * d2;
+                a3 += d3 * d3;
             }
             for (; i < e; i++) {
                 double d = hi[i] - buf[i];
@@ -91,7 +99,10 @@ HOT ld ck_step(const double *buf, ssz m, ssz c, ssz L, double *nxt, u128 *ex)
             for (; i + 16 <= e; i += 16) {
                 v4 d0 = ld4(hi + i) - ld4(buf + i), d1 = ld4(hi + i + 4) - ld4(buf + i + 4);
                 v4 d2 = ld4(hi + i + 8) - ld4(buf + i + 8), d3 = ld4(hi + i + 12) - ld4(buf + i + 12);
-                a0 += d0 * d0; a1 += d1 * d1; a2 += d2 * d2; a3 += d3 * d3;
+                a0 += d0 * d0;
+                a1 += d1 * d1;
+                a2 += d2 * d2;
+                a3 += d3 * d3;
             }
             for (; i < e; i++) {
                 double d = hi[i] - buf[i];
@@ -101,9 +112,9 @@ HOT ld ck_step(const double *buf, ssz m, ssz c, ssz L, double *nxt, u128 *ex)
         double bs = hsum(a0, a1, a2, a3) + t;
         if (!ex) {
             total += bs;
-        } else if (bs < EXACT_BLOCK) {  /* every square and partial sum was an exact integer */
+        } else if (bs < EXACT_BLOCK) { /* every square and partial sum was an exact integer */
             *ex += (u128)(uint64_t)bs;
-        } else {                        /* recount the block in integers */
+        } else { /* recount the block in integers */
             for (ssz k = s; k < e; k++) *ex += sq((int64_t)hi[k] - (int64_t)buf[k]);
         }
     }

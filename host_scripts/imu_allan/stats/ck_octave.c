@@ -11,8 +11,8 @@ int ck_levels(ssz n)
 {
     int k = 0;
     if (n < 2) return 0;
-    while (((ssz)2 << k) <= n) k++;  /* largest k with 2^k <= n/2 ... */
-    return k;                        /* levels: m = 2^0 .. 2^(k-1), 2^(k-1) <= n/2 */
+    while (((ssz)2 << k) <= n) k++; /* largest k with 2^k <= n/2 ... */
+    return k;                       /* levels: m = 2^0 .. 2^(k-1), 2^(k-1) <= n/2 */
 }
 
 /* The running second differences of the levels K .. levels-1 (m >= 2^K):
@@ -30,19 +30,22 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u1
     for (int j = 0; j < nl; j++) {
         ssz m = (ssz)1 << (K + j);
         ld s0 = 0, s1 = 0;
-        for (ssz i = 0; i < m; i++) { s0 += ck_value(x, fmt, i); s1 += ck_value(x, fmt, i + m); }
+        for (ssz i = 0; i < m; i++) {
+            s0 += ck_value(x, fmt, i);
+            s1 += ck_value(x, fmt, i + m);
+        }
         d[j] = s1 - s0;
-        last[j] = n - 2 * m;  /* terms i = 0 .. last */
+        last[j] = n - 2 * m; /* terms i = 0 .. last */
         acc[K + j] = 0;
         if (ex) ex[K + j] = 0;
     }
     /* the offsets read: 0 and 2^K .. 2^levels; each block converted once */
-    int no = nl + 3;  /* one spare: the pair loop reads offset 2^(levels+1) of a lone last level */
+    int no = nl + 3; /* one spare: the pair loop reads offset 2^(levels+1) of a lone last level */
     double *blk = malloc(sizeof(double) * (size_t)no * CHAIN_BLOCK);
     if (!blk) return;
-    ssz top = last[0];  /* the longest chain */
+    ssz top = last[0]; /* the longest chain */
     for (ssz a = 0; a < top; a += CHAIN_BLOCK) {
-        ssz len = a + CHAIN_BLOCK <= top ? CHAIN_BLOCK : top - a;  /* steps i = a .. a+len-1 */
+        ssz len = a + CHAIN_BLOCK <= top ? CHAIN_BLOCK : top - a; /* steps i = a .. a+len-1 */
         ck_load(x, fmt, a, len, 0.0, blk);
         for (int o = 1; o < no; o++) {
             ssz off = (ssz)1 << (K + o - 1);
@@ -50,7 +53,7 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u1
             if (a + off + cnt > n) cnt = n - a - off;
             if (cnt > 0) ck_load(x, fmt, a + off, cnt, 0.0, blk + (size_t)o * CHAIN_BLOCK);
         }
-        if (ex) {  /* integer codes: int64 differences, 128-bit sums: exact */
+        if (ex) { /* integer codes: int64 differences, 128-bit sums: exact */
             for (int j = 0; j < nl; j++) {
                 ssz st = last[j] - a;
                 if (st > len) st = len;
@@ -76,8 +79,7 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u1
             if (sa < 0) sa = 0;
             if (sb < 0) sb = 0;
             const double *x0 = blk, *x1 = blk + (size_t)(j + 1) * CHAIN_BLOCK,
-                         *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK,
-                         *x3 = blk + (size_t)(j + 3) * CHAIN_BLOCK;
+                         *x2 = blk + (size_t)(j + 2) * CHAIN_BLOCK, *x3 = blk + (size_t)(j + 3) * CHAIN_BLOCK;
             ld da = d[j], db = two ? d[j + 1] : 0, ta = 0, tb = 0;
             ssz both = two ? (sa < sb ? sa : sb) : 0, i = 0;
             for (; i < both; i++) {
@@ -97,18 +99,23 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u1
             }
             d[j] = da;
             acc[K + j] += ta;
-            if (two) { d[j + 1] = db; acc[K + j + 1] += tb; }
+            if (two) {
+                d[j + 1] = db;
+                acc[K + j + 1] += tb;
+            }
         }
     }
-    for (int j = 0; j < nl; j++) {  /* the term i = last */
-        if (ex) ex[K + j] += sq((int64_t)d[j]);
-        else acc[K + j] += d[j] * d[j];
+    for (int j = 0; j < nl; j++) { /* the term i = last */
+        if (ex)
+            ex[K + j] += sq((int64_t)d[j]);
+        else
+            acc[K + j] += d[j] * d[j];
     }
     free(blk);
 }
 
-int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz split,
-                               int stream, ld *acc, u128 *ex)
+int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz split, int stream, ld *acc,
+                      u128 *ex)
 {
     int levels = ck_levels(n);
     for (int k = 0; k < levels; k++) acc[k] = 0;
@@ -128,7 +135,12 @@ int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz s
     }
     b0 = malloc(sizeof(double) * (size_t)(T + M));
     b1 = malloc(sizeof(double) * (size_t)(T + M));
-    if (!b0 || !b1) { free(Y); free(b0); free(b1); return -1; }
+    if (!b0 || !b1) {
+        free(Y);
+        free(b0);
+        free(b1);
+        return -1;
+    }
     for (ssz a = 0; a < LY; a += T) {
         ssz b = a + T + M - 1 < n ? a + T + M - 1 : n;
         ssz L = b - a;
@@ -150,7 +162,8 @@ int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz s
         }
         if (Y && K == 0) memcpy(Y + a, buf, sizeof(double) * (size_t)(T < LY - a ? T : LY - a));
     }
-    free(b0); free(b1);
+    free(b0);
+    free(b1);
     if (stream) {
         chains(x, fmt, n, K, levels, acc, ex);
         return 0;
@@ -164,7 +177,12 @@ int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz s
     if (lb < 3) lb = 3;
     ssz R = ((ssz)1 << lb) < M ? ((ssz)1 << lb) : M;
     double *t0 = malloc(sizeof(double) * (size_t)(Q * R)), *t1 = malloc(sizeof(double) * (size_t)(Q * R));
-    if (!t0 || !t1) { free(Y); free(t0); free(t1); return -1; }
+    if (!t0 || !t1) {
+        free(Y);
+        free(t0);
+        free(t1);
+        return -1;
+    }
     for (ssz r0 = 0; r0 < M; r0 += R) {
         double *src = t0, *dst = t1;
         for (ssz q = 0; q < Q; q++) memcpy(src + q * R, Y + q * M + r0, sizeof(double) * (size_t)R);
@@ -176,10 +194,14 @@ int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz s
             ssz cnt = qf * R + (R < rem + 1 ? R : rem + 1);
             ssz s = (m / M) * R;
             acc[k] += ck_step(src, s, cnt, cnt, dst, ex ? ex + k : NULL);
-            double *t = src; src = dst; dst = t;
+            double *t = src;
+            src = dst;
+            dst = t;
         }
     }
-    free(t0); free(t1); free(Y);
+    free(t0);
+    free(t1);
+    free(Y);
     return 0;
 }
 
@@ -203,7 +225,11 @@ int ck_octave_nonoverlap(const void *x, int fmt, ssz n, double off, ssz chunk, l
     for (int k = 0; k < inner; k++) {
         bufs[k] = malloc(sizeof(double) * (size_t)((chunk >> k) + 1));
         have[k] = 0;
-        if (!bufs[k]) { for (int j = 0; j < k; j++) free(bufs[j]); free(top); return -1; }
+        if (!bufs[k]) {
+            for (int j = 0; j < k; j++) free(bufs[j]);
+            free(top);
+            return -1;
+        }
     }
     ssz ntop = 0;
     for (ssz a = 0; a < n; a += chunk) {
@@ -211,9 +237,12 @@ int ck_octave_nonoverlap(const void *x, int fmt, ssz n, double off, ssz chunk, l
         ck_load(x, fmt, a, L, off, bufs[0] + 1);
         for (int k = 0; k < inner; k++) {
             double *buf = bufs[k];
-            ssz lo = have[k] ? 0 : 1;  /* slot 0: the previous chunk's last sum */
+            ssz lo = have[k] ? 0 : 1; /* slot 0: the previous chunk's last sum */
             if (L + 1 - lo >= 2) acc[k] += ck_step(buf + lo, 1, L - lo, 0, NULL, ex ? ex + k : NULL);
-            if (L >= 1) { buf[0] = buf[L]; have[k] = 1; }
+            if (L >= 1) {
+                buf[0] = buf[L];
+                have[k] = 1;
+            }
             if (k + 1 < inner) {
                 ssz h = L / 2;
                 double *up = bufs[k + 1] + 1;
@@ -233,8 +262,10 @@ int ck_octave_nonoverlap(const void *x, int fmt, ssz n, double off, ssz chunk, l
         ld s = 0;
         for (ssz j = 0; j + 1 < cnt; j++) {
             double d = top[j + 1] - top[j];
-            if (ex) ex[k] += sq((int64_t)d);
-            else s += (ld)d * d;
+            if (ex)
+                ex[k] += sq((int64_t)d);
+            else
+                s += (ld)d * d;
         }
         acc[k] = s;
     }

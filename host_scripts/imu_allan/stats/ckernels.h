@@ -9,18 +9,18 @@
 #include <string.h>
 
 typedef long double ld;
-typedef ptrdiff_t ssz;  /* Py_ssize_t */
+typedef ptrdiff_t ssz; /* Py_ssize_t */
 
 /* Exact integer sums of squares (integer codes whose partial sums stay below
  * 2^52): 128-bit accumulators where the compiler has them. */
 #ifdef __SIZEOF_INT128__
-#define EXACT_OK 1
+#    define EXACT_OK 1
 typedef unsigned __int128 u128;
 #else
-#define EXACT_OK 0
-typedef uint64_t u128;  /* unused: exact mode is refused */
+#    define EXACT_OK 0
+typedef uint64_t u128; /* unused: exact mode is refused */
 #endif
-#define EXACT_BLOCK 0x1p52  /* a float64 block sum below this is an exact integer */
+#define EXACT_BLOCK 0x1p52 /* a float64 block sum below this is an exact integer */
 
 static inline u128 sq(int64_t d)
 {
@@ -32,9 +32,9 @@ static inline u128 sq(int64_t d)
 }
 
 #if defined(__GNUC__) && defined(__x86_64__) && defined(__linux__) && !defined(__clang__)
-#define HOT __attribute__((target_clones("avx2", "default")))
+#    define HOT __attribute__((target_clones("avx2", "default")))
 #else
-#define HOT
+#    define HOT
 #endif
 
 #define SUMBLOCK 1024 /* float64 terms per partial sum (blocked summation) */
@@ -43,16 +43,24 @@ static inline u128 sq(int64_t d)
  * clone, pairs of SSE2 operations otherwise). */
 typedef double v4 __attribute__((vector_size(32)));
 
-static inline v4 ld4(const double *p) { v4 v; memcpy(&v, p, sizeof v); return v; }
-static inline void st4(double *p, v4 v) { memcpy(p, &v, sizeof v); }
+static inline v4 ld4(const double *p)
+{
+    v4 v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+static inline void st4(double *p, v4 v)
+{
+    memcpy(p, &v, sizeof v);
+}
 static inline double hsum(v4 a, v4 b, v4 c, v4 d)
 {
     v4 s = (a + b) + (c + d);
     return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
-#define MAXLEV 64     /* octave levels at most (m = 2^63) */
-#define PBLOCK 1024   /* phase samples per block (any-m kernel) */
+#define MAXLEV 64   /* octave levels at most (m = 2^63) */
+#define PBLOCK 1024 /* phase samples per block (any-m kernel) */
 
 enum fmt { F64, F32, I64, I32, I16, I8, U64, U32, U16, U8 };
 
@@ -65,12 +73,12 @@ ld ck_step(const double *buf, ssz m, ssz c, ssz L, double *nxt, u128 *ex);
 /* ck_octave.c: sums per level k (m = 2^k) into acc, or exactly into ex (non-NULL);
  * 0, or -1 when out of memory */
 int ck_levels(ssz n);
-int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz split,
-                      int stream, ld *acc, u128 *ex);
+int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz split, int stream, ld *acc,
+                      u128 *ex);
 int ck_octave_nonoverlap(const void *x, int fmt, ssz n, double off, ssz chunk, ld *acc, u128 *ex);
 
 /* ck_phase.c: sums at each m of ms (nan where no term) into out */
-int ck_any_m(const void *x, int fmt, ssz n, double off, const int64_t *ms, ssz nm,
-             int overlapping, int exact, double *out);
+int ck_any_m(const void *x, int fmt, ssz n, double off, const int64_t *ms, ssz nm, int overlapping, int exact,
+             double *out);
 
 #endif

@@ -18,6 +18,7 @@ Noise types for IMU rate data (alpha of S_rate(f) ~ f^alpha):
   B flicker rate (bias instab.) -1      K rate random walk               -2
   R rate ramp: deterministic, treated as -2 (the fewest degrees of freedom).
 """
+
 from __future__ import annotations
 
 import math
@@ -30,23 +31,26 @@ J_MAX = 100
 ALPHA_OF_TERM = {"Q": 2, "N": 0, "B": -1, "K": -2, "R": -2}
 
 # Greenhall & Riley tables, rows alpha = +2 .. -4, columns d = 1, 2, 3 ((a0, a1); None: not allowed)
-_TABLE1 = {2: ((2 / 3, 1 / 3), (7 / 9, 1 / 2), (22 / 25, 2 / 3)),
-           1: ((0.840, 0.345), (0.997, 0.616), (1.141, 0.843)),
-           0: ((1.079, 0.368), (1.033, 0.607), (1.184, 0.848)),
-           -1: (None, (1.048, 0.534), (1.180, 0.816)),
-           -2: (None, (1.302, 0.535), (1.175, 0.777)),
-           -3: (None, None, (1.194, 0.703)),
-           -4: (None, None, (1.489, 0.702))}
-_TABLE2 = {2: ((3 / 2, 1 / 2), (35 / 18, 1.0), (231 / 100, 3 / 2)),
-           1: ((78.6, 25.2), (790.0, 410.0), (9950.0, 6520.0)),
-           0: ((2 / 3, 1 / 6), (2 / 3, 1 / 3), (7 / 9, 1 / 2)),
-           -1: (None, (0.852, 0.375), (0.997, 0.617)),
-           -2: (None, (1.079, 0.368), (1.033, 0.607)),
-           -3: (None, None, (1.053, 0.553)),
-           -4: (None, None, (1.302, 0.535))}
+_TABLE1 = {
+    2: ((2 / 3, 1 / 3), (7 / 9, 1 / 2), (22 / 25, 2 / 3)),
+    1: ((0.840, 0.345), (0.997, 0.616), (1.141, 0.843)),
+    0: ((1.079, 0.368), (1.033, 0.607), (1.184, 0.848)),
+    -1: (None, (1.048, 0.534), (1.180, 0.816)),
+    -2: (None, (1.302, 0.535), (1.175, 0.777)),
+    -3: (None, None, (1.194, 0.703)),
+    -4: (None, None, (1.489, 0.702)),
+}
+_TABLE2 = {
+    2: ((3 / 2, 1 / 2), (35 / 18, 1.0), (231 / 100, 3 / 2)),
+    1: ((78.6, 25.2), (790.0, 410.0), (9950.0, 6520.0)),
+    0: ((2 / 3, 1 / 6), (2 / 3, 1 / 3), (7 / 9, 1 / 2)),
+    -1: (None, (0.852, 0.375), (0.997, 0.617)),
+    -2: (None, (1.079, 0.368), (1.033, 0.607)),
+    -3: (None, None, (1.053, 0.553)),
+    -4: (None, None, (1.302, 0.535)),
+}
 _TABLE3 = ((6.0, 4.0), (15.23, 12.0), (47.8, 40.0))  # alpha = 1: (b0, b1) per d
-_SZ_WEIGHTS = {1: ((0, 2), (1, -1)), 2: ((0, 6), (1, -4), (2, 1)),
-               3: ((0, 20), (1, -15), (2, 6), (3, -1))}
+_SZ_WEIGHTS = {1: ((0, 2), (1, -1)), 2: ((0, 6), (1, -4), (2, 1)), 3: ((0, 20), (1, -15), (2, 6), (3, -1))}
 
 
 def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
@@ -58,15 +62,15 @@ def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
     if alpha == 1:
         return t * t * lg
     if alpha == 0:
-        return a ** 3
+        return a**3
     if alpha == -1:
-        return t ** 4 * lg
+        return t**4 * lg
     if alpha == -2:
-        return a ** 5
+        return a**5
     if alpha == -3:
-        return t ** 6 * lg
+        return t**6 * lg
     if alpha == -4:
-        return a ** 7
+        return a**7
     raise ValueError(f"alpha must be an integer -4..2, got {alpha}")
 
 
@@ -96,8 +100,9 @@ def _sz0(F: float, alpha: int, d: int) -> float:
     return float(_sz(np.array([0.0]), F, alpha, d)[0])
 
 
-def edf_greenhall(alpha: int, d: int, m: int, N: int, overlapping: bool = False,
-                  modified: bool = False, stride: Optional[int] = None) -> float:
+def edf_greenhall(
+    alpha: int, d: int, m: int, N: int, overlapping: bool = False, modified: bool = False, stride: Optional[int] = None
+) -> float:
     """EDF of a variance estimate (Greenhall & Riley 2003).
 
     alpha: noise exponent of S_y (integer -4..2, alpha + 2d > 1); d: 1, 2
@@ -134,8 +139,7 @@ def edf_greenhall(alpha: int, d: int, m: int, N: int, overlapping: bool = False,
             a0, a1 = _table(_TABLE2, alpha, d)
             return 1.0 / ((a0 - a1 / r) / r)
         mp = J_MAX / r
-        return 1.0 / (_basic_sum(J_MAX, J_MAX, mp, math.inf, alpha, d)
-                      / (_sz0(math.inf, alpha, d) ** 2 * J_MAX))
+        return 1.0 / (_basic_sum(J_MAX, J_MAX, mp, math.inf, alpha, d) / (_sz0(math.inf, alpha, d) ** 2 * J_MAX))
     if alpha == 1:
         if J <= J_MAX:
             return 1.0 / (_basic_sum(J, M, S, float(m), 1, d) / (_sz0(float(m), 1, d) ** 2 * M))
@@ -176,8 +180,9 @@ def edf_simple(N: int, m: int, alpha: int) -> float:
     raise ValueError(f"alpha must be -2..2, got {alpha}")
 
 
-def chi2_interval(var: np.ndarray | float, edf: np.ndarray | float,
-                  level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+def chi2_interval(
+    var: np.ndarray | float, edf: np.ndarray | float, level: float = 0.95
+) -> tuple[np.ndarray, np.ndarray]:
     """Two-sided ``level`` interval of a variance with ``edf`` degrees of freedom
     (NIST SP 1065 eq. 45): [edf var / chi2(1 - a/2), edf var / chi2(a/2)]."""
     v = np.asarray(var, dtype=np.float64)
@@ -199,9 +204,15 @@ def alpha_from_slope(mu: float) -> int:
     return int(min(max(round(-mu - 1), -2), 0))
 
 
-def edf_points(ms: np.ndarray, N: np.ndarray, stride: np.ndarray, d: int = 2,
-               modified: bool = False, alphas: tuple[int, ...] = (2, 0, -1, -2),
-               max_exact: int = 120) -> dict[int, np.ndarray]:
+def edf_points(
+    ms: np.ndarray,
+    N: np.ndarray,
+    stride: np.ndarray,
+    d: int = 2,
+    modified: bool = False,
+    alphas: tuple[int, ...] = (2, 0, -1, -2),
+    max_exact: int = 120,
+) -> dict[int, np.ndarray]:
     """EDF of each point (m, N phase points, stride) for each noise type ``alphas``.
 
     Dense curves (more than ``max_exact`` points) get the EDF at ``max_exact``
@@ -238,8 +249,7 @@ def _safe_edf(alpha: int, d: int, m: int, N: int, stride: int, modified: bool) -
     return float(e)
 
 
-def edf_function(ms: np.ndarray, N: np.ndarray, stride: np.ndarray, d: int = 2,
-                 modified: bool = False):
+def edf_function(ms: np.ndarray, N: np.ndarray, stride: np.ndarray, d: int = 2, modified: bool = False):
     """alphas per point -> EDF per point, for fit_terms (tables computed once)."""
     table = edf_points(ms, N, stride, d, modified)
 
@@ -252,4 +262,5 @@ def edf_function(ms: np.ndarray, N: np.ndarray, stride: np.ndarray, d: int = 2,
         other = ~np.isin(a, list(table))
         out[other] = table[0][other]
         return out
+
     return fn

@@ -12,6 +12,7 @@ lose float64 digits; removing the (rounded) mean of the first block keeps
 them small, and a rounded offset keeps integer data integer, so cluster sums
 and their differences stay exact and only the final sums of squares round.
 """
+
 from __future__ import annotations
 
 import math
@@ -127,7 +128,7 @@ def _exact(c: np.ndarray, off: float) -> int:
         amax = max(abs(int(c.max()) - int(off)), abs(int(c.min()) - int(off)))
     n, a = c.size, amax + 1
     # differences below 2^52, and every sum of squares (< n (n a)^2) within 128 bits
-    return int(n * a < (1 << 52) and n ** 3 * a * a < (1 << 127))
+    return int(n * a < (1 << 52) and n**3 * a * a < (1 << 127))
 
 
 def _levels(n: int) -> int:
@@ -217,14 +218,14 @@ def octave_oavar_sums_numpy(x: np.ndarray, off: float) -> tuple[np.ndarray, np.n
             c = n - 2 * m + 1 - a if last else min(T, n - 2 * m + 1 - a)  # terms i in [a, a + c)
             if c <= 0:
                 break
-            acc[k] += sumsq(np.subtract(buf[m:m + c], buf[:c], out=tmp[:c]))
+            acc[k] += sumsq(np.subtract(buf[m : m + c], buf[:c], out=tmp[:c]))
             L -= m  # y_2m values in the tile
             nxt = bufs[(k + 1) % 2]
-            np.add(buf[:L], buf[m:m + L], out=nxt[:L])  # separate buffers: no overlap copy
+            np.add(buf[:L], buf[m : m + L], out=nxt[:L])  # separate buffers: no overlap copy
             buf = nxt
         if Y is not None:
             cnt = min(T, LY - a)
-            Y.reshape(-1)[a:a + cnt] = buf[:cnt]
+            Y.reshape(-1)[a : a + cnt] = buf[:cnt]
     if Y is None:
         return acc, terms
     R = min(M, 1 << max(3, (max(OCTAVE_TILE // 2 // Q, 1)).bit_length() - 1))
@@ -232,7 +233,7 @@ def octave_oavar_sums_numpy(x: np.ndarray, off: float) -> tuple[np.ndarray, np.n
     tmp2 = np.empty(Q * R)
     for r0 in range(0, M, R):
         src = tiles[0]
-        np.copyto(src.reshape(Q, R), Y[:, r0:r0 + R])
+        np.copyto(src.reshape(Q, R), Y[:, r0 : r0 + R])
         for k in range(K, levels):
             m = 1 << k
             e0 = n - 2 * m - r0  # terms i = q M + r0 + j with i <= n - 2m
@@ -241,9 +242,9 @@ def octave_oavar_sums_numpy(x: np.ndarray, off: float) -> tuple[np.ndarray, np.n
             qf, rem = divmod(e0, M)
             cnt = qf * R + min(R, rem + 1)  # a prefix of the row-major block
             s = (m // M) * R
-            acc[k] += sumsq(np.subtract(src[s:s + cnt], src[:cnt], out=tmp2[:cnt]))
+            acc[k] += sumsq(np.subtract(src[s : s + cnt], src[:cnt], out=tmp2[:cnt]))
             dst = tiles[1] if src is tiles[0] else tiles[0]
-            np.add(src[:cnt], src[s:s + cnt], out=dst[:cnt])
+            np.add(src[:cnt], src[s : s + cnt], out=dst[:cnt])
             src = dst
     return acc, terms
 
@@ -273,19 +274,19 @@ def octave_avar_sums_numpy(x: np.ndarray, off: float, chunk: int = 1 << 16) -> t
     for a in range(0, n, chunk):
         b = min(a + chunk, n)
         L = b - a
-        np.subtract(x[a:b], off, out=bufs[0][1:L + 1])
+        np.subtract(x[a:b], off, out=bufs[0][1 : L + 1])
         for k in range(inner):
             buf = bufs[k]
             lo = 0 if have[k] else 1  # slot 0: the previous chunk's last sum
             if L + 1 - lo >= 2:
-                acc[k] += sumsq(np.subtract(buf[lo + 1:L + 1], buf[lo:L], out=diff[:L - lo]))
+                acc[k] += sumsq(np.subtract(buf[lo + 1 : L + 1], buf[lo:L], out=diff[: L - lo]))
             if L >= 1:
                 buf[0] = buf[L]
                 have[k] = True
             if k + 1 < inner:
                 h = L // 2
                 if h:
-                    np.add(buf[1:2 * h:2], buf[2:2 * h + 1:2], out=bufs[k + 1][1:h + 1])
+                    np.add(buf[1 : 2 * h : 2], buf[2 : 2 * h + 1 : 2], out=bufs[k + 1][1 : h + 1])
                 L = h
             elif inner < levels and L == 1:
                 top[ntop] = buf[1]
@@ -294,7 +295,7 @@ def octave_avar_sums_numpy(x: np.ndarray, off: float, chunk: int = 1 << 16) -> t
     S = top[:ntop]
     for k in range(inner, levels):
         h = S.size // 2
-        S = S[0:2 * h:2] + S[1:2 * h:2]
+        S = S[0 : 2 * h : 2] + S[1 : 2 * h : 2]
         if S.size >= 2:
             acc[k] = sumsq(np.diff(S))
     return acc, pairs

@@ -16,6 +16,7 @@ sample rate):
     K   K^2 / (2 pi^2 f^2)
     R   R^2 / (4 pi^3 f^3)          (a ramp is deterministic: IEEE's nominal level)
 """
+
 from __future__ import annotations
 
 import math
@@ -42,7 +43,7 @@ class Welch:
         self.step = self.nseg - self.nseg // 2  # overlap floor(nseg / 2), as pwelch
         self.window = np.hamming(self.nseg) if self.nseg > 1 else np.ones(1)
         self.nfft = max(256, 1 << int(math.ceil(math.log2(self.nseg))))
-        self.scale = 1.0 / (self.fs * float(np.sum(self.window ** 2)))
+        self.scale = 1.0 / (self.fs * float(np.sum(self.window**2)))
         self.acc = np.zeros((channels, self.nfft // 2 + 1))
         self.count = 0
         self.buf = np.zeros((channels, 0))
@@ -56,12 +57,12 @@ class Welch:
             k1 = min(k0 + per_call, nfull)
             starts = np.arange(k0, k1) * self.step
             idx = starts[:, None] + np.arange(self.nseg)[None, :]
-            seg = buf[:, idx]                      # (C, segments, nseg)
+            seg = buf[:, idx]  # (C, segments, nseg)
             seg = seg - seg.mean(axis=2, keepdims=True)
             spec = np.fft.rfft(seg * self.window, n=self.nfft, axis=2)
-            self.acc += np.sum(spec.real ** 2 + spec.imag ** 2, axis=1)
+            self.acc += np.sum(spec.real**2 + spec.imag**2, axis=1)
             self.count += k1 - k0
-        self.buf = buf[:, nfull * self.step:].copy()
+        self.buf = buf[:, nfull * self.step :].copy()
 
     def result(self) -> tuple[np.ndarray, np.ndarray]:
         """(f, psd (channels, f)) one-sided in u^2/Hz; empty without a whole segment."""
@@ -80,14 +81,14 @@ def log_bins(f: np.ndarray, p: np.ndarray, per_decade: int = 20) -> tuple[np.nda
     f, p = f[keep], p[:, keep]
     if not f.size:
         return f, p
-    edges = np.logspace(math.log10(f[0]), math.log10(f[-1]) + 1e-12,
-                        max(int(per_decade * math.log10(f[-1] / f[0])) + 2, 2))
+    edges = np.logspace(
+        math.log10(f[0]), math.log10(f[-1]) + 1e-12, max(int(per_decade * math.log10(f[-1] / f[0])) + 2, 2)
+    )
     which = np.clip(np.searchsorted(edges, f, side="right") - 1, 0, edges.size - 2)
     counts = np.bincount(which, minlength=edges.size - 1)
     ok = counts > 0
     fb = np.bincount(which, weights=np.log(f), minlength=edges.size - 1)[ok] / counts[ok]
-    pb = np.stack([np.bincount(which, weights=row, minlength=edges.size - 1)[ok] / counts[ok]
-                   for row in p])
+    pb = np.stack([np.bincount(which, weights=row, minlength=edges.size - 1)[ok] / counts[ok] for row in p])
     return np.exp(fb), pb
 
 
@@ -102,7 +103,7 @@ def term_psd(f: ArrayLike, values: dict[str, Optional[float]], fs: float) -> dic
     if values.get("B"):
         out["B"] = values["B"] ** 2 / (np.pi * f)
     if values.get("K"):
-        out["K"] = values["K"] ** 2 / (2.0 * np.pi ** 2 * f ** 2)
+        out["K"] = values["K"] ** 2 / (2.0 * np.pi**2 * f**2)
     if values.get("R"):
-        out["R"] = values["R"] ** 2 / (4.0 * np.pi ** 3 * f ** 3)
+        out["R"] = values["R"] ** 2 / (4.0 * np.pi**3 * f**3)
     return out

@@ -13,6 +13,7 @@ Two implementations, tested against each other and against allantools:
     each (level, channel) after a given number of pairs: the reference over
     exactly the first (pairs + 1) * m samples that a device row covers.
 """
+
 from __future__ import annotations
 
 import math
@@ -57,14 +58,14 @@ def octave_avar(x: ArrayLike, levels: int) -> list[OctaveRow]:
             total = 0.0
             for a in range(0, pairs, _CHUNK):  # differences in a cache-sized buffer
                 b = min(a + _CHUNK, pairs)
-                total += sumsq(np.subtract(sums[a + 1:b + 1], sums[a:b], out=diff[:b - a]))
+                total += sumsq(np.subtract(sums[a + 1 : b + 1], sums[a:b], out=diff[: b - a]))
             avar = total / (2.0 * float(m) * float(m) * pairs)
         else:
             avar = float("nan")
         rows.append(OctaveRow(k, m, pairs, avar))
         half = sums.size // 2
         out = pingpong[k % 2][:half]
-        sums = np.add(sums[0:2 * half:2], sums[1:2 * half:2], out=out)
+        sums = np.add(sums[0 : 2 * half : 2], sums[1 : 2 * half : 2], out=out)
     return rows
 
 

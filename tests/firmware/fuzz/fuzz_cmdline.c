@@ -77,7 +77,6 @@ typedef struct {
   char text[COMMAND_LINE_MAX + 1];
 } event_t;
 
-
 /* The model: the events the stream must give, in order.  A `*` starts the
  * line's check: every byte after it but the end, Ctrl-C and Esc is a digit
  * of it; not exactly the 4 upper-case hex digits of the CRC of the text

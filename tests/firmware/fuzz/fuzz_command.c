@@ -70,20 +70,21 @@ static void show(char *buf, size_t size, const char *s, size_t len, const result
   n += (size_t)snprintf(buf, size, "\"");
   for (i = 0; i < len && n + 8 < size; i++) {
     unsigned char c = (unsigned char)s[i];
-    n += (size_t)snprintf(buf + n, size - n, (c >= 0x20 && c < 0x7F && c != '"' && c != '\\') ? "%c" : "\\x%02X", c);
+    n += (size_t)snprintf(buf + n, size - n,
+                          (c >= 0x20 && c < 0x7F && c != '"' && c != '\\') ? "%c" : "\\x%02X", c);
   }
   snprintf(buf + n, size - n, "\" -> r=%u id=%u has_arg=%u arg=%lu", r->r, r->c.id, r->c.has_arg,
            (unsigned long)r->c.arg);
 }
 
-#define SAME_OR_DIE(what, s1, n1, r1, s2, n2, r2)                                   \
-  do {                                                                               \
-    if (!same(&(r1), &(r2))) {                                                       \
-      char m1[400], m2[400];                                                         \
-      show(m1, sizeof m1, s1, n1, &(r1));                                            \
-      show(m2, sizeof m2, s2, n2, &(r2));                                            \
-      FUZZ_CHECK(0, "%s:\n  %s\n  %s", what, m1, m2);                                \
-    }                                                                                \
+#define SAME_OR_DIE(what, s1, n1, r1, s2, n2, r2)                                                            \
+  do {                                                                                                       \
+    if (!same(&(r1), &(r2))) {                                                                               \
+      char m1[400], m2[400];                                                                                 \
+      show(m1, sizeof m1, s1, n1, &(r1));                                                                    \
+      show(m2, sizeof m2, s2, n2, &(r2));                                                                    \
+      FUZZ_CHECK(0, "%s:\n  %s\n  %s", what, m1, m2);                                                        \
+    }                                                                                                        \
   } while (0)
 
 static int is_space(char c)
@@ -173,11 +174,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
   /* vocab_rate_ok: exactly the seven rates of docs/protocol.md. */
   if (size >= 4) {
-    uint32_t hz = (uint32_t)data[0] | (uint32_t)data[1] << 8 | (uint32_t)data[2] << 16 | (uint32_t)data[3] << 24;
+    uint32_t hz =
+        (uint32_t)data[0] | (uint32_t)data[1] << 8 | (uint32_t)data[2] << 16 | (uint32_t)data[3] << 24;
     if (data[3] == 0xFF) /* near the rates too */
       hz &= 0x7FF;
-    FUZZ_CHECK(!vocab_rate_ok(hz) == !(hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 || hz == 1000 ||
-                                     hz == 1250 || hz == 1500),
+    FUZZ_CHECK(!vocab_rate_ok(hz) == !(hz == 50 || hz == 100 || hz == 200 || hz == 250 || hz == 500 ||
+                                       hz == 1000 || hz == 1250 || hz == 1500),
                "vocab_rate_ok(%lu)", (unsigned long)hz);
   }
 

@@ -109,7 +109,6 @@ typedef struct {
 static line_t model[MAX_LINES];
 static size_t nmodel;
 
-
 /* A line may end in a check, `*` and the text's CRC in 4 upper-case hex
  * digits: it runs (the text before `*`) only when the check is exactly
  * that; every byte after `*` but the line's end, Ctrl-C and Esc is a

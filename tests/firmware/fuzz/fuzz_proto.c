@@ -36,7 +36,7 @@
 #include "fuzz_util.h"
 #include "proto.h"
 
-#define MAX_BODY 200   /* docs/protocol.md: at most 200 characters */
+#define MAX_BODY 200 /* docs/protocol.md: at most 200 characters */
 #define MAX_LINES 8
 #define OUT_MAX (MAX_LINES * (MAX_BODY + 16))
 
@@ -97,7 +97,7 @@ static int hex_value(uint8_t c, int upper_only)
 /* ---- the receiver (host rules) ---- */
 typedef struct {
   int count;
-  size_t len;          /* of the first accepted body */
+  size_t len; /* of the first accepted body */
   uint8_t body[MAX_BODY + 1];
 } accepted_t;
 
@@ -301,18 +301,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     n = line_len[line];
     body_len = expect_len[line];
     kind %= 3;
-    if (kind == 0) {                     /* substitute: xor a non-zero value */
+    if (kind == 0) { /* substitute: xor a non-zero value */
       at = pos % n;
       memcpy(mut, orig, n);
       mut[at] ^= value ? value : 0x80;
       mlen = n;
       creates_dollar = mut[at] == '$';
-    } else if (kind == 1) {              /* drop */
+    } else if (kind == 1) { /* drop */
       at = pos % n;
       memcpy(mut, orig, at);
       memcpy(mut + at, orig + at + 1, n - at - 1);
       mlen = n - 1;
-    } else {                             /* insert */
+    } else { /* insert */
       at = pos % (n + 1);
       memcpy(mut, orig, at);
       mut[at] = value;

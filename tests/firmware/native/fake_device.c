@@ -35,9 +35,9 @@ static uint64_t tx_next_ns;
 #define RX_SIZE 8
 static uint8_t rx_buf[RX_SIZE];
 static unsigned rx_head, rx_tail;
-static int rx_gap = -1;      /* the slot a gap precedes, -1: none */
-static int rx_gap_why;       /* UART_READ_OVERRUN | UART_READ_RING */
-static int rx_gap_more;      /* another gap came before it: every byte up to it follows a gap */
+static int rx_gap = -1; /* the slot a gap precedes, -1: none */
+static int rx_gap_why;  /* UART_READ_OVERRUN | UART_READ_RING */
+static int rx_gap_more; /* another gap came before it: every byte up to it follows a gap */
 static char *rx_queue;
 static char *rx_lostq; /* 1: this queued byte is lost in the USART (overrun) */
 static size_t rx_queue_len, rx_queue_pos;
@@ -120,7 +120,6 @@ static void rx_byte(uint8_t c, int lost)
   rx_head = next;
 }
 
-
 static void queue(const char *bytes, size_t n, int lost)
 {
   rx_queue = realloc(rx_queue, rx_queue_len + n);
@@ -165,8 +164,14 @@ uint16_t fx_code(uint32_t i, uint8_t col)
 }
 
 void adc_init(void) {}
-void adc_set_rate(uint16_t hz) { rate_hz = hz; }
-uint16_t adc_rate(void) { return rate_hz; }
+void adc_set_rate(uint16_t hz)
+{
+  rate_hz = hz;
+}
+uint16_t adc_rate(void)
+{
+  return rate_hz;
+}
 
 void adc_start(uint8_t lim, uint32_t count)
 {
@@ -176,9 +181,15 @@ void adc_start(uint8_t lim, uint32_t count)
   next_tick_ns = now_ns + 1000000000ull / rate_hz;
 }
 
-void adc_stop(void) { running = 0; }
+void adc_stop(void)
+{
+  running = 0;
+}
 
-uint32_t adc_remaining(void) { return limited ? budget : ADC_UNLIMITED; }
+uint32_t adc_remaining(void)
+{
+  return limited ? budget : ADC_UNLIMITED;
+}
 
 void adc_limit(uint32_t total)
 {
@@ -188,7 +199,10 @@ void adc_limit(uint32_t total)
   if (!budget)
     running = 0;
 }
-uint8_t adc_running(void) { return (uint8_t)running; }
+uint8_t adc_running(void)
+{
+  return (uint8_t)running;
+}
 
 uint8_t adc_pending(void)
 {
@@ -229,10 +243,22 @@ void adc_discard(void)
     ring_tail = (ring_tail + 1) % ADC_SLOTS;
 }
 
-void adc_flush(void) { ring_tail = ring_head; }
-uint32_t adc_drops(void) { return drops; }
-void adc_clear_drops(void) { drops = 0; }
-void adc_count_drop(void) { drops++; }
+void adc_flush(void)
+{
+  ring_tail = ring_head;
+}
+uint32_t adc_drops(void)
+{
+  return drops;
+}
+void adc_clear_drops(void)
+{
+  drops = 0;
+}
+void adc_count_drop(void)
+{
+  drops++;
+}
 
 static void adc_tick(void)
 {
@@ -262,10 +288,16 @@ void eeprom_update_byte(uint8_t *addr, uint8_t value)
   fake_eeprom[(uintptr_t)addr] = value;
 }
 
-int eeprom_is_ready(void) { return 1; }
+int eeprom_is_ready(void)
+{
+  return 1;
+}
 
 /* ---- clock and loop ---- */
-uint64_t fx_now_us(void) { return now_ns / 1000u; }
+uint64_t fx_now_us(void)
+{
+  return now_ns / 1000u;
+}
 
 /* clock.h: Timer0's overflows, one every CLOCK_TICK_CYCLES CPU cycles
  * (free-running: a restart does not move its phase), counted since the

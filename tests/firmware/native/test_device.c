@@ -21,7 +21,6 @@
 void setUp(void) {}
 void tearDown(void) {}
 
-
 static unsigned ref_crc16_modbus(const uint8_t *p, size_t n);
 static unsigned ref_crc16_modbus_more(unsigned reg, const uint8_t *p, size_t n);
 
@@ -102,7 +101,8 @@ static void test_status_reply_is_framed_and_checksummed(void)
   fx_send_str("status\r");
   fx_run_us(50000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=allan range=1.5 units=phys cfg=blank fs=100 interval=60 link=0 rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING(
+      "ok status run=1 mode=allan range=1.5 units=phys cfg=blank fs=100 interval=60 link=0 rx=0:0:0:0", b);
   assert_all_lines_whole();
 }
 
@@ -185,8 +185,10 @@ static void test_rate_change_resets_run(void)
 
 static void test_range_command_drives_gselect_pins(void)
 {
-  static const struct { const char *word; unsigned pd6, pd7; } cases[] = {
-    {"4", 0, 1}, {"2", 1, 0}, {"6", 1, 1}, {"1.5", 0, 0}};
+  static const struct {
+    const char *word;
+    unsigned pd6, pd7;
+  } cases[] = {{"4", 0, 1}, {"2", 1, 0}, {"6", 1, 1}, {"1.5", 0, 0}};
   char cmd[32], b[256], want[64];
   fx_boot(1);
   TEST_ASSERT_EQUAL_HEX8(0xC0, fake_ddrd & 0xC0); /* both pins are outputs */
@@ -216,7 +218,8 @@ static void test_raw_mode_writes_every_set_in_order_with_count_lines(void)
   long first = -1;
   while (*p && *p != '$') {
     unsigned c[7];
-    TEST_ASSERT_EQUAL_INT(7, sscanf(p, "%u\t%u\t%u\t%u\t%u\t%u\t%u", &c[0], &c[1], &c[2], &c[3], &c[4], &c[5], &c[6]));
+    TEST_ASSERT_EQUAL_INT(
+        7, sscanf(p, "%u\t%u\t%u\t%u\t%u\t%u\t%u", &c[0], &c[1], &c[2], &c[3], &c[4], &c[5], &c[6]));
     if (first < 0) { /* which set the run starts at: find it */
       for (uint32_t i = 0; i < fx_sets_made && first < 0; i++)
         if (fx_code(i, 0) == c[0] && fx_code(i, 6) == c[6])
@@ -285,7 +288,8 @@ static void test_save_writes_a_checked_record_and_load_restores_it(void)
   line("ok status", 0, b, sizeof b);
   /* link: 50 rows of 36 bytes and half a 31-byte count line a second, of
    * 11520 bytes/s: 1816 / 11520 = 15.8 %, rounded up */
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=both range=4 units=phys cfg=saved fs=50 interval=7 link=16 rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING(
+      "ok status run=1 mode=both range=4 units=phys cfg=saved fs=50 interval=7 link=16 rx=0:0:0:0", b);
 }
 
 static void test_saved_settings_are_in_force_at_power_up(void)
@@ -301,7 +305,8 @@ static void test_saved_settings_are_in_force_at_power_up(void)
   fx_send_str("status\r");
   fx_run_us(100000);
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=allan range=6 units=phys cfg=saved fs=500 interval=5 link=0 rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING(
+      "ok status run=1 mode=allan range=6 units=phys cfg=saved fs=500 interval=5 link=0 rx=0:0:0:0", b);
   TEST_ASSERT_EQUAL_UINT(3, (fake_portd >> 6) & 3u);
 }
 
@@ -503,13 +508,14 @@ static void test_summary_in_physical_units_matches_float_on_many_reports(void)
       if (u)
         snprintf(want, sizeof want, "S,%u,Allan deviation by tau (s): ADC counts", seq);
       else
-        snprintf(want, sizeof want, "S,%u,Allan deviation by tau (s): accel mg at +-%s g, gyro deg/s", seq, ranges[r]);
+        snprintf(want, sizeof want, "S,%u,Allan deviation by tau (s): accel mg at +-%s g, gyro deg/s", seq,
+                 ranges[r]);
       TEST_ASSERT_EQUAL_STRING(want, b);
       for (unsigned k = 0; k < levels; k++) {
         char cell[7][16];
         line(pre, 2 + k, b, sizeof b);
-        TEST_ASSERT_EQUAL_INT(7, sscanf(b + strlen(pre), "%15s %15s %15s %15s %15s %15s %15s", cell[0], cell[1],
-                                        cell[2], cell[3], cell[4], cell[5], cell[6]));
+        TEST_ASSERT_EQUAL_INT(7, sscanf(b + strlen(pre), "%15s %15s %15s %15s %15s %15s %15s", cell[0],
+                                        cell[1], cell[2], cell[3], cell[4], cell[5], cell[6]));
         assert_printed((double)(1u << k) / fs, cell[0], "tau");
         for (unsigned c = 0; c < 6; c++, cells++)
           assert_printed(adev[c][k] * unit_factor(0, c, r, u), cell[1 + c], b);
@@ -523,14 +529,15 @@ static void test_summary_in_physical_units_matches_float_on_many_reports(void)
       double ntau, npct;
       line(pre, 2 + levels, b, sizeof b);
       TEST_ASSERT_EQUAL_INT_MESSAGE(2, sscanf(b + strlen(pre), "N at %lf s +-%lf%%", &ntau, &npct), b);
-      TEST_ASSERT_NOT_NULL_MESSAGE(strstr(b, u ? "%: count rt(s); B: counts" : "%: m/s/rt(h), deg/rt(h); B: mg, deg/h"), b);
+      TEST_ASSERT_NOT_NULL_MESSAGE(
+          strstr(b, u ? "%: count rt(s); B: counts" : "%: m/s/rt(h), deg/rt(h); B: mg, deg/h"), b);
       assert_printed((double)(1u << kn) / fs, strstr(b, "at ") + 3, "N tau");
       assert_printed(100.0 / sqrt(2.0 * pairs[kn]), strstr(b, "+-") + 2, "N +-%");
       char row[4][7][16];
       for (unsigned i = 0; i < 4; i++) {
         line(pre, 3 + levels + i, b, sizeof b);
-        TEST_ASSERT_EQUAL_INT(7, sscanf(b + strlen(pre), "%15s %15s %15s %15s %15s %15s %15s", row[i][0], row[i][1],
-                                        row[i][2], row[i][3], row[i][4], row[i][5], row[i][6]));
+        TEST_ASSERT_EQUAL_INT(7, sscanf(b + strlen(pre), "%15s %15s %15s %15s %15s %15s %15s", row[i][0],
+                                        row[i][1], row[i][2], row[i][3], row[i][4], row[i][5], row[i][6]));
       }
       TEST_ASSERT_EQUAL_STRING("N", row[0][0]);
       TEST_ASSERT_EQUAL_STRING("B", row[1][0]);
@@ -544,10 +551,12 @@ static void test_summary_in_physical_units_matches_float_on_many_reports(void)
         /* a near tie of the minimum may fall either way in fixed point */
         double shown_tau = strtod(row[3][1 + c], NULL);
         for (unsigned k = 0; k < levels; k++)
-          if (pairs[k] >= 8 && fabs(shown_tau - (double)(1u << k) / fs) <= printed_tol((double)(1u << k) / fs) &&
+          if (pairs[k] >= 8 &&
+              fabs(shown_tau - (double)(1u << k) / fs) <= printed_tol((double)(1u << k) / fs) &&
               fabs(adev[c][k] - adev[c][kb]) <= 2e-4 * adev[c][kb])
             kb = (int)k;
-        assert_printed(adev[c][kn] * sqrt((double)(1u << kn) / fs) * unit_factor(1, c, r, u), row[0][1 + c], "N");
+        assert_printed(adev[c][kn] * sqrt((double)(1u << kn) / fs) * unit_factor(1, c, r, u), row[0][1 + c],
+                       "N");
         assert_printed(adev[c][kb] / 0.664 * unit_factor(2, c, r, u), row[1][1 + c], "B");
         assert_printed(100.0 / sqrt(2.0 * pairs[kb]), row[2][1 + c], "B +-%");
         assert_printed((double)(1u << kb) / fs, row[3][1 + c], "B tau");
@@ -618,7 +627,8 @@ static void test_backspace_and_delete_erase_the_last_character(void)
   fx_run_us(60000);
   command("stattus\b\b\bus");
   line("ok status", 0, b, sizeof b);
-  command("rate 2000\x7f\x7f" "0");
+  command("rate 2000\x7f\x7f"
+          "0");
   line("ok", 1, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("ok reset rate=200", b);
 }
@@ -664,7 +674,9 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   fx_run_us(60000);
   command("status");
   line("ok status", 0, b, sizeof b);
-  TEST_ASSERT_EQUAL_STRING("ok status run=1 mode=allan range=1.5 units=phys cfg=infeasible fs=100 interval=60 link=0 rx=0:0:0:0", b);
+  TEST_ASSERT_EQUAL_STRING(
+      "ok status run=1 mode=allan range=1.5 units=phys cfg=infeasible fs=100 interval=60 link=0 rx=0:0:0:0",
+      b);
   command("load");
   line("error:", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);
@@ -725,7 +737,7 @@ static void test_seq_advances_when_a_report_starts_and_reset_changes_id(void)
   TEST_ASSERT_EQUAL_UINT(0, fx_count_lines("E,0,")); /* report 0 never ended */
   line("H,0,", 0, b, sizeof b);
   snprintf(id0, sizeof id0, "%s", field(b, "id"));
-  line("H,1,", 0, b, sizeof b); /* the next report has the next seq */
+  line("H,1,", 0, b, sizeof b);                        /* the next report has the next seq */
   TEST_ASSERT_FALSE(strcmp(id0, field(b, "id")) == 0); /* and another run */
   line("E,1,", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("E,1,90", b);
@@ -859,10 +871,11 @@ static void test_line_that_lost_a_byte_to_an_overrun_is_refused_whole(void)
  * runs as sent or is refused with error:5; none is glued to another. */
 static void test_back_to_back_commands_run_as_sent_or_get_error_5(void)
 {
-  static const char *cmds[] = {"status", "interval 3600", "rate 1000", "report", "interval 17", "rate 250",
-                               "echo on", "units counts", "reset"};
-  static const char *ok[] = {"ok status ", "ok interval=3600", "ok reset rate=1000", "ok", "ok interval=17",
-                             "ok reset rate=250", "ok echo=on", "ok units=counts", "ok reset"};
+  static const char *cmds[] = {"status",   "interval 3600", "rate 1000",    "report", "interval 17",
+                               "rate 250", "echo on",       "units counts", "reset"};
+  static const char *ok[] = {"ok status ", "ok interval=3600", "ok reset rate=1000",
+                             "ok",         "ok interval=17",   "ok reset rate=250",
+                             "ok echo=on", "ok units=counts",  "ok reset"};
   const unsigned n = sizeof cmds / sizeof cmds[0];
   char b[512];
   unsigned runs = 0, lost = 0;
@@ -972,7 +985,7 @@ static void test_command_check_runs_as_sent_or_refuses_a_changed_line(void)
   line("ok interval", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("ok interval=36", b);
   TEST_ASSERT_TRUE(out_find("> interval 36\r\n", 0) >= 0); /* the check is not echoed */
-  l[10] ^= 0x01; /* "interval 37" with the check of "interval 36" */
+  l[10] ^= 0x01;                                           /* "interval 37" with the check of "interval 36" */
   command(l);
   line("error:", 0, b, sizeof b);
   TEST_ASSERT_EQUAL_STRING("error:5 interv: input lost; resend", b);
@@ -1016,36 +1029,42 @@ static void test_command_check_runs_as_sent_or_refuses_a_changed_line(void)
   TEST_ASSERT_EQUAL_STRING("ok interval=23", b);
 }
 
-static const struct { const char *name; void (*fn)(void); } tests[] = {
-#define T(f) {#f, f}
-  T(test_boot_line_names_protocol_version_and_reset_cause),
-  T(test_status_reply_is_framed_and_checksummed),
-  T(test_unknown_command_gets_error_and_sampling_goes_on),
-  T(test_reply_between_report_lines_pauses_report),
-  T(test_rate_change_resets_run),
-  T(test_range_command_drives_gselect_pins),
-  T(test_raw_mode_writes_every_set_in_order_with_count_lines),
-  T(test_save_writes_a_checked_record_and_load_restores_it),
-  T(test_noise_terms_match_float_on_many_reports),
-  T(test_summary_in_physical_units_matches_float_on_many_reports),
-  T(test_units_typed_during_a_report_apply_to_the_next),
-  T(test_saved_settings_are_in_force_at_power_up),
-  T(test_periodic_report_follows_the_interval),
-  T(test_link_budget_refuses_raw_at_1000_hz),
-  T(test_line_with_nul_is_refused_whole_and_runs_nothing),
-  T(test_backspace_and_delete_erase_the_last_character),
-  T(test_report_header_temp_is_dash_or_mean_min_max),
-  T(test_infeasible_saved_settings_load_defaults_and_say_so),
-  T(test_report_check_line_binds_rows_to_header),
-  T(test_seq_advances_when_a_report_starts_and_reset_changes_id),
-  T(test_start_count_stops_at_count_through_a_reset),
-  T(test_start_count_is_kept_through_a_rate_change),
-  T(test_stray_byte_without_end_delays_no_report_and_times_out),
-  T(test_line_that_lost_a_byte_to_an_overrun_is_refused_whole),
-  T(test_back_to_back_commands_run_as_sent_or_get_error_5),
-  T(test_ctrl_c_or_esc_then_a_command_runs_in_every_mode),
-  T(test_dropped_line_is_marked_on_the_screen),
-  T(test_command_check_runs_as_sent_or_refuses_a_changed_line),
+static const struct {
+  const char *name;
+  void (*fn)(void);
+} tests[] = {
+#define T(f)                                                                                                 \
+  {                                                                                                          \
+#    f, f                                                                                                    \
+  }
+    T(test_boot_line_names_protocol_version_and_reset_cause),
+    T(test_status_reply_is_framed_and_checksummed),
+    T(test_unknown_command_gets_error_and_sampling_goes_on),
+    T(test_reply_between_report_lines_pauses_report),
+    T(test_rate_change_resets_run),
+    T(test_range_command_drives_gselect_pins),
+    T(test_raw_mode_writes_every_set_in_order_with_count_lines),
+    T(test_save_writes_a_checked_record_and_load_restores_it),
+    T(test_noise_terms_match_float_on_many_reports),
+    T(test_summary_in_physical_units_matches_float_on_many_reports),
+    T(test_units_typed_during_a_report_apply_to_the_next),
+    T(test_saved_settings_are_in_force_at_power_up),
+    T(test_periodic_report_follows_the_interval),
+    T(test_link_budget_refuses_raw_at_1000_hz),
+    T(test_line_with_nul_is_refused_whole_and_runs_nothing),
+    T(test_backspace_and_delete_erase_the_last_character),
+    T(test_report_header_temp_is_dash_or_mean_min_max),
+    T(test_infeasible_saved_settings_load_defaults_and_say_so),
+    T(test_report_check_line_binds_rows_to_header),
+    T(test_seq_advances_when_a_report_starts_and_reset_changes_id),
+    T(test_start_count_stops_at_count_through_a_reset),
+    T(test_start_count_is_kept_through_a_rate_change),
+    T(test_stray_byte_without_end_delays_no_report_and_times_out),
+    T(test_line_that_lost_a_byte_to_an_overrun_is_refused_whole),
+    T(test_back_to_back_commands_run_as_sent_or_get_error_5),
+    T(test_ctrl_c_or_esc_then_a_command_runs_in_every_mode),
+    T(test_dropped_line_is_marked_on_the_screen),
+    T(test_command_check_runs_as_sent_or_refuses_a_changed_line),
 #undef T
 };
 
@@ -1062,7 +1081,8 @@ int main(int argc, char **argv)
       printf("%s\n", tests[i].name);
     return 0;
   }
-  if (getenv("FX_DUMP")) atexit(dump);
+  if (getenv("FX_DUMP"))
+    atexit(dump);
   UNITY_BEGIN();
   for (i = 0; i < sizeof tests / sizeof tests[0]; i++)
     if (strcmp(argv[1], tests[i].name) == 0)

@@ -22,12 +22,15 @@
 #define ACC_MAX(level) ((((unsigned __int128)1) << ALLAN_ACC_BITS(level)) - 1)
 
 static allan_t eng;
-static uint16_t *buf;      /* n rows of NCH codes */
+static uint16_t *buf; /* n rows of NCH codes */
 static uint32_t buf_cap;
 
 /* ---- deterministic random numbers (xorshift64*, seeded) ---- */
 static uint64_t rng_state;
-static void rng_seed(uint64_t s) { rng_state = s * 0x9E3779B97F4A7C15ull + 1; }
+static void rng_seed(uint64_t s)
+{
+  rng_state = s * 0x9E3779B97F4A7C15ull + 1;
+}
 static uint64_t rng_next(void)
 {
   rng_state ^= rng_state >> 12;
@@ -35,7 +38,10 @@ static uint64_t rng_next(void)
   rng_state ^= rng_state >> 27;
   return rng_state * 2685821657736338717ull;
 }
-static uint32_t rng_below(uint32_t n) { return (uint32_t)(rng_next() % n); }
+static uint32_t rng_below(uint32_t n)
+{
+  return (uint32_t)(rng_next() % n);
+}
 static double rng_gauss(void)
 {
   double u1 = ((rng_next() >> 11) + 1.0) / 9007199254740993.0;
@@ -45,8 +51,10 @@ static double rng_gauss(void)
 static uint16_t clamp_code(double v)
 {
   long r = lround(v);
-  if (r < 0) return 0;
-  if (r > (long)ALLAN_CODE_MAX) return ALLAN_CODE_MAX;
+  if (r < 0)
+    return 0;
+  if (r > (long)ALLAN_CODE_MAX)
+    return ALLAN_CODE_MAX;
   return (uint16_t)r;
 }
 
@@ -72,7 +80,7 @@ typedef struct {
   unsigned __int128 sumsq; /* exact sum of squared cluster-sum differences */
   double avar;             /* float64 Allan variance from cluster means */
   uint32_t pairs;
-  uint8_t flags;           /* what the engine must report */
+  uint8_t flags; /* what the engine must report */
 } ref_t;
 
 static ref_t reference(const uint16_t *x, uint32_t n, int ch, int level)
@@ -85,8 +93,10 @@ static ref_t reference(const uint16_t *x, uint32_t n, int ch, int level)
 
   for (uint32_t i = 0; i < n; i++) {
     uint16_t v = x[(size_t)i * NCH + ch];
-    if (v < lo) lo = v;
-    if (v > hi) hi = v;
+    if (v < lo)
+      lo = v;
+    if (v > hi)
+      hi = v;
   }
   uint16_t run_lo = ALLAN_CODE_MAX, run_hi = 0; /* range up to the current cluster */
   int range_hit = 0;
@@ -95,8 +105,10 @@ static ref_t reference(const uint16_t *x, uint32_t n, int ch, int level)
     for (uint32_t i = j * m; i < (j + 1) * m; i++) {
       uint16_t v = x[(size_t)i * NCH + ch];
       sum += v;
-      if (v < run_lo) run_lo = v;
-      if (v > run_hi) run_hi = v;
+      if (v < run_lo)
+        run_lo = v;
+      if (v > run_hi)
+        run_hi = v;
     }
     /* A pair taken once the range bound is broken cannot be vouched for:
      * the engine saturates that level for good. */
@@ -130,7 +142,8 @@ static unsigned __int128 engine_acc(int ch, int level)
 
 static double rel_diff(double a, double b)
 {
-  if (a == b) return 0.0;
+  if (a == b)
+    return 0.0;
   return fabs(a - b) / fmax(fabs(a), fabs(b));
 }
 
@@ -157,8 +170,8 @@ static int check_all(const uint16_t *x, uint32_t n, const char *what)
         double m = (double)(1u << k);
         double avar = (double)engine_acc(ch, k) / (2.0 * m * m * r.pairs);
         double d = rel_diff(avar, r.avar);
-        snprintf(msg, sizeof msg, "%s: ch=%d level=%d avar %.17g ref %.17g rel %.3g",
-                 what, ch, k, avar, r.avar, d);
+        snprintf(msg, sizeof msg, "%s: ch=%d level=%d avar %.17g ref %.17g rel %.3g", what, ch, k, avar,
+                 r.avar, d);
         TEST_ASSERT_TRUE_MESSAGE(d <= 1e-12, msg);
       }
       exact++;
@@ -181,17 +194,24 @@ static void fill(uint16_t *x, uint32_t n, int kind, uint64_t seed)
       switch (kind) {
       case S_RANDOM: v = (uint16_t)rng_below(ALLAN_CODE_MAX + 1); break;
       case S_CONSTANT: v = konst; break;
-      case S_RAMP: v = (uint16_t)(((uint64_t)i * (ALLAN_CODE_MAX + 1) / n + ch * 37) % (ALLAN_CODE_MAX + 1)); break;
+      case S_RAMP:
+        v = (uint16_t)(((uint64_t)i * (ALLAN_CODE_MAX + 1) / n + ch * 37) % (ALLAN_CODE_MAX + 1));
+        break;
       case S_SQUARE: /* full scale, half period 2^(14-ch): level 14 and below see huge steps */
-        v = ((i >> (14 - ch)) & 1) ? ALLAN_CODE_MAX : 0; break;
-      case S_WALK:   /* reflecting random walk over the whole code range */
+        v = ((i >> (14 - ch)) & 1) ? ALLAN_CODE_MAX : 0;
+        break;
+      case S_WALK: /* reflecting random walk over the whole code range */
         walk += rng_gauss() * (1.0 + ch);
-        if (walk < 0) walk = -walk;
-        if (walk > ALLAN_CODE_MAX) walk = 2.0 * ALLAN_CODE_MAX - walk;
-        v = clamp_code(walk); break;
-      default:       /* thesis-like sensor at rest: offset + white + Gauss-Markov bias */
+        if (walk < 0)
+          walk = -walk;
+        if (walk > ALLAN_CODE_MAX)
+          walk = 2.0 * ALLAN_CODE_MAX - walk;
+        v = clamp_code(walk);
+        break;
+      default: /* thesis-like sensor at rest: offset + white + Gauss-Markov bias */
         gm = 0.999 * gm + 0.05 * rng_gauss();
-        v = clamp_code(496.0 + 60 * ch + 2.0 * rng_gauss() + gm); break;
+        v = clamp_code(496.0 + 60 * ch + 2.0 * rng_gauss() + gm);
+        break;
       }
       x[(size_t)i * NCH + ch] = v;
     }
@@ -210,7 +230,10 @@ static void run_stream(int kind, uint32_t n, uint64_t seed, const char *what)
 /* ---- tests ---- */
 #define N_STREAM (1u << 17)
 
-void setUp(void) { allan_reset(&eng); }
+void setUp(void)
+{
+  allan_reset(&eng);
+}
 void tearDown(void) {}
 
 static void test_state_is_packed(void)
@@ -219,18 +242,33 @@ static void test_state_is_packed(void)
    * for 48-bit levels, the code range only where wide levels need it, and
    * the sample count, the cascade's depth, and one bit
    * per level whose pairs may wait (levels 2 .. NLEV-2). */
-  size_t expect = NCH * (7u * NLEV + (NLEV - 7u) + (NLEV - ALLAN_ACC48_FROM) + (NLEV > 15 ? 4u : 0u)) + 5u
-                  + (NLEV - 2 > 16 ? 4u : 2u);
+  size_t expect = NCH * (7u * NLEV + (NLEV - 7u) + (NLEV - ALLAN_ACC48_FROM) + (NLEV > 15 ? 4u : 0u)) + 5u +
+                  (NLEV - 2 > 16 ? 4u : 2u);
   TEST_ASSERT_EQUAL_UINT32(7, sizeof(allan_cell_t));
   TEST_ASSERT_EQUAL_UINT32(expect, ALLAN_STATE_BYTES);
   TEST_ASSERT_TRUE(sizeof eng >= expect && sizeof eng <= expect + 7); /* + host alignment */
 }
 
-static void test_random_stream(void) { run_stream(S_RANDOM, N_STREAM, 1, "random"); }
-static void test_constant_stream(void) { run_stream(S_CONSTANT, N_STREAM, 2, "constant"); }
-static void test_ramp_stream(void) { run_stream(S_RAMP, N_STREAM + 12345, 3, "ramp"); }
-static void test_random_walk_stream(void) { run_stream(S_WALK, N_STREAM + 777, 4, "walk"); }
-static void test_imu_like_stream(void) { run_stream(S_IMU, N_STREAM, 5, "imu"); }
+static void test_random_stream(void)
+{
+  run_stream(S_RANDOM, N_STREAM, 1, "random");
+}
+static void test_constant_stream(void)
+{
+  run_stream(S_CONSTANT, N_STREAM, 2, "constant");
+}
+static void test_ramp_stream(void)
+{
+  run_stream(S_RAMP, N_STREAM + 12345, 3, "ramp");
+}
+static void test_random_walk_stream(void)
+{
+  run_stream(S_WALK, N_STREAM + 777, 4, "walk");
+}
+static void test_imu_like_stream(void)
+{
+  run_stream(S_IMU, N_STREAM, 5, "imu");
+}
 
 static void test_square_wave_saturates_exactly_where_due(void)
 {
@@ -480,7 +518,8 @@ static void test_property_many_seeds(void)
       double step = rng_below(3) ? 0.0 : rng_below(100) * 0.05, w = center;
       for (uint32_t i = 0; i < n; i++) {
         w += step * rng_gauss();
-        if (w < 0 || w > ALLAN_CODE_MAX) w = center;
+        if (w < 0 || w > ALLAN_CODE_MAX)
+          w = center;
         x[(size_t)i * NCH + ch] = clamp_code(w + sd * rng_gauss());
       }
     }

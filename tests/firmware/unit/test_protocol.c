@@ -128,8 +128,10 @@ static void assert_sig3(const char *s, double value, const char *what)
   int digits = 0, leading = 1;
   snprintf(msg, sizeof msg, "%s: printed '%s' for %.9g", what, s, value);
   for (const char *c = s; *c && *c != 'e'; c++) {
-    if (*c >= '1' && *c <= '9') leading = 0;
-    if (*c >= '0' && *c <= '9' && !leading) digits++;
+    if (*c >= '1' && *c <= '9')
+      leading = 0;
+    if (*c >= '0' && *c <= '9' && !leading)
+      digits++;
   }
   if (p >= 1000.0) /* r and zeros */
     TEST_ASSERT_TRUE_MESSAGE(digits >= 3 && strchr(s, '.') == NULL, msg);
@@ -165,8 +167,10 @@ static void test_fmt_adev_three_significant_digits(void)
     uint8_t level = (uint8_t)(next() % 23);
     double value;
     uint8_t n;
-    if (!pairs) pairs = 1;
-    if (!acc) acc = 1;
+    if (!pairs)
+      pairs = 1;
+    if (!acc)
+      acc = 1;
     value = sqrt((double)acc / (2.0 * pairs)) / ldexp(1.0, level);
     {
       uint32_t mant;
@@ -221,8 +225,10 @@ static void test_units_scale_matches_float_on_random_reports(void)
     uint32_t mant;
     int8_t exp;
     double value;
-    if (!pairs) pairs = 1;
-    if (!acc) acc = 1;
+    if (!pairs)
+      pairs = 1;
+    if (!acc)
+      acc = 1;
     value = sqrt((double)acc / (2.0 * pairs)) / ldexp(1.0, level) * board_factor(q, kind);
     exp = fmt_adev(&mant, (uint16_t)(acc >> 32), (uint32_t)acc, pairs, level);
     TEST_ASSERT_TRUE(mant < 65536u); /* units_scale's precondition */
@@ -268,8 +274,9 @@ static void test_fmt_mean_is_exact_over_an_hour_at_1500_hz(void)
   char msg[80];
   TEST_ASSERT_TRUE((uint64_t)1023u * n > 0xFFFFFFFFull);
   TEST_ASSERT_EQUAL_HEX32(MEAN(1023, 0), mean_of((uint64_t)1023u * n, n));
-  TEST_ASSERT_EQUAL_HEX32(MEAN(1022, 9), mean_of((uint64_t)1023u * n - n / 20u - 1u, n)); /* just under 1022.95 */
-  TEST_ASSERT_EQUAL_HEX32(MEAN(1023, 0), mean_of((uint64_t)1023u * n - n / 20u, n));      /* 1022.95 */
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1022, 9),
+                          mean_of((uint64_t)1023u * n - n / 20u - 1u, n));           /* just under 1022.95 */
+  TEST_ASSERT_EQUAL_HEX32(MEAN(1023, 0), mean_of((uint64_t)1023u * n - n / 20u, n)); /* 1022.95 */
   TEST_ASSERT_EQUAL_HEX32(MEAN(512, 5), mean_of((uint64_t)512u * n + n / 2u, n));
   TEST_ASSERT_EQUAL_HEX32(MEAN(0, 0), mean_of(0, n));
   TEST_ASSERT_EQUAL_HEX32(MEAN(7, 0), mean_of(7, 1));
@@ -301,7 +308,12 @@ static void test_fmt_tau_every_level_and_rate(void)
 /* ---- proto ---- */
 static char out[512];
 static size_t out_len;
-static void sink(uint8_t c) { if (out_len < sizeof out - 1) out[out_len++] = (char)c; out[out_len] = 0; }
+static void sink(uint8_t c)
+{
+  if (out_len < sizeof out - 1)
+    out[out_len++] = (char)c;
+  out[out_len] = 0;
+}
 
 static void test_proto_frames_a_line_with_its_crc(void)
 {
@@ -389,7 +401,8 @@ static void test_command_words_and_arguments(void)
     TEST_ASSERT_EQUAL_UINT8(CMD_ERR_ARG, command_parse(big, &c));
   }
   TEST_ASSERT_TRUE(vocab_rate_ok(1000) && vocab_rate_ok(50) && !vocab_rate_ok(300) && !vocab_rate_ok(0));
-  TEST_ASSERT_TRUE(vocab_rate_ok(1250) && vocab_rate_ok(1500) && !vocab_rate_ok(1600)); /* 1600: shorter than the scan */
+  TEST_ASSERT_TRUE(vocab_rate_ok(1250) && vocab_rate_ok(1500) &&
+                   !vocab_rate_ok(1600)); /* 1600: shorter than the scan */
 }
 
 static void test_command_settings_words(void)
@@ -452,10 +465,10 @@ static void test_link_budget(void)
    * = 187 bytes of wait */
   TEST_ASSERT_EQUAL_UINT32(250u * 36u + (250u * 36u + 99u) / 100u, link_bytes_per_s(MODE_RAW, 250));
   TEST_ASSERT_EQUAL_UINT16(187, link_wait_bytes(MODE_RAW));
-  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, b));   /* 187 / 10368 s = 18.0 ms <= 20 ms */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 200, b));  /* 18.0 ms > 10 ms: a status reply would cost a set */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 250, b));  /* throughput fits (9090 B/s), the wait does not */
-  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 500, b));  /* 18155 B/s */
+  TEST_ASSERT_TRUE(link_fits(MODE_RAW, 100, b));      /* 187 / 10368 s = 18.0 ms <= 20 ms */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 200, b));     /* 18.0 ms > 10 ms: a status reply would cost a set */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 250, b));     /* throughput fits (9090 B/s), the wait does not */
+  TEST_ASSERT_FALSE(link_fits(MODE_RAW, 500, b));     /* 18155 B/s */
   TEST_ASSERT_FALSE(link_fits(MODE_RAW, 100, 57600)); /* 187 / 5184 s = 36 ms > 20 ms */
   TEST_ASSERT_TRUE(link_fits(MODE_RAW, 50, 57600));
   /* binary: 13 bytes a frame; frames cut into lines: 20 + 13 = 33 bytes of wait */
@@ -465,7 +478,7 @@ static void test_link_budget(void)
   TEST_ASSERT_TRUE(link_fits(MODE_BINARY, 1000, 250000));
   /* both: 313 + 20 + 36 = 369 bytes of wait */
   TEST_ASSERT_EQUAL_UINT16(369, link_wait_bytes(MODE_BOTH));
-  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b));   /* 35.6 ms <= 40 ms */
+  TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 50, b)); /* 35.6 ms <= 40 ms */
   TEST_ASSERT_FALSE(link_fits(MODE_BOTH, 100, b));
   TEST_ASSERT_TRUE(link_fits(MODE_BOTH, 100, 250000)); /* 16.4 ms <= 20 ms */
   /* allan: reports wait for the link */

@@ -4,6 +4,7 @@ lines (framing and CRC-16/CCITT-FALSE via binascii.crc_hqx, independent of
 the firmware and of the host package), a pyserial connection.
 
 Run with `make flash-test` (BUILD=, IMU_SIM= point elsewhere)."""
+
 from __future__ import annotations
 
 import binascii
@@ -21,7 +22,7 @@ REPO = Path(__file__).resolve().parents[3]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
 MCU = "atmega168"
 FLASH_BYTES = 16384
-BOOT_START = FLASH_BYTES - 512          # optiboot's boot section
+BOOT_START = FLASH_BYTES - 512  # optiboot's boot section
 HEX = BUILD / f"avr-{MCU}" / "imu-allan.hex"
 SIM = Path(os.environ.get("IMU_SIM", BUILD / "host" / "imu-sim"))
 BOOTLOADER = BUILD / "optiboot" / f"optiboot_{MCU}_10000000_115200.hex"
@@ -84,26 +85,50 @@ class Board:
     """A simulated board: flash and EEPROM in files under TMP, its port on
     TMP/tty, everything the device sends copied to TMP/device.log."""
 
-    def __init__(self, tmp: Path, bootloader: str = "optiboot", isp: Path | None = None,
-                 via_make: bool = False) -> None:
+    def __init__(
+        self, tmp: Path, bootloader: str = "optiboot", isp: Path | None = None, via_make: bool = False
+    ) -> None:
         self.tmp = tmp
         self.prefix = tmp / "board"
         self.link = tmp / "tty"
         self.log = tmp / "device.log"
         self.err = tmp / "board.err"
         self.ser: serial.Serial | None = None
-        if via_make:   # exactly what a user runs
-            cmd = ["make", "-s", "--no-print-directory", "-C", str(REPO), "sim-board",
-                   f"BUILD={BUILD}", f"SIM_BOARD={self.prefix}", f"SIM_BOARD_LINK={self.link}",
-                   f"SIM_BOARD_OPTS=--synthetic -v -o {self.log}", f"BOOTLOADER={bootloader}"]
+        if via_make:  # exactly what a user runs
+            cmd = [
+                "make",
+                "-s",
+                "--no-print-directory",
+                "-C",
+                str(REPO),
+                "sim-board",
+                f"BUILD={BUILD}",
+                f"SIM_BOARD={self.prefix}",
+                f"SIM_BOARD_LINK={self.link}",
+                f"SIM_BOARD_OPTS=--synthetic -v -o {self.log}",
+                f"BOOTLOADER={bootloader}",
+            ]
         else:
             boot = str(BOOTLOADER) if bootloader == "optiboot" else "none"
-            cmd = [str(SIM), "--pty", "--board", str(self.prefix), "--bootloader", boot,
-                   "--link", str(self.link), "--synthetic", "-v", "-o", str(self.log)]
+            cmd = [
+                str(SIM),
+                "--pty",
+                "--board",
+                str(self.prefix),
+                "--bootloader",
+                boot,
+                "--link",
+                str(self.link),
+                "--synthetic",
+                "-v",
+                "-o",
+                str(self.log),
+            ]
             if isp is not None:
                 cmd += ["--flash", str(isp)]
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=open(self.err, "wb"),
-                                     start_new_session=True)
+        self.proc = subprocess.Popen(
+            cmd, stdout=subprocess.DEVNULL, stderr=open(self.err, "wb"), start_new_session=True
+        )
         deadline = time.monotonic() + 30
         while not self.link.is_symlink():
             if self.proc.poll() is not None:
@@ -167,6 +192,9 @@ class Board:
 
 def make_flash(link: Path, *extra: str, timeout: float = 60) -> subprocess.CompletedProcess:
     """`make flash PORT=...`, as a user runs it."""
-    return subprocess.run(["make", "--no-print-directory", "-C", str(REPO), "flash",
-                           f"BUILD={BUILD}", f"PORT={link}", *extra],
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        ["make", "--no-print-directory", "-C", str(REPO), "flash", f"BUILD={BUILD}", f"PORT={link}", *extra],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )

@@ -4,6 +4,7 @@ bring: power-on, the RESET pin (DTR, on opening the port) and the firmware's
 own watchdog (the board hangs the firmware on SIGUSR1, as a stuck loop
 would).  Optiboot 4.4 clears MCUSR before starting the firmware, so under it
 a RESET-pin reset is honestly `unknown`; the watchdog reset must not loop."""
+
 from __future__ import annotations
 
 import os
@@ -43,13 +44,13 @@ def test_reset_pin(board: Board) -> None:
 def test_watchdog_once_and_no_loop(board: Board) -> None:
     before = len(board.wait_boots(2, 5))
     board.open()
-    board.wait_boots(before + 1, 5)            # the reset the opening brings
+    board.wait_boots(before + 1, 5)  # the reset the opening brings
     time.sleep(0.2)
     assert board.ask("status").startswith("ok status run=1")
-    os.kill(board.proc.pid, signal.SIGUSR1)    # the firmware's loop hangs
-    got = board.wait_boots(before + 2, 10)    # 2 s, more on a busy host
-    assert got[before + 1:] == [EXPECTED[board.kind][2]], board.errors()
-    time.sleep(3.0)                            # three watchdog periods more
+    os.kill(board.proc.pid, signal.SIGUSR1)  # the firmware's loop hangs
+    got = board.wait_boots(before + 2, 10)  # 2 s, more on a busy host
+    assert got[before + 1 :] == [EXPECTED[board.kind][2]], board.errors()
+    time.sleep(3.0)  # three watchdog periods more
     assert len(boots(board.output())) == before + 2, board.errors()
     board.ser.reset_input_buffer()
     assert board.ask("status").startswith("ok status run=1")

@@ -1,5 +1,6 @@
 """Shared pieces of the simulator scenarios: the real firmware ELF runs in
 simavr (imu-sim); every result is checked exactly by `imu-allan check`."""
+
 from __future__ import annotations
 
 import json
@@ -19,11 +20,11 @@ SIM = BUILD / "host" / "imu-sim"
 def cli(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     """Run this checkout's imu-allan command line as a user would."""
     env = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
-    proc = subprocess.run([sys.executable, "-m", "imu_allan.cli", *args],
-                          capture_output=True, text=True, errors="replace", env=env)
+    proc = subprocess.run(
+        [sys.executable, "-m", "imu_allan.cli", *args], capture_output=True, text=True, errors="replace", env=env
+    )
     if check and proc.returncode != 0:
-        raise AssertionError(f"imu-allan {' '.join(args)} exited {proc.returncode}:\n"
-                             f"{proc.stdout}\n{proc.stderr}")
+        raise AssertionError(f"imu-allan {' '.join(args)} exited {proc.returncode}:\n{proc.stdout}\n{proc.stderr}")
     return proc
 
 
@@ -43,8 +44,17 @@ class Run:
         self.stats_file = tmp / f"{name}.stats.json"
 
     def simulate(self, fs: int | None = None, uart_in: Path | None = None) -> dict:
-        args = ["sim", "--adc", str(self.rows), "-o", str(self.log),
-                "--firmware", str(ELF), "--stats", str(self.stats_file)]
+        args = [
+            "sim",
+            "--adc",
+            str(self.rows),
+            "-o",
+            str(self.log),
+            "--firmware",
+            str(ELF),
+            "--stats",
+            str(self.stats_file),
+        ]
         if fs is not None:
             args += ["--fs", str(fs)]
         if uart_in is not None:

@@ -1,6 +1,7 @@
 """imu-sim with injected faults, run directly (the faults are harness options
 that `imu-allan sim` does not pass on), and the device lines of its log.
 Shared by test_faults.py and the link soak (soak.py)."""
+
 from __future__ import annotations
 
 import json
@@ -51,13 +52,13 @@ def header_fields(body: str) -> dict:
     return dict(kv.split("=", 1) for kv in body.split(",") if "=" in kv)
 
 
-def simulate(rows: Path, tmp: Path, fs: int, *options: str, uart: str | None = None,
-             name: str = "run", check: bool = True) -> SimRun:
+def simulate(
+    rows: Path, tmp: Path, fs: int, *options: str, uart: str | None = None, name: str = "run", check: bool = True
+) -> SimRun:
     """One batch run of the firmware ELF on ROWS at FS with OPTIONS; UART
     is --uart-in text ('<row>\\t<text>' lines)."""
     log, stats = tmp / f"{name}.log", tmp / f"{name}.json"
-    args = [str(SIM), "--adc", str(rows), "--fs", str(fs), "-o", str(log),
-            "--stats-json", str(stats), *options]
+    args = [str(SIM), "--adc", str(rows), "--fs", str(fs), "-o", str(log), "--stats-json", str(stats), *options]
     if uart is not None:
         (tmp / f"{name}.uart").write_text(uart)
         args += ["--uart-in", str(tmp / f"{name}.uart")]

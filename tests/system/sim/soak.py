@@ -20,6 +20,7 @@ happened are counted (runs_with_unseen), and their mismatches apart too
 caught.  `--no-check` sends the commands bare, as a person types them:
 then only the faults the UART or the line discipline can see are refused,
 and `mismatch` counts only the runs without the others."""
+
 from __future__ import annotations
 
 import argparse
@@ -46,8 +47,7 @@ PLAIN = ["status", "units", "echo", "units counts", "units phys", "echo on", "ec
 
 def commands(rng: np.random.Generator, count: int) -> list[str]:
     values = iter(rng.choice(np.arange(1000, 3601), count, replace=False))
-    return [f"interval {next(values)}" if rng.random() < 0.6 else str(rng.choice(PLAIN))
-            for _ in range(count)]
+    return [f"interval {next(values)}" if rng.random() < 0.6 else str(rng.choice(PLAIN)) for _ in range(count)]
 
 
 def sent_as(cmd: str, check: bool) -> str:
@@ -63,7 +63,7 @@ def schedule(rng: np.random.Generator, cmds: list[str], n: int, check: bool = Tr
     rows = sorted(rng.integers(n // 10, 9 * n // 10, size=len(cmds)))
     while i < len(cmds):
         k = int(rng.integers(1, 4))
-        out.append(f"{rows[i]}\t" + "".join(sent_as(c, check) + "\\r" for c in cmds[i:i + k]))
+        out.append(f"{rows[i]}\t" + "".join(sent_as(c, check) + "\\r" for c in cmds[i : i + k]))
         i += k
     return "\n".join(out) + "\n"
 
@@ -97,16 +97,15 @@ def judge(cmds: list[str], replies: list[str]) -> Counter:
         elif r.startswith("error"):
             c["refused_other"] += 1
         elif r == "ok":
-            continue        # the harness's own final `report`
+            continue  # the harness's own final `report`
         else:
             # the first command from p this reply answers; a status only one
             # sent after the interval it shows (an earlier status may have
             # had its reply damaged on the way back)
-            j = next((j for j in range(p, len(cmds)) if matches(cmds[j], r)
-                      and shows_sent_interval(r, cmds[:j])), None)
+            j = next((j for j in range(p, len(cmds)) if matches(cmds[j], r) and shows_sent_interval(r, cmds[:j])), None)
             if j is None:
                 c["mismatch"] += 1
-                c.setdefault("examples", []).append(r)   # type: ignore[arg-type]
+                c.setdefault("examples", []).append(r)  # type: ignore[arg-type]
                 continue
             c["ran"] += 1
             p = j + 1
@@ -121,12 +120,22 @@ def one_run(seed: int, tmp: Path, check: bool = True) -> Counter:
     d.mkdir()
     make_rows(d / "r.tsv", n, seed)
     cmds = commands(rng, int(rng.integers(10, 21)))
-    run = simulate(d / "r.tsv", d, fs, "--link-loss", str(RATE_LOSS), "--link-flip",
-                   str(RATE_FLIP), "--fault-seed", str(seed), uart=schedule(rng, cmds, n, check),
-                   check=False)
+    run = simulate(
+        d / "r.tsv",
+        d,
+        fs,
+        "--link-loss",
+        str(RATE_LOSS),
+        "--link-flip",
+        str(RATE_FLIP),
+        "--fault-seed",
+        str(seed),
+        uart=schedule(rng, cmds, n, check),
+        check=False,
+    )
     if run.returncode != 0:
         return Counter(runs=1, failed_runs=1, sent=len(cmds))
-    setup = 4       # the harness's own stop, rate, reset, start replies
+    setup = 4  # the harness's own stop, rate, reset, start replies
     c = judge(cmds, [b for b in run.lines() if b.startswith(("ok", "error"))][setup:])
     c["runs"] = 1
     head = run.headers()[-1]
@@ -159,13 +168,31 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=1000)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--no-check", dest="check", action="store_false",
-                    help="send the commands without their check (as typed by a person)")
+    ap.add_argument(
+        "--no-check",
+        dest="check",
+        action="store_false",
+        help="send the commands without their check (as typed by a person)",
+    )
     a = ap.parse_args()
     t = soak(a.runs, a.jobs, a.seed, a.check)
-    keys = ["runs", "failed_runs", "sampling_faults", "sent", "ran", "error5", "timeout",
-            "refused_other", "mismatch", "runs_with_unseen", "mismatch_after_unseen",
-            "fault_in_lost", "fault_in_flipped", "fault_out_lost", "fault_out_flipped"]
+    keys = [
+        "runs",
+        "failed_runs",
+        "sampling_faults",
+        "sent",
+        "ran",
+        "error5",
+        "timeout",
+        "refused_other",
+        "mismatch",
+        "runs_with_unseen",
+        "mismatch_after_unseen",
+        "fault_in_lost",
+        "fault_in_flipped",
+        "fault_out_lost",
+        "fault_out_flipped",
+    ]
     for k in keys:
         print(f"{k:26s} {t[k]}")
     if t["examples"]:

@@ -2,6 +2,7 @@
 byte on the link delays no report and times out alone; Ctrl-C or Esc before
 a command in a stream mode costs the command nothing.  Every run's results
 stay exact with no sample dropped (simulate_and_check)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -26,7 +27,7 @@ def test_stray_byte_without_end_delays_no_report(run, tmp_path: Path) -> None:
     assert text.count(b"$error:") == 1
     first_header = text.index(b"$H,")
     assert text.index(b"> x\r\n") < text.index(b"$error:7") < first_header  # 12 s: before the 60 s report
-    assert b"rx=0:0:0:1" in text[first_header:first_header + 400]
+    assert b"rx=0:0:0:1" in text[first_header : first_header + 400]
 
 
 def test_ctrl_c_or_esc_before_a_command_in_a_stream_mode(run, tmp_path: Path) -> None:
@@ -36,8 +37,7 @@ def test_ctrl_c_or_esc_before_a_command_in_a_stream_mode(run, tmp_path: Path) ->
     n, fs = 6000, 100
     cli("gen", "-n", str(n), "--fs", str(fs), "--seed", "2011", "-o", str(r.rows))
     uart = tmp_path / "uart.txt"
-    uart.write_text("100\tmode binary\\r\n1000\t\\x03mode allan\\r\n"
-                    "2000\tmode raw\\r\n3000\t\\x1bmode allan\\r\n")
+    uart.write_text("100\tmode binary\\r\n1000\t\\x03mode allan\\r\n2000\tmode raw\\r\n3000\t\\x1bmode allan\\r\n")
     simulate_and_check(r, n, fs, uart_in=uart)
     text = r.log.read_bytes()
     assert b"$error:" not in text
@@ -50,9 +50,10 @@ def _checked(text: str, flip: int | None = None) -> str:
     CRC); ``flip``: the index of a byte of the whole line whose bit 0 the
     link flipped."""
     from imu_allan.device.framing import crc16
+
     line = f"{text}*{crc16(text.encode()):04X}"
     if flip is not None:
-        line = line[:flip] + chr(ord(line[flip]) ^ 1) + line[flip + 1:]
+        line = line[:flip] + chr(ord(line[flip]) ^ 1) + line[flip + 1 :]
     return line
 
 
@@ -64,16 +65,18 @@ def test_a_command_with_its_check_runs_and_a_changed_one_is_refused(run, tmp_pat
     n, fs = 3000, 100
     cli("gen", "-n", str(n), "--fs", str(fs), "--seed", "2012", "-o", str(r.rows))
     uart = tmp_path / "uart.txt"
-    uart.write_text(f"100\t{_checked('interval 36')}\\r\n"
-                    f"600\t{_checked('interval 36', flip=10)}\\r\n"
-                    f"1100\t{_checked('interval 18', flip=13)}\\r\n"
-                    f"1600\tinterval 40\\r\n"
-                    f"2100\t{_checked('status')}\\r\n")
+    uart.write_text(
+        f"100\t{_checked('interval 36')}\\r\n"
+        f"600\t{_checked('interval 36', flip=10)}\\r\n"
+        f"1100\t{_checked('interval 18', flip=13)}\\r\n"
+        f"1600\tinterval 40\\r\n"
+        f"2100\t{_checked('status')}\\r\n"
+    )
     simulate_and_check(r, n, fs, uart_in=uart)
     text = r.log.read_bytes()
     assert text.count(b"$ok interval=36*") == 1 and b"interval=37" not in text and b"interval=18" not in text
     assert text.count(b"$error:5 ") == 2 and text.count(b"$error:") == 2
     assert text.count(b"$ok interval=40*") == 1
-    status = text[text.index(b"$ok status"):]
+    status = text[text.index(b"$ok status") :]
     assert b" interval=40 " in status[:200] and b"rx=0:0:2:0" in status[:200]
     assert b"> interval 36\r\n" in text and b"> status\r\n" in text  # the check is not echoed

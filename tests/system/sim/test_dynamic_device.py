@@ -2,23 +2,24 @@
 simavr): a warm-up transient is found where it is, a stationary run shows
 none, and every window equals, exactly, the non-overlapping Allan variance of
 the raw rows it covers."""
+
 from __future__ import annotations
 
 import json
 
 import numpy as np
 import pytest
-
 from conftest import cli
+
+from imu_allan.analysis.dynamic import from_reports, runs
 from imu_allan.device.records import decode_bytes
 from imu_allan.render.screen import Monitor
-from imu_allan.analysis.dynamic import from_reports, runs
 from imu_allan.stats.reference import octave_avar
 
 FS = 100
-SECONDS = 1200          # 20 min of device time per run (simavr: about 12 s of CPU)
-WARM = 0.15 * SECONDS   # the transient is over after the first 15 %
-INTERVAL = 30           # a report every 30 s: 40 windows
+SECONDS = 1200  # 20 min of device time per run (simavr: about 12 s of CPU)
+WARM = 0.15 * SECONDS  # the transient is over after the first 15 %
+INTERVAL = 30  # a report every 30 s: 40 windows
 
 
 def warm_rows(seed: int, warm: bool) -> np.ndarray:
@@ -90,7 +91,7 @@ def test_device_windows_equal_the_raw_rows_exactly(device_runs) -> None:
                 m, pa, pb = int(ws.ms[k]), int(before[c, k]), int(after[c, k])
                 if pb <= pa:
                     continue
-                seg = codes[pa * m:(pb + 1) * m, c]
+                seg = codes[pa * m : (pb + 1) * m, c]
                 sums = seg.reshape(-1, m).sum(axis=1)
                 exact = sum(int(d) * int(d) for d in np.diff(sums))
                 assert ws.acc[w][c][k] == exact, (w, c, k)
@@ -110,7 +111,7 @@ def test_monitor_shows_the_advice_line_at_every_report(device_runs) -> None:
     mon = Monitor("/dev/ttyUSB0", 115200, "x.log")
     seen = []
     for a in range(0, len(data), 2048):
-        mon.feed(data[a:a + 2048])
+        mon.feed(data[a : a + 2048])
         if mon.report is None or (seen and seen[-1][0] == mon.report.seq):
             continue
         lines, _, _ = mon.screen(80, 24)

@@ -4,6 +4,7 @@ For each: the device keeps sampling and loses no sample it could have kept
 (the run after the fault is exact, with no drop), runs no command other than
 the one sent, says what happened (reset cause, cfg, clips, counters) and
 recovers (commands after the fault work)."""
+
 from __future__ import annotations
 
 import re
@@ -11,12 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import cli
 from faultsim import CHANNELS, SimRun, make_rows, simulate, write_rows
 
 RATES = [100, 1500]
-ROWS = {100: 1500, 1500: 6000}      # 15 s and 4 s of sampling
+ROWS = {100: 1500, 1500: 6000}  # 15 s and 4 s of sampling
 
 
 def exact_after(run: SimRun, rows: np.ndarray, tmp: Path, fs: int) -> dict:
@@ -43,16 +43,17 @@ POWER = [("--power-cut", "por"), ("--brown-out", "bor")]
 
 @pytest.mark.parametrize("fs", RATES)
 @pytest.mark.parametrize("event,cause", POWER)
-def test_power_fails_in_a_save_loses_the_record_not_the_run(tmp_path: Path, fs: int,
-                                                            event: str, cause: str) -> None:
+def test_power_fails_in_a_save_loses_the_record_not_the_run(tmp_path: Path, fs: int, event: str, cause: str) -> None:
     """The supply fails right after `save` wrote its first EEPROM byte: the
     device boots saying so (reset=por or bor, cfg=corrupt: the half-written record
     fails its CRC, the defaults run), samples the rest of the rows exactly,
     and a `save` after it works."""
     n = ROWS[fs]
     rows = make_rows(tmp_path / "r.tsv", n, seed=fs)
-    uart = (f"{n // 5}\tsave\\r\n{n // 2 - 50}\tstatus\\r\n{n // 2}\tsave\\r\n"
-            f"{n // 2 + 20}\tload\\r\n{n // 2 + 40}\tstatus\\r\n")
+    uart = (
+        f"{n // 5}\tsave\\r\n{n // 2 - 50}\tstatus\\r\n{n // 2}\tsave\\r\n"
+        f"{n // 2 + 20}\tload\\r\n{n // 2 + 40}\tstatus\\r\n"
+    )
     run = simulate(tmp_path / "r.tsv", tmp_path, fs, event, "save", uart=uart)
     assert run.stats["fault_resets"] == 1 and run.stats["restarts"] == 1
     boots = run.boots()
@@ -60,7 +61,7 @@ def test_power_fails_in_a_save_loses_the_record_not_the_run(tmp_path: Path, fs: 
     head = exact_after(run, rows, tmp_path, fs)
     assert head["reset"].startswith(cause), head
     got = replies(run)
-    assert got.count("ok saved") == 1 and "ok loaded" in got, got      # the second save
+    assert got.count("ok saved") == 1 and "ok loaded" in got, got  # the second save
     after_cut, after_save = [r for r in got if r.startswith("ok status")]
     assert "cfg=corrupt" in after_cut and f"fs={fs}" in after_cut, after_cut
     assert "cfg=saved" in after_save and head["cfg"] == "saved", (after_save, head)
@@ -68,20 +69,18 @@ def test_power_fails_in_a_save_loses_the_record_not_the_run(tmp_path: Path, fs: 
 
 @pytest.mark.parametrize("fs", RATES)
 @pytest.mark.parametrize("event,cause", POWER)
-def test_power_fails_in_a_report_restarts_cleanly(tmp_path: Path, fs: int, event: str,
-                                                  cause: str) -> None:
+def test_power_fails_in_a_report_restarts_cleanly(tmp_path: Path, fs: int, event: str, cause: str) -> None:
     """The supply fails as the report's first L row goes out: the half report
     has no E line (the host never takes it for a whole one), the device boots
     with reset=por or bor, and the run after it is exact."""
     n = ROWS[fs]
     rows = make_rows(tmp_path / "r.tsv", n, seed=fs + 1)
-    run = simulate(tmp_path / "r.tsv", tmp_path, fs, event, "report",
-                   uart=f"{n // 3}\treport\\r\n")
+    run = simulate(tmp_path / "r.tsv", tmp_path, fs, event, "report", uart=f"{n // 3}\treport\\r\n")
     boots = run.boots()
     assert len(boots) == 2 and boots[1].endswith(f"reset={cause}"), boots
     lines = run.lines()
     cut = [i for i, b in enumerate(lines) if b.startswith("B,")][1]
-    assert any(b.startswith("H,") for b in lines[:cut])    # the report had begun
+    assert any(b.startswith("H,") for b in lines[:cut])  # the report had begun
     assert not any(b.startswith(("L,", "E,")) for b in lines[:cut])
     head = exact_after(run, rows, tmp_path, fs)
     assert head["reset"].startswith(cause), head
@@ -97,10 +96,18 @@ def test_eeprom_bit_flip_is_found_at_the_next_power_up(tmp_path: Path, fs: int) 
     exactly."""
     n = ROWS[fs]
     rows = make_rows(tmp_path / "r.tsv", n, seed=fs + 2)
-    t_save = 1.0 + 0.25 * n / fs       # well after the save, before the status
+    t_save = 1.0 + 0.25 * n / fs  # well after the save, before the status
     uart = f"{n // 20}\tinterval 7\\r\n{n // 20 + 5}\tsave\\r\n{3 * n // 4}\tstatus\\r\n"
-    run = simulate(tmp_path / "r.tsv", tmp_path, fs, "--eeprom-flip", f"2:0x04@{t_save:.3f}",
-                   "--power-cut", f"{t_save + 0.5:.3f}", uart=uart)
+    run = simulate(
+        tmp_path / "r.tsv",
+        tmp_path,
+        fs,
+        "--eeprom-flip",
+        f"2:0x04@{t_save:.3f}",
+        "--power-cut",
+        f"{t_save + 0.5:.3f}",
+        uart=uart,
+    )
     assert run.stats["fault_eeprom_flipped"] == 1 and run.stats["fault_resets"] == 1
     got = replies(run)
     assert "ok saved" in got and "ok interval=7" in got, got
@@ -112,8 +119,7 @@ def test_eeprom_bit_flip_is_found_at_the_next_power_up(tmp_path: Path, fs: int) 
 
 @pytest.mark.parametrize("fs", RATES)
 @pytest.mark.parametrize("fault", ["gx=1023", "ay=0", "az=stuck"])
-def test_adc_channel_railed_or_stuck_is_counted_and_exact(tmp_path: Path, fs: int,
-                                                          fault: str) -> None:
+def test_adc_channel_railed_or_stuck_is_counted_and_exact(tmp_path: Path, fs: int, fault: str) -> None:
     """From row n/3 on one channel reads full scale, zero, or its last value:
     the device samples on with no drop, its results equal the reference
     over what the channel really read, and the header counts every railed
@@ -180,8 +186,9 @@ def test_paste_without_flow_control_runs_nothing_cut_short(tmp_path: Path, fs: i
     if _has_rx_counters(tmp_path):
         # the line discipline that refuses fragments whole and times out a
         # line left open, so the status after the storm is answered
-        assert all(r.startswith(("ok interval=", "ok status", "error:5", "error:7"))
-                   for r in got[4:] if r != "ok"), got    # after the set-up, but 'report' 
+        assert all(r.startswith(("ok interval=", "ok status", "error:5", "error:7")) for r in got[4:] if r != "ok"), (
+            got
+        )  # after the set-up, but 'report'
         assert [r for r in got if r.startswith("ok status")][-1].startswith("ok status run=1")
     _storm_drops_known(run, fs)
     exact_after(run, rows, tmp_path, fs)
@@ -203,8 +210,7 @@ def test_overruns_refuse_their_lines_and_are_counted(tmp_path: Path, fs: int) ->
     n = ROWS[fs]
     rows = make_rows(tmp_path / "r.tsv", n, seed=fs + 5)
     uart, values = _interval_storm(n, 40, fs + 1)
-    run = simulate(tmp_path / "r.tsv", tmp_path, fs, "--uart-overrun", "0.02",
-                   "--fault-seed", str(fs), uart=uart)
+    run = simulate(tmp_path / "r.tsv", tmp_path, fs, "--uart-overrun", "0.02", "--fault-seed", str(fs), uart=uart)
     assert run.stats["fault_overruns_injected"] > 0
     got = replies(run)
     _ran_as_sent(got, values)

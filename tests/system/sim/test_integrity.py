@@ -4,6 +4,7 @@ output running; a line holding a byte no command holds is refused whole; a
 report never starts in a state it cannot describe; an EEPROM record the
 link cannot carry is not loaded.  Each run is also checked exactly
 (`imu-allan check`) with no sample dropped."""
+
 from __future__ import annotations
 
 import re
@@ -12,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import ELF, SIM, cli
 from test_scenarios import RATES, _settings_record, simulate_and_check
 
@@ -39,8 +39,11 @@ def _text_of(log: bytes) -> bytes:
     0xA5 and 12 bytes whose CRC holds, may sit inside a text line)."""
     out, i = bytearray(), 0
     while i < len(log):
-        if log[i] == 0xA5 and i + 13 <= len(log) and \
-                _crc_ccitt(log[i + 1:i + 11]) == int.from_bytes(log[i + 11:i + 13], "big"):
+        if (
+            log[i] == 0xA5
+            and i + 13 <= len(log)
+            and _crc_ccitt(log[i + 1 : i + 11]) == int.from_bytes(log[i + 11 : i + 13], "big")
+        ):
             i += 13
             continue
         out.append(log[i])
@@ -64,8 +67,7 @@ def _storm(n: int, seed: int, first: int, last: int, extra: list[str]) -> tuple[
     return "\n".join(sorted(lines, key=lambda s: int(s.split("\t")[0]))) + "\n", want
 
 
-@pytest.mark.parametrize("mode,fs", [("allan", fs) for fs in RATES] +
-                         [("raw", 100), ("binary", 500), ("both", 50)])
+@pytest.mark.parametrize("mode,fs", [("allan", fs) for fs in RATES] + [("raw", 100), ("binary", 500), ("both", 50)])
 def test_long_commands_at_random_phases_lose_no_byte(run, tmp_path: Path, mode: str, fs: int) -> None:
     r = run(f"storm-{mode}-{fs}")
     n = 6000 if fs <= 100 else 9000
@@ -87,17 +89,24 @@ def test_line_with_a_nul_or_control_byte_is_refused_whole(run, tmp_path: Path) -
     r = run("nul")
     n = 4000
     cli("gen", "-n", str(n), "--fs", "100", "--seed", "17", "-o", str(r.rows))
-    bad = ["reset\\x00xyz", "range 6\\x00!", "interval 5\\x00000", "rate 250\\x00 junk",
-           "status\\x01", "help\\xff", "\\x00", "stop\\x1a"]
+    bad = [
+        "reset\\x00xyz",
+        "range 6\\x00!",
+        "interval 5\\x00000",
+        "rate 250\\x00 junk",
+        "status\\x01",
+        "help\\xff",
+        "\\x00",
+        "stop\\x1a",
+    ]
     dropped = ["stop\\x1b", "stop\\x03"]  # Esc, Ctrl-C: the line is dropped, no reply
     uart = tmp_path / "uart.txt"
     uart.write_text("".join(f"{500 + 300 * i}\t{b}\\r\n" for i, b in enumerate(bad + dropped)))
     simulate_and_check(r, n, 100, uart_in=uart)
     log = r.log.read_bytes()
-    log = log[log.index(b"$ok started"):]  # after the harness's own commands
+    log = log[log.index(b"$ok started") :]  # after the harness's own commands
     assert log.count(b"$error:6 ") == len(bad)
-    for word in (b"$ok reset", b"$ok range", b"$ok interval", b"$ok rate", b"$ok status", b"$ok help",
-                 b"$ok stopped"):
+    for word in (b"$ok reset", b"$ok range", b"$ok interval", b"$ok rate", b"$ok status", b"$ok help", b"$ok stopped"):
         assert word not in log
 
 
@@ -108,13 +117,33 @@ def test_report_race_header_describes_its_state(run, tmp_path: Path) -> None:
     n = 12000
     cli("gen", "-n", str(n), "--fs", "50", "--seed", "2", "-o", str(r.rows))
     uart = tmp_path / "uart.txt"
-    uart.write_text("1750\t" + "\\r" * 48 + "reset\\rreport\\r\n" +
-                    "".join(f"{2000 + 97 * i}\treset\\rreport\\r\n" for i in range(40)))
+    uart.write_text(
+        "1750\t"
+        + "\\r" * 48
+        + "reset\\rreport\\r\n"
+        + "".join(f"{2000 + 97 * i}\treset\\rreport\\r\n" for i in range(40))
+    )
     # The resets make the final report's n differ from the rows: the harness
     # then ends on its timeout (exit 3), which is expected here.
-    proc = subprocess.run([str(SIM), "--adc", str(r.rows), "-o", str(r.log), "--fs", "50",
-                           "--uart-in", str(uart), "--timeout", "1", str(ELF)],
-                          capture_output=True, text=True, errors="replace")
+    proc = subprocess.run(
+        [
+            str(SIM),
+            "--adc",
+            str(r.rows),
+            "-o",
+            str(r.log),
+            "--fs",
+            "50",
+            "--uart-in",
+            str(uart),
+            "--timeout",
+            "1",
+            str(ELF),
+        ],
+        capture_output=True,
+        text=True,
+        errors="replace",
+    )
     assert proc.returncode in (0, 3), proc.stderr
     log = r.log.read_bytes()
     temps = re.findall(rb"\$H,[^*]*,temp=([^,*]*)", log)
@@ -134,13 +163,13 @@ def test_infeasible_eeprom_record_loads_defaults(run, tmp_path: Path, mode: int,
     import subprocess
 
     from conftest import ELF, SIM
+
     r = run(f"eeprom-infeasible-{mode}-{fs}")
     n = 2000
     cli("gen", "-n", str(n), "--seed", "6", "-o", str(r.rows))
     ee = tmp_path / "ee.bin"
     ee.write_bytes(_settings_record(fs, 5, mode, 0))
-    args = [str(SIM), "--adc", str(r.rows), "-o", str(r.log), "--stats-json", str(r.stats_file),
-            "--eeprom", str(ee)]
+    args = [str(SIM), "--adc", str(r.rows), "-o", str(r.log), "--stats-json", str(r.stats_file), "--eeprom", str(ee)]
     proc = subprocess.run(args + [str(ELF)], capture_output=True, text=True, errors="replace")
     assert proc.returncode == 0, proc.stderr
     head = r.decode()["header"]

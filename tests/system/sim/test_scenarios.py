@@ -1,14 +1,15 @@
 """`make sim-test`: the firmware in simavr on synthetic IMU streams.  Each
 scenario's on-device Allan results must equal the float64 reference over
 the same rows exactly (`imu-allan check`), with no sample dropped."""
+
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import cli
+
 from imu_allan.channels import RATES_HZ
 
 RATES = list(RATES_HZ)  # every rate the device offers
@@ -28,13 +29,16 @@ def simulate_and_check(r, n: int, fs: int, uart_in: Path | None = None) -> tuple
     return stats, report
 
 
-@pytest.mark.parametrize("kind,fs,n", [
-    ("noise", 100, 30000),   # the thesis noise model: white + Gauss-Markov + RRW
-    ("walk", 200, 40000),    # random walks over the whole code range
-    ("drift", 100, 30000),   # noise plus linear drift
-    ("clip", 250, 30000),    # hits 0 and 1023 all the time
-    ("square", 100, 20000),  # full-scale square waves
-])
+@pytest.mark.parametrize(
+    "kind,fs,n",
+    [
+        ("noise", 100, 30000),  # the thesis noise model: white + Gauss-Markov + RRW
+        ("walk", 200, 40000),  # random walks over the whole code range
+        ("drift", 100, 30000),  # noise plus linear drift
+        ("clip", 250, 30000),  # hits 0 and 1023 all the time
+        ("square", 100, 20000),  # full-scale square waves
+    ],
+)
 def test_kind_is_exact(run, kind: str, fs: int, n: int) -> None:
     r = run(kind)
     cli("gen", "-n", str(n), "--fs", str(fs), "--kind", kind, "--seed", "7", "-o", str(r.rows))
@@ -69,7 +73,7 @@ def test_reports_at_the_top_rate_cost_no_sample(run, tmp_path: Path) -> None:
     uart = tmp_path / "uart.txt"
     uart.write_text("0\tinterval 1\\r\n")
     simulate_and_check(r, n, fs, uart_in=uart)
-    assert r.log.read_bytes().count(b"$E,") >= n // fs - 1   # a report every second
+    assert r.log.read_bytes().count(b"$E,") >= n // fs - 1  # a report every second
 
 
 def test_start_count_ends_sampling_with_its_last_set(run, tmp_path: Path) -> None:
@@ -158,7 +162,7 @@ def _contiguous_slice(rows: np.ndarray, part: np.ndarray) -> int:
     assert len(part) > 0
     starts = np.flatnonzero((rows[:, :] == part[0]).all(axis=1))
     for s in starts:
-        if s + len(part) <= len(rows) and np.array_equal(rows[s:s + len(part)], part):
+        if s + len(part) <= len(rows) and np.array_equal(rows[s : s + len(part)], part):
             return int(s)
     raise AssertionError("the captured rows are not an unbroken run of the input")
 
@@ -201,13 +205,35 @@ def test_typing_in_raw_100_hz_costs_no_sample(run, tmp_path: Path) -> None:
     r = run("raw-typing")
     n, fs = 6000, 100
     cli("gen", "-n", str(n), "--fs", str(fs), "--seed", "251", "-o", str(r.rows))
-    typed = [("e", 1), ("c", 1), ("h", 1), ("x", 1), ("\\x7f", 1), ("o", 1),
-             ("\\r", 1), ("s", 1), ("t", 1), ("o", 1), ("\\x03", 1), ("h", 1), ("e", 1), ("l", 1),
-             ("p", 1), ("\\r", 1), ("r", 1), ("a", 1), ("t", 1), ("e", 1), (" ", 1), ("9", 1), ("\\r", 1)]
+    typed = [
+        ("e", 1),
+        ("c", 1),
+        ("h", 1),
+        ("x", 1),
+        ("\\x7f", 1),
+        ("o", 1),
+        ("\\r", 1),
+        ("s", 1),
+        ("t", 1),
+        ("o", 1),
+        ("\\x03", 1),
+        ("h", 1),
+        ("e", 1),
+        ("l", 1),
+        ("p", 1),
+        ("\\r", 1),
+        ("r", 1),
+        ("a", 1),
+        ("t", 1),
+        ("e", 1),
+        (" ", 1),
+        ("9", 1),
+        ("\\r", 1),
+    ]
     lines, at = ["100\tmode raw\\r"], 500
     for text, _ in typed:
         lines.append(f"{at}\t{text}")
-        at += 20   # a character every 0.2 s
+        at += 20  # a character every 0.2 s
     lines.append(f"{n - 200}\tmode allan\\r")
     uart = tmp_path / "uart.txt"
     uart.write_text("\n".join(lines) + "\n")
@@ -246,6 +272,7 @@ def test_settings_come_from_eeprom_or_defaults(run, tmp_path: Path, case: str) -
     import subprocess
 
     from conftest import ELF, SIM
+
     r = run(f"eeprom-{case}")
     n = 3000
     cli("gen", "-n", str(n), "--seed", "5", "-o", str(r.rows))

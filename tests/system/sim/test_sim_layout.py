@@ -1,6 +1,7 @@
 """imu-sim's rooms call each other one way only: no call circle between its
 source files (a function defined in one and called from the other, both
 ways, directly or round a longer loop), and no include circle."""
+
 from __future__ import annotations
 
 import re
@@ -32,10 +33,22 @@ def test_no_call_circle_between_sim_files(tmp_path: Path) -> None:
     used: dict[str, set[str]] = {}
     for src in sorted(SIM_DIR.glob("*.c")):
         obj = tmp_path / (src.stem + ".o")
-        subprocess.run(["cc", "-std=gnu99", "-c", "-I", str(REPO / "firmware"),
-                        "-isystem", "/usr/include/simavr", str(src), "-o", str(obj)], check=True)
-        for line in subprocess.run(["nm", str(obj)], capture_output=True, text=True,
-                                   check=True).stdout.splitlines():
+        subprocess.run(
+            [
+                "cc",
+                "-std=gnu99",
+                "-c",
+                "-I",
+                str(REPO / "firmware"),
+                "-isystem",
+                "/usr/include/simavr",
+                str(src),
+                "-o",
+                str(obj),
+            ],
+            check=True,
+        )
+        for line in subprocess.run(["nm", str(obj)], capture_output=True, text=True, check=True).stdout.splitlines():
             parts = line.split()
             if len(parts) == 3 and parts[1] in "TDBR":
                 defined[parts[2]] = src.stem

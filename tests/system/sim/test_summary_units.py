@@ -2,14 +2,15 @@
 units (the default) and in counts (`units counts`), last in the report, and
 recomputed by `imu-allan check` from the same report's integers; a summary
 value changed (with its line CRC made good again) is caught."""
+
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
 import pytest
-
 from conftest import cli
+
 from imu_allan.device.framing import crc16
 
 N = 8000
@@ -43,7 +44,7 @@ def test_summary_in_phys_is_last_and_checked(run, tmp_path: Path) -> None:
     # H, L..., T..., V, S..., E: the summary last, right before E
     first_s = kinds.index("S")
     assert kinds[-1] == "E" and set(kinds[first_s:-1]) == {"S"}
-    assert kinds[first_s - 1] == "V" and kinds[first_s - 7:first_s - 1] == ["T"] * 6
+    assert kinds[first_s - 1] == "V" and kinds[first_s - 7 : first_s - 1] == ["T"] * 6
     summary = rep[first_s:]
     # 15 levels: the last 23 lines (an 80x24 terminal) are exactly the summary and E
     assert len(summary) == 23 and all(len(ln) <= 80 for ln in summary)
@@ -73,7 +74,7 @@ def test_a_changed_summary_value_is_caught(run, tmp_path: Path) -> None:
     lines = text.splitlines(keepends=True)
     # the last report's B row: change gx's B (a value check recomputes)
     idx = max(i for i, ln in enumerate(lines) if re.match(r"\$S,\d+, +B ", ln))
-    body = lines[idx][1:lines[idx].index("*")]
+    body = lines[idx][1 : lines[idx].index("*")]
     cells = body.split(",", 2)[2].split()
     cells[4] = f"{float(cells[4]) * 1.02:.3g}"
     new = ",".join(body.split(",", 2)[:2]) + "," + "".join(f"{c:>9}" for c in cells)
@@ -96,19 +97,40 @@ def _record(bits: int) -> bytes:
     return body + bytes([crc >> 8, crc & 0xFF])
 
 
-@pytest.mark.parametrize("bits,cfg,units", [(1, "saved", "phys"),     # saved before `units`: phys
-                                            (3, "saved", "counts"),   # echo on, units counts
-                                            (5, "corrupt", "phys")])  # a bit no setting has
+@pytest.mark.parametrize(
+    "bits,cfg,units",
+    [
+        (1, "saved", "phys"),  # saved before `units`: phys
+        (3, "saved", "counts"),  # echo on, units counts
+        (5, "corrupt", "phys"),
+    ],
+)  # a bit no setting has
 def test_units_saved_in_the_echo_byte(run, tmp_path: Path, bits: int, cfg: str, units: str) -> None:
     import subprocess
 
     from conftest import ELF, SIM
+
     r = run(f"ee-{bits}")
     cli("gen", "-n", "3000", "--seed", "5", "-o", str(r.rows))
     ee = tmp_path / "ee.bin"
     ee.write_bytes(_record(bits))
-    proc = subprocess.run([str(SIM), "--adc", str(r.rows), "-o", str(r.log), "--stats-json", str(r.stats_file),
-                           "--eeprom", str(ee), str(ELF)], capture_output=True, text=True, errors="replace")
+    proc = subprocess.run(
+        [
+            str(SIM),
+            "--adc",
+            str(r.rows),
+            "-o",
+            str(r.log),
+            "--stats-json",
+            str(r.stats_file),
+            "--eeprom",
+            str(ee),
+            str(ELF),
+        ],
+        capture_output=True,
+        text=True,
+        errors="replace",
+    )
     assert proc.returncode == 0, proc.stderr
     head = r.decode()["header"]
     assert head["cfg"] == cfg and head["extra"]["units"] == units

@@ -1,6 +1,7 @@
 """A person at a serial terminal, through the real pty of
 `imu-sim --pty` with pyserial: the first command after the port opens,
 echo and line editing, error texts, help, and the summary screen."""
+
 from __future__ import annotations
 
 import re
@@ -10,6 +11,7 @@ from pathlib import Path
 from test_sim_term import LINE, SimTerm, built, crc16  # noqa: F401  (built: the fixture)
 
 # ---- the terminal conversation -------------------------------------------
+
 
 def _until_quiet(t: SimTerm, quiet_s: float = 0.4) -> bytes:
     """Everything the device sends until it is quiet for quiet_s."""
@@ -97,12 +99,27 @@ def test_help_shows_each_command_with_its_arguments(tmp_path: Path) -> None:
         t.send(b"help\r")
         lines = [t.reply() for _ in range(15)]
         words = [ln.split()[2] for ln in lines]
-        assert words == ["report", "reset", "stop", "start", "rate", "status", "help",
-                         "interval", "mode", "range", "save", "load", "defaults", "echo", "units"]
+        assert words == [
+            "report",
+            "reset",
+            "stop",
+            "start",
+            "rate",
+            "status",
+            "help",
+            "interval",
+            "mode",
+            "range",
+            "save",
+            "load",
+            "defaults",
+            "echo",
+            "units",
+        ]
         assert "ok help units [phys|counts]" in lines
         assert "ok help rate 50|100|200|250|500|1000|1250|1500 (Hz)" in lines
         assert "ok help mode allan|raw|binary|both" in lines
-        assert all(len(ln) + 8 <= 80 for ln in lines)   # $, *CRC, CR LF
+        assert all(len(ln) + 8 <= 80 for ln in lines)  # $, *CRC, CR LF
         # arguments help shows are accepted
         assert t.command("echo on") == "ok echo=on"
         assert t.command("range 4") == "ok reset range=4"
@@ -114,9 +131,9 @@ def _report_screen(t: SimTerm, units: str) -> tuple[list[bytes], list[bytes]]:
     """`units <units>`, some seconds of samples, `stop`, `report`: every line
     of the report as sent (through its E line) and the last 23 of them."""
     assert t.line().startswith(b"B,")
-    assert t.command("interval 0") == "ok interval=0"   # only the report asked for
+    assert t.command("interval 0") == "ok interval=0"  # only the report asked for
     assert t.command(f"units {units}") == f"ok units={units}"
-    time.sleep(3)                       # some seconds of samples
+    time.sleep(3)  # some seconds of samples
     assert t.command("stop").startswith("ok stopped n=")  # the summary then equals the rows exactly
     t.send(b"report\r")
     raw = b""
@@ -124,7 +141,7 @@ def _report_screen(t: SimTerm, units: str) -> tuple[list[bytes], list[bytes]]:
     while not (end := re.search(rb"\$E,\d+,90\*[0-9A-F]{4}\r\n", raw)):
         assert time.monotonic() < deadline, raw[-300:]
         raw += t.ser.read(max(1, t.ser.in_waiting))
-    lines = raw[:end.end()].split(b"\r\n")[:-1]
+    lines = raw[: end.end()].split(b"\r\n")[:-1]
     head = max(i for i, ln in enumerate(lines) if ln.startswith(b"$H,"))
     return lines[head:], lines[-23:]
 
@@ -143,6 +160,7 @@ def _recomputed(report: list[bytes], units: str) -> tuple[dict, float]:
     import math
 
     from imu_allan.profiles import G0, thesis_profile
+
     head = dict(kv.split("=", 1) for kv in _body(report[0]).split(",")[2:])
     fs, rng = float(head["fs"]), head["range"]
     assert head["units"] == units
@@ -154,7 +172,7 @@ def _recomputed(report: list[bytes], units: str) -> tuple[dict, float]:
         _, _, ch, level, pairs, acc, _ = _body(ln).split(",")
         k, p = int(level), int(pairs)
         if p:
-            out.setdefault(ch, {})[k] = (p, math.sqrt(int(acc, 16) / (2 * 4 ** k * p)))
+            out.setdefault(ch, {})[k] = (p, math.sqrt(int(acc, 16) / (2 * 4**k * p)))
     res = {}
     for ch, lv in out.items():
         per = prof.scale(ch).per_count
@@ -162,12 +180,17 @@ def _recomputed(report: list[bytes], units: str) -> tuple[dict, float]:
         f_adev = 1.0 if units == "counts" else (per / G0 * 1000 if acc_ch else per)
         f_n = 1.0 if units == "counts" else per * 60
         f_b = 1.0 if units == "counts" else (per / G0 * 1000 if acc_ch else per * 3600)
-        kn = min(lv, key=lambda k: (abs(2 ** k - fs), k))
+        kn = min(lv, key=lambda k: (abs(2**k - fs), k))
         kb = min((k for k in lv if lv[k][0] >= 8), key=lambda k: (lv[k][1], k))
-        res[ch] = {"adev": {k: v[1] * f_adev for k, v in lv.items()},
-                   "N": lv[kn][1] * math.sqrt(2 ** kn / fs) * f_n, "N%": 100 / math.sqrt(2 * lv[kn][0]),
-                   "Ntau": 2 ** kn / fs, "B": lv[kb][1] / 0.664 * f_b, "B%": 100 / math.sqrt(2 * lv[kb][0]),
-                   "Btau": 2 ** kb / fs}
+        res[ch] = {
+            "adev": {k: v[1] * f_adev for k, v in lv.items()},
+            "N": lv[kn][1] * math.sqrt(2**kn / fs) * f_n,
+            "N%": 100 / math.sqrt(2 * lv[kn][0]),
+            "Ntau": 2**kn / fs,
+            "B": lv[kb][1] / 0.664 * f_b,
+            "B%": 100 / math.sqrt(2 * lv[kb][0]),
+            "Btau": 2**kb / fs,
+        }
     return res, fs
 
 
@@ -175,6 +198,7 @@ def _near(shown: str, value: float) -> bool:
     """Within the printed precision: one unit of the 3rd significant digit
     (the device computes in fixed point)."""
     import math
+
     v = float(shown)
     return v == value or abs(v - value) <= 10 ** (math.floor(math.log10(abs(value))) - 2) * 1.0001
 
@@ -187,7 +211,7 @@ def _summary_checked(report: list[bytes], screen: list[bytes], units: str) -> No
     s_lines = [ln for ln in report if ln.startswith(b"$S,")]
     summary = [_body(ln).split(",", 2)[2] for ln in s_lines]
     levels = len(summary) - 7
-    assert len(summary) <= 22 and screen[-1 - len(summary):-1] == s_lines
+    assert len(summary) <= 22 and screen[-1 - len(summary) : -1] == s_lines
     assert report[report.index(s_lines[0]) - 1].startswith(b"$V,")  # the machine lines end above it
     want, fs = _recomputed(report, units)
     chans = ["ax", "ay", "az", "gx", "gy", "gz"]
@@ -196,16 +220,16 @@ def _summary_checked(report: list[bytes], screen: list[bytes], units: str) -> No
     else:
         assert summary[0] == "Allan deviation by tau (s): ADC counts"
     assert summary[1].split() == ["tau_s"] + chans
-    for k, row in enumerate(summary[2:2 + levels]):
+    for k, row in enumerate(summary[2 : 2 + levels]):
         cells = row.split()
-        assert _near(cells[0], 2 ** k / fs)
+        assert _near(cells[0], 2**k / fs)
         for ch, cell in zip(chans, cells[1:]):
             assert _near(cell, want[ch]["adev"][k]), (ch, k, cell, want[ch]["adev"][k])
     m = re.match(r"N at ([0-9.e-]+) s \+-([0-9.e-]+)%: (.*)$", summary[2 + levels])
     assert m, summary[2 + levels]
     assert m.group(3) == ("m/s/rt(h), deg/rt(h); B: mg, deg/h" if units == "phys" else "count rt(s); B: counts")
     assert _near(m.group(1), want["gx"]["Ntau"]) and _near(m.group(2), want["gx"]["N%"])
-    rows = {r.split()[0]: r.split()[1:] for r in summary[3 + levels:]}
+    rows = {r.split()[0]: r.split()[1:] for r in summary[3 + levels :]}
     assert list(rows) == ["N", "B", "+-%", "tau_s"]
     for i, ch in enumerate(chans):
         w = want[ch]

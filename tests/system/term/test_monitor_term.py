@@ -3,6 +3,7 @@ pseudo-terminal (`imu-sim --pty`, as `make sim-term` runs it) and the monitor
 in a real terminal emulator, tmux, of 80x24 and other sizes.  Keys are typed
 with send-keys; what is on the screen, and what went into the scrollback,
 is read with capture-pane.  Needs tmux (`make deps` installs it)."""
+
 from __future__ import annotations
 
 import os
@@ -38,8 +39,9 @@ def link(tmp_path: Path) -> Iterator[Path]:
     """The simulated device's terminal link (imu-sim --pty --synthetic)."""
     path = tmp_path / "tty"
     err = open(tmp_path / "sim.err", "wb")
-    proc = subprocess.Popen([str(SIM), "--pty", "--link", str(path), "--synthetic", str(ELF)],
-                            stdout=subprocess.DEVNULL, stderr=err)
+    proc = subprocess.Popen(
+        [str(SIM), "--pty", "--link", str(path), "--synthetic", str(ELF)], stdout=subprocess.DEVNULL, stderr=err
+    )
     try:
         deadline = time.monotonic() + 10
         while not path.is_symlink():
@@ -62,13 +64,11 @@ class Tmux:
 
     def __init__(self, tmp: Path, command: str, width: int = 80, height: int = 24) -> None:
         self.socket = f"imu-allan-test-{os.getpid()}-{id(self)}"
-        self.run("-f", "/dev/null", "new-session", "-d", "-s", "t", "-x", str(width),
-                 "-y", str(height), command)
+        self.run("-f", "/dev/null", "new-session", "-d", "-s", "t", "-x", str(width), "-y", str(height), command)
         self.run("set-option", "-t", "t", "remain-on-exit", "on")
 
     def run(self, *args: str) -> str:
-        return subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True,
-                              text=True, check=True).stdout
+        return subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True, text=True, check=True).stdout
 
     def keys(self, *keys: str) -> None:
         self.run("send-keys", "-t", "t", *keys)
@@ -90,8 +90,7 @@ class Tmux:
             if ok(lines):
                 return lines
             if time.monotonic() > deadline:
-                raise AssertionError(f"not on the screen after {timeout} s: {what}\n"
-                                     + "\n".join(lines))
+                raise AssertionError(f"not on the screen after {timeout} s: {what}\n" + "\n".join(lines))
             time.sleep(0.1)
 
     def kill(self) -> None:
@@ -101,9 +100,11 @@ class Tmux:
 def _monitor_command(link: Path, log: Path) -> str:
     """The monitor between two snapshots of the terminal's modes (stty -g)."""
     env = f"PYTHONPATH={HOST}"
-    return (f"stty -g > {log}.stty-before; "
-            f"{env} {sys.executable} -m imu_allan.cli monitor --port {link} --log {log}; "
-            f"echo EXIT=$?; stty -g > {log}.stty-after")
+    return (
+        f"stty -g > {log}.stty-before; "
+        f"{env} {sys.executable} -m imu_allan.cli monitor --port {link} --log {log}; "
+        f"echo EXIT=$?; stty -g > {log}.stty-after"
+    )
 
 
 def _modes_restored(tmp_path: Path) -> None:
@@ -129,22 +130,20 @@ def _long_report(t: Tmux) -> list[str]:
     """A report with more octave levels than 80x24 can show: 1000 Hz for
     5 s (12 levels), asked for with `report`."""
     t.keys("rate 1000", "Enter")
-    t.wait(lambda s: any(x.startswith("replies:") and "rate=1000" in x for x in s),
-           "the reply to rate 1000")
+    t.wait(lambda s: any(x.startswith("replies:") and "rate=1000" in x for x in s), "the reply to rate 1000")
     time.sleep(5)
     t.keys("report", "Enter")
-    return t.wait(lambda s: any(x.startswith("report seq") and "fs 1000" in " ".join(s)
-                                for x in s), "a report at 1000 Hz")
+    return t.wait(
+        lambda s: any(x.startswith("report seq") and "fs 1000" in " ".join(s) for x in s), "a report at 1000 Hz"
+    )
 
 
-def test_fits_80x24_shows_what_is_typed_and_leaves_no_copies(monitor: Tmux,
-                                                             tmp_path: Path) -> None:
+def test_fits_80x24_shows_what_is_typed_and_leaves_no_copies(monitor: Tmux, tmp_path: Path) -> None:
     monitor.keys("stat")
     lines = monitor.wait(lambda s: s[-1] == "> stat", "the typed text on the last line")
     assert len(lines) == 24 and lines[0].startswith(TITLE)
     monitor.keys("uz", "BSpace", "s", "Enter")  # Backspace edits the line on the host
-    lines = monitor.wait(lambda s: any(x.startswith("replies: ok status run=1") for x in s),
-                         "the reply to status")
+    lines = monitor.wait(lambda s: any(x.startswith("replies: ok status run=1") for x in s), "the reply to status")
     assert lines[-1] == ">" and lines[0].startswith(TITLE)
     lines = _long_report(monitor)
     # 80x24 cannot hold the report: the title stays, the report is cut and says so
@@ -169,8 +168,11 @@ def test_the_device_going_away_ends_the_monitor_cleanly(tmp_path: Path) -> None:
     """imu-sim ends while the monitor shows it: one line saying so, exit 1,
     and the terminal as it was (an exception path, not Ctrl-C)."""
     path = tmp_path / "tty"
-    sim = subprocess.Popen([str(SIM), "--pty", "--link", str(path), "--synthetic", str(ELF)],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    sim = subprocess.Popen(
+        [str(SIM), "--pty", "--link", str(path), "--synthetic", str(ELF)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     t = Tmux(tmp_path, _monitor_command(path, tmp_path / "mon.log"))
     try:
         deadline = time.monotonic() + 10
@@ -197,39 +199,47 @@ def test_the_view_follows_the_terminal_size(monitor: Tmux) -> None:
     _long_report(monitor)
     monitor.wait(lambda s: any(x.startswith("-- lines") for x in s), "the cut report")
     monitor.run("resize-window", "-t", "t", "-x", "100", "-y", "40")
-    lines = monitor.wait(lambda s: len(s) == 40 and not any(x.startswith("-- lines") for x in s)
-                         and any(x.lstrip().startswith("tau_s") for x in s),
-                         "the whole report at 100x40")
+    lines = monitor.wait(
+        lambda s: (
+            len(s) == 40
+            and not any(x.startswith("-- lines") for x in s)
+            and any(x.lstrip().startswith("tau_s") for x in s)
+        ),
+        "the whole report at 100x40",
+    )
     assert lines[0].startswith(TITLE) and lines[-1] == ">"
     monitor.run("resize-window", "-t", "t", "-x", "60", "-y", "10")
-    lines = monitor.wait(lambda s: len(s) == 10 and s[0].startswith(TITLE) and s[-1] == ">",
-                         "the view at 60x10")
+    lines = monitor.wait(lambda s: len(s) == 10 and s[0].startswith(TITLE) and s[-1] == ">", "the view at 60x10")
     assert all(len(x) <= 60 for x in lines) and lines[5].startswith("-- lines 1-4 of")
     assert monitor.value("history_size") == "0"
 
 
-def test_a_second_program_gets_port_busy_and_the_monitor_lives_on(monitor: Tmux,
-                                                                  link: Path) -> None:
+def test_a_second_program_gets_port_busy_and_the_monitor_lives_on(monitor: Tmux, link: Path) -> None:
     env = {**os.environ, "PYTHONPATH": str(HOST)}
-    for argv in (["cmd", "--port", str(link), "status"],
-                 ["monitor", "--port", str(link), "--once", "--log", os.devnull]):
-        out = subprocess.run([sys.executable, "-m", "imu_allan.cli", *argv], env=env,
-                             capture_output=True, text=True, timeout=30)
+    for argv in (
+        ["cmd", "--port", str(link), "status"],
+        ["monitor", "--port", str(link), "--once", "--log", os.devnull],
+    ):
+        out = subprocess.run(
+            [sys.executable, "-m", "imu_allan.cli", *argv], env=env, capture_output=True, text=True, timeout=30
+        )
         assert out.returncode == 2 and out.stdout == ""
         assert out.stderr.count("\n") == 1 and "port busy" in out.stderr, out.stderr
     monitor.keys("status", "Enter")
-    monitor.wait(lambda s: any(x.startswith("replies: ok status") for x in s),
-                 "the monitor still answering")
+    monitor.wait(lambda s: any(x.startswith("replies: ok status") for x in s), "the monitor still answering")
 
 
 def test_advice_line_fits_80x24_and_follows_every_report(monitor: Tmux) -> None:
     """The recording advice (docs/dynamic.md) is the second line of the view,
     recomputed from each new report: periodic reports every 2 s."""
     monitor.keys("interval 2", "Enter")
-    first = monitor.wait(lambda s: s[1].startswith("report seq") and s[2].startswith("record: B +-"),
-                         "a report with its advice line")
+    first = monitor.wait(
+        lambda s: s[1].startswith("report seq") and s[2].startswith("record: B +-"), "a report with its advice line"
+    )
     seq = first[1].split()[2]
-    later = monitor.wait(lambda s: s[1].startswith("report seq") and s[1].split()[2] != seq
-                         and s[2].startswith("record: B +-"), "the next report and its advice")
+    later = monitor.wait(
+        lambda s: s[1].startswith("report seq") and s[1].split()[2] != seq and s[2].startswith("record: B +-"),
+        "the next report and its advice",
+    )
     assert len(later) == 24 and all(len(x) <= 80 for x in first + later)
     assert later[2] != first[2]  # the time still needed moves with each report

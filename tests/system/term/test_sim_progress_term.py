@@ -1,6 +1,7 @@
 """`imu-allan sim` on a terminal: a progress line (simulated seconds, speed,
 time left) on stderr while imu-sim runs, erased completely at the end; and
 none at all when stderr is not a terminal.  Run through a real pty."""
+
 from __future__ import annotations
 
 import os
@@ -25,20 +26,23 @@ def rows(tmp_path_factory: pytest.TempPathFactory) -> Path:
         if not path.is_file():
             pytest.fail(f"{what} not built: {path} is missing (run 'make' and 'make sim')")
     path = tmp_path_factory.mktemp("rows") / "imu.tsv"
-    subprocess.run([sys.executable, "-m", "imu_allan.cli", "gen", "-n", "40000", "--fs", "100",
-                    "--seed", "3", "-o", str(path)], env=ENV, check=True)
+    subprocess.run(
+        [sys.executable, "-m", "imu_allan.cli", "gen", "-n", "40000", "--fs", "100", "--seed", "3", "-o", str(path)],
+        env=ENV,
+        check=True,
+    )
     return path
 
 
 def _sim(rows: Path, log: Path) -> list[str]:
-    return [sys.executable, "-m", "imu_allan.cli", "sim", "--adc", str(rows), "--firmware",
-            str(ELF), "-o", str(log)]
+    return [sys.executable, "-m", "imu_allan.cli", "sim", "--adc", str(rows), "--firmware", str(ELF), "-o", str(log)]
 
 
 def test_progress_on_a_terminal_then_erased(rows: Path, tmp_path: Path) -> None:
     master, slave = pty.openpty()
-    proc = subprocess.Popen(_sim(rows, tmp_path / "dev.log"), env=ENV, stdin=subprocess.DEVNULL,
-                            stdout=slave, stderr=slave)
+    proc = subprocess.Popen(
+        _sim(rows, tmp_path / "dev.log"), env=ENV, stdin=subprocess.DEVNULL, stdout=slave, stderr=slave
+    )
     os.close(slave)
     out = b""
     while True:
@@ -54,8 +58,11 @@ def test_progress_on_a_terminal_then_erased(rows: Path, tmp_path: Path) -> None:
     text = out.decode()
     draws = [d for d in re.split(r"\r", text) if d.strip()]
     assert draws, f"no progress line in {text!r}"
-    m = re.fullmatch(r"imu-sim: ([\d,]+) of 400 s simulated \((\d+)%\), ([\d.,]+)x real time, "
-                     r"([\d,]+) s left *(\x08*)", draws[-1])
+    m = re.fullmatch(
+        r"imu-sim: ([\d,]+) of 400 s simulated \((\d+)%\), ([\d.,]+)x real time, "
+        r"([\d,]+) s left *(\x08*)",
+        draws[-1],
+    )
     assert m, draws[-1]
     assert all(len(d.rstrip(" \x08")) <= 79 for d in draws)
     widths = [len(d.rstrip(" \x08")) for d in draws]
@@ -64,7 +71,5 @@ def test_progress_on_a_terminal_then_erased(rows: Path, tmp_path: Path) -> None:
 
 
 def test_no_progress_when_stderr_is_not_a_terminal(rows: Path, tmp_path: Path) -> None:
-    out = subprocess.run(_sim(rows, tmp_path / "dev.log"), env=ENV, capture_output=True,
-                         timeout=600)
-    assert out.returncode == 0 and "\r" not in out.stderr.decode() and "simulated" not in \
-        out.stderr.decode()
+    out = subprocess.run(_sim(rows, tmp_path / "dev.log"), env=ENV, capture_output=True, timeout=600)
+    assert out.returncode == 0 and "\r" not in out.stderr.decode() and "simulated" not in out.stderr.decode()

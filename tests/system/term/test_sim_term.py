@@ -5,6 +5,7 @@ Every device line is checked on its own (framing and CRC-16/CCITT-FALSE via
 binascii.crc_hqx, independent of the firmware and of the host package).
 Run with `python3 -m pytest -q tests/system/term` after `make` and `make sim`
 (BUILD=, IMU_ELF=, IMU_SIM= point elsewhere)."""
+
 from __future__ import annotations
 
 import binascii
@@ -24,7 +25,7 @@ ELF = Path(os.environ.get("IMU_ELF", BUILD / "avr-atmega168" / "imu-allan.elf"))
 SIM = Path(os.environ.get("IMU_SIM", BUILD / "host" / "imu-sim"))
 
 CHANNELS = ("ax", "ay", "az", "gx", "gy", "gz")
-LEVELS = 15          # ATmega168 build
+LEVELS = 15  # ATmega168 build
 # --synthetic: white noise sigmas of ax..gz in counts (sim/sim_term.c)
 SYNTH_SIGMA = (2.0, 2.5, 1.7, 0.9, 0.67, 0.57)
 
@@ -57,7 +58,9 @@ class SimTerm:
         self.stderr = tmp / "sim.err"
         self.proc = subprocess.Popen(
             [str(SIM), "--pty", "--link", str(self.link), *args, str(ELF)],
-            stdout=open(self.stdout, "wb"), stderr=open(self.stderr, "wb"))
+            stdout=open(self.stdout, "wb"),
+            stderr=open(self.stderr, "wb"),
+        )
         deadline = time.monotonic() + 10
         while not self.link.is_symlink():
             if self.proc.poll() is not None:
@@ -67,7 +70,7 @@ class SimTerm:
             time.sleep(0.01)
         self.ser: serial.Serial | None = None
         self.buf = b""
-        self.seen: list[bytes] = []   # bodies of all lines read
+        self.seen: list[bytes] = []  # bodies of all lines read
         self.echoes: list[bytes] = []  # echo lines ("> ..." CR LF) read
 
     def errors(self) -> str:
@@ -102,14 +105,15 @@ class SimTerm:
         while True:
             while b"\n" not in self.buf:
                 if time.monotonic() > deadline:
-                    raise AssertionError(f"no device line within {timeout} s "
-                                         f"(partial {self.buf[:80]!r}); imu-sim: {self.errors()}")
+                    raise AssertionError(
+                        f"no device line within {timeout} s (partial {self.buf[:80]!r}); imu-sim: {self.errors()}"
+                    )
                 self.buf += self.ser.read(max(1, self.ser.in_waiting))
             raw, self.buf = self.buf.split(b"\n", 1)
             raw += b"\n"
             if not raw.startswith(b"> "):
                 break
-            self.echoes.append(raw)   # the echo of a typed line
+            self.echoes.append(raw)  # the echo of a typed line
         m = LINE.match(raw)
         if not strict and not (m and int(m.group(2), 16) == crc16(m.group(1))):
             return b""
@@ -142,8 +146,7 @@ class SimTerm:
         assert self.ser is not None
         self.send(b"\rstop\r")
         deadline = time.monotonic() + 5
-        while not self.line(max(0.01, deadline - time.monotonic()),
-                            strict=False).startswith(b"ok stopped"):
+        while not self.line(max(0.01, deadline - time.monotonic()), strict=False).startswith(b"ok stopped"):
             pass
         # then whatever else was on its way (the rest of a report)
         quiet = time.monotonic() + 0.3
@@ -156,7 +159,7 @@ class SimTerm:
         """`report`: its header keys, L rows and E row count, checked whole."""
         assert self.command("report") == "ok"
         body = self.line()
-        while not body.startswith(b"H,"):     # a periodic report's tail
+        while not body.startswith(b"H,"):  # a periodic report's tail
             body = self.line()
         fields = body.decode().split(",")
         seq = fields[1]
@@ -170,10 +173,10 @@ class SimTerm:
                 rows.append(body.split(",")[2:])
             elif kind == "E":
                 return head, rows, int(body.split(",")[2])
-            elif kind == "V":                 # the report's check line
+            elif kind == "V":  # the report's check line
                 assert body.split(",")[2] == f"id={head['id']}", body
             else:
-                assert kind in ("S", "T"), body   # the summary, the noise terms
+                assert kind in ("S", "T"), body  # the summary, the noise terms
 
 
 @pytest.fixture(scope="module")
@@ -208,7 +211,7 @@ def test_stop_reset_start(dev: SimTerm) -> None:
     assert dev.command("reset") == "ok reset"
     assert re.fullmatch(r"ok stopped n=0", dev.command("stop"))
     assert dev.command("start") == "ok started"
-    time.sleep(0.3)                        # about a minute simulated
+    time.sleep(0.3)  # about a minute simulated
     n = int(dev.command("stop").split("=")[1])
     assert n > 100, "the device took no samples from the synthetic IMU"
     # stopped: the count stands still
@@ -235,8 +238,8 @@ def sample(dev: SimTerm, count: int) -> None:
 
 def test_rate(dev: SimTerm) -> None:
     set_rate(dev, 250)
-    assert dev.command("RATE 100") == "ok reset rate=100"      # case-insensitive
-    assert dev.command("rate 100") == "ok rate=100"            # unchanged: no reset
+    assert dev.command("RATE 100") == "ok reset rate=100"  # case-insensitive
+    assert dev.command("rate 100") == "ok rate=100"  # unchanged: no reset
     assert dev.command("rate 123").startswith("error:2")
     assert dev.command("rate").startswith("error:2")
 
@@ -255,18 +258,18 @@ def test_errors(dev: SimTerm) -> None:
 def test_status(dev: SimTerm) -> None:
     body = dev.command("status")
     assert body.startswith("ok status "), body
-    keys = dict(kv.split("=", 1) for kv in body[len("ok status "):].split())
+    keys = dict(kv.split("=", 1) for kv in body[len("ok status ") :].split())
     documented = ("run", "fs", "mode", "range", "interval", "link", "cfg", "units", "rx")
     assert set(keys) == set(documented), f"status keys differ from docs/protocol.md: {body}"
     assert dev.command("stop").startswith("ok stopped")
     set_rate(dev, 100)
-    keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status "):].split())
+    keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status ") :].split())
     assert keys["run"] == "0" and keys["fs"] == "100" and keys["mode"] == "allan", keys
     assert keys["link"] == "0" and keys["cfg"] == "blank" and keys["units"] == "phys", keys
     assert keys["rx"] == "0:0:0:0", keys  # nothing lost, nothing timed out on a clean link
     assert dev.command("interval 7") == "ok interval=7"
     assert dev.command("start") == "ok started"
-    keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status "):].split())
+    keys = dict(kv.split("=", 1) for kv in dev.command("status")[len("ok status ") :].split())
     assert keys["run"] == "1" and keys["interval"] == "7", keys
     assert dev.command("interval 0") == "ok interval=0"
 
@@ -327,7 +330,7 @@ def test_report(dev: SimTerm) -> None:
     # the synthetic IMU's white noise: adev(tau0) ~ sqrt(sigma^2 + 1/12)
     for (ch, _level, pairs, acc, _flags), sigma in zip(rows[::LEVELS], SYNTH_SIGMA):
         adev = (int(acc, 16) / (2 * int(pairs))) ** 0.5
-        expect = (sigma ** 2 + 1 / 12) ** 0.5
+        expect = (sigma**2 + 1 / 12) ** 0.5
         assert 0.85 * expect < adev < 1.15 * expect, (ch, adev, expect)
 
 
@@ -336,7 +339,7 @@ def test_command_during_report(dev: SimTerm) -> None:
     runs between two of the report's lines; the report goes on after it."""
     assert dev.command("stop").startswith("ok stopped")
     try:
-        for gap in (0.0, 0.003):            # inside the header, or further on
+        for gap in (0.0, 0.003):  # inside the header, or further on
             dev.send(b"report\r")
             time.sleep(gap)
             dev.send(b"status\r")
@@ -372,9 +375,12 @@ def test_adc_file_loops_and_skips_protocol_lines(tmp_path: Path) -> None:
     rows = tmp_path / "capture.tsv"
     rows.write_bytes(
         b"# a raw capture\r\n$ok mode=raw*1234\r\n"
-        + "\t".join(map(str, a)).encode() + b"\r\n"
-        + "\t".join(map(str, b)).encode() + b"\r\n"
-        + b"$C,100*ABCD\r\n")
+        + "\t".join(map(str, a)).encode()
+        + b"\r\n"
+        + "\t".join(map(str, b)).encode()
+        + b"\r\n"
+        + b"$C,100*ABCD\r\n"
+    )
     d = SimTerm(tmp_path, "--adc", str(rows), "--fast")
     try:
         d.open()
@@ -415,11 +421,11 @@ def test_raw_capture_replays(tmp_path: Path) -> None:
         while b"$C,300," not in capture:
             assert time.monotonic() < deadline, capture[-300:]
             capture += d.ser.read(max(1, d.ser.in_waiting))
-        capture += d.ser.read(64)           # the rest of that line
+        capture += d.ser.read(64)  # the rest of that line
     finally:
         d.stop()
     lines = capture.split(b"\r\n")
-    assert b"> start 300" in lines          # the echo, a line of its own
+    assert b"> start 300" in lines  # the echo, a line of its own
     data = [list(map(int, line.split(b"\t"))) for line in lines if line and not line.startswith((b"$", b"> "))]
     assert len(data) == 300
     start = table.index(data[0])
@@ -429,13 +435,13 @@ def test_raw_capture_replays(tmp_path: Path) -> None:
         m = LINE.match(line + b"\r\n")
         assert m and int(m.group(2), 16) == crc16(m.group(1)), line
     # $C,<rows>,<drops>
-    assert [c[3:].split(b"*")[0].split(b",")[:2] for c in counts] == \
-        [[b"100", b"0"], [b"200", b"0"], [b"300", b"0"]], counts
+    assert [c[3:].split(b"*")[0].split(b",")[:2] for c in counts] == [[b"100", b"0"], [b"200", b"0"], [b"300", b"0"]], (
+        counts
+    )
     assert b"$ok started*" in capture
     cap = tmp_path / "capture.tsv"
     cap.write_bytes(capture)
-    proc = subprocess.run([str(SIM), "--adc", str(cap), str(ELF)],
-                          capture_output=True, timeout=60)
+    proc = subprocess.run([str(SIM), "--adc", str(cap), str(ELF)], capture_output=True, timeout=60)
     assert proc.returncode == 0, proc.stderr.decode()
     heads = [line for line in proc.stdout.split(b"\r\n") if line.startswith(b"$H,")]
     assert heads and b",n=300," in heads[-1], heads
@@ -497,8 +503,7 @@ def test_replays_raw_capture_in_batch_mode(tmp_path: Path) -> None:
     lines.insert(0, "$ok mode=raw*0000\r\n")
     rows = tmp_path / "raw.tsv"
     rows.write_text("".join(lines), newline="")
-    proc = subprocess.run([str(SIM), "--adc", str(rows), str(ELF)],
-                          capture_output=True, timeout=60)
+    proc = subprocess.run([str(SIM), "--adc", str(rows), str(ELF)], capture_output=True, timeout=60)
     assert proc.returncode == 0, proc.stderr.decode()
     heads = [line for line in proc.stdout.split(b"\r\n") if line.startswith(b"$H,")]
     assert heads and b",n=250," in heads[-1], heads
