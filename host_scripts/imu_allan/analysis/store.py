@@ -1,0 +1,181 @@
+"""The samples of one analysis, read once from the source and kept channel by
+channel: in memory when they fit ``--memory``, else in temporary files (the
+spill), one per channel, in the source's own number type (ADC codes stay 2
+bytes a sample).
+
+Every statistic reads them through the same two doors, whatever the store:
+``blocks(c)`` (the channel in pieces of ``BLOCK`` samples, the same pieces
+from memory and from a file) and ``octave(c)`` (the compiled octave kernels,
+on the array in memory or on the file read with pread, the same C code). So
+an analysis in memory and one streamed through files give the same numbers,
+and a streamed one holds a few blocks and the kernels' tiles, whatever the
+length (the files live in the page cache or on disk, not in the process).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from typing import Iterator, Optional
+
+import numpy as np
+
+from ..errors import InputError
+from ..progress import Progress
+from ..stats import allan, kernels
+
+BLOCK = 1 << 18
+"""Samples per piece handed to the statistics (2 MB of float64)."""
+
+
+class Store:
+    """(channels, n) samples, one channel at a time."""
+
+    n: int
+    dtypes: list[np.dtype]
+
+    @property
+    def channels(self) -> int:
+        return len(self.dtypes)
+
+    def read(self, c: int, start: int, count: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def blocks(self, c: int, size: int = BLOCK) -> Iterator[np.ndarray]:
+        """Channel ``c`` in pieces of ``size`` samples (the last one shorter)."""
+        for a in range(0, self.n, size):
+            yield self.read(c, a, min(size, self.n - a))
+
+    def offset(self, c: int) -> float:
+        """The offset the kernels remove (kernels.offset of the first HEAD samples)."""
+        return float(kernels.offset(self.read(c, 0, min(kernels.HEAD, self.n))))
+
+    def octave(self, c: int) -> allan.OctaveResult:
+        """Overlapping and non-overlapping AVAR of channel ``c`` at every octave
+        (every offset: stride 1), by the compiled kernels when built."""
+        raise NotImplementedError
+
+    def replace(self, c: int, values: np.ndarray) -> None:
+        """Channel ``c`` becomes ``values`` (float64, n samples)."""
+        raise NotImplementedError
+
+    def in_memory(self) -> Optional[np.ndarray]:
+        """The (channels, n) array when the samples are held, else None."""
+        return None
+
+    def close(self) -> None:
+        pass
+
+
+class MemoryStore(Store):
+    def __init__(self, data: np.ndarray) -> None:
+        self.data = [np.ascontiguousarray(row) for row in data]
+        self.n = int(data.shape[1])
+        self.dtypes = [row.dtype for row in self.data]
+
+    def read(self, c: int, start: int, count: int) -> np.ndarray:
+        return self.data[c][start : start + count]
+
+    def octave(self, c: int) -> allan.OctaveResult:
+        return allan.octave_mapped(self.data[c])
+
+    def replace(self, c: int, values: np.ndarray) -> None:
+        self.data[c] = np.ascontiguousarray(values, dtype=np.float64)
+        self.dtypes[c] = self.data[c].dtype
+
+    def in_memory(self) -> Optional[np.ndarray]:
+        if len({d for d in self.dtypes}) == 1:
+            return np.stack(self.data)
+        return np.stack([d.astype(np.float64) for d in self.data])
+
+
+class SpillStore(Store):
+    """The channels in temporary files (removed by ``close``)."""
+
+    def __init__(self, dtypes: list[np.dtype], where: Optional[str] = None) -> None:
+        self.dir = tempfile.mkdtemp(prefix="imu-allan-", dir=where)
+        self.dtypes = [np.dtype(d) for d in dtypes]
+        self.files = [open(os.path.join(self.dir, f"ch{c}.bin"), "w+b") for c in range(len(dtypes))]
+        self.n = 0
+        self.span = [0] * len(dtypes)  # integer codes: the largest |value| (whether sums are exact)
+
+    def append(self, block: np.ndarray) -> None:
+        for c, f in enumerate(self.files):
+            row, dt = block[c], self.dtypes[c]
+            if not np.can_cast(row.dtype, dt, "safe"):
+                raise ValueError(f"a block of {row.dtype} after blocks of {dt}")
+            if dt.kind in "iu" and row.size:
+                self.span[c] = max(self.span[c], abs(int(row.max())), abs(int(row.min())))
+            f.write(np.ascontiguousarray(row, dtype=dt).tobytes())
+        self.n += block.shape[1]
+
+    def flush(self) -> None:
+        for f in self.files:
+            f.flush()
+
+    def read(self, c: int, start: int, count: int) -> np.ndarray:
+        dt = self.dtypes[c]
+        raw = os.pread(self.files[c].fileno(), count * dt.itemsize, start * dt.itemsize)
+        if len(raw) != count * dt.itemsize:
+            raise InputError(f"the samples' temporary file {self.files[c].name} is short (disk full?)")
+        return np.frombuffer(raw, dtype=dt)
+
+    def octave(self, c: int) -> allan.OctaveResult:
+        dt = self.dtypes[c]
+        r = kernels.octave_file_sums(self.files[c].fileno(), dt, self.n, self.offset(c), self.span[c])
+        if r is None:  # no compiled kernels: the numpy ones on the channel in memory
+            return allan.octave_mapped(self.read(c, 0, self.n))
+        return allan.octave_from_sums(self.n, *r)
+
+    def replace(self, c: int, values: np.ndarray) -> None:
+        raise NotImplementedError("a spilled channel is replaced by replace_spans")
+
+    def rewrite(self, c: int, pieces: Iterator[np.ndarray]) -> None:
+        """Channel ``c`` becomes float64, written from ``pieces`` in order."""
+        path = os.path.join(self.dir, f"ch{c}.f64")
+        f = open(path, "w+b")
+        for p in pieces:
+            f.write(np.ascontiguousarray(p, dtype=np.float64).tobytes())
+        f.flush()
+        self.files[c].close()
+        self.files[c] = f
+        self.dtypes[c] = np.dtype(np.float64)
+
+    def close(self) -> None:
+        for f in self.files:
+            f.close()
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def collect(blocks: Iterator[np.ndarray], sel: list[int], budget: int, name: str, hint: Optional[int]) -> Store:
+    """Read ``blocks`` (channels, rows) once, keeping channels ``sel``: in memory
+    while they fit ``budget`` bytes of float64, else spilled to files. A
+    progress line counts the rows read, their rate and the time left."""
+    kept: list[np.ndarray] = []
+    kept_bytes = 0
+    spill: Optional[SpillStore] = None
+    n = 0
+    with Progress(f"reading {name}", hint, unit=" rows") as bar:
+        for block in blocks:
+            b = block[sel] if len(sel) != block.shape[0] else block
+            if not b.shape[1]:
+                continue
+            n += b.shape[1]
+            if spill is None:
+                kept.append(b)
+                kept_bytes += b.shape[1] * len(sel) * 8
+                if kept_bytes > budget:
+                    spill = SpillStore([b.dtype] * len(sel))
+                    for k in kept:
+                        spill.append(k)
+                    kept = []
+            else:
+                spill.append(b)
+            bar.update(n)
+    if spill is not None:
+        spill.flush()
+        return spill
+    if not kept:
+        return MemoryStore(np.zeros((len(sel), 0)))
+    return MemoryStore(np.concatenate(kept, axis=1))
