@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Any, Iterator, Optional
 
 import numpy as np
 
@@ -327,6 +327,27 @@ def replace(data: np.ndarray, found: OutlierScan, inplace: bool = False) -> np.n
         frac = (pos - left) / (right - left)
         x[pos] = x[left] + (x[right] - x[left]) * frac
     return out
+
+
+def replaced_pieces(pieces: Any, spans: np.ndarray, ends: tuple[np.ndarray, np.ndarray]) -> Iterator[np.ndarray]:
+    """``replace`` of one channel given as pieces (start, float64 samples): the
+    disturbed spans as the line between the good samples on either side
+    (``ends``: their values x[s - 1] and x[t]), the same numbers as ``replace``."""
+    s, t = spans[:, 0], spans[:, 1]
+    xl, xr = ends
+    for a, x in pieces:
+        x = np.array(x, dtype=np.float64, copy=True)
+        b = a + x.size
+        k = np.flatnonzero((t > a) & (s < b))
+        if k.size:
+            lens = np.minimum(t[k], b) - np.maximum(s[k], a)
+            first = np.maximum(s[k], a)
+            pos = np.repeat(first, lens) + (np.arange(lens.sum()) - np.repeat(np.cumsum(lens) - lens, lens))
+            left, right = np.repeat(s[k] - 1, lens), np.repeat(t[k], lens)
+            vl, vr = np.repeat(xl[k], lens), np.repeat(xr[k], lens)
+            frac = (pos - left) / (right - left)
+            x[pos - a] = vl + (vr - vl) * frac
+        yield x
 
 
 def mostly_spikes(found: OutlierScan, names: Optional[list[str]] = None) -> Optional[str]:

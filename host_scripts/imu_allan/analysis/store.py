@@ -17,12 +17,12 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
-from typing import Iterator, Optional
+from typing import Any, Iterator, Optional
 
 import numpy as np
 
 from ..errors import InputError
-from ..progress import Progress
+from ..progress import Progress, Quiet
 from ..stats import allan, kernels
 
 BLOCK = 1 << 18
@@ -56,33 +56,28 @@ class Store:
         (every offset: stride 1), by the compiled kernels when built."""
         raise NotImplementedError
 
-    def replace(self, c: int, values: np.ndarray) -> None:
-        """Channel ``c`` becomes ``values`` (float64, n samples)."""
-        raise NotImplementedError
-
     def in_memory(self) -> Optional[np.ndarray]:
         """The (channels, n) array when the samples are held, else None."""
         return None
 
     def close(self) -> None:
-        pass
+        base = getattr(self, "base", None)
+        if base is not None:
+            base.close()
 
 
 class MemoryStore(Store):
-    def __init__(self, data: np.ndarray) -> None:
+    def __init__(self, data: Any) -> None:
         self.data = [np.ascontiguousarray(row) for row in data]
-        self.n = int(data.shape[1])
+        self.n = int(self.data[0].size) if self.data else 0
         self.dtypes = [row.dtype for row in self.data]
+        self.base: Optional[Store] = None
 
     def read(self, c: int, start: int, count: int) -> np.ndarray:
         return self.data[c][start : start + count]
 
     def octave(self, c: int) -> allan.OctaveResult:
         return allan.octave_mapped(self.data[c])
-
-    def replace(self, c: int, values: np.ndarray) -> None:
-        self.data[c] = np.ascontiguousarray(values, dtype=np.float64)
-        self.dtypes[c] = self.data[c].dtype
 
     def in_memory(self) -> Optional[np.ndarray]:
         if len({d for d in self.dtypes}) == 1:
@@ -99,6 +94,8 @@ class SpillStore(Store):
         self.files = [open(os.path.join(self.dir, f"ch{c}.bin"), "w+b") for c in range(len(dtypes))]
         self.n = 0
         self.span = [0] * len(dtypes)  # integer codes: the largest |value| (whether sums are exact)
+        self.own: Optional[set[int]] = None  # the channels whose files are this store's (None: all)
+        self.base: Optional[Store] = None  # closed with this one
 
     def append(self, block: np.ndarray) -> None:
         for c, f in enumerate(self.files):
@@ -128,27 +125,33 @@ class SpillStore(Store):
             return allan.octave_mapped(self.read(c, 0, self.n))
         return allan.octave_from_sums(self.n, *r)
 
-    def replace(self, c: int, values: np.ndarray) -> None:
-        raise NotImplementedError("a spilled channel is replaced by replace_spans")
-
-    def rewrite(self, c: int, pieces: Iterator[np.ndarray]) -> None:
-        """Channel ``c`` becomes float64, written from ``pieces`` in order."""
-        path = os.path.join(self.dir, f"ch{c}.f64")
-        f = open(path, "w+b")
-        for p in pieces:
-            f.write(np.ascontiguousarray(p, dtype=np.float64).tobytes())
-        f.flush()
-        self.files[c].close()
-        self.files[c] = f
-        self.dtypes[c] = np.dtype(np.float64)
+    def derive(self, changes: dict[int, Iterator[np.ndarray]]) -> "SpillStore":
+        """A store whose channels in ``changes`` are new float64 files written from
+        their pieces, the others this store's files (shared: this one closes them)."""
+        new = SpillStore([], where=os.path.dirname(self.dir))
+        new.n, new.span = self.n, list(self.span)
+        new.files, new.dtypes, new.own = list(self.files), list(self.dtypes), set()
+        for c, pieces in changes.items():
+            f = open(os.path.join(new.dir, f"ch{c}.f64"), "w+b")
+            for p in pieces:
+                f.write(np.ascontiguousarray(p, dtype=np.float64).tobytes())
+            f.flush()
+            new.files[c], new.dtypes[c] = f, np.dtype(np.float64)
+            new.own.add(c)
+        return new
 
     def close(self) -> None:
-        for f in self.files:
-            f.close()
+        for c, f in enumerate(self.files):
+            if self.own is None or c in self.own:
+                f.close()
         shutil.rmtree(self.dir, ignore_errors=True)
+        if self.base is not None:
+            self.base.close()
 
 
-def collect(blocks: Iterator[np.ndarray], sel: list[int], budget: int, name: str, hint: Optional[int]) -> Store:
+def collect(
+    blocks: Iterator[np.ndarray], sel: list[int], budget: int, name: str, hint: Optional[int], quiet: bool = False
+) -> Store:
     """Read ``blocks`` (channels, rows) once, keeping channels ``sel``: in memory
     while they fit ``budget`` bytes of float64, else spilled to files. A
     progress line counts the rows read, their rate and the time left."""
@@ -156,7 +159,7 @@ def collect(blocks: Iterator[np.ndarray], sel: list[int], budget: int, name: str
     kept_bytes = 0
     spill: Optional[SpillStore] = None
     n = 0
-    with Progress(f"reading {name}", hint, unit=" rows") as bar:
+    with (Quiet if quiet else Progress)(f"reading {name}", hint, unit=" rows") as bar:
         for block in blocks:
             b = block[sel] if len(sel) != block.shape[0] else block
             if not b.shape[1]:
@@ -179,3 +182,27 @@ def collect(blocks: Iterator[np.ndarray], sel: list[int], budget: int, name: str
     if not kept:
         return MemoryStore(np.zeros((len(sel), 0)))
     return MemoryStore(np.concatenate(kept, axis=1))
+
+
+def replaced(store: Store, found: Any) -> Store:
+    """A store with the outliers ``found`` (outliers.OutlierScan) replaced
+    (outliers.replaced_pieces); the channels without any are shared."""
+    from .outliers import replaced_pieces
+
+    changes = {}
+    for c, ch in enumerate(found.channels):
+        if ch.spans.size == 0:
+            continue
+        s, t = ch.spans[:, 0], ch.spans[:, 1]
+        ends = (
+            np.array([float(store.read(c, int(i), 1)[0]) for i in s - 1]),
+            np.array([float(store.read(c, int(i), 1)[0]) for i in t]),
+        )
+        pieces = ((a, store.read(c, a, min(BLOCK, store.n - a))) for a in range(0, store.n, BLOCK))
+        changes[c] = replaced_pieces(pieces, ch.spans, ends)
+    if isinstance(store, SpillStore):
+        return store.derive(changes)
+    rows = [
+        np.concatenate(list(changes[c])) if c in changes else store.read(c, 0, store.n) for c in range(store.channels)
+    ]
+    return MemoryStore(rows)
