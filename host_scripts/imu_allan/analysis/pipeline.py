@@ -51,9 +51,9 @@ class Options:
     seed: int = 1
     memory_budget: int = 1 << 30
     """Bytes of float64 samples kept in memory for the in-memory statistics."""
-    exact_max: int = 1 << 21
-    """Octave levels exact up to this m; above it (streams longer than 2^22
-    samples) strided (allan.py). Bounds the ring buffers to ~32 MB per channel."""
+    keep_store: bool = False
+    """Leave the samples' store open in the result (``Analysis.store``) for
+    more work on the same samples (the warm-up windows); the caller closes it."""
     outliers: str = "replace"
     """Spikes and bursts (outliers.py): replace (interpolated, left out of the
     statistics) or keep (counted and listed only)."""
@@ -66,6 +66,13 @@ class Analysis:
 
     doc: dict[str, Any]
     fits: dict[str, terms.FitResult]
+    store: Any = None
+    """The samples (store.py) when ``Options.keep_store``; ``close()`` frees them."""
+
+    def close(self) -> None:
+        if self.store is not None:
+            self.store.close()
+            self.store = None
 
 
 def analyze(src: Source, profile: Profile, opts: Options, device: Optional[DeviceReport] = None) -> Analysis:
@@ -117,10 +124,13 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
         doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
         if opts.model:
             model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
-    finally:
+    except BaseException:
         if host is not None:
             host.close()
-    return Analysis(_jsonable(doc), fits)
+        raise
+    if host is not None and not opts.keep_store:
+        host.close()
+    return Analysis(_jsonable(doc), fits, host.store if host is not None and opts.keep_store else None)
 
 
 # ---- input checks -------------------------------------------------------------------

@@ -254,14 +254,20 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         seed=args.seed,
         memory_budget=args.memory * 2**20,
         outliers=args.outliers,
+        keep_store=not args.no_warmup,
     )
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
     from ..analysis import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
 
     if not args.no_warmup:
-        quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
-        warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
+        quick = Options(**{**vars(opts), "model": False, "extra_curves": False, "keep_store": False})
+        try:
+            warmup_section(
+                doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc, result.store
+            )
+        finally:
+            result.close()
     advice.add_to_analysis(doc)
     written = []
     if args.curves:
