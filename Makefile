@@ -145,6 +145,23 @@ $(FW_BUILD):
 
 -include $(FW_OBJ:.o=.d)
 
+# The build's identity: every setting that goes into the firmware (MCU,
+# F_CPU, BAUD, each -D and option of FW_CFLAGS and FW_LDFLAGS) is written to
+# a stamp that every object depends on, rewritten only when it changes, so
+# `make BAUD=9600` after `make` rebuilds instead of keeping the old ELF.
+# firmware/build_id.c puts MCU, clock and baud into the ELF itself (section
+# .imu_build, outside flash), which `make flash` checks (boards.mk).  Kept out
+# of LTO so that the linker keeps the section.
+FW_STAMP := $(FW_BUILD)/build-settings
+FW_IDENTITY := MCU=$(MCU) F_CPU=$(F_CPU) BAUD=$(BAUD) | $(FW_CFLAGS) | $(FW_LDFLAGS)
+ifneq ($(file <$(FW_STAMP)),$(FW_IDENTITY))
+  $(shell mkdir -p $(FW_BUILD))
+  $(file >$(FW_STAMP),$(FW_IDENTITY))
+endif
+$(FW_OBJ): $(FW_STAMP)
+$(FW_BUILD)/build_id.o: FW_CFLAGS += -fno-lto
+FW_LDFLAGS += -Wl,--undefined=build_id -Wl,--section-start=.imu_build=0x920000
+
 version: ## write the host package's _version.py from VERSION
 	printf '%s\n' '# Generated from the repository'"'"'s VERSION file by `make version` (the Makefile' \
 	  '# also passes it to the firmware as FW_VERSION); tests/test_version.py checks' \
