@@ -204,25 +204,7 @@ def study(
     Tb = T[: nb * L].reshape(nb, L).mean(axis=1)
     centres = (np.arange(nb) + 0.5) * L
     span = float(Tb.max() - Tb.min())
-    doc: dict[str, Any] = {
-        "tool": "imu-allan thermal",
-        "file": path,
-        "fs_hz": fs,
-        "n": n,
-        "temperature": {
-            "unit": t_unit,
-            "min": float(Tb.min()),
-            "max": float(Tb.max()),
-            "mean": float(T.mean()),
-            "one_way": None,
-            "scale": {"c_per_count": scale, "offset_c": off} if temp_scale else None,
-        },
-        "profile": profile,
-        "fitted": False,
-        "channels": {},
-        "outliers": None,
-        "notes": [],
-    }
+    doc = _skeleton(path, fs, n, T, Tb, t_unit, temp_scale, profile)
     if span < MIN_SPAN_CODES * scale:
         doc["notes"].append(
             f"temperature does not vary (range {span:.3g} {t_unit}, under {MIN_SPAN_CODES} codes): no thermal fit"
@@ -258,6 +240,38 @@ def study(
         _terms_by_temperature(chans, corrected, T, fs, segments, path, kind, prof, t_unit)
     doc.update(fitted=True, channels=chans)
     return doc
+
+
+def _skeleton(
+    path: str,
+    fs: float,
+    n: int,
+    T: np.ndarray,
+    Tb: np.ndarray,
+    t_unit: str,
+    temp_scale: Optional[tuple[float, float]],
+    profile: str,
+) -> dict[str, Any]:
+    """The thermal document before any fit: the file and its temperature."""
+    return {
+        "tool": "imu-allan thermal",
+        "file": path,
+        "fs_hz": fs,
+        "n": n,
+        "temperature": {
+            "unit": t_unit,
+            "min": float(Tb.min()),
+            "max": float(Tb.max()),
+            "mean": float(T.mean()),
+            "one_way": None,
+            "scale": {"c_per_count": temp_scale[0], "offset_c": temp_scale[1]} if temp_scale else None,
+        },
+        "profile": profile,
+        "fitted": False,
+        "channels": {},
+        "outliers": None,
+        "notes": [],
+    }
 
 
 def _remove(x: np.ndarray, regs: list[dict[str, Any]], T_smooth: np.ndarray) -> np.ndarray:
@@ -534,30 +548,34 @@ def text(doc: dict[str, Any]) -> str:
         "FIT% raw",
         "FIT% +thermal",
     )
-    rows = [head]
-    for ch, c in doc["channels"].items():
-        fp = c["fit_percent"]
-        f = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
-        rows.append(
-            (
-                ch,
-                _iv(c["tempco"]),
-                c["tempco"]["unit"],
-                c["model"],
-                _iv(c["terms_before"].get("N")),
-                _iv(c["terms_after"].get("N")),
-                _iv(c["terms_before"].get("B")),
-                _iv(c["terms_after"].get("B")),
-                _iv(c["terms_before"].get("K")),
-                _iv(c["terms_after"].get("K")),
-                _iv(c["terms_before"].get("R")),
-                _iv(c["terms_after"].get("R")),
-                f(fp["noise_model_on_raw"]),
-                f(fp["noise_plus_thermal_on_raw"]),
-            )
-        )
+    rows = [head] + [_table_row(ch, c) for ch, c in doc["channels"].items()]
     widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
     lines += ["  ".join(s.rjust(w) for s, w in zip(r, widths)) for r in rows]
+    return _text_tail(doc, lines)
+
+
+def _table_row(ch: str, c: dict[str, Any]) -> tuple[str, ...]:
+    fp = c["fit_percent"]
+    f = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
+    return (
+        ch,
+        _iv(c["tempco"]),
+        c["tempco"]["unit"],
+        c["model"],
+        _iv(c["terms_before"].get("N")),
+        _iv(c["terms_after"].get("N")),
+        _iv(c["terms_before"].get("B")),
+        _iv(c["terms_after"].get("B")),
+        _iv(c["terms_before"].get("K")),
+        _iv(c["terms_after"].get("K")),
+        _iv(c["terms_before"].get("R")),
+        _iv(c["terms_after"].get("R")),
+        f(fp["noise_model_on_raw"]),
+        f(fp["noise_plus_thermal_on_raw"]),
+    )
+
+
+def _text_tail(doc: dict[str, Any], lines: list[str]) -> str:
     for ch, c in doc["channels"].items():
         if c["quadratic"]:
             q = c["quadratic"]
