@@ -274,11 +274,12 @@ demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated
 	  print("simulated %.0f s in %.1f s of wall time (%.0fx), stack free %d bytes" % \
 	  (s["sim_seconds"], s["wall_seconds"], s["sim_speed_x"], s["stack_free_bytes"]))' $(DEMO_DIR)/stats.json
 	@$(IMU_ALLAN) decode $(DEMO_DIR)/device.log > $(DEMO_DIR)/decoded.txt
-	@echo "decoded by the host (imu-allan decode, avar in code^2, adev in code):"
-	@echo "  $(DEMO_DIR)/decoded.txt; the device's own summary (as a terminal shows it):"
+	@echo "written: the decoded table (imu-allan decode; avar in code^2, adev in code)"
+	@echo "and the check's details: $(DEMO_DIR)/decoded.txt $(DEMO_DIR)/check.txt"
+	@echo "== the device's own summary of its last report, as a terminal shows it =="
 	@$(IMU_ALLAN) check $(DEMO_DIR)/device.log $(DEMO_DIR)/imu.tsv > $(DEMO_DIR)/check.txt; rc=$$?; \
 	  grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 22 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'; \
-	  echo "check: $$(tail -n 1 $(DEMO_DIR)/check.txt) ($(DEMO_DIR)/check.txt)"; \
+	  echo "check: $$(tail -n 1 $(DEMO_DIR)/check.txt)"; \
 	  exit $$rc
 
 # The engine alone, natively, on 2^20 synthetic samples.
