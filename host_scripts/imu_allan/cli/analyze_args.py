@@ -149,6 +149,9 @@ def add_analyze_output(p: Any) -> None:
         "--json", action="store_true", help="print the analysis as JSON (a stable interface, see docs/analysis.md)"
     )
     g.add_argument("--csv", action="store_true", help="print the noise terms as CSV")
+    g.add_argument(
+        "--brief", action="store_true", help="print only the first table: each channel's noise terms and intervals"
+    )
     p.add_argument("--curves", metavar="FILE", help="write every curve (tau, deviation, interval, EDF) as CSV")
     p.add_argument("--plot", metavar="DIR", help="write PNG figures (Allan deviation, PSD) to DIR")
     p.add_argument(
