@@ -263,6 +263,9 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
         warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
     advice.add_to_analysis(doc)
+    from ..analysis.device_terms import add_device_terms
+
+    add_device_terms(doc, report)
     written = []
     if args.curves:
         written.append(_write_text(args.curves, formats.curves_csv(doc)))
@@ -278,6 +281,10 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         sys.stdout.write(formats.to_json(doc))
     elif args.csv:
         sys.stdout.write(formats.terms_csv(doc))
+    elif args.brief:
+        from ..render.answer import answer_table
+
+        sys.stdout.write(answer_table(doc, brief=True))
     else:
         sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc))
     for path in written:

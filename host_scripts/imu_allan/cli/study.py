@@ -82,7 +82,7 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
 
 def _add_sweep(sub: Any) -> None:
     from ..channels import RATES_HZ
-    from .args import _positive_int, _seconds
+    from .argtypes import _positive_int, _seconds
 
     p = sub.add_parser(
         "sweep",
@@ -162,7 +162,7 @@ def _add_sweep(sub: Any) -> None:
 
 
 def _add_thermal(sub: Any) -> None:
-    from .args import _fs, _positive_int
+    from .argtypes import _fs, _positive_int
 
     p = sub.add_parser(
         "thermal",
