@@ -254,6 +254,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         seed=args.seed,
         memory_budget=args.memory * 2**20,
         outliers=args.outliers,
+        horizon=args.horizon,
     )
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
@@ -266,8 +267,13 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     written = []
     if args.curves:
         written.append(_write_text(args.curves, formats.curves_csv(doc)))
+    topic = getattr(args, "topic", None) or getattr(src.samples, "topic", None) or "/imu0"
     if args.kalibr:
-        written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc)))
+        written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc, topic, args.noise)))
+    if args.openvins:
+        written.append(_write_text(args.openvins, formats.openvins_yaml(doc, topic, args.noise)))
+    if args.vins:
+        written.append(_write_text(args.vins, formats.vins_yaml(doc, args.noise)))
     if args.imu_utils:
         written.append(_write_text(args.imu_utils, formats.imu_utils_yaml(doc)))
     if args.plot:
