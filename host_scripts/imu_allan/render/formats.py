@@ -374,7 +374,7 @@ def imu_utils_yaml(doc: dict[str, Any], name: str = "imu") -> str:
         "%YAML:1.0",
         "---",
         f"# imu_utils-style noise parameters from {doc['tool']} on {doc['source']['file']}",
-        "# As VINS-Mono/VINS-Fusion read them (continuous time):",
+        "# Continuous time, as imu_utils documents them (VINS-Fusion's own, discrete: --vins):",
         "#   gyr_n, acc_n = N, white-noise density [rad/s/sqrt(Hz)], [m/s^2/sqrt(Hz)]",
         "#   gyr_w, acc_w = K, bias random-walk density [rad/s^2/sqrt(Hz)], [m/s^3/sqrt(Hz)]",
         "# Caution: imu_utils itself writes into *_w the bias-instability floor (the minimum of",
