@@ -263,7 +263,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if not args.no_warmup:
         quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
         warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
-    advice.add_to_analysis(doc)
+    advice.add_to_analysis(doc, fits=result.fits)
     written = []
     if args.curves:
         written.append(_write_text(args.curves, formats.curves_csv(doc)))
