@@ -34,6 +34,7 @@ from ..profiles import Profile, term_unit, to_si_rad
 from ..progress import Progress
 from ..sources.detect import SampleSource, Source
 from ..stats import allan, edf, psd
+from . import overbound
 from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
 
 LEVEL = 0.95
@@ -56,6 +57,8 @@ class Options:
     outliers: str = "replace"
     """Spikes and bursts (outliers.py): replace (interpolated, left out of the
     statistics) or keep (counted and listed only)."""
+    horizon: Optional[float] = None
+    """Longest tau (s) the over-bounding N + K pair covers (overbound.py; None: its default)."""
 
 
 @dataclass
@@ -144,6 +147,7 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
     doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
     if opts.model:
         _model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
+    overbound.add_to_doc(doc, opts.horizon)
     return Analysis(_jsonable(doc), fits)
 
 
@@ -347,7 +351,7 @@ def _channel(
     # the fit's own octave points with their EDFs, whatever grid --taus shows: what the
     # recording-length advice counts (docs/dynamic.md)
     out["fit"]["octave_points"] = [
-        {"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u)}
+        {"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u), "dev": p["dev"], "high": p["high"]}
         for p, u in zip(_points(fitc, fs, k2, fit, d=2, modified=False), fit.used)
     ]
     extra = {}

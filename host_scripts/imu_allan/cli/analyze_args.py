@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from .argtypes import _channel_list, _fs, _megabytes, _nonnegative_seconds, _positive_int
+from .argtypes import _channel_list, _fs, _megabytes, _nonnegative_seconds, _positive_int, _seconds
 
 OUTLIERS_HELP = (
     "spikes and bursts (a knock on the bench), found on the sample-to-sample jumps: "
@@ -140,6 +140,21 @@ def add_analyze_method(p: Any) -> None:
         help="samples kept in memory for the non-octave statistics (default 1024 MB); "
         "larger files are streamed: octave Allan deviations and PSD only",
     )
+    p.add_argument(
+        "--horizon",
+        type=_seconds,
+        metavar="SECONDS",
+        help="longest tau the over-bounding N + K pair covers (default 100 s, or a tenth of "
+        "the record when shorter); see --noise",
+    )
+    p.add_argument(
+        "--noise",
+        choices=("fitted", "overbound"),
+        default="fitted",
+        help="the N and K written to --kalibr, --openvins and --vins: fitted (default: the IEEE 952 "
+        "terms) or overbound (the smallest white + random-walk pair whose Allan deviation covers "
+        "the measured curve's 95 %% upper limit up to --horizon: a principled inflation)",
+    )
 
 
 def add_analyze_output(p: Any) -> None:
@@ -159,4 +174,14 @@ def add_analyze_output(p: Any) -> None:
     )
     p.add_argument(
         "--imu-utils", metavar="FILE", help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)"
+    )
+    p.add_argument(
+        "--openvins",
+        metavar="FILE",
+        help="write OpenVINS' imu0: block (kalibr_imu_chain.yaml; continuous-time N and K, worst axis)",
+    )
+    p.add_argument(
+        "--vins",
+        metavar="FILE",
+        help="write VINS-Fusion's acc_n gyr_n acc_w gyr_w (discrete-time standard deviations at the rate measured)",
     )
