@@ -8,8 +8,8 @@ and a float TSV with a header (``t ax ay az gx gy gz``, values like a logger's
 ``%.9g``). Each is read to the end, block by block, into (channels, rows)
 float64 or uint16 arrays by
 
-* ``numpy``: the project's own reader before pyarrow (rows.iter_blocks for the
-  codes, numpy.loadtxt per block for the floats),
+* ``numpy``: the project's numpy readers (rows.parse_exact for the codes,
+  numpy.loadtxt per block for the floats: the CSV reader before pandas),
 * ``pyarrow``: pyarrow.csv.open_csv, streamed record batches,
 * ``pandas``: pandas.read_csv(engine="c", chunksize=...), when pandas is installed.
 
@@ -27,6 +27,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -53,24 +54,30 @@ def write_files(tmp: Path, n: int) -> tuple[Path, Path]:
 
 
 def numpy_rows(path: Path) -> list[np.ndarray]:
-    from imu_allan.sources.rows import iter_blocks
+    from imu_allan.sources.rows import parse_exact
 
-    return list(iter_blocks(str(path)))
+    return [parse_exact(body, "codes", 1, 7) for body in _bodies(path, skip=False)]
 
 
-def numpy_floats(path: Path) -> list[np.ndarray]:
-    out, tail = [], b""
+def _bodies(path: Path, skip: bool) -> Iterator[bytes]:
+    """Whole lines, about BLOCK_BYTES at a time (after the header when ``skip``)."""
+    tail = b""
     with open(path, "rb") as f:
-        f.readline()
+        if skip:
+            f.readline()
         while True:
             chunk = f.read(BLOCK_BYTES)
             data = tail + chunk
             cut = data.rfind(b"\n") + 1 if chunk else len(data)
             body, tail = data[:cut], data[cut:]
             if body.strip():
-                out.append(np.loadtxt(io.BytesIO(body), delimiter="\t", ndmin=2).T.copy())
+                yield body
             if not chunk:
-                return out
+                return
+
+
+def numpy_floats(path: Path) -> list[np.ndarray]:
+    return [np.loadtxt(io.BytesIO(b), delimiter="\t", ndmin=2).T.copy() for b in _bodies(path, skip=True)]
 
 
 def pyarrow_read(path: Path, header: bool) -> list[np.ndarray]:
