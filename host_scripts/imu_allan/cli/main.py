@@ -230,10 +230,11 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
     from ..render import formats
     from ..render import text as render
-    from ..sources.detect import load, load_device_report
+    from ..sources.detect import check_options, load, load_device_report
 
     scales = parse_scales(args.scale)
-    src = load(args.file)
+    src = load(args.file, topic=args.topic)
+    check_options(src, args.fs, scales)
     from ..analysis.warmup import skipped, warmup_section, warmup_text
 
     src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
