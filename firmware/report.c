@@ -284,15 +284,13 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
  * (begin_seq's number formatting is the report's deepest path). */
 static __attribute__((noinline)) void put_sig3(uint32_t mant, int8_t exp, uint8_t style)
 {
-  char buf[FMT_SIG3_MAX + 1];
-  uint8_t len = fmt_sig3(buf, mant, exp);
-  if (style & AT_FLAGGED) {
-    buf[len++] = '!';
-    buf[len] = 0;
-  }
+  char buf[FMT_SIG3_MAX];
+  uint8_t len = fmt_sig3(buf, mant, exp) + (style & AT_FLAGGED ? 1 : 0);
   while ((style & AT_CELL) && len++ < 9)
     proto_putc(' ');
   proto_puts(buf);
+  if (style & AT_FLAGGED)
+    proto_putc('!');
 }
 
 /* What put_at prints at a level: a quantity of units.h for channel
