@@ -81,8 +81,8 @@ uint8_t settings_load(void)
   settings_defaults();
   if (all == 0xFF) {
     settings_source = CFG_BLANK;
-  } else if (rec.version != SETTINGS_VERSION || rec.crc_hi != (uint8_t)(crc >> 8) || rec.crc_lo != (uint8_t)crc ||
-             !valid(&rec.s)) {
+  } else if (rec.version != SETTINGS_VERSION || rec.crc_hi != (uint8_t)(crc >> 8) ||
+             rec.crc_lo != (uint8_t)crc || !valid(&rec.s)) {
     settings_source = CFG_CORRUPT;
   } else if (!link_fits_here(rec.s.mode, rec.s.rate_hz)) {
     settings_source = CFG_INFEASIBLE; /* refused like `rate` and `mode` would be */
