@@ -195,8 +195,6 @@ void switchboard_poll(void)
     if (out.job == JOB_REPORT) {
       uint8_t room = uart_tx_room();
       done = report_step(out_step);
-      if (done == REPORT_AGAIN)
-        break; /* the engine's waiting work, a piece: the loop feeds it first */
       if (done == REPORT_MORE && uart_tx_room() == room) {
         out_step++; /* a step that only computed (a T line's search): the loop */
         break;      /* feeds the engine before the next one */

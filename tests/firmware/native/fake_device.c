@@ -368,6 +368,8 @@ void fx_run_us(uint64_t us)
     /* main.c's loop body */
     while (sample_take())
       console_receive();
+    if (sample_settle())
+      continue;
     switchboard_poll();
     control_poll();
   }
