@@ -33,6 +33,7 @@ from ..noise.fit import fit_curve as fit_noise
 from ..profiles import Profile, term_unit, to_si_rad
 from ..sources.detect import Source
 from ..stats import allan, edf, psd
+from . import overbound
 from .host_pass import Curve, HostPass, host_curves, host_pass
 from .model_pass import model_all
 from .outlier_pass import outliers_doc, outliers_json
@@ -57,6 +58,8 @@ class Options:
     outliers: str = "replace"
     """Spikes and bursts (outliers.py): replace (interpolated, left out of the
     statistics) or keep (counted and listed only)."""
+    horizon: Optional[float] = None
+    """Longest tau (s) the over-bounding N + K pair covers (overbound.py; None: its default)."""
 
 
 @dataclass
@@ -124,6 +127,7 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
         doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
         if opts.model:
             model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
+        overbound.add_to_doc(doc, opts.horizon)
     except BaseException:
         if host is not None:
             host.close()
@@ -240,7 +244,7 @@ def _channel(
     # the fit's own octave points with their EDFs, whatever grid --taus shows: what the
     # recording-length advice counts (docs/dynamic.md)
     out["fit"]["octave_points"] = [
-        {"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u)}
+        {"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u), "dev": p["dev"], "high": p["high"]}
         for p, u in zip(_points(fitc, fs, k2, fit, d=2, modified=False), fit.used)
     ]
     extra = {}
