@@ -377,7 +377,8 @@ def main(argv: Optional[list[str]] = None) -> int:
         return 2
     if sys.stdout is None:
         sys.stdout = _ClosedStream()  # type: ignore[assignment]
-    _draw_progress()
+    if not getattr(args, "quiet", False):
+        _draw_progress()
     try:
         rc = handlers[args.command](args)
         sys.stdout.flush()
