@@ -34,6 +34,8 @@ class Store:
 
     n: int
     dtypes: list[np.dtype]
+    held = False
+    """True when the samples are in memory (MemoryStore)."""
 
     @property
     def channels(self) -> int:
@@ -67,6 +69,8 @@ class Store:
 
 
 class MemoryStore(Store):
+    held = True
+
     def __init__(self, data: Any) -> None:
         self.data = [np.ascontiguousarray(row) for row in data]
         self.n = int(self.data[0].size) if self.data else 0

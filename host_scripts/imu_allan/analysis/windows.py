@@ -78,8 +78,11 @@ def windows_of(
         raise InputError("the sample rate is unknown: give --fs HZ")
     sel = [i for i, c in enumerate(src.samples.channels) if channels is None or c in channels]
     temp = None
-    if src.samples.open_temperature is not None:
+    streamed = store is not None and not store.held
+    if src.samples.open_temperature is not None and not streamed:
         temp = np.concatenate(list(src.samples.open_temperature())).astype(np.float64).ravel()
+    elif src.samples.open_temperature is not None:
+        notes.append("temperature not read: the file was streamed (its temperature column would need a second pass)")
     if store is not None and store.n >= 64:
         return dynamic.from_store(store, rate, [src.samples.channels[i] for i in sel], window_s, step_s, temp), notes
     blocks, size = [], 0

@@ -21,6 +21,7 @@ Noise types for IMU rate data (alpha of S_rate(f) ~ f^alpha):
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Optional
 
@@ -100,6 +101,7 @@ def _sz0(F: float, alpha: int, d: int) -> float:
     return float(_sz(np.array([0.0]), F, alpha, d)[0])
 
 
+@functools.lru_cache(maxsize=1 << 14)
 def edf_greenhall(
     alpha: int, d: int, m: int, N: int, overlapping: bool = False, modified: bool = False, stride: Optional[int] = None
 ) -> float:
