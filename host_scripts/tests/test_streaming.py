@@ -114,6 +114,11 @@ def _same_but_held_curves(a: dict, b: dict) -> None:
     """Every number both documents report is equal; the streamed one lacks only
     the curves that need every sample in memory, and says it was streamed."""
     assert any("streamed" in s for s in b["notes"]) and not any("streamed" in s for s in a["notes"])
+    a, b = json.loads(json.dumps(a)), json.loads(json.dumps(b))
+    if "warmup" in b and b["warmup"].get("tested"):  # a streamed rows file's windows skip its temperature
+        assert any("temperature not read" in s for s in b["warmup"]["notes"]) and b["warmup"]["temp_bins"] == []
+        for d in (a, b):
+            d["warmup"].pop("temp_bins"), d["warmup"].pop("notes")
     diffs: list = []
     _walk({k: v for k, v in a.items() if k != "notes"}, b, "", diffs)
     assert diffs == []

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 from dataclasses import dataclass, field
 from typing import Any, Optional, Sequence
 
@@ -221,11 +222,18 @@ def from_store(
         r = store.octave(c)
         whole[c] = r.oavar[np.searchsorted(r.ms, ms), 0]
     alphas = _alphas(whole, ms)
+
+    def channel(c: int) -> None:  # the kernels release the GIL: channels side by side
+        for w, a in enumerate(starts):
+            var[w, c], weight[w, c] = allan.oavar(store.read(c, a, size).astype(np.float64), ms)
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max(1, min(2, os.cpu_count() or 1))) as pool:
+        list(pool.map(channel, range(C)))
     temps: list[Optional[dict]] = []
     for w, a in enumerate(starts):
         for c in range(C):
-            v, terms = allan.oavar(store.read(c, a, size).astype(np.float64), ms)
-            var[w, c], weight[w, c] = v, terms
             edfs[w, c] = [_edf(int(alphas[c, k]), int(ms[k]), size + 1, 1) for k in range(L)]
         if temp is not None and temp.size >= a + size:
             t = temp[a : a + size]

@@ -50,7 +50,7 @@ class Options:
     extra_curves: bool = True
     """MDEV and HDEV beside the Allan deviations (needs the samples in memory)."""
     seed: int = 1
-    memory_budget: int = 1 << 30
+    memory_budget: int = 256 << 20
     """Bytes of float64 samples kept in memory for the in-memory statistics."""
     keep_store: bool = False
     """Leave the samples' store open in the result (``Analysis.store``) for
