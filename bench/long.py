@@ -195,8 +195,27 @@ def main() -> int:
     out.write_text(json.dumps(doc, indent=2) + "\n")
     for k, v in res.items():
         if k != "long_n":
-            print(f"{k:34} {v}")
+            print(f"{k:34} {v}  {_verdict(k, v)}")
     return 0
+
+
+TARGETS = {
+    "long_speedup_vs_allantools": (">=", 3.0),
+    "long_peak_mb": ("<=", 600),
+    "long_n_rel_err_max": ("<=", 0.05),
+    "long_n_identified": (">=", 6),
+    "bag_over_tsv_time": ("<=", 2.0),
+}
+"""The issue's acceptance: a third of allantools' time, under 600 MB, N right (within
+5 % of the generator's, identified on all six channels), a bag within 2x of the TSV."""
+
+
+def _verdict(key: str, v) -> str:
+    if key not in TARGETS or v is None:
+        return ""
+    op, target = TARGETS[key]
+    ok = v >= target if op == ">=" else v <= target
+    return f"{op} {target}  {'ok' if ok else 'MISSED'}"
 
 
 if __name__ == "__main__":
