@@ -23,7 +23,7 @@ def _si(v: float) -> str:
     for div, p in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
         if v >= div:
             return f"{v / div:.3g} {p}"
-    return f"{v:.3g} "
+    return f"{v:.3g}"
 
 
 class Progress:
