@@ -171,3 +171,23 @@ def test_progress_line_counts_rows_with_their_rate_and_the_time_left(monkeypatch
         assert tty.getvalue().endswith("reading f 40,000 rows  10 k rows/s")
     rc, out, err = run_cli("analyze", write_rows(tmp_path / "r.txt", thesis_like(3000, 1)), "--fs", "100", "--quiet")
     assert rc == 0 and err == ""
+
+
+def test_outliers_replaced_in_a_store_are_replace_of_the_array() -> None:
+    """Every channel's own spans, in memory and in files (outliers.replace is the reference)."""
+    x = _spiky(50_000, True)
+    x[1, 20_000] += 90  # a spike on each other channel, at other times
+    x[2, 31_000] -= 90
+    found = outliers.scan(x, 100.0)
+    assert all(ch.spans.size for ch in found.channels)  # every channel changed, each its own way
+    ref = outliers.replace(x, found)
+    for st in (MemoryStore(x), collect(_pieces(x, 12_345), [0, 1, 2], 1000, "t", None, quiet=True)):
+        from imu_allan.analysis.store import replaced
+
+        clean = replaced(st, found)
+        try:
+            for c in range(3):
+                assert np.array_equal(np.concatenate(list(clean.blocks(c, 7000))), ref[c])
+        finally:
+            clean.close()
+            st.close()

@@ -194,6 +194,12 @@ def collect(
     return MemoryStore(np.concatenate(kept, axis=1))
 
 
+def _pieces(store: Store, c: int) -> Iterator[tuple[int, np.ndarray]]:
+    """(start, samples) of channel ``c``: ``c`` bound now, read later."""
+    for a in range(0, store.n, BLOCK):
+        yield a, store.read(c, a, min(BLOCK, store.n - a))
+
+
 def replaced(store: Store, found: Any) -> Store:
     """A store with the outliers ``found`` (outliers.OutlierScan) replaced
     (outliers.replaced_pieces); the channels without any are shared."""
@@ -208,8 +214,7 @@ def replaced(store: Store, found: Any) -> Store:
             np.array([float(store.read(c, int(i), 1)[0]) for i in s - 1]),
             np.array([float(store.read(c, int(i), 1)[0]) for i in t]),
         )
-        pieces = ((a, store.read(c, a, min(BLOCK, store.n - a))) for a in range(0, store.n, BLOCK))
-        changes[c] = replaced_pieces(pieces, ch.spans, ends)
+        changes[c] = replaced_pieces(_pieces(store, c), ch.spans, ends)
     if isinstance(store, SpillStore):
         out: Store = store.derive(changes)
     else:
