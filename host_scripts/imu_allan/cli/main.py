@@ -285,7 +285,9 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     elif args.csv:
         sys.stdout.write(formats.terms_csv(doc))
     else:
-        sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc))
+        from ..analysis.overbound import analysis_text as overbound_text
+
+        sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
     for path in written:
         print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
     return 0
