@@ -148,6 +148,10 @@ def test_estimator_files_carry_the_chosen_pair(tmp_path: Path, run_cli) -> None:
     rc, out, err = run_cli(*base, "--json")
     assert rc == 0, err
     doc = json.loads(out)
+    rc, out, err = run_cli(*base, "--json", "--horizon", "5", "--channels", "gy")
+    assert rc == 0, err
+    ob5 = json.loads(out)["channels"]["gy"]["overbound"]
+    assert ob5["horizon_s"] == 5 and ob5["tau_max_s"] <= 5
     for noise in ("fitted", "overbound"):
         k, o, v = (tmp_path / f"{noise}.{e}.yaml" for e in ("k", "o", "v"))
         rc, _, err = run_cli(*base, "--noise", noise, "--kalibr", k, "--openvins", o, "--vins", v)
