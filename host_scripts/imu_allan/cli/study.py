@@ -255,6 +255,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_thermal(args: argparse.Namespace) -> int:
     from ..analysis import thermal
     from ..profiles import parse_scales
+    from ..render import thermal as thermal_text
 
     doc = thermal.study(
         args.file,
@@ -268,7 +269,7 @@ def cmd_thermal(args: argparse.Namespace) -> int:
     if args.plot and not doc["fitted"]:
         print("imu-allan thermal: no plot: nothing was fitted", file=sys.stderr)
         args.plot = None
-    return _emit("thermal", doc, thermal, args)
+    return _emit("thermal", doc, thermal_text, args)
 
 
 def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespace) -> int:
