@@ -187,7 +187,7 @@ ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: pyflakes firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
+test: lint firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
