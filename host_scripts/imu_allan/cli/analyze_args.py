@@ -21,7 +21,10 @@ ANALYZE_DESCRIPTION = (
     "  - a device log (imu-allan sim / monitor): the on-device Allan results;\n"
     "  - a raw capture or rows file (thesis rows: 7 ADC codes per line);\n"
     "  - a CSV with a header naming the columns (t, ax, ..., gz; also acc_x,\n"
-    "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used).\n\n"
+    "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used), EuRoC\n"
+    "    imu0/data.csv, Kalibr's IMU CSV, 'rostopic echo -p' output;\n"
+    "  - a ROS 1 bag, a ROS 2 bag (folder, .db3 or .mcap): sensor_msgs/Imu;\n"
+    "  - a NumPy .npy / .npz array (column convention: docs/formats.md).\n\n"
     "It computes, in float64: the overlapping Allan deviation (and the\n"
     "non-overlapping one the device computes, modified Allan and Hadamard\n"
     "deviations) with 95 % confidence intervals (Greenhall's equivalent\n"
@@ -47,6 +50,7 @@ ANALYZE_EPILOG = (
     "  imu-allan analyze device.log                      # on-device results only\n"
     "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
     "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
+    "  imu-allan analyze run.bag --topic /imu0 --kalibr imu.yaml  # ROS 1 or 2 bag\n"
     "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
     "exit status: 0 success, 2 usage, input or output error (one line on stderr)"
 )
@@ -60,7 +64,9 @@ def add_analyze(sub: Any) -> None:
         description=ANALYZE_DESCRIPTION,
         epilog=ANALYZE_EPILOG,
     )
-    p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
+    p.add_argument(
+        "file", metavar="FILE", help="device log, capture, rows file, CSV, ROS bag or .npy/.npz (- for stdin)"
+    )
     add_analyze_input(p.add_argument_group("what to read"))
     add_analyze_method(p.add_argument_group("how to analyze"))
     add_analyze_output(p.add_argument_group("what to write"))
@@ -74,7 +80,11 @@ def add_analyze_input(p: Any) -> None:
         "--fs",
         type=_fs,
         metavar="HZ",
-        help="sample rate, Hz: required for rows files and CSV without a time column (a device log's header gives it)",
+        help="sample rate, Hz: required for rows files and CSV without a time column (a device log's header, "
+        "a time column or a bag's stamps give it; --fs contradicting them is an error)",
+    )
+    p.add_argument(
+        "--topic", metavar="TOPIC", help="the sensor_msgs/Imu topic of a ROS bag holding several (e.g. /imu0)"
     )
     p.add_argument(
         "--profile",
@@ -164,6 +174,9 @@ def add_analyze_output(p: Any) -> None:
         "--json", action="store_true", help="print the analysis as JSON (a stable interface, see docs/analysis.md)"
     )
     g.add_argument("--csv", action="store_true", help="print the noise terms as CSV")
+    g.add_argument(
+        "--brief", action="store_true", help="print only the first table: each channel's noise terms and intervals"
+    )
     p.add_argument("--curves", metavar="FILE", help="write every curve (tau, deviation, interval, EDF) as CSV")
     p.add_argument("--plot", metavar="DIR", help="write PNG figures (Allan deviation, PSD) to DIR")
     p.add_argument(
