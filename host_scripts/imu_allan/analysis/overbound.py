@@ -114,11 +114,11 @@ def _why(
     """One sentence: what the pair covers that the fitted N and K do not, and where it is tight."""
     others = []
     for name, t in terms.items():
-        if name in PAIR_TERMS or not t or not t.get("tau_range_s"):
+        if name in PAIR_TERMS or name == "LP" or not t or not t.get("tau_range_s"):  # LP lowers the curve
             continue
         lo, hi = t["tau_range_s"]
         if lo <= horizon:
-            label = {"B": "bias instability B", "Q": "quantization Q", "R": "rate ramp R", "LP": "the band limit"}
+            label = {"B": "bias instability B", "Q": "quantization Q", "R": "rate ramp R"}
             what = label.get(name, "an oscillation" if name == "SIN" else f"Gauss-Markov {name}")
             others.append(f"{what} ({lo:.3g}-{min(hi, horizon):.3g} s)")
     factors = " and ".join(f"{name} x{f:.3g}" if f is not None else f"{name} (not fitted)" for name, f in infl.items())
