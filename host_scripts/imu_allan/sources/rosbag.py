@@ -203,7 +203,7 @@ def _fast(raws: list[bytes], ros1: bool) -> tuple[np.ndarray, np.ndarray]:
         sec = _gather(buf, start + 4, 4, "<i4")[:, 0].astype(np.int64)
         nsec = _gather(buf, start + 8, 4, "<u4")[:, 0].astype(np.int64)
         flen = _gather(buf, start + 12, 4, "<u4")[:, 0].astype(np.int64)
-        base = start + 4 + (16 + flen + 7) // 8 * 8
+        base = start + 4 + (12 + flen + 7) // 8 * 8  # the string starts 12 bytes into the payload
     if np.any(base + _TAIL != start + lens):
         raise ValueError("not the standard sensor_msgs/Imu layout")
     acc = _gather(buf, base + _ACC_AT, 24, "<f8")
