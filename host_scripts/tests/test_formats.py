@@ -256,6 +256,7 @@ def test_integer_npy_is_adc_codes_like_a_rows_file(tmp_path: Path) -> None:
     s = load(str(tmp_path / "codes.npy")).samples
     assert s.integer and np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), codes[:, :6].T)
     assert np.array_equal(np.concatenate(list(s.open_temperature())), codes[:, 6])
+    assert any("(temp) not used" in n for n in s.notes)  # no column dropped without a word
     np.save(tmp_path / "bad.npy", codes * 4)
     with pytest.raises(InputError, match="not 10-bit ADC codes"):
         list(load(str(tmp_path / "bad.npy")).samples.open_blocks())

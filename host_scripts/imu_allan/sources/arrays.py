@@ -74,7 +74,7 @@ def _plain(path: str, name: str, a: np.ndarray) -> Any:
         for lo in range(0, n, BLOCK_ROWS):
             yield cols(lo, lo + BLOCK_ROWS)
 
-    from .source import SampleSource
+    from .source import TEMP_NOTE, SampleSource
 
     pick = slice(first, first + len(CHANNELS))
     src = SampleSource("npy", name, list(CHANNELS), lambda: iter(()), integer, n_hint=n)
@@ -82,6 +82,7 @@ def _plain(path: str, name: str, a: np.ndarray) -> Any:
         src.open_blocks = lambda: (_codes(name, b[pick]) for b in blocks())
         if ncol == 7:
             src.open_temperature = lambda: (_codes(name, b[6]) for b in blocks())
+            src.notes.append(TEMP_NOTE.format(name=name))
         src.notes.append(f"'{name}': integer array: ADC codes ax ay az gx gy gz" + (" temp" if ncol == 7 else ""))
         return src
     src.units = dict(SI)
