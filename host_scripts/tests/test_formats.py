@@ -58,15 +58,16 @@ def _imu_msg(ts: Any, i: int, d: dict[str, Any], frame: str) -> Any:
     )
 
 
-def write_ros1(path: Path, d: dict[str, Any], topics: dict[str, str], keep: Any = None) -> Path:
+def write_ros1(path: Path, d: dict[str, Any], topics: dict[str, str], keep: Any = None, recorded: Any = None) -> Path:
     ts = get_typestore(Stores.ROS1_NOETIC)
+    recorded = d["stamps"] + 40_000 if recorded is None else recorded
     with Writer1(path) as w:
         conns = {t: w.add_connection(t, "sensor_msgs/msg/Imu", typestore=ts) for t in topics}
         for i in range(N) if keep is None else keep:
             for t, frame in topics.items():
                 w.write(
                     conns[t],
-                    int(d["stamps"][i]) + 40_000,
+                    int(recorded[i]),
                     ts.serialize_ros1(_imu_msg(ts, i, d, frame), conns[t].msgtype),
                 )
     return path
@@ -335,3 +336,12 @@ def test_rows_compiled_reader_agrees_with_the_exact_one(text: bytes) -> None:
         assert got == want
     else:
         assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
+def test_a_bag_whose_driver_left_the_stamps_zero_uses_the_recorded_times(imu: dict[str, Any], tmp_path: Path) -> None:
+    zero = dict(imu, stamps=np.zeros(N, dtype=np.int64))
+    recorded = T0_NS + 2 * STEP_NS * np.arange(N, dtype=np.int64)  # 100 Hz as the bag saw them
+    s = load(str(write_ros1(tmp_path / "z.bag", zero, {"/imu": "imu"}, recorded=recorded))).samples
+    assert s.fs == pytest.approx(FS / 2, rel=1e-9)
+    assert any("do not increase" in n and "bag's times" in n for n in s.notes)
+    assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), imu["values"])
