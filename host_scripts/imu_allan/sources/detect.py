@@ -274,7 +274,7 @@ def _text(path: str, name: str, head: bytes, size: int) -> Source:
                 n_hint=max(size // 26, 1),
                 size_bytes=size,
                 open_temperature=lambda: (b[len(CHANNELS)] for b in iter_blocks(path, name=name)),
-                notes=[TEMP_NOTE.format(name=name)],
+                notes=[TEMP_NOTE],
             ),
             None,
         )

@@ -92,9 +92,9 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     src.time, src.topic = check, chosen
     src.notes.append(check.note)
     if not use_stamps:
-        src.notes.append(f"'{name}': the header stamps of {chosen} do not increase (left zero?): the bag's times used")
+        src.notes.append(f"the header stamps of {chosen} do not increase (left zero?): the bag's times used")
     src.notes.append(
-        f"'{name}': topic {chosen} (sensor_msgs/Imu): angular_velocity and linear_acceleration read in rad/s "
+        f"topic {chosen} (sensor_msgs/Imu): angular_velocity and linear_acceleration read in rad/s "
         "and m/s^2 (the message's units); orientation and the three covariances not used"
         + (f"; topics not read: {', '.join(others)}" if others else "")
     )

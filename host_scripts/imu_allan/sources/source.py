@@ -9,7 +9,7 @@ import numpy as np
 
 from ..device.records import DeviceHeader, DeviceReport
 
-TEMP_NOTE = "'{name}': column 7 (temp) not used by the noise analysis (imu-allan thermal reads it)"
+TEMP_NOTE = "column 7 (temp) not used by the noise analysis (imu-allan thermal reads it)"
 """No column is dropped silently: the thesis rows' temperature is named as unused."""
 
 
