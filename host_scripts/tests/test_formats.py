@@ -190,6 +190,7 @@ def test_a_new_users_file_is_analysed_with_no_option(fmt: str, imu: dict[str, An
         assert c["unit"] == ("deg/s" if ch[0] == "g" else "m/s^2")
         first = c["curve"][0]
         assert first["m"] == 1 and first["dev"] == pytest.approx(_first_point(imu["values"][i]) * to_unit, rel=1e-9)
+    assert not any("ADC counts" in n for n in doc["notes"])  # every channel has its unit
 
 
 def test_a_bag_with_two_imu_topics_asks_for_one(imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
