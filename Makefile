@@ -71,8 +71,10 @@ $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS
 # module (bytes saved alone: report -fno-ivopts 14, -fno-tree-dominator-opts
 # 10; stream -fno-ivopts 18, -fno-expensive-optimizations 4; fmt
 # -fno-tree-fre 8; control -fno-tree-coalesce-vars 4; main -fno-ivopts 4,
-# -fno-expensive-optimizations 6; reply -fno-tree-ter 2).
-FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts
+# -fno-expensive-optimizations 6; reply -fno-tree-ter 2; later report
+# -fno-split-wide-types 62: its 32-bit values stay whole in registers,
+# stack unchanged in imu-sim).
+FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts -fno-split-wide-types
 FW_MORE_stream := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_fmt := -fno-tree-fre
 FW_MORE_control := -fno-tree-coalesce-vars
