@@ -53,8 +53,10 @@ int main(void)
       console_receive();
     /* The engine's waiting work, a piece a pass (a set that comes
      * meanwhile is taken first): the output below reads a settled engine. */
-    if (sample_settle())
+    if (sample_settle()) {
+      console_receive(); /* between two pieces too: the RX ring lasts 0.69 ms */
       continue;
+    }
     switchboard_poll();
     control_poll();
     /* Sleep until the next interrupt unless there is work to do now. */

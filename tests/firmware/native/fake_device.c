@@ -368,8 +368,10 @@ void fx_run_us(uint64_t us)
     /* main.c's loop body */
     while (sample_take())
       console_receive();
-    if (sample_settle())
+    if (sample_settle()) {
+      console_receive();
       continue;
+    }
     switchboard_poll();
     control_poll();
   }
