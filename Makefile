@@ -77,7 +77,7 @@ $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS
 FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts -fno-split-wide-types
 FW_MORE_stream := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_fmt := -fno-tree-fre
-FW_MORE_control := -fno-tree-coalesce-vars
+FW_MORE_control := -fno-tree-coalesce-vars -fno-reorder-blocks
 FW_MORE_main := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_reply := -fno-tree-ter
 # In the engine and the sampling loop too, where imu-sim measured no

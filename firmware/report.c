@@ -124,8 +124,10 @@ static void put_key_u32(const char *key_P, uint32_t v)
   proto_u32(v);
 }
 
-/* The boot line's and the header's (one copy in flash). */
+/* The boot line's and the header's (one copy in flash); the header's and
+ * the V line's `id=` (id_key_P + 1). */
 static const char reset_key_P[] PROGMEM = ",reset=";
+static const char id_key_P[] PROGMEM = ",id=";
 
 static void put_causes(void)
 {
@@ -206,7 +208,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
   } else if (step <= 3) {
     step_identity((uint8_t)(step - 1));
   } else if (step == 4) {
-    put_key_u32(PSTR(",id="), rep.run_id);
+    put_key_u32(id_key_P, rep.run_id);
   } else if (step == 5) {
     put_key_u32(PSTR(",fcpu="), F_CPU);
   } else if (step == 6) {
@@ -355,7 +357,7 @@ static __attribute__((noinline)) uint8_t step_check(uint8_t step)
 {
   if (step == 0) {
     begin_seq('V');
-    put_key_u32(PSTR("id="), rep.run_id);
+    put_key_u32(id_key_P + 1, rep.run_id);
   } else if (step == 1) {
     proto_puts_P(PSTR(",crc="));
     proto_hex(proto_bound(), 4);
