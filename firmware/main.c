@@ -33,7 +33,7 @@ static uint8_t has_work(void)
 int main(void) __attribute__((OS_main));
 int main(void)
 {
-  switchboard_init(reset_cause());
+  switchboard_init();
   uart_init();
   adc_init();
   clock_init();

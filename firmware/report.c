@@ -15,6 +15,7 @@
 #include "pgm.h"
 #include "proto.h"
 #include "reply.h"
+#include "reset.h"
 #include "sample.h"
 #include "settings.h"
 #include "units.h"
@@ -38,10 +39,9 @@ enum {
 
 static struct {
   uint8_t part, ch, level;
-  uint16_t seq;        /* of the report being written; +1 when one starts */
-  uint8_t run_id;      /* +1 with every new run (report_new_run) */
-  uint8_t reset_cause; /* MCUSR's PORF EXTRF BORF WDRF */
-  uint8_t counts;      /* the units setting as the report began (in its header): a
+  uint16_t seq;   /* of the report being written; +1 when one starts */
+  uint8_t run_id; /* +1 with every new run (report_new_run) */
+  uint8_t counts; /* the units setting as the report began (in its header): a
                     `units` typed while it is sent takes effect with the next one */
   union {
     struct { /* an L row's snapshot */
@@ -61,9 +61,8 @@ static struct {
 /* Levels whose deviation B may come from: at least this many pairs. */
 #define TERMS_B_PAIRS 8u
 
-void report_init(uint8_t cause)
+void report_init(void)
 {
-  rep.reset_cause = cause;
   rep.seq = 0xFFFF; /* the first report is seq 0 */
 }
 
@@ -128,12 +127,15 @@ static void put_key_u32(const char *key_P, uint32_t v)
  * the V line's `id=` (id_key_P + 1). */
 static const char reset_key_P[] PROGMEM = ",reset=";
 static const char id_key_P[] PROGMEM = ",id=";
+/* One-character keys, each once in flash. */
+static const char colon_P[] PROGMEM = ":";
+static const char comma_P[] PROGMEM = ",";
 
 static void put_causes(void)
 {
-  uint8_t bit, any = 0;
+  uint8_t bit, any = 0, cause = reset_cause();
   for (bit = 0; bit < 4; bit++) {
-    if (rep.reset_cause & (1u << bit)) { /* PORF EXTRF BORF WDRF */
+    if (cause & (1u << bit)) { /* PORF EXTRF BORF WDRF */
       if (any)
         proto_putc('+');
       proto_puts_P(vocab_word(vocab_causes, bit));
@@ -188,8 +190,8 @@ static __attribute__((noinline)) void put_temp(void)
     proto_u32((uint16_t)mean);
     proto_putc('.');
     proto_putc((char)('0' + (uint8_t)(mean >> 16)));
-    put_key_u32(PSTR(":"), sample_stats.temp_min);
-    put_key_u32(PSTR(":"), sample_stats.temp_max);
+    put_key_u32(colon_P, sample_stats.temp_min);
+    put_key_u32(colon_P, sample_stats.temp_max);
   } else {
     proto_putc('-');
   }
@@ -257,7 +259,7 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
     rep.flags = allan_flags(&sample_engine, rep.ch, rep.level);
     begin_seq('L');
     put_channel(rep.ch);
-    put_key_u32(PSTR(","), rep.level);
+    put_key_u32(comma_P, rep.level);
     proto_putc(',');
     break;
   case 1:
@@ -398,7 +400,7 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
   if (step == 0) {
     begin_seq('T');
     put_channel(rep.ch);
-    put_key_u32(PSTR(","), N_LEVEL);
+    put_key_u32(comma_P, N_LEVEL);
     proto_putc(',');
   } else if (step == 1) {
     put_at(UNITS_N, N_LEVEL, AT_COUNTS);
