@@ -58,9 +58,6 @@ static struct {
   };
 } rep; /* in .bss: report_init() sets what is not 0 */
 
-/* Levels whose deviation B may come from: at least this many pairs. */
-#define TERMS_B_PAIRS 8u
-
 void report_init(void)
 {
   rep.seq = 0xFFFF; /* the first report is seq 0 */
