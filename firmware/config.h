@@ -160,35 +160,8 @@
 #  define ALLAN_LAG_DEPTH 4u
 #endif
 
-/* The default mode must keep up with the link at the default rate: the
- * rules of link.c (throughput, and the longest wait of a sample's output,
- * replies and reports included, within two sample periods), at compile
- * time. */
-#ifdef BAUD
-#  include "link.h"
-#  if MODE_DEFAULT == MODE_RAW || MODE_DEFAULT == MODE_BOTH
-#    define CONFIG_LINK_BYTES                                                                                \
-      (FS_DEFAULT * LINK_RAW_ROW + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
-#    if MODE_DEFAULT == MODE_RAW
-#      define CONFIG_LINK_WAIT (LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW)
-#    else
-#      define CONFIG_LINK_WAIT (LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW)
-#    endif
-#  elif MODE_DEFAULT == MODE_BINARY
-#    define CONFIG_LINK_BYTES                                                                                \
-      (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
-#    define CONFIG_LINK_WAIT (UART_STEP_MAX + LINK_FRAME)
-#  else
-#    define CONFIG_LINK_BYTES 0
-#    define CONFIG_LINK_WAIT 0
-#  endif
-#  if CONFIG_LINK_BYTES * 100 > (BAUD / 10) * LINK_USE_PERCENT
-#    error "MODE_DEFAULT at FS_DEFAULT sends more than the link carries at BAUD"
-#  endif
-#  if CONFIG_LINK_WAIT * FS_DEFAULT * 100 > 2 * (BAUD / 10) * LINK_USE_PERCENT
-#    error "MODE_DEFAULT at FS_DEFAULT: a long line would hold samples back beyond the ring's slack at BAUD"
-#  endif
-#endif
+/* The default mode must keep up with the link at the default rate:
+ * checked at compile time in link.c (link.h includes this file). */
 
 /* Silence after which an open command line (bytes without CR or LF) is
  * discarded with one `error:7` reply (docs/protocol.md): a stray byte on a
