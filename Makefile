@@ -80,6 +80,11 @@ FW_MORE_fmt := -fno-tree-fre
 FW_MORE_control := -fno-tree-coalesce-vars -fno-reorder-blocks
 FW_MORE_main := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_reply := -fno-tree-ter
+# Measured later, each on its module alone: console -fno-reorder-blocks 4,
+# settings -fno-ivopts 4, switchboard -fno-tree-vrp 2.
+FW_MORE_console := -fno-reorder-blocks
+FW_MORE_settings := -fno-ivopts
+FW_MORE_switchboard := -fno-tree-vrp
 # In the engine and the sampling loop too, where imu-sim measured no
 # slower sets (1 and 1.25 kHz: the worst set 3884 -> 3807 and 3897 ->
 # 3803 cycles, the mean the same, the engine's mean per channel-sample
@@ -87,7 +92,7 @@ FW_MORE_reply := -fno-tree-ter
 # more; sample -fno-gcse 36.
 FW_MORE_allan := -fno-tree-dominator-opts -fno-gcse
 FW_MORE_sample := -fno-gcse
-$(foreach m,report stream fmt control main reply allan sample console,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
+$(foreach m,report stream fmt control main reply allan sample console switchboard settings command vocab proto units reset,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP
