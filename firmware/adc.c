@@ -307,9 +307,12 @@ ISR(TIMER1_COMPA_vect)
  * c = 5 clears ADATE so that c + 1 = 6 is the last, and ends the scan
  * after c = 6.  It has all of a conversion (13 ADC clocks, 832 cycles) to
  * do so, so its latency (other interrupts first) no longer lengthens the
- * scan; the channel is written at least one ADC clock after the next
- * conversion began (about 80 cycles after the vector; the datasheet's rule,
- * as in the tick).  In assembly with 6 registers (the compiler's version
+ * scan.  It must come within that time, though: the next start is ADIF's
+ * rising edge, which taking the interrupt clears (nothing holds interrupts
+ * off nearly that long: the longest, the tick's, is 205 cycles).  The
+ * channel is written at least one ADC clock after the next conversion
+ * began (about 80 cycles after the vector; the datasheet's rule, as in the
+ * tick).  In assembly with 6 registers (the compiler's version
  * pushed 15, on top of the main loop's deepest stack, where every byte
  * counts on the ATmega168); the same work as this C:
  *
