@@ -255,9 +255,16 @@ def test_monitor_default_log_name_and_lost_port(device, run_cli, tmp_path: Path,
     dev = device(first=line("ok") + raw_row([1] * 7) * 3, hold=0.6)
     rc, out, err = run_cli("monitor", "--port", dev.path, "--once")
     assert rc == 1 and "connection lost" in err
-    logs = list(tmp_path.glob("imu-allan-*.log"))
-    assert len(logs) == 1 and len(logs[0].name) == len("imu-allan-20250101-120000.log")
-    assert logs[0].read_bytes() == line("ok") + raw_row([1] * 7) * 3
+    logs = list(tmp_path.rglob("*"))  # nothing loose in the current directory: one folder, one log
+    assert sorted(p.relative_to(tmp_path).parts[0] for p in logs) == ["imu-allan-logs"] * 2
+    log = next(p for p in logs if p.is_file())
+    assert log.parent == tmp_path / "imu-allan-logs" and len(log.name) == len("imu-allan-20250101-120000.log")
+    assert log.read_bytes() == line("ok") + raw_row([1] * 7) * 3
+    assert f"log {log.relative_to(tmp_path)}" in err
+    dev = device(first=line("ok"), hold=0.6)  # --log DIR/: a new file named by the time in DIR
+    rc, out, err = run_cli("monitor", "--port", dev.path, "--once", "--log", f"{tmp_path / 'mine'}/")
+    made = list((tmp_path / "mine").iterdir())
+    assert rc == 1 and len(made) == 1 and made[0].name.startswith("imu-allan-") and made[0].read_bytes() == line("ok")
 
 
 class _Tty(io.StringIO):
@@ -283,9 +290,10 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
     rows = re.findall(r"\x1b\[(\d+);1H\x1b\[2K([^\x1b]*)", "\x1b[1;1H" + last)
     assert [int(r) for r, _ in rows] == list(range(1, 25))
     text = [t for _, t in rows]
-    assert text[0].startswith("imu-allan monitor:") and "Ctrl-C" in text[0]
-    assert text[1].startswith("report seq 9") and all(len(t) <= 80 for t in text)
-    assert text[-1] == "replies: ok mode=both | ok" and "1 complete reports" in err.getvalue()
+    status = next(i for i, t in enumerate(text) if t.startswith("report seq 9, "))
+    assert text[0].startswith("imu-allan monitor:") and "Ctrl-C" in " ".join(text[:status])
+    assert all(len(t) <= 80 for t in text) and "1 complete reports" in err.getvalue()
+    assert text[-3].startswith("device started: fw ") and text[-2:] == ["ok mode=both", "ok"]  # whole lines
 
 
 def test_monitor_view_rate_and_losses() -> None:
@@ -298,7 +306,7 @@ def test_monitor_view_rate_and_losses() -> None:
     for k in range(11):  # 10 pieces over 2 s: ~500 rows/s
         mon.feed(data[k * step : (k + 1) * step], now=100 + 0.2 * k)
     text = mon.render()
-    assert "no complete report yet" in text and "replies: ok mode=raw" in text
+    assert "no complete report yet" in text and text.endswith("\nok mode=raw\n")
     assert "rows 999, frames 0" in text and "lost: rows 1, frames 0" in text
     assert 400 < mon.rate < 600
 

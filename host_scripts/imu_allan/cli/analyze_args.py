@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from .argtypes import _channel_list, _fs, _megabytes, _nonnegative_seconds, _positive_int
+from .argtypes import _channel_list, _fs, _megabytes, _nonnegative_seconds, _positive_int, _seconds
 
 OUTLIERS_HELP = (
     "spikes and bursts (a knock on the bench), found on the sample-to-sample jumps: "
@@ -21,7 +21,10 @@ ANALYZE_DESCRIPTION = (
     "  - a device log (imu-allan sim / monitor): the on-device Allan results;\n"
     "  - a raw capture or rows file (thesis rows: 7 ADC codes per line);\n"
     "  - a CSV with a header naming the columns (t, ax, ..., gz; also acc_x,\n"
-    "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used).\n\n"
+    "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used), EuRoC\n"
+    "    imu0/data.csv, Kalibr's IMU CSV, 'rostopic echo -p' output;\n"
+    "  - a ROS 1 bag, a ROS 2 bag (folder, .db3 or .mcap): sensor_msgs/Imu;\n"
+    "  - a NumPy .npy / .npz array (column convention: docs/formats.md).\n\n"
     "It computes, in float64: the overlapping Allan deviation (and the\n"
     "non-overlapping one the device computes, modified Allan and Hadamard\n"
     "deviations) with 95 % confidence intervals (Greenhall's equivalent\n"
@@ -47,6 +50,7 @@ ANALYZE_EPILOG = (
     "  imu-allan analyze device.log                      # on-device results only\n"
     "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
     "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
+    "  imu-allan analyze run.bag --topic /imu0 --kalibr imu.yaml  # ROS 1 or 2 bag\n"
     "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
     "exit status: 0 success, 2 usage, input or output error (one line on stderr)"
 )
@@ -60,7 +64,9 @@ def add_analyze(sub: Any) -> None:
         description=ANALYZE_DESCRIPTION,
         epilog=ANALYZE_EPILOG,
     )
-    p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
+    p.add_argument(
+        "file", metavar="FILE", help="device log, capture, rows file, CSV, ROS bag or .npy/.npz (- for stdin)"
+    )
     add_analyze_input(p.add_argument_group("what to read"))
     add_analyze_method(p.add_argument_group("how to analyze"))
     add_analyze_output(p.add_argument_group("what to write"))
@@ -74,7 +80,11 @@ def add_analyze_input(p: Any) -> None:
         "--fs",
         type=_fs,
         metavar="HZ",
-        help="sample rate, Hz: required for rows files and CSV without a time column (a device log's header gives it)",
+        help="sample rate, Hz: required for rows files and CSV without a time column (a device log's header, "
+        "a time column or a bag's stamps give it; --fs contradicting them is an error)",
+    )
+    p.add_argument(
+        "--topic", metavar="TOPIC", help="the sensor_msgs/Imu topic of a ROS bag holding several (e.g. /imu0)"
     )
     p.add_argument(
         "--profile",
@@ -140,6 +150,21 @@ def add_analyze_method(p: Any) -> None:
         help="samples kept in memory for the non-octave statistics (default 1024 MB); "
         "larger files are streamed: octave Allan deviations and PSD only",
     )
+    p.add_argument(
+        "--horizon",
+        type=_seconds,
+        metavar="SECONDS",
+        help="longest tau the over-bounding N + K pair covers (default 100 s, or a tenth of "
+        "the record when shorter); see --noise",
+    )
+    p.add_argument(
+        "--noise",
+        choices=("fitted", "overbound"),
+        default="fitted",
+        help="the N and K written to --kalibr, --openvins and --vins: fitted (default: the IEEE 952 "
+        "terms) or overbound (the smallest white + random-walk pair whose Allan deviation covers "
+        "the measured curve's 95 %% upper limit up to --horizon: a principled inflation)",
+    )
 
 
 def add_analyze_output(p: Any) -> None:
@@ -159,4 +184,14 @@ def add_analyze_output(p: Any) -> None:
     )
     p.add_argument(
         "--imu-utils", metavar="FILE", help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)"
+    )
+    p.add_argument(
+        "--openvins",
+        metavar="FILE",
+        help="write OpenVINS' imu0: block (kalibr_imu_chain.yaml; continuous-time N and K, worst axis)",
+    )
+    p.add_argument(
+        "--vins",
+        metavar="FILE",
+        help="write VINS-Fusion's acc_n gyr_n acc_w gyr_w (discrete-time standard deviations at the rate measured)",
     )

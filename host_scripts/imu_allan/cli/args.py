@@ -275,13 +275,19 @@ def _add_monitor(sub: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Open the serial port and show, on a full screen that fits the terminal\n"
-            "(PgUp/PgDn scroll what does not fit), the latest complete report: its\n"
-            "header (fs, n, drops, clips, mode, range, ...) and the\n"
-            "Allan deviation table in ADC counts (one line per tau, one column per\n"
-            "channel; '!' marks a flagged value). Below it: the samples received\n"
-            "in raw and binary modes (rows/s, rows and frames lost), counts of bad\n"
-            "lines, and the last replies. When stdout is not a terminal, each new\n"
-            "report and reply is printed once instead.\n\n"
+            "(a line longer than the terminal is wrapped, never cut):\n"
+            "  - a status line: the latest report's seq and age, the link's lines\n"
+            "    received intact and damaged, the samples the device dropped and\n"
+            "    those lost on the link, the sample rate in raw and binary modes;\n"
+            "  - how much longer to record for +-10 % on the noise terms;\n"
+            "  - the latest report: the device's own summary (the N and B lines\n"
+            "    first, then its Allan deviation table in physical units), then\n"
+            "    the header (fs, n, drops, clips, mode, range, ...) and the table\n"
+            "    in ADC counts ('!' marks a flagged value); PgUp/PgDn scroll it;\n"
+            "  - the conversation: each command sent and every line of its\n"
+            "    reply, the last one shown whole while the terminal can hold it.\n"
+            "When stdout is not a terminal, each new report and reply is printed\n"
+            "once instead.\n\n"
             "Every byte received is appended, as is, to the log file, which\n"
             "'imu-allan decode' and 'imu-allan rows' read back. When stdin is a\n"
             "terminal, a line typed and ended with Enter is sent as a command\n"
@@ -306,7 +312,10 @@ def _add_monitor(sub: Any) -> None:
     p.add_argument(
         "--log",
         metavar="FILE",
-        help="file to append everything received to (default imu-allan-YYYYmmdd-HHMMSS.log here)",
+        help=(
+            "file to append everything received to, or a directory (ending in /) for a new "
+            "imu-allan-YYYYmmdd-HHMMSS.log in it (default: in imu-allan-logs/, made if missing)"
+        ),
     )
     p.add_argument("--once", action="store_true", help="exit after the first complete report (for scripts)")
 

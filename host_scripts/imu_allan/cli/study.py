@@ -197,6 +197,14 @@ def _add_thermal(sub: Any) -> None:
         help="units: counts (default) or thesis (m/s^2, deg/s)",
     )
     p.add_argument(
+        "--scale",
+        action="append",
+        default=[],
+        metavar="CH=VALUE[UNIT]",
+        help="your sensor's scale per channel, as in imu-allan analyze (e.g. gx=0.0175, gx=1rad/s, "
+        "ax=0.0039g); channels without one keep the --profile's units",
+    )
+    p.add_argument(
         "--segments",
         type=_positive_int,
         default=3,
@@ -246,6 +254,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_thermal(args: argparse.Namespace) -> int:
     from ..analysis import thermal
+    from ..profiles import parse_scales
+    from ..render import thermal as thermal_text
 
     doc = thermal.study(
         args.file,
@@ -254,8 +264,12 @@ def cmd_thermal(args: argparse.Namespace) -> int:
         profile=args.profile,
         segments=max(args.segments, 1),
         outliers_mode=args.outliers,
+        scales=parse_scales(args.scale),
     )
-    return _emit("thermal", doc, thermal, args)
+    if args.plot and not doc["fitted"]:
+        print("imu-allan thermal: no plot: nothing was fitted", file=sys.stderr)
+        args.plot = None
+    return _emit("thermal", doc, thermal_text, args)
 
 
 def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespace) -> int:

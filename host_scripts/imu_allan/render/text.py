@@ -127,7 +127,10 @@ def _g(v: Optional[float]) -> str:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    lines = [f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} {'avar':>12} {'adev':>12}  flags"]
+    # the device's sums are in ADC codes: avar in code^2, adev in code
+    lines = [
+        f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} {'avar code^2':>12} {'adev code':>12}  flags"
+    ]
     for r in rows:
         lines.append(
             f"{r['channel']:<4} {r['level']:>5} {r['m']:>7} {r['tau_s']:>10.6g} "
