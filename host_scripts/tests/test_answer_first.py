@@ -126,10 +126,10 @@ def test_a_negative_fit_percent_is_explained_where_it_first_appears(run: dict[st
 # ---- the device's N, read at one tau, beside the fitted N ----------------------------------
 
 
-def _device_terms(rows: np.ndarray, ch: str) -> tuple[int, float, int, float]:
+def _device_terms(rows: np.ndarray, ch: str, digits: bool = True) -> tuple[int, float, int, float]:
     """The device's N and B, independently from exact sums (docs/protocol.md): N =
     adev * sqrt(tau) at the octave nearest 1 s, B = min(adev) / 0.664 over the levels
-    with at least 8 pairs; 3 significant digits as printed."""
+    with at least 8 pairs; 3 significant digits as printed in T lines (``digits``)."""
     codes = [int(v) for v in rows[:, CH.index(ch)]]
     adev = {}
     for k in range(LEVELS):
@@ -138,7 +138,8 @@ def _device_terms(rows: np.ndarray, ch: str) -> tuple[int, float, int, float]:
             adev[k] = (pairs, math.sqrt(exact_acc(codes, m, pairs) / (2 * m * m * pairs)))
     kn = min(adev, key=lambda k: (abs(2**k / FS - 1), k))
     kb = min((k for k in adev if adev[k][0] >= 8), key=lambda k: (adev[k][1], k))
-    return kn, float(f"{adev[kn][1] * math.sqrt(2**kn / FS):.3g}"), kb, float(f"{adev[kb][1] / 0.664:.3g}")
+    n, b = adev[kn][1] * math.sqrt(2**kn / FS), adev[kb][1] / 0.664
+    return (kn, float(f"{n:.3g}"), kb, float(f"{b:.3g}")) if digits else (kn, n, kb, b)
 
 
 def test_the_device_n_read_at_one_tau_is_set_beside_the_fit(tmp_path: Path, run_cli) -> None:
@@ -158,7 +159,7 @@ def test_the_device_n_read_at_one_tau_is_set_beside_the_fit(tmp_path: Path, run_
     assert rc == 0, err
     for ch in CH:
         c = doc["channels"][ch]
-        k, n, _, _ = _device_terms(rows, ch)
+        k, n, _, _ = _device_terms(rows, ch, digits=False)  # full precision, from the report's row
         d = c["device_terms"]["N"]
         assert d["tau_s"] == 2**k / FS and math.isclose(d["value"], n * c["scale_per_count"], rel_tol=1e-12)
         assert d["differs"] and d["value"] > 1.5 * c["terms"]["N"]["value"]
