@@ -172,3 +172,24 @@ def test_the_device_n_read_at_one_tau_is_set_beside_the_fit(tmp_path: Path, run_
     said = " ".join(text.split())
     assert "reads N as adev*sqrt(tau) at one tau (1.28 s)" in said
     assert "The fit separates N from the other terms over the whole curve" in said
+
+
+def test_a_row_that_could_mislead_says_so_under_it(tmp_path: Path, run_cli) -> None:
+    """A stuck gyro's empty row and a channel whose spikes were taken out carry a word."""
+    rng = np.random.default_rng(2)
+    codes = np.clip(np.rint(rng.normal(500, 2, (20000, 7))), 0, 1023).astype(int)
+    codes[:, 3] = 512  # gx stuck
+    codes[5000:5003, 0] = 1000  # a knock on ax
+    rows = write_rows(tmp_path / "rows.txt", codes)
+    rc, out, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--no-warmup", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    spikes = doc["channels"]["ax"]["outliers"]["count"]
+    assert spikes >= 3
+    rc, brief, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--no-warmup", "--brief")
+    assert rc == 0, err
+    lines = brief.splitlines()
+    under = {ln.split()[0]: lines[i + 1] for i, ln in enumerate(lines[:-1]) if ln.split()[:1] in ([c] for c in CH)}
+    assert under["gx"].strip().startswith("! constant") and _rows(lines)["gx"] == ["-", "-", "-"]
+    assert under["ax"].strip() == f"! {spikes} samples of spikes or bursts replaced (see the details)"
+    assert not under["ay"].strip().startswith("!")

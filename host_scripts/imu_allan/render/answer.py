@@ -126,8 +126,15 @@ def _group_split(heads: list[list[str]], rows: list[list[str]], chans: dict[str,
 
 
 def _under(c: dict[str, Any]) -> list[str]:
-    """The line(s) under a channel's row: its other processes."""
+    """The line(s) under a channel's row: its other processes, and what could
+    mislead in the row (a constant channel, spikes taken out)."""
     out = []
+    if not any(p.get("dev") for p in c.get("curve") or []):
+        out.append("    ! constant (the same value in every sample): no noise to fit")
+    o = c.get("outliers") or {}
+    if o.get("count"):
+        how = "replaced" if o.get("mode") == "replace" else "kept"
+        out.append(f"    ! {o['count']} samples of spikes or bursts {how} (see the details)")
     extra = _extra_terms(c)
     if extra:
         out += textwrap.wrap("; ".join(extra), WIDTH, initial_indent="    + ", subsequent_indent="      ")
