@@ -97,7 +97,8 @@ def test_the_table_names_the_datasheet_units(run: dict[str, str]) -> None:
 def test_brief_prints_the_table_alone(run: dict[str, str]) -> None:
     brief = run["brief"]
     assert brief.startswith("Noise terms (IEEE 952)")
-    assert "Details" not in brief and "Allan deviation (overlapping)" not in brief
+    assert "\nDetails\n" not in brief and "Allan deviation (overlapping)" not in brief
+    assert "\nDetails\n" in run["text"]
     assert _table(brief) == _table(run["text"])
     assert len(brief.splitlines()) <= 24  # one screen
 
