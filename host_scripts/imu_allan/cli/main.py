@@ -293,7 +293,9 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
         sys.stdout.write(answer_table(doc, brief=True))
     else:
-        sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc))
+        from .pager import page
+
+        page(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc))
     for path in written:
         print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
     return 0
