@@ -294,8 +294,9 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         sys.stdout.write(answer_table(doc, brief=True))
     else:
         from ..analysis.overbound import analysis_text as overbound_text
+        from .pager import page
 
-        sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
+        page(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
     for path in written:
         print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
     return 0
