@@ -450,12 +450,39 @@ def _try_sine(
     of the model somewhere."""
     if not s.sine and p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 2) >= 2:
         s2 = replace(s, sine=1)
-        th0 = np.concatenate((theta, [math.log(0.371 / p.t[p.t.size // 2])]))
-        th, c2, chi2b = _fit_structure(p, s2, th0, th0.size - 1)
+        # the robust weights of the model without it have set its hump aside: the
+        # sinusoid is judged with weights of its own
+        saved, mod = p.robust, columns(s, theta, p.m, p.fs) @ c
+        p.robust = np.ones(p.t.size)
+        p.set_reference(mod)
+        th0 = _sine_start(p, s, theta, c, s2)
+        th, c2, chi2b = _fit_structure(p, s2, th0, None)
         dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
         if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2, 0.2):
-            s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
+            return _stepwise(p, s2, th, keep=("N",))
+        p.robust = saved
+        p.set_reference(mod)
     return s, theta, c, chi2
+
+
+def _sine_start(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, s2: Structure) -> np.ndarray:
+    """Parameters to start a sinusoid from: its frequency put where the present model
+    leaves the largest hump (ADEV peak at 0.371 / f0, and half and twice that), or on a
+    grid of the measured taus, whichever fits best (a sinusoid's hump is an octave wide:
+    a coarse grid alone misses it)."""
+    r = p.y / (columns(s, theta, p.m, p.fs) @ c)
+    peaks = [i for i in range(1, r.size - 1) if r[i] > 1.0 and r[i] >= r[i - 1] and r[i] >= r[i + 1]]
+    lo, hi = _bounds(s2, p.t, p.fs)[-1]
+    cands = [math.log(0.371 / (p.t[i] * k)) for i in peaks for k in (0.7, 1.0, 1.4)]
+    cands += list(np.linspace(lo, hi, 17))
+    best = (math.inf, None)
+    for g in cands:
+        if lo <= g <= hi:
+            th = np.concatenate((theta, [g]))
+            v = p.solve(s2, th)[1]
+            if v < best[0]:
+                best = (v, th)
+    return best[1] if best[1] is not None else np.concatenate((theta, [0.5 * (lo + hi)]))
 
 
 def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5) -> bool:
