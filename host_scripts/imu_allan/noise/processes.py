@@ -201,7 +201,7 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
     r(k) = sum_i Res_{p_i} H(z) H(1/z) z^(k-1), plus H(0) H(inf) at k = 0."""
     na = a.size - 1
     bp = np.concatenate((b, np.zeros(na + 1 - b.size)))  # numerator in powers of z, degree na
-    p = np.roots(a).astype(np.complex128)
+    p = _poles(a)
 
     def H(z: np.ndarray) -> np.ndarray:
         return np.polyval(bp, z) / np.polyval(a, z)
@@ -215,10 +215,26 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
     return r0, c, p
 
 
+def _poles(a: np.ndarray) -> np.ndarray:
+    """Roots of the denominator a (z-polynomial form): in closed form for one or two
+    poles (the fit asks for thousands of cutoffs; np.roots' eigenvalues cost most of it)."""
+    if a.size == 2:
+        return np.array([-a[1] / a[0]], dtype=np.complex128)
+    if a.size == 3:
+        q = np.sqrt(complex(a[1] * a[1] - 4.0 * a[0] * a[2]))
+        return np.array([(-a[1] + q) / (2.0 * a[0]), (-a[1] - q) / (2.0 * a[0])], dtype=np.complex128)
+    return np.roots(a).astype(np.complex128)
+
+
 @functools.lru_cache(maxsize=4096)
 def _lp_shape(fc: float, fs: float, order: int) -> tuple:
     b, a = lowpass_filter(fc, fs, order)
-    r0, c, p = filter_autocov(b, a)
+    if order == 1:  # an AR(1): r(k) = r0 a1^k, r0 = b0^2 / (1 - a1^2), with real numbers
+        a1 = -float(a[1])
+        r0 = float(b[0]) ** 2 / (1.0 - a1 * a1)
+        c, p = np.array([r0]), np.array([a1])
+    else:
+        r0, c, p = filter_autocov(b, a)
     dc = float(np.sum(b) / np.sum(a))  # unit white in -> low-frequency gain dc
     return b, a, r0, c, p, dc
 
