@@ -145,6 +145,23 @@ $(FW_BUILD):
 
 -include $(FW_OBJ:.o=.d)
 
+# The build's identity: every setting that goes into the firmware (MCU,
+# F_CPU, BAUD, each -D and option of FW_CFLAGS and FW_LDFLAGS) is written to
+# a stamp that every object depends on, rewritten only when it changes, so
+# `make BAUD=9600` after `make` rebuilds instead of keeping the old ELF.
+# firmware/build_id.c puts MCU, clock and baud into the ELF itself (section
+# .imu_build, outside flash), which `make flash` checks (boards.mk).  Kept out
+# of LTO so that the linker keeps the section.
+FW_STAMP := $(FW_BUILD)/build-settings
+FW_IDENTITY := MCU=$(MCU) F_CPU=$(F_CPU) BAUD=$(BAUD) | $(FW_CFLAGS) | $(FW_LDFLAGS)
+ifneq ($(file <$(FW_STAMP)),$(FW_IDENTITY))
+  $(shell mkdir -p $(FW_BUILD))
+  $(file >$(FW_STAMP),$(FW_IDENTITY))
+endif
+$(FW_OBJ): $(FW_STAMP)
+$(FW_BUILD)/build_id.o: FW_CFLAGS += -fno-lto
+FW_LDFLAGS += -Wl,--undefined=build_id -Wl,--section-start=.imu_build=0x920000
+
 version: ## write the host package's _version.py from VERSION
 	printf '%s\n' '# Generated from the repository'"'"'s VERSION file by `make version` (the Makefile' \
 	  '# also passes it to the firmware as FW_VERSION); tests/test_version.py checks' \
@@ -170,7 +187,7 @@ ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: pyflakes firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
+test: lint firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
@@ -247,7 +264,7 @@ DEMO_DIR := $(BUILD)/demo
 # This checkout's own package, whatever another checkout installed.
 IMU_ALLAN := PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m imu_allan.cli
 
-demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated device, decoded and checked
+demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated device; ends with its summary and the check
 	@mkdir -p $(DEMO_DIR)
 	@$(IMU_ALLAN) gen -n 60000 --fs 100 --seed 1 -o $(DEMO_DIR)/imu.tsv
 	@echo "== simulated device: 60000 samples (10 min at 100 Hz) =="
@@ -256,12 +273,14 @@ demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated
 	@$(PYTHON) -c 'import json,sys; s=json.load(open(sys.argv[1])); \
 	  print("simulated %.0f s in %.1f s of wall time (%.0fx), stack free %d bytes" % \
 	  (s["sim_seconds"], s["wall_seconds"], s["sim_speed_x"], s["stack_free_bytes"]))' $(DEMO_DIR)/stats.json
-	@echo "== what the device printed (human summary of its last report) =="
-	@grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 22 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'
-	@echo "== decoded by the host (imu-allan decode $(DEMO_DIR)/device.log) =="
-	@$(IMU_ALLAN) decode $(DEMO_DIR)/device.log
-	@echo "== exactness (imu-allan check against the float64 reference) =="
-	@$(IMU_ALLAN) check $(DEMO_DIR)/device.log $(DEMO_DIR)/imu.tsv
+	@$(IMU_ALLAN) decode $(DEMO_DIR)/device.log > $(DEMO_DIR)/decoded.txt
+	@echo "written: the decoded table (imu-allan decode; avar in code^2, adev in code)"
+	@echo "and the check's details: $(DEMO_DIR)/decoded.txt $(DEMO_DIR)/check.txt"
+	@echo "== the device's own summary of its last report, as a terminal shows it =="
+	@$(IMU_ALLAN) check $(DEMO_DIR)/device.log $(DEMO_DIR)/imu.tsv > $(DEMO_DIR)/check.txt; rc=$$?; \
+	  grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 22 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'; \
+	  echo "check: $$(tail -n 1 $(DEMO_DIR)/check.txt)"; \
+	  exit $$rc
 
 # The engine alone, natively, on 2^20 synthetic samples.
 NATIVE_DEMO := $(BUILD)/host/allan-demo

@@ -159,4 +159,10 @@ void allan_settle(allan_t *a);
  * must give the sampling loop the CPU between pieces (the report). */
 uint8_t allan_settle_some(allan_t *a);
 
+/* 1 while some of that work waits (allan_settle_some would do a piece). */
+static inline uint8_t allan_waiting(const allan_t *a)
+{
+  return (a->depth & ALLAN_LAGGING) || a->pend;
+}
+
 #endif /* ALLAN_H */

@@ -51,6 +51,10 @@ int main(void)
      * waiting: sample_take's register saves are not paid for nothing. */
     while (adc_pending() && sample_take())
       console_receive();
+    /* The engine's waiting work, a piece a pass (a set that comes
+     * meanwhile is taken first): the output below reads a settled engine. */
+    if (sample_settle())
+      continue;
     switchboard_poll();
     control_poll();
     /* Sleep until the next interrupt unless there is work to do now. */

@@ -284,15 +284,13 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
  * (begin_seq's number formatting is the report's deepest path). */
 static __attribute__((noinline)) void put_sig3(uint32_t mant, int8_t exp, uint8_t style)
 {
-  char buf[FMT_SIG3_MAX + 1];
-  uint8_t len = fmt_sig3(buf, mant, exp);
-  if (style & AT_FLAGGED) {
-    buf[len++] = '!';
-    buf[len] = 0;
-  }
+  char buf[FMT_SIG3_MAX];
+  uint8_t len = fmt_sig3(buf, mant, exp) + (style & AT_FLAGGED ? 1 : 0);
   while ((style & AT_CELL) && len++ < 9)
     proto_putc(' ');
   proto_puts(buf);
+  if (style & AT_FLAGGED)
+    proto_putc('!');
 }
 
 /* What put_at prints at a level: a quantity of units.h for channel
@@ -570,16 +568,8 @@ static void next_line(void)
 uint8_t report_step(uint8_t step)
 {
   uint8_t done;
-  /* The engine's waiting pairs for the level about to be read, here on a
-   * short stack rather than inside allan_acc under step_row/step_sum_row.
-   * A summary row reads a channel a step, and sets taken between two
-   * steps may leave the level waiting again: settle before each of them. */
-  if ((rep.part == PART_ROW && step == 0) || rep.part == PART_SUM_ROW)
-    allan_settle_level(&sample_engine, rep.level);
-  else if ((rep.part == PART_TERMS || rep.part == PART_SUM_TERMS) && allan_settle_some(&sample_engine))
-    return REPORT_AGAIN; /* the terms read any level: settled a piece a call,
-                            the loop feeds the engine between pieces (the
-                            caption reads only pair counts, E nothing) */
+  /* The engine is read settled: the sampling loop takes its waiting work
+   * (sample_settle) before the output's turn. */
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;

@@ -182,6 +182,8 @@ static const char usage_figures[] =
     "  isr_adc_cycles_mean/max, isr_any_cycles_max  whole interrupts, from the\n"
     "                    jump to the vector to the end of reti: the ADC's,\n"
     "                    and the longest of any vector\n"
+    "  isr_rx_cycles_max, isr_udre_cycles_max, isr_tick_cycles_max  the same\n"
+    "                    for the UART's receive and transmit and Timer1 COMPA's\n"
     "  adsc_after_adc_vector_max, adsc_after_tick_max  cycles from the ADC's\n"
     "                    (Timer1 COMPA's) vector to the ADSC its ISR writes\n"
     "  allan_cycles_mean/max, allan_count    the same for PB2 (high around each\n"

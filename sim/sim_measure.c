@@ -245,9 +245,19 @@ void print_stats(harness_t *h, int json)
      adc_isr.count ? (double)adc_isr.sum / adc_isr.count : 0.0);
   KV("isr_adc_cycles_max", "%llu", (unsigned long long)adc_isr.max);
   KV("isr_any_cycles_max", "%llu", (unsigned long long)any_isr.max);
+  /* The ones that delay the ADC's and the tick's: the UART's and the tick's own. */
+  avr_timer_t *t1 = (avr_timer_t *)find_io(avr, "timer", '1');
+  sim_isr_stat_t rx_isr = sim_isr_stat(h->uart->rxc.vector),
+                 udre_isr = sim_isr_stat(h->uart->udrc.vector),
+                 tick_isr =
+                     t1 ? sim_isr_stat(
+                              t1->comp[AVR_TIMER_COMPA].interrupt.vector) :
+                          (sim_isr_stat_t){ 0, 0, 0 };
+  KV("isr_rx_cycles_max", "%llu", (unsigned long long)rx_isr.max);
+  KV("isr_udre_cycles_max", "%llu", (unsigned long long)udre_isr.max);
+  KV("isr_tick_cycles_max", "%llu", (unsigned long long)tick_isr.max);
   KV("adsc_after_adc_vector_max", "%llu",
      (unsigned long long)sim_isr_adsc_max(h->adc->adc.vector));
-  avr_timer_t *t1 = (avr_timer_t *)find_io(avr, "timer", '1');
   KV("adsc_after_tick_max", "%llu",
      (unsigned long long)(t1 ? sim_isr_adsc_max(
                                    t1->comp[AVR_TIMER_COMPA].interrupt.vector) :

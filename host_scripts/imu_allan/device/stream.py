@@ -309,6 +309,8 @@ class StreamDecoder:
         self._last_seq: Optional[int] = None
         self._frame_restart = False
         self._done = False
+        self.text_lines = 0
+        """Intact framed text lines (``$...*CRC``) so far, count lines included."""
 
     @property
     def samples(self) -> int:
@@ -400,6 +402,7 @@ class StreamDecoder:
             ]
             bodies = [(key, body.decode("ascii")) for (key, body, sent), got in zip(found, crcs) if sent == got]
             c["bad_crc"] += len(found) - len(bodies)
+            self.text_lines += len(bodies)
 
         # samples in stream order
         fkey = 2 * fpos

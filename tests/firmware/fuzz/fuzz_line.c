@@ -63,6 +63,8 @@
 #include "console.h"
 #include "fuzz_util.h"
 #include "settings.h"
+#include "stream.h"
+#include "switchboard.h"
 #include "../native/ref_crc16.h"
 
 /* An unusual spelling of a harmless command (the parser ignores case and
@@ -203,11 +205,25 @@ static void image_restore(void)
 }
 
 /* ---- driving the device ---- */
+/* main.c's test before it sleeps: work the loop can do now.  A report's
+ * step may only compute (settling the engine a piece a call) and write
+ * nothing: the device is busy all the same. */
+static int has_work(void)
+{
+  uint8_t can_write = switchboard_can_write();
+  if (adc_pending() && (!stream_holds_oldest() || can_write))
+    return 1;
+  return control_has_work() || (switchboard_busy() && can_write);
+}
+
 /* fx_run_us() with the waits skipped: after a few loop passes in which
- * nothing moved (nothing written, read, sampled or taken), the loop would
- * only spin until the next event, so the clock jumps there: a byte leaving
- * the TX ring, one arriving, an ADC tick.  The loop runs a pass at every
- * event, as before. */
+ * nothing moved (nothing written, read, sampled or taken) and the device
+ * would sleep (has_work()), the loop would only spin until the next
+ * event, so the clock jumps there: a byte leaving the TX ring, one
+ * arriving, an ADC tick.  The loop runs a pass at every event, as before.
+ * (Skipping while the device had work once froze a report's settling for
+ * a whole pause: a timed-out line's reply then came after the next
+ * command was sent, and the ring overflowed with it.) */
 static int ring_full; /* the RX ring overflowed during this input */
 
 static void run_us(uint64_t us)
@@ -238,7 +254,7 @@ static void run_us(uint64_t us)
     switchboard_poll();
     control_poll();
     still = (out == fx_out_len && rx == rx_tail && sets == ring_tail && ready == console_ready() &&
-             !settings_saving()) ?
+             !settings_saving() && !has_work()) ?
                 still + 1 :
                 0;
   }

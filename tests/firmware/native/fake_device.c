@@ -17,7 +17,7 @@
 #include "uart.h"
 #include <avr/eeprom.h>
 
-volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd;
+volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd, fake_gpior2;
 uint8_t fake_eeprom[E2END + 1];
 
 char fx_out[1 << 20];
@@ -368,6 +368,8 @@ void fx_run_us(uint64_t us)
     /* main.c's loop body */
     while (sample_take())
       console_receive();
+    if (sample_settle())
+      continue;
     switchboard_poll();
     control_poll();
   }
