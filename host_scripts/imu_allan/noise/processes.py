@@ -52,14 +52,15 @@ def _geo_sum(m: np.ndarray, p: complex | float) -> np.ndarray:
 def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np.ndarray:
     """AVAR of a stationary sequence with r(0) = r0 and r(k) = sum c_i p_i^k (k >= 1)."""
     m = _m(m)
-
-    def S(mm: np.ndarray) -> np.ndarray:
-        tot = mm * r0
-        for ci, pi in zip(c, p):
-            tot = tot + 2.0 * np.real(ci * _geo_sum(mm, complex(pi) if np.iscomplexobj(pi) else float(pi)))
-        return tot
-
-    return (4.0 * S(m) - S(2.0 * m)) / (2.0 * m * m)
+    mm = np.concatenate((m.ravel(), 2.0 * m.ravel()))  # S at m and 2m in one pass
+    tot = mm * r0
+    for ci, pi in zip(c, p):  # over the poles (one or two)
+        if np.iscomplexobj(pi) and np.imag(pi) != 0.0:
+            tot = tot + 2.0 * np.real(ci * _geo_sum(mm, complex(pi)))
+        else:
+            tot = tot + 2.0 * float(np.real(ci)) * _geo_sum(mm, float(np.real(pi)))
+    S1, S2 = tot[: m.size].reshape(m.shape), tot[m.size :].reshape(m.shape)
+    return (4.0 * S1 - S2) / (2.0 * m * m)
 
 
 class Process:
