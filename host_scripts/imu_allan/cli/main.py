@@ -274,22 +274,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from ..analysis.device_terms import add_device_terms
 
     add_device_terms(doc, report)
-    written = []
-    if args.curves:
-        written.append(_write_text(args.curves, formats.curves_csv(doc)))
-    topic = getattr(args, "topic", None) or getattr(src.samples, "topic", None) or "/imu0"
-    if args.kalibr:
-        written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc, topic, args.noise)))
-    if args.openvins:
-        written.append(_write_text(args.openvins, formats.openvins_yaml(doc, topic, args.noise)))
-    if args.vins:
-        written.append(_write_text(args.vins, formats.vins_yaml(doc, args.noise)))
-    if args.imu_utils:
-        written.append(_write_text(args.imu_utils, formats.imu_utils_yaml(doc)))
-    if args.plot:
-        from ..render.plots import write_plots
-
-        written += write_plots(doc, args.plot)
+    written = _write_files(args, doc, getattr(src.samples, "topic", None))
     if args.json:
         sys.stdout.write(formats.to_json(doc))
     elif args.csv:
@@ -306,6 +291,29 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     for path in written:
         print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
     return 0
+
+
+def _write_files(args: argparse.Namespace, doc: dict[str, Any], bag_topic: Optional[str]) -> list[str]:
+    """analyze's output files (--curves, the estimators' YAML, --plot): the paths written."""
+    from ..render import formats
+
+    written = []
+    if args.curves:
+        written.append(_write_text(args.curves, formats.curves_csv(doc)))
+    topic = getattr(args, "topic", None) or bag_topic or "/imu0"
+    if args.kalibr:
+        written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc, topic, args.noise)))
+    if args.openvins:
+        written.append(_write_text(args.openvins, formats.openvins_yaml(doc, topic, args.noise)))
+    if args.vins:
+        written.append(_write_text(args.vins, formats.vins_yaml(doc, args.noise)))
+    if args.imu_utils:
+        written.append(_write_text(args.imu_utils, formats.imu_utils_yaml(doc)))
+    if args.plot:
+        from ..render.plots import write_plots
+
+        written += write_plots(doc, args.plot)
+    return written
 
 
 # ---- output files ----------------------------------------------------------------------
