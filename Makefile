@@ -71,13 +71,20 @@ $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS
 # module (bytes saved alone: report -fno-ivopts 14, -fno-tree-dominator-opts
 # 10; stream -fno-ivopts 18, -fno-expensive-optimizations 4; fmt
 # -fno-tree-fre 8; control -fno-tree-coalesce-vars 4; main -fno-ivopts 4,
-# -fno-expensive-optimizations 6; reply -fno-tree-ter 2).
-FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts
+# -fno-expensive-optimizations 6; reply -fno-tree-ter 2; later report
+# -fno-split-wide-types 62: its 32-bit values stay whole in registers,
+# stack unchanged in imu-sim).
+FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts -fno-split-wide-types
 FW_MORE_stream := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_fmt := -fno-tree-fre
-FW_MORE_control := -fno-tree-coalesce-vars
+FW_MORE_control := -fno-tree-coalesce-vars -fno-reorder-blocks
 FW_MORE_main := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_reply := -fno-tree-ter
+# Measured later, each on its module alone: console -fno-reorder-blocks 4,
+# settings -fno-ivopts 4, switchboard -fno-tree-vrp 2.
+FW_MORE_console := -fno-reorder-blocks
+FW_MORE_settings := -fno-ivopts
+FW_MORE_switchboard := -fno-tree-vrp
 # In the engine and the sampling loop too, where imu-sim measured no
 # slower sets (1 and 1.25 kHz: the worst set 3884 -> 3807 and 3897 ->
 # 3803 cycles, the mean the same, the engine's mean per channel-sample
@@ -85,7 +92,7 @@ FW_MORE_reply := -fno-tree-ter
 # more; sample -fno-gcse 36.
 FW_MORE_allan := -fno-tree-dominator-opts -fno-gcse
 FW_MORE_sample := -fno-gcse
-$(foreach m,report stream fmt control main reply allan sample console,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
+$(foreach m,report stream fmt control main reply allan sample console switchboard settings command vocab proto units reset,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP
@@ -111,7 +118,7 @@ include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts pyflakes lint format bench ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
+.PHONY: all help facts pyflakes lint format bench bench-long ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -145,6 +152,23 @@ $(FW_BUILD):
 
 -include $(FW_OBJ:.o=.d)
 
+# The build's identity: every setting that goes into the firmware (MCU,
+# F_CPU, BAUD, each -D and option of FW_CFLAGS and FW_LDFLAGS) is written to
+# a stamp that every object depends on, rewritten only when it changes, so
+# `make BAUD=9600` after `make` rebuilds instead of keeping the old ELF.
+# firmware/build_id.c puts MCU, clock and baud into the ELF itself (section
+# .imu_build, outside flash), which `make flash` checks (boards.mk).  Kept out
+# of LTO so that the linker keeps the section.
+FW_STAMP := $(FW_BUILD)/build-settings
+FW_IDENTITY := MCU=$(MCU) F_CPU=$(F_CPU) BAUD=$(BAUD) | $(FW_CFLAGS) | $(FW_LDFLAGS)
+ifneq ($(file <$(FW_STAMP)),$(FW_IDENTITY))
+  $(shell mkdir -p $(FW_BUILD))
+  $(file >$(FW_STAMP),$(FW_IDENTITY))
+endif
+$(FW_OBJ): $(FW_STAMP)
+$(FW_BUILD)/build_id.o: FW_CFLAGS += -fno-lto
+FW_LDFLAGS += -Wl,--undefined=build_id -Wl,--section-start=.imu_build=0x920000
+
 version: ## write the host package's _version.py from VERSION
 	printf '%s\n' '# Generated from the repository'"'"'s VERSION file by `make version` (the Makefile' \
 	  '# also passes it to the firmware as FW_VERSION); tests/test_version.py checks' \
@@ -170,7 +194,7 @@ ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: pyflakes firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
+test: lint firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
@@ -237,8 +261,18 @@ soak: firmware $(IMU_SIM) ## the link soak: 1,000 runs of random commands over a
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) tests/system/sim/soak.py --runs $(SOAK_RUNS)
 
 # Device, simulator and host side by side; writes bench/results.json.
+# Then the long recording (bench/long.py): 8 h at 1 kHz of TSV (generated once
+# into build/bench/) through `imu-allan analyze` beside allantools' oadev, and
+# a ROS 2 bag against the TSV of its length.  BENCH_QUICK=1: a sixteenth of
+# each; BENCH_ROWS=N, BENCH_BAG_ROWS=N (0: no bag) for other sizes.
+BENCH_ROWS ?= $(if $(BENCH_QUICK),1800000,28800000)
+BENCH_BAG_ROWS ?= $(if $(BENCH_QUICK),225000,3600000)
 bench: firmware $(IMU_SIM) ext ## device, simulator and host figures side by side into bench/results.json
-	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS) $(if $(BENCH_QUICK),--quick)
+	$(MAKE) --no-print-directory bench-long
+
+bench-long: ext ## only the long recording's figures (BENCH_QUICK=1, BENCH_ROWS=N, BENCH_BAG_ROWS=N)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/long.py --rows $(BENCH_ROWS) --bag-rows $(BENCH_BAG_ROWS)
 
 # ---- demo ------------------------------------------------------------------
 # The main job: 10 minutes of a synthetic thesis-like IMU at 100 Hz through
@@ -247,7 +281,7 @@ DEMO_DIR := $(BUILD)/demo
 # This checkout's own package, whatever another checkout installed.
 IMU_ALLAN := PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m imu_allan.cli
 
-demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated device, decoded and checked
+demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated device; ends with its summary and the check
 	@mkdir -p $(DEMO_DIR)
 	@$(IMU_ALLAN) gen -n 60000 --fs 100 --seed 1 -o $(DEMO_DIR)/imu.tsv
 	@echo "== simulated device: 60000 samples (10 min at 100 Hz) =="
@@ -256,12 +290,14 @@ demo: firmware $(IMU_SIM) ## 10 minutes of a synthetic IMU through the simulated
 	@$(PYTHON) -c 'import json,sys; s=json.load(open(sys.argv[1])); \
 	  print("simulated %.0f s in %.1f s of wall time (%.0fx), stack free %d bytes" % \
 	  (s["sim_seconds"], s["wall_seconds"], s["sim_speed_x"], s["stack_free_bytes"]))' $(DEMO_DIR)/stats.json
-	@echo "== what the device printed (human summary of its last report) =="
-	@grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 22 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'
-	@echo "== decoded by the host (imu-allan decode $(DEMO_DIR)/device.log) =="
-	@$(IMU_ALLAN) decode $(DEMO_DIR)/device.log
-	@echo "== exactness (imu-allan check against the float64 reference) =="
-	@$(IMU_ALLAN) check $(DEMO_DIR)/device.log $(DEMO_DIR)/imu.tsv
+	@$(IMU_ALLAN) decode $(DEMO_DIR)/device.log > $(DEMO_DIR)/decoded.txt
+	@echo "written: the decoded table (imu-allan decode; avar in code^2, adev in code)"
+	@echo "and the check's details: $(DEMO_DIR)/decoded.txt $(DEMO_DIR)/check.txt"
+	@echo "== the device's own summary of its last report, as a terminal shows it =="
+	@$(IMU_ALLAN) check $(DEMO_DIR)/device.log $(DEMO_DIR)/imu.tsv > $(DEMO_DIR)/check.txt; rc=$$?; \
+	  grep '^\$$S' $(DEMO_DIR)/device.log | tail -n 22 | sed -e 's/^\$$S,[0-9]*,//' -e 's/\*[0-9A-F]*.$$//'; \
+	  echo "check: $$(tail -n 1 $(DEMO_DIR)/check.txt)"; \
+	  exit $$rc
 
 # The engine alone, natively, on 2^20 synthetic samples.
 NATIVE_DEMO := $(BUILD)/host/allan-demo

@@ -43,7 +43,10 @@ AVRDUDE_PART_atmega168p := m168p
 AVRDUDE_PART_atmega328p := m328p
 AVRDUDE_PART = $(or $(AVRDUDE_PART_$(MCU)),$(MCU))
 
-FLASH_HEX = $(BUILD)/avr-$(MCU)/imu-allan.hex
+# FLASH_ELF=another.elf flashes a firmware built elsewhere (its .hex beside it);
+# make flash first checks that it was built for this MCU, F_CPU and BAUD.
+FLASH_ELF ?= $(BUILD)/avr-$(MCU)/imu-allan.elf
+FLASH_HEX = $(FLASH_ELF:.elf=.hex)
 
 # Programmers that talk through a serial port (they need PORT=), and those
 # that are a bootloader on the chip itself (they cannot write fuses; the
@@ -250,10 +253,25 @@ ifneq ($(BOARDS_GOALS),)
 endif
 
 # ---- targets ---------------------------------------------------------------
-.PHONY: flash flash-dryrun fuses fuses-dryrun flash-room bootloader bootloader-flash sim-board
+.PHONY: flash flash-check flash-dryrun fuses fuses-dryrun flash-room bootloader bootloader-flash sim-board
 
-flash: $(if $(PRINT),,firmware $(if $(filter-out $(BOOTLOADER_PROGRAMMERS),$(PROGRAMMER)),$(BOOTLOADER_HEX))) ## put the firmware on a board with avrdude: PORT=/dev/ttyUSB0 (or PROGRAMMER=usbasp)
+flash: $(if $(PRINT),,firmware flash-check $(if $(filter-out $(BOOTLOADER_PROGRAMMERS),$(PROGRAMMER)),$(BOOTLOADER_HEX))) ## put the firmware on a board with avrdude: PORT=/dev/ttyUSB0 (or PROGRAMMER=usbasp)
 	$(if $(PRINT),@echo '$(FLASH_CMD)',$(FLASH_CMD))
+
+# A board flashed for another clock or baud talks garbage, and another MCU's
+# code does not run: the ELF's identity (firmware/build_id.c) must be the
+# one asked for, and the .hex must be that ELF's (not one left from an
+# earlier build).
+flash-check: ## refuse to flash an ELF built for another MCU, F_CPU or BAUD, or a .hex that is not its own (part of make flash)
+	@id=$$($(AVR_OBJCOPY) -O binary --only-section=.imu_build $(FLASH_ELF) /dev/stdout 2>/dev/null | tr -d '\000'); \
+	want="mcu=$(MCU) f_cpu=$(F_CPU)UL baud=$(BAUD)UL"; \
+	case "$$id " in *" $$want "*) ;; \
+	  *) echo "boards.mk: $(FLASH_ELF) was built as \"$${id:-no build identity}\", not for $$want: nothing flashed (make MCU=... F_CPU=... BAUD=... builds for the board)" >&2; exit 1;; \
+	esac; \
+	$(AVR_OBJCOPY) -O ihex -j .text -j .data $(FLASH_ELF) $(FLASH_HEX).check && cmp -s $(FLASH_HEX).check $(FLASH_HEX); \
+	rc=$$?; rm -f $(FLASH_HEX).check; \
+	if [ $$rc -ne 0 ]; then echo "boards.mk: $(FLASH_HEX) is not the image of $(FLASH_ELF): nothing flashed (make rebuilds both)" >&2; exit 1; fi; \
+	echo "flash-check: $(FLASH_ELF) is for $$want"
 
 # The bootloader alone onto a chip, through ISP (erases the chip).
 bootloader-flash: bootloader ## put the bootloader on a chip through ISP (PROGRAMMER=... CONFIRM=yes; erases it)

@@ -59,6 +59,13 @@
 #  error "no ADC prescaler puts the ADC clock within 50..200 kHz at this F_CPU"
 #endif
 
+/* A byte of state in an I/O register rather than in SRAM, whose every
+ * byte is the stack's margin: GPIOR2, a general-purpose register nothing
+ * else uses (GPIOR0 holds adc.c's dither phase, GPIOR1 clock.c's silence
+ * count).  in/out reach it in one word where lds/sts take two: it holds
+ * the output scheduler's step, read and written on every step. */
+#define BOARD_SPARE_REG GPIOR2
+
 /* MMA7260Q g-select: GS1 on PD6, GS2 on PD7 (00=1.5g 01=2g 10=4g 11=6g). */
 #define BOARD_GSEL_DDR DDRD
 #define BOARD_GSEL_PORT PORTD

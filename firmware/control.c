@@ -158,27 +158,42 @@ static __attribute__((noinline)) void run_load(void)
   switchboard_ok_word(PSTR("loaded"), reset_tail_P, apply_settings());
 }
 
+static void run_report(void)
+{
+  if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
+    switchboard_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode\0allan or both"));
+    return;
+  }
+  switchboard_ok(0);
+  switchboard_report(); /* follows the reply */
+}
+
+static void run_reset(void)
+{
+  uint32_t count;
+  sample_feed(); /* sets taken so far belong to the old run */
+  count = count_in_force();
+  new_run();
+  if (count)
+    adc_limit(count); /* `start <count>` stops at n = count in the new run */
+  switchboard_ok(reset_tail_P + 2);
+}
+
+static void run_interval(uint32_t s)
+{
+  if (s > VOCAB_INTERVAL_MAX_S) {
+    switchboard_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long\0"));
+    return;
+  }
+  settings.interval_s = (uint16_t)s;
+  switchboard_ok_n(PSTR("interval="), s);
+}
+
 static void execute(const command_t *cmd)
 {
   switch (cmd->id) {
-  case CMD_REPORT:
-    if (settings.mode == MODE_RAW || settings.mode == MODE_BINARY) {
-      switchboard_error(CMD_ERR_STATE, CMD_REPORT, PSTR("none in this mode\0allan or both"));
-      break;
-    }
-    switchboard_ok(0);
-    switchboard_report(); /* follows the reply */
-    break;
-  case CMD_RESET: {
-    uint32_t count;
-    sample_feed(); /* sets taken so far belong to the old run */
-    count = count_in_force();
-    new_run();
-    if (count)
-      adc_limit(count); /* `start <count>` stops at n = count in the new run */
-    switchboard_ok(reset_tail_P + 2);
-    break;
-  }
+  case CMD_REPORT: run_report(); break;
+  case CMD_RESET: run_reset(); break;
   case CMD_STOP:
     adc_stop();
     sample_feed();
@@ -186,26 +201,17 @@ static void execute(const command_t *cmd)
     break;
   case CMD_START: run_start(cmd); break;
   case CMD_RATE: run_rate(cmd->arg); break;
-  case CMD_INTERVAL:
-    if (cmd->arg > VOCAB_INTERVAL_MAX_S) {
-      switchboard_error(CMD_ERR_ARG, CMD_INTERVAL, PSTR("too long\0"));
-    } else {
-      settings.interval_s = (uint16_t)cmd->arg;
-      switchboard_ok_n(PSTR("interval="), cmd->arg);
-    }
-    break;
+  case CMD_INTERVAL: run_interval(cmd->arg); break;
   case CMD_MODE: run_mode((uint8_t)cmd->arg); break;
   case CMD_RANGE:
     settings.range = (uint8_t)cmd->arg;
     switchboard_ok_word(reset_range_P + (apply_settings() ? 0 : 6), vocab_ranges, settings.range);
     break;
-  case CMD_SAVE:
-    settings_save(); /* replied when the last byte is written */
-    break;
+  case CMD_SAVE: settings_save(); break; /* replied when the last byte is written */
   case CMD_LOAD: run_load(); break;
   case CMD_DEFAULTS:
     settings_defaults();
-    switchboard_ok_word(PSTR("defaults"), reset_tail_P, apply_settings());
+    switchboard_ok_word(vocab_word(vocab_sources, CFG_DEFAULTS), reset_tail_P, apply_settings());
     break;
   case CMD_STATUS: switchboard_status(); break;
   case CMD_ECHO:

@@ -50,7 +50,7 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
   int8_t j = 0; /* value * 10^j = m * 2^e */
   int8_t p, pos, bottom;
   uint16_t r;
-  uint8_t n = 0;
+  char *o = buf;
   const char *d = buf + FMT_SIG3_MAX - 3; /* the 3 digits, at the buffer's end: read before written over */
 
   if (!m) {
@@ -91,18 +91,18 @@ uint8_t fmt_sig3(char *buf, uint32_t m, int8_t e)
     p = 0;
   bottom = p < 2 ? (int8_t)(p - 2) : 0;
   for (pos = p > 0 ? p : 0; pos >= bottom; pos--) {
-    int8_t k = (int8_t)(p - pos);
+    uint8_t k = (uint8_t)(p - pos);
     if (pos == -1)
-      buf[n++] = '.';
-    buf[n++] = k >= 0 && k <= 2 ? d[k] : '0';
+      *o++ = '.';
+    *o++ = k <= 2 ? d[k] : '0';
   }
   if (j > 5) {
-    buf[n++] = 'e';
-    buf[n++] = '-';
-    n = (uint8_t)(n + fmt_u32(buf + n, (uint8_t)(j - 2)));
+    *o++ = 'e';
+    *o++ = '-';
+    o += fmt_u32(o, (uint8_t)(j - 2));
   }
-  buf[n] = 0;
-  return n;
+  *o = 0;
+  return (uint8_t)(o - buf);
 }
 
 static uint16_t isqrt32(uint32_t x)

@@ -10,8 +10,8 @@
 
 #include <stdint.h>
 
-/* MCUSR bits captured at boot, for the `reset=` fields. */
-void report_init(uint8_t reset_cause);
+/* Before the first report (the `reset=` fields are reset.h's cause). */
+void report_init(void);
 
 /* One step of the boot line; returns 1 when the line is written. */
 uint8_t report_boot_step(uint8_t step);
@@ -26,11 +26,9 @@ void report_begin(void);
 #define REPORT_MORE 0      /* the line goes on: call again with step + 1 */
 #define REPORT_LINE_DONE 1 /* a line is written: the next starts at step 0 */
 #define REPORT_DONE 2      /* the end line is written: the report is whole */
-#define REPORT_AGAIN                                                                                         \
-  3 /* nothing written (the engine's waiting work was
-                            * taken): call again with the same step */
 
-/* One step of the current line of the report. */
+/* One step of the current line of the report, the engine settled
+ * (sample.h's sample_settle has nothing left to do). */
 uint8_t report_step(uint8_t step);
 
 #endif /* REPORT_H */

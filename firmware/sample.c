@@ -68,6 +68,16 @@ uint8_t sample_take(void)
   return 1;
 }
 
+uint8_t sample_settle(void)
+{
+  if (!allan_waiting(&sample_engine))
+    return 0; /* the idle pass: no probe pulse, no call */
+  BOARD_PROBE_ALLAN_ON();
+  allan_settle_some(&sample_engine);
+  BOARD_PROBE_ALLAN_OFF();
+  return 1;
+}
+
 void sample_feed(void)
 {
   while (sample_take())

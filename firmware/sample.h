@@ -27,6 +27,13 @@ extern sample_stats_t sample_stats;
  * most 0.4 ms, the RX ring lasts 0.69 ms at 115200 baud). */
 uint8_t sample_take(void);
 
+/* One piece of the engine's waiting work (a set's lagging channels, a
+ * level's deferred pairs: allan.h), 1 if there was one.  The main loop
+ * calls it while no set waits, until it returns 0, before the output's
+ * turn: the reports read a settled engine and never compute for it, and
+ * the loop takes a waiting set between two pieces. */
+uint8_t sample_settle(void);
+
 /* Every finished scan the stream no longer holds: for commands that must
  * see every set taken so far (stop, start, reset); never by the output
  * code. */

@@ -65,27 +65,29 @@ void settings_defaults(void)
 
 uint8_t settings_load(void)
 {
-  uint8_t rec[RECORD_BYTES], i, blank = 1;
+  struct {
+    uint8_t version;
+    settings_t s;
+    uint8_t crc_hi, crc_lo;
+  } __attribute__((packed)) rec; /* the record as laid out above */
+  _Static_assert(sizeof rec == RECORD_BYTES, "the record: version, settings, CRC");
+  const uint8_t *b = (const uint8_t *)&rec;
+  uint8_t i, all = 0xFF;
   uint16_t crc;
-  settings_t s;
-
-  eeprom_read_block(rec, (const void *)0, RECORD_BYTES);
+  eeprom_read_block(&rec, (const void *)0, RECORD_BYTES);
   for (i = 0; i < RECORD_BYTES; i++)
-    if (rec[i] != 0xFF)
-      blank = 0;
-  for (i = 0; i < sizeof s; i++)
-    ((uint8_t *)&s)[i] = rec[1 + i];
-  crc = record_crc(rec[0], &s);
+    all &= b[i];
+  crc = record_crc(rec.version, &rec.s);
   settings_defaults();
-  if (blank) {
+  if (all == 0xFF) {
     settings_source = CFG_BLANK;
-  } else if (rec[0] != SETTINGS_VERSION || rec[RECORD_BYTES - 2u] != (uint8_t)(crc >> 8) ||
-             rec[RECORD_BYTES - 1u] != (uint8_t)crc || !valid(&s)) {
+  } else if (rec.version != SETTINGS_VERSION || rec.crc_hi != (uint8_t)(crc >> 8) ||
+             rec.crc_lo != (uint8_t)crc || !valid(&rec.s)) {
     settings_source = CFG_CORRUPT;
-  } else if (!link_fits_here(s.mode, s.rate_hz)) {
+  } else if (!link_fits_here(rec.s.mode, rec.s.rate_hz)) {
     settings_source = CFG_INFEASIBLE; /* refused like `rate` and `mode` would be */
   } else {
-    settings = s;
+    settings = rec.s;
     settings_source = CFG_SAVED;
   }
   return settings_source;

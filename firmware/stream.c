@@ -62,12 +62,16 @@ uint8_t stream_busy(void)
 }
 
 /* A row or frame is out: count it, and a count line is due every
- * LINK_COUNT_EVERY of them. */
+ * LINK_COUNT_EVERY of them (one already due stays due: a frame may come
+ * before it). */
 static void set_written(void)
 {
   st.set_done = 1;
   st.rows++;
-  st.line = st.rows % LINK_COUNT_EVERY == 0 ? LINE_COUNT_DUE : LINE_NONE;
+  if (st.rows % LINK_COUNT_EVERY == 0)
+    st.line = LINE_COUNT_DUE;
+  else if (st.line == LINE_ROW_HALF)
+    st.line = LINE_NONE;
 }
 
 /* The step functions below return 1 (they wrote), stream_step's result. */
@@ -125,11 +129,6 @@ static __attribute__((noinline)) uint8_t step_frame(void)
   proto_frame(b, (uint8_t)st.rows);
   for (i = 0; i < PROTO_FRAME_BYTES; i++)
     put(b[i]);
-  if (st.line == LINE_COUNT_DUE) { /* a frame may come before a due count line */
-    st.set_done = 1;
-    st.rows++;
-    return 1;
-  }
   set_written();
   return 1;
 }

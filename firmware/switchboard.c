@@ -7,6 +7,7 @@
 #include "switchboard.h"
 
 #include "adc.h"
+#include "board.h"
 #include "command.h"
 #include "console.h"
 #include "proto.h"
@@ -27,12 +28,13 @@ enum { JOB_NONE, JOB_BOOT, JOB_REPLY, JOB_REPORT, JOB_ECHO };
                        * hold the stream back together (link.h's budget) */
 
 static struct {
-  uint8_t job, step, flags;
+  uint8_t job, flags;
 } out;
+#define out_step BOARD_SPARE_REG /* the step within the job's line (board.h) */
 
-void switchboard_init(uint8_t reset_cause)
+void switchboard_init(void)
 {
-  report_init(reset_cause);
+  report_init();
   proto_init(uart_write);
 }
 
@@ -49,12 +51,12 @@ uint8_t switchboard_busy(void)
 /* 1 when the current job stands between two lines. */
 static uint8_t at_line_boundary(void)
 {
-  return out.job == JOB_NONE || out.step == 0;
+  return out.job == JOB_NONE || out_step == 0;
 }
 
 uint8_t switchboard_can_interject(void)
 {
-  return (out.job == JOB_NONE || (out.job == JOB_REPORT && out.step == 0)) && !stream_line_open();
+  return (out.job == JOB_NONE || (out.job == JOB_REPORT && out_step == 0)) && !stream_line_open();
 }
 
 /* A new job.  A reply may come between two lines of a report: the report
@@ -68,7 +70,7 @@ static void start(uint8_t job)
   if (out.job == JOB_REPORT && job != JOB_REPORT)
     out.flags |= PAUSED;
   out.job = job;
-  out.step = 0;
+  out_step = 0;
 }
 
 void switchboard_boot(void)
@@ -167,11 +169,11 @@ static void job_done(void)
     if (stream_holds_oldest() && adc_running() && !(out.flags & HOLD_ROWS))
       out.flags |= ROW_GAP; /* rows keep coming: one goes first */
     out.job = JOB_REPLY;
-    out.step = 0;
+    out_step = 0;
   } else if (out.flags & PAUSED) {
     out.flags &= (uint8_t)~PAUSED;
     out.job = JOB_REPORT;
-    out.step = 0;
+    out_step = 0;
   } else if (out.flags & REPORT_NEXT) {
     out.flags &= (uint8_t)~REPORT_NEXT;
     switchboard_report();
@@ -192,24 +194,22 @@ void switchboard_poll(void)
       break;
     if (out.job == JOB_REPORT) {
       uint8_t room = uart_tx_room();
-      done = report_step(out.step);
-      if (done == REPORT_AGAIN)
-        break; /* the engine's waiting work, a piece: the loop feeds it first */
+      done = report_step(out_step);
       if (done == REPORT_MORE && uart_tx_room() == room) {
-        out.step++; /* a step that only computed (a T line's search): the loop */
+        out_step++; /* a step that only computed (a T line's search): the loop */
         break;      /* feeds the engine before the next one */
       }
-      out.step = done == REPORT_MORE ? (uint8_t)(out.step + 1) : 0;
+      out_step = done == REPORT_MORE ? (uint8_t)(out_step + 1) : 0;
       done = done == REPORT_DONE;
     } else if (out.job == JOB_REPLY) {
-      done = reply_step(out.step); /* a line of help at a time: rows may come between */
-      out.step = done == REPLY_MORE ? (uint8_t)(out.step + 1) : 0;
+      done = reply_step(out_step); /* a line of help at a time: rows may come between */
+      out_step = done == REPLY_MORE ? (uint8_t)(out_step + 1) : 0;
       done = done == REPLY_DONE;
     } else if (out.job == JOB_ECHO) {
       done = console_echo_job();
     } else {
-      done = report_boot_step(out.step);
-      out.step++;
+      done = report_boot_step(out_step);
+      out_step++;
     }
     if (done)
       job_done();

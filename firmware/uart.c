@@ -32,7 +32,6 @@
 #endif
 
 #define UART_TX_SIZE (UART_STEP_MAX + 1) /* one output step always fits */
-#define UART_RX_SIZE 8                   /* a power of two */
 #if UART_TX_SIZE - 1 != UART_STEP_MAX
 #  error                                                                                                     \
       "the TX ring holds one whole output step, no more (console.c's echo counts on uart_tx_room() <= UART_STEP_MAX)"

@@ -6,9 +6,7 @@
 
 #include <stdint.h>
 
-/* Output is written in steps of at most this many bytes, each only once
- * uart_tx_room() says it fits: the TX ring holds one whole step. */
-#define UART_STEP_MAX 20
+#include "config.h" /* UART_STEP_MAX, UART_RX_SIZE */
 
 void uart_init(void);
 

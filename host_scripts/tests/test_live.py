@@ -213,7 +213,7 @@ def test_cmd_usage_errors(run_cli, tmp_path: Path) -> None:
     assert rc == 2 and "printable ASCII" in err
 
 
-def _monitor_stream() -> tuple[bytes, np.ndarray]:
+def _monitor_stream() -> tuple[bytes, np.ndarray, list[bytes]]:
     rows = thesis_like(300, 5)
     rep = report_lines(rows, 4, seq=9, extra=",mode=both,range=1.5,cfg=saved")
     codes = random_codes(30, 6)
@@ -228,11 +228,11 @@ def _monitor_stream() -> tuple[bytes, np.ndarray]:
         + b"".join(rep)
         + line("ok")
     )
-    return data, rows
+    return data, rows, rep
 
 
 def test_monitor_once(device, run_cli, tmp_path: Path, monkeypatch) -> None:
-    data, rows = _monitor_stream()
+    data, rows, rep = _monitor_stream()
     dev = device(first=data)
     log = tmp_path / "mon.log"
     rc, out, err = run_cli("monitor", "--port", dev.path, "--log", log, "--once")
@@ -245,6 +245,11 @@ def test_monitor_once(device, run_cli, tmp_path: Path, monkeypatch) -> None:
     assert table[0].split() == ["tau_s", "ax", "ay", "az", "gx", "gy", "gz"]
     assert table[1].split()[:2] == ["0.0100", f"{adev:#.3g}".rstrip(".")]
     assert len([t for t in table[1:] if t[:10].strip().replace(".", "").isdigit()]) == 4
+    summary = [b[len("$S,9,") : b.index(b"*")].decode() for b in rep if b.startswith(b"$S,9,")]
+    lines = out.split("\n")
+    at = lines.index(summary[0])  # the device's own lines, after the host's table
+    host = next(i for i, x in enumerate(lines) if x.lstrip().startswith("tau_s"))
+    assert at > host and lines[at : at + len(summary)] == summary
     assert data.startswith(log.read_bytes()) and len(log.read_bytes()) > len(data) - 20
     rc, out, _ = run_cli("decode", log, "--json")  # the log reads back
     assert rc == 0 and json.loads(out)["header"]["seq"] == 9
@@ -255,9 +260,16 @@ def test_monitor_default_log_name_and_lost_port(device, run_cli, tmp_path: Path,
     dev = device(first=line("ok") + raw_row([1] * 7) * 3, hold=0.6)
     rc, out, err = run_cli("monitor", "--port", dev.path, "--once")
     assert rc == 1 and "connection lost" in err
-    logs = list(tmp_path.glob("imu-allan-*.log"))
-    assert len(logs) == 1 and len(logs[0].name) == len("imu-allan-20250101-120000.log")
-    assert logs[0].read_bytes() == line("ok") + raw_row([1] * 7) * 3
+    logs = list(tmp_path.rglob("*"))  # nothing loose in the current directory: one folder, one log
+    assert sorted(p.relative_to(tmp_path).parts[0] for p in logs) == ["imu-allan-logs"] * 2
+    log = next(p for p in logs if p.is_file())
+    assert log.parent == tmp_path / "imu-allan-logs" and len(log.name) == len("imu-allan-20250101-120000.log")
+    assert log.read_bytes() == line("ok") + raw_row([1] * 7) * 3
+    assert f"log {log.relative_to(tmp_path)}" in err
+    dev = device(first=line("ok"), hold=0.6)  # --log DIR/: a new file named by the time in DIR
+    rc, out, err = run_cli("monitor", "--port", dev.path, "--once", "--log", f"{tmp_path / 'mine'}/")
+    made = list((tmp_path / "mine").iterdir())
+    assert rc == 1 and len(made) == 1 and made[0].name.startswith("imu-allan-") and made[0].read_bytes() == line("ok")
 
 
 class _Tty(io.StringIO):
@@ -271,7 +283,7 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
     cannot be asked), and the normal screen back at the end."""
     from imu_allan.cli.monitor import run_monitor
 
-    data, _ = _monitor_stream()
+    data, _, _ = _monitor_stream()
     dev = device(first=data)
     out, err = _Tty(), io.StringIO()
     rc = run_monitor(dev.path, 115200, str(tmp_path / "m.log"), True, out=out, err=err)
@@ -283,9 +295,10 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
     rows = re.findall(r"\x1b\[(\d+);1H\x1b\[2K([^\x1b]*)", "\x1b[1;1H" + last)
     assert [int(r) for r, _ in rows] == list(range(1, 25))
     text = [t for _, t in rows]
-    assert text[0].startswith("imu-allan monitor:") and "Ctrl-C" in text[0]
-    assert text[1].startswith("report seq 9") and all(len(t) <= 80 for t in text)
-    assert text[-1] == "replies: ok mode=both | ok" and "1 complete reports" in err.getvalue()
+    status = next(i for i, t in enumerate(text) if t.startswith("report seq 9, "))
+    assert text[0].startswith("imu-allan monitor:") and "Ctrl-C" in " ".join(text[:status])
+    assert all(len(t) <= 80 for t in text) and "1 complete reports" in err.getvalue()
+    assert text[-3].startswith("device started: fw ") and text[-2:] == ["ok mode=both", "ok"]  # whole lines
 
 
 def test_monitor_view_rate_and_losses() -> None:
@@ -298,7 +311,7 @@ def test_monitor_view_rate_and_losses() -> None:
     for k in range(11):  # 10 pieces over 2 s: ~500 rows/s
         mon.feed(data[k * step : (k + 1) * step], now=100 + 0.2 * k)
     text = mon.render()
-    assert "no complete report yet" in text and "replies: ok mode=raw" in text
+    assert "no complete report yet" in text and text.endswith("\nok mode=raw\n")
     assert "rows 999, frames 0" in text and "lost: rows 1, frames 0" in text
     assert 400 < mon.rate < 600
 

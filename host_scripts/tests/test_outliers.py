@@ -305,8 +305,11 @@ def test_thermal_finds_a_knock_before_its_regression(tmp_path: Path, run_cli) ->
     assert any("kept" in note for note in kept["notes"])
 
 
-def test_where_no_samples_are_held_it_says_they_were_not_checked(tmp_path: Path, run_cli) -> None:
-    """A device log alone (no samples) and a file streamed past --memory."""
+def test_a_device_log_alone_says_outliers_were_not_checked_and_a_streamed_file_is_checked(
+    tmp_path: Path, run_cli
+) -> None:
+    """A device log alone (no samples): not checked; a file streamed past --memory
+    is scanned piece by piece, with the in-memory result."""
     rows = thesis_like(4096, 2)
     log = tmp_path / "device.log"
     log.write_bytes(b"".join(report_lines(rows, 12)))
@@ -315,9 +318,15 @@ def test_where_no_samples_are_held_it_says_they_were_not_checked(tmp_path: Path,
     doc = json.loads(out)
     assert doc["outliers"]["checked"] is False
     assert doc["channels"]["gx"]["outliers"] == {"checked": False, "count": None, "times_s": []}
-    big = write_rows(tmp_path / "big.txt", thesis_like(30_000, 3))  # 1.4 MB of float64 samples
-    rc, out, err = run_cli("analyze", big, "--fs", 100, "--json", "--no-model", "--memory", 1)
-    assert rc == 0, err
-    doc = json.loads(out)
-    assert doc["channels"]["gx"]["outliers"]["checked"] is False
-    assert any(n.startswith("outliers not checked") for n in doc["notes"])
+    rows = thesis_like(30_000, 3)
+    rows[12_345, 4] = 1000
+    big = write_rows(tmp_path / "big.txt", rows)  # 1.4 MB of float64 samples
+    docs = []
+    for extra in ((), ("--memory", 1)):
+        rc, out, err = run_cli("analyze", big, "--fs", 100, "--json", "--no-model", *extra)
+        assert rc == 0, err
+        docs.append(json.loads(out))
+    held, streamed = docs
+    assert streamed["channels"]["gy"]["outliers"]["checked"] is True
+    assert streamed["channels"]["gy"]["outliers"]["times_s"] == [12_345 / 100]
+    assert streamed["outliers"] == held["outliers"]

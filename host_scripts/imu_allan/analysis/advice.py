@@ -18,9 +18,11 @@ the same level.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any, Optional
 
+import numpy as np
 from scipy import optimize
 from scipy import stats as sps
 
@@ -84,27 +86,146 @@ def term_edf(
     return sum(edfs) * (1 - r) / (1 + r) if len(edfs) > 1 else edfs[0]
 
 
-def add_to_analysis(doc: dict[str, Any], level: float = LEVEL) -> None:
+def _term_names(fit: Any) -> list[str]:
+    """The fitted processes' term names, in the order of ``fit.fitted`` (as fit.components names them)."""
+    names, gm = [], 0
+    for p in fit.fitted:
+        name = {"LP": "N", "S": "SIN"}.get(p.name, p.name)
+        if name == "GM":
+            gm += 1
+            name = f"GM{gm}"
+        names.append(name)
+    return names
+
+
+def _jacobian(fit: Any, t: np.ndarray) -> np.ndarray:
+    """d AVAR / d log(parameter) at tau ``t`` for every parameter of the fitted model: each
+    process's squared amplitude (its AVAR itself) first, then its time constants (numerically)."""
+    m = t * fit.fs
+    cols, extra = [], []
+    for p in fit.fitted:
+        base = p.avar(m, fit.fs)
+        cols.append(base)
+        for f in dataclasses.fields(p)[1:]:
+            v = getattr(p, f.name)
+            if isinstance(v, float) and f.name != "order":
+                h = 1e-4
+                extra.append((p.__class__(**{**p.params(), f.name: v * math.exp(h)}).avar(m, fit.fs) - base) / h)
+    return np.stack(cols + extra, axis=1)
+
+
+def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapping: bool) -> dict[str, float]:
+    """The interval (+-%, 95 %) each fitted term would have on a record ``scale`` times as long,
+    were the sensor the fitted model: the generalized least squares of the fit (the points'
+    chi-squared variances from their EDF, correlated between octaves) with no model error.
+
+    ``points``: the fit's octave points now (tau_s, edf, used). A point keeps its tau and its
+    EDF grows by ``scale`` (EDF ~ N/m once the record is many taus long); each doubling of the
+    record adds the next octave, whose EDF is the longest point's now (the same fraction of the
+    record, hence about the same EDF)."""
+    from ..noise import curve as F
+
+    used = [p for p in points if p.get("used") and p.get("edf")]
+    if len(used) < 2 or not list(fit.fitted):
+        return {}
+    tau = np.array([p["tau_s"] for p in used])
+    edf = np.array([p["edf"] for p in used]) * scale
+    for i in range(1, int(math.floor(math.log2(scale) + 1e-9)) + 1):
+        tau = np.append(tau, tau[-1] * 2)
+        edf = np.append(edf, used[-1]["edf"] * scale / 2**i)
+    ref = fit.model(tau)
+    alpha = F.alphas(tau, ref)
+    gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping")
+    Jw = gls.white(_jacobian(fit, tau))
+    scale_cols = np.linalg.norm(Jw, axis=0)
+    scale_cols[scale_cols == 0] = 1.0
+    cov = np.linalg.pinv((Jw / scale_cols).T @ (Jw / scale_cols)) / np.outer(scale_cols, scale_cols)
+    out = {}
+    for j, name in enumerate(_term_names(fit)):
+        rel = math.sqrt(max(cov[j, j], 0.0))  # sd of log c, c the squared amplitude
+        if rel > 0:
+            out[name] = 100.0 * halfwidth(2.0 / rel**2)
+    return out
+
+
+def record_for_target(
+    fit: Any, points: list[dict[str, Any]], duration: float, overlapping: bool, targets=TARGETS_PCT
+) -> dict[str, dict[str, Optional[float]]]:
+    """Per term: the predicted +-% now (under the fitted model) and the recording time (s) for
+    each target: found on a quarter-octave grid of longer records and interpolated in log-log;
+    for a target already met, the shorter record whose EDFs give it (every EDF in proportion)."""
+    scales = 2.0 ** (np.arange(0, 4 * 24 + 1) / 4.0)
+    preds: list[dict[str, float]] = []
+    for sc in scales:  # until every term reaches the smallest target
+        preds.append(predicted_pct(fit, points, float(sc), overlapping))
+        if all(v <= min(targets) for v in preds[-1].values()):
+            break
+    scales = scales[: len(preds)]
+    out: dict[str, dict[str, Optional[float]]] = {}
+    for name, now in preds[0].items():
+        curve = np.array([p.get(name, math.inf) for p in preds])
+        item: dict[str, Optional[float]] = {"pct": now}
+        for target in targets:
+            if now <= target:
+                item[target] = duration * edf_for(target / 100) / edf_for(now / 100)
+            else:
+                item[target] = _crossing(scales, curve, target, duration)
+        out[name] = item
+    return out
+
+
+def _crossing(scales: np.ndarray, pct: np.ndarray, target: float, duration: float) -> Optional[float]:
+    """The record length (s) where the predicted +-% falls to ``target`` (None: beyond the grid)."""
+    below = np.flatnonzero(pct <= target)
+    if below.size == 0:
+        return None
+    i = int(below[0])
+    x0, x1 = math.log(scales[i - 1]), math.log(scales[i])
+    y0, y1 = math.log(pct[i - 1]), math.log(pct[i])
+    x = x0 + (math.log(target) - y0) * (x1 - x0) / (y1 - y0) if y1 != y0 else x1
+    return float(math.exp(x) * duration)
+
+
+def add_to_analysis(doc: dict[str, Any], level: float = LEVEL, fits: Optional[dict[str, Any]] = None) -> None:
     """Adds to every identified term of ``analyze``'s document ``interval_pct`` (its
-    interval now), ``edf`` (the degrees of freedom of the points that carry it),
-    ``expected_pct`` (the half-width those give) and ``record_s_for_10pct``,
-    ``record_s_for_25pct``: the recording time (s from the start) after which they
-    give +-10 % and +-25 %, each point's EDF growing in proportion to the time."""
+    interval now), ``expected_pct`` (the interval the fitted model predicts now) and
+    ``record_s_for_10pct``, ``record_s_for_25pct``: the recording time (s from the
+    start) after which it would be +-10 % and +-25 %.
+
+    With the channels' ``fits`` (analyze's): from the fit's own least squares under
+    the fitted model (``record_for_target``). Without: from ``edf``, the degrees of
+    freedom of the points in the term's tau range (``term_edf``)."""
     duration = (doc.get("source") or {}).get("duration_s")
-    for ch in doc.get("channels", {}).values():
+    for ch_name, ch in doc.get("channels", {}).items():
         overlapping = (ch.get("fit") or {}).get("statistic") == "oadev"
+        points = (ch.get("fit") or {}).get("octave_points") or ch.get("curve") or []
+        fit = (fits or {}).get(ch_name)
+        model = (
+            record_for_target(fit, points, duration, overlapping)
+            if fit is not None and duration and hasattr(fit, "fitted")
+            else {}
+        )
         for name, term in (ch.get("terms") or {}).items():
             if not term:
                 continue
             term["interval_pct"] = term_interval_pct(term)
-            points = (ch.get("fit") or {}).get("octave_points") or ch.get("curve") or []
             nu = term_edf(points, term.get("tau_range_s"), name, overlapping)
             term["edf"] = nu
+            if name in model:
+                term["expected_pct"] = model[name]["pct"]
+                for target in TARGETS_PCT:
+                    term[f"record_s_for_{target}pct"] = model[name][target]
+                continue
             term["expected_pct"] = 100 * halfwidth(nu, level) if nu else None
             for target in TARGETS_PCT:
                 term[f"record_s_for_{target}pct"] = (
                     duration * edf_for(target / 100, level) / nu if nu and duration else None
                 )
+
+
+MODEL_ERROR_RATIO = 1.5
+"""A term's interval this much wider than its points' EDFs give is mostly the fit's
+model error (noise/fit.py), which does not shrink with time: the text says so."""
 
 
 def fmt_time(s: Optional[float]) -> str:
@@ -126,6 +247,7 @@ def analysis_text(doc: dict[str, Any]) -> str:
         f"Recording length (estimate: the model holds, each point's EDF grows with time; "
         f"95 % intervals; recorded {fmt_time(duration)}):"
     ]
+    marked = False
     for name, ch in doc.get("channels", {}).items():
         parts = []
         for k, term in (ch.get("terms") or {}).items():
@@ -133,13 +255,20 @@ def analysis_text(doc: dict[str, Any]) -> str:
                 continue
             pct, t10, t25 = term["interval_pct"], term["record_s_for_10pct"], term["record_s_for_25pct"]
             part = f"{k} +-{pct:.2g} % now"
-            pct = term.get("expected_pct") or pct
+            exp = term.get("expected_pct")
+            if exp and pct > MODEL_ERROR_RATIO * exp:  # the fit granted model error: time does not shrink it
+                part += " [model error]"
+                marked = True
+            pct = exp or pct
             for tgt, t in ((25, t25), (10, t10)):
                 if t is not None and pct > tgt:
                     part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
             parts.append(part)
         if parts:
             lines.append(f"  {name}: " + "; ".join(parts))
+    if marked:
+        lines.append("  [model error]: the interval is over 1.5 times what its points' EDFs give")
+        lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps")
     return "\n".join(lines) + "\n" if len(lines) > 1 else ""
 
 

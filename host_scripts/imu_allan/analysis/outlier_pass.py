@@ -2,8 +2,8 @@
 before the statistics, replaced (or kept, ``--outliers keep``), and reported:
 ``channels.<ch>.outliers`` and the document's ``outliers`` (docs/analysis.md).
 
-Both series' octave curves are computed when anything is found, so the report
-says how much N and B move with the outliers in and out."""
+Both series' octave curves are computed when anything is found (host_pass.py),
+so the report says how much N and B move with the outliers in and out."""
 
 from __future__ import annotations
 
@@ -11,9 +11,6 @@ import math
 from dataclasses import dataclass
 from typing import Any, Optional
 
-import numpy as np
-
-from ..errors import InputError
 from ..noise import terms
 from ..noise.fit import fit_curve
 from ..stats import allan
@@ -31,39 +28,16 @@ class OutlierPass:
     other: Optional[allan.OctaveResult]
 
 
-def outlier_pass(
-    name: str,
-    data: np.ndarray,
-    res: allan.OctaveResult,
-    chans: list[str],
-    fs: float,
-    mode: str,
-    exact_max: Optional[int],
-    notes: list[str],
-) -> tuple[np.ndarray, allan.OctaveResult, OutlierPass]:
-    """Scan ``data``; when replacing, the cleaned series and its octave curves
-    take the place of the raw ones. A recording that is mostly spikes is refused."""
-    found = outliers.scan(data, fs)
-    why = outliers.mostly_spikes(found, chans)
-    if why and mode == "replace":
-        raise InputError(f"'{name}': refused: {why}; --outliers keep analyzes it as it is")
-    if why:
-        notes.append(f"{why}: kept as asked (--outliers keep); its statistics describe the spikes")
-    if found.count == 0:
-        return data, res, OutlierPass(found, mode, None)
-    cleaned = outliers.replace(data, found, inplace=mode == "replace")  # the raw copy only when kept
-    eng = allan.OctaveEngine(data.shape[0], exact_max=exact_max)
-    eng.push(cleaned)
-    res_clean = eng.finish()
+def note_outliers(found: outliers.OutlierScan, mode: str, notes: list[str]) -> None:
+    """The document's note on what was found and done with it."""
     ev = [e for e in found.events if not e.step]
     if mode == "replace":
         notes.append(
             f"outliers: {found.count} samples in {_events(len(ev))} replaced by the line "
             "between their neighbours before the statistics (--outliers keep keeps them)"
         )
-        return cleaned, res_clean, OutlierPass(found, "replace", res)
-    notes.append(f"outliers: {found.count} samples in {_events(len(ev))} kept in the statistics (--outliers keep)")
-    return data, res, OutlierPass(found, "keep", res_clean)
+    else:
+        notes.append(f"outliers: {found.count} samples in {_events(len(ev))} kept in the statistics (--outliers keep)")
 
 
 def _events(k: int) -> str:

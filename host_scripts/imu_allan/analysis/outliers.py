@@ -53,9 +53,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Any, Iterator, Optional
 
 import numpy as np
+
+from . import diffscan
 
 SPIKE_SIGMA = 12.0
 """Core threshold, in robust standard deviations of the first differences."""
@@ -158,38 +160,40 @@ def scale_of_differences(d: np.ndarray) -> tuple[float, float, float, float]:
     sigma = 1.4826 MAD (grouped-data median when ``d`` is quantized), at least
     half a quantization step; core ratio = sigma over 1/Phi^-1(5/8) times the
     lower quartile of |d - median|."""
-    if d.size == 0:
-        return 0.0, 0.0, 0.0, 1.0
+    return _scale(diffscan.of_array(d), d.size)[:4]
+
+
+def _scale(pieces: diffscan.Pieces, n: int) -> tuple[float, float, float, float, float, float]:
+    """``scale_of_differences`` over the pieces of n differences, and their max and min."""
+    if n == 0:
+        return 0.0, 0.0, 0.0, 1.0, 0.0, 0.0
     # the grid: read on up to 2^16 differences spread over the record (all of them on a
     # channel too quiet to show 100 nonzero ones there); a few odd values (a glitch
     # between codes) allowed
-    sub = d[:: max(d.size >> 16, 1)]
+    sub, nzmin, dmax, dmin = diffscan.first_look(pieces, n, 16)
     nz = np.abs(sub[sub != 0])
-    if nz.size < 100:
-        nz = np.abs(d[d != 0])
-    q = float(nz.min()) if nz.size else 0.0
+    q = float(nz.min()) if nz.size >= 100 else (nzmin if math.isfinite(nzmin) else 0.0)
     quantized = False
     if q > 0:
         k = sub / q
         kr = np.rint(k)
         quantized = float(np.mean(np.abs(k - kr) < 1e-6)) > 0.999 and float(np.median(np.abs(kr))) < GRID_MAX
     if quantized:
-        cnt = np.bincount(
-            np.clip(np.rint(d / q), -GRID_MAX, GRID_MAX).astype(np.int64) + GRID_MAX, minlength=2 * GRID_MAX + 1
-        )
-        mid = int(np.searchsorted(np.cumsum(cnt), d.size / 2))  # the median's cell
+        cnt = diffscan.grid_counts(pieces, q, GRID_MAX)
+        mid = int(np.searchsorted(np.cumsum(cnt), n / 2))  # the median's cell
         med = q * (mid - GRID_MAX)
         folded = cnt[mid:].copy()  # counts of |k - median| = 0, 1, 2 ...
         left = cnt[: mid + 1][::-1]
         folded[1 : left.size] += left[1 : folded.size]
         mad = q * _grouped_quantile(folded, 0.5)
         q1 = q * _grouped_quantile(folded, 0.25)
-    else:
-        med = float(np.median(d))
-        mad, q1 = (float(v) for v in np.quantile(np.abs(d - med), [0.5, 0.25]))
+    else:  # exact order statistics, read in windows (diffscan.order_stats)
+        med = diffscan.quantiles(pieces, n, [0.5], lambda v: v)[0]
+        mad, q1 = diffscan.quantiles(pieces, n, [0.5, 0.25], lambda v: np.abs(v - med))
     s = max(MAD_TO_SIGMA * mad, q / 2)
     s1 = max(Q1_TO_SIGMA * q1, q / 2)
-    return float(med), float(s), (q if quantized else 0.0), float(s / s1) if s1 > 0 else 1.0
+    ratio = float(s / s1) if s1 > 0 else 1.0
+    return float(med), float(s), (q if quantized else 0.0), ratio, dmax, dmin
 
 
 def _grouped_quantile(cnt: np.ndarray, p: float) -> float:
@@ -236,34 +240,51 @@ def scan(
     """Find the spikes, bursts and steps of ``data`` ((channels, n), any units)."""
     data = np.atleast_2d(np.asarray(data, dtype=np.float64))
     C, n = data.shape
+    return scan_pieces(
+        [diffscan.of_array(np.diff(data[c])) for c in range(C)], n, fs, spike_sigma, extend_sigma, merge_s, bridge_s
+    )
+
+
+def scan_store(store, fs: float) -> OutlierScan:
+    """``scan`` of the channels of an analysis' store (store.py), piece by piece."""
+    return scan_pieces([diffscan.of_store(store, c) for c in range(store.channels)], store.n, fs)
+
+
+def scan_pieces(
+    channels: list[diffscan.Pieces],
+    n: int,
+    fs: float,
+    spike_sigma: float = SPIKE_SIGMA,
+    extend_sigma: float = EXTEND_SIGMA,
+    merge_s: float = MERGE_S,
+    bridge_s: float = BRIDGE_S,
+) -> OutlierScan:
+    """``scan`` of n samples per channel given as their differences' pieces."""
     gap = max(int(math.ceil(merge_s * fs)), 2)
     bridge = max(int(math.ceil(bridge_s * fs)), 2)
     chans: list[ChannelScan] = []
     g_start, g_stop, g_chan, g_peak = [], [], [], []
-    for c in range(C):
-        d = np.diff(data[c])
-        med, s, q, ratio = scale_of_differences(d)
+    none = np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
+    for c, pieces in enumerate(channels):
+        med, s, q, ratio, dmax, dmin = _scale(pieces, max(n - 1, 0))
         if s <= 0 or not np.isfinite(s):
-            chans.append(ChannelScan(float(s), q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), 0.0, ratio))
+            chans.append(ChannelScan(float(s), q, *none, 0.0, ratio))
             continue
-        zmax = max(float(d.max()) - med, med - float(d.min())) / s
-        if zmax <= spike_sigma:  # no core: nothing to flag (the common case, one pass)
-            chans.append(ChannelScan(s, q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), zmax, ratio))
-            continue
-        z = np.abs(d - med) / s
-        core = z > spike_sigma
-        if not core.any():  # only a non-finite value got here
-            chans.append(ChannelScan(s, q, np.zeros((0, 2), np.int64), np.zeros(0, np.int64), zmax, ratio))
+        zmax = max(dmax - med, med - dmin) / s
+        if zmax <= spike_sigma:  # no core: nothing to flag (the common case)
+            chans.append(ChannelScan(s, q, *none, zmax, ratio))
             continue
         # runs above the hysteresis level, merged on this channel when closer than the
         # bridge, kept when they hold a core; differences [a, b) disturb samples a+1 .. b-1
-        ga, gb, _ = _merge(*_runs(z > extend_sigma), bridge)
-        cc = np.concatenate(([0], np.cumsum(core)))
-        keep = cc[gb] - cc[ga] > 0
-        ga, gb = ga[keep], gb[keep]
-        # each group's largest z: reduceat runs on to the next group's start, but
-        # nothing between groups exceeds the core threshold, which each group does
-        peak = np.maximum.reduceat(z, ga)
+        ra, rb, rcore, rpeak = diffscan.runs_above(pieces, med, s, extend_sigma, spike_sigma)
+        if not rcore.any():  # only a non-finite value got here
+            chans.append(ChannelScan(s, q, *none, zmax, ratio))
+            continue
+        ga, gb, grp = _merge(ra, rb, bridge)
+        keep = np.bincount(grp, weights=rcore, minlength=ga.size) > 0
+        peak = np.full(ga.size, -np.inf)
+        np.maximum.at(peak, grp, rpeak)  # each group's largest z
+        ga, gb, peak = ga[keep], gb[keep], peak[keep]
         spans = np.stack([ga + 1, gb], axis=1).astype(np.int64)
         step = spans[:, 1] == spans[:, 0]
         chans.append(ChannelScan(s, q, spans[~step], spans[step, 0], zmax, ratio))
@@ -273,17 +294,21 @@ def scan(
         g_peak.append(peak)
     res = OutlierScan(n, float(fs), chans)
     if g_start:
-        st, sp, ch, pk = (np.concatenate(v) for v in (g_start, g_stop, g_chan, g_peak))
-        es, et, grp = _merge(st, sp, gap)
-        order = np.argsort(grp, kind="stable")
-        first = np.flatnonzero(np.diff(np.concatenate(([-1], grp[order]))))
-        peaks = np.maximum.reduceat(pk[order], first)
-        moved = np.logical_or.reduceat((sp > st)[order], first)  # a step only when every member is one
-        masks = np.bitwise_or.reduceat(np.left_shift(1, ch[order].astype(np.int64)), first)
-        for e in range(es.size):
-            members = tuple(c for c in range(C) if int(masks[e]) >> c & 1)
-            res.events.append(Event(int(es[e]), int(et[e]) if moved[e] else int(es[e]), members, float(peaks[e])))
+        _events(res, *(np.concatenate(v) for v in (g_start, g_stop, g_chan, g_peak)), gap, len(channels))
     return res
+
+
+def _events(res: OutlierScan, st: np.ndarray, sp: np.ndarray, ch: np.ndarray, pk: np.ndarray, gap: int, C: int) -> None:
+    """The groups of every channel closer than ``gap`` as events of ``res``."""
+    es, et, grp = _merge(st, sp, gap)
+    order = np.argsort(grp, kind="stable")
+    first = np.flatnonzero(np.diff(np.concatenate(([-1], grp[order]))))
+    peaks = np.maximum.reduceat(pk[order], first)
+    moved = np.logical_or.reduceat((sp > st)[order], first)  # a step only when every member is one
+    masks = np.bitwise_or.reduceat(np.left_shift(1, ch[order].astype(np.int64)), first)
+    for e in range(es.size):
+        members = tuple(c for c in range(C) if int(masks[e]) >> c & 1)
+        res.events.append(Event(int(es[e]), int(et[e]) if moved[e] else int(es[e]), members, float(peaks[e])))
 
 
 def replace(data: np.ndarray, found: OutlierScan, inplace: bool = False) -> np.ndarray:
@@ -302,6 +327,27 @@ def replace(data: np.ndarray, found: OutlierScan, inplace: bool = False) -> np.n
         frac = (pos - left) / (right - left)
         x[pos] = x[left] + (x[right] - x[left]) * frac
     return out
+
+
+def replaced_pieces(pieces: Any, spans: np.ndarray, ends: tuple[np.ndarray, np.ndarray]) -> Iterator[np.ndarray]:
+    """``replace`` of one channel given as pieces (start, float64 samples): the
+    disturbed spans as the line between the good samples on either side
+    (``ends``: their values x[s - 1] and x[t]), the same numbers as ``replace``."""
+    s, t = spans[:, 0], spans[:, 1]
+    xl, xr = ends
+    for a, x in pieces:
+        x = np.array(x, dtype=np.float64, copy=True)
+        b = a + x.size
+        k = np.flatnonzero((t > a) & (s < b))
+        if k.size:
+            lens = np.minimum(t[k], b) - np.maximum(s[k], a)
+            first = np.maximum(s[k], a)
+            pos = np.repeat(first, lens) + (np.arange(lens.sum()) - np.repeat(np.cumsum(lens) - lens, lens))
+            left, right = np.repeat(s[k] - 1, lens), np.repeat(t[k], lens)
+            vl, vr = np.repeat(xl[k], lens), np.repeat(xr[k], lens)
+            frac = (pos - left) / (right - left)
+            x[pos - a] = vl + (vr - vl) * frac
+        yield x
 
 
 def mostly_spikes(found: OutlierScan, names: Optional[list[str]] = None) -> Optional[str]:

@@ -19,7 +19,7 @@ scaled to the channel's rate unit u at the end (variances times scale^2).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Optional
 
 import numpy as np
@@ -28,13 +28,15 @@ from .._version import __version__
 from ..channels import CHANNELS, CODE_MAX
 from ..device.records import DeviceReport, flag_names
 from ..errors import InputError
-from ..noise import model, terms
+from ..noise import terms
 from ..noise.fit import fit_curve as fit_noise
 from ..profiles import Profile, term_unit, to_si_rad
-from ..progress import Progress
-from ..sources.detect import SampleSource, Source
+from ..sources.detect import Source
 from ..stats import allan, edf, psd
-from .outlier_pass import OutlierPass, outlier_pass, outliers_doc, outliers_json
+from . import overbound
+from .host_pass import Curve, HostPass, host_curves, host_pass
+from .model_pass import model_all
+from .outlier_pass import outliers_doc, outliers_json
 
 LEVEL = 0.95
 
@@ -48,32 +50,16 @@ class Options:
     extra_curves: bool = True
     """MDEV and HDEV beside the Allan deviations (needs the samples in memory)."""
     seed: int = 1
-    memory_budget: int = 1 << 30
+    memory_budget: int = 256 << 20
     """Bytes of float64 samples kept in memory for the in-memory statistics."""
-    exact_max: int = 1 << 21
-    """Octave levels exact up to this m; above it (streams longer than 2^22
-    samples) strided (allan.py). Bounds the ring buffers to ~32 MB per channel."""
+    keep_store: bool = False
+    """Leave the samples' store open in the result (``Analysis.store``) for
+    more work on the same samples (the warm-up windows); the caller closes it."""
     outliers: str = "replace"
     """Spikes and bursts (outliers.py): replace (interpolated, left out of the
     statistics) or keep (counted and listed only)."""
-
-
-@dataclass
-class HostPass:
-    """What one pass over the samples gave: the octave engine's result, the
-    samples themselves when they fit in memory, and the Welch PSD."""
-
-    n: int
-    octave: allan.OctaveResult
-    data: Optional[np.ndarray]
-    """(channels, n) float64 samples in input units, or None when streamed."""
-    psd: tuple[np.ndarray, np.ndarray]
-    taus: str
-    """The tau grid of the curves: the one asked, or octave when streamed."""
-    clipped: Optional[np.ndarray] = None
-    """Samples at code 0 or 1023 per channel (ADC codes only)."""
-    outliers: Optional[OutlierPass] = None
-    """The spikes and bursts found (None when the samples were streamed)."""
+    horizon: Optional[float] = None
+    """Longest tau (s) the over-bounding N + K pair covers (overbound.py; None: its default)."""
 
 
 @dataclass
@@ -83,17 +69,13 @@ class Analysis:
 
     doc: dict[str, Any]
     fits: dict[str, terms.FitResult]
+    store: Any = None
+    """The samples (store.py) when ``Options.keep_store``; ``close()`` frees them."""
 
-
-@dataclass
-class _Curve:
-    """One statistic of one channel at its taus, in input units squared."""
-
-    ms: np.ndarray
-    var: np.ndarray
-    N: np.ndarray  # phase points behind each value (samples + 1)
-    stride: np.ndarray
-    flags: list[list[str]] = field(default_factory=list)
+    def close(self) -> None:
+        if self.store is not None:
+            self.store.close()
+            self.store = None
 
 
 def analyze(src: Source, profile: Profile, opts: Options, device: Optional[DeviceReport] = None) -> Analysis:
@@ -130,7 +112,7 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
     }
     host = None
     if samples is not None:
-        host = _host_pass(samples, chans, fs, opts, notes)
+        host = host_pass(samples, chans, fs, opts, notes)
         doc["source"]["n"] = host.n
         doc["source"]["duration_s"] = host.n / fs
         notes.extend(samples.notes)
@@ -139,12 +121,20 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
         doc["source"]["duration_s"] = report.header.n / fs
     fits: dict[str, terms.FitResult] = {}
     fit_curves: dict[str, list[tuple[int, float]]] = {}
-    for c_i, ch in enumerate(chans):
-        doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
-    doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
-    if opts.model:
-        _model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
-    return Analysis(_jsonable(doc), fits)
+    try:
+        for c_i, ch in enumerate(chans):
+            doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
+        doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
+        if opts.model:
+            model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
+        overbound.add_to_doc(doc, opts.horizon)
+    except BaseException:
+        if host is not None:
+            host.close()
+        raise
+    if host is not None and not opts.keep_store:
+        host.close()
+    return Analysis(_jsonable(doc), fits, host.store if host is not None and opts.keep_store else None)
 
 
 # ---- input checks -------------------------------------------------------------------
@@ -174,104 +164,11 @@ def _channels(available: list[str], wanted: Optional[list[str]]) -> list[str]:
     return [c for c in available if c in wanted]
 
 
-# ---- the pass over the samples ------------------------------------------------------------
-
-
-def _host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Options, notes: list[str]) -> HostPass:
-    sel = [samples.channels.index(c) for c in chans]
-    C = len(chans)
-    eng = allan.OctaveEngine(C, exact_max=opts.exact_max)
-    kept: Optional[list[np.ndarray]] = []
-    kept_bytes = 0
-    n = 0
-    clipped = np.zeros(C, dtype=np.int64)
-    hint = samples.n_hint
-    with Progress(f"reading {samples.name}", hint, unit=" samples") as bar:
-        for block in samples.open_blocks():
-            b = block[sel] if len(sel) != block.shape[0] else block
-            eng.push(b)
-            n += b.shape[1]
-            if samples.integer:
-                clipped += np.count_nonzero((b == 0) | (b == CODE_MAX), axis=1)
-            if kept is not None:
-                kept.append(b)
-                kept_bytes += b.shape[1] * C * 8
-                if kept_bytes > opts.memory_budget:
-                    kept = None
-                    notes.append(
-                        f"more samples than --memory allows ({opts.memory_budget / 2**20:.0f} MB): "
-                        "octave overlapping and non-overlapping ADEV and the PSD only, streamed"
-                    )
-            bar.update(n)
-    if n < 4:
-        raise InputError(f"'{samples.name}': {n} samples: too few for any statistic")
-    res = eng.finish()
-    data = np.concatenate(kept, axis=1) if kept is not None else None
-    found = None
-    if data is not None:
-        data, res, found = outlier_pass(samples.name, data, res, chans, fs, opts.outliers, opts.exact_max, notes)
-    else:
-        notes.append("outliers not checked: the samples were streamed (more than --memory allows)")
-    welch = psd.Welch(C, fs, psd.segment_length(n))  # pwelch's segments need n: a second pass if streamed
-    if data is None:
-        with Progress("PSD", n, unit=" samples") as bar:
-            done = 0
-            for block in samples.open_blocks():
-                welch.push(block[sel] if len(sel) != block.shape[0] else block)
-                done += block.shape[1]
-                bar.update(done)
-    else:
-        welch.push(data)
-    if opts.taus != "octave" and data is None:
-        notes.append(f"--taus {opts.taus} needs the samples in memory: octave taus used instead")
-    return HostPass(
-        n,
-        res,
-        data,
-        welch.result(),
-        opts.taus if data is not None else "octave",
-        clipped if samples.integer else None,
-        found,
-    )
-
-
-def _host_curves(host: HostPass, c_i: int, extra: bool = True) -> dict[str, _Curve]:
-    """The host's curves of channel c_i: oavar (fitted), avar, mvar, hvar (input units^2)."""
-    res = host.octave
-    n = host.n
-    out: dict[str, _Curve] = {}
-    data = host.data
-    if host.taus == "octave":
-        out["oavar"] = _Curve(res.ms, res.oavar[:, c_i], np.full(res.ms.size, n + 1), res.stride)
-        ok = res.pairs > 0
-        out["avar"] = _Curve(res.ms[ok], res.avar[ok, c_i], np.full(int(ok.sum()), n + 1), res.ms[ok])
-    if data is not None:
-        x = data[c_i]
-        if host.taus != "octave":
-            ms = allan.tau_grid(host.taus, allan.max_m("oavar", n))
-            with Progress("overlapping AVAR", ms.size) as bar:
-                v, _ = allan.oavar(x, ms, progress=bar.update)
-            out["oavar"] = _Curve(ms, v, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
-            v, cnt = allan.avar(x, ms)
-            ok = cnt > 0
-            out["avar"] = _Curve(ms[ok], v[ok], np.full(int(ok.sum()), n + 1), ms[ok])
-        if not extra:
-            return out
-        ms3 = allan.tau_grid(host.taus, allan.max_m("mvar", n))
-        with Progress("modified AVAR", ms3.size) as bar:
-            v, _ = allan.mvar(x, ms3, progress=bar.update)
-        out["mvar"] = _Curve(ms3, v, np.full(ms3.size, n + 1), np.ones(ms3.size, dtype=np.int64))
-        with Progress("Hadamard variance", ms3.size) as bar:
-            v, _ = allan.ohvar(x, ms3, progress=bar.update)
-        out["hvar"] = _Curve(ms3, v, np.full(ms3.size, n + 1), np.ones(ms3.size, dtype=np.int64))
-    return out
-
-
-def device_curve(report: DeviceReport, ch: str) -> _Curve:
+def device_curve(report: DeviceReport, ch: str) -> Curve:
     """The on-device octave AVAR of ``ch`` as a curve (levels with pairs, by m)."""
     rows = sorted((r for r in report.rows if r.channel == ch and r.pairs > 0), key=lambda r: r.level)
     ms = np.array([r.m for r in rows], dtype=np.int64)
-    return _Curve(
+    return Curve(
         ms,
         np.array([r.avar for r in rows]),
         np.array([r.covers + 1 for r in rows]),
@@ -297,12 +194,12 @@ def _channel(
     points of the fit's octave grid (FIT% is computed on them whatever --taus shows)."""
     sc = profile.scale(ch)
     k2 = sc.per_count**2
-    curves = _host_curves(host, c_i, opts.extra_curves) if host is not None else {}
+    curves = host_curves(host, c_i, opts.extra_curves) if host is not None else {}
     dev = device_curve(report, ch) if report is not None else None
     if host is not None:
         main, overlapping, stat = curves["oavar"], True, "oadev"
         res: allan.OctaveResult = host.octave  # the fit's grid, whatever --taus shows
-        fitc = _Curve(res.ms, res.oavar[:, c_i], np.full(res.ms.size, host.n + 1), res.stride)
+        fitc = Curve(res.ms, res.oavar[:, c_i], np.full(res.ms.size, host.n + 1), res.stride)
         mask = None
     elif dev is not None:
         main, overlapping, stat = dev, False, "adev (device)"
@@ -330,24 +227,13 @@ def _channel(
         "term_notes": _term_notes(fit, _clipping(ch, c_i, host, report, notes)),
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items() if k in terms.TERMS},
         "b_classic": _b_classic(fit),
-        "fit": {
-            "statistic": stat,
-            "grid": "octave",
-            "chi2_dof": _num(fit.chi2_red),
-            "tau_window_s": (
-                [float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)] if fit.used.any() else None
-            ),
-            "points": int(fit.used.sum()),
-            "notes": fit.notes,
-            "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]} for r in fit.unexplained],
-            **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs),
-        },
+        "fit": _fit_json(fit, fitc, stat, fs),
         "curve": _points(main, fs, k2, fit, d=2, modified=False, used=used),
     }
     # the fit's own octave points with their EDFs, whatever grid --taus shows: what the
     # recording-length advice counts (docs/dynamic.md)
     out["fit"]["octave_points"] = [
-        {"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u)}
+        {"tau_s": p["tau_s"], "edf": p["edf"], "used": bool(u), "dev": p["dev"], "high": p["high"]}
         for p, u in zip(_points(fitc, fs, k2, fit, d=2, modified=False), fit.used)
     ]
     extra = {}
@@ -361,18 +247,51 @@ def _channel(
     if dev is not None and host is not None:
         out["device"] = _device_json(dev, fs, k2, fit, main)
     if host is not None:
-        f, p = host.psd
-        fb, pb = psd.log_bins(f, p[c_i : c_i + 1] * k2)
-        lines = psd.term_psd(fb, fit.values(), fs)
-        out["psd"] = {
-            "method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
-            "unit": f"({sc.unit})^2/Hz",
-            "f_hz": _list(fb),
-            "psd": _list(pb[0]),
-            "terms": {k: _list(v) for k, v in lines.items()},
-        }
+        out["psd"] = _psd_json(host, c_i, sc.unit, k2, fit, fs)
+    out["si"] = _si_json(sc, out["terms"])
+    fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
+    fit_curve = [
+        (int(m), float(math.sqrt(v * k2)))
+        for m, v, f in zip(fitc.ms, fitc.var, fl)
+        if math.isfinite(v) and v > 0 and not f
+    ]  # FIT%'s grid
+    return out, fit, fit_curve
+
+
+def _fit_json(fit: terms.FitResult, fitc: Curve, stat: str, fs: float) -> dict[str, Any]:
+    """``channels.<ch>.fit``: which curve was fitted, where, and how well."""
+    return {
+        "statistic": stat,
+        "grid": "octave",
+        "chi2_dof": _num(fit.chi2_red),
+        "tau_window_s": (
+            [float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)] if fit.used.any() else None
+        ),
+        "points": int(fit.used.sum()),
+        "notes": fit.notes,
+        "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]} for r in fit.unexplained],
+        **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs),
+    }
+
+
+def _psd_json(host: HostPass, c_i: int, unit: str, k2: float, fit: terms.FitResult, fs: float) -> dict[str, Any]:
+    """``channels.<ch>.psd``: the Welch PSD in log bins and the terms' levels."""
+    f, p = host.psd
+    fb, pb = psd.log_bins(f, p[c_i : c_i + 1] * k2)
+    lines = psd.term_psd(fb, fit.values(), fs)
+    return {
+        "method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
+        "unit": f"({unit})^2/Hz",
+        "f_hz": _list(fb),
+        "psd": _list(pb[0]),
+        "terms": {k: _list(v) for k, v in lines.items()},
+    }
+
+
+def _si_json(sc: Any, terms_doc: dict[str, Any]) -> dict[str, Any]:
+    """``channels.<ch>.si``: the terms with rates in rad/s (gyros) or m/s^2."""
     si = to_si_rad(sc)
-    out["si"] = {
+    return {
         "unit": "rad/s" if sc.unit == "deg/s" else sc.unit,
         "terms": {
             k: (
@@ -383,16 +302,9 @@ def _channel(
                     for kk, vv in v.items()
                 }
             )
-            for k, v in out["terms"].items()
+            for k, v in terms_doc.items()
         },
     }
-    fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
-    fit_curve = [
-        (int(m), float(math.sqrt(v * k2)))
-        for m, v, f in zip(fitc.ms, fitc.var, fl)
-        if math.isfinite(v) and v > 0 and not f
-    ]  # FIT%'s grid
-    return out, fit, fit_curve
 
 
 def _clipping(
@@ -489,7 +401,7 @@ def _alphas(fit: terms.FitResult, tau: np.ndarray) -> tuple[np.ndarray, list[str
 
 
 def _points(
-    cv: _Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modified: bool, used: Optional[np.ndarray] = None
+    cv: Curve, fs: float, k2: float, fit: terms.FitResult, d: int, modified: bool, used: Optional[np.ndarray] = None
 ) -> list[dict[str, Any]]:
     tau = cv.ms / fs
     alpha, dom = _alphas(fit, tau)
@@ -520,7 +432,7 @@ def _points(
     return out
 
 
-def _edf_for(cv: _Curve, alpha: np.ndarray, d: int, modified: bool) -> np.ndarray:
+def _edf_for(cv: Curve, alpha: np.ndarray, d: int, modified: bool) -> np.ndarray:
     table = edf.edf_points(
         cv.ms, cv.N, cv.stride, d=d, modified=modified, alphas=tuple(sorted(set(int(a) for a in alpha)))
     )
@@ -530,7 +442,7 @@ def _edf_for(cv: _Curve, alpha: np.ndarray, d: int, modified: bool) -> np.ndarra
     return out
 
 
-def _device_json(dev: _Curve, fs: float, k2: float, fit: terms.FitResult, host: _Curve) -> dict[str, Any]:
+def _device_json(dev: Curve, fs: float, k2: float, fit: terms.FitResult, host: Curve) -> dict[str, Any]:
     pts = _points(dev, fs, k2, fit, d=2, modified=False)
     host_var = {int(m): v * k2 for m, v in zip(host.ms, host.var)}
     checked = within = 0
@@ -557,93 +469,6 @@ def _device_json(dev: _Curve, fs: float, k2: float, fit: terms.FitResult, host: 
             "the device's non-overlapping value (EDF from its pairs)",
         },
     }
-
-
-# ---- the thesis model ---------------------------------------------------------------------
-
-
-def _tau_b(fit: terms.FitResult) -> Optional[float]:
-    b = fit.terms["B"]
-    if b.tau_range:
-        return math.sqrt(b.tau_range[0] * b.tau_range[1])
-    if fit.b_classic:
-        return fit.b_classic["tau_s"]
-    return None
-
-
-def _model_all(
-    doc: dict[str, Any],
-    fits: dict[str, terms.FitResult],
-    fit_curves: dict[str, list[tuple[int, float]]],
-    chans: list[str],
-    profile: Profile,
-    fs: float,
-    host: Optional[HostPass],
-    report: Optional[DeviceReport],
-    opts: Options,
-) -> None:
-    params = []
-    for ch in chans:
-        fit = fits[ch]
-        vals = {k: (fit.terms[k].value if fit.terms[k].value is not None else None) for k in terms.TERMS}
-        params.append(model.from_terms(vals, fs, _tau_b(fit)))
-    n = (
-        host.n
-        if host is not None
-        else (max((r.covers for r in report.rows if r.pairs), default=0) if report is not None else 0)
-    )
-    if n < 4:
-        return
-    C = len(chans)
-    eng = allan.OctaveEngine(C, exact_max=opts.exact_max, total=n)
-    nseg = psd.segment_length(n)
-    welch = psd.Welch(C, fs, nseg) if host is not None else None
-    data = host.data if host is not None else None
-    sig_num = np.zeros(C)
-    sig_den = np.zeros(C)
-    gens = [model.simulate(p, n, seed=opts.seed * 1000 + i) for i, p in enumerate(params)]
-    done = 0
-    scale = np.array([profile.scale(ch).per_count for ch in chans])
-    means = data.mean(axis=1) * scale if data is not None else None
-    with Progress("simulating the thesis model", n, unit=" samples") as bar:
-        for blocks in zip(*gens):
-            b = np.stack(blocks)
-            eng.push(b)
-            if welch is not None:
-                welch.push(b)
-            if data is not None:
-                L = b.shape[1]
-                s = data[:, done : done + L] * scale[:, None] - means[:, None]  # type: ignore[index]
-                sig_num += np.sum((s - b) ** 2, axis=1)
-                sig_den += np.sum(s**2, axis=1)
-            done += b.shape[1]
-            bar.update(done)
-    res = eng.finish()
-    f, p = welch.result() if welch is not None else (None, None)
-    for i, ch in enumerate(chans):
-        c = doc["channels"][ch]
-        mp = params[i]
-        out: dict[str, Any] = {"params": mp.as_dict(), "fit_percent": {}}
-        # ADEV curves on the fit's octave grid whatever --taus shows, so FIT% does not depend on it
-        sim = {int(m): v for m, v in zip(res.ms, res.oavar[:, i] if host is not None else res.avar[:, i])}
-        pts = [(m, d) for m, d in fit_curves[ch] if m in sim and math.isfinite(sim[m]) and sim[m] > 0]
-        pairs = [(d, math.sqrt(sim[m])) for m, d in pts]
-        out["curve"] = [{"tau_s": m / fs, "dev": math.sqrt(sim[m])} for m, _ in pts]
-        if pairs:
-            s_, m_ = np.log10([a for a, _ in pairs]), np.log10([b for _, b in pairs])
-            out["fit_percent"]["adev_log10"] = model.fit_percent(s_, m_)
-            out["fit_percent"]["adev_log10_nrmse"] = model.fit_nrmse(s_, m_)
-        if f is not None and "psd" in c and p.shape[1]:
-            fb, pb = psd.log_bins(f, p[i : i + 1])
-            sp = np.array(c["psd"]["psd"])
-            if sp.size == pb.shape[1] and sp.size:
-                ok = (sp > 0) & (pb[0] > 0)
-                out["fit_percent"]["psd_log10"] = model.fit_percent(np.log10(sp[ok]), np.log10(pb[0][ok]))
-                out["fit_percent"]["psd_log10_nrmse"] = model.fit_nrmse(np.log10(sp[ok]), np.log10(pb[0][ok]))
-                out["psd"] = _list(pb[0])
-        if data is not None and sig_den[i] > 0:
-            out["fit_percent"]["signal"] = (1.0 - math.sqrt(sig_num[i] / sig_den[i])) * 100.0
-        c["model"] = out
 
 
 # ---- JSON helpers ---------------------------------------------------------------------------

@@ -168,6 +168,12 @@ def _stuck_notes(x: np.ndarray) -> list[str]:
     ]
 
 
+# Block means of the temperature that span fewer codes than this cannot tell a
+# tempco apart from the noise: no thermal fit is made (a fit would print
+# tempco 0 [0, 0], which reads as a measured zero).
+MIN_SPAN_CODES = 3
+
+
 def study(
     path: str,
     fs: Optional[float] = None,
@@ -175,14 +181,14 @@ def study(
     profile: str = "counts",
     segments: int = SEGMENTS,
     outliers_mode: str = "replace",
+    scales: Optional[dict[str, tuple[float, str]]] = None,
 ) -> dict[str, Any]:
+    """Bias against temperature per channel, and the noise terms before and
+    after removing it (``imu-allan thermal``); ``scales`` as analyze's --scale."""
     from ..profiles import build_profile
-    from ..sources.detect import SampleSource, Source
-    from .pipeline import Options, analyze
 
     codes, fs_file, kind = read_with_temperature(path)
-    if fs is None:
-        fs = fs_file
+    fs = fs if fs is not None else fs_file
     if fs is None:
         raise InputError("the sample rate is unknown: give --fs HZ (a rows file does not carry it)")
     n = codes.shape[1]
@@ -197,61 +203,56 @@ def study(
     nb = n // L
     Tb = T[: nb * L].reshape(nb, L).mean(axis=1)
     centres = (np.arange(nb) + 0.5) * L
-    T_smooth = np.interp(np.arange(n), centres, Tb)
     span = float(Tb.max() - Tb.min())
-    notes = []
-    if span < 3 * scale:
-        notes.append(f"the temperature moved only {span:.3g} {t_unit}: no tempco can be told apart from the noise")
+    doc = _skeleton(path, fs, n, T, Tb, t_unit, temp_scale, profile)
+    if span < MIN_SPAN_CODES * scale:
+        doc["notes"].append(
+            f"temperature does not vary (range {span:.3g} {t_unit}, under {MIN_SPAN_CODES} codes): no thermal fit"
+        )
+        return doc
     d = np.diff(Tb)
     mono = bool(np.all(d >= -3 * scale / math.sqrt(L)) or np.all(d <= 3 * scale / math.sqrt(L)))
+    doc["temperature"]["one_way"] = mono
+    notes = doc["notes"]
     if mono:
         notes.append(
             "the temperature went one way only (a ramp): a drift of the bias at the same time "
             "(e.g. rate random walk) is indistinguishable from a thermal bias; a cycle up and "
             "down separates them"
         )
-    prof = build_profile(profile, {}, None)
+    prof = build_profile(profile, scales or {}, None)
     x = codes[:6].astype(np.float64)
     notes += _stuck_notes(x)
-    x, spikes = _outliers(path, x, fs, outliers_mode, notes)  # before the block means and the terms
+    x, doc["outliers"] = _outliers(path, x, fs, outliers_mode, notes)  # before the block means and the terms
     xb = x[:, : nb * L].reshape(6, nb, L).mean(axis=2)
+    T_smooth = np.interp(np.arange(n), centres, Tb)
     t_s = centres / fs
     D = L / fs
-
-    def remove(regs: list[dict[str, Any]]) -> np.ndarray:
-        out = np.empty_like(x)
-        for c, reg in enumerate(regs):
-            _, c1, c2 = reg["coef"]
-            dT = T_smooth - reg["t_ref"]
-            out[c] = x[c] - (c1 * dT + c2 * dT * dT)
-        return out
-
-    def counts_terms(data: np.ndarray) -> dict[str, Any]:
-        src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda: iter([data]), False, fs=fs, n_hint=n), None)
-        doc = analyze(
-            src, build_profile("counts", {}, None), Options(fs=fs, extra_curves=False, model=False, outliers="keep")
-        ).doc
-        # a term the data cannot pin down still moves the bias: its 95 % upper bound
-        # stands for it (conservative intervals rather than too narrow ones)
-        return {
-            ch: {
-                k: (v or {}).get("value") or c["upper_bounds"].get(k)
-                for k, v in c["terms"].items()
-                if k in ("N", "B", "K")
-            }
-            for ch, c in doc["channels"].items()
-        }
-
     # 1) ordinary least squares; 2) the noise terms of what is left give the blocks'
     # covariance; 3) generalized least squares with it (estimate and intervals)
     regs = [regress(Tb, xb[c]) for c in range(6)]
-    noise = counts_terms(remove(regs))
+    noise = _counts_terms(path, kind, _remove(x, regs, T_smooth), fs)
     regs = [regress(Tb, xb[c], block_covariance(t_s, D, noise[ch])) for c, ch in enumerate(CHANNELS)]
-    corrected = remove(regs)
+    corrected = _remove(x, regs, T_smooth)
     chans = {ch: _channel_doc(regs[c], ch, prof, t_unit, Tb, xb[c], D, noise[ch]) for c, ch in enumerate(CHANNELS)}
     _before_after(chans, path, kind, x, corrected, T_smooth, fs, prof)
     if segments > 1:
         _terms_by_temperature(chans, corrected, T, fs, segments, path, kind, prof, t_unit)
+    doc.update(fitted=True, channels=chans)
+    return doc
+
+
+def _skeleton(
+    path: str,
+    fs: float,
+    n: int,
+    T: np.ndarray,
+    Tb: np.ndarray,
+    t_unit: str,
+    temp_scale: Optional[tuple[float, float]],
+    profile: str,
+) -> dict[str, Any]:
+    """The thermal document before any fit: the file and its temperature."""
     return {
         "tool": "imu-allan thermal",
         "file": path,
@@ -262,13 +263,44 @@ def study(
             "min": float(Tb.min()),
             "max": float(Tb.max()),
             "mean": float(T.mean()),
-            "one_way": mono,
-            "scale": {"c_per_count": scale, "offset_c": off} if temp_scale else None,
+            "one_way": None,
+            "scale": {"c_per_count": temp_scale[0], "offset_c": temp_scale[1]} if temp_scale else None,
         },
         "profile": profile,
-        "channels": chans,
-        "outliers": spikes,
-        "notes": notes,
+        "fitted": False,
+        "channels": {},
+        "outliers": None,
+        "notes": [],
+    }
+
+
+def _remove(x: np.ndarray, regs: list[dict[str, Any]], T_smooth: np.ndarray) -> np.ndarray:
+    """The channels with each one's fitted thermal bias taken out."""
+    out = np.empty_like(x)
+    for c, reg in enumerate(regs):
+        _, c1, c2 = reg["coef"]
+        dT = T_smooth - reg["t_ref"]
+        out[c] = x[c] - (c1 * dT + c2 * dT * dT)
+    return out
+
+
+def _counts_terms(path: str, kind: str, data: np.ndarray, fs: float) -> dict[str, dict[str, Any]]:
+    """N, B, K of each channel in counts (analyze's fit, outliers already handled)."""
+    from ..profiles import build_profile
+    from ..sources.detect import SampleSource, Source
+    from .pipeline import Options, analyze
+
+    n = data.shape[1]
+    src = Source(path, SampleSource(kind, path, list(CHANNELS), lambda: iter([data]), False, fs=fs, n_hint=n), None)
+    doc = analyze(
+        src, build_profile("counts", {}, None), Options(fs=fs, extra_curves=False, model=False, outliers="keep")
+    ).doc
+    # a term the data cannot pin down still moves the bias: its 95 % upper bound
+    # stands for it (conservative intervals rather than too narrow ones)
+    bound = lambda c, k, v: (v or {}).get("value") or c["upper_bounds"].get(k)  # noqa: E731
+    return {
+        ch: {k: bound(c, k, v) for k, v in c["terms"].items() if k in ("N", "B", "K")}
+        for ch, c in doc["channels"].items()
     }
 
 
@@ -483,90 +515,3 @@ def _with_thermal(
     if not pairs:
         return None
     return model.fit_percent(np.log10([a for a, _ in pairs]), np.log10([b for _, b in pairs]))
-
-
-def _iv(v: Optional[dict[str, Any]]) -> str:
-    if not v:
-        return "-"
-    return f"{v['value']:.3g} [{v['low']:.3g}, {v['high']:.3g}]"
-
-
-def text(doc: dict[str, Any]) -> str:
-    t = doc["temperature"]
-    lines = [
-        f"{doc['file']}: {doc['n']} samples at {doc['fs_hz']:g} Hz ({doc['n'] / doc['fs_hz']:.0f} s); "
-        f"temperature {t['min']:.4g} .. {t['max']:.4g} {t['unit']} (block means)",
-        "",
-    ]
-    head = (
-        "ch",
-        "tempco [95 %]",
-        "unit",
-        "model",
-        "N before",
-        "N after",
-        "B before",
-        "B after",
-        "K before",
-        "K after",
-        "R before",
-        "R after",
-        "FIT% raw",
-        "FIT% +thermal",
-    )
-    rows = [head]
-    for ch, c in doc["channels"].items():
-        fp = c["fit_percent"]
-        f = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
-        rows.append(
-            (
-                ch,
-                _iv(c["tempco"]),
-                c["tempco"]["unit"],
-                c["model"],
-                _iv(c["terms_before"].get("N")),
-                _iv(c["terms_after"].get("N")),
-                _iv(c["terms_before"].get("B")),
-                _iv(c["terms_after"].get("B")),
-                _iv(c["terms_before"].get("K")),
-                _iv(c["terms_after"].get("K")),
-                _iv(c["terms_before"].get("R")),
-                _iv(c["terms_after"].get("R")),
-                f(fp["noise_model_on_raw"]),
-                f(fp["noise_plus_thermal_on_raw"]),
-            )
-        )
-    widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
-    lines += ["  ".join(s.rjust(w) for s, w in zip(r, widths)) for r in rows]
-    for ch, c in doc["channels"].items():
-        if c["quadratic"]:
-            q = c["quadratic"]
-            lines.append(
-                f"{ch}: quadratic supported (F-test p = {c['quadratic_test']['p_value']:.2g}): "
-                f"c1 {_iv(q['c1'])}, c2 {_iv(q['c2'])} {q['unit_c2']} around {q['t_ref']:.4g}"
-            )
-    u = next(iter(doc["channels"].values()))["term_units"]
-    lines.append(
-        f"units: N {u['N']}, B {u['B']}, K {u['K']}, R {u['R']}; FIT%: the thesis' formula on "
-        "log10 ADEV of the raw series, for the noise model of its own terms (raw) and for the "
-        "noise model of the corrected series plus the thermal term (+thermal)"
-    )
-    for ch, c in doc["channels"].items():
-        bt = c.get("terms_by_temperature")
-        if not bt:
-            continue
-        parts = []
-        for q in ("N", "B"):
-            vals = ", ".join(f"{v['value']:.3g}" if v else "-" for v in bt[q])
-            sl = bt[f"{q}_slope"]
-            parts.append(
-                f"{q} {vals}"
-                + (
-                    f" ({sl['verdict']}: slope {sl['value']:.2g} [{sl['low']:.2g}, {sl['high']:.2g}] per {bt['unit']})"
-                    if sl
-                    else ""
-                )
-            )
-        lines.append(f"{ch} at {', '.join(f'{t:.4g}' for t in bt['temperature'])} {bt['unit']}: " + "; ".join(parts))
-    lines += [f"note: {n}" for n in doc["notes"]]
-    return "\n".join(lines) + "\n"

@@ -1,106 +1,30 @@
 """The ``imu-allan`` argument parser: every word, option and --help text
-(main.py runs the commands)."""
+(main.py runs the commands). The value checkers are in argtypes.py, the
+analyze command's options in analyze_args.py."""
 
 from __future__ import annotations
 
 import argparse
-from typing import Any, Callable, NoReturn, Optional
+from typing import Any, Callable, Optional
 
 from .._version import __version__
-from ..channels import CHANNELS, FS_LIMITS_HZ, RATES_HZ
+from ..channels import RATES_HZ
+from .analyze_args import add_analyze
+from .argtypes import (
+    EPILOG_EXIT,
+    EXIT_LOST,
+    _add_format,
+    _baud,
+    _count,
+    _device_rate,
+    _fs,
+    _levels,
+    _Parser,
+    _positive_int,
+    _seconds,
+)
 
-EXIT_LOST = 3
-"""Exit status of a command that did its work but found data lost on the way."""
-EPILOG_EXIT = "exit status: 0 success, 1 {one}, 2 usage, input or output error (one line on stderr)"
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line usage errors (exit 2)."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
-
-
-def _positive_float(text: str, unit: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"must be a positive number of {unit}: {text!r}")
-    return v
-
-
-def _fs(text: str) -> float | int:
-    v = _positive_float(text, "Hz")
-    lo, hi = FS_LIMITS_HZ
-    if not lo <= v <= hi:
-        raise argparse.ArgumentTypeError(f"{text!r} Hz is outside {lo:g} .. {hi:g} Hz")
-    return int(v) if v.is_integer() else v
-
-
-def _device_rate(text: str) -> int:
-    """A rate the device accepts, written in decimal (``0250`` is 250, not octal)."""
-    t = text.strip()
-    v = int(t) if t.isdigit() and t.isascii() else None
-    if v not in RATES_HZ:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a rate of the device ({', '.join(map(str, RATES_HZ))} Hz)")
-    return v
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must not be negative: {text}")
-    return v
-
-
-def _count(text: str) -> int:
-    """A row count: 100000, or 1e6."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a count: {text!r}") from None
-    if not (v >= 0 and v.is_integer()):
-        raise argparse.ArgumentTypeError(f"must be a whole number of rows: {text!r}")
-    return int(v)
-
-
-def _baud(text: str) -> int:
-    v = _positive_int(text)
-    if v == 0:
-        raise argparse.ArgumentTypeError("must be a positive number of baud")
-    return v
-
-
-SECONDS_MAX = 1e7
-"""Longest duration an option takes (116 days): a sweep or a model run that
-long already makes more rows than a disk holds."""
-
-
-def _seconds(text: str) -> float:
-    v = _positive_float(text, "seconds")
-    if v > SECONDS_MAX:
-        raise argparse.ArgumentTypeError(f"{text!r} s is more than {SECONDS_MAX:g} s")
-    return v
-
-
-def _levels(text: str) -> int:
-    v = _positive_int(text)
-    if not 1 <= v <= 32:
-        raise argparse.ArgumentTypeError("must be 1..32")
-    return v
-
-
-def _add_format(p: argparse.ArgumentParser) -> None:
-    g = p.add_mutually_exclusive_group()
-    g.add_argument(
-        "--json", action="store_true", help="print JSON: {header, rows, errors} (a stable interface for scripts)"
-    )
-    g.add_argument("--csv", action="store_true", help="print CSV, one line per row, with a header line")
+__all__ = ["EXIT_LOST", "build_parser"]
 
 
 def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.ArgumentParser:
@@ -146,7 +70,7 @@ def build_parser(more: Optional[Callable[[Any], None]] = None) -> argparse.Argum
     _add_rows(sub)
     _add_monitor(sub)
     _add_cmd(sub)
-    _add_analyze(sub)
+    add_analyze(sub)
     return parser
 
 
@@ -351,13 +275,19 @@ def _add_monitor(sub: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Open the serial port and show, on a full screen that fits the terminal\n"
-            "(PgUp/PgDn scroll what does not fit), the latest complete report: its\n"
-            "header (fs, n, drops, clips, mode, range, ...) and the\n"
-            "Allan deviation table in ADC counts (one line per tau, one column per\n"
-            "channel; '!' marks a flagged value). Below it: the samples received\n"
-            "in raw and binary modes (rows/s, rows and frames lost), counts of bad\n"
-            "lines, and the last replies. When stdout is not a terminal, each new\n"
-            "report and reply is printed once instead.\n\n"
+            "(a line longer than the terminal is wrapped, never cut):\n"
+            "  - a status line: the latest report's seq and age, the link's lines\n"
+            "    received intact and damaged, the samples the device dropped and\n"
+            "    those lost on the link, the sample rate in raw and binary modes;\n"
+            "  - how much longer to record for +-10 % on the noise terms;\n"
+            "  - the latest report: the device's own summary (the N and B lines\n"
+            "    first, then its Allan deviation table in physical units), then\n"
+            "    the header (fs, n, drops, clips, mode, range, ...) and the table\n"
+            "    in ADC counts ('!' marks a flagged value); PgUp/PgDn scroll it;\n"
+            "  - the conversation: each command sent and every line of its\n"
+            "    reply, the last one shown whole while the terminal can hold it.\n"
+            "When stdout is not a terminal, each new report and reply is printed\n"
+            "once instead.\n\n"
             "Every byte received is appended, as is, to the log file, which\n"
             "'imu-allan decode' and 'imu-allan rows' read back. When stdin is a\n"
             "terminal, a line typed and ended with Enter is sent as a command\n"
@@ -382,7 +312,10 @@ def _add_monitor(sub: Any) -> None:
     p.add_argument(
         "--log",
         metavar="FILE",
-        help="file to append everything received to (default imu-allan-YYYYmmdd-HHMMSS.log here)",
+        help=(
+            "file to append everything received to, or a directory (ending in /) for a new "
+            "imu-allan-YYYYmmdd-HHMMSS.log in it (default: in imu-allan-logs/, made if missing)"
+        ),
     )
     p.add_argument("--once", action="store_true", help="exit after the first complete report (for scripts)")
 
@@ -439,167 +372,3 @@ def _add_cmd(sub: Any) -> None:
         help="seconds to wait for the reply (default 3; a command waits while a report is being sent)",
     )
     p.add_argument("words", nargs="+", metavar="WORDS", help="the command and its argument")
-
-
-def _nonnegative_seconds(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
-    if not 0 <= v < 1e9:
-        raise argparse.ArgumentTypeError(f"must be 0 s or more: {text!r}")
-    return v
-
-
-def _channel_list(text: str) -> list[str]:
-    chans = [c.strip() for c in text.split(",")]
-    bad = [c for c in chans if c not in CHANNELS]
-    if bad:
-        what = "an empty channel name" if not bad[0] else f"unknown channel {bad[0]!r}"
-        raise argparse.ArgumentTypeError(f"{what} in {text!r} (channels: {' '.join(CHANNELS)})")
-    twice = [c for i, c in enumerate(chans) if c in chans[:i]]
-    if twice:
-        raise argparse.ArgumentTypeError(f"channel {twice[0]!r} named twice in {text!r}")
-    return chans
-
-
-def _megabytes(text: str) -> int:
-    v = _positive_int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError("must be at least 1 MB")
-    return v
-
-
-OUTLIERS_HELP = (
-    "spikes and bursts (a knock on the bench), found on the sample-to-sample jumps: "
-    "replace (default; by the line between their neighbours, so they stay out of the "
-    "statistics; the summary says how much N and B would move) or keep (counted and "
-    "listed only); a recording that is mostly spikes is refused unless kept"
-)
-
-
-ANALYZE_DESCRIPTION = (
-    "Characterize an IMU from a recording at rest. FILE is any of (found by content):\n"
-    "  - a device log (imu-allan sim / monitor): the on-device Allan results;\n"
-    "  - a raw capture or rows file (thesis rows: 7 ADC codes per line);\n"
-    "  - a CSV with a header naming the columns (t, ax, ..., gz; also acc_x,\n"
-    "    gyro_x, ...; units in brackets like 'gx [rad/s]' are used).\n\n"
-    "It computes, in float64: the overlapping Allan deviation (and the\n"
-    "non-overlapping one the device computes, modified Allan and Hadamard\n"
-    "deviations) with 95 % confidence intervals (Greenhall's equivalent\n"
-    "degrees of freedom, NIST SP 1065); fits the IEEE 952 noise terms to the\n"
-    "whole curve, each with an interval and the tau range where it dominates,\n"
-    "saying plainly when a term is not identifiable from the data:\n"
-    "  N random walk (ARW / VRW)   B bias instability   K rate random walk\n"
-    "  Q quantization              R rate ramp\n"
-    "plus the PSD (Welch), and the thesis' noise model (Gauss-Markov bias +\n"
-    "rate random walk + white noise) simulated from the terms, with its FIT%.\n"
-    "Given a device log too (--device, or a capture in mode 'both'), the\n"
-    "device's points are checked against the host's curve.\n\n"
-    "Units: rates in m/s^2 (accelerometers) and deg/s (gyros). In --json, with u\n"
-    "the rate unit: Q in u*s, N in u*sqrt(s), B in u, K in u/sqrt(s), R in u/s;\n"
-    "the table also shows deg/sqrt(h), deg/h, m/s/sqrt(h), ug ... The thesis\n"
-    "profile converts ADC codes (MMA7260Q at --range, LISY300AL, Vref 3.3 V);\n"
-    "--scale gives your own sensor's scale per channel. Every conversion is\n"
-    "written out in docs/analysis.md."
-)
-
-ANALYZE_EPILOG = (
-    "examples:\n"
-    "  imu-allan analyze device.log                      # on-device results only\n"
-    "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
-    "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
-    "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
-    "exit status: 0 success, 2 usage, input or output error (one line on stderr)"
-)
-
-
-def _add_analyze(sub: Any) -> None:
-    from ..profiles import PROFILES, RANGES
-    from ..stats import TAU_KINDS
-
-    p = sub.add_parser(
-        "analyze",
-        help="noise analysis: Allan deviations, IEEE 952 noise terms, PSD, Kalibr YAML",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        description=ANALYZE_DESCRIPTION,
-        epilog=ANALYZE_EPILOG,
-    )
-    p.add_argument("file", metavar="FILE", help="device log, capture, rows file or CSV (- for stdin)")
-    p.add_argument(
-        "--fs",
-        type=_fs,
-        metavar="HZ",
-        help="sample rate, Hz: required for rows files and CSV without a time column (a device log's header gives it)",
-    )
-    p.add_argument(
-        "--profile",
-        choices=PROFILES,
-        help="unit conversion: thesis (the thesis board, default for ADC codes) or counts (no conversion)",
-    )
-    p.add_argument(
-        "--scale",
-        action="append",
-        default=[],
-        metavar="CH=VALUE[UNIT]",
-        help="your sensor's scale: rate units per count (or per CSV unit), e.g. gx=0.0175 "
-        "(deg/s), gx=1rad/s, ax=0.0039g; repeat or separate with commas; channels "
-        "without one stay in counts (or keep the --profile's scale)",
-    )
-    p.add_argument(
-        "--range",
-        choices=RANGES,
-        metavar="G",
-        help="thesis accelerometer range in g (1.5, 2, 4, 6) when the device header does not say (default 1.5)",
-    )
-    p.add_argument(
-        "--device", metavar="LOG", help="device log of the same run: its on-device results are overlaid and checked"
-    )
-    p.add_argument(
-        "--taus",
-        choices=TAU_KINDS,
-        default="octave",
-        help="tau grid of the host's curves: octave (default; m = 1, 2, 4 ...), decade "
-        "(1, 2, 4, 10 ...), log (10 per decade) or all (every m; slow)",
-    )
-    p.add_argument(
-        "--channels", type=_channel_list, metavar="LIST", help="channels to analyze, e.g. gx,gy,gz (default all)"
-    )
-    g = p.add_mutually_exclusive_group()
-    g.add_argument(
-        "--json", action="store_true", help="print the analysis as JSON (a stable interface, see docs/analysis.md)"
-    )
-    g.add_argument("--csv", action="store_true", help="print the noise terms as CSV")
-    p.add_argument("--curves", metavar="FILE", help="write every curve (tau, deviation, interval, EDF) as CSV")
-    p.add_argument("--plot", metavar="DIR", help="write PNG figures (Allan deviation, PSD) to DIR")
-    p.add_argument(
-        "--kalibr", metavar="FILE", help="write a Kalibr imu.yaml (continuous-time noise densities and random walks)"
-    )
-    p.add_argument(
-        "--imu-utils", metavar="FILE", help="write an imu_utils-style YAML (gyr_n, gyr_w, acc_n, acc_w, per axis)"
-    )
-    p.add_argument("--no-model", action="store_true", help="skip the thesis model's simulation and FIT%% (faster)")
-    p.add_argument(
-        "--skip",
-        type=_nonnegative_seconds,
-        metavar="SECONDS",
-        help="leave out the first SECONDS of the record (a warm-up); a device log alone is cut "
-        "at its first report after them (its report minus that one)",
-    )
-    p.add_argument(
-        "--no-warmup",
-        action="store_true",
-        help="do not test the record's windows for a warm-up (see imu-allan dynamic)",
-    )
-    p.add_argument(
-        "--seed", type=_positive_int, default=1, metavar="S", help="random seed of the model simulation (default 1)"
-    )
-    p.add_argument("--outliers", choices=("replace", "keep"), default="replace", help=OUTLIERS_HELP)
-    p.add_argument(
-        "--memory",
-        type=_megabytes,
-        default=1024,
-        metavar="MB",
-        help="samples kept in memory for the non-octave statistics (default 1024 MB); "
-        "larger files are streamed: octave Allan deviations and PSD only",
-    )

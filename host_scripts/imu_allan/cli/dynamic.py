@@ -13,7 +13,7 @@ from ..errors import InputError
 
 
 def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
-    from .args import _channel_list, _fs
+    from .argtypes import _channel_list, _fs
 
     p = sub.add_parser(
         "dynamic",

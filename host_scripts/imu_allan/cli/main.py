@@ -230,10 +230,11 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
     from ..render import formats
     from ..render import text as render
-    from ..sources.detect import load, load_device_report
+    from ..sources.detect import check_options, load, load_device_report
 
     scales = parse_scales(args.scale)
-    src = load(args.file)
+    src = load(args.file, topic=args.topic)
+    check_options(src, args.fs, scales)
     from ..analysis.warmup import skipped, warmup_section, warmup_text
 
     src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
@@ -254,20 +255,35 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         seed=args.seed,
         memory_budget=args.memory * 2**20,
         outliers=args.outliers,
+        horizon=args.horizon,
+        keep_store=not args.no_warmup,
     )
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
     from ..analysis import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
 
     if not args.no_warmup:
-        quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
-        warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
-    advice.add_to_analysis(doc)
+        quick = Options(**{**vars(opts), "model": False, "extra_curves": False, "keep_store": False})
+        try:
+            warmup_section(
+                doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc, result.store
+            )
+        finally:
+            result.close()
+    advice.add_to_analysis(doc, fits=result.fits)
+    from ..analysis.device_terms import add_device_terms
+
+    add_device_terms(doc, report)
     written = []
     if args.curves:
         written.append(_write_text(args.curves, formats.curves_csv(doc)))
+    topic = getattr(args, "topic", None) or getattr(src.samples, "topic", None) or "/imu0"
     if args.kalibr:
-        written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc)))
+        written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc, topic, args.noise)))
+    if args.openvins:
+        written.append(_write_text(args.openvins, formats.openvins_yaml(doc, topic, args.noise)))
+    if args.vins:
+        written.append(_write_text(args.vins, formats.vins_yaml(doc, args.noise)))
     if args.imu_utils:
         written.append(_write_text(args.imu_utils, formats.imu_utils_yaml(doc)))
     if args.plot:
@@ -278,8 +294,15 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         sys.stdout.write(formats.to_json(doc))
     elif args.csv:
         sys.stdout.write(formats.terms_csv(doc))
+    elif args.brief:
+        from ..render.answer import answer_table
+
+        sys.stdout.write(answer_table(doc, brief=True))
     else:
-        sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc))
+        from ..analysis.overbound import analysis_text as overbound_text
+        from .pager import page
+
+        page(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
     for path in written:
         print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
     return 0
@@ -357,7 +380,8 @@ def main(argv: Optional[list[str]] = None) -> int:
         return 2
     if sys.stdout is None:
         sys.stdout = _ClosedStream()  # type: ignore[assignment]
-    _draw_progress()
+    if not getattr(args, "quiet", False):
+        _draw_progress()
     try:
         rc = handlers[args.command](args)
         sys.stdout.flush()

@@ -22,23 +22,27 @@ def run_monitor(
     terminal, taking commands typed on stdin when that is a terminal too;
     plain lines otherwise.  Returns the exit status (0, or 1 when the port
     or the log fails)."""
-    from ..device.link import default_log_name, open_port
+    from ..device.link import log_path as resolve_log
+    from ..device.link import open_port
     from ..render.screen import Monitor, run_plain, run_screen
     from ..render.terminal import stdin_is_terminal
 
     out = out or sys.stdout
     err = err or sys.stderr
-    log_path = log_path or default_log_name()
-    ser = open_port(port, baud)
+    ser = open_port(port, baud)  # first: a port that cannot be opened leaves no log behind
     try:
-        log = open(log_path, "ab")
+        path = resolve_log(log_path)  # InputError if its directory cannot be made
+        log = open(path, "ab")
     except OSError as exc:
         ser.close()
-        raise InputError(f"cannot write '{log_path}': {exc.strerror or exc}") from None
+        raise InputError(f"cannot write '{path}': {exc.strerror or exc}") from None
+    except InputError:
+        ser.close()
+        raise
     tty = out.isatty()
-    mon = Monitor(port, baud, log_path, commands=tty and stdin_is_terminal())
+    mon = Monitor(port, baud, path, commands=tty and stdin_is_terminal())
     if not tty:
-        print(f"imu-allan monitor: {port} at {baud} baud, logging to {log_path}", file=err)
+        print(f"imu-allan monitor: {port} at {baud} baud, logging to {path}", file=err)
     status = 0
     try:
         (run_screen if tty else run_plain)(ser, mon, log, out, once)
@@ -56,5 +60,5 @@ def run_monitor(
     finally:
         ser.close()
         log.close()
-    print(f"imu-allan monitor: {mon.reports} complete reports, {mon.stream_line()}; log {log_path}", file=err)
+    print(f"imu-allan monitor: {mon.reports} complete reports, {mon.stream_line()}; log {path}", file=err)
     return status

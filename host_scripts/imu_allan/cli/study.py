@@ -82,7 +82,7 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
 
 def _add_sweep(sub: Any) -> None:
     from ..channels import RATES_HZ
-    from .args import _positive_int, _seconds
+    from .argtypes import _positive_int, _seconds
 
     p = sub.add_parser(
         "sweep",
@@ -162,7 +162,7 @@ def _add_sweep(sub: Any) -> None:
 
 
 def _add_thermal(sub: Any) -> None:
-    from .args import _fs, _positive_int
+    from .argtypes import _fs, _positive_int
 
     p = sub.add_parser(
         "thermal",
@@ -197,6 +197,14 @@ def _add_thermal(sub: Any) -> None:
         help="units: counts (default) or thesis (m/s^2, deg/s)",
     )
     p.add_argument(
+        "--scale",
+        action="append",
+        default=[],
+        metavar="CH=VALUE[UNIT]",
+        help="your sensor's scale per channel, as in imu-allan analyze (e.g. gx=0.0175, gx=1rad/s, "
+        "ax=0.0039g); channels without one keep the --profile's units",
+    )
+    p.add_argument(
         "--segments",
         type=_positive_int,
         default=3,
@@ -215,7 +223,7 @@ def _add_thermal(sub: Any) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from ..analysis import sweep
+    from ..analysis import sweep, sweep_devices
     from ..errors import InputError
 
     if args.port and (args.model or args.average != 1 or args.keep_rows):
@@ -236,9 +244,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )
     sw = sweep.open_sweep(cfg, args.dir or str(default_sweep_dir()), restart=args.restart)
     measure = (
-        sweep.sim_measure(sw, args.firmware, args.keep_rows)
+        sweep_devices.sim_measure(sw, args.firmware, args.keep_rows)
         if args.sim
-        else sweep.port_measure(sw, args.port, args.baud)
+        else sweep_devices.port_measure(sw, args.port, args.baud)
     )
     sweep.run(sw, measure, sweep.say_stderr)
     return _emit("sweep", sweep.document(sw), sweep, args)
@@ -246,6 +254,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_thermal(args: argparse.Namespace) -> int:
     from ..analysis import thermal
+    from ..profiles import parse_scales
+    from ..render import thermal as thermal_text
 
     doc = thermal.study(
         args.file,
@@ -254,8 +264,12 @@ def cmd_thermal(args: argparse.Namespace) -> int:
         profile=args.profile,
         segments=max(args.segments, 1),
         outliers_mode=args.outliers,
+        scales=parse_scales(args.scale),
     )
-    return _emit("thermal", doc, thermal, args)
+    if args.plot and not doc["fitted"]:
+        print("imu-allan thermal: no plot: nothing was fitted", file=sys.stderr)
+        args.plot = None
+    return _emit("thermal", doc, thermal_text, args)
 
 
 def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespace) -> int:

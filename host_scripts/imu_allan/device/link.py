@@ -116,8 +116,28 @@ def _rest_of_reply(ser: Any, dec: StreamDecoder, replies: list[str]) -> str:
     return "\n".join(lines)
 
 
+LOG_DIR = "imu-allan-logs"
+"""Where the monitor's logs go unless told (relative to the current directory;
+the repository's .gitignore ignores it)."""
+
+
 def default_log_name() -> str:
     return time.strftime("imu-allan-%Y%m%d-%H%M%S.log")
+
+
+def log_path(asked: Optional[str]) -> str:
+    """The monitor's log file: ``asked`` as given, or a new file named by the
+    time (``default_log_name``) in ``asked`` when that is a directory (or ends
+    with a separator), or in ``LOG_DIR`` when nothing was asked.  The
+    directory is made when missing (InputError if it cannot be)."""
+    if asked and not asked.endswith(os.sep) and not os.path.isdir(asked):
+        return asked
+    directory = asked or LOG_DIR
+    try:
+        os.makedirs(directory, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot make the log directory '{directory}': {exc.strerror or exc}") from None
+    return os.path.join(directory, default_log_name())
 
 
 class PortReader:

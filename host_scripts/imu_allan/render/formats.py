@@ -153,12 +153,24 @@ def _r(v: Optional[float]) -> str:
 # ---- Kalibr and imu_utils ---------------------------------------------------------------
 
 
-def _axis_values(doc: dict[str, Any], axes: tuple[str, ...], term: str) -> list[tuple[str, float, bool, str]]:
+NOISE_CHOICES = ("fitted", "overbound")
+"""Which N and K the estimators' files carry (--noise): the fitted terms, or the
+smallest pair that over-bounds the measured curve up to the horizon (overbound.py)."""
+
+
+def _axis_values(
+    doc: dict[str, Any], axes: tuple[str, ...], term: str, noise: str = "fitted"
+) -> list[tuple[str, float, bool, str]]:
     """(axis, value in SI, identified?, note) for the axes present in physical units."""
     out = []
     for ch in axes:
         c = doc["channels"].get(ch)
         if c is None or c["unit"] == "count":
+            continue
+        if noise == "overbound" and term in ("N", "K"):
+            ob = c["si"].get("overbound")
+            if ob is not None:
+                out.append((ch, ob[term], True, ""))
             continue
         t = c["si"]["terms"][term]
         factor = math.pi / 180.0 if c["unit"] == "deg/s" else 1.0
@@ -174,6 +186,24 @@ def _axis_values(doc: dict[str, Any], axes: tuple[str, ...], term: str) -> list[
             if ub is not None:
                 out.append((ch, ub * factor, False, "95 % upper bound: not identifiable"))
     return out
+
+
+def _pair_comment(doc: dict[str, Any], noise: str) -> list[str]:
+    """The comment lines that say which N and K pair a file carries."""
+    if noise == "overbound":
+        hs = sorted({c["overbound"]["horizon_s"] for c in doc["channels"].values() if c.get("overbound")})
+        h = "/".join(f"{v:.3g}" for v in hs) or "?"
+        return [
+            "# Pair carried: OVERBOUND (--noise overbound): the smallest white noise N + random walk K",
+            "#   whose Allan deviation is at or above the measured curve's 95 % upper limit at every",
+            f"#   octave tau from 1/rate to {h} s (bias instability, Gauss-Markov humps and filters",
+            "#   covered); the fitted values and the factors are in analyze --json (overbound).",
+        ]
+    return [
+        "# Pair carried: FITTED (--noise fitted): the IEEE 952 N and K fitted to the curve. They",
+        "#   leave out what the estimator does not model (bias instability, Gauss-Markov humps);",
+        "#   --noise overbound gives the smallest pair that covers them (instead of a blind x10).",
+    ]
 
 
 def _slow_gm_as_k(doc: dict[str, Any], c: dict[str, Any]) -> Optional[tuple[float, str]]:
@@ -200,10 +230,58 @@ def _need_physical(doc: dict[str, Any], what: str) -> None:
         raise InputError(f"{what} needs channels in physical units: use the thesis profile or --scale")
 
 
-def kalibr_yaml(doc: dict[str, Any], rostopic: str = "/imu0") -> str:
-    _need_physical(doc, "--kalibr")
+GROUPS = (
+    ("accelerometer", ACC, "m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
+    ("gyroscope", GYRO, "rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)"),
+)
+"""The estimators' two sensors: their axes and the units of N and K (SI, continuous time)."""
+
+
+def _per_axis(axes: tuple[str, ...], nv: list, kv: list, unit_n: str, unit_k: str, extra: Any = None) -> list[str]:
+    """A comment line per axis: N and K (and ``extra(n, k)``, e.g. the discrete values)."""
+    lines = []
+    for ch in axes:
+        n_ = next((v for v in nv if v[0] == ch), None)
+        k_ = next((v for v in kv if v[0] == ch), None)
+        if n_ is None and k_ is None:
+            continue
+        part = [f"#   {ch}:"]
+        if n_:
+            part.append(f"N {n_[1]:.4g} {unit_n}")
+        if k_:
+            part.append(f"K {k_[1]:.4g} {unit_k}" + (f" ({k_[3]})" if not k_[2] else ""))
+        if extra is not None:
+            part.append(extra(n_[1] if n_ else None, k_[1] if k_ else None))
+        lines.append(" ".join(part))
+    return lines
+
+
+def _estimator_file(
+    doc: dict[str, Any], what: str, noise: str, head: list[str], key: Any, extra: Any, indent: str = ""
+) -> tuple[list[str], list[str]]:
+    """The comment lines and the key lines of an estimator's file: per sensor, the
+    worst axis's N and K (``key(group, 'N'|'K', value, unit, axis, note)`` writes a line)."""
+    _need_physical(doc, what)
+    lines = head + _pair_comment(doc, noise)
+    body = []
+    for group, axes, unit_n, unit_k in GROUPS:
+        nv, kv = _axis_values(doc, axes, "N", noise), _axis_values(doc, axes, "K", noise)
+        if not nv and not kv:
+            lines.append(f"# {group}: no channel in physical units, left out")
+            continue
+        lines.append(f"# {group} per axis:")
+        lines += _per_axis(axes, nv, kv, unit_n, unit_k, extra)
+        wn, wk = _worst(nv), _worst(kv)
+        if wn:
+            body.append(indent + key(group, "N", wn[1], unit_n, wn[0], ""))
+        if wk:
+            body.append(indent + key(group, "K", wk[1], unit_k, wk[0], "" if wk[2] else f" ({wk[3]})"))
+    return lines, body
+
+
+def kalibr_yaml(doc: dict[str, Any], rostopic: str = "/imu0", noise: str = "fitted") -> str:
     fs = doc["source"]["fs_hz"]
-    lines = [
+    head = [
         f"# Kalibr IMU noise parameters (imu.yaml) from {doc['tool']} on {doc['source']['file']}",
         "# CONTINUOUS-TIME values, as Kalibr's imu.yaml expects (Kalibr discretizes them",
         f"# itself with update_rate: sigma_d = noise_density * sqrt({fs:g}) and",
@@ -211,43 +289,82 @@ def kalibr_yaml(doc: dict[str, Any], rostopic: str = "/imu0") -> str:
         "#   *_noise_density = N, the white-noise density (IEEE 952 random walk, ADEV at tau = 1 s",
         "#                     on the -1/2 slope); *_random_walk = K, the bias random walk density",
         "#                     (IEEE 952 rate random walk, ADEV at tau = 3 s on the +1/2 slope).",
-        "# One value per sensor: the worst axis. Kalibr users often inflate these (x2..x10)",
-        "# for unmodelled effects; that is not done here.",
+        "# One value per sensor: the worst axis.",
     ]
-    body = []
-    for group, axes, unit_n, unit_k in (
-        ("accelerometer", ACC, "m/s^2/sqrt(Hz)", "m/s^3/sqrt(Hz)"),
-        ("gyroscope", GYRO, "rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)"),
-    ):
-        nv, kv = _axis_values(doc, axes, "N"), _axis_values(doc, axes, "K")
-        if not nv and not kv:
-            lines.append(f"# {group}: no channel in physical units, left out")
-            continue
-        lines.append(f"# {group} per axis (discrete-time equivalents at {fs:g} Hz in brackets):")
-        for ch in axes:
-            n_ = next((v for v in nv if v[0] == ch), None)
-            k_ = next((v for v in kv if v[0] == ch), None)
-            if n_ is None and k_ is None:
-                continue
-            part = [f"#   {ch}:"]
-            if n_:
-                part.append(f"N {n_[1]:.4g} {unit_n} [{n_[1] * math.sqrt(fs):.4g}]")
-            if k_:
-                part.append(
-                    f"K {k_[1]:.4g} {unit_k} [{k_[1] / math.sqrt(fs):.4g}]" + (f" ({k_[3]})" if not k_[2] else "")
-                )
-            lines.append(" ".join(part))
-        wn, wk = _worst(nv), _worst(kv)
-        if wn:
-            body.append(f"{group}_noise_density: {wn[1]:.6e}   # [{unit_n}] N, worst axis {wn[0]}")
-        if wk:
-            body.append(
-                f"{group}_random_walk: {wk[1]:.6e}   # [{unit_k}] K, worst axis {wk[0]}"
-                + (f" ({wk[3]})" if not wk[2] else "")
-            )
+    field = {"N": "noise_density", "K": "random_walk"}
+
+    def key(group: str, term: str, v: float, unit: str, axis: str, note: str) -> str:
+        return f"{group}_{field[term]}: {v:.6e}   # [{unit}] {term}, worst axis {axis}{note}"
+
+    def discrete(n: Optional[float], k: Optional[float]) -> str:
+        return f"[discrete at {fs:g} Hz: {_opt(n, math.sqrt(fs))} {_opt(k, 1 / math.sqrt(fs))}]"
+
+    lines, body = _estimator_file(doc, "--kalibr", noise, head, key, discrete)
     body.append(f"rostopic: {rostopic}")
-    body.append(f"update_rate: {fs:.6g}   # [Hz]")
+    body.append(f"update_rate: {fs:.6g}   # [Hz] the rate the noise was measured at")
     return "\n".join(lines + body) + "\n"
+
+
+def _opt(v: Optional[float], f: float) -> str:
+    return "-" if v is None else f"{v * f:.4g}"
+
+
+OPENVINS_UNITS = {
+    "N": ("m / s^2 / sqrt(Hz)", "rad / s / sqrt(Hz)"),
+    "K": ("m / s^3 / sqrt(Hz)", "rad / s^2 / sqrt(Hz)"),
+}
+"""The units OpenVINS' kalibr_imu_chain.yaml writes beside each field (continuous time)."""
+
+
+def openvins_yaml(doc: dict[str, Any], rostopic: str = "/imu0", noise: str = "fitted") -> str:
+    """OpenVINS' ``imu0:`` block (kalibr_imu_chain.yaml): continuous-time N and K."""
+    fs = doc["source"]["fs_hz"]
+    head = [
+        "%YAML:1.0 # need to specify the file type at the top!",
+        f"# OpenVINS IMU noise (the imu0 block of kalibr_imu_chain.yaml) from {doc['tool']} on {doc['source']['file']}",
+        "# Merge these keys into your kalibr_imu_chain.yaml's imu0 (keep its T_i_b, model and intrinsics).",
+        "# CONTINUOUS-TIME values, as OpenVINS reads them (it discretizes with the IMU's dt):",
+        "#   *_noise_density = N (white noise), *_random_walk = K (bias random walk); the worst axis.",
+    ]
+    field = {"N": "noise_density", "K": "random_walk"}
+
+    def key(group: str, term: str, v: float, unit: str, axis: str, note: str) -> str:
+        u = OPENVINS_UNITS[term][0 if group == "accelerometer" else 1]
+        return f"{group}_{field[term]}: {v:.6e}   # [ {u} ] {term}, worst axis {axis}{note}"
+
+    lines, body = _estimator_file(doc, "--openvins", noise, head, key, None, indent="  ")
+    body += [f"  rostopic: {rostopic}", f"  update_rate: {fs:.6g}   # [Hz] the rate the noise was measured at"]
+    return "\n".join(lines + ["imu0:"] + body) + "\n"
+
+
+def vins_yaml(doc: dict[str, Any], noise: str = "fitted") -> str:
+    """VINS-Fusion's ``acc_n acc_w gyr_n gyr_w``: discrete-time standard deviations at the rate measured."""
+    fs = doc["source"]["fs_hz"]
+    r = math.sqrt(fs)
+    head = [
+        "%YAML:1.0",
+        f"# VINS-Fusion IMU noise (the 'imu parameters' of its config) from {doc['tool']} on {doc['source']['file']}",
+        "# VINS-Fusion documents these as standard deviations and propagates them per IMU sample",
+        "# (its pre-integration adds acc_n^2, gyr_n^2 and acc_w^2, gyr_w^2 times dt^2 at each step):",
+        f"# DISCRETE-TIME values at the rate measured, {fs:g} Hz:",
+        f"#   acc_n = N sqrt({fs:g}) [m/s^2]    gyr_n = N sqrt({fs:g}) [rad/s]",
+        f"#   acc_w = K sqrt({fs:g}) [m/s^3]    gyr_w = K sqrt({fs:g}) [rad/s^2]",
+        "# At another IMU rate f multiply all four by sqrt(f / rate). The continuous-time N and K",
+        "# (Kalibr's and OpenVINS' units) are per axis below; the worst axis is the one written.",
+    ]
+    name = {("accelerometer", "N"): "acc_n", ("accelerometer", "K"): "acc_w"}
+    name.update({("gyroscope", "N"): "gyr_n", ("gyroscope", "K"): "gyr_w"})
+
+    def key(group: str, term: str, v: float, unit: str, axis: str, note: str) -> str:
+        return f"{name[group, term]}: {v * r:.6e}   # {term} {v:.4g} {unit} x sqrt({fs:g}), worst axis {axis}{note}"
+
+    def discrete(n: Optional[float], k: Optional[float]) -> str:
+        return f"[x sqrt({fs:g}): {_opt(n, r)} {_opt(k, r)}]"
+
+    lines, body = _estimator_file(doc, "--vins", noise, head, key, discrete)
+    order = ("acc_n", "gyr_n", "acc_w", "gyr_w")
+    body.sort(key=lambda ln: order.index(ln.split(":")[0]))
+    return "\n".join(lines + body + [f"# rate: {fs:g} Hz"]) + "\n"
 
 
 def imu_utils_yaml(doc: dict[str, Any], name: str = "imu") -> str:
@@ -257,7 +374,7 @@ def imu_utils_yaml(doc: dict[str, Any], name: str = "imu") -> str:
         "%YAML:1.0",
         "---",
         f"# imu_utils-style noise parameters from {doc['tool']} on {doc['source']['file']}",
-        "# As VINS-Mono/VINS-Fusion read them (continuous time):",
+        "# Continuous time, as imu_utils documents them (VINS-Fusion's own, discrete: --vins):",
         "#   gyr_n, acc_n = N, white-noise density [rad/s/sqrt(Hz)], [m/s^2/sqrt(Hz)]",
         "#   gyr_w, acc_w = K, bias random-walk density [rad/s^2/sqrt(Hz)], [m/s^3/sqrt(Hz)]",
         "# Caution: imu_utils itself writes into *_w the bias-instability floor (the minimum of",

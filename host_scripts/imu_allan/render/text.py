@@ -13,12 +13,14 @@ JSON, CSV and YAML, are formats.py, from the same documents).
 from __future__ import annotations
 
 import math
+import textwrap
 from typing import Any, Iterable, Optional
 
 from ..channels import CHANNELS
 from ..device.consistency import sig3
 from ..device.records import DeviceReport, flag_names
 from ..profiles import LITERATURE
+from .answer import answer_table, device_n_note
 
 NAMES = {"Q": "quantization", "N": "random walk", "B": "bias instability", "K": "rate random walk", "R": "rate ramp"}
 ACC, GYRO = ("ax", "ay", "az"), ("gx", "gy", "gz")
@@ -125,7 +127,10 @@ def _g(v: Optional[float]) -> str:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    lines = [f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} {'avar':>12} {'adev':>12}  flags"]
+    # the device's sums are in ADC codes: avar in code^2, adev in code
+    lines = [
+        f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} {'avar code^2':>12} {'adev code':>12}  flags"
+    ]
     for r in rows:
         lines.append(
             f"{r['channel']:<4} {r['level']:>5} {r['m']:>7} {r['tau_s']:>10.6g} "
@@ -230,6 +235,8 @@ def _duration(s: float) -> str:
 
 
 def text(doc: dict[str, Any]) -> str:
+    """``imu-allan analyze`` for people: the answer table first (answer.py), then
+    how each figure was found, channel by channel, then the curve."""
     src = doc["source"]
     kind = {
         "rows": "rows file",
@@ -239,81 +246,129 @@ def text(doc: dict[str, Any]) -> str:
     }[src["kind"]]
     lines = [
         f"{src['file']}: {kind}, {src['n']} samples at {src['fs_hz']:g} Hz "
-        f"({_duration(src['duration_s'])}), profile {doc['profile']['name']}"
+        f"({_duration(src['duration_s'])}), profile {doc['profile']['name']}",
+        "",
     ]
+    lines += answer_table(doc).rstrip("\n").split("\n")
+    lines += ["", "Details"]
     lines += [f"  {n}" for n in doc["notes"]]
     stat = (
         "the device's non-overlapping Allan deviation"
         if src["kind"] == "device-log"
         else "the overlapping Allan deviation"
     )
-    lines.append(
-        f"Noise terms (IEEE 952) fitted to {stat} at octave taus (whatever --taus shows); "
-        "95 % intervals; 'dominates': the tau range where the term is at least half "
-        "the Allan variance."
+    lines += textwrap.wrap(
+        f"Each term is fitted to {stat} at octave taus (whatever --taus shows), with its 95 % "
+        "interval, first in the rate unit of the channel, then in the unit datasheets quote; "
+        "'dominates': the tau range where the term makes at least half the Allan variance.",
+        80,
     )
+    explained = False
     for ch, c in doc["channels"].items():
-        lines.append("")
-        lines.append(f"{ch} [{c['unit']}]")
+        lines += ["", f"{ch} [{c['unit']}]"]
         lines += outlier_lines(c)
-        for k in ("N", "B", "K", "Q", "R"):
-            t = c["terms"][k]
-            lu, lf = literature_value(c, k)
-            head = f"  {k} {NAMES[k]:<17}"
-            if t is None:
-                note = c["term_notes"].get(k, "not identifiable")
-                ub = c["upper_bounds"].get(k)
-                bound = (
-                    f" (95 % upper bound {g(ub)} {c['term_units'][k]} = {g(ub * lf if ub else None)} {lu})"
-                    if ub is not None and not note.startswith("not in")
-                    else ""
-                )
-                lines.append(f"{head}{note.split(' (')[0]}{bound}")
-                continue
-            rng = t["tau_range_s"]
-            lines.append(
-                f"{head}{g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['term_units'][k]}"
-                f"  = {g(t['value'] * lf)} [{g(t['low'] * lf)}, {g(t['high'] * lf)}] {lu}"
-                + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else "")
-            )
-            if c["term_notes"].get(k):  # how it was bounded or where it was read
-                lines.append(f"{'':21}{c['term_notes'][k]}")
-        lines.extend(_process_lines(c))
-        bc = c.get("b_classic")
-        if bc:
-            lu, lf = literature_value(c, "B")
-            lines.append(
-                f"  B by the thesis' read-off min(ADEV)/0.664: {g(bc['value'])} {c['unit']} "
-                f"= {g(bc['value'] * lf)} {lu} (minimum at {g(bc['tau_s'])} s)"
-            )
-        fit = c["fit"]
-        extra = [f"fit chi2/dof {g(fit['chi2_dof'])} on {fit['points']} points"]
-        m = c.get("model")
-        if m:
-            fp = m["fit_percent"]
-            parts = []
-            if fp.get("adev_log10") is not None:
-                parts.append(f"ADEV {fp['adev_log10']:.1f} % (unit-free {g(fp.get('adev_log10_nrmse'))} %)")
-            if fp.get("psd_log10") is not None:
-                parts.append(f"PSD {fp['psd_log10']:.1f} % (unit-free {g(fp.get('psd_log10_nrmse'))} %)")
-            if fp.get("signal") is not None:
-                parts.append(f"time series {fp['signal']:.1f} %")
-            if parts:
-                extra.append("thesis model FIT: " + ", ".join(parts))
-        lines.append("  " + "; ".join(extra))
-        for note in fit["notes"]:
-            lines.append(f"  note: {note}")
-        dev = c.get("device")
-        if dev and dev.get("agreement"):
-            a = dev["agreement"]
-            lines.append(
-                f"  device vs host: {a['within']} of {a['checked']} device points hold the host's "
-                f"value within their {a['level'] * 100:.0f} % interval"
-                + (f" (outside at {', '.join(g(t) for t in a['outside_tau_s'])} s)" if a["outside_tau_s"] else "")
-            )
+        lines += _term_lines(c)
+        lines += _process_lines(c)
+        lines += _check_lines(c, explain_fit=not explained)
+        explained = explained or "model" in c
     lines.append("")
-    lines.append(adev_table(doc))
-    return "\n".join(lines) + "\n"
+    lines += adev_table(doc).split("\n")
+    return "\n".join(wrap80(lines)) + "\n"
+
+
+def wrap80(lines: list[str]) -> list[str]:
+    """Lines longer than 80 columns broken at spaces, the rest indented under their start."""
+    out = []
+    for line in lines:
+        if len(line) <= 80:
+            out.append(line)
+            continue
+        lead = len(line) - len(line.lstrip(" "))
+        out += textwrap.wrap(line.strip(), 80, initial_indent=" " * lead, subsequent_indent=" " * (lead + 4))
+    return out
+
+
+def _term_lines(c: dict[str, Any]) -> list[str]:
+    """The five IEEE 952 terms of a channel: value, interval, where it dominates."""
+    lines = []
+    for k in ("N", "B", "K", "Q", "R"):
+        t = c["terms"][k]
+        lu, lf = literature_value(c, k)
+        head = f"  {k} {NAMES[k]:<17}"
+        if t is None:
+            note = c["term_notes"].get(k, "not identifiable")
+            ub = c["upper_bounds"].get(k)
+            bound = (
+                f" (95 % upper bound {g(ub)} {c['term_units'][k]} = {g(ub * lf if ub else None)} {lu})"
+                if ub is not None and not note.startswith("not in")
+                else ""
+            )
+            lines.append(f"{head}{note.split(' (')[0]}{bound}")
+            continue
+        rng = t["tau_range_s"]
+        lines.append(
+            f"{head}{g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['term_units'][k]}"
+            f"  = {g(t['value'] * lf)} [{g(t['low'] * lf)}, {g(t['high'] * lf)}] {lu}"
+            + (f"  dominates {g(rng[0])} .. {g(rng[1])} s" if rng else "")
+        )
+        if c["term_notes"].get(k):  # how it was bounded or where it was read
+            lines.append(f"{'':21}{c['term_notes'][k]}")
+    return lines
+
+
+FIT_PERCENT_WORD = (
+    "FIT% (the thesis') = 100 (1 - |data - model| / |data|) on log10 of the curves; "
+    "unit-free: divided by |data - mean(data)| instead, so 100 % is a perfect match, 0 % no "
+    "better than a constant, below 0 % worse. The time series FIT% compares one random draw "
+    "of the model with the recording sample by sample: two independent noises of equal "
+    "power score about -41 % even for a perfect model, so only the ADEV and PSD figures "
+    "grade the model (docs/analysis.md)"
+)
+
+
+def _check_lines(c: dict[str, Any], explain_fit: bool = True) -> list[str]:
+    """How far to trust the channel's terms: the thesis' read-off of B, the fit's
+    chi2, the thesis model's FIT%, the device's points against the host's."""
+    lines = []
+    bc = c.get("b_classic")
+    if bc:
+        lu, lf = literature_value(c, "B")
+        lines.append(
+            f"  B by the thesis' read-off min(ADEV)/0.664: {g(bc['value'])} {c['unit']} "
+            f"= {g(bc['value'] * lf)} {lu} (minimum at {g(bc['tau_s'])} s)"
+        )
+    fit = c["fit"]
+    lines.append(
+        f"  fit chi2/dof {g(fit['chi2_dof'])} on {fit['points']} points (about 1: the terms explain "
+        "the curve within its intervals)"
+    )
+    m = c.get("model")
+    fp = (m or {}).get("fit_percent") or {}
+    parts = []
+    if fp.get("adev_log10") is not None:
+        parts.append(f"ADEV {fp['adev_log10']:.1f} % (unit-free {g(fp.get('adev_log10_nrmse'))} %)")
+    if fp.get("psd_log10") is not None:
+        parts.append(f"PSD {fp['psd_log10']:.1f} % (unit-free {g(fp.get('psd_log10_nrmse'))} %)")
+    if fp.get("signal") is not None:
+        parts.append(f"time series {fp['signal']:.1f} %")
+    if parts:
+        lines.append("  thesis model FIT%: " + ", ".join(parts))
+        if explain_fit:
+            lines += textwrap.wrap(FIT_PERCENT_WORD, 80, initial_indent="    ", subsequent_indent="    ")
+    for note in fit["notes"]:
+        lines.append(f"  note: {note}")
+    note = device_n_note(c)
+    if note:
+        lines += textwrap.wrap(note, 80, initial_indent="  device's ", subsequent_indent="    ")
+    dev = c.get("device")
+    if dev and dev.get("agreement"):
+        a = dev["agreement"]
+        lines.append(
+            f"  device vs host: {a['within']} of {a['checked']} device points hold the host's "
+            f"value within their {a['level'] * 100:.0f} % interval"
+            + (f" (outside at {', '.join(g(t) for t in a['outside_tau_s'])} s)" if a["outside_tau_s"] else "")
+        )
+    return lines
 
 
 def outlier_lines(c: dict[str, Any]) -> list[str]:
@@ -397,7 +452,7 @@ def adev_table(doc: dict[str, Any]) -> str:
             by_tau.setdefault(round(p["tau_s"], 12), {})[ch] = p
     name = "device's non-overlapping" if doc["source"]["kind"] == "device-log" else "overlapping"
     head = f"Allan deviation ({name}), rate units:"
-    cols = f"{'tau_s':>10}" + "".join(f"{ch + ' ' + doc['channels'][ch]['unit']:>15}" for ch in chans)
+    cols = f"{'tau_s':>8}" + "".join(f"{ch + ' ' + doc['channels'][ch]['unit']:>12}" for ch in chans)
     rows = [head, cols]
     taus = sorted(by_tau)
     if len(taus) > 40:  # dense grids: every k-th row
@@ -411,7 +466,7 @@ def adev_table(doc: dict[str, Any]) -> str:
                 cells.append("-")
             else:
                 cells.append(g(p["dev"]) + ("!" if p.get("flags") else ""))
-        rows.append(f"{g(t):>10}" + "".join(f"{x:>15}" for x in cells))
+        rows.append(f"{g(t):>8}" + "".join(f"{x:>12}" for x in cells))
     if any(p.get("flags") for ch in chans for p in doc["channels"][ch]["curve"]):
         rows.append("! flagged by the device (sat or range): shown, not fitted")
     return "\n".join(rows)

@@ -1,5 +1,10 @@
 """The sources layer: every input format, read into samples (and device reports).
 
-detect.py  what a file is (a device capture, a rows file, a CSV, gzip or not) and its reader
+detect.py  what a file is (by content) and the reader that fits; options checked against it
+source.py  SampleSource and Source: what every reader hands the statistics
 rows.py    the thesis rows file (one sample a line): its reader and its writer
+table.py   delimited text with a header (CSV, EuRoC, Kalibr, rostopic echo -p, one column)
+rosbag.py  ROS 1 and ROS 2 bags: sensor_msgs/Imu messages (rosbags)
+arrays.py  NumPy .npy and .npz arrays
+timing.py  a time column's or stamps' rate and gaps
 """

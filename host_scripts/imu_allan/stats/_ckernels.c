@@ -139,6 +139,66 @@ static PyObject *octave_nonoverlap(PyObject *self, PyObject *args)
     return py_octave(args, 1);
 }
 
+/* octave_file(fd, code, n, off, over, non, exact=0): the overlapping (stream
+ * mode: O(1) memory) and non-overlapping octave sums of n samples of struct
+ * code ``code`` ('d', 'H' ...) stored from byte 0 of the open file fd, read
+ * with pread: the same numbers as octave_overlap(stream=1) and
+ * octave_nonoverlap on the same samples in memory. */
+static PyObject *octave_file(PyObject *self, PyObject *args)
+{
+    (void)self;
+    int fd, exact = 0;
+    const char *code;
+    Py_ssize_t n;
+    double off;
+    PyObject *oo, *no;
+    if (!PyArg_ParseTuple(args, "isndOO|i", &fd, &code, &n, &off, &oo, &no, &exact)) return NULL;
+    if (exact && !EXACT_OK) {
+        PyErr_SetString(PyExc_ValueError, "exact: no 128-bit integers in this build");
+        return NULL;
+    }
+    Py_buffer probe = {0};
+    probe.format = (char *)code;
+    probe.itemsize = code[0] == 'd' || code[0] == 'q' || code[0] == 'Q' ? 8 :
+                     code[0] == 'f' || code[0] == 'i' || code[0] == 'I' ? 4 :
+                                                                          0;
+    int fmt = parse_fmt(&probe);
+    if (fmt < 0 || n < 0) {
+        PyErr_SetString(PyExc_TypeError, "code: a struct code of a number (d f q i h b Q I H B)");
+        return NULL;
+    }
+    int levels = ck_levels(n);
+    Py_buffer ov, nv;
+    if (get_out(oo, &ov, levels) < 0) return NULL;
+    if (get_out(no, &nv, levels) < 0) {
+        PyBuffer_Release(&ov);
+        return NULL;
+    }
+    struct ck_file f = {fd, fmt, 0, 0};
+    ld acc[MAXLEV], nacc[MAXLEV];
+    u128 ex[MAXLEV], nex[MAXLEV];
+    int rc;
+    memset(ex, 0, sizeof ex);
+    memset(nex, 0, sizeof nex);
+    Py_BEGIN_ALLOW_THREADS rc =
+        ck_octave_overlap(&f, CK_FILE, n, off, 1 << 17, 1 << 14, 1, acc, exact ? ex : NULL);
+    if (!rc) rc = ck_octave_nonoverlap(&f, CK_FILE, n, off, 1 << 16, nacc, exact ? nex : NULL);
+    Py_END_ALLOW_THREADS for (int k = 0; k < levels; k++)
+    {
+        ((double *)ov.buf)[k] = exact ? (double)ex[k] : (double)acc[k];
+        ((double *)nv.buf)[k] = exact ? (double)nex[k] : (double)nacc[k];
+    }
+    PyBuffer_Release(&ov);
+    PyBuffer_Release(&nv);
+    if (rc) return PyErr_NoMemory();
+    if (f.err) {
+        PyErr_SetString(PyExc_OSError,
+                        f.err == 1 ? "reading the samples' file failed" : "the samples' file is short");
+        return NULL;
+    }
+    return PyLong_FromLong(levels);
+}
+
 static PyObject *any_m(PyObject *self, PyObject *args)
 {
     (void)self;
@@ -185,6 +245,9 @@ static PyMethodDef methods[] = {
     {"octave_nonoverlap", octave_nonoverlap, METH_VARARGS,
      "octave_nonoverlap(x, off, out, chunk=2**16, exact=0) -> levels\n"
      "Non-overlapping octave sums of squares into out[k]."},
+    {"octave_file", octave_file, METH_VARARGS,
+     "octave_file(fd, code, n, off, over, non, exact=0) -> levels\n"
+     "Overlapping and non-overlapping octave sums of a file's n samples (pread)."},
     {"any_m", any_m, METH_VARARGS,
      "any_m(x, off, ms, out, overlapping, exact=0)\n"
      "Sums of squared second differences of the phase at each m (nan where no term)."},

@@ -560,15 +560,21 @@ def octave_mapped(x: ArrayLike, nonoverlapping: bool = True) -> OctaveResult:
         raise ValueError("one channel at a time: x must be 1-D")
     n = a.size
     off = float(offset(a[:HEAD])) if n else 0.0
-    acc, terms = octave_oavar_sums(a, off, stream=True)
+    acc, _ = octave_oavar_sums(a, off, stream=True)
+    return octave_from_sums(n, acc, octave_avar_sums(a, off)[0] if nonoverlapping else None)
+
+
+def octave_from_sums(n: int, acc: np.ndarray, nacc: Optional[np.ndarray]) -> OctaveResult:
+    """The octave result of one channel of n samples from the kernels' sums of
+    squares per level: overlapping ``acc``, non-overlapping ``nacc`` (None: not computed)."""
     levels = acc.size
     ms = 1 << np.arange(levels, dtype=np.int64)
+    terms = n - 2 * ms + 1
     ov = (acc / (2.0 * ms * ms * np.maximum(terms, 1)))[:, None]
-    if nonoverlapping:
-        nacc, pairs = octave_avar_sums(a, off)
+    pairs = n // ms - 1
+    if nacc is not None:
         nv = np.where(pairs > 0, nacc / (2.0 * ms * ms * np.maximum(pairs, 1)), np.nan)[:, None]
     else:
-        pairs = n // ms - 1
         nv = np.full((levels, 1), np.nan)
     return OctaveResult(n, ms, ov, terms, np.ones(levels, dtype=np.int64), nv, pairs)
 

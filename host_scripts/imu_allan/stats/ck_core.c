@@ -1,6 +1,7 @@
 /* The compiled kernels' building blocks: scratch memory, reading any input
  * type, and the fused difference / square / moving-sum loop. */
 #include <stdlib.h>
+#include <unistd.h>
 #if defined(__linux__)
 #    include <sys/mman.h>
 #endif
@@ -23,6 +24,35 @@ void *ck_big_alloc(size_t bytes)
     return p;
 }
 
+static const int item_size[] = {8, 4, 8, 4, 2, 1, 8, 4, 2, 1}; /* by enum fmt */
+
+/* A file's samples: read with pread in pieces of FILE_PIECE bytes, each
+ * converted as an in-memory buffer would be (the same numbers). */
+#define FILE_PIECE 65536
+static void load_file(struct ck_file *f, ssz start, ssz count, double off, double *dst)
+{
+    unsigned char raw[FILE_PIECE];
+    ssz size = item_size[f->fmt], per = FILE_PIECE / size;
+    while (count > 0) {
+        ssz k = count < per ? count : per;
+        size_t want = (size_t)(k * size), got = 0;
+        off_t at = (off_t)f->base + (off_t)start * size;
+        while (got < want) {
+            ssize_t r = pread(f->fd, raw + got, want - got, at + (off_t)got);
+            if (r <= 0) { /* an error or a short file: NaN, and the caller is told */
+                f->err = r < 0 ? 1 : 2;
+                for (ssz i = 0; i < count; i++) dst[i] = NAN;
+                return;
+            }
+            got += (size_t)r;
+        }
+        ck_load(raw, f->fmt, 0, k, off, dst);
+        start += k;
+        count -= k;
+        dst += k;
+    }
+}
+
 /* dst[i] = x[start + i] - off as double, i < count */
 void ck_load(const void *x, int fmt, ssz start, ssz count, double off, double *dst)
 {
@@ -31,6 +61,10 @@ void ck_load(const void *x, int fmt, ssz start, ssz count, double off, double *d
         const T *s = (const T *)x + start;                                                                   \
         for (ssz i = 0; i < count; i++) dst[i] = (double)s[i] - off;                                         \
     } while (0)
+    if (fmt == CK_FILE) {
+        load_file((struct ck_file *)x, start, count, off, dst);
+        return;
+    }
     switch (fmt) {
     case F64: LOAD(double); break;
     case F32: LOAD(float); break;

@@ -27,12 +27,20 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u1
     if (nl <= 0) return;
     ld d[MAXLEV];
     ssz last[MAXLEV];
-    for (int j = 0; j < nl; j++) {
+    double *blk = malloc(sizeof(double) * (size_t)(nl + 3) * CHAIN_BLOCK);
+    if (!blk) return;
+    for (int j = 0; j < nl; j++) { /* d_m(0): the sums of x[m, 2m) and x[0, m) */
         ssz m = (ssz)1 << (K + j);
         ld s0 = 0, s1 = 0;
-        for (ssz i = 0; i < m; i++) {
-            s0 += ck_value(x, fmt, i);
-            s1 += ck_value(x, fmt, i + m);
+        for (ssz a = 0; a < 2 * m; a += CHAIN_BLOCK) {
+            ssz len = a + CHAIN_BLOCK <= 2 * m ? CHAIN_BLOCK : 2 * m - a;
+            ck_load(x, fmt, a, len, 0.0, blk);
+            for (ssz i = 0; i < len; i++) {
+                if (a + i < m)
+                    s0 += blk[i];
+                else
+                    s1 += blk[i];
+            }
         }
         d[j] = s1 - s0;
         last[j] = n - 2 * m; /* terms i = 0 .. last */
@@ -40,9 +48,7 @@ static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u1
         if (ex) ex[K + j] = 0;
     }
     /* the offsets read: 0 and 2^K .. 2^levels; each block converted once */
-    int no = nl + 3; /* one spare: the pair loop reads offset 2^(levels+1) of a lone last level */
-    double *blk = malloc(sizeof(double) * (size_t)no * CHAIN_BLOCK);
-    if (!blk) return;
+    int no = nl + 3;   /* one spare: the pair loop reads offset 2^(levels+1) of a lone last level */
     ssz top = last[0]; /* the longest chain */
     for (ssz a = 0; a < top; a += CHAIN_BLOCK) {
         ssz len = a + CHAIN_BLOCK <= top ? CHAIN_BLOCK : top - a; /* steps i = a .. a+len-1 */

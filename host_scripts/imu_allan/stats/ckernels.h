@@ -62,7 +62,17 @@ static inline double hsum(v4 a, v4 b, v4 c, v4 d)
 #define MAXLEV 64   /* octave levels at most (m = 2^63) */
 #define PBLOCK 1024 /* phase samples per block (any-m kernel) */
 
-enum fmt { F64, F32, I64, I32, I16, I8, U64, U32, U16, U8 };
+enum fmt { F64, F32, I64, I32, I16, I8, U64, U32, U16, U8, CK_FILE };
+
+/* fmt CK_FILE: x is a struct ck_file, samples of format fmt at byte base of
+ * the open file fd, read with pread (ck_load only: the octave kernels); err is
+ * set when a read fails (1) or the file is short (2). */
+struct ck_file {
+    int fd;
+    int fmt;
+    int64_t base;
+    int err;
+};
 
 /* ck_core.c */
 void *ck_big_alloc(size_t bytes);

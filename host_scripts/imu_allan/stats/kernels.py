@@ -120,15 +120,36 @@ def _exact(c: np.ndarray, off: float) -> int:
     integral offset whose partial sums stay below 2^52 (every difference an
     exact float64 integer; the sums of squares then 128-bit integers that
     cannot overflow)."""
-    if c.dtype.kind not in "iu" or off != round(off) or not getattr(_C, "EXACT", False) or not c.size:
+    span = max(abs(int(c.max())), abs(int(c.min()))) if c.dtype.kind in "iu" and c.itemsize > 2 and c.size else 0
+    return _exact_span(c.dtype, c.size, off, span)
+
+
+def _exact_span(dt: np.dtype, n: int, off: float, span: int) -> int:
+    """``_exact`` from the number type, the count and the largest |value|
+    (``span``; the same rule for samples in memory and in a file)."""
+    if dt.kind not in "iu" or off != round(off) or not getattr(_C, "EXACT", False) or not n:
         return 0
-    if c.itemsize <= 2:
-        amax = 1 << (8 * c.itemsize)
-    else:
-        amax = max(abs(int(c.max()) - int(off)), abs(int(c.min()) - int(off)))
-    n, a = c.size, amax + 1
+    amax = (1 << (8 * dt.itemsize)) if dt.itemsize <= 2 else span + abs(int(off))
+    a = amax + 1
     # differences below 2^52, and every sum of squares (< n (n a)^2) within 128 bits
     return int(n * a < (1 << 52) and n**3 * a * a < (1 << 127))
+
+
+def octave_file_sums(
+    fd: int, dt: np.dtype, n: int, off: float, span: int = 0
+) -> Optional[tuple[np.ndarray, np.ndarray]]:
+    """(overlapping, non-overlapping) octave sums of the n samples of type ``dt``
+    stored from byte 0 of the open file ``fd``, read with pread in tiles: the
+    numbers ``octave_oavar_sums(x, off, stream=True)`` and ``octave_avar_sums(x, off)``
+    give on the same samples in memory (the same C code), in O(1) memory.
+    None without the compiled kernels."""
+    dt = np.dtype(dt)
+    if _C is None or not dt.isnative or dt.kind not in _C_KINDS:
+        return None
+    levels = max(_levels(n), 1)
+    over, non = np.zeros(levels), np.zeros(levels)
+    got = _C.octave_file(fd, dt.char, n, float(off), over, non, _exact_span(dt, n, off, span))
+    return over[:got], non[:got]
 
 
 def _levels(n: int) -> int:

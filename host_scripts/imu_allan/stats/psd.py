@@ -28,6 +28,15 @@ from numpy.typing import ArrayLike
 SEGMENT_MAX = 1 << 20
 
 
+def _rfft(seg: np.ndarray, nfft: int) -> np.ndarray:
+    """rfft along the last axis (scipy.fft: it lets other threads run meanwhile)."""
+    try:
+        import scipy.fft as sf
+    except ImportError:  # pragma: no cover - scipy is a dependency
+        return np.fft.rfft(seg, n=nfft, axis=-1)
+    return sf.rfft(seg, n=nfft, axis=-1, overwrite_x=True)
+
+
 def segment_length(n: int) -> int:
     """pwelch's default for n samples (8 segments, 50 % overlap), capped."""
     return int(max(min(n // 4.5 if n >= 9 else n, SEGMENT_MAX), 1))
@@ -49,18 +58,25 @@ class Welch:
         self.buf = np.zeros((channels, 0))
 
     def push(self, block: ArrayLike) -> None:
+        """Take (channels, samples); every whole segment is transformed and its
+        periodogram added in segment order, so the result does not depend on
+        how the stream was cut."""
         a = np.asarray(block, dtype=np.float64)
         buf = np.concatenate((self.buf, a), axis=1) if self.buf.shape[1] else a
         nfull = (buf.shape[1] - self.nseg) // self.step + 1 if buf.shape[1] >= self.nseg else 0
-        per_call = max(1, (1 << 22) // (self.C * self.nseg))  # a few M values per FFT call
+        per_call = max(1, (1 << 21) // (self.C * self.nseg))  # a few M values per FFT call
         for k0 in range(0, nfull, per_call):
             k1 = min(k0 + per_call, nfull)
-            starts = np.arange(k0, k1) * self.step
-            idx = starts[:, None] + np.arange(self.nseg)[None, :]
-            seg = buf[:, idx]  # (C, segments, nseg)
+            seg = np.lib.stride_tricks.sliding_window_view(buf, self.nseg, axis=1)[
+                :, k0 * self.step : k1 * self.step : self.step
+            ]
             seg = seg - seg.mean(axis=2, keepdims=True)
-            spec = np.fft.rfft(seg * self.window, n=self.nfft, axis=2)
-            self.acc += np.sum(spec.real**2 + spec.imag**2, axis=1)
+            seg *= self.window
+            spec = _rfft(seg, self.nfft)
+            p = spec.real**2
+            p += spec.imag**2
+            for j in range(k1 - k0):
+                self.acc += p[:, j]
             self.count += k1 - k0
         self.buf = buf[:, nfull * self.step :].copy()
 

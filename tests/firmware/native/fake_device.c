@@ -12,12 +12,13 @@
 #include "console.h"
 #include "control.h"
 #include "fixture.h"
+#include "reset.h"
 #include "sample.h"
 #include "switchboard.h"
 #include "uart.h"
 #include <avr/eeprom.h>
 
-volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd;
+volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd, fake_gpior2;
 uint8_t fake_eeprom[E2END + 1];
 
 char fx_out[1 << 20];
@@ -347,6 +348,13 @@ static void advance_to(uint64_t t)
   }
 }
 
+/* reset.h's cause of the last reset, as fx_boot() was given it. */
+static uint8_t fake_cause;
+uint8_t reset_cause(void)
+{
+  return fake_cause;
+}
+
 void fx_boot(uint8_t mcusr)
 {
   static int erased;
@@ -361,7 +369,8 @@ void fx_boot(uint8_t mcusr)
     erased = 1;
   }
   /* main.c's start-up, in its order */
-  switchboard_init(mcusr);
+  fake_cause = mcusr;
+  switchboard_init();
   uart_init();
   adc_init();
   control_init();
@@ -377,6 +386,10 @@ void fx_run_us(uint64_t us)
     /* main.c's loop body */
     while (sample_take())
       console_receive();
+    if (sample_settle()) {
+      console_receive();
+      continue;
+    }
     switchboard_poll();
     control_poll();
   }

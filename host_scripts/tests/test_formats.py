@@ -1,0 +1,348 @@
+"""Every input format a user brings, written with the libraries users write them
+with (rosbags for ROS 1 and ROS 2 bags, numpy for .npy/.npz, CSV text as EuRoC,
+Kalibr and ``rostopic echo -p`` write it), analysed with nothing but the file
+name (and --topic where a bag holds several IMU topics): the values read are
+the values written, the rate is the stamps' rate, the units the format's."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from imu_allan.errors import InputError
+from imu_allan.sources.detect import load
+
+rosbags = pytest.importorskip("rosbags", reason="the rosbags package reads and writes the bags")
+from rosbags.rosbag1 import Writer as Writer1  # noqa: E402
+from rosbags.rosbag2 import StoragePlugin  # noqa: E402
+from rosbags.rosbag2 import Writer as Writer2  # noqa: E402
+from rosbags.typesys import Stores, get_typestore  # noqa: E402
+
+N, FS = 3000, 200.0
+T0_NS = 1_700_000_000_123_456_789  # an epoch stamp: more digits than a double holds
+STEP_NS = 5_000_000
+CH = ["ax", "ay", "az", "gx", "gy", "gz"]
+
+
+@pytest.fixture(scope="module")
+def imu() -> dict[str, Any]:
+    """What the sensor gave: acc (m/s^2) and gyro (rad/s), (N, 3) each, and stamps."""
+    rng = np.random.default_rng(11)
+    acc = rng.normal(0.0, 0.02, (N, 3)) + [0.0, 0.0, 9.81]
+    gyro = rng.normal(0.0, 0.001, (N, 3)) + [0.002, -0.001, 0.0005]
+    stamps = T0_NS + STEP_NS * np.arange(N, dtype=np.int64)
+    return {"acc": acc, "gyro": gyro, "stamps": stamps, "values": np.vstack([acc.T, gyro.T])}
+
+
+def _imu_msg(ts: Any, i: int, d: dict[str, Any], frame: str) -> Any:
+    T = ts.types
+    ns = int(d["stamps"][i])
+    head = {"stamp": T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), "frame_id": frame}
+    if "seq" in T["std_msgs/msg/Header"].__dataclass_fields__:  # ROS 1 headers count
+        head["seq"] = i
+    v3 = T["geometry_msgs/msg/Vector3"]
+    g, a = d["gyro"][i], d["acc"][i]
+    return T["sensor_msgs/msg/Imu"](
+        header=T["std_msgs/msg/Header"](**head),
+        orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+        orientation_covariance=np.zeros(9),
+        angular_velocity=v3(x=g[0], y=g[1], z=g[2]),
+        angular_velocity_covariance=np.zeros(9),
+        linear_acceleration=v3(x=a[0], y=a[1], z=a[2]),
+        linear_acceleration_covariance=np.zeros(9),
+    )
+
+
+def write_ros1(path: Path, d: dict[str, Any], topics: dict[str, str], keep: Any = None, recorded: Any = None) -> Path:
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    recorded = d["stamps"] + 40_000 if recorded is None else recorded
+    with Writer1(path) as w:
+        conns = {t: w.add_connection(t, "sensor_msgs/msg/Imu", typestore=ts) for t in topics}
+        for i in range(N) if keep is None else keep:
+            for t, frame in topics.items():
+                w.write(
+                    conns[t],
+                    int(recorded[i]),
+                    ts.serialize_ros1(_imu_msg(ts, i, d, frame), conns[t].msgtype),
+                )
+    return path
+
+
+def write_ros2(path: Path, d: dict[str, Any], storage: Any, frame: str = "imu_link") -> Path:
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    with Writer2(path, version=9, storage_plugin=storage) as w:
+        conn = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
+        other = w.add_connection("/rosout_count", "std_msgs/msg/Int32", typestore=ts)
+        for i in range(N):
+            w.write(conn, int(d["stamps"][i]) + 40_000, ts.serialize_cdr(_imu_msg(ts, i, d, frame), conn.msgtype))
+        w.write(other, int(d["stamps"][0]), ts.serialize_cdr(ts.types["std_msgs/msg/Int32"](data=1), other.msgtype))
+    return path
+
+
+def _rows(d: dict[str, Any]) -> list[tuple[int, list[float], list[float]]]:
+    """(stamp ns, gyro, acc) per sample, as Python numbers (their repr is what a CSV holds)."""
+    return [
+        (int(d["stamps"][i]), [float(v) for v in d["gyro"][i]], [float(v) for v in d["acc"][i]])
+        for i in range(len(d["stamps"]))
+    ]
+
+
+def write_euroc(path: Path, d: dict[str, Any]) -> Path:
+    head = "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+    head += "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
+    body = "".join(f"{t},{','.join(map(repr, g))},{','.join(map(repr, a))}\n" for t, g, a in _rows(d))
+    path.write_text(head + body)
+    return path
+
+
+def write_kalibr(path: Path, d: dict[str, Any], extra: bool = False) -> Path:
+    head = "timestamp,omega_x,omega_y,omega_z,alpha_x,alpha_y,alpha_z" + (",temperature" if extra else "") + "\n"
+    tail = ",31.5" if extra else ""
+    body = "".join(f"{t},{','.join(map(repr, g))},{','.join(map(repr, a))}{tail}\n" for t, g, a in _rows(d))
+    path.write_text(head + body)
+    return path
+
+
+def write_rostopic_echo(path: Path, d: dict[str, Any]) -> Path:
+    """``rostopic echo -b x.bag -p /imu``: %time (receive), the header, every field flattened."""
+    cols = ["%time", "field.header.seq", "field.header.stamp", "field.header.frame_id"]
+    cols += [f"field.orientation.{a}" for a in "xyzw"] + [f"field.orientation_covariance{k}" for k in range(9)]
+    cols += [f"field.angular_velocity.{a}" for a in "xyz"] + [f"field.angular_velocity_covariance{k}" for k in range(9)]
+    cols += [f"field.linear_acceleration.{a}" for a in "xyz"]
+    cols += [f"field.linear_acceleration_covariance{k}" for k in range(9)]
+    lines = [",".join(cols)]
+    for i, (t, g, a) in enumerate(_rows(d)):
+        received = t + 700_000 + (i % 7) * 90_000  # receive times jitter; the header stamps do not
+        cov = ["0.0"] * 9
+        lines.append(
+            ",".join(
+                [str(received), str(i), str(t), "imu", "0.0", "0.0", "0.0", "1.0", *cov]
+                + [repr(v) for v in g]
+                + cov
+                + [repr(v) for v in a]
+                + cov
+            )
+        )
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def write_npy(path: Path, d: dict[str, Any]) -> Path:
+    t = (d["stamps"] - d["stamps"][0]) / 1e9
+    np.save(path, np.column_stack([t, d["acc"], d["gyro"]]))
+    return path
+
+
+def write_npz(path: Path, d: dict[str, Any]) -> Path:
+    np.savez(path, t=(d["stamps"] - d["stamps"][0]) / 1e9, acc=d["acc"], gyro=d["gyro"], frame=np.zeros(2))
+    return path
+
+
+def _analyze(run_cli: Any, *argv: Any) -> dict[str, Any]:
+    rc, out, err = run_cli("analyze", *argv, "--json", "--no-model")
+    assert rc == 0, err
+    return json.loads(out)
+
+
+def _first_point(x: np.ndarray) -> float:
+    """Overlapping Allan deviation at tau = 1/fs: sqrt(mean(diff^2) / 2) (IEEE 952)."""
+    return math.sqrt(0.5 * float(np.mean(np.diff(x) ** 2)))
+
+
+FORMATS = {
+    "ros1_bag": lambda p, d: write_ros1(p / "run.bag", d, {"/imu": "imu_link"}),
+    "ros2_sqlite_folder": lambda p, d: write_ros2(p / "run", d, StoragePlugin.SQLITE3),
+    "ros2_db3_file": lambda p, d: write_ros2(p / "run", d, StoragePlugin.SQLITE3) / "run.db3",
+    "ros2_mcap_file": lambda p, d: write_ros2(p / "run", d, StoragePlugin.MCAP) / "run.mcap",
+    "euroc_csv": lambda p, d: write_euroc(p / "data.csv", d),
+    "kalibr_csv": lambda p, d: write_kalibr(p / "imu0.csv", d),
+    "rostopic_echo_csv": lambda p, d: write_rostopic_echo(p / "imu.csv", d),
+    "npy": lambda p, d: write_npy(p / "imu.npy", d),
+    "npz": lambda p, d: write_npz(p / "imu.npz", d),
+}
+
+
+@pytest.mark.parametrize("fmt", list(FORMATS))
+def test_each_format_reads_back_what_was_written(fmt: str, imu: dict[str, Any], tmp_path: Path) -> None:
+    path = FORMATS[fmt](tmp_path, imu)
+    s = load(str(path)).samples
+    assert s is not None and s.channels == CH
+    assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), imu["values"])
+    assert s.fs == pytest.approx(FS, rel=1e-9)
+    assert s.units == {ch: ("rad/s" if ch[0] == "g" else "m/s^2") for ch in CH}
+    assert s.time.found["rows"] == N and s.time.found["gaps"] == 0
+
+
+@pytest.mark.parametrize("fmt", ["ros1_bag", "ros2_sqlite_folder", "euroc_csv", "rostopic_echo_csv", "npy"])
+def test_a_new_users_file_is_analysed_with_no_option(fmt: str, imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
+    """No --fs, no --scale: the stamps give the rate, the format the units
+    (gyros reported in deg/s, accelerometers in m/s^2)."""
+    doc = _analyze(run_cli, FORMATS[fmt](tmp_path, imu))
+    assert doc["source"]["fs_hz"] == pytest.approx(FS, rel=1e-9) and doc["source"]["n"] == N
+    for i, ch in enumerate(CH):
+        c = doc["channels"][ch]
+        to_unit = 180.0 / math.pi if ch[0] == "g" else 1.0
+        assert c["unit"] == ("deg/s" if ch[0] == "g" else "m/s^2")
+        first = c["curve"][0]
+        assert first["m"] == 1 and first["dev"] == pytest.approx(_first_point(imu["values"][i]) * to_unit, rel=1e-9)
+    assert not any("ADC counts" in n for n in doc["notes"])  # every channel has its unit
+
+
+def test_a_bag_with_two_imu_topics_asks_for_one(imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
+    other = dict(imu, gyro=imu["gyro"] * 3.0)
+    bag = tmp_path / "two.bag"
+    write_ros1(bag, imu, {"/imu0": "a", "/imu1": "a_much_longer_frame"})
+    rc, out, err = run_cli("analyze", bag)
+    assert rc == 2 and out == "" and err.count("\n") == 1
+    assert "--topic" in err and "/imu0" in err and "/imu1" in err
+    doc = _analyze(run_cli, bag, "--topic", "/imu1")
+    gx = doc["channels"]["gx"]["curve"][0]["dev"]
+    assert gx == pytest.approx(_first_point(imu["gyro"][:, 0]) * 180.0 / math.pi, rel=1e-9)
+    assert any("/imu0" in n and "not read" in n for n in doc["notes"])
+    rc, out, err = run_cli("analyze", bag, "--topic", "/cam")
+    assert rc == 2 and "/cam" in err and "/imu0, /imu1" in err
+    del other
+
+
+def test_stamps_show_the_gaps_of_a_bag(imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
+    """Messages 1000..1039 and 2000..2004 never recorded: two gaps, 45 samples
+    missing, the longest 41 periods; said next to the numbers."""
+    keep = [i for i in range(N) if not (1000 <= i < 1040 or 2000 <= i < 2005)]
+    bag = write_ros1(tmp_path / "gaps.bag", imu, {"/imu": "imu"}, keep=keep)
+    s = load(str(bag)).samples
+    list(s.open_blocks())
+    found = s.time.found
+    assert (found["gaps"], found["missing_samples"], found["rows"]) == (2, 45, len(keep))
+    assert found["longest_gap_s"] == pytest.approx(41 * STEP_NS / 1e9)
+    doc = _analyze(run_cli, bag)
+    assert any("2 gaps" in n and "45 samples missing" in n for n in doc["notes"])
+
+
+def test_no_column_is_dropped_silently(imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
+    doc = _analyze(run_cli, write_kalibr(tmp_path / "k.csv", imu, extra=True))
+    assert list(doc["channels"]) == CH  # alpha_* are Kalibr's accelerometer columns
+    assert any("not used: temperature" in n for n in doc["notes"])
+    doc = _analyze(run_cli, write_rostopic_echo(tmp_path / "e.csv", imu))
+    said = next(n for n in doc["notes"] if "not used" in n)
+    for col in ("%time", "field.header.seq", "field.orientation*", "field.linear_acceleration_covariance* (9)"):
+        assert col in said
+
+
+def test_options_that_contradict_the_file_are_errors(imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
+    p = tmp_path / "gyro.csv"
+    p.write_text("t,gx [rad/s],gy [rad/s],gz [rad/s]\n" + "".join(f"{i / FS!r},0.1,0.2,{i % 5}\n" for i in range(N)))
+    rc, out, err = run_cli("analyze", p, "--scale", "ax=0.0039g")
+    assert rc == 2 and out == "" and err.count("\n") == 1 and "gyro.csv" in err and "no channel ax" in err
+    rc, out, err = run_cli("analyze", p, "--fs", "100")
+    assert rc == 2 and err.count("\n") == 1 and "gyro.csv" in err and "--fs 100 contradicts" in err
+    assert _analyze(run_cli, p, "--fs", "200")["source"]["fs_hz"] == 200
+
+
+def test_one_column_named_by_its_unit(tmp_path: Path, run_cli) -> None:
+    x = np.random.default_rng(5).normal(0.0, 0.3, 2000)  # deg/s
+    p = tmp_path / "rate.txt"
+    p.write_text("gz [deg/s]\n" + "".join(f"{float(v)!r}\n" for v in x))
+    doc = _analyze(run_cli, p, "--fs", "100")
+    assert list(doc["channels"]) == ["gz"] and doc["channels"]["gz"]["unit"] == "deg/s"
+    assert doc["channels"]["gz"]["curve"][0]["dev"] == pytest.approx(_first_point(x), rel=1e-9)
+
+
+def test_integer_npy_is_adc_codes_like_a_rows_file(tmp_path: Path) -> None:
+    codes = np.random.default_rng(2).integers(0, 1024, (500, 7)).astype(np.int16)
+    np.save(tmp_path / "codes.npy", codes)
+    s = load(str(tmp_path / "codes.npy")).samples
+    assert s.integer and np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), codes[:, :6].T)
+    assert np.array_equal(np.concatenate(list(s.open_temperature())), codes[:, 6])
+    assert any("(temp) not used" in n for n in s.notes)  # no column dropped without a word
+    np.save(tmp_path / "bad.npy", codes * 4)
+    with pytest.raises(InputError, match="not 10-bit ADC codes"):
+        list(load(str(tmp_path / "bad.npy")).samples.open_blocks())
+
+
+@pytest.mark.parametrize("store", [Stores.ROS1_NOETIC, Stores.ROS2_HUMBLE])
+def test_array_decoding_of_imu_messages_agrees_with_rosbags(store: Any, imu: dict[str, Any]) -> None:
+    """The offsets of every field move with the frame_id's length (CDR pads the
+    doubles to 8 bytes): lengths 0 to 17 decoded as arrays give what rosbags'
+    own deserializer gives, value for value and stamp for stamp."""
+    from imu_allan.sources import rosbag
+
+    ts = get_typestore(store)
+    ros1 = store == Stores.ROS1_NOETIC
+    frames = ["x" * k for k in range(18)]
+    msgs = [_imu_msg(ts, i, imu, frames[i % len(frames)]) for i in range(40)]
+    raws = [
+        bytes(ts.serialize_ros1(m, "sensor_msgs/msg/Imu") if ros1 else ts.serialize_cdr(m, "sensor_msgs/msg/Imu"))
+        for m in msgs
+    ]
+    vals, stamps = rosbag._fast(raws, ros1)
+    assert np.array_equal(vals, imu["values"][:, :40]) and np.array_equal(stamps, imu["stamps"][:40])
+    with pytest.raises(ValueError):
+        rosbag._fast([raws[0] + b"\0" * 8], ros1)  # another layout: not decoded as arrays
+
+
+def test_small_blocks_read_the_same_values_and_gaps(imu: dict[str, Any], tmp_path: Path, monkeypatch) -> None:
+    """A CSV read 4 KB at a time (every block boundary inside the data, one
+    across a gap) gives the values of one read and the gap once."""
+    from imu_allan.sources import table
+
+    keep = np.r_[0:1500, 1507:N]  # 7 samples never written
+    d = dict(imu, stamps=imu["stamps"][keep], gyro=imu["gyro"][keep], acc=imu["acc"][keep])
+    lines = [f"{t},{','.join(map(repr, g))},{','.join(map(repr, a))}" for t, g, a in _rows(d)]
+    p = tmp_path / "imu0.csv"
+    p.write_text("timestamp,omega_x,omega_y,omega_z,alpha_x,alpha_y,alpha_z\n" + "\n".join(lines) + "\n")
+    whole = np.concatenate(list(load(str(p)).samples.open_blocks()), axis=1)
+    monkeypatch.setattr(table, "BLOCK_BYTES", 4096)
+    s = load(str(p)).samples
+    blocks = list(s.open_blocks())
+    assert len(blocks) > 50
+    assert np.array_equal(np.concatenate(blocks, axis=1), whole)
+    assert np.array_equal(whole, np.vstack([d["acc"].T, d["gyro"].T]))
+    assert (s.time.found["gaps"], s.time.found["missing_samples"]) == (1, 7)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        b"1\t2\t3\t4\t5\t6\t7\n8\t9\t10\t11\t12\t13\t14\n",
+        b"1 2 3 4 5 6 7\n  8\t9 10  11 12 13 14  \n",
+        b"1\t2\t3\t4\t5\t6\t7\n\n8\t9\t10\t11\t12\t13\t14",
+        b"1\t2\t3\t4\t5\t6\t7\t\n",
+        b"1\t2\t3\t4\t5\t6\n",
+        b"1\t2\t3\t4\t5\t6\t7\t8\n",
+        b"1\t2\t3\t4\t5\t6\t1024\n",
+        b"1\t2\t3\t4\t5\t6\t+7\n",
+        b"1\t2\t3\t4\t5\t6\t7.0\n",
+        b"0001\t2\t3\t4\t5\t6\t7\n",
+    ],
+)
+def test_rows_compiled_reader_agrees_with_the_exact_one(text: bytes) -> None:
+    """pandas' reader takes a block only when it reads it exactly as the numpy
+    reader of the format does; anything else gets the numpy reader's answer."""
+    from imu_allan.sources.rows import parse_block, parse_exact
+
+    try:
+        want: Any = parse_exact(text, "f", 1, 7)
+    except InputError as exc:
+        want = str(exc)
+    try:
+        got: Any = parse_block(text, "f", 1, 7)
+    except InputError as exc:
+        got = str(exc)
+    if isinstance(want, str):
+        assert got == want
+    else:
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
+def test_a_bag_whose_driver_left_the_stamps_zero_uses_the_recorded_times(imu: dict[str, Any], tmp_path: Path) -> None:
+    zero = dict(imu, stamps=np.zeros(N, dtype=np.int64))
+    recorded = T0_NS + 2 * STEP_NS * np.arange(N, dtype=np.int64)  # 100 Hz as the bag saw them
+    s = load(str(write_ros1(tmp_path / "z.bag", zero, {"/imu": "imu"}, recorded=recorded))).samples
+    assert s.fs == pytest.approx(FS / 2, rel=1e-9)
+    assert any("do not increase" in n and "bag's times" in n for n in s.notes)
+    assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), imu["values"])
