@@ -71,13 +71,20 @@ $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS
 # module (bytes saved alone: report -fno-ivopts 14, -fno-tree-dominator-opts
 # 10; stream -fno-ivopts 18, -fno-expensive-optimizations 4; fmt
 # -fno-tree-fre 8; control -fno-tree-coalesce-vars 4; main -fno-ivopts 4,
-# -fno-expensive-optimizations 6; reply -fno-tree-ter 2).
-FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts
+# -fno-expensive-optimizations 6; reply -fno-tree-ter 2; later report
+# -fno-split-wide-types 62: its 32-bit values stay whole in registers,
+# stack unchanged in imu-sim).
+FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts -fno-split-wide-types
 FW_MORE_stream := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_fmt := -fno-tree-fre
-FW_MORE_control := -fno-tree-coalesce-vars
+FW_MORE_control := -fno-tree-coalesce-vars -fno-reorder-blocks
 FW_MORE_main := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_reply := -fno-tree-ter
+# Measured later, each on its module alone: console -fno-reorder-blocks 4,
+# settings -fno-ivopts 4, switchboard -fno-tree-vrp 2.
+FW_MORE_console := -fno-reorder-blocks
+FW_MORE_settings := -fno-ivopts
+FW_MORE_switchboard := -fno-tree-vrp
 # In the engine and the sampling loop too, where imu-sim measured no
 # slower sets (1 and 1.25 kHz: the worst set 3884 -> 3807 and 3897 ->
 # 3803 cycles, the mean the same, the engine's mean per channel-sample
@@ -85,7 +92,7 @@ FW_MORE_reply := -fno-tree-ter
 # more; sample -fno-gcse 36.
 FW_MORE_allan := -fno-tree-dominator-opts -fno-gcse
 FW_MORE_sample := -fno-gcse
-$(foreach m,report stream fmt control main reply allan sample console,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
+$(foreach m,report stream fmt control main reply allan sample console switchboard settings command vocab proto units reset,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP
@@ -111,7 +118,7 @@ include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts pyflakes lint format bench ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
+.PHONY: all help facts pyflakes lint format bench bench-long ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -254,8 +261,18 @@ soak: firmware $(IMU_SIM) ## the link soak: 1,000 runs of random commands over a
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) tests/system/sim/soak.py --runs $(SOAK_RUNS)
 
 # Device, simulator and host side by side; writes bench/results.json.
+# Then the long recording (bench/long.py): 8 h at 1 kHz of TSV (generated once
+# into build/bench/) through `imu-allan analyze` beside allantools' oadev, and
+# a ROS 2 bag against the TSV of its length.  BENCH_QUICK=1: a sixteenth of
+# each; BENCH_ROWS=N, BENCH_BAG_ROWS=N (0: no bag) for other sizes.
+BENCH_ROWS ?= $(if $(BENCH_QUICK),1800000,28800000)
+BENCH_BAG_ROWS ?= $(if $(BENCH_QUICK),225000,3600000)
 bench: firmware $(IMU_SIM) ext ## device, simulator and host figures side by side into bench/results.json
-	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS) $(if $(BENCH_QUICK),--quick)
+	$(MAKE) --no-print-directory bench-long
+
+bench-long: ext ## only the long recording's figures (BENCH_QUICK=1, BENCH_ROWS=N, BENCH_BAG_ROWS=N)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/long.py --rows $(BENCH_ROWS) --bag-rows $(BENCH_BAG_ROWS)
 
 # ---- demo ------------------------------------------------------------------
 # The main job: 10 minutes of a synthetic thesis-like IMU at 100 Hz through

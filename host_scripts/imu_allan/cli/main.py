@@ -256,14 +256,20 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         memory_budget=args.memory * 2**20,
         outliers=args.outliers,
         horizon=args.horizon,
+        keep_store=not args.no_warmup,
     )
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
     from ..analysis import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
 
     if not args.no_warmup:
-        quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
-        warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
+        quick = Options(**{**vars(opts), "model": False, "extra_curves": False, "keep_store": False})
+        try:
+            warmup_section(
+                doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc, result.store
+            )
+        finally:
+            result.close()
     advice.add_to_analysis(doc, fits=result.fits)
     from ..analysis.device_terms import add_device_terms
 
@@ -374,7 +380,8 @@ def main(argv: Optional[list[str]] = None) -> int:
         return 2
     if sys.stdout is None:
         sys.stdout = _ClosedStream()  # type: ignore[assignment]
-    _draw_progress()
+    if not getattr(args, "quiet", False):
+        _draw_progress()
     try:
         rc = handlers[args.command](args)
         sys.stdout.flush()

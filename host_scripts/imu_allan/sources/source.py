@@ -9,6 +9,9 @@ import numpy as np
 
 from ..device.records import DeviceHeader, DeviceReport
 
+TEMP_NOTE = "column 7 (temp) not used by the noise analysis (imu-allan thermal reads it)"
+"""No column is dropped silently: the thesis rows' temperature is named as unused."""
+
 
 @dataclass
 class SampleSource:
