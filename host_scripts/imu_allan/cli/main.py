@@ -228,14 +228,12 @@ CMD_TRIES = 3
 def cmd_analyze(args: argparse.Namespace) -> int:
     from ..analysis.pipeline import Options, analyze
     from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
-    from ..render import formats
-    from ..render import text as render
     from ..sources.detect import check_options, load, load_device_report
 
     scales = parse_scales(args.scale)
     src = load(args.file, topic=args.topic)
     check_options(src, args.fs, scales)
-    from ..analysis.warmup import skipped, warmup_section, warmup_text
+    from ..analysis.warmup import skipped, warmup_section
 
     src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
     if skip_note:
@@ -274,28 +272,18 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     from ..analysis.device_terms import add_device_terms
 
     add_device_terms(doc, report)
-    written = _write_files(args, doc, getattr(src.samples, "topic", None))
-    if args.json:
-        sys.stdout.write(formats.to_json(doc))
-    elif args.csv:
-        sys.stdout.write(formats.terms_csv(doc))
-    elif args.brief:
-        from ..render.answer import answer_table
-
-        sys.stdout.write(answer_table(doc, brief=True))
-    else:
-        from ..analysis.overbound import analysis_text as overbound_text
-        from .pager import page
-
-        page(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
-    for path in written:
-        print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
+    _analysis_out(args, doc, getattr(src.samples, "topic", None))
     return 0
 
 
-def _write_files(args: argparse.Namespace, doc: dict[str, Any], bag_topic: Optional[str]) -> list[str]:
-    """analyze's output files (--curves, the estimators' YAML, --plot): the paths written."""
+def _analysis_out(args: argparse.Namespace, doc: dict, bag_topic: Optional[str]) -> None:
+    """analyze's files (curves, estimator YAMLs, figures), then its stdout: JSON, CSV,
+    the answer table alone (--brief) or the whole text (through the pager at a terminal)."""
+    from ..analysis import advice
+    from ..analysis.overbound import analysis_text as overbound_text
+    from ..analysis.warmup import warmup_text
     from ..render import formats
+    from ..render import text as render
 
     written = []
     if args.curves:
@@ -313,7 +301,20 @@ def _write_files(args: argparse.Namespace, doc: dict[str, Any], bag_topic: Optio
         from ..render.plots import write_plots
 
         written += write_plots(doc, args.plot)
-    return written
+    if args.json:
+        sys.stdout.write(formats.to_json(doc))
+    elif args.csv:
+        sys.stdout.write(formats.terms_csv(doc))
+    elif args.brief:
+        from ..render.answer import answer_table
+
+        sys.stdout.write(answer_table(doc, brief=True))
+    else:
+        from .pager import page
+
+        page(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
+    for path in written:
+        print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
 
 
 # ---- output files ----------------------------------------------------------------------
