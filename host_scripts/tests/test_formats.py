@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -346,3 +348,18 @@ def test_a_bag_whose_driver_left_the_stamps_zero_uses_the_recorded_times(imu: di
     assert s.fs == pytest.approx(FS / 2, rel=1e-9)
     assert any("do not increase" in n and "bag's times" in n for n in s.notes)
     assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), imu["values"])
+
+
+def test_an_array_is_analysed_in_text_as_well_as_json(tmp_path: Path) -> None:
+    """analyze's text names every kind of source (arrays and bags were a
+    KeyError without --json)."""
+    path = tmp_path / "still.npy"
+    np.save(path, np.random.default_rng(4).normal(size=(20000, 6)))
+    for extra in ("--brief", "--no-model"):
+        out = subprocess.run(
+            [sys.executable, "-m", "imu_allan.cli", "analyze", str(path), "--fs", "100", extra],
+            capture_output=True,
+            text=True,
+        )
+        assert out.returncode == 0, out.stderr[-500:]
+    assert " ".join(out.stdout.split()).startswith(f"{path}: NumPy array, 20000 samples at 100 Hz")
