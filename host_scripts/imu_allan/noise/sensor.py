@@ -33,10 +33,10 @@ so the N read from the samples falls with f_s until f_s >> f_c, while the
 samples' standard deviation sqrt(pi f_c) N does not depend on f_s.
 
 Sampling instants (firmware/adc.c, docs/firmware.md): Timer1 ticks at
-i / f_s; its ISR starts the scan of the 7 columns ax ay az gx gy gz temp;
-each conversion's ISR starts the next. A normal conversion takes 13 ADC
-clocks and samples the input 1.5 clocks after it starts; the ISR and the
-wait for the next ADC clock edge add about one clock, so column k is sampled
+i / f_s; its ISR starts the scan of the 7 columns ax ay az gx gy gz temp,
+which the ADC then converts back to back (free running): a normal conversion
+takes 13 ADC clocks and samples the input 1.5 clocks after it starts; the
+tick's start waits about one clock for the ADC clock's edge, so column k is sampled
 at i / f_s + (``start_clocks`` + 1.5 + ``conversion_clocks`` k) / f_adc,
 f_adc = 10 MHz / 64 = 156.25 kHz. With ``average`` M > 1 the device would
 scan M times per sample period (at M f_s) and average the M codes: an
@@ -50,7 +50,7 @@ noise of ``noise`` counts.
 
 Model file (JSON), every key optional (missing ones keep the defaults)::
 
-    {"adc": {"clock_hz": 156250, "conversion_clocks": 14, "start_clocks": 1},
+    {"adc": {"clock_hz": 156250, "conversion_clocks": 13, "start_clocks": 1},
      "temperature": {"start_c": 20.3, "ramp_c_per_s": 0, "sine_c": 0, "period_s": 3600,
                      "c_per_count": 0.3223, "offset_c": 0, "noise": 0.3},
      "channels": {"gx": {"offset": 520, "N": 0.048, "bandwidth_hz": 88, "B": 0.056,
@@ -111,7 +111,7 @@ def _thesis_channel(
 # Bandwidths: MMA7260Q 350 Hz X/Y, 150 Hz Z; LISY300AL 88 Hz. Tempcos are
 # illustrative (of the order of the datasheets' zero-level drifts), not measured.
 DEFAULT_MODEL: dict[str, Any] = {
-    "adc": {"clock_hz": F_ADC, "conversion_clocks": 14.0, "start_clocks": 1.0},
+    "adc": {"clock_hz": F_ADC, "conversion_clocks": 13.0, "start_clocks": 1.0},
     "temperature": {
         "start_c": 20.3,
         "ramp_c_per_s": 0.0,
