@@ -71,13 +71,20 @@ $(foreach m,$(FW_SMALL),$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_SMALL_FLAGS
 # module (bytes saved alone: report -fno-ivopts 14, -fno-tree-dominator-opts
 # 10; stream -fno-ivopts 18, -fno-expensive-optimizations 4; fmt
 # -fno-tree-fre 8; control -fno-tree-coalesce-vars 4; main -fno-ivopts 4,
-# -fno-expensive-optimizations 6; reply -fno-tree-ter 2).
-FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts
+# -fno-expensive-optimizations 6; reply -fno-tree-ter 2; later report
+# -fno-split-wide-types 62: its 32-bit values stay whole in registers,
+# stack unchanged in imu-sim).
+FW_MORE_report := -fno-ivopts -fno-tree-dominator-opts -fno-split-wide-types
 FW_MORE_stream := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_fmt := -fno-tree-fre
-FW_MORE_control := -fno-tree-coalesce-vars
+FW_MORE_control := -fno-tree-coalesce-vars -fno-reorder-blocks
 FW_MORE_main := -fno-ivopts -fno-expensive-optimizations
 FW_MORE_reply := -fno-tree-ter
+# Measured later, each on its module alone: console -fno-reorder-blocks 4,
+# settings -fno-ivopts 4, switchboard -fno-tree-vrp 2.
+FW_MORE_console := -fno-reorder-blocks
+FW_MORE_settings := -fno-ivopts
+FW_MORE_switchboard := -fno-tree-vrp
 # In the engine and the sampling loop too, where imu-sim measured no
 # slower sets (1 and 1.25 kHz: the worst set 3884 -> 3807 and 3897 ->
 # 3803 cycles, the mean the same, the engine's mean per channel-sample
@@ -85,7 +92,7 @@ FW_MORE_reply := -fno-tree-ter
 # more; sample -fno-gcse 36.
 FW_MORE_allan := -fno-tree-dominator-opts -fno-gcse
 FW_MORE_sample := -fno-gcse
-$(foreach m,report stream fmt control main reply allan sample console,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
+$(foreach m,report stream fmt control main reply allan sample console switchboard settings command vocab proto units reset,$(eval $(FW_BUILD)/$(m).o: FW_CFLAGS += $(FW_MORE_$(m))))
 FW_CFLAGS := -mmcu=$(MCU) -DF_CPU=$(F_CPU)UL -DBAUD=$(BAUD)UL \
              -std=gnu99 $(FW_OPT) -Wall -Wextra -Werror \
              -ffunction-sections -fdata-sections -MMD -MP
@@ -187,7 +194,7 @@ ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: pyflakes firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
+test: lint firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles

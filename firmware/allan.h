@@ -70,17 +70,7 @@ typedef struct ALLAN_PACKED {
 #define ALLAN_LAGGING 0x40u   /* some channels lag this set (allan.c, lag_park) */
 #define ALLAN_TOP_FIRST 0x80u /* the top one has no pair yet */
 
-/* Lagging channels: in a set that completes ALLAN_LAG_DEPTH levels or more
- * (one set in 2^(ALLAN_LAG_DEPTH-1)), channels ALLAN_LAG_FROM and up do
- * their work at the start of the next set, so that the deepest cascade is
- * split between two sets (docs/allan-engine.md, "Spreading the cascade").
- * It costs no RAM: the parked code waits in bits no sum uses. */
-#ifndef ALLAN_LAG_FROM
-#  define ALLAN_LAG_FROM 2u
-#endif
-#ifndef ALLAN_LAG_DEPTH
-#  define ALLAN_LAG_DEPTH 4u
-#endif
+/* Lagging channels: ALLAN_LAG_FROM and ALLAN_LAG_DEPTH, config.h. */
 
 /* One bit per level whose pairs wait to be taken (allan.c, settle()):
  * levels 2 .. ALLAN_LEVELS-2 can wait. */

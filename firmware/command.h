@@ -9,8 +9,7 @@
 
 #include "vocab.h"
 
-/* Longest command line accepted, excluding its end of line. */
-#define COMMAND_LINE_MAX 16 /* "start 4294967295" */
+#include "config.h" /* COMMAND_LINE_MAX */
 
 enum {
   CMD_NONE = 0, /* empty line: ignored, no reply */

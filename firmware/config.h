@@ -103,35 +103,65 @@
 #  error "RANGE_DEFAULT must be RANGE_1G5 .. RANGE_6G"
 #endif
 
-/* The default mode must keep up with the link at the default rate: the
- * rules of link.c (throughput, and the longest wait of a sample's output,
- * replies and reports included, within two sample periods), at compile
- * time. */
-#ifdef BAUD
-#  include "link.h"
-#  if MODE_DEFAULT == MODE_RAW || MODE_DEFAULT == MODE_BOTH
-#    define CONFIG_LINK_BYTES                                                                                \
-      (FS_DEFAULT * LINK_RAW_ROW + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
-#    if MODE_DEFAULT == MODE_RAW
-#      define CONFIG_LINK_WAIT (LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW)
-#    else
-#      define CONFIG_LINK_WAIT (LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW)
-#    endif
-#  elif MODE_DEFAULT == MODE_BINARY
-#    define CONFIG_LINK_BYTES                                                                                \
-      (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
-#    define CONFIG_LINK_WAIT (UART_STEP_MAX + LINK_FRAME)
-#  else
-#    define CONFIG_LINK_BYTES 0
-#    define CONFIG_LINK_WAIT 0
-#  endif
-#  if CONFIG_LINK_BYTES * 100 > (BAUD / 10) * LINK_USE_PERCENT
-#    error "MODE_DEFAULT at FS_DEFAULT sends more than the link carries at BAUD"
-#  endif
-#  if CONFIG_LINK_WAIT * FS_DEFAULT * 100 > 2 * (BAUD / 10) * LINK_USE_PERCENT
-#    error "MODE_DEFAULT at FS_DEFAULT: a long line would hold samples back beyond the ring's slack at BAUD"
-#  endif
+/* Output steps: every producer (replies, reports, the sample stream) writes
+ * at most this many bytes a step, each only once the TX ring has room for a
+ * whole one; the ring holds one step (UART_STEP_MAX + 1 bytes of SRAM).
+ * Longer steps mean fewer turns of the output scheduler but a longer ring,
+ * and a longer wait for a raw row behind a step (link.h); the longest piece
+ * that may not be split (the header's `1023.0:1023:1023`, a raw row's half,
+ * a status field) must fit. */
+#ifndef UART_STEP_MAX
+#  define UART_STEP_MAX 20
 #endif
+
+/* Receive ring, bytes, a power of two: it holds what arrives while the
+ * main loop is busy with one sample set or one piece of the engine's
+ * waiting work (8 bytes: 0.69 ms at 115200 baud, against at most 0.4 ms
+ * for either); every byte of it is the stack's. */
+#ifndef UART_RX_SIZE
+#  define UART_RX_SIZE 8
+#endif
+#if UART_RX_SIZE & (UART_RX_SIZE - 1)
+#  error "UART_RX_SIZE must be a power of two"
+#endif
+
+/* Longest command line accepted, without its end of line and its check:
+ * the longest command, "start 4294967295".  The console keeps the line in
+ * SRAM (COMMAND_LINE_MAX + 1 bytes); a longer line is refused (error:3). */
+#ifndef COMMAND_LINE_MAX
+#  define COMMAND_LINE_MAX 16
+#endif
+
+/* Characters of an unknown command's first word quoted back in its error
+ * reply; the reply keeps a copy (the line's buffer takes the next line at
+ * once), so each is a byte of SRAM. */
+#ifndef REPLY_QUOTE_MAX
+#  define REPLY_QUOTE_MAX 6
+#endif
+
+/* Levels a T line's B (the flicker floor, the least deviation) may come
+ * from: those with at least this many pairs, whose deviation is known to
+ * within about 25 % (100 / sqrt(2 pairs)); fewer would make the minimum a
+ * matter of chance.  T lines come only when level 0 has that many. */
+#ifndef TERMS_B_PAIRS
+#  define TERMS_B_PAIRS 8u
+#endif
+
+/* Lagging channels: in a set that completes ALLAN_LAG_DEPTH levels or more
+ * (one set in 2^(ALLAN_LAG_DEPTH-1)), channels ALLAN_LAG_FROM and up do
+ * their levels 2 and up after the set (the main loop's sample_settle, or
+ * the next set's start), so that the deepest cascade is split in two:
+ * the worst set's cycles at 1500 Hz (docs/allan-engine.md, "Spreading the
+ * cascade").  It costs no RAM: the parked code waits in bits no sum uses. */
+#ifndef ALLAN_LAG_FROM
+#  define ALLAN_LAG_FROM 2u
+#endif
+#ifndef ALLAN_LAG_DEPTH
+#  define ALLAN_LAG_DEPTH 4u
+#endif
+
+/* The default mode must keep up with the link at the default rate:
+ * checked at compile time in link.c (link.h includes this file). */
 
 /* Silence after which an open command line (bytes without CR or LF) is
  * discarded with one `error:7` reply (docs/protocol.md): a stray byte on a

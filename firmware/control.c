@@ -211,7 +211,7 @@ static void execute(const command_t *cmd)
   case CMD_LOAD: run_load(); break;
   case CMD_DEFAULTS:
     settings_defaults();
-    switchboard_ok_word(PSTR("defaults"), reset_tail_P, apply_settings());
+    switchboard_ok_word(vocab_word(vocab_sources, CFG_DEFAULTS), reset_tail_P, apply_settings());
     break;
   case CMD_STATUS: switchboard_status(); break;
   case CMD_ECHO:

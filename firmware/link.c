@@ -1,6 +1,8 @@
 /* link.c - see link.h. */
 #include "link.h"
 
+#include "config.h"
+
 #include "pgm.h"
 
 uint32_t link_bytes_per_s(uint8_t mode, uint16_t fs)
@@ -49,4 +51,33 @@ uint16_t link_percent_here(uint8_t mode, uint16_t fs)
     return 0;
   return pgm_read_word(mode == MODE_BINARY ? &budget[i].frames : &budget[i].rows);
 }
+#endif
+
+/* The default mode must keep up with the link at the default rate: the
+ * rules of link.c (throughput, and the longest wait of a sample's output,
+ * replies and reports included, within two sample periods), at compile
+ * time. */
+#ifdef BAUD
+#  if MODE_DEFAULT == MODE_RAW || MODE_DEFAULT == MODE_BOTH
+#    define CONFIG_LINK_BYTES                                                                                \
+      (FS_DEFAULT * LINK_RAW_ROW + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
+#    if MODE_DEFAULT == MODE_RAW
+#      define CONFIG_LINK_WAIT (LINK_REPLY_MAX + UART_STEP_MAX + LINK_RAW_ROW)
+#    else
+#      define CONFIG_LINK_WAIT (LINK_REPORT_MAX + UART_STEP_MAX + LINK_RAW_ROW)
+#    endif
+#  elif MODE_DEFAULT == MODE_BINARY
+#    define CONFIG_LINK_BYTES                                                                                \
+      (FS_DEFAULT * LINK_FRAME + (FS_DEFAULT * LINK_COUNT_LINE) / LINK_COUNT_EVERY + 1)
+#    define CONFIG_LINK_WAIT (UART_STEP_MAX + LINK_FRAME)
+#  else
+#    define CONFIG_LINK_BYTES 0
+#    define CONFIG_LINK_WAIT 0
+#  endif
+#  if CONFIG_LINK_BYTES * 100 > (BAUD / 10) * LINK_USE_PERCENT
+#    error "MODE_DEFAULT at FS_DEFAULT sends more than the link carries at BAUD"
+#  endif
+#  if CONFIG_LINK_WAIT * FS_DEFAULT * 100 > 2 * (BAUD / 10) * LINK_USE_PERCENT
+#    error "MODE_DEFAULT at FS_DEFAULT: a long line would hold samples back beyond the ring's slack at BAUD"
+#  endif
 #endif

@@ -9,8 +9,8 @@
 
 #include <stdint.h>
 
-#include "uart.h"  /* UART_STEP_MAX */
-#include "vocab.h" /* MODE_* */
+#include "config.h" /* UART_STEP_MAX */
+#include "vocab.h"  /* MODE_* */
 
 /* Worst-case bytes of one raw row ("1023\t" x 6, "1023\r\n") and of the
  * count line sent every LINK_COUNT_EVERY rows or frames

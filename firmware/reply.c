@@ -11,8 +11,6 @@
 #include "settings.h"
 #include "vocab.h"
 
-#define WORD_MAX 6 /* characters of an unknown command word quoted */
-
 #if CMD_ERR_TIMEOUT > 9
 #  error "step_error() writes an error code as one digit"
 #endif
@@ -32,7 +30,7 @@ static struct {
         } word;
       } tail_value;
     };
-    char word[WORD_MAX]; /* error naming no command (CMD_NONE): the line's first word */
+    char word[REPLY_QUOTE_MAX]; /* error naming no command (CMD_NONE): the line's first word */
   };
 } rpl;
 
@@ -44,7 +42,7 @@ void reply_set_error(uint8_t code, uint8_t id, const char *quote, const char *te
     /* A copy: the line's buffer takes the next line at once.  A longer
      * word is cut. */
     uint8_t i;
-    for (i = 0; i < WORD_MAX; i++) {
+    for (i = 0; i < REPLY_QUOTE_MAX; i++) {
       char c = quote[i];
       if (c == ' ' || c == '\t')
         c = 0;
@@ -148,9 +146,9 @@ static __attribute__((noinline)) uint8_t put_allowed(uint8_t kind, uint8_t k, ui
 /* A line refused before any command is known: two words a code from 1,
  * what is wrong and what is allowed, as reply_set_error's texts (codes 2
  * and 4 always name their command: empty words). */
-static const char refused_P[] PROGMEM = "unknown command\0see help\0\0\0line too long\0"
-                                        "16 chars\0\0\0"
-                                        "input lost\0resend\0bad byte\0printable ASCII\0timed out\0resend";
+static const char refused_P[] PROGMEM = "unknown command\0see help\0\0\0line too long\0" REPLY_STR(
+    COMMAND_LINE_MAX) " chars\0\0\0"
+                      "input lost\0resend\0bad byte\0printable ASCII\0timed out\0resend";
 #if CMD_ERR_UNKNOWN != 1 || CMD_ERR_ARG != 2 || CMD_ERR_LONG != 3 || CMD_ERR_STATE != 4 ||                   \
     CMD_ERR_LOST != 5 || CMD_ERR_BYTE != 6 || CMD_ERR_TIMEOUT != 7
 #  error "refused_P holds the codes 1..7 in order"
@@ -169,7 +167,7 @@ static __attribute__((noinline)) uint8_t step_error(uint8_t step)
   } else if (step == 1) {
     if (none) {
       uint8_t i;
-      for (i = 0; i < WORD_MAX && rpl.word[i]; i++)
+      for (i = 0; i < REPLY_QUOTE_MAX && rpl.word[i]; i++)
         proto_putc(console_shown_as(rpl.word[i]));
     } else {
       proto_puts_P(command_word(rpl.tail));

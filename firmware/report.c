@@ -15,6 +15,7 @@
 #include "pgm.h"
 #include "proto.h"
 #include "reply.h"
+#include "reset.h"
 #include "sample.h"
 #include "settings.h"
 #include "units.h"
@@ -38,10 +39,9 @@ enum {
 
 static struct {
   uint8_t part, ch, level;
-  uint16_t seq;        /* of the report being written; +1 when one starts */
-  uint8_t run_id;      /* +1 with every new run (report_new_run) */
-  uint8_t reset_cause; /* MCUSR's PORF EXTRF BORF WDRF */
-  uint8_t counts;      /* the units setting as the report began (in its header): a
+  uint16_t seq;   /* of the report being written; +1 when one starts */
+  uint8_t run_id; /* +1 with every new run (report_new_run) */
+  uint8_t counts; /* the units setting as the report began (in its header): a
                     `units` typed while it is sent takes effect with the next one */
   union {
     struct { /* an L row's snapshot */
@@ -58,12 +58,8 @@ static struct {
   };
 } rep; /* in .bss: report_init() sets what is not 0 */
 
-/* Levels whose deviation B may come from: at least this many pairs. */
-#define TERMS_B_PAIRS 8u
-
-void report_init(uint8_t cause)
+void report_init(void)
 {
-  rep.reset_cause = cause;
   rep.seq = 0xFFFF; /* the first report is seq 0 */
 }
 
@@ -124,14 +120,19 @@ static void put_key_u32(const char *key_P, uint32_t v)
   proto_u32(v);
 }
 
-/* The boot line's and the header's (one copy in flash). */
+/* The boot line's and the header's (one copy in flash); the header's and
+ * the V line's `id=` (id_key_P + 1). */
 static const char reset_key_P[] PROGMEM = ",reset=";
+static const char id_key_P[] PROGMEM = ",id=";
+/* One-character keys, each once in flash. */
+static const char colon_P[] PROGMEM = ":";
+static const char comma_P[] PROGMEM = ",";
 
 static void put_causes(void)
 {
-  uint8_t bit, any = 0;
+  uint8_t bit, any = 0, cause = reset_cause();
   for (bit = 0; bit < 4; bit++) {
-    if (rep.reset_cause & (1u << bit)) { /* PORF EXTRF BORF WDRF */
+    if (cause & (1u << bit)) { /* PORF EXTRF BORF WDRF */
       if (any)
         proto_putc('+');
       proto_puts_P(vocab_word(vocab_causes, bit));
@@ -186,8 +187,8 @@ static __attribute__((noinline)) void put_temp(void)
     proto_u32((uint16_t)mean);
     proto_putc('.');
     proto_putc((char)('0' + (uint8_t)(mean >> 16)));
-    put_key_u32(PSTR(":"), sample_stats.temp_min);
-    put_key_u32(PSTR(":"), sample_stats.temp_max);
+    put_key_u32(colon_P, sample_stats.temp_min);
+    put_key_u32(colon_P, sample_stats.temp_max);
   } else {
     proto_putc('-');
   }
@@ -206,7 +207,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
   } else if (step <= 3) {
     step_identity((uint8_t)(step - 1));
   } else if (step == 4) {
-    put_key_u32(PSTR(",id="), rep.run_id);
+    put_key_u32(id_key_P, rep.run_id);
   } else if (step == 5) {
     put_key_u32(PSTR(",fcpu="), F_CPU);
   } else if (step == 6) {
@@ -255,7 +256,7 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
     rep.flags = allan_flags(&sample_engine, rep.ch, rep.level);
     begin_seq('L');
     put_channel(rep.ch);
-    put_key_u32(PSTR(","), rep.level);
+    put_key_u32(comma_P, rep.level);
     proto_putc(',');
     break;
   case 1:
@@ -355,7 +356,7 @@ static __attribute__((noinline)) uint8_t step_check(uint8_t step)
 {
   if (step == 0) {
     begin_seq('V');
-    put_key_u32(PSTR("id="), rep.run_id);
+    put_key_u32(id_key_P + 1, rep.run_id);
   } else if (step == 1) {
     proto_puts_P(PSTR(",crc="));
     proto_hex(proto_bound(), 4);
@@ -396,7 +397,7 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
   if (step == 0) {
     begin_seq('T');
     put_channel(rep.ch);
-    put_key_u32(PSTR(","), N_LEVEL);
+    put_key_u32(comma_P, N_LEVEL);
     proto_putc(',');
   } else if (step == 1) {
     put_at(UNITS_N, N_LEVEL, AT_COUNTS);

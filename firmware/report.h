@@ -10,8 +10,8 @@
 
 #include <stdint.h>
 
-/* MCUSR bits captured at boot, for the `reset=` fields. */
-void report_init(uint8_t reset_cause);
+/* Before the first report (the `reset=` fields are reset.h's cause). */
+void report_init(void);
 
 /* One step of the boot line; returns 1 when the line is written. */
 uint8_t report_boot_step(uint8_t step);

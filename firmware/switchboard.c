@@ -32,9 +32,9 @@ static struct {
 } out;
 #define out_step BOARD_SPARE_REG /* the step within the job's line (board.h) */
 
-void switchboard_init(uint8_t reset_cause)
+void switchboard_init(void)
 {
-  report_init(reset_cause);
+  report_init();
   proto_init(uart_write);
 }
 

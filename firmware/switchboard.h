@@ -17,8 +17,8 @@
 
 #include <stdint.h>
 
-/* The proto sink becomes the UART; MCUSR bits for the `reset=` fields. */
-void switchboard_init(uint8_t reset_cause);
+/* The proto sink becomes the UART. */
+void switchboard_init(void);
 
 /* Queue jobs (replies and echo only when switchboard_can_interject()). */
 void switchboard_echo(void); /* the rest of the taken line's echo (console.h), whole */

@@ -131,7 +131,7 @@ fi
 
 # ---- Python host package ----------------------------------------------------
 stamp="$BUILD/.pydeps-$(sha256sum "$ROOT/host_scripts/pyproject.toml" | cut -c1-16)"
-if [ -f "$stamp" ] && "$PYTHON" -c 'import imu_allan, numpy, scipy, matplotlib, serial, allantools, pytest, hypothesis, ruff, mypy' 2>/dev/null; then
+if [ -f "$stamp" ] && "$PYTHON" -c 'import imu_allan, numpy, scipy, pandas, pyarrow, rosbags, matplotlib, serial, allantools, pytest, hypothesis, ruff, mypy' 2>/dev/null; then
   say "Python package present"
 else
   say "installing the host package (host_scripts) with its test extras"

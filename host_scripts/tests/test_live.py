@@ -213,7 +213,7 @@ def test_cmd_usage_errors(run_cli, tmp_path: Path) -> None:
     assert rc == 2 and "printable ASCII" in err
 
 
-def _monitor_stream() -> tuple[bytes, np.ndarray]:
+def _monitor_stream() -> tuple[bytes, np.ndarray, list[bytes]]:
     rows = thesis_like(300, 5)
     rep = report_lines(rows, 4, seq=9, extra=",mode=both,range=1.5,cfg=saved")
     codes = random_codes(30, 6)
@@ -228,11 +228,11 @@ def _monitor_stream() -> tuple[bytes, np.ndarray]:
         + b"".join(rep)
         + line("ok")
     )
-    return data, rows
+    return data, rows, rep
 
 
 def test_monitor_once(device, run_cli, tmp_path: Path, monkeypatch) -> None:
-    data, rows = _monitor_stream()
+    data, rows, rep = _monitor_stream()
     dev = device(first=data)
     log = tmp_path / "mon.log"
     rc, out, err = run_cli("monitor", "--port", dev.path, "--log", log, "--once")
@@ -245,6 +245,11 @@ def test_monitor_once(device, run_cli, tmp_path: Path, monkeypatch) -> None:
     assert table[0].split() == ["tau_s", "ax", "ay", "az", "gx", "gy", "gz"]
     assert table[1].split()[:2] == ["0.0100", f"{adev:#.3g}".rstrip(".")]
     assert len([t for t in table[1:] if t[:10].strip().replace(".", "").isdigit()]) == 4
+    summary = [b[len("$S,9,") : b.index(b"*")].decode() for b in rep if b.startswith(b"$S,9,")]
+    lines = out.split("\n")
+    at = lines.index(summary[0])  # the device's own lines, after the host's table
+    host = next(i for i, x in enumerate(lines) if x.lstrip().startswith("tau_s"))
+    assert at > host and lines[at : at + len(summary)] == summary
     assert data.startswith(log.read_bytes()) and len(log.read_bytes()) > len(data) - 20
     rc, out, _ = run_cli("decode", log, "--json")  # the log reads back
     assert rc == 0 and json.loads(out)["header"]["seq"] == 9
@@ -278,7 +283,7 @@ def test_monitor_on_a_terminal_redraws_in_place(device, tmp_path: Path) -> None:
     cannot be asked), and the normal screen back at the end."""
     from imu_allan.cli.monitor import run_monitor
 
-    data, _ = _monitor_stream()
+    data, _, _ = _monitor_stream()
     dev = device(first=data)
     out, err = _Tty(), io.StringIO()
     rc = run_monitor(dev.path, 115200, str(tmp_path / "m.log"), True, out=out, err=err)

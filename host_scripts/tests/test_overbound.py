@@ -49,8 +49,8 @@ def _sensor(seed: int, n_: float, b: float, gm: tuple[float, float], k: float) -
 SENSORS = {
     # white + bias instability + a Gauss-Markov hump near 40 s (deg/s)
     "flicker_and_hump": dict(n_=0.05, b=0.004, gm=(0.02, 20.0), k=0.0),
-    # white + a short Gauss-Markov hump + rate random walk
-    "hump_and_walk": dict(n_=0.03, b=0.0, gm=(0.03, 2.0), k=3e-4),
+    # white + a short Gauss-Markov hump + rate random walk (K fitted: its factor checked)
+    "hump_and_walk": dict(n_=0.03, b=0.0, gm=(0.03, 2.0), k=2e-3),
 }
 
 
@@ -86,6 +86,10 @@ def test_pair_covers_the_upper_limit_to_the_horizon_and_touches_it(name: str) ->
     if ch["terms"]["N"]:
         assert ob["inflation_N"] == pytest.approx(ob["N"] / ch["terms"]["N"]["value"], rel=1e-12)
         assert ob["inflation_N"] >= 1.0
+    if SENSORS[name]["k"]:
+        assert ch["terms"]["K"] is not None
+        assert ob["inflation_K"] == pytest.approx(ob["K"] / ch["terms"]["K"]["value"], rel=1e-12)
+        assert ob["inflation_K"] > 1.5  # the hump below the random walk's line must be covered
     assert ob["why"] and ob["touches_s"]
     si = ch["si"]["overbound"]
     assert si["N"] == pytest.approx(ob["N"] * math.pi / 180, rel=1e-12)
@@ -148,6 +152,10 @@ def test_estimator_files_carry_the_chosen_pair(tmp_path: Path, run_cli) -> None:
     rc, out, err = run_cli(*base, "--json")
     assert rc == 0, err
     doc = json.loads(out)
+    rc, out, err = run_cli(*base, "--json", "--horizon", "5", "--channels", "gy")
+    assert rc == 0, err
+    ob5 = json.loads(out)["channels"]["gy"]["overbound"]
+    assert ob5["horizon_s"] == 5 and ob5["tau_max_s"] <= 5
     for noise in ("fitted", "overbound"):
         k, o, v = (tmp_path / f"{noise}.{e}.yaml" for e in ("k", "o", "v"))
         rc, _, err = run_cli(*base, "--noise", noise, "--kalibr", k, "--openvins", o, "--vins", v)

@@ -123,7 +123,7 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
     EDF grows by ``scale`` (EDF ~ N/m once the record is many taus long); each doubling of the
     record adds the next octave, whose EDF is the longest point's now (the same fraction of the
     record, hence about the same EDF)."""
-    from ..noise import fit as F
+    from ..noise import curve as F
 
     used = [p for p in points if p.get("used") and p.get("edf")]
     if len(used) < 2 or not list(fit.fitted):
@@ -134,7 +134,7 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
         tau = np.append(tau, tau[-1] * 2)
         edf = np.append(edf, used[-1]["edf"] * scale / 2**i)
     ref = fit.model(tau)
-    alpha = F._alphas(tau, ref)
+    alpha = F.alphas(tau, ref)
     gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping")
     Jw = gls.white(_jacobian(fit, tau))
     scale_cols = np.linalg.norm(Jw, axis=0)
@@ -247,6 +247,7 @@ def analysis_text(doc: dict[str, Any]) -> str:
         f"Recording length (estimate: the model holds, each point's EDF grows with time; "
         f"95 % intervals; recorded {fmt_time(duration)}):"
     ]
+    marked = False
     for name, ch in doc.get("channels", {}).items():
         parts = []
         for k, term in (ch.get("terms") or {}).items():
@@ -256,7 +257,8 @@ def analysis_text(doc: dict[str, Any]) -> str:
             part = f"{k} +-{pct:.2g} % now"
             exp = term.get("expected_pct")
             if exp and pct > MODEL_ERROR_RATIO * exp:  # the fit granted model error: time does not shrink it
-                part += f" (+-{exp:.2g} % from the points alone: the rest is model error, which recording longer keeps)"
+                part += " [model error]"
+                marked = True
             pct = exp or pct
             for tgt, t in ((25, t25), (10, t10)):
                 if t is not None and pct > tgt:
@@ -264,6 +266,9 @@ def analysis_text(doc: dict[str, Any]) -> str:
             parts.append(part)
         if parts:
             lines.append(f"  {name}: " + "; ".join(parts))
+    if marked:
+        lines.append("  [model error]: the interval is over 1.5 times what its points' EDFs give")
+        lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps")
     return "\n".join(lines) + "\n" if len(lines) > 1 else ""
 
 

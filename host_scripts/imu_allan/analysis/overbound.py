@@ -114,21 +114,21 @@ def _why(
     """One sentence: what the pair covers that the fitted N and K do not, and where it is tight."""
     others = []
     for name, t in terms.items():
-        if name in PAIR_TERMS or not t or not t.get("tau_range_s"):
+        if name in PAIR_TERMS or name == "LP" or not t or not t.get("tau_range_s"):  # LP lowers the curve
             continue
         lo, hi = t["tau_range_s"]
         if lo <= horizon:
-            label = {"B": "bias instability B", "Q": "quantization Q", "R": "rate ramp R", "LP": "the band limit"}
+            label = {"B": "bias instability B", "Q": "quantization Q", "R": "rate ramp R"}
             what = label.get(name, "an oscillation" if name == "SIN" else f"Gauss-Markov {name}")
             others.append(f"{what} ({lo:.3g}-{min(hi, horizon):.3g} s)")
     factors = " and ".join(f"{name} x{f:.3g}" if f is not None else f"{name} (not fitted)" for name, f in infl.items())
     cover = (
-        "the white + random-walk pair must also cover " + ", ".join(others) + f" up to the {horizon:.3g} s horizon"
+        "it must also cover " + ", ".join(others) + f" to the {horizon:.3g} s horizon"
         if others
-        else f"no other term up to the {horizon:.3g} s horizon, so it covers the points' 95 % upper limits only"
+        else f"no other term to the {horizon:.3g} s horizon: it covers the points' 95 % upper limits only"
     )
     where = ", ".join(f"{t:.3g} s" for t in touches)
-    return f"{factors} over the fit: {cover}; it touches the upper limit at {where}"
+    return f"{factors} over the fit: {cover}; it touches the 95 % upper limit at {where}"
 
 
 def add_to_doc(doc: dict[str, Any], horizon: Optional[float] = None) -> None:
@@ -149,3 +149,26 @@ def add_to_doc(doc: dict[str, Any], horizon: Optional[float] = None) -> None:
                 if ob is None
                 else {**{k: ob[k] for k in ob if k not in ("N", "K")}, "N": ob["N"] * f, "K": ob["K"] * f}
             )
+
+
+def analysis_text(doc: dict[str, Any]) -> str:
+    """The block of ``analyze``'s text: per channel the pair, its factors over the fit and why."""
+    lines = []
+    for name, ch in doc.get("channels", {}).items():
+        ob = ch.get("overbound")
+        if not ob:
+            continue
+        units = ch.get("term_units") or {}
+        pair = []
+        for k in PAIR_TERMS:
+            f = ob[f"inflation_{k}"]
+            pair.append(f"{k} {ob[k]:.4g} {units.get(k, '')} ({f'x{f:.3g} the fit' if f else 'not in the fit'})")
+        lines.append(f"  {name}: " + ", ".join(pair))
+        lines += ["      " + part for part in ob["why"].split(" over the fit: ", 1)[-1].split("; ")]
+    if not lines:
+        return ""
+    head = (
+        "Over-bounding white noise + random walk pair (the smallest whose ADEV covers the curve's\n"
+        "95 % upper limit to the horizon; --noise overbound puts it in --kalibr, --openvins, --vins):"
+    )
+    return "\n".join([head] + lines) + "\n"

@@ -48,10 +48,12 @@ ANALYZE_DESCRIPTION = (
 ANALYZE_EPILOG = (
     "examples:\n"
     "  imu-allan analyze device.log                      # on-device results only\n"
+    "  imu-allan analyze imu.txt --fs 100 --brief        # the answer: N, B, K per channel\n"
     "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
     "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
     "  imu-allan analyze run.bag --topic /imu0 --kalibr imu.yaml  # ROS 1 or 2 bag\n"
-    "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n\n"
+    "  imu-allan analyze imu.txt --fs 100 --kalibr imu.yaml --imu-utils imu_param.yaml\n"
+    "  imu-allan analyze imu.txt --fs 100 --noise overbound --openvins imu0.yaml --vins vins.yaml\n\n"
     "exit status: 0 success, 2 usage, input or output error (one line on stderr)"
 )
 

@@ -223,7 +223,7 @@ def _add_thermal(sub: Any) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from ..analysis import sweep
+    from ..analysis import sweep, sweep_devices
     from ..errors import InputError
 
     if args.port and (args.model or args.average != 1 or args.keep_rows):
@@ -244,9 +244,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )
     sw = sweep.open_sweep(cfg, args.dir or str(default_sweep_dir()), restart=args.restart)
     measure = (
-        sweep.sim_measure(sw, args.firmware, args.keep_rows)
+        sweep_devices.sim_measure(sw, args.firmware, args.keep_rows)
         if args.sim
-        else sweep.port_measure(sw, args.port, args.baud)
+        else sweep_devices.port_measure(sw, args.port, args.baud)
     )
     sweep.run(sw, measure, sweep.say_stderr)
     return _emit("sweep", sweep.document(sw), sweep, args)
@@ -255,6 +255,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_thermal(args: argparse.Namespace) -> int:
     from ..analysis import thermal
     from ..profiles import parse_scales
+    from ..render import thermal as thermal_text
 
     doc = thermal.study(
         args.file,
@@ -268,7 +269,7 @@ def cmd_thermal(args: argparse.Namespace) -> int:
     if args.plot and not doc["fitted"]:
         print("imu-allan thermal: no plot: nothing was fitted", file=sys.stderr)
         args.plot = None
-    return _emit("thermal", doc, thermal, args)
+    return _emit("thermal", doc, thermal_text, args)
 
 
 def _emit(command: str, doc: dict[str, Any], module: Any, args: argparse.Namespace) -> int:

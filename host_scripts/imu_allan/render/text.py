@@ -20,6 +20,7 @@ from ..channels import CHANNELS
 from ..device.consistency import sig3
 from ..device.records import DeviceReport, flag_names
 from ..profiles import LITERATURE
+from ..sources.source import KIND_NAMES
 from .answer import answer_table, device_n_note
 
 NAMES = {"Q": "quantization", "N": "random walk", "B": "bias instability", "K": "rate random walk", "R": "rate ramp"}
@@ -128,7 +129,9 @@ def _g(v: Optional[float]) -> str:
 
 def table(rows: list[dict[str, Any]]) -> str:
     # the device's sums are in ADC codes: avar in code^2, adev in code
-    lines = [f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} {'avar code^2':>12} {'adev code':>12}  flags"]
+    lines = [
+        f"{'ch':<4} {'level':>5} {'m':>7} {'tau_s':>10} {'pairs':>10} {'avar code^2':>12} {'adev code':>12}  flags"
+    ]
     for r in rows:
         lines.append(
             f"{r['channel']:<4} {r['level']:>5} {r['m']:>7} {r['tau_s']:>10.6g} "
@@ -236,12 +239,7 @@ def text(doc: dict[str, Any]) -> str:
     """``imu-allan analyze`` for people: the answer table first (answer.py), then
     how each figure was found, channel by channel, then the curve."""
     src = doc["source"]
-    kind = {
-        "rows": "rows file",
-        "csv": "CSV",
-        "capture": "device capture",
-        "device-log": "device log (on-device results only)",
-    }[src["kind"]]
+    kind = KIND_NAMES[src["kind"]]
     lines = [
         f"{src['file']}: {kind}, {src['n']} samples at {src['fs_hz']:g} Hz "
         f"({_duration(src['duration_s'])}), profile {doc['profile']['name']}",

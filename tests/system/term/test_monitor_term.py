@@ -209,7 +209,7 @@ def test_the_view_follows_the_terminal_size(monitor: Tmux) -> None:
     monitor.wait(lambda s: any(x.startswith("-- lines") for x in s), "the cut report")
     monitor.run("resize-window", "-t", "t", "-x", "100", "-y", "40")
     lines = monitor.wait(
-        lambda s: len(s) == 40 and any(x.startswith("Allan deviation by tau") for x in s),
+        lambda s: len(s) == 40 and s[-1] == ">" and any(x.startswith("Allan deviation by tau") for x in s),
         "the device's whole summary at 100x40",
     )
     assert lines[0].startswith(TITLE) and lines[-1] == ">"

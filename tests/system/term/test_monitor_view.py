@@ -200,6 +200,67 @@ def test_damaged_lines_are_counted_bad(tmp_path: Path) -> None:
         dev.stop()
 
 
+ROW = re.compile(rb"\d{1,4}(?:\t\d{1,4}){6}")
+
+
+def _raw_link(log: bytes) -> tuple[int, int, int]:
+    """(intact rows, rows lost between intact count lines, the device's drops
+    from the last count line) of a `mode raw` capture: a count line
+    ``$C,<rows sent>,<drops>,...`` minus the previous one is what was sent
+    between them; the intact rows received between them are what came.  A
+    reply that restarts the count (``ok mode=...``, ``ok reset``) or a boot
+    line leaves the interval across it unchecked."""
+    rows = lost = drops = 0
+    since, last = 0, None
+    for raw in re.split(rb"\r\n|\r|\n", log)[1:]:  # the first line may start mid-row
+        if ROW.fullmatch(raw) and all(int(v) <= 1023 for v in raw.split(b"\t")):
+            rows += 1
+            since += 1
+            continue
+        m = LINE.fullmatch(raw[raw.rfind(b"$") :]) if b"$" in raw else None
+        if not (m and binascii.crc_hqx(m.group(1), 0xFFFF) == int(m.group(2), 16)):
+            continue
+        if m.group(1).startswith(b"C,"):
+            count, drops = (int(v) for v in m.group(1).split(b",")[1:3])
+            lost += 0 if last is None else count - last - since
+            since, last = 0, count
+        elif m.group(1).startswith((b"ok mode=", b"ok reset", b"B,")):
+            since, last = 0, None
+    return rows, lost, drops
+
+
+def test_rows_lost_on_the_link_are_counted_as_drops(tmp_path: Path) -> None:
+    """Bytes lost on the link in `mode raw` (imu-sim --link-loss): the status
+    line's link drops are the rows the count lines say were sent and did
+    not arrive intact, and lines ok counts the intact rows too."""
+    dev = Device(tmp_path, "--link-loss", "0.003", "--fault-seed", "5")
+    log = tmp_path / "mon.log"
+    t = Tmux(tmp_path, _monitor_command(dev.link, log))
+    try:
+        t.wait(lambda s: s[0].startswith(TITLE) and s[-1] == ">", "the monitor's view")
+        for mode in ("raw", "allan"):
+            for _ in range(5):  # a command line can lose a byte too: sent again
+                t.keys(f"mode {mode}", "Enter")
+                deadline = time.monotonic() + 3
+                while f"$ok mode={mode}".encode() not in log.read_bytes() and time.monotonic() < deadline:
+                    time.sleep(0.1)
+                if f"$ok mode={mode}".encode() in log.read_bytes():
+                    break
+            time.sleep(6 if mode == "raw" else 0)
+
+        def agrees(lines: list[str]) -> bool:
+            data = log.read_bytes()
+            rows, lost, drops = _raw_link(data)
+            got = re.search(r"lines ok (\d+), bad \d+; drops: device (\d+), link (\d+)", _status(lines))
+            ok = len(_bodies(data)[0]) + rows
+            return lost > 0 and got is not None and tuple(int(v) for v in got.groups()) == (ok, drops, lost)
+
+        t.wait(agrees, "the rows lost counted as the log has them", timeout=40)
+    finally:
+        t.kill()
+        dev.stop()
+
+
 def test_the_log_goes_to_a_folder_the_repository_ignores(tmp_path: Path) -> None:
     dev = Device(tmp_path)
     t = Tmux(tmp_path, _monitor_command(dev.link, None))
