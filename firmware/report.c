@@ -129,6 +129,15 @@ static const char id_key_P[] PROGMEM = ",id=";
 static const char colon_P[] PROGMEM = ":";
 static const char comma_P[] PROGMEM = ",";
 
+/* `<type>,<seq>,<ch>,<level>,` of an L or T line, channel rep.ch. */
+static void begin_channel(char type, uint8_t level)
+{
+  begin_seq(type);
+  put_channel(rep.ch);
+  put_key_u32(comma_P, level);
+  proto_putc(',');
+}
+
 static void put_causes(void)
 {
   uint8_t bit, any = 0, cause = reset_cause();
@@ -255,10 +264,7 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
     acc_at(rep.ch, rep.level, &rep.acc_hi, &rep.acc_lo);
     rep.pairs = pairs_at(rep.level);
     rep.flags = allan_flags(&sample_engine, rep.ch, rep.level);
-    begin_seq('L');
-    put_channel(rep.ch);
-    put_key_u32(comma_P, rep.level);
-    proto_putc(',');
+    begin_channel('L', rep.level);
     break;
   case 1:
     proto_u32(rep.pairs);
@@ -396,10 +402,7 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
 {
   uint8_t l;
   if (step == 0) {
-    begin_seq('T');
-    put_channel(rep.ch);
-    put_key_u32(comma_P, N_LEVEL);
-    proto_putc(',');
+    begin_channel('T', N_LEVEL);
   } else if (step == 1) {
     put_at(UNITS_N, N_LEVEL, AT_COUNTS);
     proto_putc(',');
