@@ -122,7 +122,7 @@ include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts pyflakes lint format bench ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
+.PHONY: all help facts pyflakes lint format bench bench-long ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -265,8 +265,18 @@ soak: firmware $(IMU_SIM) ## the link soak: 1,000 runs of random commands over a
 	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) tests/system/sim/soak.py --runs $(SOAK_RUNS)
 
 # Device, simulator and host side by side; writes bench/results.json.
+# Then the long recording (bench/long.py): 8 h at 1 kHz of TSV (generated once
+# into build/bench/) through `imu-allan analyze` beside allantools' oadev, and
+# a ROS 2 bag against the TSV of its length.  BENCH_QUICK=1: a sixteenth of
+# each; BENCH_ROWS=N, BENCH_BAG_ROWS=N (0: no bag) for other sizes.
+BENCH_ROWS ?= $(if $(BENCH_QUICK),1800000,28800000)
+BENCH_BAG_ROWS ?= $(if $(BENCH_QUICK),225000,3600000)
 bench: firmware $(IMU_SIM) ext ## device, simulator and host figures side by side into bench/results.json
-	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS) $(if $(BENCH_QUICK),--quick)
+	$(MAKE) --no-print-directory bench-long
+
+bench-long: ext ## only the long recording's figures (BENCH_QUICK=1, BENCH_ROWS=N, BENCH_BAG_ROWS=N)
+	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/long.py --rows $(BENCH_ROWS) --bag-rows $(BENCH_BAG_ROWS)
 
 # ---- demo ------------------------------------------------------------------
 # The main job: 10 minutes of a synthetic thesis-like IMU at 100 Hz through

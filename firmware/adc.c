@@ -1,7 +1,9 @@
 /*
- * adc.c - Timer1 CTC tick + interrupt-driven ADC scan into a 3-slot ring.
- * simavr does not emulate the ADC's timer auto-trigger, and the ISR chain
- * is as cheap, so each conversion's interrupt starts the next one.
+ * adc.c - Timer1 CTC tick + ADC scan into a 3-slot ring.  The tick starts
+ * a scan's first conversion; the ADC runs the other six itself, back to
+ * back (auto-trigger, free running: each starts as the previous one ends),
+ * so a scan lasts 7 x 13 ADC clocks whatever other interrupts delay the
+ * ADC's: its interrupt only reads a result and sets the channel after next.
  */
 #include "adc.h"
 
@@ -34,11 +36,10 @@ typedef struct {
 static volatile adc_slot_t ring[ADC_RING];
 static volatile uint8_t ring_head, ring_tail;
 static volatile uint8_t scan_col;
-/* What the ADC interrupt writes to ADMUX and ADCSRA before anything else:
- * the next column's channel, and ADSC while a column remains (see ADC_vect). */
-static volatile uint8_t next_admux, next_adcsra;
 #define ADCSRA_IDLE ((1 << ADEN) | (1 << ADIE) | BOARD_ADPS)
-#define ADCSRA_START (ADCSRA_IDLE | (1 << ADSC))
+/* A scan's first conversion, the next ones started by the ADC itself
+ * (ADCSRB's ADTS = 0: free running) until the interrupt clears ADATE. */
+#define ADCSRA_SCAN (ADCSRA_IDLE | (1 << ADSC) | (1 << ADATE))
 /* SCANNING while a scan runs, LIMITED when `start <count>` counts scans:
  * one byte for both, as every byte of SRAM is stack margin. */
 static volatile uint8_t flags;
@@ -265,49 +266,61 @@ void adc_count_drop(void)
 
 ISR(TIMER1_COMPA_vect)
 {
-  uint8_t g = GPIOR0;
-  if (g) { /* dithered: the period that starts now gets the next phase's length */
+  uint8_t g;
+  if (flags & SCANNING) {
+    drop_one(); /* previous scan unfinished: the rate outruns the ADC */
+  } else {      /* the scan starts first thing */
+    ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[0]);
+    ADCSRA = ADCSRA_SCAN;
+    /* No change on the chip (ADTS is 0 already); simavr sets its trigger
+     * mode from ADCSRA as it was before a write, so it needs a second one. */
+    ADCSRB = 0;
+    /* `start <count>`: the tick stops as its last scan begins (adc_start
+     * and adc_limit never leave it running with nothing left). */
+    if ((flags & LIMITED) && --budget == 0) {
+      TIMSK1 = 0;
+      TCCR1B = (1 << WGM12);
+    }
+    flags |= SCANNING;
+    scan_col = 0;
+    ring[ring_head].hi = 0;
+    /* The second conversion takes the channel set when the first ends: it
+     * may change one ADC clock after ADSC (the first one's channel is then
+     * locked; datasheet, "Changing Channel or Reference Selection"). */
+    __builtin_avr_delay_cycles(BOARD_ADC_PRESCALER);
+    ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[1]);
+  }
+  /* Dithered: the period under way (its count still far from OCR1A) gets
+   * the next phase's length. */
+  g = GPIOR0;
+  if (g) {
     if (--g == 0)
       g = 3;
     GPIOR0 = g;
     OCR1A = (uint16_t)(DITHER_TOP + (g <= DITHER_LONG));
   }
-  if (flags & SCANNING) {
-    drop_one(); /* previous scan unfinished: the rate outruns the ADC */
-    return;
-  }
-  /* `start <count>`: the tick stops as its last scan begins (adc_start
-   * and adc_limit never leave it running with nothing left). */
-  if ((flags & LIMITED) && --budget == 0) {
-    TIMSK1 = 0;
-    TCCR1B = (1 << WGM12);
-  }
-  flags |= SCANNING;
-  scan_col = 0;
-  ring[ring_head].hi = 0;
-  ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[0]);
-  ADCSRA = ADCSRA_START;
-  next_admux = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[1]);
-  next_adcsra = ADCSRA_START;
 }
 
-/* The ADC interrupt starts the next conversion first thing: a conversion
- * started by ADSC begins at the next ADC clock edge, so an ADSC written
- * within one ADC clock (64 cycles) of ADIF costs 14 ADC clocks per
- * conversion, a later one 15 (with the compiler's 15-register prologue in
- * front it came 109 cycles late).  Its first instructions copy two
- * prepared bytes to ADMUX (the channel may change once ADIF is set) and
- * ADCSRA (ADSC, or not after the last column).
- *
- * Then the same work as this C, in assembly with 6 registers (the
- * compiler's version pushed 15, on top of the main loop's deepest stack,
- * where every byte counts on the ATmega168):
+/* The ADC interrupt: conversion c of the scan has ended and the ADC has
+ * started c + 1 by itself, on the channel it found set (the tick set the
+ * first two).  It stores c's result, sets the channel of c + 2, or after
+ * c = 5 clears ADATE so that c + 1 = 6 is the last, and ends the scan
+ * after c = 6.  It has all of a conversion (13 ADC clocks, 832 cycles) to
+ * do so, so its latency (other interrupts first) no longer lengthens the
+ * scan.  It must come within that time, though: the next start is ADIF's
+ * rising edge, which taking the interrupt clears (nothing holds interrupts
+ * off nearly that long: the longest, the tick's, is 205 cycles).  The
+ * channel is written at least one ADC clock after the next conversion
+ * began (about 80 cycles after the vector; the datasheet's rule, as in the
+ * tick).  In assembly with 6 registers (the compiler's version
+ * pushed 15, on top of the main loop's deepest stack, where every byte
+ * counts on the ATmega168); the same work as this C:
  *
  *   slot = &ring[ring_head];  slot->lo[scan_col] = ADCL;
  *   slot->hi = (slot->hi >> 2) | (ADCH << 12);     top 2 bits, column by column
  *   if (++scan_col < ADC_COLUMNS) {
- *     if (scan_col + 1 < ADC_COLUMNS) next_admux = REF | adc_mux[scan_col + 1];
- *     else next_adcsra = ADCSRA_IDLE;              start nothing after the last
+ *     if (scan_col + 1 < ADC_COLUMNS) ADMUX = REF | adc_mux[scan_col + 1];
+ *     else ADCSRA = ADCSRA_IDLE;                     no conversion after the last
  *   } else {                                        scan done
  *     next = ring_next(ring_head);
  *     if (next == ring_tail) drop_one(); else ring_head = next;
@@ -325,10 +338,6 @@ ISR(ADC_vect, ISR_NAKED)
 {
   __asm__ __volatile__(
       "push r24\n\t"
-      "lds r24, %[mux]\n\t"
-      "sts %[admux], r24\n\t"
-      "lds r24, %[csra]\n\t"
-      "sts %[adcsra], r24\n\t"
       "in r24, __SREG__\n\t"
       "push r24\n\t"
       "push r25\n\t"
@@ -380,18 +389,17 @@ ISR(ADC_vect, ISR_NAKED)
       "sts %[col], r24\n\t"
       "cpi r24, %[ncol]-1\n\t"
       "brsh 2f\n\t"
-      "ldi r30, lo8(%[mux1])\n\t"
-      "ldi r31, hi8(%[mux1])\n\t"
-      "add r30, r24\n\t"
-      "ldi r25, 0\n\t"
-      "adc r31, r25\n\t"
+      "mov r30, r24\n\t" /* Z = &adc_mux[1] + r24 */
+      "ldi r31, 0\n\t"
+      "subi r30, lo8(-(%[mux1]))\n\t"
+      "sbci r31, hi8(-(%[mux1]))\n\t"
       "lpm r25, Z\n\t"
       "ori r25, %[ref]\n\t"
-      "sts %[mux], r25\n\t"
+      "sts %[admux], r25\n\t"
       "rjmp 9f\n"
       "2:\n\t"
       "ldi r25, %[idle]\n\t"
-      "sts %[csra], r25\n\t"
+      "sts %[adcsra], r25\n\t"
       "rjmp 9f\n"
       /* scan done: into the ring, or counted as dropped */
       "3:\n\t"
@@ -426,8 +434,8 @@ ISR(ADC_vect, ISR_NAKED)
       "pop r24\n\t"
       "reti\n\t"
       :
-      : [mux] "i"(&next_admux), [csra] "i"(&next_adcsra), [admux] "i"(_SFR_MEM_ADDR(ADMUX)),
-        [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)), [adcl] "i"(_SFR_MEM_ADDR(ADCL)), [adch] "i"(_SFR_MEM_ADDR(ADCH)),
+      : [admux] "i"(_SFR_MEM_ADDR(ADMUX)), [adcsra] "i"(_SFR_MEM_ADDR(ADCSRA)),
+        [adcl] "i"(_SFR_MEM_ADDR(ADCL)), [adch] "i"(_SFR_MEM_ADDR(ADCH)),
 #if BOARD_PROBES
         [portb] "I"(_SFR_IO_ADDR(PORTB)),
 #endif

@@ -116,8 +116,8 @@ void console_receive(void)
    * line it belonged to refused). */
   while (!(uint8_t)(con.flags & (READY | RUN)) && (c = uart_read()) >= 0) {
     clock_restart(); /* the silence starts again */
-    if (c & UART_READ_OVERRUN)
-      count(0);
+    if (c & (UART_READ_OVERRUN | UART_READ_FRAME))
+      count(0); /* the USART's: the line's timing or its bits */
     if (c & UART_READ_RING)
       count(1);
     if (c & UART_READ_GAP)

@@ -43,7 +43,7 @@ static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head, rx_tail;
 /* Where bytes went missing (0: nowhere; so it starts in .bss): the slot
  * of the byte they went missing before (GAP_SLOT) | GAP_VALID, why
- * (UART_READ_OVERRUN, UART_READ_RING, shifted down by 8), and GAP_MORE when
+ * (UART_READ_OVERRUN, _FRAME, _RING, shifted down by 8), and GAP_MORE when
  * another gap came before that one and is not yet read: every byte up to
  * the slot then counts as following a gap (a line that lost any byte is
  * refused whole, never glued to the next; a whole line between two gaps
@@ -51,12 +51,17 @@ static volatile uint8_t rx_head, rx_tail;
 static volatile uint8_t rx_gap;
 #define GAP_SLOT (UART_RX_SIZE - 1u)
 #define GAP_DOR (UART_READ_OVERRUN >> 8) /* UCSR0A's DOR0 bit, as read */
+#define GAP_FE (UART_READ_FRAME >> 8)    /* UCSR0A's FE0 bit, as read */
 #define GAP_RING (UART_READ_RING >> 8)
 #define GAP_MORE 0x20u
 #define GAP_VALID 0x80u
-#define GAP_WHY (GAP_DOR | GAP_RING)
-#if GAP_DOR != (1 << DOR0) || GAP_SLOT >= GAP_DOR
-#  error "rx_gap's layout: the slot below DOR0's bit, which is the overrun's"
+#define GAP_WHY (GAP_DOR | GAP_FE | GAP_RING)
+#if GAP_DOR != (1 << DOR0) || GAP_FE != (1 << FE0) || GAP_SLOT >= GAP_DOR
+#  error                                                                                                     \
+      "rx_gap's layout: the slot below DOR0's and FE0's bits, which are the overrun's and the framing error's"
+#endif
+#if (GAP_WHY | GAP_SLOT) & (GAP_MORE | GAP_VALID) || (UART_READ_EMPTY >> 8) & (GAP_WHY | UART_READ_GAP >> 8)
+#  error "rx_gap's bits and uart_read's overlap"
 #endif
 
 static uint8_t tx_next(uint8_t i)
@@ -136,12 +141,15 @@ ISR(USART_UDRE_vect)
 ISR(USART_RX_vect)
 {
   uint8_t h = rx_head;
-  uint8_t why = UCSR0A & (1 << DOR0); /* before UDR0: bytes before this one were lost */
+  /* UCSR0A before UDR0, whose byte its flags describe: DOR0, bytes before
+   * this one were lost; FE0, this one came without its stop bit (a bit
+   * error on the link): a corrupted byte, lost like them. */
+  uint8_t why = UCSR0A & ((1 << DOR0) | (1 << FE0));
   uint8_t c = UDR0;
   uint8_t next = (uint8_t)((h + 1u) & (UART_RX_SIZE - 1u));
   if (next == rx_tail) {
     why |= GAP_RING; /* the next byte stored in slot h follows a gap */
-  } else {
+  } else if (!(why & GAP_FE)) {
     rx_buf[h] = c;
     rx_head = next;
   }

@@ -22,16 +22,18 @@ uint8_t uart_tx_room(void);
  * in when bytes were lost just before this one, every time it happens, so
  * that the line they belonged to is refused whole instead of run cut short
  * or glued to the next; with it, why: UART_READ_OVERRUN (a data overrun in
- * the USART: the RX interrupt was kept away for two byte times) and/or
+ * the USART: the RX interrupt was kept away for two byte times),
+ * UART_READ_FRAME (a framing error: a corrupted byte, thrown away) and/or
  * UART_READ_RING (the RX ring was full), once per gap (none when several
  * gaps came and this byte only follows an earlier one).  A gap with no
  * byte after it yet comes alone, with UART_READ_EMPTY: the line being
- * received lost its end. */
+ * received lost its end.  OVERRUN and FRAME are UCSR0A's DOR0 and FE0
+ * bits, shifted up by 8. */
 #define UART_READ_GAP 0x100
-#define UART_READ_EMPTY 0x4000
 #define UART_READ_OVERRUN 0x0800
-#define UART_READ_RING 0x1000
-#define UART_READ_WHY (UART_READ_OVERRUN | UART_READ_RING)
+#define UART_READ_FRAME 0x1000
+#define UART_READ_EMPTY 0x2000
+#define UART_READ_RING 0x4000
 int16_t uart_read(void);
 
 /* 1 when a received byte waits in the RX ring. */

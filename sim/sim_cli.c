@@ -159,6 +159,10 @@ static const char usage_faults[] =
     "                    DOR is set with the next frame that arrives (overruns\n"
     "                    with no frame between them are one DOR event:\n"
     "                    fault_dor_events)\n"
+    "  --uart-frame-error P  each host byte arrives with a framing error (FE:\n"
+    "                    its stop bit read as 0, its data bits intact) with\n"
+    "                    probability P (fault_in_frame_errors counts these and\n"
+    "                    --link-flip's)\n"
     "  --eeprom-flip ADDR[:MASK]@SEC  at simulated second SEC, EEPROM byte ADDR\n"
     "                    is XORed with MASK (default 0x01); up to 8 of them\n"
     "  --power-cut WHEN  the supply is cut and comes back (a power-on reset):\n"
@@ -311,6 +315,7 @@ enum {
   O_FAULT_SEED,
   O_NO_FLOW,
   O_OVERRUN,
+  O_FRAME,
   O_EE_FLIP,
   O_POWER_CUT,
   O_BROWN_OUT,
@@ -342,6 +347,7 @@ static const struct option opts[] = {
   { "fault-seed", required_argument, NULL, O_FAULT_SEED },
   { "no-flow-control", no_argument, NULL, O_NO_FLOW },
   { "uart-overrun", required_argument, NULL, O_OVERRUN },
+  { "uart-frame-error", required_argument, NULL, O_FRAME },
   { "eeprom-flip", required_argument, NULL, O_EE_FLIP },
   { "power-cut", required_argument, NULL, O_POWER_CUT },
   { "brown-out", required_argument, NULL, O_BROWN_OUT },
@@ -400,6 +406,9 @@ void parse_args(harness_t *h, int argc, char **argv)
     case O_NO_FLOW: h->fault.no_flow = 1; break;
     case O_OVERRUN:
       h->fault.overrun = parse_prob(optarg, "--uart-overrun");
+      break;
+    case O_FRAME:
+      h->fault.frame = parse_prob(optarg, "--uart-frame-error");
       break;
     case O_EE_FLIP: fault_parse_eeprom(&h->fault, optarg); break;
     case O_POWER_CUT: fault_parse_power(&h->fault, POWER_CUT, optarg); break;

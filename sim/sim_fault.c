@@ -39,7 +39,7 @@ static int chance(fault_t *f, double p)
 int fault_any(const fault_t *f)
 {
   return f->loss > 0 || f->flip > 0 || f->no_flow || f->overrun > 0 ||
-         f->adc_kind || f->nee || f->power;
+         f->frame > 0 || f->adc_kind || f->nee || f->power;
 }
 
 /* ---- options ------------------------------------------------------------ */
@@ -184,6 +184,10 @@ int fault_host_byte(harness_t *h, uint8_t *c, int *fe)
       f->in_data_flips++;
       *c ^= (uint8_t)(1u << (bit - 1));
     }
+  }
+  if (chance(f, f->frame)) {
+    f->in_frame_errors++; /* the byte intact, its stop bit read as 0 */
+    *fe = 1;
   }
   if (chance(f, f->overrun)) {
     f->overruns_injected++;

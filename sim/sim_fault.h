@@ -27,6 +27,7 @@ typedef struct {
   uint64_t rng;      /* xorshift state (--fault-seed) */
   int no_flow;       /* --no-flow-control */
   double overrun;    /* --uart-overrun: per host byte */
+  double frame;      /* --uart-frame-error: per host byte */
   int adc_kind, adc_ch;
   uint16_t adc_code;
   uint64_t adc_row;

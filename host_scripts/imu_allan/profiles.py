@@ -179,7 +179,8 @@ def build_profile(name: Optional[str], scales: dict[str, tuple[float, str]], ran
         base = counts_profile() if scales else thesis_profile(range_g or "1.5")
         if scales:
             base.name = "generic"
-            base.notes = ["generic profile: channels without --scale stay in ADC counts"]
+            some_in_counts = set(scales) < set(KIND)  # a channel without a unit stays in counts
+            base.notes = ["generic profile: channels without --scale stay in ADC counts"] if some_in_counts else []
     elif name == "thesis":
         base = thesis_profile(range_g or "1.5")
     elif name == "counts":

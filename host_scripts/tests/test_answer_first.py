@@ -97,7 +97,8 @@ def test_the_table_names_the_datasheet_units(run: dict[str, str]) -> None:
 def test_brief_prints_the_table_alone(run: dict[str, str]) -> None:
     brief = run["brief"]
     assert brief.startswith("Noise terms (IEEE 952)")
-    assert "Details" not in brief and "Allan deviation (overlapping)" not in brief
+    assert "\nDetails\n" not in brief and "Allan deviation (overlapping)" not in brief
+    assert "\nDetails\n" in run["text"]
     assert _table(brief) == _table(run["text"])
     assert len(brief.splitlines()) <= 24  # one screen
 
@@ -126,10 +127,10 @@ def test_a_negative_fit_percent_is_explained_where_it_first_appears(run: dict[st
 # ---- the device's N, read at one tau, beside the fitted N ----------------------------------
 
 
-def _device_terms(rows: np.ndarray, ch: str) -> tuple[int, float, int, float]:
+def _device_terms(rows: np.ndarray, ch: str, digits: bool = True) -> tuple[int, float, int, float]:
     """The device's N and B, independently from exact sums (docs/protocol.md): N =
     adev * sqrt(tau) at the octave nearest 1 s, B = min(adev) / 0.664 over the levels
-    with at least 8 pairs; 3 significant digits as printed."""
+    with at least 8 pairs; 3 significant digits as printed in T lines (``digits``)."""
     codes = [int(v) for v in rows[:, CH.index(ch)]]
     adev = {}
     for k in range(LEVELS):
@@ -138,7 +139,8 @@ def _device_terms(rows: np.ndarray, ch: str) -> tuple[int, float, int, float]:
             adev[k] = (pairs, math.sqrt(exact_acc(codes, m, pairs) / (2 * m * m * pairs)))
     kn = min(adev, key=lambda k: (abs(2**k / FS - 1), k))
     kb = min((k for k in adev if adev[k][0] >= 8), key=lambda k: (adev[k][1], k))
-    return kn, float(f"{adev[kn][1] * math.sqrt(2**kn / FS):.3g}"), kb, float(f"{adev[kb][1] / 0.664:.3g}")
+    n, b = adev[kn][1] * math.sqrt(2**kn / FS), adev[kb][1] / 0.664
+    return (kn, float(f"{n:.3g}"), kb, float(f"{b:.3g}")) if digits else (kn, n, kb, b)
 
 
 def test_the_device_n_read_at_one_tau_is_set_beside_the_fit(tmp_path: Path, run_cli) -> None:
@@ -158,7 +160,7 @@ def test_the_device_n_read_at_one_tau_is_set_beside_the_fit(tmp_path: Path, run_
     assert rc == 0, err
     for ch in CH:
         c = doc["channels"][ch]
-        k, n, _, _ = _device_terms(rows, ch)
+        k, n, _, _ = _device_terms(rows, ch, digits=False)  # full precision, from the report's row
         d = c["device_terms"]["N"]
         assert d["tau_s"] == 2**k / FS and math.isclose(d["value"], n * c["scale_per_count"], rel_tol=1e-12)
         assert d["differs"] and d["value"] > 1.5 * c["terms"]["N"]["value"]
@@ -171,3 +173,24 @@ def test_the_device_n_read_at_one_tau_is_set_beside_the_fit(tmp_path: Path, run_
     said = " ".join(text.split())
     assert "reads N as adev*sqrt(tau) at one tau (1.28 s)" in said
     assert "The fit separates N from the other terms over the whole curve" in said
+
+
+def test_a_row_that_could_mislead_says_so_under_it(tmp_path: Path, run_cli) -> None:
+    """A stuck gyro's empty row and a channel whose spikes were taken out carry a word."""
+    rng = np.random.default_rng(2)
+    codes = np.clip(np.rint(rng.normal(500, 2, (20000, 7))), 0, 1023).astype(int)
+    codes[:, 3] = 512  # gx stuck
+    codes[5000:5003, 0] = 1000  # a knock on ax
+    rows = write_rows(tmp_path / "rows.txt", codes)
+    rc, out, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--no-warmup", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
+    spikes = doc["channels"]["ax"]["outliers"]["count"]
+    assert spikes >= 3
+    rc, brief, err = run_cli("analyze", rows, "--fs", "100", "--no-model", "--no-warmup", "--brief")
+    assert rc == 0, err
+    lines = brief.splitlines()
+    under = {ln.split()[0]: lines[i + 1] for i, ln in enumerate(lines[:-1]) if ln.split()[:1] in ([c] for c in CH)}
+    assert under["gx"].strip().startswith("! constant") and _rows(lines)["gx"] == ["-", "-", "-"]
+    assert under["ax"].strip() == f"! {spikes} samples of spikes or bursts replaced (see the details)"
+    assert not under["ay"].strip().startswith("!")

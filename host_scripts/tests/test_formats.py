@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -58,15 +60,16 @@ def _imu_msg(ts: Any, i: int, d: dict[str, Any], frame: str) -> Any:
     )
 
 
-def write_ros1(path: Path, d: dict[str, Any], topics: dict[str, str], keep: Any = None) -> Path:
+def write_ros1(path: Path, d: dict[str, Any], topics: dict[str, str], keep: Any = None, recorded: Any = None) -> Path:
     ts = get_typestore(Stores.ROS1_NOETIC)
+    recorded = d["stamps"] + 40_000 if recorded is None else recorded
     with Writer1(path) as w:
         conns = {t: w.add_connection(t, "sensor_msgs/msg/Imu", typestore=ts) for t in topics}
         for i in range(N) if keep is None else keep:
             for t, frame in topics.items():
                 w.write(
                     conns[t],
-                    int(d["stamps"][i]) + 40_000,
+                    int(recorded[i]),
                     ts.serialize_ros1(_imu_msg(ts, i, d, frame), conns[t].msgtype),
                 )
     return path
@@ -84,7 +87,11 @@ def write_ros2(path: Path, d: dict[str, Any], storage: Any, frame: str = "imu_li
 
 
 def _rows(d: dict[str, Any]) -> list[tuple[int, list[float], list[float]]]:
-    return [(int(d["stamps"][i]), [float(v) for v in d["gyro"][i]], [float(v) for v in d["acc"][i]]) for i in range(N)]
+    """(stamp ns, gyro, acc) per sample, as Python numbers (their repr is what a CSV holds)."""
+    return [
+        (int(d["stamps"][i]), [float(v) for v in d["gyro"][i]], [float(v) for v in d["acc"][i]])
+        for i in range(len(d["stamps"]))
+    ]
 
 
 def write_euroc(path: Path, d: dict[str, Any]) -> Path:
@@ -185,6 +192,7 @@ def test_a_new_users_file_is_analysed_with_no_option(fmt: str, imu: dict[str, An
         assert c["unit"] == ("deg/s" if ch[0] == "g" else "m/s^2")
         first = c["curve"][0]
         assert first["m"] == 1 and first["dev"] == pytest.approx(_first_point(imu["values"][i]) * to_unit, rel=1e-9)
+    assert not any("ADC counts" in n for n in doc["notes"])  # every channel has its unit
 
 
 def test_a_bag_with_two_imu_topics_asks_for_one(imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
@@ -252,6 +260,106 @@ def test_integer_npy_is_adc_codes_like_a_rows_file(tmp_path: Path) -> None:
     s = load(str(tmp_path / "codes.npy")).samples
     assert s.integer and np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), codes[:, :6].T)
     assert np.array_equal(np.concatenate(list(s.open_temperature())), codes[:, 6])
+    assert any("(temp) not used" in n for n in s.notes)  # no column dropped without a word
     np.save(tmp_path / "bad.npy", codes * 4)
     with pytest.raises(InputError, match="not 10-bit ADC codes"):
         list(load(str(tmp_path / "bad.npy")).samples.open_blocks())
+
+
+@pytest.mark.parametrize("store", [Stores.ROS1_NOETIC, Stores.ROS2_HUMBLE])
+def test_array_decoding_of_imu_messages_agrees_with_rosbags(store: Any, imu: dict[str, Any]) -> None:
+    """The offsets of every field move with the frame_id's length (CDR pads the
+    doubles to 8 bytes): lengths 0 to 17 decoded as arrays give what rosbags'
+    own deserializer gives, value for value and stamp for stamp."""
+    from imu_allan.sources import rosbag
+
+    ts = get_typestore(store)
+    ros1 = store == Stores.ROS1_NOETIC
+    frames = ["x" * k for k in range(18)]
+    msgs = [_imu_msg(ts, i, imu, frames[i % len(frames)]) for i in range(40)]
+    raws = [
+        bytes(ts.serialize_ros1(m, "sensor_msgs/msg/Imu") if ros1 else ts.serialize_cdr(m, "sensor_msgs/msg/Imu"))
+        for m in msgs
+    ]
+    vals, stamps = rosbag._fast(raws, ros1)
+    assert np.array_equal(vals, imu["values"][:, :40]) and np.array_equal(stamps, imu["stamps"][:40])
+    with pytest.raises(ValueError):
+        rosbag._fast([raws[0] + b"\0" * 8], ros1)  # another layout: not decoded as arrays
+
+
+def test_small_blocks_read_the_same_values_and_gaps(imu: dict[str, Any], tmp_path: Path, monkeypatch) -> None:
+    """A CSV read 4 KB at a time (every block boundary inside the data, one
+    across a gap) gives the values of one read and the gap once."""
+    from imu_allan.sources import table
+
+    keep = np.r_[0:1500, 1507:N]  # 7 samples never written
+    d = dict(imu, stamps=imu["stamps"][keep], gyro=imu["gyro"][keep], acc=imu["acc"][keep])
+    lines = [f"{t},{','.join(map(repr, g))},{','.join(map(repr, a))}" for t, g, a in _rows(d)]
+    p = tmp_path / "imu0.csv"
+    p.write_text("timestamp,omega_x,omega_y,omega_z,alpha_x,alpha_y,alpha_z\n" + "\n".join(lines) + "\n")
+    whole = np.concatenate(list(load(str(p)).samples.open_blocks()), axis=1)
+    monkeypatch.setattr(table, "BLOCK_BYTES", 4096)
+    s = load(str(p)).samples
+    blocks = list(s.open_blocks())
+    assert len(blocks) > 50
+    assert np.array_equal(np.concatenate(blocks, axis=1), whole)
+    assert np.array_equal(whole, np.vstack([d["acc"].T, d["gyro"].T]))
+    assert (s.time.found["gaps"], s.time.found["missing_samples"]) == (1, 7)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        b"1\t2\t3\t4\t5\t6\t7\n8\t9\t10\t11\t12\t13\t14\n",
+        b"1 2 3 4 5 6 7\n  8\t9 10  11 12 13 14  \n",
+        b"1\t2\t3\t4\t5\t6\t7\n\n8\t9\t10\t11\t12\t13\t14",
+        b"1\t2\t3\t4\t5\t6\t7\t\n",
+        b"1\t2\t3\t4\t5\t6\n",
+        b"1\t2\t3\t4\t5\t6\t7\t8\n",
+        b"1\t2\t3\t4\t5\t6\t1024\n",
+        b"1\t2\t3\t4\t5\t6\t+7\n",
+        b"1\t2\t3\t4\t5\t6\t7.0\n",
+        b"0001\t2\t3\t4\t5\t6\t7\n",
+    ],
+)
+def test_rows_compiled_reader_agrees_with_the_exact_one(text: bytes) -> None:
+    """pandas' reader takes a block only when it reads it exactly as the numpy
+    reader of the format does; anything else gets the numpy reader's answer."""
+    from imu_allan.sources.rows import parse_block, parse_exact
+
+    try:
+        want: Any = parse_exact(text, "f", 1, 7)
+    except InputError as exc:
+        want = str(exc)
+    try:
+        got: Any = parse_block(text, "f", 1, 7)
+    except InputError as exc:
+        got = str(exc)
+    if isinstance(want, str):
+        assert got == want
+    else:
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
+def test_a_bag_whose_driver_left_the_stamps_zero_uses_the_recorded_times(imu: dict[str, Any], tmp_path: Path) -> None:
+    zero = dict(imu, stamps=np.zeros(N, dtype=np.int64))
+    recorded = T0_NS + 2 * STEP_NS * np.arange(N, dtype=np.int64)  # 100 Hz as the bag saw them
+    s = load(str(write_ros1(tmp_path / "z.bag", zero, {"/imu": "imu"}, recorded=recorded))).samples
+    assert s.fs == pytest.approx(FS / 2, rel=1e-9)
+    assert any("do not increase" in n and "bag's times" in n for n in s.notes)
+    assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), imu["values"])
+
+
+def test_an_array_is_analysed_in_text_as_well_as_json(tmp_path: Path) -> None:
+    """analyze's text names every kind of source (arrays and bags were a
+    KeyError without --json)."""
+    path = tmp_path / "still.npy"
+    np.save(path, np.random.default_rng(4).normal(size=(20000, 6)))
+    for extra in ("--brief", "--no-model"):
+        out = subprocess.run(
+            [sys.executable, "-m", "imu_allan.cli", "analyze", str(path), "--fs", "100", extra],
+            capture_output=True,
+            text=True,
+        )
+        assert out.returncode == 0, out.stderr[-500:]
+    assert " ".join(out.stdout.split()).startswith(f"{path}: NumPy array, 20000 samples at 100 Hz")

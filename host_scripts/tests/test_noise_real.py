@@ -67,16 +67,7 @@ def test_gyro_N_is_the_white_level_the_psd_and_the_flat_line_agree_on(data, fits
         assert "LP" in fits[c].terms  # the filter is a term, not a bias on N
 
 
-ACC_GAP = pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "known gap: flicker and a rate random walk start right above the white part and the 1.7 s "
-        "oscillation is not taken as a sinusoid on this axis: N comes out 6-9 % high"
-    ),
-)
-
-
-@pytest.mark.parametrize("c", [0, pytest.param(1, marks=ACC_GAP), pytest.param(2, marks=ACC_GAP)])
+@pytest.mark.parametrize("c", ACCS)
 def test_accelerometer_N_is_the_white_level_the_psd_and_the_flat_line_agree_on(data, fits, c) -> None:
     psd_n, line_n = _white_level(data[:, c])
     assert abs(psd_n / line_n - 1) < 0.05

@@ -29,7 +29,7 @@ def test_device_log_alone_says_the_psd_plot_is_skipped(rows: np.ndarray, tmp_pat
 
 
 def test_b_line_and_log_grid_limits(tmp_path: Path, monkeypatch) -> None:
-    """The B legend says the line is 0.664 B; with --taus log the y axis is set by the
+    """The B label says its line is flat at 0.664 B; with --taus log the y axis is set by the
     points whose interval is drawn, not by the EDF-1 intervals at m = n/2."""
     import matplotlib
 
@@ -43,15 +43,9 @@ def test_b_line_and_log_grid_limits(tmp_path: Path, monkeypatch) -> None:
     real_save = plots._save
 
     def keep(plt_, fig, path):  # look at the figure before it is closed
+        words = [t.get_text() for lg in fig.legends for t in lg.get_texts()]  # the figure's one legend
         for ax in fig.axes:
-            seen.append(
-                (
-                    Path(path).name,
-                    ax.get_title(),
-                    ax.get_ylim(),
-                    [t.get_text() for t in (ax.get_legend().get_texts() if ax.get_legend() else [])],
-                )
-            )
+            seen.append((Path(path).name, ax.get_title(), ax.get_ylim(), words))
         return real_save(plt_, fig, path)
 
     monkeypatch.setattr(plots, "_save", keep)
@@ -82,12 +76,12 @@ def test_b_line_and_log_grid_limits(tmp_path: Path, monkeypatch) -> None:
     plt.close("all")
     adev = [s for s in seen if s[0].startswith("adev_") and s[1]]  # the residual panels have no title
     assert len(adev) == 6
-    assert any(t.startswith("B ") for s in adev for t in s[3])  # some channel has its B drawn
+    assert any(t.startswith("bias instability B = ") for s in adev for t in s[3])  # some channel has its B
     stretched = 0
     for _, ch, ylim, legend in adev:
-        b = [t for t in legend if t.startswith("B ")]
+        b = [t for t in legend if t.startswith("bias instability B = ")]
         if b:
-            assert "line at 0.664 B = " in b[0], b
+            assert "flat at 0.664 B" in b[0], b
         pts = [p for p in doc["channels"][ch]["curve"] if p["dev"]]
         assert min(p["edf"] for p in pts) < 3  # the log grid reaches EDF-1 points
         drawn = [p["high"] for p in pts if p["edf"] >= plots.MIN_EDF_BAND] + [p["dev"] for p in pts]

@@ -1,4 +1,4 @@
-"""The continuous sensor model (sensor.py): exact OU updates at arbitrary instants,
+"""The continuous sensor model (sensor.py): its processes sampled at any step,
 the aliasing law of a band-limited gyro sampled across and above its bandwidth,
 the ADC's sampling instants, model files."""
 
@@ -16,42 +16,39 @@ from imu_allan.stats import edf
 from imu_allan.stats.allan import octave_oavar
 
 
-def test_ou_uniform_steps_have_the_analytic_variance_and_autocorrelation():
-    sigma, T, h, n = 2.0, 0.01, 0.004, 200_000
-    ou = sensor.OU(sigma, T, np.random.default_rng(1))
-    x = np.concatenate([ou.at(np.arange(i, i + 50_000) * h) for i in range(0, n, 50_000)])
-    a = math.exp(-h / T)
-    var = x.var()
-    # the variance of a sample variance of an AR(1) series: 2 sigma^4 (1 + a^2) / (1 - a^2) / n
-    sd_var = sigma**2 * math.sqrt(2 * (1 + a * a) / (1 - a * a) / n)
-    assert abs(var - sigma**2) < 4 * sd_var
-    r1 = np.corrcoef(x[:-1], x[1:])[0, 1]
-    assert abs(r1 - a) < 4 * math.sqrt((1 - a * a) ** 2 / n) * 3
-    r3 = np.corrcoef(x[:-3], x[3:])[0, 1]
-    assert abs(r3 - a**3) < 0.02
+def _only(**kw: float) -> dict[str, float]:
+    return {"N": 0.0, "bandwidth_hz": 88.0, "gm_sigma": 0.0, "gm_tau": 1.0, "K": 0.0, "B": 0.0, **kw}
 
 
-def test_ou_irregular_instants_follow_exp_of_each_gap():
-    sigma, T = 1.0, 0.05
-    rng = np.random.default_rng(7)
-    gaps = np.where(rng.random(200_000) < 0.5, 0.005, 0.08)  # two gaps, interleaved at random
-    t = np.cumsum(gaps)
-    ou = sensor.OU(sigma, T, np.random.default_rng(3))
-    x = ou.at(t)
-    assert abs(x.var() - 1.0) < 0.03
-    for g in (0.005, 0.08):
-        sel = np.flatnonzero(gaps[1:] == g)  # pairs (x[i], x[i+1]) that are g apart
-        r = np.mean(x[sel] * x[sel + 1]) / sigma**2
-        assert abs(r - math.exp(-g / T)) < 0.015, (g, r)
+def test_the_lowpassed_white_noise_has_the_ou_variance_and_autocorrelation_at_every_step():
+    """An OU process (time constant T = 1 / (2 pi f_c), variance pi f_c N^2) sampled every h:
+    variance pi f_c N^2 and lag-k correlation exp(-k h / T), whatever h."""
+    N, fc, n = 0.3, 88.0, 200_000
+    sigma2, T = math.pi * fc * N * N, 1.0 / (2 * math.pi * fc)
+    for fs in (100.0, 250.0, 1500.0):
+        x = sensor.channel_model(_only(N=N, bandwidth_hz=fc)).simulate(n, fs, 1)
+        a = math.exp(-1.0 / (fs * T))
+        # the variance of a sample variance of an AR(1) series: 2 sigma^4 (1 + a^2) / (1 - a^2) / n
+        sd_var = sigma2 * math.sqrt(2 * (1 + a * a) / (1 - a * a) / n)
+        assert abs(x.var() - sigma2) < 4 * sd_var, fs
+        r1 = np.corrcoef(x[:-1], x[1:])[0, 1]
+        assert abs(r1 - a) < 4 * math.sqrt((1 - a * a) ** 2 / n) * 3 + 1e-3, fs
+        r3 = np.corrcoef(x[:-3], x[3:])[0, 1]
+        assert abs(r3 - a**3) < 0.02, fs
 
 
 def test_walk_variance_grows_as_k2_t():
-    K, h = 0.5, 0.01
-    w = sensor.Walk(K, np.random.default_rng(2))
-    paths = np.stack([sensor.Walk(K, np.random.default_rng(s)).at(np.arange(1001) * h) for s in range(400)])
+    K, fs = 0.5, 100.0
+    paths = np.stack([sensor.channel_model(_only(K=K)).simulate(1000, fs, s) for s in range(400)])
     v = paths[:, -1].var()
     assert abs(v - K * K * 10.0) < 0.25 * K * K * 10.0
-    assert w.at(np.arange(5) * h)[0] == 0.0
+
+
+def test_board_blocks_must_be_consecutive():
+    b = sensor.Board(sensor.default_model(), 100.0, 100, seed=1)
+    b.codes(0, 10)
+    with pytest.raises(ValueError, match="consecutive"):
+        b.codes(20, 10)
 
 
 def test_aliasing_law_is_the_poisson_sum_of_the_lowpass_psd():
@@ -100,7 +97,7 @@ def test_sigma_of_the_samples_does_not_depend_on_the_rate():
 def test_columns_are_sampled_after_the_tick_in_scan_order():
     m = sensor.default_model()
     off = m.offsets_s()
-    assert np.allclose(np.diff(off), 14 / 156_250)
+    assert np.allclose(np.diff(off), 13 / 156_250)  # free running: 13 ADC clocks a conversion (adc.c)
     assert off[0] == pytest.approx(2.5 / 156_250)
     assert off[-1] < 1 / 1000  # the scan ends within the fastest period
     t = sensor.sample_instants(m, 200.0, 10, 3)

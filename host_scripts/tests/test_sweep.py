@@ -122,6 +122,30 @@ def test_sim_sweep_of_a_band_limited_gyro(tmp_path):
     assert p3.returncode == 2 and "other settings" in p3.stderr and len(p3.stderr.splitlines()) == 1
 
 
+def test_sim_sweep_identifies_N_on_every_channel_at_the_top_rates(tmp_path):
+    """The thesis-like board at 1000 and 1500 Hz (sensors' bands 88-350 Hz, sampled far
+    above them): N identified on every channel from the device's own curve, and on the
+    channels whose noise spans several ADC counts (ax, ay, gx: the rounding is then the
+    1/12 count^2 of white noise the law adds) within 10 % of the aliasing law."""
+    _built()
+    d = tmp_path / "top"
+    args = ["sweep", "--sim", "--rates", "1000,1500", "--seconds", "20", "--dir", str(d)]
+    p = _cli(*args, "--firmware", str(ELF), "--json")
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(p.stdout)
+    model = sensor.default_model()
+    for k, fs in (("1000", 1000.0), ("1500", 1500.0)):
+        r = doc["rates"][k]
+        assert r["drops"] == 0
+        for ch in sensor.SENSORS:
+            n = r["channels"][ch]["terms"]["N"]
+            assert n is not None and n["value"] is not None, (k, ch, r["channels"][ch]["fit_notes"])
+            c = model.channel(ch)
+            law = sensor.aliased_n(c["N"], c["bandwidth_hz"], fs)
+            if ch in ("ax", "ay", "gx"):
+                assert abs(n["value"] / law - 1) < 0.10, (k, ch, n, law)
+
+
 def test_sweep_usage_errors(tmp_path):
     p = _cli("sweep", "--sim", "--rates", "100,x", "--seconds", "1")
     assert p.returncode == 2 and "not a list of rates" in p.stderr

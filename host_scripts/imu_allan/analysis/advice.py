@@ -123,7 +123,7 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
     EDF grows by ``scale`` (EDF ~ N/m once the record is many taus long); each doubling of the
     record adds the next octave, whose EDF is the longest point's now (the same fraction of the
     record, hence about the same EDF)."""
-    from ..noise import fit as F
+    from ..noise import curve as F
 
     used = [p for p in points if p.get("used") and p.get("edf")]
     if len(used) < 2 or not list(fit.fitted):
@@ -134,7 +134,7 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
         tau = np.append(tau, tau[-1] * 2)
         edf = np.append(edf, used[-1]["edf"] * scale / 2**i)
     ref = fit.model(tau)
-    alpha = F._alphas(tau, ref)
+    alpha = F.alphas(tau, ref)
     gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping")
     Jw = gls.white(_jacobian(fit, tau))
     scale_cols = np.linalg.norm(Jw, axis=0)

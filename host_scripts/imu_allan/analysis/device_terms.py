@@ -18,7 +18,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from ..device.records import DeviceReport
+from ..device.records import DeviceReport, LRow
 from ..noise.terms import B_READOFF
 
 
@@ -27,7 +27,7 @@ def add_device_terms(doc: dict[str, Any], report: Optional[DeviceReport]) -> Non
     if report is None or not report.terms:
         return
     fs = float(report.header.fs_hz)
-    pairs = {(r.channel, r.level): r.pairs for r in report.rows}
+    rows = {(r.channel, r.level): r for r in report.rows}
     for ch, c in doc["channels"].items():
         t = report.terms.get(ch)
         if t is None:
@@ -37,10 +37,20 @@ def add_device_terms(doc: dict[str, Any], report: Optional[DeviceReport]) -> Non
             if term.level is None or term.value is None:
                 continue
             tau = 2**term.level / fs
-            p = pairs.get((ch, term.level), 0)
-            out[name] = _compare(c, name, term.value * c["scale_per_count"], tau, p)
+            row = rows.get((ch, term.level))
+            p = row.pairs if row is not None else 0
+            out[name] = _compare(c, name, _exact(term.value, row, tau, name) * c["scale_per_count"], tau, p)
         if out:
             c["device_terms"] = out
+
+
+def _exact(printed: float, row: Optional[LRow], tau: float, name: str) -> float:
+    """The device's term at full precision from its row's exact sum (as its human
+    summary prints it), else as the T record printed it (3 digits)."""
+    if row is None or row.pairs <= 0 or row.flags:
+        return printed
+    adev = math.sqrt(row.avar)
+    return adev * math.sqrt(tau) if name == "N" else adev / B_READOFF
 
 
 def _compare(c: dict[str, Any], name: str, value: float, tau: float, pairs: int) -> dict[str, Any]:

@@ -51,7 +51,7 @@ def first_look(pieces: Pieces, n: int, keep: int) -> tuple[np.ndarray, float, fl
     step = max(n >> keep, 1)
     sub, nzmin, hi, lo = [], math.inf, -math.inf, math.inf
     for pos, d in pieces():
-        sub.append(d[(-pos) % step :: step])
+        sub.append(d[(-pos) % step :: step].copy())  # a copy: a view would hold the whole piece
         nz = np.abs(d[d != 0])
         if nz.size:
             nzmin = min(nzmin, float(nz.min()))

@@ -27,8 +27,9 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Any, Optional, Sequence
 
 import numpy as np
 from scipy import stats as sps
@@ -188,8 +189,23 @@ def from_samples(
 ) -> Windows:
     """Sliding windows over (channels, n) samples; the overlapping AVAR at the
     octave taus that hold at least about ten clusters in a window."""
-    data = np.asarray(data, dtype=np.float64)
-    C, n = data.shape
+    from .store import MemoryStore
+
+    return from_store(MemoryStore(np.asarray(data, dtype=np.float64)), fs, channels, window_s, step_s, temp)
+
+
+def from_store(
+    store: Any,
+    fs: float,
+    channels: Sequence[str],
+    window_s: Optional[float] = None,
+    step_s: Optional[float] = None,
+    temp: Optional[np.ndarray] = None,
+) -> Windows:
+    """``from_samples`` of an analysis' store (store.py: memory or files), one
+    window of one channel in memory at a time; the whole record's curve from
+    the store's octave kernels."""
+    C, n = store.channels, store.n
     size = int(round(window_s * fs)) if window_s else n // RAW_WINDOWS
     size = min(max(size, 32), n)
     step = max(int(round(step_s * fs)), 1) if step_s else max(size // 2, 1)
@@ -203,13 +219,21 @@ def from_samples(
     var, weight, edfs = (np.full((W, C, L), np.nan) for _ in range(3))
     whole = np.full((C, L), np.nan)
     for c in range(C):
-        whole[c] = allan.oavar(data[c], ms)[0]
+        r = store.octave(c)
+        whole[c] = r.oavar[np.searchsorted(r.ms, ms), 0]
     alphas = _alphas(whole, ms)
+
+    def channel(c: int) -> None:  # the kernels release the GIL: channels side by side
+        for w, a in enumerate(starts):
+            var[w, c], weight[w, c] = allan.oavar(store.read(c, a, size).astype(np.float64), ms)
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max(1, min(2, os.cpu_count() or 1))) as pool:
+        list(pool.map(channel, range(C)))
     temps: list[Optional[dict]] = []
     for w, a in enumerate(starts):
         for c in range(C):
-            v, terms = allan.oavar(data[c, a : a + size], ms)
-            var[w, c], weight[w, c] = v, terms
             edfs[w, c] = [_edf(int(alphas[c, k]), int(ms[k]), size + 1, 1) for k in range(L)]
         if temp is not None and temp.size >= a + size:
             t = temp[a : a + size]

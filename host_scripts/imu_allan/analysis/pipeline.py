@@ -50,11 +50,11 @@ class Options:
     extra_curves: bool = True
     """MDEV and HDEV beside the Allan deviations (needs the samples in memory)."""
     seed: int = 1
-    memory_budget: int = 1 << 30
+    memory_budget: int = 256 << 20
     """Bytes of float64 samples kept in memory for the in-memory statistics."""
-    exact_max: int = 1 << 21
-    """Octave levels exact up to this m; above it (streams longer than 2^22
-    samples) strided (allan.py). Bounds the ring buffers to ~32 MB per channel."""
+    keep_store: bool = False
+    """Leave the samples' store open in the result (``Analysis.store``) for
+    more work on the same samples (the warm-up windows); the caller closes it."""
     outliers: str = "replace"
     """Spikes and bursts (outliers.py): replace (interpolated, left out of the
     statistics) or keep (counted and listed only)."""
@@ -69,6 +69,13 @@ class Analysis:
 
     doc: dict[str, Any]
     fits: dict[str, terms.FitResult]
+    store: Any = None
+    """The samples (store.py) when ``Options.keep_store``; ``close()`` frees them."""
+
+    def close(self) -> None:
+        if self.store is not None:
+            self.store.close()
+            self.store = None
 
 
 def analyze(src: Source, profile: Profile, opts: Options, device: Optional[DeviceReport] = None) -> Analysis:
@@ -121,10 +128,13 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
         if opts.model:
             model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
         overbound.add_to_doc(doc, opts.horizon)
-    finally:
+    except BaseException:
         if host is not None:
             host.close()
-    return Analysis(_jsonable(doc), fits)
+        raise
+    if host is not None and not opts.keep_store:
+        host.close()
+    return Analysis(_jsonable(doc), fits, host.store if host is not None and opts.keep_store else None)
 
 
 # ---- input checks -------------------------------------------------------------------
@@ -217,18 +227,7 @@ def _channel(
         "term_notes": _term_notes(fit, _clipping(ch, c_i, host, report, notes)),
         "upper_bounds": {k: _num(t.upper) for k, t in fit.terms.items() if k in terms.TERMS},
         "b_classic": _b_classic(fit),
-        "fit": {
-            "statistic": stat,
-            "grid": "octave",
-            "chi2_dof": _num(fit.chi2_red),
-            "tau_window_s": (
-                [float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)] if fit.used.any() else None
-            ),
-            "points": int(fit.used.sum()),
-            "notes": fit.notes,
-            "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]} for r in fit.unexplained],
-            **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs),
-        },
+        "fit": _fit_json(fit, fitc, stat, fs),
         "curve": _points(main, fs, k2, fit, d=2, modified=False, used=used),
     }
     # the fit's own octave points with their EDFs, whatever grid --taus shows: what the
@@ -248,18 +247,51 @@ def _channel(
     if dev is not None and host is not None:
         out["device"] = _device_json(dev, fs, k2, fit, main)
     if host is not None:
-        f, p = host.psd
-        fb, pb = psd.log_bins(f, p[c_i : c_i + 1] * k2)
-        lines = psd.term_psd(fb, fit.values(), fs)
-        out["psd"] = {
-            "method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
-            "unit": f"({sc.unit})^2/Hz",
-            "f_hz": _list(fb),
-            "psd": _list(pb[0]),
-            "terms": {k: _list(v) for k, v in lines.items()},
-        }
+        out["psd"] = _psd_json(host, c_i, sc.unit, k2, fit, fs)
+    out["si"] = _si_json(sc, out["terms"])
+    fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
+    fit_curve = [
+        (int(m), float(math.sqrt(v * k2)))
+        for m, v, f in zip(fitc.ms, fitc.var, fl)
+        if math.isfinite(v) and v > 0 and not f
+    ]  # FIT%'s grid
+    return out, fit, fit_curve
+
+
+def _fit_json(fit: terms.FitResult, fitc: Curve, stat: str, fs: float) -> dict[str, Any]:
+    """``channels.<ch>.fit``: which curve was fitted, where, and how well."""
+    return {
+        "statistic": stat,
+        "grid": "octave",
+        "chi2_dof": _num(fit.chi2_red),
+        "tau_window_s": (
+            [float(fitc.ms[fit.used].min() / fs), float(fitc.ms[fit.used].max() / fs)] if fit.used.any() else None
+        ),
+        "points": int(fit.used.sum()),
+        "notes": fit.notes,
+        "unexplained": [{"tau_s": r["tau_s"], "kind": r["kind"], "ratio": r["ratio"]} for r in fit.unexplained],
+        **fit_extras(fit, fitc.ms[fit.used] / fs if fit.used.any() else fitc.ms / fs),
+    }
+
+
+def _psd_json(host: HostPass, c_i: int, unit: str, k2: float, fit: terms.FitResult, fs: float) -> dict[str, Any]:
+    """``channels.<ch>.psd``: the Welch PSD in log bins and the terms' levels."""
+    f, p = host.psd
+    fb, pb = psd.log_bins(f, p[c_i : c_i + 1] * k2)
+    lines = psd.term_psd(fb, fit.values(), fs)
+    return {
+        "method": "Welch (pwelch defaults: Hamming, 8 segments, 50 % overlap)",
+        "unit": f"({unit})^2/Hz",
+        "f_hz": _list(fb),
+        "psd": _list(pb[0]),
+        "terms": {k: _list(v) for k, v in lines.items()},
+    }
+
+
+def _si_json(sc: Any, terms_doc: dict[str, Any]) -> dict[str, Any]:
+    """``channels.<ch>.si``: the terms with rates in rad/s (gyros) or m/s^2."""
     si = to_si_rad(sc)
-    out["si"] = {
+    return {
         "unit": "rad/s" if sc.unit == "deg/s" else sc.unit,
         "terms": {
             k: (
@@ -270,16 +302,9 @@ def _channel(
                     for kk, vv in v.items()
                 }
             )
-            for k, v in out["terms"].items()
+            for k, v in terms_doc.items()
         },
     }
-    fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
-    fit_curve = [
-        (int(m), float(math.sqrt(v * k2)))
-        for m, v, f in zip(fitc.ms, fitc.var, fl)
-        if math.isfinite(v) and v > 0 and not f
-    ]  # FIT%'s grid
-    return out, fit, fit_curve
 
 
 def _clipping(

@@ -34,6 +34,8 @@ class Store:
 
     n: int
     dtypes: list[np.dtype]
+    held = False
+    """True when the samples are in memory (MemoryStore)."""
 
     @property
     def channels(self) -> int:
@@ -53,7 +55,13 @@ class Store:
 
     def octave(self, c: int) -> allan.OctaveResult:
         """Overlapping and non-overlapping AVAR of channel ``c`` at every octave
-        (every offset: stride 1), by the compiled kernels when built."""
+        (every offset: stride 1), by the compiled kernels when built; computed once."""
+        memo = self.__dict__.setdefault("_octaves", {})
+        if c not in memo:
+            memo[c] = self._octave(c)
+        return memo[c]
+
+    def _octave(self, c: int) -> allan.OctaveResult:
         raise NotImplementedError
 
     def in_memory(self) -> Optional[np.ndarray]:
@@ -67,6 +75,8 @@ class Store:
 
 
 class MemoryStore(Store):
+    held = True
+
     def __init__(self, data: Any) -> None:
         self.data = [np.ascontiguousarray(row) for row in data]
         self.n = int(self.data[0].size) if self.data else 0
@@ -76,7 +86,7 @@ class MemoryStore(Store):
     def read(self, c: int, start: int, count: int) -> np.ndarray:
         return self.data[c][start : start + count]
 
-    def octave(self, c: int) -> allan.OctaveResult:
+    def _octave(self, c: int) -> allan.OctaveResult:
         return allan.octave_mapped(self.data[c])
 
     def in_memory(self) -> Optional[np.ndarray]:
@@ -118,7 +128,7 @@ class SpillStore(Store):
             raise InputError(f"the samples' temporary file {self.files[c].name} is short (disk full?)")
         return np.frombuffer(raw, dtype=dt)
 
-    def octave(self, c: int) -> allan.OctaveResult:
+    def _octave(self, c: int) -> allan.OctaveResult:
         dt = self.dtypes[c]
         r = kernels.octave_file_sums(self.files[c].fileno(), dt, self.n, self.offset(c), self.span[c])
         if r is None:  # no compiled kernels: the numpy ones on the channel in memory
@@ -201,8 +211,14 @@ def replaced(store: Store, found: Any) -> Store:
         pieces = ((a, store.read(c, a, min(BLOCK, store.n - a))) for a in range(0, store.n, BLOCK))
         changes[c] = replaced_pieces(pieces, ch.spans, ends)
     if isinstance(store, SpillStore):
-        return store.derive(changes)
-    rows = [
-        np.concatenate(list(changes[c])) if c in changes else store.read(c, 0, store.n) for c in range(store.channels)
-    ]
-    return MemoryStore(rows)
+        out: Store = store.derive(changes)
+    else:
+        out = MemoryStore(
+            [
+                np.concatenate(list(changes[c])) if c in changes else store.read(c, 0, store.n)
+                for c in range(store.channels)
+            ]
+        )
+    memo = store.__dict__.get("_octaves", {})
+    out.__dict__["_octaves"] = {c: r for c, r in memo.items() if c not in changes}  # the unchanged channels'
+    return out

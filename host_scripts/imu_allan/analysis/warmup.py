@@ -78,7 +78,12 @@ def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> t
 
 
 def warmup_section(
-    doc: dict[str, Any], src: Any, path: str, fs: Optional[float], rerun: Callable[[Any], dict[str, Any]]
+    doc: dict[str, Any],
+    src: Any,
+    path: str,
+    fs: Optional[float],
+    rerun: Callable[[Any], dict[str, Any]],
+    store: Any = None,
 ) -> None:
     """Adds ``doc["warmup"]``: the windows' test (dynamic.py) on the same data,
     the warm-up per channel, stationarity, and the terms without the warm-up."""
@@ -87,7 +92,7 @@ def warmup_section(
 
     chans = list(doc.get("channels", {}))
     try:
-        ws, notes = windows_of(src, path, "auto", fs or doc["source"].get("fs_hz"), chans)
+        ws, notes = windows_of(src, path, "auto", fs or doc["source"].get("fs_hz"), chans, store=store)
     except InputError as exc:
         doc["warmup"] = {"tested": False, "why": str(exc)}
         return

@@ -42,8 +42,10 @@ def windows_of(
     channels: Optional[list[str]] = None,
     window_s: Optional[float] = None,
     step_s: Optional[float] = None,
+    store: Any = None,
 ) -> tuple[Any, list[str]]:
-    """``load_windows`` for a source already loaded (sources.load)."""
+    """``load_windows`` for a source already loaded (sources.load); ``store``:
+    its samples already read by an analysis (store.py), channels ``channels``."""
     import numpy as np
 
     from ..channels import CHANNELS
@@ -75,6 +77,14 @@ def windows_of(
     if rate is None:
         raise InputError("the sample rate is unknown: give --fs HZ")
     sel = [i for i, c in enumerate(src.samples.channels) if channels is None or c in channels]
+    temp = None
+    streamed = store is not None and not store.held
+    if src.samples.open_temperature is not None and not streamed:
+        temp = np.concatenate(list(src.samples.open_temperature())).astype(np.float64).ravel()
+    elif src.samples.open_temperature is not None:
+        notes.append("temperature not read: the file was streamed (its temperature column would need a second pass)")
+    if store is not None and store.n >= 64:
+        return dynamic.from_store(store, rate, [src.samples.channels[i] for i in sel], window_s, step_s, temp), notes
     blocks, size = [], 0
     for b in src.samples.open_blocks():
         blocks.append(b[sel])
@@ -85,9 +95,6 @@ def windows_of(
                 "windows in memory (cut the file, or record with periodic device reports)"
             )
     data = np.concatenate(blocks, axis=1).astype(np.float64)
-    temp = None
-    if src.samples.open_temperature is not None:
-        temp = np.concatenate(list(src.samples.open_temperature())).astype(np.float64).ravel()
     if data.shape[1] < 64:
         raise InputError(f"'{src.name}': {data.shape[1]} samples: too few for windows")
     chans = [src.samples.channels[i] for i in sel]

@@ -48,6 +48,7 @@ ANALYZE_DESCRIPTION = (
 ANALYZE_EPILOG = (
     "examples:\n"
     "  imu-allan analyze device.log                      # on-device results only\n"
+    "  imu-allan analyze imu.txt --fs 100 --brief        # the answer: N, B, K per channel\n"
     "  imu-allan analyze imu.txt --fs 100 --device device.log --plot figs/\n"
     "  imu-allan analyze log.csv --scale gx=1rad/s,gy=1rad/s,gz=1rad/s --json\n"
     "  imu-allan analyze run.bag --topic /imu0 --kalibr imu.yaml  # ROS 1 or 2 bag\n"
@@ -146,10 +147,17 @@ def add_analyze_method(p: Any) -> None:
     p.add_argument(
         "--memory",
         type=_megabytes,
-        default=1024,
+        default=256,
         metavar="MB",
-        help="samples kept in memory for the non-octave statistics (default 1024 MB); "
-        "larger files are streamed: octave Allan deviations and PSD only",
+        help="samples kept in memory, as float64 (default 256 MB: 5.6e6 rows of six channels); "
+        "larger files are streamed through temporary files, in bounded memory, with the same "
+        "octave Allan deviations, PSD, outliers and model; MDEV, HDEV and other --taus grids "
+        "need the samples in memory",
+    )
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress line on stderr (it shows only on a terminal, for work over a second)",
     )
     p.add_argument(
         "--horizon",

@@ -228,14 +228,12 @@ CMD_TRIES = 3
 def cmd_analyze(args: argparse.Namespace) -> int:
     from ..analysis.pipeline import Options, analyze
     from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
-    from ..render import formats
-    from ..render import text as render
     from ..sources.detect import check_options, load, load_device_report
 
     scales = parse_scales(args.scale)
     src = load(args.file, topic=args.topic)
     check_options(src, args.fs, scales)
-    from ..analysis.warmup import skipped, warmup_section, warmup_text
+    from ..analysis.warmup import skipped, warmup_section
 
     src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
     if skip_note:
@@ -256,22 +254,41 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         memory_budget=args.memory * 2**20,
         outliers=args.outliers,
         horizon=args.horizon,
+        keep_store=not args.no_warmup,
     )
     result = analyze(src, profile, opts, device=device)
     doc = result.doc
     from ..analysis import advice  # warm-up and stationarity, and how long to record (docs/dynamic.md)
 
     if not args.no_warmup:
-        quick = Options(**{**vars(opts), "model": False, "extra_curves": False})
-        warmup_section(doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc)
+        quick = Options(**{**vars(opts), "model": False, "extra_curves": False, "keep_store": False})
+        try:
+            warmup_section(
+                doc, src, args.file, args.fs, lambda other: analyze(other, profile, quick, device).doc, result.store
+            )
+        finally:
+            result.close()
     advice.add_to_analysis(doc, fits=result.fits)
     from ..analysis.device_terms import add_device_terms
 
     add_device_terms(doc, report)
+    _analysis_out(args, doc, getattr(src.samples, "topic", None))
+    return 0
+
+
+def _analysis_out(args: argparse.Namespace, doc: dict, bag_topic: Optional[str]) -> None:
+    """analyze's files (curves, estimator YAMLs, figures), then its stdout: JSON, CSV,
+    the answer table alone (--brief) or the whole text (through the pager at a terminal)."""
+    from ..analysis import advice
+    from ..analysis.overbound import analysis_text as overbound_text
+    from ..analysis.warmup import warmup_text
+    from ..render import formats
+    from ..render import text as render
+
     written = []
     if args.curves:
         written.append(_write_text(args.curves, formats.curves_csv(doc)))
-    topic = getattr(args, "topic", None) or getattr(src.samples, "topic", None) or "/imu0"
+    topic = getattr(args, "topic", None) or bag_topic or "/imu0"
     if args.kalibr:
         written.append(_write_text(args.kalibr, formats.kalibr_yaml(doc, topic, args.noise)))
     if args.openvins:
@@ -293,12 +310,11 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
         sys.stdout.write(answer_table(doc, brief=True))
     else:
-        from ..analysis.overbound import analysis_text as overbound_text
+        from .pager import page
 
-        sys.stdout.write(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
+        page(render.text(doc) + warmup_text(doc) + advice.analysis_text(doc) + overbound_text(doc))
     for path in written:
         print(f"imu-allan analyze: wrote {path}", file=sys.stderr)
-    return 0
 
 
 # ---- output files ----------------------------------------------------------------------
@@ -373,7 +389,8 @@ def main(argv: Optional[list[str]] = None) -> int:
         return 2
     if sys.stdout is None:
         sys.stdout = _ClosedStream()  # type: ignore[assignment]
-    _draw_progress()
+    if not getattr(args, "quiet", False):
+        _draw_progress()
     try:
         rc = handlers[args.command](args)
         sys.stdout.flush()

@@ -223,7 +223,7 @@ def _add_thermal(sub: Any) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from ..analysis import sweep
+    from ..analysis import sweep, sweep_devices
     from ..errors import InputError
 
     if args.port and (args.model or args.average != 1 or args.keep_rows):
@@ -244,9 +244,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )
     sw = sweep.open_sweep(cfg, args.dir or str(default_sweep_dir()), restart=args.restart)
     measure = (
-        sweep.sim_measure(sw, args.firmware, args.keep_rows)
+        sweep_devices.sim_measure(sw, args.firmware, args.keep_rows)
         if args.sim
-        else sweep.port_measure(sw, args.port, args.baud)
+        else sweep_devices.port_measure(sw, args.port, args.baud)
     )
     sweep.run(sw, measure, sweep.say_stderr)
     return _emit("sweep", sweep.document(sw), sweep, args)

@@ -1,5 +1,6 @@
 """The noise catalogue: processes that simulate themselves and know their theory
-(processes.py, the model as their sum), the whole-curve fitter (fit.py, reading.py),
+(processes.py, the model as their sum), the whole-curve fitter (fit.py; its
+problem in curve.py, its selection in select.py, its reading in reading.py),
 the IEEE 952 term fit (terms.py, identify.py), the thesis' streams and model
 (streams.py, model.py, thesis.py), the synthetic generator (gen.py, its words in
 words.py) and the continuous sensor model (sensor.py).

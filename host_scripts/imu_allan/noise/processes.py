@@ -52,14 +52,15 @@ def _geo_sum(m: np.ndarray, p: complex | float) -> np.ndarray:
 def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np.ndarray:
     """AVAR of a stationary sequence with r(0) = r0 and r(k) = sum c_i p_i^k (k >= 1)."""
     m = _m(m)
-
-    def S(mm: np.ndarray) -> np.ndarray:
-        tot = mm * r0
-        for ci, pi in zip(c, p):
-            tot = tot + 2.0 * np.real(ci * _geo_sum(mm, complex(pi) if np.iscomplexobj(pi) else float(pi)))
-        return tot
-
-    return (4.0 * S(m) - S(2.0 * m)) / (2.0 * m * m)
+    mm = np.concatenate((m.ravel(), 2.0 * m.ravel()))  # S at m and 2m in one pass
+    tot = mm * r0
+    for ci, pi in zip(c, p):  # over the poles (one or two)
+        if np.iscomplexobj(pi) and np.imag(pi) != 0.0:
+            tot = tot + 2.0 * np.real(ci * _geo_sum(mm, complex(pi)))
+        else:
+            tot = tot + 2.0 * float(np.real(ci)) * _geo_sum(mm, float(np.real(pi)))
+    S1, S2 = tot[: m.size].reshape(m.shape), tot[m.size :].reshape(m.shape)
+    return (4.0 * S1 - S2) / (2.0 * m * m)
 
 
 class Process:
@@ -201,7 +202,7 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
     r(k) = sum_i Res_{p_i} H(z) H(1/z) z^(k-1), plus H(0) H(inf) at k = 0."""
     na = a.size - 1
     bp = np.concatenate((b, np.zeros(na + 1 - b.size)))  # numerator in powers of z, degree na
-    p = np.roots(a).astype(np.complex128)
+    p = _poles(a)
 
     def H(z: np.ndarray) -> np.ndarray:
         return np.polyval(bp, z) / np.polyval(a, z)
@@ -215,10 +216,26 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
     return r0, c, p
 
 
+def _poles(a: np.ndarray) -> np.ndarray:
+    """Roots of the denominator a (z-polynomial form): in closed form for one or two
+    poles (the fit asks for thousands of cutoffs; np.roots' eigenvalues cost most of it)."""
+    if a.size == 2:
+        return np.array([-a[1] / a[0]], dtype=np.complex128)
+    if a.size == 3:
+        q = np.sqrt(complex(a[1] * a[1] - 4.0 * a[0] * a[2]))
+        return np.array([(-a[1] + q) / (2.0 * a[0]), (-a[1] - q) / (2.0 * a[0])], dtype=np.complex128)
+    return np.roots(a).astype(np.complex128)
+
+
 @functools.lru_cache(maxsize=4096)
 def _lp_shape(fc: float, fs: float, order: int) -> tuple:
     b, a = lowpass_filter(fc, fs, order)
-    r0, c, p = filter_autocov(b, a)
+    if order == 1:  # an AR(1): r(k) = r0 a1^k, r0 = b0^2 / (1 - a1^2), with real numbers
+        a1 = -float(a[1])
+        r0 = float(b[0]) ** 2 / (1.0 - a1 * a1)
+        c, p = np.array([r0]), np.array([a1])
+    else:
+        r0, c, p = filter_autocov(b, a)
     dc = float(np.sum(b) / np.sum(a))  # unit white in -> low-frequency gain dc
     return b, a, r0, c, p, dc
 

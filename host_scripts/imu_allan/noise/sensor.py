@@ -11,15 +11,17 @@ Each sensor channel c is a continuous process, in ADC counts:
            T = 1 / (2 pi f_c) and variance sigma^2 = pi f_c N^2.
     bias   bias instability: a Gauss-Markov process (``gm_sigma`` counts,
            ``gm_tau`` s) and/or flicker of IEEE 952 coefficient ``B`` counts
-           (a bank of OU processes with correlation times 1 ms ... 4x the
-           record, spaced by 8, each of variance B^2 ln 8 / pi: their PSDs sum
-           to the flicker PSD B^2 / (2 pi f), two-sided).
+           (the catalogue's bank of Gauss-Markov processes, correlation times
+           1/f_s ... 4x the record spaced by 8: their PSDs sum to the flicker
+           PSD B^2 / (2 pi f), two-sided).
     walk   rate random walk, K counts/sqrt(s): increments N(0, K^2 dt).
     dT     temperature minus ``temperature.start_c``.
 
-Every OU process has an exact update between any two instants (Gillespie
-1996, Phys. Rev. E 54, 2084): x(t + h) = a x(t) + sigma sqrt(1 - a^2) w,
-a = exp(-h / T). The model is therefore simulated *at the sampling instants
+Each column is sampled at a uniform step (its own delay after every tick), so
+each process is the noise catalogue's own (processes.py; ``channel_model``): an
+OU process sampled every h is exactly an AR(1) of pole exp(-h / T) (Gillespie
+1996, Phys. Rev. E 54, 2084), the same process ``imu-allan gen`` simulates and
+the noise fit fits. The model is therefore simulated *at the sampling instants
 themselves*, never on a finer grid, and noise above half the sample rate
 aliases exactly as it does on the bench: white noise of density S0 through
 the low-pass, sampled instantaneously at f_s, has a sample PSD at low
@@ -31,10 +33,10 @@ so the N read from the samples falls with f_s until f_s >> f_c, while the
 samples' standard deviation sqrt(pi f_c) N does not depend on f_s.
 
 Sampling instants (firmware/adc.c, docs/firmware.md): Timer1 ticks at
-i / f_s; its ISR starts the scan of the 7 columns ax ay az gx gy gz temp;
-each conversion's ISR starts the next. A normal conversion takes 13 ADC
-clocks and samples the input 1.5 clocks after it starts; the ISR and the
-wait for the next ADC clock edge add about one clock, so column k is sampled
+i / f_s; its ISR starts the scan of the 7 columns ax ay az gx gy gz temp,
+which the ADC then converts back to back (free running): a normal conversion
+takes 13 ADC clocks and samples the input 1.5 clocks after it starts; the
+tick's start waits about one clock for the ADC clock's edge, so column k is sampled
 at i / f_s + (``start_clocks`` + 1.5 + ``conversion_clocks`` k) / f_adc,
 f_adc = 10 MHz / 64 = 156.25 kHz. With ``average`` M > 1 the device would
 scan M times per sample period (at M f_s) and average the M codes: an
@@ -48,7 +50,7 @@ noise of ``noise`` counts.
 
 Model file (JSON), every key optional (missing ones keep the defaults)::
 
-    {"adc": {"clock_hz": 156250, "conversion_clocks": 14, "start_clocks": 1},
+    {"adc": {"clock_hz": 156250, "conversion_clocks": 13, "start_clocks": 1},
      "temperature": {"start_c": 20.3, "ramp_c_per_s": 0, "sine_c": 0, "period_s": 3600,
                      "c_per_count": 0.3223, "offset_c": 0, "noise": 0.3},
      "channels": {"gx": {"offset": 520, "N": 0.048, "bandwidth_hz": 88, "B": 0.056,
@@ -64,10 +66,10 @@ from dataclasses import dataclass
 from typing import Any, Iterator, Optional
 
 import numpy as np
-from scipy.signal import lfilter
 
 from ..channels import CODE_MAX, COLUMNS
 from ..errors import InputError
+from .processes import AR1, RW, Flicker, Model
 
 SENSORS = COLUMNS[:6]
 F_ADC = 10_000_000 / 64
@@ -83,8 +85,6 @@ UNITS = {
     "tempco": "counts/degC",
     "tempco2": "counts/degC^2",
 }
-FLICKER_T_MIN = 1e-3
-FLICKER_RATIO = 8.0
 
 
 def _thesis_channel(
@@ -111,7 +111,7 @@ def _thesis_channel(
 # Bandwidths: MMA7260Q 350 Hz X/Y, 150 Hz Z; LISY300AL 88 Hz. Tempcos are
 # illustrative (of the order of the datasheets' zero-level drifts), not measured.
 DEFAULT_MODEL: dict[str, Any] = {
-    "adc": {"clock_hz": F_ADC, "conversion_clocks": 14.0, "start_clocks": 1.0},
+    "adc": {"clock_hz": F_ADC, "conversion_clocks": 13.0, "start_clocks": 1.0},
     "temperature": {
         "start_c": 20.3,
         "ramp_c_per_s": 0.0,
@@ -234,77 +234,25 @@ def lowpass_sigma(N: float, fc: float) -> float:
     return math.sqrt(math.pi * fc) * N
 
 
-# ---- exact processes at arbitrary instants ------------------------------------------------
+# ---- each channel, a sum of catalogue processes ---------------------------------------------
 
 
-class OU:
-    """A stationary Ornstein-Uhlenbeck process (time constant T, sd sigma), advanced
-    exactly from one instant to the next: x' = a x + sigma sqrt(1 - a^2) w, a = exp(-h/T)."""
-
-    def __init__(self, sigma: float, T: float, rng: np.random.Generator) -> None:
-        self.sigma, self.T, self.rng = sigma, T, rng
-        self.x = sigma * rng.standard_normal()
-        self.t: Optional[float] = None
-
-    def at(self, t: np.ndarray) -> np.ndarray:
-        """The process at the increasing instants t (s), continuing from the last call."""
-        t = np.asarray(t, dtype=np.float64)
-        if t.size == 0:
-            return t.copy()
-        h = np.diff(t, prepend=t[0] if self.t is None else self.t)
-        a = np.exp(-h / self.T)
-        b = self.sigma * np.sqrt(-np.expm1(-2.0 * h / self.T))
-        w = self.rng.standard_normal(t.size)
-        if t.size < 3 or np.ptp(h[1:]) <= 1e-9 * float(h[1:].max()):
-            # uniform steps after the first: one linear filter
-            x0 = a[0] * self.x + b[0] * w[0]
-            if t.size > 1:
-                y, _ = lfilter([b[1]], [1.0, -a[1]], w[1:], zi=[a[1] * x0])
-                out = np.concatenate(([x0], y))
-            else:
-                out = np.array([x0])
-        else:
-            out = np.empty(t.size)
-            x = self.x
-            for i in range(t.size):  # irregular instants: the same update, one by one
-                x = a[i] * x + b[i] * w[i]
-                out[i] = x
-        self.x, self.t = float(out[-1]), float(t[-1])
-        return out
-
-
-class Walk:
-    """Brownian motion of diffusion K^2 (K counts/sqrt(s)), exact at any instants."""
-
-    def __init__(self, K: float, rng: np.random.Generator) -> None:
-        self.K, self.rng, self.x, self.t = K, rng, 0.0, None
-
-    def at(self, t: np.ndarray) -> np.ndarray:
-        t = np.asarray(t, dtype=np.float64)
-        h = np.diff(t, prepend=t[0] if self.t is None else self.t)
-        out = self.x + np.cumsum(self.K * np.sqrt(h) * self.rng.standard_normal(t.size))
-        if t.size:
-            self.x, self.t = float(out[-1]), float(t[-1])
-        return out
-
-
-class Flicker:
-    """Flicker of IEEE 952 coefficient B: a bank of OU processes (see the module doc)."""
-
-    def __init__(self, B: float, duration: float, seed: np.random.SeedSequence) -> None:
-        t_hi = max(4.0 * duration, 8.0 * FLICKER_T_MIN)
-        count = int(math.ceil(math.log(t_hi / FLICKER_T_MIN) / math.log(FLICKER_RATIO))) + 1
-        sigma = B * math.sqrt(math.log(FLICKER_RATIO) / math.pi)
-        self.bank = [
-            OU(sigma, FLICKER_T_MIN * FLICKER_RATIO**k, np.random.default_rng(s))
-            for k, s in enumerate(seed.spawn(count))
-        ]
-
-    def at(self, t: np.ndarray) -> np.ndarray:
-        out = np.zeros(np.asarray(t).size)
-        for p in self.bank:  # over about ten processes, each vectorized
-            out += p.at(t)
-        return out
+def channel_model(p: dict[str, float]) -> Model:
+    """One channel's noise (counts) as a sum of the catalogue's processes (processes.py),
+    for samples taken at any uniform step: an OU process of time constant T sampled every
+    h is exactly the AR(1) of pole exp(-h / T) (Gillespie 1996), so the low-passed white
+    noise is AR1(sqrt(pi f_c) N, 1 / (2 pi f_c)), the bias AR1(gm_sigma, gm_tau), the walk
+    RW(K) and the flicker the catalogue's bank Flicker(B)."""
+    parts: list = []
+    if p["N"]:
+        parts.append(AR1(lowpass_sigma(p["N"], p["bandwidth_hz"]), 1.0 / (2 * math.pi * p["bandwidth_hz"])))
+    if p["gm_sigma"]:
+        parts.append(AR1(p["gm_sigma"], p["gm_tau"]))
+    if p["K"]:
+        parts.append(RW(p["K"]))
+    if p["B"]:
+        parts.append(Flicker(p["B"]))
+    return Model(parts)
 
 
 # ---- the board --------------------------------------------------------------------------
@@ -317,34 +265,23 @@ def sample_instants(model: SensorModel, fs: float, start: int, count: int) -> np
 
 
 class Board:
-    """The 7 ADC columns of the board at the device's instants, block by block."""
+    """The 7 ADC columns of the board at the device's instants, block by block
+    (``codes`` on consecutive blocks, or ``blocks``)."""
 
     def __init__(self, model: SensorModel, fs: float, n: int, seed: int = 1, average: int = 1) -> None:
         if average < 1:
             raise InputError("average must be at least 1")
         self.model, self.fs, self.n, self.average = model, float(fs), n, average
-        duration = n / fs
         ss = np.random.SeedSequence(seed).spawn(len(COLUMNS))
-        self.procs: list[dict[str, Any]] = []
-        for c, ch in enumerate(SENSORS):
-            p = model.channel(ch)
-            s = ss[c].spawn(4)
-            d: dict[str, Any] = {"p": p}
-            if p["N"]:
-                d["lp"] = OU(
-                    lowpass_sigma(p["N"], p["bandwidth_hz"]),
-                    1.0 / (2 * math.pi * p["bandwidth_hz"]),
-                    np.random.default_rng(s[0]),
-                )
-            if p["gm_sigma"]:
-                d["gm"] = OU(p["gm_sigma"], p["gm_tau"], np.random.default_rng(s[1]))
-            if p["K"]:
-                d["walk"] = Walk(p["K"], np.random.default_rng(s[2]))
-            if p["B"]:
-                d["flicker"] = Flicker(p["B"], duration, s[3])
-            self.procs.append(d)
+        # each column is sampled at a uniform step (its own delay after each tick): the
+        # catalogue's processes at M fs; the delays matter only to the temperature profile
+        self.streams = [
+            channel_model(model.channel(ch)).simulator(self.fs * average, n * average, ss[c])
+            for c, ch in enumerate(SENSORS)
+        ]
         self.temp_rng = np.random.default_rng(ss[6])
         self.done = 0
+        self._next = 0
 
     def blocks(self, chunk: int = 1 << 16) -> Iterator[np.ndarray]:
         """uint16 codes, blocks of shape (7, rows)."""
@@ -354,21 +291,19 @@ class Board:
             self.done += L
 
     def codes(self, start: int, count: int) -> np.ndarray:
+        if start != self._next:
+            raise ValueError(f"blocks must be consecutive: expected row {self._next}, got {start}")
+        self._next = start + count
         M = self.average
         t = sample_instants(self.model, self.fs * M, start * M, count * M)
         out = np.empty((len(COLUMNS), count * M))
         t0 = self.model.doc["temperature"]["start_c"]
-        for c, d in enumerate(self.procs):
-            p = d["p"]
-            tc = t[c]
-            x = np.full(tc.size, p["offset"])
-            for key in ("lp", "gm", "walk", "flicker"):
-                if key in d:
-                    x += d[key].at(tc)
+        for c, ch in enumerate(SENSORS):
+            p = self.model.channel(ch)
+            out[c] = p["offset"] + self.streams[c].take(count * M)
             if p["tempco"] or p["tempco2"]:
-                dT = self.model.temperature(tc) - t0
-                x += p["tempco"] * dT + p["tempco2"] * dT * dT
-            out[c] = x
+                dT = self.model.temperature(t[c]) - t0
+                out[c] += p["tempco"] * dT + p["tempco2"] * dT * dT
         tp = self.model.doc["temperature"]
         out[6] = (self.model.temperature(t[6]) - tp["offset_c"]) / tp["c_per_count"] + tp[
             "noise"

@@ -155,7 +155,13 @@ class _Gls:
     """Whitening by the Cholesky factor of the estimates' covariance."""
 
     def __init__(
-        self, t: np.ndarray, ref: np.ndarray, e: np.ndarray, alpha: np.ndarray, kind: str, floor: float = 0.0
+        self,
+        t: np.ndarray,
+        ref: np.ndarray,
+        e: np.ndarray,
+        alpha: np.ndarray,
+        kind: str,
+        floor: float = 0.0,
     ) -> None:
         sd = ref * np.sqrt(2.0 / e + floor * floor)
         rho = RHO[kind]
@@ -193,7 +199,12 @@ def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np
         c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
         return c / scale
     hi = np.where(np.isfinite(ub), ub * scale, np.inf)
-    r = optimize.lsq_linear(Aw / scale, yw, bounds=(np.zeros(hi.size), np.maximum(hi, 1e-300)), method="bvls")
+    r = optimize.lsq_linear(
+        Aw / scale,
+        yw,
+        bounds=(np.zeros(hi.size), np.maximum(hi, 1e-300)),
+        method="bvls",
+    )
     return np.clip(r.x, 0.0, hi) / scale
 
 
@@ -204,6 +215,30 @@ def usable_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike] =
     if mask is not None:
         used &= np.asarray(mask, dtype=bool)
     return used
+
+
+def fit_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike]) -> tuple[np.ndarray, ...]:
+    """(used, idx, fitted): the usable points, the indices a fit uses (sorted by tau,
+    thinned to PER_OCTAVE per octave) and those as a mask."""
+    used = usable_points(tau, avar, mask)
+    idx = np.flatnonzero(used)
+    idx = idx[np.argsort(tau[idx])]
+    idx = idx[_thin(tau[idx])]
+    fitted = np.zeros(tau.size, dtype=bool)
+    fitted[idx] = True
+    return used, idx, fitted
+
+
+def points_edf(edf_fn: EdfFn, idx: np.ndarray, size: int) -> Callable[[np.ndarray], np.ndarray]:
+    """EDF of the fitted points (idx of ``size``) for their noise types; 1 where none."""
+
+    def edf_of(alpha: np.ndarray) -> np.ndarray:
+        full = np.zeros(size, dtype=np.int64)
+        full[idx] = alpha
+        e = np.asarray(edf_fn(full), dtype=np.float64)[idx]
+        return np.where(np.isfinite(e) & (e > 0), e, 1.0)
+
+    return edf_of
 
 
 def fit_terms(
@@ -232,18 +267,12 @@ def fit_terms(
     ub = None if caps is None else np.asarray(caps, dtype=np.float64)
     tau = np.asarray(tau, dtype=np.float64)
     avar = np.asarray(avar, dtype=np.float64)
-    used = usable_points(tau, avar, mask)
-    nterm = len(TERMS)
-    coef = np.zeros(nterm)
-    cov = np.zeros((nterm, nterm))
+    used, idx, fitted = fit_points(tau, avar, mask)
+    coef = np.zeros(len(TERMS))
+    cov = np.zeros((len(TERMS), len(TERMS)))
     alpha_all = np.zeros(tau.size, dtype=np.int64)
     edf_all = np.full(tau.size, np.nan)
     notes: list[str] = []
-    idx = np.flatnonzero(used)
-    idx = idx[np.argsort(tau[idx])]
-    idx = idx[_thin(tau[idx])]
-    fitted = np.zeros(tau.size, dtype=bool)
-    fitted[idx] = True
     if idx.size < 2:
         notes.append("fewer than 2 usable points: nothing to fit")
         terms = {k: Term(k, None, None, None, None, 0.0, math.inf, "no data") for k in TERMS}
@@ -252,17 +281,95 @@ def fit_terms(
     kind = "overlapping" if overlapping else "nonoverlapping"
     A = basis(t)
     cols = np.array([k in allowed for k in TERMS])
-
-    def edf_of(alpha: np.ndarray) -> np.ndarray:
-        full = np.zeros(tau.size, dtype=np.int64)
-        full[idx] = alpha
-        e = np.asarray(edf_fn(full), dtype=np.float64)[idx]
-        return np.where(np.isfinite(e) & (e > 0), e, 1.0)
-
+    edf_of = points_edf(edf_fn, idx, tau.size)
     alpha = local_alpha(t, y)
-    dropped: dict[str, tuple[float, float]] = {}  # name -> (chi2 gain, the threshold it missed)
+    cols, alpha, dropped = _stepwise(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
+    coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
+    yw, Aw = gls.white(y), gls.white(A)
+    active = coef > 0
+    dof = max(t.size - int(active.sum()), 1)
+    chi2_red = float(np.sum((yw - Aw @ coef) ** 2) / dof)
+    inflate = max(1.0, chi2_red)
+    if chi2_red > 2.0:
+        notes.append(
+            f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
+            "widened accordingly (noise not of the IEEE 952 kinds, or drift?)"
+        )
+    if active.any():
+        ia = np.flatnonzero(active)
+        cov[np.ix_(ia, ia)] = np.linalg.pinv(Aw[:, active].T @ Aw[:, active]) * inflate
+    alpha_all[idx] = alpha
+    edf_all[idx] = edf_of(alpha)
+    terms = _all_terms(t, coef, cov, Aw, yw, allowed, inflate, ub, signature or {}, dropped)
+    return FitResult(
+        terms,
+        coef,
+        cov,
+        chi2_red,
+        fitted,
+        alpha_all,
+        edf_all,
+        b_classic(tau, avar, used, edf_all),
+        notes,
+    )
+
+
+def _all_terms(
+    t: np.ndarray,
+    coef: np.ndarray,
+    cov: np.ndarray,
+    Aw: np.ndarray,
+    yw: np.ndarray,
+    allowed: tuple[str, ...],
+    inflate: float,
+    ub: Optional[np.ndarray],
+    signature: dict[str, tuple[float, float]],
+    dropped: dict[str, tuple[float, float]],
+) -> dict[str, Term]:
+    grid = np.exp(np.linspace(math.log(t[0]), math.log(t[-1]), 400))
+    active = coef > 0
+    terms = {}
+    for j, k in enumerate(TERMS):
+        cap = math.sqrt(ub[j]) if ub is not None and math.isfinite(ub[j]) else math.inf
+        terms[k] = _term(
+            k,
+            j,
+            coef,
+            cov,
+            Aw,
+            yw,
+            grid,
+            active,
+            k in allowed,
+            inflate,
+            cap,
+            signature.get(k),
+        )
+        if k in dropped:
+            terms[k].note = (
+                f"not identifiable: the other terms explain the curve as well "
+                f"(chi2 gain {dropped[k][0]:.3g} < {dropped[k][1]:.3g}; at most {_fmt(terms[k].upper)})"
+            )
+    return terms
+
+
+def _stepwise(
+    A: np.ndarray,
+    y: np.ndarray,
+    t: np.ndarray,
+    cols: np.ndarray,
+    alpha: np.ndarray,
+    edf_of: Callable[[np.ndarray], np.ndarray],
+    kind: str,
+    iterations: int,
+    floor: float,
+    ub: Optional[np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[float, float]]]:
+    """The terms kept: drop what the others can do without, re-admit what is missed
+    (each by the chi2 test); the dropped ones with (chi2 gain, the threshold it missed)."""
+    dropped: dict[str, tuple[float, float]] = {}
     seen: set[tuple[bool, ...]] = set()
-    for _ in range(4 * nterm):  # stepwise: drop what others can do without, re-admit what is missed
+    for _ in range(4 * len(TERMS)):
         coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
         yw, Aw = gls.white(y), gls.white(A)
         key = tuple(cols.tolist())
@@ -297,35 +404,7 @@ def fit_terms(
             break
         cols[best] = True
         del dropped[TERMS[best]]
-    coef, alpha, gls = _irls(A, y, t, cols, alpha, edf_of, kind, iterations, floor, ub)
-    yw, Aw = gls.white(y), gls.white(A)
-    e = edf_of(alpha)
-    active = coef > 0
-    dof = max(t.size - int(active.sum()), 1)
-    chi2_red = float(np.sum((yw - Aw @ coef) ** 2) / dof)
-    inflate = max(1.0, chi2_red)
-    if chi2_red > 2.0:
-        notes.append(
-            f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are "
-            "widened accordingly (noise not of the IEEE 952 kinds, or drift?)"
-        )
-    if active.any():
-        cov_a = np.linalg.pinv(Aw[:, active].T @ Aw[:, active]) * inflate
-        ia = np.flatnonzero(active)
-        cov[np.ix_(ia, ia)] = cov_a
-    alpha_all[idx] = alpha
-    edf_all[idx] = e
-    grid = np.exp(np.linspace(math.log(t[0]), math.log(t[-1]), 400))
-    terms = {}
-    for j, k in enumerate(TERMS):
-        cap = math.sqrt(ub[j]) if ub is not None and math.isfinite(ub[j]) else math.inf
-        terms[k] = _term(k, j, coef, cov, Aw, yw, grid, active, k in allowed, inflate, cap, (signature or {}).get(k))
-        if k in dropped:
-            terms[k].note = (
-                f"not identifiable: the other terms explain the curve as well "
-                f"(chi2 gain {dropped[k][0]:.3g} < {dropped[k][1]:.3g}; at most {_fmt(terms[k].upper)})"
-            )
-    return FitResult(terms, coef, cov, chi2_red, fitted, alpha_all, edf_all, b_classic(tau, avar, used, edf_all), notes)
+    return cols, alpha, dropped
 
 
 def _chi2(Aw: np.ndarray, yw: np.ndarray, cols: np.ndarray, ub: Optional[np.ndarray] = None) -> float:
@@ -386,76 +465,54 @@ def _term(
     sd = math.sqrt(max(cov[j, j], 0.0))
     upper = min(_upper(j, Aw, yw, active, inflate), cap)
     if not math.isfinite(upper):
-        return Term(
-            k,
-            None,
-            None,
-            None,
-            None,
-            math.sqrt(max(c, 0.0)),
-            math.inf,
-            "cannot be bounded by these data (no point constrains it)",
-        )
+        why = "cannot be bounded by these data (no point constrains it)"
+        return Term(k, None, None, None, None, math.sqrt(max(c, 0.0)), math.inf, why)
     if c <= 0:
-        return Term(
-            k, None, None, None, None, 0.0, upper, f"not in the data (fitted coefficient 0; at most {_fmt(upper)})"
-        )
+        why = f"not in the data (fitted coefficient 0; at most {_fmt(upper)})"
+        return Term(k, None, None, None, None, 0.0, upper, why)
     estimate = math.sqrt(c)
-    if sd > 0:
-        nu = 2.0 * (c / sd) ** 2  # the coefficient's own degrees of freedom
-        q = float(stats.chi2.ppf(0.975, nu))
-        lo = math.sqrt(c * nu / q) if q > 0 else 0.0
-        q = float(stats.chi2.ppf(0.025, nu))
-        hi = math.sqrt(c * nu / q) if q > 0 else math.inf  # capped below where a cap exists
-    else:
-        lo = hi = estimate
+    lo, hi = _interval(c, sd)
     hi = min(hi, cap)
     upper = max(upper, hi)
-    Gb = basis(grid)
-    mod = Gb @ coef
-    dominant = Gb[:, j] * c >= 0.5 * mod
-    rng = (float(grid[dominant][0]), float(grid[dominant][-1])) if dominant.any() else None
-    if rng is None:  # could it dominate anywhere at the top of its interval?
-        c_hi = hi * hi
-        if np.any(Gb[:, j] * c_hi >= 0.5 * (mod + Gb[:, j] * (c_hi - c))):
-            sel = Gb[:, j] * c_hi >= 0.5 * (mod + Gb[:, j] * (c_hi - c))
-            rng = (float(grid[sel][0]), float(grid[sel][-1]))
+    rng = _dominant(basis(grid), j, coef, hi, grid)
     if c < Z95 * sd:
-        return Term(
-            k,
-            None,
-            None,
-            None,
-            rng,
-            estimate,
-            upper,
-            f"not identifiable: its 95 % interval includes 0 (estimate {_fmt(estimate)}, at most {_fmt(upper)})",
-        )
+        why = f"not identifiable: its 95 % interval includes 0 (estimate {_fmt(estimate)}, at most {_fmt(upper)})"
+        return Term(k, None, None, None, rng, estimate, upper, why)
     if rng is None and signature is not None:
-        return Term(
-            k,
-            estimate,
-            lo,
-            hi,
-            signature,
-            estimate,
-            hi,
+        why = (
             f"from the curve's flat region {_fmt(signature[0])} .. {_fmt(signature[1])} s, "
-            "where it shares the floor with the neighbouring terms (nowhere half of the model)",
+            "where it shares the floor with the neighbouring terms (nowhere half of the model)"
         )
+        return Term(k, estimate, lo, hi, signature, estimate, hi, why)
     if rng is None:
-        return Term(
-            k,
-            None,
-            None,
-            None,
-            None,
-            estimate,
-            upper,
+        why = (
             f"not identifiable: dominates nowhere in the measured range (estimate "
-            f"{_fmt(estimate)}, at most {_fmt(upper)})",
+            f"{_fmt(estimate)}, at most {_fmt(upper)})"
         )
+        return Term(k, None, None, None, None, estimate, upper, why)
     return Term(k, estimate, lo, hi, rng, estimate, hi)
+
+
+def _interval(c: float, sd: float) -> tuple[float, float]:
+    """95 % interval of sqrt(c), chi-squared with the coefficient's own degrees of
+    freedom 2 c^2 / sd^2 (asymmetric, never below 0)."""
+    if sd <= 0:
+        return math.sqrt(c), math.sqrt(c)
+    nu = 2.0 * (c / sd) ** 2
+    q_hi, q_lo = float(stats.chi2.ppf(0.975, nu)), float(stats.chi2.ppf(0.025, nu))
+    return (math.sqrt(c * nu / q_hi) if q_hi > 0 else 0.0), (math.sqrt(c * nu / q_lo) if q_lo > 0 else math.inf)
+
+
+def _dominant(Gb: np.ndarray, j: int, coef: np.ndarray, hi: float, grid: np.ndarray) -> Optional[tuple[float, float]]:
+    """The tau range where term j is at least half of the model (else where it
+    would be at the top of its interval, ``hi``), None if nowhere."""
+    c = float(coef[j])
+    mod = Gb @ coef
+    sel = Gb[:, j] * c >= 0.5 * mod
+    if not sel.any():
+        c_hi = hi * hi
+        sel = Gb[:, j] * c_hi >= 0.5 * (mod + Gb[:, j] * (c_hi - c))
+    return (float(grid[sel][0]), float(grid[sel][-1])) if sel.any() else None
 
 
 def _upper(j: int, Aw: np.ndarray, yw: np.ndarray, active: np.ndarray, inflate: float) -> float:
@@ -475,7 +532,11 @@ def _upper(j: int, Aw: np.ndarray, yw: np.ndarray, active: np.ndarray, inflate: 
 
 
 def b_classic(
-    tau: np.ndarray, avar: np.ndarray, used: np.ndarray, edf: Optional[np.ndarray] = None, min_edf: float = 10.0
+    tau: np.ndarray,
+    avar: np.ndarray,
+    used: np.ndarray,
+    edf: Optional[np.ndarray] = None,
+    min_edf: float = 10.0,
 ) -> Optional[dict]:
     """The thesis' read-off: B = min(ADEV) / 0.664 and the tau of that minimum,
     over the points with at least ``min_edf`` degrees of freedom (the last few

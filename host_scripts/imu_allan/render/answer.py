@@ -43,14 +43,14 @@ def _extra_terms(c: dict[str, Any]) -> list[str]:
         if t is None or k in MAIN:
             continue
         if k == "LP":
-            out.append(f"LP band limit fc {num(t['fc'])} [{num(t['fc_low'])}, {num(t['fc_high'])}] Hz")
+            out.append(f"LP fc {num(t['fc'])} Hz")
         elif k.startswith("GM"):
             out.append(
                 f"{k} sigma {num(t['value'])} [{num(t['low'])}, {num(t['high'])}] {c['unit']}, "
-                f"tau_c {num(t['tau_c'])} [{num(t['tau_c_low'])}, {num(t['tau_c_high'])}] s"
+                f"tau_c {num(t['tau_c'])} s"
             )
         elif k == "SIN":
-            out.append(f"SIN oscillation {num(t['value'])} {c['unit']} at {num(t['f0_hz'])} Hz")
+            out.append(f"SIN {num(t['value'])} {c['unit']} at {num(t['f0_hz'])} Hz")
         elif k in lit:
             unit, f = lit[k]
             out.append(f"{k} {'quantization' if k == 'Q' else 'rate ramp'} {cell(t, f, None)} {unit}")
@@ -90,7 +90,7 @@ def device_n_footnote(doc: dict[str, Any]) -> list[str]:
         + (f"; at that tau they add {min(shares):.0f} .. {max(shares):.0f} % to the deviation" if shares else "")
         + " (each channel in the details)."
     )
-    return textwrap.wrap(text, WIDTH)
+    return textwrap.wrap(text, WIDTH, break_on_hyphens=False)
 
 
 def _rows(chans: dict[str, Any], kind: str) -> list[list[str]]:
@@ -126,8 +126,15 @@ def _group_split(heads: list[list[str]], rows: list[list[str]], chans: dict[str,
 
 
 def _under(c: dict[str, Any]) -> list[str]:
-    """The line(s) under a channel's row: its other processes."""
+    """The line(s) under a channel's row: its other processes, and what could
+    mislead in the row (a constant channel, spikes taken out)."""
     out = []
+    if not any(p.get("dev") for p in c.get("curve") or []):
+        out.append("    ! constant (the same value in every sample): no noise to fit")
+    o = c.get("outliers") or {}
+    if o.get("count"):
+        how = "replaced" if o.get("mode") == "replace" else "kept"
+        out.append(f"    ! {o['count']} samples of spikes or bursts {how} (see the details)")
     extra = _extra_terms(c)
     if extra:
         out += textwrap.wrap("; ".join(extra), WIDTH, initial_indent="    + ", subsequent_indent="      ")
@@ -143,15 +150,15 @@ def answer_table(doc: dict[str, Any], brief: bool = False) -> str:
     for title, kind in GROUPS:
         chans = {ch: c for ch, c in doc["channels"].items() if c["kind"] == kind}
         if chans:
-            lines.append("")
+            lines += [""] if len(lines) > 1 else []
             lines += _group(title, kind, chans)
     lines.append("")
     lines += device_n_footnote(doc)
     lines += textwrap.wrap(
-        "'< x': not seen in the data, at most x; '-': not identifiable. '+': other fitted "
-        "processes (GM: Gauss-Markov, tau_c its correlation time; LP: the low-pass the white "
-        "noise goes through). "
-        + ("Without --brief: how each was found, and the curve." if brief else "Details below."),
+        "'< x': not seen, at most x; '-': not identifiable; '+' other processes: LP low-pass "
+        "the white noise goes through, GM Gauss-Markov (tau_c its correlation time), SIN "
+        "oscillation. " + ("Details without --brief." if brief else "Details below."),
         WIDTH,
+        break_on_hyphens=False,
     )
     return "\n".join(lines) + "\n"

@@ -21,36 +21,7 @@ from ..stats.edf import chi2_interval
 def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -> dict[str, Any]:
     """The ``dynamic --json`` document."""
     taus = [float(t) for t in ws.taus]
-    windows = []
-    for w in range(len(ws.t0)):
-        t = ws.temp[w]
-        item: dict[str, Any] = {
-            "t0_s": float(ws.t0[w]),
-            "t1_s": float(ws.t1[w]),
-            "temp": t["mean"] if t else None,
-            "temp_range": [t["min"], t["max"]] if t else None,
-            "taus_s": taus,
-            "adev": {},
-            "low": {},
-            "high": {},
-            "edf": {},
-            "p": {},
-            "departs": {},
-            "departs_at": {},
-            "p_min": {},
-        }
-        for c, ch in enumerate(ws.channels):
-            low, high = chi2_interval(ws.var[w, c], ws.edf[w, c], v.level)
-            item["adev"][ch] = _devs(ws.var[w, c])
-            item["low"][ch], item["high"][ch] = _devs(low), _devs(high)
-            item["edf"][ch] = [_num(e) for e in ws.edf[w, c]]
-            item["p"][ch] = [_num(p) for p in v.p[w, c]]
-            item["departs"][ch] = bool(v.departs[w, c])
-            item["departs_at"][ch] = [bool(h) for h in v.hit[w, c]]
-            item["p_min"][ch] = _num(np.nanmin(v.p[w, c])) if np.isfinite(v.p[w, c]).any() else None
-        if ws.pairs is not None:
-            item["pairs"] = {ch: [int(p) for p in ws.pairs[w, c]] for c, ch in enumerate(ws.channels)}
-        windows.append(item)
+    windows = [_window(ws, v, w, taus) for w in range(len(ws.t0))]
     bins = [
         {
             "temp": b["temp"],
@@ -61,32 +32,8 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
     ]
     return {
         "tool": tool,
-        "source": {
-            "file": name,
-            "kind": ws.source,
-            "fs_hz": ws.fs,
-            "duration_s": float(ws.t1.max()) if len(ws.t1) else 0.0,
-            "windows": len(windows),
-            "window_overlap": ws.overlap,
-            "estimator": (
-                "non-overlapping (the device's exact sums, report minus report)"
-                if ws.source == "device reports"
-                else "overlapping, sliding windows"
-            ),
-        },
-        "test": {
-            "level": v.level,
-            "method": (
-                "each window's variance at each tau against the pooled variance of the "
-                "windows that do not depart (none overlapping it): F test with "
-                "Greenhall's EDFs, two-sided; a window departs when a tau's p-value is "
-                "below the per-point level, Sidak-corrected over every window and tau "
-                f"tested and its deviation differs by more than {MIN_EFFECT:.0%}: a "
-                f"stationary channel is flagged with probability at most {1 - v.level:.2g}"
-            ),
-            "min_effect": MIN_EFFECT,
-            "per_point_level": {ch: float(v.threshold[c]) for c, ch in enumerate(ws.channels)},
-        },
+        "source": _source(ws, name, len(windows)),
+        "test": _test(ws, v),
         "taus_s": taus,
         "whole": {"adev": {ch: _devs(ws.whole[c]) for c, ch in enumerate(ws.channels)}},
         "windows": windows,
@@ -101,6 +48,72 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
         },
         "temp_bins": bins,
         "notes": notes + list(ws.notes),
+    }
+
+
+def _window(ws: Windows, v: Verdict, w: int, taus: list[float]) -> dict[str, Any]:
+    """One window of the document: its span, temperature, and per channel its
+    deviations with intervals, EDFs, p-values and whether it departs."""
+    t = ws.temp[w]
+    item: dict[str, Any] = {
+        "t0_s": float(ws.t0[w]),
+        "t1_s": float(ws.t1[w]),
+        "temp": t["mean"] if t else None,
+        "temp_range": [t["min"], t["max"]] if t else None,
+        "taus_s": taus,
+        "adev": {},
+        "low": {},
+        "high": {},
+        "edf": {},
+        "p": {},
+        "departs": {},
+        "departs_at": {},
+        "p_min": {},
+    }
+    for c, ch in enumerate(ws.channels):
+        low, high = chi2_interval(ws.var[w, c], ws.edf[w, c], v.level)
+        item["adev"][ch] = _devs(ws.var[w, c])
+        item["low"][ch], item["high"][ch] = _devs(low), _devs(high)
+        item["edf"][ch] = [_num(e) for e in ws.edf[w, c]]
+        item["p"][ch] = [_num(p) for p in v.p[w, c]]
+        item["departs"][ch] = bool(v.departs[w, c])
+        item["departs_at"][ch] = [bool(h) for h in v.hit[w, c]]
+        item["p_min"][ch] = _num(np.nanmin(v.p[w, c])) if np.isfinite(v.p[w, c]).any() else None
+    if ws.pairs is not None:
+        item["pairs"] = {ch: [int(p) for p in ws.pairs[w, c]] for c, ch in enumerate(ws.channels)}
+    return item
+
+
+def _source(ws: Windows, name: str, windows: int) -> dict[str, Any]:
+    return {
+        "file": name,
+        "kind": ws.source,
+        "fs_hz": ws.fs,
+        "duration_s": float(ws.t1.max()) if len(ws.t1) else 0.0,
+        "windows": windows,
+        "window_overlap": ws.overlap,
+        "estimator": (
+            "non-overlapping (the device's exact sums, report minus report)"
+            if ws.source == "device reports"
+            else "overlapping, sliding windows"
+        ),
+    }
+
+
+def _test(ws: Windows, v: Verdict) -> dict[str, Any]:
+    """How a window is said to depart, in words, with its levels."""
+    return {
+        "level": v.level,
+        "method": (
+            "each window's variance at each tau against the pooled variance of the "
+            "windows that do not depart (none overlapping it): F test with "
+            "Greenhall's EDFs, two-sided; a window departs when a tau's p-value is "
+            "below the per-point level, Sidak-corrected over every window and tau "
+            f"tested and its deviation differs by more than {MIN_EFFECT:.0%}: a "
+            f"stationary channel is flagged with probability at most {1 - v.level:.2g}"
+        ),
+        "min_effect": MIN_EFFECT,
+        "per_point_level": {ch: float(v.threshold[c]) for c, ch in enumerate(ws.channels)},
     }
 
 

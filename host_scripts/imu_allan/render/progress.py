@@ -18,6 +18,14 @@ def _columns(stream: TextIO) -> int:
         return 80
 
 
+def _si(v: float) -> str:
+    """1234567 -> '1.23 M' (a rate on a progress line)."""
+    for div, p in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
+        if v >= div:
+            return f"{v / div:.3g} {p}"
+    return f"{v:.3g}"
+
+
 class Progress:
     """``with Progress("reading", total) as p: p.update(done)``.
 
@@ -73,14 +81,18 @@ class Progress:
         now = self._due()
         if now is None:
             return
+        rate = done / max(now - self.start, 1e-9)
+        speed = f"  {_si(rate)}{self.unit}/s" if self.unit else ""
         if self.total:
             frac = min(max(done / self.total, 0.0), 1.0)
-            width = 30
+            width = 20 if self.unit else 30
             bar = "#" * int(frac * width) + "-" * (width - int(frac * width))
-            eta = (now - self.start) * (1 - frac) / frac if frac > 0 else 0.0
-            text = f"{self.label} [{bar}] {frac * 100:5.1f}%  {eta:5.0f} s left"
+            # the total may be an estimate (a file's size over a typical row): no ETA past it
+            eta = f"  {(self.total - done) / rate:4.0f} s left" if frac < 1 and rate > 0 else ""
+            counted = f"  {done:,.0f}{self.unit}" if self.unit else ""
+            text = f"{self.label} [{bar}] {frac * 100:5.1f}%{counted}{speed}{eta}"
         else:
-            text = f"{self.label} {done:,.0f}{self.unit}"
+            text = f"{self.label} {done:,.0f}{self.unit}{speed}"
         self._draw(text)
 
     def show(self, text: str) -> None:

@@ -20,6 +20,7 @@ from ..channels import CHANNELS
 from ..device.consistency import sig3
 from ..device.records import DeviceReport, flag_names
 from ..profiles import LITERATURE
+from ..sources.source import KIND_NAMES
 from .answer import answer_table, device_n_note
 
 NAMES = {"Q": "quantization", "N": "random walk", "B": "bias instability", "K": "rate random walk", "R": "rate ramp"}
@@ -238,12 +239,7 @@ def text(doc: dict[str, Any]) -> str:
     """``imu-allan analyze`` for people: the answer table first (answer.py), then
     how each figure was found, channel by channel, then the curve."""
     src = doc["source"]
-    kind = {
-        "rows": "rows file",
-        "csv": "CSV",
-        "capture": "device capture",
-        "device-log": "device log (on-device results only)",
-    }[src["kind"]]
+    kind = KIND_NAMES[src["kind"]]
     lines = [
         f"{src['file']}: {kind}, {src['n']} samples at {src['fs_hz']:g} Hz "
         f"({_duration(src['duration_s'])}), profile {doc['profile']['name']}",

@@ -74,7 +74,7 @@ def _plain(path: str, name: str, a: np.ndarray) -> Any:
         for lo in range(0, n, BLOCK_ROWS):
             yield cols(lo, lo + BLOCK_ROWS)
 
-    from .source import SampleSource
+    from .source import TEMP_NOTE, SampleSource
 
     pick = slice(first, first + len(CHANNELS))
     src = SampleSource("npy", name, list(CHANNELS), lambda: iter(()), integer, n_hint=n)
@@ -82,11 +82,12 @@ def _plain(path: str, name: str, a: np.ndarray) -> Any:
         src.open_blocks = lambda: (_codes(name, b[pick]) for b in blocks())
         if ncol == 7:
             src.open_temperature = lambda: (_codes(name, b[6]) for b in blocks())
-        src.notes.append(f"'{name}': integer array: ADC codes ax ay az gx gy gz" + (" temp" if ncol == 7 else ""))
+            src.notes.append(TEMP_NOTE)
+        src.notes.append("integer array: ADC codes ax ay az gx gy gz" + (" temp" if ncol == 7 else ""))
         return src
     src.units = dict(SI)
     src.notes.append(
-        f"'{name}': float array: columns {'t ' if t_col == 0 else ''}ax ay az gx gy gz, in m/s^2 and rad/s "
+        f"float array: columns {'t ' if t_col == 0 else ''}ax ay az gx gy gz, in m/s^2 and rad/s "
         "(the .npy convention; --scale CH=1UNIT for other units)"
     )
     _timed(src, name, lambda: ((b[pick], b[0] if t_col == 0 else None) for b in blocks()))
@@ -184,7 +185,7 @@ def _named(
             yield vals, (arrays[time][lo : lo + BLOCK_ROWS] if time else None)
 
     src = SampleSource("npy", name, chans, lambda: iter(()), integer, n_hint=int(n))
-    note = unused_note(name, [m for m in members if m not in used])
+    note = unused_note([m for m in members if m not in used])
     if note:
         src.notes.append(note)
     if integer:
@@ -192,7 +193,7 @@ def _named(
         return src
     src.units = {ch: units.get(ch, SI[ch]) for ch in chans}
     if any(ch not in units for ch in chans):
-        src.notes.append(f"'{name}': arrays without a unit in their name read as SI (m/s^2, rad/s)")
+        src.notes.append("arrays without a unit in their name read as SI (m/s^2, rad/s)")
     _timed(src, name, pairs)
     return src
 

@@ -32,7 +32,7 @@ from ..device.records import DeviceReport
 from ..device.stream import LOSS_KEYS, StreamDecoder
 from ..errors import InputError, quote
 from .rows import iter_blocks
-from .source import SampleSource, Source
+from .source import TEMP_NOTE, SampleSource, Source
 from .timing import FS_AGREE
 
 SNIFF_BYTES = 1 << 16
@@ -274,6 +274,7 @@ def _text(path: str, name: str, head: bytes, size: int) -> Source:
                 n_hint=max(size // 26, 1),
                 size_bytes=size,
                 open_temperature=lambda: (b[len(CHANNELS)] for b in iter_blocks(path, name=name)),
+                notes=[TEMP_NOTE],
             ),
             None,
         )

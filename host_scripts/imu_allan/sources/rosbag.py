@@ -92,9 +92,9 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     src.time, src.topic = check, chosen
     src.notes.append(check.note)
     if not use_stamps:
-        src.notes.append(f"'{name}': the header stamps of {chosen} do not increase (left zero?): the bag's times used")
+        src.notes.append(f"the header stamps of {chosen} do not increase (left zero?): the bag's times used")
     src.notes.append(
-        f"'{name}': topic {chosen} (sensor_msgs/Imu): angular_velocity and linear_acceleration read in rad/s "
+        f"topic {chosen} (sensor_msgs/Imu): angular_velocity and linear_acceleration read in rad/s "
         "and m/s^2 (the message's units); orientation and the three covariances not used"
         + (f"; topics not read: {', '.join(others)}" if others else "")
     )
@@ -203,7 +203,7 @@ def _fast(raws: list[bytes], ros1: bool) -> tuple[np.ndarray, np.ndarray]:
         sec = _gather(buf, start + 4, 4, "<i4")[:, 0].astype(np.int64)
         nsec = _gather(buf, start + 8, 4, "<u4")[:, 0].astype(np.int64)
         flen = _gather(buf, start + 12, 4, "<u4")[:, 0].astype(np.int64)
-        base = start + 4 + (16 + flen + 7) // 8 * 8
+        base = start + 4 + (12 + flen + 7) // 8 * 8  # the string starts 12 bytes into the payload
     if np.any(base + _TAIL != start + lens):
         raise ValueError("not the standard sensor_msgs/Imu layout")
     acc = _gather(buf, base + _ACC_AT, 24, "<f8")

@@ -9,10 +9,24 @@ import numpy as np
 
 from ..device.records import DeviceHeader, DeviceReport
 
+TEMP_NOTE = "column 7 (temp) not used by the noise analysis (imu-allan thermal reads it)"
+"""No column is dropped silently: the thesis rows' temperature is named as unused."""
+
+KIND_NAMES = {
+    "rows": "rows file",
+    "csv": "CSV",
+    "capture": "device capture",
+    "rosbag": "ROS bag",
+    "npy": "NumPy array",
+    "device-log": "device log (on-device results only)",
+}
+"""Every kind of source a reader makes (``SampleSource.kind``, and a device log
+alone), as the text names it."""
+
 
 @dataclass
 class SampleSource:
-    kind: str  # "rows", "csv", "capture", "rosbag" or "npy"
+    kind: str  # a key of KIND_NAMES
     name: str
     channels: list[str]  # subset of CHANNELS, in file order of CHANNELS
     open_blocks: Callable[[], Iterator[np.ndarray]]

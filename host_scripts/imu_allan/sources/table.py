@@ -194,8 +194,8 @@ def _unit_only(h: Header, col: str) -> None:
             h.chan_col[ch], h.units[ch] = 0, unit
 
 
-def unused_note(name: str, cols: list[str]) -> Optional[str]:
-    """``'name': columns not used: a, b, c*(9) ...``: runs of numbered or x/y/z
+def unused_note(cols: list[str]) -> Optional[str]:
+    """``columns not used: a, b, c* (9) ...``: runs of numbered or x/y/z
     columns are shown once with their count."""
     if not cols:
         return None
@@ -204,7 +204,7 @@ def unused_note(name: str, cols: list[str]) -> Optional[str]:
         stem = re.sub(r"(\d+|[._]?[xyzw])$", "*", c)
         groups[stem] = groups.get(stem, 0) + 1
     shown = [s if n == 1 and not s.endswith("*") else f"{s} ({n})" for s, n in groups.items()]
-    return f"'{name}': column{'s' if len(cols) > 1 else ''} not used: {', '.join(shown)}"
+    return f"column{'s' if len(cols) > 1 else ''} not used: {', '.join(shown)}"
 
 
 def csv_source(path: str, name: str, line: str, lineno: int, size: int) -> Any:
@@ -230,10 +230,10 @@ def csv_source(path: str, name: str, line: str, lineno: int, size: int) -> Any:
     )
     if h.defined:
         src.notes.append(
-            f"'{name}': units of {' '.join(h.defined)} by the format's definition "
+            f"units of {' '.join(h.defined)} by the format's definition "
             "(sensor_msgs/Imu, EuRoC, Kalibr: rad/s and m/s^2)"
         )
-    note = unused_note(name, h.unused())
+    note = unused_note(h.unused())
     if note:
         src.notes.append(note)
     first = next(csv_blocks(path, name, lineno, h.delim, use, h.time_col, max_bytes=SNIFF_BYTES), None)

@@ -155,4 +155,4 @@ class TimeCheck:
         if span > 0 and abs(whole - self.fs) > 1e-3 * self.fs:
             said.append(f"over the whole file the stamps give {whole:.6g} Hz, not the first rows' {self.fs:.6g} Hz")
         if said:
-            notes.append(f"'{self.name}': {self.what}: " + "; ".join(said))
+            notes.append(f"{self.what}: " + "; ".join(said))

@@ -21,6 +21,7 @@ Noise types for IMU rate data (alpha of S_rate(f) ~ f^alpha):
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Optional
 
@@ -91,15 +92,22 @@ def _basic_sum(J: float, M: float, S: float, F: float, alpha: int, d: int) -> fl
     J = int(J)
     first = float(_sz(np.array([0.0]), F, alpha, d)[0]) ** 2
     second = (1 - J / M) * float(_sz(np.array([J / S]), F, alpha, d)[0]) ** 2
-    j = np.arange(1, J, dtype=np.float64)
-    third = float(np.sum(2 * (1 - j / M) * _sz(j / S, F, alpha, d) ** 2)) if J > 1 else 0.0
+    third = 0.0
+    for a in range(1, J, SUM_CHUNK):  # in chunks: J reaches 2m (~n) for white PM at the longest taus
+        j = np.arange(a, min(a + SUM_CHUNK, J), dtype=np.float64)
+        third += float(np.sum(2 * (1 - j / M) * _sz(j / S, F, alpha, d) ** 2))
     return first + second + third
+
+
+SUM_CHUNK = 1 << 16
+"""Terms of Greenhall's basic sum evaluated at a time (bounded memory)."""
 
 
 def _sz0(F: float, alpha: int, d: int) -> float:
     return float(_sz(np.array([0.0]), F, alpha, d)[0])
 
 
+@functools.lru_cache(maxsize=1 << 14)
 def edf_greenhall(
     alpha: int, d: int, m: int, N: int, overlapping: bool = False, modified: bool = False, stride: Optional[int] = None
 ) -> float:

@@ -31,8 +31,8 @@
 #                  inputs start empty or from snapshots near the high levels
 #   fuzz_allan20   the same with -DALLAN_LEVELS=20 -DALLAN_ACC48_FROM=0
 #   fuzz_line      the whole device natively (tests/firmware/native's fakes) on byte
-#                  streams with mode changes, Ctrl-C/Esc, overruns and line
-#                  timeouts: every line run is one clean line as sent, in
+#                  streams with mode changes, Ctrl-C/Esc, overruns, framing
+#                  errors and line timeouts: every line run is one clean line as sent, in
 #                  order; all of them with no ring overflow; Ctrl-C + command
 #                  runs in every mode; never deaf
 # Each run works on a copy of the corpus in $(BUILD)/fuzz/corpus-<target>,

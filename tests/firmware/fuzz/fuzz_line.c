@@ -4,8 +4,9 @@
  * control room, scheduler, producers, settings and engine), with the fakes
  * of tests/firmware/native (UART at 115200 baud through the device's 8-byte ring,
  * ADC, EEPROM, clock), fed arbitrary byte streams interleaved with mode and
- * echo changes, pauses, Ctrl-C/Esc and UART overruns (bytes lost, the next
- * one flagged, as the AVR's DOR flags it).
+ * echo changes, pauses, Ctrl-C/Esc, UART overruns (bytes lost, the next
+ * one flagged, as the AVR's DOR flags it) and framing errors (bytes
+ * flagged with FE, which the device throws away).
  *
  * What the device is about to run is what it hands command_parse(): the
  * link-time --wrap of that function records every text.  Checked against
@@ -14,7 +15,7 @@
  *     the stream's order, none twice: a line is the bytes after a CR, LF,
  *     Ctrl-C or Esc up to the next CR or LF, after BS/DEL editing; it is
  *     clean when none of its bytes (its end included) was lost in an
- *     overrun, nor the bytes right before its first, it holds only
+ *     overrun or to a framing error, nor the bytes right before its first, it holds only
  *     printable ASCII and TAB, and it never grew past COMMAND_LINE_MAX;
  *     a `*` starts the line's check, right only as 4 upper-case hex
  *     digits, the CRC of the text before it (what runs);
@@ -23,8 +24,10 @@
  *     a bad byte or one cut by Ctrl-C/Esc is never run, nor glued to
  *     another;
  *   - when the device's own RX ring never overflowed (the only loss the
- *     model does not make itself), every clean line ran, in order: none
- *     refused or dropped without a reason;
+ *     model does not make itself) and no two gaps waited unread at once
+ *     (then every byte up to the later one counts as following a gap, and
+ *     a clean line between them may be refused: docs/protocol.md), every
+ *     clean line ran, in order: none refused or dropped without a reason;
  *   - Ctrl-C before a command works in every mode: after the stream and a
  *     quiet moment (PROBE_QUIET_MS), Ctrl-C and a clean `status` line back
  *     to back: whatever mode the stream left the device in, the line runs;
@@ -43,6 +46,7 @@
  *           2  an overrun: the next a % 8 + 1 bytes are lost on the way in
  *           3  send the byte 0xFF itself
  *           4  pause past the line's timeout (CONSOLE_TIMEOUT_MS + 0.3 s)
+ *           5  framing errors: the next a % 8 + 1 bytes arrive with FE set
  *           else pause a ms.
  * Silences are kept 100 ms clear of the line's timeout either way, where
  * the device's 26 ms clock could go either way.  The pauses of an input
@@ -100,7 +104,7 @@ uint8_t __wrap_command_parse(const char *line, command_t *out)
 
 /* ---- the stream as sent, and the model's clean lines ---- */
 static uint8_t sent[1 << 16];
-static uint8_t lost[1 << 16];     /* 1: this byte never reached the device */
+static uint8_t lost[1 << 16];     /* this byte never reached the device: 1 an overrun, 2 FE */
 static uint64_t arrival[1 << 16]; /* when its last bit was on the wire (ns) */
 static size_t nsent;
 
@@ -128,8 +132,10 @@ static size_t build_model(void)
       len = 0;
       dirty = star = 0;
     }
-    /* a loss right before or at a byte spoils the line that byte is in */
-    if (lost[i] || (i && lost[i - 1]))
+    /* a loss at a byte spoils the line that byte is in, and an overrun's
+     * the line of the byte after it too (DOR comes with that byte, even
+     * after a timeout; a framing error's gap is seen at once) */
+    if (lost[i] || (i && lost[i - 1] == 1))
       dirty = 1;
     if (lost[i])
       continue;
@@ -224,7 +230,8 @@ static int has_work(void)
  * (Skipping while the device had work once froze a report's settling for
  * a whole pause: a timed-out line's reply then came after the next
  * command was sent, and the ring overflowed with it.) */
-static int ring_full; /* the RX ring overflowed during this input */
+static int ring_full;   /* the RX ring overflowed during this input */
+static int gaps_merged; /* two gaps waited unread at once (the fake's rx_gap_more) */
 
 static void run_us(uint64_t us)
 {
@@ -249,6 +256,8 @@ static void run_us(uint64_t us)
     advance_to(next);
     if (rx_gap_why & UART_READ_RING) /* marked as bytes arrive, cleared as read */
       ring_full = 1;
+    if (rx_gap_more)
+      gaps_merged = 1;
     while (sample_take()) /* main.c's loop body */
       console_receive();
     switchboard_poll();
@@ -260,7 +269,8 @@ static void run_us(uint64_t us)
   }
 }
 
-/* What is queued for the wire: bytes and whether the USART loses them. */
+/* What is queued for the wire: bytes and whether the USART loses them (1:
+ * an overrun, 2: a framing error). */
 static uint8_t pending[1 << 16], pending_lost[1 << 16];
 static size_t npending;
 static uint64_t last_arrival_ns; /* of the last byte sent */
@@ -285,7 +295,9 @@ static void flush(uint64_t extra_us)
     size_t n = 1;
     while (i + n < npending && pending_lost[i + n] == pending_lost[i])
       n++;
-    (pending_lost[i] ? fx_send_overrun : fx_send)((const char *)pending + i, n);
+    (pending_lost[i] == 2 ? fx_send_frame_error :
+     pending_lost[i]      ? fx_send_overrun :
+                            fx_send)((const char *)pending + i, n);
     i += n;
   }
   if (npending) {
@@ -328,12 +340,12 @@ static void pause(uint64_t us)
   flush(us);
 }
 
-/* A data overrun: n bytes on the wire that the USART loses (the next one
- * comes with DOR set). */
-static void overrun(const uint8_t **p, const uint8_t *end, unsigned n)
+/* A data overrun (how 1): n bytes on the wire that the USART loses (the
+ * next one comes with DOR set); framing errors (how 2): n bytes with FE. */
+static void overrun(const uint8_t **p, const uint8_t *end, unsigned n, uint8_t how)
 {
   while (n-- && *p < end && **p != 0xFF)
-    put_as(*(*p)++, 1);
+    put_as(*(*p)++, how);
 }
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
@@ -356,7 +368,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
   image_restore();
   nsent = npending = nparsed = 0;
   paused_us = 0;
-  ring_full = 0;
+  ring_full = gaps_merged = 0;
   parse_overflow = 0;
   while (p < end) {
     uint8_t c = *p++;
@@ -372,7 +384,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
       put('\r');
       break;
     case 1: pause((a + 1u) * 8000u); break;
-    case 2: overrun(&p, end, a % 8u + 1u); break;
+    case 2: overrun(&p, end, a % 8u + 1u, 1); break;
+    case 5: overrun(&p, end, a % 8u + 1u, 2); break;
     case 3: put(0xFF); break;
     case 4:
       pause((CONSOLE_TIMEOUT_MS + 3u * TIMEOUT_MARGIN_MS) * 1000u); /* an open line times out */
@@ -431,9 +444,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
              "did not run (it did when sent again slowly; mode %u, echo %u)",
              settings.mode, settings.echo);
   /* Its own RX ring never full (the fake's mark of it), the device lost nothing
-   * but the overruns the model knows: then every clean line ran, in order
-   * (the empty texts aside). */
-  if (!ring_full) {
+   * but the bytes the model knows, and no gaps merged: then every clean line
+   * ran, in order (the empty texts aside). */
+  if (!ring_full && !gaps_merged) {
     size_t m = 0;
     for (k = 0; k < nparsed; k++)
       if (*parsed[k]) {

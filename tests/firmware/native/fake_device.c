@@ -37,10 +37,10 @@ static uint64_t tx_next_ns;
 static uint8_t rx_buf[RX_SIZE];
 static unsigned rx_head, rx_tail;
 static int rx_gap = -1; /* the slot a gap precedes, -1: none */
-static int rx_gap_why;  /* UART_READ_OVERRUN | UART_READ_RING */
+static int rx_gap_why;  /* UART_READ_OVERRUN | UART_READ_FRAME | UART_READ_RING */
 static int rx_gap_more; /* another gap came before it: every byte up to it follows a gap */
 static char *rx_queue;
-static char *rx_lostq; /* 1: this queued byte is lost in the USART (overrun) */
+static char *rx_lostq; /* 1: this queued byte is lost in the USART (overrun); 2: it has FE set */
 static size_t rx_queue_len, rx_queue_pos;
 static uint64_t rx_next_ns;
 
@@ -105,13 +105,17 @@ static int dor; /* bytes were lost in the USART: the next byte has DOR set */
 static void rx_byte(uint8_t c, int lost)
 {
   unsigned next = (rx_head + 1) % RX_SIZE;
-  if (lost) {
+  if (lost == 1) {
     dor = 1;
     return;
   }
   if (dor) { /* uart.c's ISR reads DOR with the byte */
     dor = 0;
     mark_gap(UART_READ_OVERRUN);
+  }
+  if (lost == 2) { /* FE: the byte is thrown away, the next one stored follows a gap */
+    mark_gap(UART_READ_FRAME);
+    return;
   }
   if (next == rx_tail) {
     mark_gap(UART_READ_RING);
@@ -140,6 +144,11 @@ void fx_send(const char *bytes, size_t n)
 void fx_send_overrun(const char *bytes, size_t n)
 {
   queue(bytes, n, 1);
+}
+
+void fx_send_frame_error(const char *bytes, size_t n)
+{
+  queue(bytes, n, 2);
 }
 
 void fx_send_str(const char *s)

@@ -27,6 +27,10 @@ void fx_send_str(const char *s);
  * interrupt away): the byte after them comes with DOR set. */
 void fx_send_overrun(const char *bytes, size_t n);
 
+/* Bytes sent that arrive with a framing error (FE: a bit error on the
+ * link): the USART flags each, and the device throws it away. */
+void fx_send_frame_error(const char *bytes, size_t n);
+
 /* Everything the device wrote, in order (NUL-terminated copy too). */
 extern char fx_out[1 << 20];
 extern size_t fx_out_len;

@@ -151,16 +151,6 @@ def _interval_storm(n: int, count: int, seed: int) -> tuple[str, list[int]]:
     return f"{n // 4}\t{text}\n{status}", values
 
 
-def _storm_drops_known(run: SimRun, fs: int) -> None:
-    """The line discipline's firmware dropped sample sets under a command
-    storm at the top rate when this was written (reported to its authors):
-    every other check has passed by now; that one is an expected failure
-    until the firmware is mended."""
-    drops = int(run.headers()[-1]["drops"])
-    if drops and fs == max(RATES):
-        pytest.xfail(f"firmware dropped {drops} sample sets under a command storm at {fs} Hz")
-
-
 def _ran_as_sent(got: list[str], values: list[int]) -> int:
     """Every `ok interval=V` names a value sent, in the order sent."""
     ran = [int(m.group(1)) for r in got if (m := re.fullmatch(r"ok interval=(\d+)", r))]
@@ -190,7 +180,6 @@ def test_paste_without_flow_control_runs_nothing_cut_short(tmp_path: Path, fs: i
             got
         )  # after the set-up, but 'report'
         assert [r for r in got if r.startswith("ok status")][-1].startswith("ok status run=1")
-    _storm_drops_known(run, fs)
     exact_after(run, rows, tmp_path, fs)
 
 
@@ -221,5 +210,35 @@ def test_overruns_refuse_their_lines_and_are_counted(tmp_path: Path, fs: int) ->
     # each DOR the device saw is counted (one on a byte its full ring then
     # dropped may count as ring loss instead)
     assert 0 < overruns <= run.stats["fault_dor_events"], (status, run.stats)
-    _storm_drops_known(run, fs)
+    exact_after(run, rows, tmp_path, fs)
+
+
+@pytest.mark.parametrize("fs", RATES)
+def test_framing_errors_refuse_their_lines_and_are_counted(tmp_path: Path, fs: int) -> None:
+    """Bytes arriving with a framing error (FE: the stop bit read as 0, a
+    corrupted byte) at 1 in 50, their data bits left intact, so that a device
+    blind to FE would run every line: each line that held one is refused
+    with error:5 (the byte is thrown away, as an overrun's are), the others
+    run as sent, one command at a time, and status counts the errors with
+    the overruns (rx=)."""
+    n = ROWS[fs]
+    rows = make_rows(tmp_path / "r.tsv", n, seed=fs + 6)
+    rng = np.random.default_rng(fs + 6)
+    values = [int(v) for v in rng.choice(np.arange(1000, 3601), 30, replace=False)]
+    at = [n // 10 + k * (n // 40) for k in range(len(values))]
+    uart = "".join(f"{r}\tinterval {v}\\r\n" for r, v in zip(at, values)) + "".join(
+        f"{n - k}\tstatus\\r\n" for k in (60, 40, 20)
+    )
+    run = simulate(tmp_path / "r.tsv", tmp_path, fs, "--uart-frame-error", "0.02", "--fault-seed", str(fs), uart=uart)
+    fe = run.stats["fault_in_frame_errors"]
+    assert fe > 0 and run.stats["fault_overruns"] == 0, run.stats
+    got = replies(run)
+    ran = _ran_as_sent(got, values)
+    refused = sum(r.startswith("error:5") for r in got)
+    answered = ran + refused + sum(r.startswith("ok status") for r in got)
+    assert answered == len(values) + 3, got  # each line ran or was refused, none lost silently
+    assert 1 <= refused <= fe, (refused, fe, got)
+    status = [r for r in got if r.startswith("ok status")][-1]
+    counted = int(re.search(r" rx=(\d+):", status).group(1))
+    assert 0 < counted <= fe, (status, fe)
     exact_after(run, rows, tmp_path, fs)

@@ -1,0 +1,261 @@
+"""The problem of the whole-curve fit (fit.py): the catalogue's columns for a model
+structure, the covariance of the octave estimates and the fit of one structure.
+
+The model is linear in the squares c >= 0 and nonlinear in fc and the T_j:
+variable projection (for given fc, T the c are the GLS non-negative least
+squares; fc and T by scipy.optimize over their logarithms, started from a grid
+over the measured tau range and bounded to it, so the search never leaves the
+curve).
+
+Weights: the generalized least squares of terms.py (each point chi-squared
+with Greenhall's EDF for the local noise type, correlated between octaves),
+iterated with the model as the reference (GMWM, Guerrier et al. 2013, weights
+by the estimates' covariance the same way).  A real sensor is never exactly a
+sum of catalogue processes, and a million samples make the short-tau points
+so precise that any misfit there would decide everything: when chi2/dof
+exceeds 1, a model error (relative, at most MODEL_ERR of the deviation) is
+added in quadrature to each point's sd, the least that brings chi2/dof to 1
+(``set_floor``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+from scipy import optimize
+
+from ..stats.edf import alpha_from_slope
+from .processes import AR1, LP, QN, RW, WN, Ramp, Sine
+from .terms import B_FACTOR, _nnls
+
+GM_T_MIN = 10.0
+"""A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
+at 1.89 T, four octaves into the curve): a faster one is white noise there."""
+MODEL_ERR = 0.05
+"""Largest relative model error granted (ADEV; 0.10 in AVAR)."""
+LINEAR = ("Q", "N", "B", "K", "R")
+
+
+@dataclass
+class Structure:
+    linear: tuple[str, ...] = LINEAR  # which IEEE 952 columns are free
+    lp: int = 0  # 0: white N; 1 or 2: N low-passed (order)
+    ngm: int = 0
+    sine: int = 0  # 1: a sinusoid (amplitude, frequency)
+
+    def names(self) -> list[str]:
+        return list(self.linear) + [f"GM{j + 1}" for j in range(self.ngm)] + ["SIN"] * self.sine
+
+    def nonlinear(self) -> list[str]:
+        return (["fc"] if self.lp else []) + [f"T{j + 1}" for j in range(self.ngm)] + ["f0"] * self.sine
+
+
+def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.ndarray:
+    """(points, columns) AVAR per unit coefficient, in the order of s.names()."""
+    cols = []
+    i = 0
+    fc = math.exp(theta[0]) if s.lp else None
+    for k in s.linear:
+        if k == "Q":
+            cols.append(QN(1.0).avar(m, fs))
+        elif k == "N":
+            cols.append(LP(1.0, fc, s.lp).avar(m, fs) if s.lp else WN(1.0).avar(m, fs))
+        elif k == "B":
+            cols.append(np.full(m.shape, B_FACTOR))
+        elif k == "K":
+            cols.append(RW(1.0).avar(m, fs))
+        elif k == "R":
+            cols.append(Ramp(1.0).avar(m, fs))
+    i = 1 if s.lp else 0
+    for j in range(s.ngm):
+        cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
+    if s.sine:
+        cols.append(Sine(1.0, math.exp(theta[-1])).avar(m, fs))
+    return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
+
+
+class _Gls:
+    """Whitening by the Cholesky factor of the estimates' covariance: the
+    statistical part correlated between octaves (terms.RHO), the model error
+    (``floor``, relative sd of AVAR) independent from point to point."""
+
+    def __init__(
+        self,
+        t: np.ndarray,
+        ref: np.ndarray,
+        e: np.ndarray,
+        alpha: np.ndarray,
+        kind: str,
+        floor: float = 0.0,
+        robust: Optional[np.ndarray] = None,
+    ) -> None:
+        from .terms import RHO, _cholesky
+
+        sd = ref * np.sqrt(2.0 / e)
+        rho = RHO[kind]
+        lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
+        l2 = np.log2(t)
+        dist = np.abs(l2[:, None] - l2[None, :])
+        S = np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0) * np.outer(sd, sd)
+        S[np.diag_indices_from(S)] += (floor * ref) ** 2
+        self.sd = np.sqrt(np.diag(S))
+        if robust is not None:  # points far off the model: their variance raised (influence capped)
+            S = S * np.sqrt(np.outer(robust, robust))
+        self.S = S
+        self.Li = np.linalg.inv(_cholesky(S))
+
+    def white(self, v: np.ndarray) -> np.ndarray:
+        return self.Li @ v
+
+
+class _Problem:
+    """The points of one curve and their covariance model."""
+
+    def __init__(self, t: np.ndarray, y: np.ndarray, fs: float, edf_of, kind: str, floor: float = 0.0) -> None:
+        self.t, self.y, self.fs, self.m = t, y, fs, t * fs
+        self.edf_of, self.kind = edf_of, kind
+        self.floor = floor
+        self.robust = np.ones(t.size)
+        self.robust_on = False
+        self.sine_on = False
+        self.set_reference(y)
+
+    def set_reference(self, ref: np.ndarray) -> None:
+        self.ref = np.where(ref > 0, ref, self.y)
+        self.alpha = alphas(self.t, self.ref)
+        self.e = self.edf_of(self.alpha)
+        self.gls = _Gls(self.t, self.ref, self.e, self.alpha, self.kind, self.floor, self.robust)
+        self.yw = self.gls.white(self.y)
+
+    def solve(self, s: Structure, theta: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+        A = columns(s, theta, self.m, self.fs)
+        Aw = self.gls.white(A)
+        c = _nnls(Aw, self.yw) if A.shape[1] else np.zeros(0)
+        return c, float(np.sum((self.yw - Aw @ c) ** 2)), A
+
+
+def alphas(t: np.ndarray, model: np.ndarray) -> np.ndarray:
+    lt, la = np.log(t), np.log(model)
+    out = np.zeros(t.size, dtype=np.int64)
+    for i in range(t.size):  # over curve points (tens)
+        a, b = max(i - 1, 0), min(i + 1, t.size - 1)
+        out[i] = alpha_from_slope((la[b] - la[a]) / (lt[b] - lt[a]) if b > a else -1.0)
+    return out
+
+
+def bounds(s: Structure, t: np.ndarray, fs: float) -> list[tuple[float, float]]:
+    out = []
+    if s.lp:
+        out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(0.49 * fs)))
+    for _ in range(s.ngm):  # a faster GM is white noise to these taus: N's, not a GM's
+        out.append((math.log(t[0] * GM_T_MIN), math.log(t[-1] * 4.0)))
+    if s.sine:  # its ADEV peaks at 0.371 / f0: inside the measured taus
+        out.append((math.log(0.371 * 4 / t[-1]), math.log(min(0.371 / (4 * t[0]), 0.45 * fs))))
+    return out
+
+
+def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int]) -> tuple[np.ndarray, float]:
+    """Nonlinear parameters minimizing chi2: a grid on the new one (others held),
+    then a bounded joint polish."""
+    bnds = bounds(s, p.t, p.fs)
+    if not bnds:
+        return theta0, p.solve(s, theta0)[1]
+    theta = np.array(theta0, dtype=np.float64)
+
+    def f(th: np.ndarray) -> float:
+        return p.solve(s, _clip(s, th, bnds))[1]
+
+    if new is not None:
+        lo, hi = bnds[new]
+        best = (math.inf, theta[new])
+        for g in np.linspace(lo, hi, 11):
+            theta[new] = g
+            v = f(theta)
+            if v < best[0]:
+                best = (v, g)
+        theta[new] = best[1]
+    if theta.size == 1:
+        lo, hi = bnds[0]
+        step = (hi - lo) / 16
+        r = optimize.minimize_scalar(
+            lambda x: f(np.array([x])),
+            bounds=(max(lo, theta[0] - step), min(hi, theta[0] + step)),
+            method="bounded",
+            options={"xatol": 1e-3},
+        )
+        theta = np.array([r.x]) if r.fun <= f(theta) else theta
+    else:
+        r = optimize.minimize(
+            f, theta, method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-6, "maxfev": 30 * theta.size}
+        )
+        if r.fun <= f(theta):
+            theta = np.asarray(r.x)
+    theta = _clip(s, theta, bnds)
+    return theta, f(theta)
+
+
+GM_LP_FACTOR = 10.0
+"""With a band limit, a GM's T is at least this many of the filter's time constants
+1 / (2 pi fc): a faster GM only reshapes the filter's bend."""
+
+
+def _clip(s: Structure, th: np.ndarray, bnds: list[tuple[float, float]]) -> np.ndarray:
+    th = np.clip(th, [b[0] for b in bnds], [b[1] for b in bnds])
+    if s.lp and s.ngm:
+        th[1 : 1 + s.ngm] = np.maximum(th[1 : 1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
+    return th
+
+
+def fit_structure(
+    p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int], rounds: int = 2
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """(theta, c, chi2) of a structure, the weights iterated with its model."""
+    theta = theta0
+    for _ in range(rounds):
+        theta, _ = _optimize(p, s, theta, new)
+        new = None
+        c, chi2, A = p.solve(s, theta)
+        mod = A @ c
+        p.set_reference(mod)
+        if p.robust_on:
+            z = (p.y - mod) / p.gls.sd
+            p.robust = np.maximum(1.0, (z / ROBUST_Z) ** 2)
+            p.set_reference(mod)
+    c, chi2, _ = p.solve(s, theta)
+    return theta, c, chi2
+
+
+ROBUST_Z = 3.0
+"""A point more than this many sd off the model gets its variance raised so that it
+counts as ROBUST_Z sd (capped influence: a resonance or a hump the catalogue lacks
+cannot pull the other terms)."""
+
+
+def set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> float:
+    """The least model error (relative sd of AVAR, up to 2 MODEL_ERR) that brings
+    chi2/dof to 1 at these parameters (set in p)."""
+    A = columns(s, theta, p.m, p.fs)
+    mod = A @ c
+
+    def red(f: float) -> float:
+        p.floor = f
+        p.set_reference(mod)
+        return float(np.sum((p.yw - p.gls.white(A) @ c) ** 2)) / dof
+
+    if red(0.0) <= 1.0:
+        return 0.0
+    top = 2.0 * MODEL_ERR
+    if red(top) >= 1.0:
+        return top
+    lo, hi = 0.0, top
+    for _ in range(8):
+        mid = 0.5 * (lo + hi)
+        if red(mid) > 1.0:
+            lo = mid
+        else:
+            hi = mid
+    red(hi)
+    return hi

@@ -1,0 +1,191 @@
+"""Model selection of the whole-curve fit (fit.py): which processes the curve needs.
+
+The IEEE 952 terms first (stepwise, terms.py), then a band limit (replacing
+white N by the low-passed one; order 1 or 2, whichever fits better) and up to
+MAX_GM Gauss-Markov processes are each kept only when they lower chi-squared
+by the 95 % point of chi2 with their number of parameters (times chi2/dof when
+above 1: an F test); then each linear term whose removal costs less than 3.84
+is dropped.  A sinusoid is tried last (where the curve shows an oscillation's
+hump), started where the model leaves its largest hump.  On a real sensor
+(chi2/dof above 1 at the first selection) the selection runs again with the
+model error in the weights and points far off the model given capped
+influence; the first structure, refitted under the same weights, stays when
+the information criterion prefers it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Callable
+
+import numpy as np
+from scipy import stats
+
+from .curve import Structure, _Problem, bounds, columns, fit_structure, set_floor
+from .reading import _unexplained
+from .terms import CHI2_1_95
+
+MAX_GM = 2
+SINE = False
+"""Try a sinusoid (an oscillation's hump, ADEV peak at 0.371 / f0, two octaves or more inside
+the curve) after the GM processes on every curve; otherwise only where the first fit leaves a
+hump whose excess falls like an oscillation's (elsewhere it would trade against K and the GMs)."""
+
+
+def choose(
+    t: np.ndarray,
+    y: np.ndarray,
+    fs: float,
+    edf_of: Callable,
+    kind: str,
+    lin: tuple[str, ...],
+    extended: bool,
+) -> tuple[_Problem, Structure, np.ndarray]:
+    """The structure the curve (t, y) needs and its nonlinear parameters, with the
+    problem (weights) it was fitted under."""
+
+    def select(floor: float, robust: bool = False, sine: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
+        p = _Problem(t, y, fs, edf_of, kind, floor)
+        p.robust_on, p.sine_on = robust, sine or SINE
+        s, theta, c, chi2 = _stepwise(p, Structure(lin), np.zeros(0))
+        if extended and "N" in lin and t.size >= 4:
+            s, theta, c, chi2 = _extend(p, s, theta, c, chi2, lin)
+        return p, s, theta
+
+    p, s, theta = select(0.0)
+    c, chi2, _ = p.solve(s, theta)
+    floor = set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
+    if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
+        c, _, A = p.solve(s, theta)  # a sinusoid only where the curve shows an oscillation's hump
+        osc = any(r["kind"] == "oscillation" for r in _unexplained(p, A @ c, p.e))
+        s1, th1 = s, theta
+        p, s, theta = select(floor, robust=True, sine=osc)
+        # the first structure under the same weights: the robust selection may wander off
+        p1 = _Problem(t, y, fs, edf_of, kind, floor)
+        p1.robust_on = True
+        th1, c1, chi1 = fit_structure(p1, s1, th1, None)
+        c2, chi2_, _ = p.solve(s, theta)
+        if chi1 + 2 * (np.sum(c1 > 0) + th1.size) < chi2_ + 2 * (np.sum(c2 > 0) + theta.size):
+            p, s, theta = p1, s1, th1
+    return p, s, theta
+
+
+def _test(gain: float, chi2_big: float, dof_big: int, params: int) -> bool:
+    q = CHI2_1_95 if params == 1 else float(stats.chi2.ppf(0.95, params))
+    return gain >= q * max(1.0, chi2_big / max(dof_big, 1))
+
+
+def _stepwise(
+    p: _Problem, s: Structure, theta: np.ndarray, keep: tuple[str, ...] = ()
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """Drop the linear terms the others can do without (chi2 gain < 3.84, F test)."""
+    theta, c, chi2 = fit_structure(p, s, theta, None)
+    while True:
+        names = s.names()
+        zero = [k for k, v in zip(names, c) if v <= 0 and k in s.linear and k not in keep]
+        if zero:  # terms at 0 leave without a test
+            s = replace(s, linear=tuple(k for k in s.linear if k not in zero))
+            theta, c, chi2 = fit_structure(p, s, theta, None, rounds=1)
+            continue
+        active = [k for k, v in zip(names, c) if v > 0 and k in s.linear and k not in keep]
+        dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
+        if len(active) + len(keep) <= 1:
+            return s, theta, c, chi2
+        best = None
+        for k in active:
+            s2 = replace(s, linear=tuple(x for x in s.linear if x != k))
+            _, chi2b, _ = p.solve(s2, theta)
+            if best is None or chi2b < best[1]:
+                best = (s2, chi2b)
+        if best is None or _test(best[1] - chi2, chi2, dof, 1):
+            return s, theta, c, chi2
+        s = best[0]
+        theta, c, chi2 = fit_structure(p, s, theta, None, rounds=1)
+
+
+def _extend(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float, lin: tuple[str, ...]
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """Band limit, then Gauss-Markov processes, each kept only when the data need it."""
+    # every allowed term again (a misfit short end may have pushed some out), but Q:
+    # a quantization's rise and a filter's bend would only trade against each other
+    base_lin = tuple(k for k in lin if k != "Q")
+    cands = []
+    for order in (1, 2):
+        s2 = Structure(base_lin, order, 0)
+        th, c2, chi2b = fit_structure(p, s2, np.array([math.log(0.25 * p.fs)]), 0)
+        cands.append((chi2b, s2, th, c2))
+    chi2b, s2, th, c2 = min(cands, key=lambda x: x[0])
+    dof = max(p.t.size - int(np.sum(c2 > 0)) - 1, 1)
+    if c2[s2.names().index("N")] > 0 and _test(chi2 - chi2b, chi2b, dof, 1):
+        s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
+    for _j in range(MAX_GM):
+        s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1)
+        if p.t.size - (len(s2.linear) + s2.ngm + len(s2.nonlinear())) < 2:
+            break
+        th0 = np.concatenate((theta, [math.log(p.t[p.t.size // 2])]))
+        th, c2, chi2b = fit_structure(p, s2, th0, th0.size - 1)
+        c2 = np.concatenate((c2[:-1], [c2[-1]]))
+        dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
+        if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
+            s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
+        else:
+            break
+    if p.sine_on:
+        s, theta, c, chi2 = _try_sine(p, s, theta, c, chi2)
+    return s, theta, c, chi2
+
+
+def _try_sine(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """A sinusoid, kept when it lowers chi2 by the 95 % point of chi2(2) and is a fifth
+    of the model somewhere."""
+    if not s.sine and p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 2) >= 2:
+        s2 = replace(s, sine=1)
+        # the robust weights of the model without it have set its hump aside: the
+        # sinusoid is judged with weights of its own
+        saved, mod = p.robust, columns(s, theta, p.m, p.fs) @ c
+        p.robust = np.ones(p.t.size)
+        p.set_reference(mod)
+        th0 = _sine_start(p, s, theta, c, s2)
+        th, c2, chi2b = fit_structure(p, s2, th0, None)
+        dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
+        if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2, 0.2):
+            return _stepwise(p, s2, th, keep=("N",))
+        p.robust = saved
+        p.set_reference(mod)
+    return s, theta, c, chi2
+
+
+def _sine_start(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, s2: Structure) -> np.ndarray:
+    """Parameters to start a sinusoid from: its frequency put where the present model
+    leaves the largest hump (ADEV peak at 0.371 / f0, and half and twice that), or on a
+    grid of the measured taus, whichever fits best (a sinusoid's hump is an octave wide:
+    a coarse grid alone misses it)."""
+    r = p.y / (columns(s, theta, p.m, p.fs) @ c)
+    peaks = [i for i in range(1, r.size - 1) if r[i] > 1.0 and r[i] >= r[i - 1] and r[i] >= r[i + 1]]
+    lo, hi = bounds(s2, p.t, p.fs)[-1]
+    cands = [math.log(0.371 / (p.t[i] * k)) for i in peaks for k in (0.7, 1.0, 1.4)]
+    cands += list(np.linspace(lo, hi, 17))
+    best = (math.inf, None)
+    for g in cands:
+        if lo <= g <= hi:
+            th = np.concatenate((theta, [g]))
+            v = p.solve(s2, th)[1]
+            if v < best[0]:
+                best = (v, th)
+    return best[1] if best[1] is not None else np.concatenate((theta, [0.5 * (lo + hi)]))
+
+
+def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5) -> bool:
+    """A new Gauss-Markov process is kept only with white noise beside it and where
+    it is at least half of the model somewhere (its hump shows): else it only
+    stands in for the band limit or the white noise."""
+    names = s.names()
+    if "N" not in names or c[names.index("N")] <= 0:
+        return False
+    A = columns(s, theta, p.m, p.fs)
+    part = A[:, -1] * c[-1]
+    return bool(np.any(part >= share * (A @ c)))
