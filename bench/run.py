@@ -432,9 +432,9 @@ TARGETS = [
         "CPU seconds of the whole-curve noise fit of one channel of 1e6 samples (bench/run.py noise_fit)",
     ),
     # The project's budget, not the chip's: optiboot's 512 bytes leave 15872.
-    # 15360 until the commands' check (+152 bytes: a flipped bit must not
-    # run another command), which no saving found in time could pay for.
-    ("flash_bytes", "<=", 15512, "bytes", "avr-size -A: .text + .data, ATmega168 (optiboot's 512 bytes leave 15872)"),
+    # 15250 again once the room the console and the commands' check took
+    # was made elsewhere (docs/firmware.md, "The console's room").
+    ("flash_bytes", "<=", 15250, "bytes", "avr-size -A: .text + .data, ATmega168 (optiboot's 512 bytes leave 15872)"),
     ("ram_static_bytes", "<=", None, "bytes", "avr-size -A: .data + .bss + .noinit"),
     (
         "stack_free_bytes",

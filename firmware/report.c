@@ -96,8 +96,9 @@ static __attribute__((noinline)) void acc_at(uint8_t ch, uint8_t level, uint16_t
 
 static void put_channel(uint8_t ch)
 {
-  proto_putc((char)pgm_read_byte(&vocab_channels[2 * ch]));
-  proto_putc((char)pgm_read_byte(&vocab_channels[2 * ch + 1]));
+  const char *p = &vocab_channels[2 * ch];
+  proto_putc((char)pgm_read_byte(p));
+  proto_putc((char)pgm_read_byte(p + 1));
 }
 
 /* `<type>,<seq>,`; H and L lines are bound (their bodies go into the
@@ -127,6 +128,15 @@ static const char id_key_P[] PROGMEM = ",id=";
 /* One-character keys, each once in flash. */
 static const char colon_P[] PROGMEM = ":";
 static const char comma_P[] PROGMEM = ",";
+
+/* `<type>,<seq>,<ch>,<level>,` of an L or T line, channel rep.ch. */
+static void begin_channel(char type, uint8_t level)
+{
+  begin_seq(type);
+  put_channel(rep.ch);
+  put_key_u32(comma_P, level);
+  proto_putc(',');
+}
 
 static void put_causes(void)
 {
@@ -254,10 +264,7 @@ static __attribute__((noinline)) uint8_t step_row(uint8_t step)
     acc_at(rep.ch, rep.level, &rep.acc_hi, &rep.acc_lo);
     rep.pairs = pairs_at(rep.level);
     rep.flags = allan_flags(&sample_engine, rep.ch, rep.level);
-    begin_seq('L');
-    put_channel(rep.ch);
-    put_key_u32(comma_P, rep.level);
-    proto_putc(',');
+    begin_channel('L', rep.level);
     break;
   case 1:
     proto_u32(rep.pairs);
@@ -395,10 +402,7 @@ static inline __attribute__((always_inline)) uint8_t step_terms(uint8_t step)
 {
   uint8_t l;
   if (step == 0) {
-    begin_seq('T');
-    put_channel(rep.ch);
-    put_key_u32(comma_P, N_LEVEL);
-    proto_putc(',');
+    begin_channel('T', N_LEVEL);
   } else if (step == 1) {
     put_at(UNITS_N, N_LEVEL, AT_COUNTS);
     proto_putc(',');
@@ -456,10 +460,6 @@ static __attribute__((noinline)) uint8_t step_sum_text(uint8_t step)
 {
   const char *p;
   char c;
-  if (step == 0) {
-    begin_seq('S');
-    return 0;
-  }
   p = rep.part == PART_SUM_TITLE ? title_P : caption_P;
   for (;;) {
     c = (char)pgm_read_byte(p++);
@@ -495,7 +495,7 @@ static const char row_labels_P[] PROGMEM = "    tau_s\0        N\0        B\0   
 
 /* The cells of a row of the summary's table: the column heading, a
  * level's deviations (after its tau) or a row of the terms (after its
- * label); begin_seq is not under them (step_sum_row). */
+ * label), from step 0 after the line's begin_seq (report_step). */
 static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
 {
   uint8_t row = rep.level, ch = (uint8_t)(step - 1), part = rep.part;
@@ -519,13 +519,6 @@ static __attribute__((noinline)) uint8_t sum_row_cells(uint8_t step)
     return 1;
   }
   return 0;
-}
-
-static uint8_t step_sum_row(uint8_t step)
-{
-  if (step == 0)
-    begin_seq('S');
-  return sum_row_cells(step);
 }
 
 /* After a whole line: the part and row the next line belongs to. */
@@ -571,6 +564,10 @@ uint8_t report_step(uint8_t step)
   uint8_t done;
   /* The engine is read settled: the sampling loop takes its waiting work
    * (sample_settle) before the output's turn. */
+  if (step == 0 && rep.part >= PART_SUM_TITLE && rep.part < PART_END) {
+    begin_seq('S'); /* a summary line's first step: the text follows */
+    return REPORT_MORE;
+  }
   switch (rep.part) {
   case PART_HEADER: done = step_header(step); break;
   case PART_ROW: done = step_row(step); break;
@@ -580,7 +577,7 @@ uint8_t report_step(uint8_t step)
   case PART_SUM_CAPTION: done = step_sum_text(step); break;
   case PART_SUM_HEAD:
   case PART_SUM_ROW:
-  case PART_SUM_TERMS: done = step_sum_row(step); break;
+  case PART_SUM_TERMS: done = sum_row_cells((uint8_t)(step - 1)); break;
   default:
     begin_seq('E');
     proto_u32((uint32_t)ALLAN_CHANNELS * ALLAN_LEVELS);
