@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -355,11 +356,14 @@ def test_an_array_is_analysed_in_text_as_well_as_json(tmp_path: Path) -> None:
     KeyError without --json)."""
     path = tmp_path / "still.npy"
     np.save(path, np.random.default_rng(4).normal(size=(20000, 6)))
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     for extra in ("--brief", "--no-model"):
-        out = subprocess.run(
-            [sys.executable, "-m", "imu_allan.cli", "analyze", str(path), "--fs", "100", extra],
+        out = subprocess.run(  # a short name: a long path wraps across lines
+            [sys.executable, "-m", "imu_allan.cli", "analyze", path.name, "--fs", "100", extra],
             capture_output=True,
             text=True,
+            cwd=tmp_path,
+            env=env,
         )
         assert out.returncode == 0, out.stderr[-500:]
-    assert " ".join(out.stdout.split()).startswith(f"{path}: NumPy array, 20000 samples at 100 Hz")
+    assert " ".join(out.stdout.split()).startswith("still.npy: NumPy array, 20000 samples at 100 Hz")
