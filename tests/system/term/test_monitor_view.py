@@ -93,6 +93,9 @@ def view(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[tuple[Tmux,
     t = Tmux(tmp_path, _monitor_command(dev.link, log), width, height)
     try:
         t.wait(lambda s: s[0].startswith(TITLE) and s[-1] == ">", "the monitor's view")
+        # the device's boot line first: a command typed while it is in flight
+        # has the boot line shown between the command and its reply
+        t.wait(lambda s: log.exists() and b"$B," in log.read_bytes(), "the device's boot line in the log")
         yield t, log
     finally:
         t.kill()
