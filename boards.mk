@@ -45,6 +45,7 @@ AVRDUDE_PART = $(or $(AVRDUDE_PART_$(MCU)),$(MCU))
 
 # FLASH_ELF=another.elf flashes a firmware built elsewhere (its .hex beside it);
 # make flash first checks that it was built for this MCU, F_CPU and BAUD.
+# FLASH_HEX=file.hex flashes a bare .hex as given (it carries no identity).
 FLASH_ELF ?= $(BUILD)/avr-$(MCU)/imu-allan.elf
 FLASH_HEX = $(FLASH_ELF:.elf=.hex)
 
@@ -263,6 +264,9 @@ flash: $(if $(PRINT),,firmware flash-check $(if $(filter-out $(BOOTLOADER_PROGRA
 # one asked for, and the .hex must be that ELF's (not one left from an
 # earlier build).
 flash-check: ## refuse to flash an ELF built for another MCU, F_CPU or BAUD, or a .hex that is not its own (part of make flash)
+ifneq ($(filter command line environment,$(origin FLASH_HEX)),)
+	@echo "flash-check: FLASH_HEX=$(FLASH_HEX) given: a .hex carries no build identity, not checked (give FLASH_ELF= to check one)"
+else
 	@id=$$($(AVR_OBJCOPY) -O binary --only-section=.imu_build $(FLASH_ELF) /dev/stdout 2>/dev/null | tr -d '\000'); \
 	want="mcu=$(MCU) f_cpu=$(F_CPU)UL baud=$(BAUD)UL"; \
 	case "$$id " in *" $$want "*) ;; \
@@ -272,6 +276,7 @@ flash-check: ## refuse to flash an ELF built for another MCU, F_CPU or BAUD, or 
 	rc=$$?; rm -f $(FLASH_HEX).check; \
 	if [ $$rc -ne 0 ]; then echo "boards.mk: $(FLASH_HEX) is not the image of $(FLASH_ELF): nothing flashed (make rebuilds both)" >&2; exit 1; fi; \
 	echo "flash-check: $(FLASH_ELF) is for $$want"
+endif
 
 # The bootloader alone onto a chip, through ISP (erases the chip).
 bootloader-flash: bootloader ## put the bootloader on a chip through ISP (PROGRAMMER=... CONFIRM=yes; erases it)
