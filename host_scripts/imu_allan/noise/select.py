@@ -100,8 +100,15 @@ def _stepwise(
                 best = (s2, chi2b)
         if best is None or _test(best[1] - chi2, chi2, dof, 1):
             return s, theta, c, chi2
+        # judged under the weights of the model with it; refitted under its own, the
+        # model without it may fit far worse (a long-tau rise then has the small sd of
+        # a white line): the term stays when its removal fails the test after all
+        old = (s, theta, c, chi2)
         s = best[0]
         theta, c, chi2 = fit_structure(p, s, theta, None, rounds=1)
+        if _test(chi2 - old[3], old[3], dof, 1):
+            fit_structure(p, old[0], old[1], None, rounds=1)  # its weights back
+            return old
 
 
 def _extend(
@@ -118,7 +125,10 @@ def _extend(
         cands.append((chi2b, s2, th, c2))
     chi2b, s2, th, c2 = min(cands, key=lambda x: x[0])
     dof = max(p.t.size - int(np.sum(c2 > 0)) - 1, 1)
-    if c2[s2.names().index("N")] > 0 and _test(chi2 - chi2b, chi2b, dof, 1):
+    # its gain is judged against white N with the same terms: the terms let in again
+    # must not pass their own gain off as the band limit's
+    chi2w = fit_structure(p, Structure(base_lin), np.zeros(0), None)[2]
+    if c2[s2.names().index("N")] > 0 and _lp_shows(p, s2, th, c2) and _test(min(chi2, chi2w) - chi2b, chi2b, dof, 1):
         s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
     for _j in range(MAX_GM):
         s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1)
@@ -177,6 +187,24 @@ def _sine_start(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, s2:
             if v < best[0]:
                 best = (v, th)
     return best[1] if best[1] is not None else np.concatenate((theta, [0.5 * (lo + hi)]))
+
+
+def _lp_shows(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bool:
+    """A band limit is kept only where the curve can show it: its cutoff below
+    LP_FC_MAX fs (the search's ceiling is 0.49 fs: a fit pinned there asks for less
+    bend than any low-pass of the catalogue gives) and its bend (the low-passed
+    column under white N's) at least LP_BEND on two octave points or more.  A bend
+    of the first point alone is that point's scatter: a two-pole low-pass above
+    ~0.4 fs lowers only the first octave (by 4 % at 0.49 fs, under 1 % the next)."""
+    if math.exp(theta[0]) >= LP_FC_MAX * p.fs:
+        return False
+    white = columns(Structure(("N",)), np.zeros(0), p.m, p.fs)[:, 0]
+    lp = columns(Structure(("N",), s.lp), theta[:1], p.m, p.fs)[:, 0]
+    return int(np.sum(lp <= (1.0 - LP_BEND) * white)) >= 2
+
+
+LP_FC_MAX = 0.45
+LP_BEND = 0.02
 
 
 def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5) -> bool:
