@@ -27,6 +27,8 @@ from .reading import _unexplained
 from .terms import CHI2_1_95
 
 MAX_GM = 2
+CHI2_1_999 = 10.83
+"""The 99.9 % point of chi2 with one degree of freedom."""
 SINE = False
 """Try a sinusoid (an oscillation's hump, ADEV peak at 0.371 / f0, two octaves or more inside
 the curve) after the GM processes on every curve; otherwise only where the first fit leaves a
@@ -102,11 +104,12 @@ def _stepwise(
             return s, theta, c, chi2
         # judged under the weights of the model with it; refitted under its own, the
         # model without it may fit far worse (a long-tau rise then has the small sd of
-        # a white line): the term stays when its removal fails the test after all
+        # a white line): the term stays when the refit shows it needed beyond doubt
+        # (the 99.9 % point: a marginal term's fate does not hang on whose weights judged it)
         old = (s, theta, c, chi2)
         s = best[0]
         theta, c, chi2 = fit_structure(p, s, theta, None, rounds=1)
-        if _test(chi2 - old[3], old[3], dof, 1):
+        if chi2 - old[3] >= CHI2_1_999 * max(1.0, old[3] / dof):
             fit_structure(p, old[0], old[1], None, rounds=1)  # its weights back
             return old
 
