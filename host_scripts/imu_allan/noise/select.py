@@ -4,8 +4,9 @@ The IEEE 952 terms first (stepwise, terms.py), then a band limit (replacing
 white N by the low-passed one; order 1 or 2, whichever fits better) and up to
 MAX_GM Gauss-Markov processes are each kept only when they lower chi-squared
 by the 95 % point of chi2 with their number of parameters (times chi2/dof when
-above 1: an F test); then each linear term whose removal costs less than 3.84
-is dropped.  A sinusoid is tried last (where the curve shows an oscillation's
+above 1: an F test; the band limit against white N with the same terms, and
+only where the curve can show its bend: _lp_shows); then each linear term whose
+removal costs less than 3.84 is dropped.  A sinusoid is tried last (where the curve shows an oscillation's
 hump), started where the model leaves its largest hump.  On a real sensor
 (chi2/dof above 1 at the first selection) the selection runs again with the
 model error in the weights and points far off the model given capped
