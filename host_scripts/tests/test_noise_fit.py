@@ -135,3 +135,59 @@ def test_plain_white_noise_gets_no_band_limit_and_no_gauss_markov() -> None:
     fit = api.noise_terms(x, FS)
     assert abs(fit.terms["N"].value / N_TRUE - 1) < 0.05
     assert set(fit.terms) == {"Q", "N", "B", "K", "R"}, fit.fitted
+
+
+# Six channels as a 10-bit ADC gives them at 1 kHz: white noise of a few counts,
+# rounded to codes, with a little rate random walk or flicker, from numpy alone:
+# the textbook white sequence, its cumulative sum, Kasdin's flicker filter by FFT
+# convolution.  Plain white noise: no band limit, N the white level with the
+# rounding's 1/12 code^2 (exact to 1e-6 from 0.85 counts up wherever the signal
+# sits between codes; below, it depends on where: hence no finer channel here).
+WHITE_COUNTS = (2.0, 2.5, 1.7, 0.85, 1.0, 1.2)
+
+
+def _adc_channel(rng: np.random.Generator, n: int, white: float, extra: str) -> np.ndarray:
+    x = 512.0 + rng.standard_normal(n) * white
+    n_true = white / math.sqrt(FS)
+    if extra == "rrw":  # K = N / 5: above N's line beyond ~9 s
+        x = x + np.cumsum(rng.standard_normal(n)) * (n_true / 5.0) / math.sqrt(FS)
+    else:  # flicker of B = N / 3 (Kasdin, innovation sd B as above): its floor under N's line
+        k = np.arange(1, n)
+        h = np.concatenate(([1.0], np.cumprod((k - 0.5) / k)))
+        e = rng.standard_normal(n) * n_true / 3.0
+        m = 1 << int(math.ceil(math.log2(2 * n)))
+        x = x + np.fft.irfft(np.fft.rfft(e, m) * np.fft.rfft(h, m), m)[:n]
+    return np.round(x)
+
+
+ROBUST_GAP = (
+    "known gap: the second, robust selection (model error in the weights, points far off capped) "
+    "goes astray: here it drops K (the rise's points capped cost little) and N's interval is widened "
+    "by chi2/dof ~1000 / its iterated weights collapse N to a seventh of the white level"
+)
+
+
+@pytest.mark.parametrize(
+    "n,seed,extra",
+    [(n, 1, e) for n in (20000, 50000, 200000) for e in ("rrw", "flicker")]
+    + [
+        pytest.param(20000, 2, "flicker", marks=pytest.mark.xfail(strict=True, reason=ROBUST_GAP)),
+        pytest.param(200000, 0, "rrw", marks=pytest.mark.xfail(strict=True, reason=ROBUST_GAP)),
+    ],
+)
+def test_plain_white_noise_at_1khz_is_read_as_white_with_no_band_limit_near_nyquist(n, seed, extra) -> None:
+    """N on every channel within 10 %, its 95 % interval holding the truth on 5 of 6
+    channels at least (all six only 74 % of the time), no band limit near Nyquist."""
+    rng = np.random.default_rng(seed)
+    misses = []
+    for white in WHITE_COUNTS:
+        truth = math.sqrt((white**2 + 1 / 12) / FS)
+        fit = api.noise_terms(_adc_channel(rng, n, white, extra), FS)
+        t = fit.terms["N"]
+        assert t.value is not None, (white, fit.fitted, t.note)
+        assert abs(t.value / truth - 1) < 0.10, (white, t.value, truth, fit.fitted)
+        if not t.low <= truth <= t.high:
+            misses.append((white, t.low, t.high, truth, fit.fitted))
+        lp = fit.terms.get("LP")
+        assert lp is None or lp.extra["fc"] < 0.45 * FS, (white, fit.fitted)
+    assert len(misses) <= 1, misses

@@ -4,8 +4,9 @@ The IEEE 952 terms first (stepwise, terms.py), then a band limit (replacing
 white N by the low-passed one; order 1 or 2, whichever fits better) and up to
 MAX_GM Gauss-Markov processes are each kept only when they lower chi-squared
 by the 95 % point of chi2 with their number of parameters (times chi2/dof when
-above 1: an F test); then each linear term whose removal costs less than 3.84
-is dropped.  A sinusoid is tried last (where the curve shows an oscillation's
+above 1: an F test; the band limit against white N with the same terms, and
+only where the curve can show its bend: _lp_shows); then each linear term whose
+removal costs less than 3.84 is dropped.  A sinusoid is tried last (where the curve shows an oscillation's
 hump), started where the model leaves its largest hump.  On a real sensor
 (chi2/dof above 1 at the first selection) the selection runs again with the
 model error in the weights and points far off the model given capped
@@ -27,6 +28,8 @@ from .reading import _unexplained
 from .terms import CHI2_1_95
 
 MAX_GM = 2
+CHI2_1_999 = 10.83
+"""The 99.9 % point of chi2 with one degree of freedom."""
 SINE = False
 """Try a sinusoid (an oscillation's hump, ADEV peak at 0.371 / f0, two octaves or more inside
 the curve) after the GM processes on every curve; otherwise only where the first fit leaves a
@@ -100,8 +103,16 @@ def _stepwise(
                 best = (s2, chi2b)
         if best is None or _test(best[1] - chi2, chi2, dof, 1):
             return s, theta, c, chi2
+        # judged under the weights of the model with it; refitted under its own, the
+        # model without it may fit far worse (a long-tau rise then has the small sd of
+        # a white line): the term stays when the refit shows it needed beyond doubt
+        # (the 99.9 % point: a marginal term's fate does not hang on whose weights judged it)
+        old = (s, theta, c, chi2)
         s = best[0]
         theta, c, chi2 = fit_structure(p, s, theta, None, rounds=1)
+        if chi2 - old[3] >= CHI2_1_999 * max(1.0, old[3] / dof):
+            fit_structure(p, old[0], old[1], None, rounds=1)  # its weights back
+            return old
 
 
 def _extend(
@@ -118,7 +129,10 @@ def _extend(
         cands.append((chi2b, s2, th, c2))
     chi2b, s2, th, c2 = min(cands, key=lambda x: x[0])
     dof = max(p.t.size - int(np.sum(c2 > 0)) - 1, 1)
-    if c2[s2.names().index("N")] > 0 and _test(chi2 - chi2b, chi2b, dof, 1):
+    # its gain is judged against white N with the same terms: the terms let in again
+    # must not pass their own gain off as the band limit's
+    chi2w = fit_structure(p, Structure(base_lin), np.zeros(0), None)[2]
+    if c2[s2.names().index("N")] > 0 and _lp_shows(p, s2, th, c2) and _test(min(chi2, chi2w) - chi2b, chi2b, dof, 1):
         s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
     for _j in range(MAX_GM):
         s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1)
@@ -177,6 +191,24 @@ def _sine_start(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, s2:
             if v < best[0]:
                 best = (v, th)
     return best[1] if best[1] is not None else np.concatenate((theta, [0.5 * (lo + hi)]))
+
+
+def _lp_shows(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bool:
+    """A band limit is kept only where the curve can show it: its cutoff below
+    LP_FC_MAX fs (the search's ceiling is 0.49 fs: a fit pinned there asks for less
+    bend than any low-pass of the catalogue gives) and its bend (the low-passed
+    column under white N's) at least LP_BEND on two octave points or more.  A bend
+    of the first point alone is that point's scatter: a two-pole low-pass above
+    ~0.4 fs lowers only the first octave (by 4 % at 0.49 fs, under 1 % the next)."""
+    if math.exp(theta[0]) >= LP_FC_MAX * p.fs:
+        return False
+    white = columns(Structure(("N",)), np.zeros(0), p.m, p.fs)[:, 0]
+    lp = columns(Structure(("N",), s.lp), theta[:1], p.m, p.fs)[:, 0]
+    return int(np.sum(lp <= (1.0 - LP_BEND) * white)) >= 2
+
+
+LP_FC_MAX = 0.45
+LP_BEND = 0.02
 
 
 def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5) -> bool:
