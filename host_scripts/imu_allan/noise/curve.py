@@ -92,14 +92,10 @@ class _Gls:
         floor: float = 0.0,
         robust: Optional[np.ndarray] = None,
     ) -> None:
-        from .terms import RHO, _cholesky
+        from .terms import _cholesky, octave_correlation
 
         sd = ref * np.sqrt(2.0 / e)
-        rho = RHO[kind]
-        lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
-        l2 = np.log2(t)
-        dist = np.abs(l2[:, None] - l2[None, :])
-        S = np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0) * np.outer(sd, sd)
+        S = octave_correlation(t, alpha, kind) * np.outer(sd, sd)
         S[np.diag_indices_from(S)] += (floor * ref) ** 2
         self.sd = np.sqrt(np.diag(S))
         if robust is not None:  # points far off the model: their variance raised (influence capped)

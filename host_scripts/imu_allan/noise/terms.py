@@ -151,6 +151,16 @@ def _thin(t: np.ndarray) -> np.ndarray:
     return np.unique(np.concatenate((idx, [t.size - 1])))
 
 
+def octave_correlation(t: np.ndarray, alpha: np.ndarray, kind: str) -> np.ndarray:
+    """Correlation of the Allan estimates at octave taus ``t``: RHO per octave
+    apart for each point's noise type ``alpha``, the geometric mean of the two."""
+    rho = RHO[kind]
+    lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
+    l2 = np.log2(t)
+    dist = np.abs(l2[:, None] - l2[None, :])
+    return np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
+
+
 class _Gls:
     """Whitening by the Cholesky factor of the estimates' covariance."""
 
@@ -164,12 +174,7 @@ class _Gls:
         floor: float = 0.0,
     ) -> None:
         sd = ref * np.sqrt(2.0 / e + floor * floor)
-        rho = RHO[kind]
-        lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
-        l2 = np.log2(t)
-        dist = np.abs(l2[:, None] - l2[None, :])
-        R = np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
-        S = R * np.outer(sd, sd)
+        S = octave_correlation(t, alpha, kind) * np.outer(sd, sd)
         self.L = _cholesky(S)
         # the inverse once (tens of points): scipy's solve_triangular per call costs milliseconds
         self.Li = np.linalg.inv(self.L)
