@@ -114,10 +114,14 @@ def _jacobian(fit: Any, t: np.ndarray) -> np.ndarray:
     return np.stack(cols + extra, axis=1)
 
 
-def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapping: bool) -> dict[str, float]:
+def predicted_pct(
+    fit: Any, points: list[dict[str, Any]], scale: float, overlapping: bool, model_error: bool = True
+) -> dict[str, float]:
     """The interval (+-%, 95 %) each fitted term would have on a record ``scale`` times as long,
     were the sensor the fitted model: the generalized least squares of the fit (the points'
-    chi-squared variances from their EDF, correlated between octaves) with no model error.
+    chi-squared variances from their EDF, correlated between octaves) and, with
+    ``model_error``, the model error the fit granted (``fit.model_error``, the same share of
+    every point however long the record, and ``fit.widened``): at scale 1 the fit's own interval.
 
     ``points``: the fit's octave points now (tau_s, edf, used). A point keeps its tau and its
     EDF grows by ``scale`` (EDF ~ N/m once the record is many taus long); each doubling of the
@@ -135,11 +139,12 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
         edf = np.append(edf, used[-1]["edf"] * scale / 2**i)
     ref = fit.model(tau)
     alpha = F.alphas(tau, ref)
-    gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping")
+    floor, widened = (getattr(fit, "model_error", 0.0), getattr(fit, "widened", 1.0)) if model_error else (0.0, 1.0)
+    gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping", floor)
     Jw = gls.white(_jacobian(fit, tau))
     scale_cols = np.linalg.norm(Jw, axis=0)
     scale_cols[scale_cols == 0] = 1.0
-    cov = np.linalg.pinv((Jw / scale_cols).T @ (Jw / scale_cols)) / np.outer(scale_cols, scale_cols)
+    cov = np.linalg.pinv((Jw / scale_cols).T @ (Jw / scale_cols)) / np.outer(scale_cols, scale_cols) * widened
     out = {}
     for j, name in enumerate(_term_names(fit)):
         rel = math.sqrt(max(cov[j, j], 0.0))  # sd of log c, c the squared amplitude
@@ -151,9 +156,11 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
 def record_for_target(
     fit: Any, points: list[dict[str, Any]], duration: float, overlapping: bool, targets=TARGETS_PCT
 ) -> dict[str, dict[str, Optional[float]]]:
-    """Per term: the predicted +-% now (under the fitted model) and the recording time (s) for
-    each target: found on a quarter-octave grid of longer records and interpolated in log-log;
-    for a target already met, the shorter record whose EDFs give it (every EDF in proportion)."""
+    """Per term: the predicted +-% now from the points' EDFs alone (``pct``), with the fit's
+    model error (``pct_fit``, its interval), and the recording time (s) for each target under
+    the fitted model and its model error (None: a model error the record's length cannot beat):
+    found on a quarter-octave grid of longer records and interpolated in log-log; for a target
+    already met, the shorter record whose EDFs give it (every EDF in proportion)."""
     scales = 2.0 ** (np.arange(0, 4 * 24 + 1) / 4.0)
     preds: list[dict[str, float]] = []
     for sc in scales:  # until every term reaches the smallest target
@@ -161,10 +168,11 @@ def record_for_target(
         if all(v <= min(targets) for v in preds[-1].values()):
             break
     scales = scales[: len(preds)]
+    edf_only = predicted_pct(fit, points, 1.0, overlapping, model_error=False)
     out: dict[str, dict[str, Optional[float]]] = {}
     for name, now in preds[0].items():
         curve = np.array([p.get(name, math.inf) for p in preds])
-        item: dict[str, Optional[float]] = {"pct": now}
+        item: dict[str, Optional[float]] = {"pct": edf_only.get(name, now), "pct_fit": now}
         for target in targets:
             if now <= target:
                 item[target] = duration * edf_for(target / 100) / edf_for(now / 100)
@@ -188,13 +196,15 @@ def _crossing(scales: np.ndarray, pct: np.ndarray, target: float, duration: floa
 
 def add_to_analysis(doc: dict[str, Any], level: float = LEVEL, fits: Optional[dict[str, Any]] = None) -> None:
     """Adds to every identified term of ``analyze``'s document ``interval_pct`` (its
-    interval now), ``expected_pct`` (the interval the fitted model predicts now) and
-    ``record_s_for_10pct``, ``record_s_for_25pct``: the recording time (s from the
-    start) after which it would be +-10 % and +-25 %.
+    interval now), ``expected_pct`` (the interval the points' EDFs give under the fitted
+    model, without its model error) and ``record_s_for_10pct``, ``record_s_for_25pct``:
+    the recording time (s from the start) after which it would be +-10 % and +-25 %
+    (None: the fit's model error keeps it wider however long the record).
 
     With the channels' ``fits`` (analyze's): from the fit's own least squares under
-    the fitted model (``record_for_target``). Without: from ``edf``, the degrees of
-    freedom of the points in the term's tau range (``term_edf``)."""
+    the fitted model and its model error (``record_for_target``), which reproduce the
+    interval now. Without: from ``edf``, the degrees of freedom of the points in the
+    term's tau range (``term_edf``)."""
     duration = (doc.get("source") or {}).get("duration_s")
     for ch_name, ch in doc.get("channels", {}).items():
         overlapping = (ch.get("fit") or {}).get("statistic") == "oadev"
@@ -259,16 +269,19 @@ def analysis_text(doc: dict[str, Any]) -> str:
             if exp and pct > MODEL_ERROR_RATIO * exp:  # the fit granted model error: time does not shrink it
                 part += " [model error]"
                 marked = True
-            pct = exp or pct
-            for tgt, t in ((25, t25), (10, t10)):
+            for tgt, t in ((25, t25), (10, t10)):  # from the interval now, model error included
                 if t is not None and pct > tgt:
                     part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
+                elif t is None and pct > tgt:
+                    part += f", +-{tgt} % not by recording longer"
+                    break
             parts.append(part)
         if parts:
             lines.append(f"  {name}: " + "; ".join(parts))
     if marked:
         lines.append("  [model error]: the interval is over 1.5 times what its points' EDFs give")
-        lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps")
+        lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps;")
+        lines.append("  the times count it")
     return "\n".join(lines) + "\n" if len(lines) > 1 else ""
 
 
