@@ -8,14 +8,15 @@ length (as a user does: the advice says how much MORE to record; each process
 draws from its own stream, so a longer record of a seed starts with the shorter
 one) and the interval ``analyze`` then gives the term. The advice is an estimate
 under the fitted model; it is graded on the seeds whose two fits are the
-generator's model (the same terms, no model error granted): there the term's
-interval must be within +-10 % of the target (9 % to 11 %) in at least 80 % of
-the seeds. The seeds where a fit departs (model selection at 95 % admits a
-Gauss-Markov process or a term the generator lacks in about one fit in twenty)
-are counted and printed with the all-seeds figure; they must stay a minority.
+generator's model (its processes, and an interval that the points' EDFs
+explain): there the term's interval must be within +-10 % of the target (9 % to
+11 %) in at least 80 % of the seeds. The seeds where a fit departs (model
+selection at 95 % admits a process the generator lacks in about one fit in
+ten: a Gauss-Markov process or Q beside B, B beside K) are counted and printed
+with the all-seeds figure; they must stay a minority.
 
-IMU_ALLAN_ADVICE_SEEDS sets the number of seeds (default 8, for make test;
-make bench and the docs' figures use 40)."""
+IMU_ALLAN_ADVICE_SEEDS sets the number of seeds (default 8, for make test; the
+figures in docs/dynamic.md, section 4, are from 40)."""
 
 from __future__ import annotations
 

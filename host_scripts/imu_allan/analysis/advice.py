@@ -154,25 +154,29 @@ def predicted_pct(
 
 
 def record_for_target(
-    fit: Any, points: list[dict[str, Any]], duration: float, overlapping: bool, targets=TARGETS_PCT
+    fit: Any,
+    points: list[dict[str, Any]],
+    duration: float,
+    overlapping: bool,
+    targets=TARGETS_PCT,
+    model_error: bool = False,
 ) -> dict[str, dict[str, Optional[float]]]:
-    """Per term: the predicted +-% now from the points' EDFs alone (``pct``), with the fit's
-    model error (``pct_fit``, its interval), and the recording time (s) for each target under
-    the fitted model and its model error (None: a model error the record's length cannot beat):
-    found on a quarter-octave grid of longer records and interpolated in log-log; for a target
-    already met, the shorter record whose EDFs give it (every EDF in proportion)."""
+    """Per term: the predicted +-% now (``pct``) and the recording time (s) for each target,
+    under the fitted model and, with ``model_error``, the model error the fit granted (None: a
+    model error the record's length cannot beat): found on a quarter-octave grid of longer
+    records and interpolated in log-log; for a target already met, the shorter record whose
+    EDFs give it (every EDF in proportion)."""
     scales = 2.0 ** (np.arange(0, 4 * 24 + 1) / 4.0)
     preds: list[dict[str, float]] = []
     for sc in scales:  # until every term reaches the smallest target
-        preds.append(predicted_pct(fit, points, float(sc), overlapping))
+        preds.append(predicted_pct(fit, points, float(sc), overlapping, model_error))
         if all(v <= min(targets) for v in preds[-1].values()):
             break
     scales = scales[: len(preds)]
-    edf_only = predicted_pct(fit, points, 1.0, overlapping, model_error=False)
     out: dict[str, dict[str, Optional[float]]] = {}
     for name, now in preds[0].items():
         curve = np.array([p.get(name, math.inf) for p in preds])
-        item: dict[str, Optional[float]] = {"pct": edf_only.get(name, now), "pct_fit": now}
+        item: dict[str, Optional[float]] = {"pct": now}
         for target in targets:
             if now <= target:
                 item[target] = duration * edf_for(target / 100) / edf_for(now / 100)
@@ -202,29 +206,38 @@ def add_to_analysis(doc: dict[str, Any], level: float = LEVEL, fits: Optional[di
     (None: the fit's model error keeps it wider however long the record).
 
     With the channels' ``fits`` (analyze's): from the fit's own least squares under
-    the fitted model and its model error (``record_for_target``), which reproduce the
-    interval now. Without: from ``edf``, the degrees of freedom of the points in the
-    term's tau range (``term_edf``)."""
+    the fitted model (``record_for_target``); for a term whose interval is mostly the
+    fit's model error (over MODEL_ERROR_RATIO times ``expected_pct``), with that model
+    error, which recording longer keeps. A smaller model error is left out of the times:
+    it may be chance (a true model's chi2 passes its 95 % point on one record in twenty),
+    and counted it would lengthen the advice for nothing (it is counted only for a target
+    the EDFs alone call met while the interval is not). Without fits: from ``edf``, the degrees of freedom
+    of the points in the term's tau range (``term_edf``)."""
     duration = (doc.get("source") or {}).get("duration_s")
     for ch_name, ch in doc.get("channels", {}).items():
         overlapping = (ch.get("fit") or {}).get("statistic") == "oadev"
         points = (ch.get("fit") or {}).get("octave_points") or ch.get("curve") or []
         fit = (fits or {}).get(ch_name)
-        model = (
-            record_for_target(fit, points, duration, overlapping)
-            if fit is not None and duration and hasattr(fit, "fitted")
-            else {}
-        )
+        usable = fit is not None and duration and hasattr(fit, "fitted")
+        model = record_for_target(fit, points, duration, overlapping) if usable else {}
+        granted = usable and (getattr(fit, "model_error", 0.0) > 0 or getattr(fit, "widened", 1.0) > 1)
+        with_error = record_for_target(fit, points, duration, overlapping, model_error=True) if granted else model
         for name, term in (ch.get("terms") or {}).items():
             if not term:
                 continue
             term["interval_pct"] = term_interval_pct(term)
             nu = term_edf(points, term.get("tau_range_s"), name, overlapping)
             term["edf"] = nu
-            if name in model:
-                term["expected_pct"] = model[name]["pct"]
+            if model:  # a term the prediction leaves out (LP: its interval is fc's, no variance's): none
+                exp = term["expected_pct"] = model.get(name, {}).get("pct")
+                pct = term["interval_pct"]
+                # mostly model error (the text's mark): the times count it; a smaller one may be chance
+                times = with_error if exp and pct and pct > MODEL_ERROR_RATIO * exp else model
                 for target in TARGETS_PCT:
-                    term[f"record_s_for_{target}pct"] = model[name][target]
+                    t = times.get(name, {}).get(target)
+                    if pct and pct > target and t is not None and t <= duration:  # met by EDFs, not by the interval
+                        t = with_error.get(name, {}).get(target)
+                    term[f"record_s_for_{target}pct"] = t
                 continue
             term["expected_pct"] = 100 * halfwidth(nu, level) if nu else None
             for target in TARGETS_PCT:
@@ -270,11 +283,13 @@ def analysis_text(doc: dict[str, Any]) -> str:
                 part += " [model error]"
                 marked = True
             for tgt, t in ((25, t25), (10, t10)):  # from the interval now, model error included
-                if t is not None and pct > tgt:
-                    part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
-                elif t is None and pct > tgt:
+                if pct <= tgt or exp is None:
+                    continue
+                if t is None:
                     part += f", +-{tgt} % not by recording longer"
                     break
+                if t > duration:
+                    part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
             parts.append(part)
         if parts:
             lines.append(f"  {name}: " + "; ".join(parts))
