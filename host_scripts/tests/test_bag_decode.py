@@ -143,6 +143,10 @@ def test_bags_read_as_arrays_equal_rosbags_message_by_message(kind: str, tmp_pat
     bag = _write(tmp_path / ("run.bag" if kind == "ros1" else "run"), kind)
     backend = rosbag._backend(str(bag), "run")
     assert isinstance(backend, rosbag.Db3Backend) == (kind == "db3")
+    if kind == "db3":  # rosbags' writer's bag: read straight from the table, its plan keeping the order
+        con = bagdb3._connect(str(bag))
+        assert bagdb3._scans_in_order(con, "timestamp_idx", "timestamp >= ? AND timestamp < ? AND topic_id IN (?)", 1)
+        con.close()
     for topic in _bag_topics():
         want_vals, want_stamps = _rosbags_read(bag, topic)
         s = load(str(bag), topic).samples
@@ -172,9 +176,13 @@ def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(tmp_path: Path, monkey
     with AnyReader([path]) as r:
         want_t = np.array([t for _, t, _ in r.messages()], dtype=np.int64)
     monkeypatch.setattr(bagdb3, "BATCH", 16)
-    got = list(bagdb3.batches([str(path / "burst.db3")], "/imu", IMU, True))
-    assert max(len(b.lens) for b in got) <= 64 and len(got) > 20
-    assert np.array_equal(np.concatenate([b.times for b in got]), want_t)
+    for plan_in_order in (True, False):  # straight from the table, or through an ordered subquery
+        monkeypatch.setattr(bagdb3, "_scans_in_order", lambda *_, keep=plan_in_order: keep)
+        got = list(bagdb3.batches([str(path / "burst.db3")], "/imu", IMU, True))
+        assert max(len(b.lens) for b in got) <= 64 and len(got) > 20
+        assert np.array_equal(np.concatenate([b.times for b in got]), want_t)
+        raw = b"".join(b.raw for b in got)
+        assert np.array_equal(imumsg.decode(raw, np.concatenate([b.lens for b in got]), False)[0], want_vals)
     s = load(str(path)).samples
     assert any("bag's times" in n for n in s.notes)
     assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), want_vals)

@@ -121,12 +121,15 @@ def _file_batches(con: sqlite3.Connection, ids: list[int], times: bool, exact: b
     lo, hi, total = con.execute("SELECT min(timestamp), max(timestamp), count(*) FROM messages").fetchone()
     if not total:
         return
-    if not _indexed(con):  # no timestamp index (an old bag): one ordered pass, a row at a time
+    index = _index(con)
+    if index is None:  # no timestamp index (an old bag): one ordered pass, a row at a time
         yield from _cursor(con, ids, times)
         return
     step = max(1, (hi - lo + 1) * BATCH // total)
     stack = [(a, min(a + step, hi + 1)) for a in range(lo, hi + 1, step)][::-1]
     span = "timestamp >= ? AND timestamp < ?"
+    where = f"{span} AND topic_id IN ({_marks(ids)})"
+    direct = exact and _scans_in_order(con, index, where, len(ids))
     while stack:
         a, b = stack.pop()
         n = con.execute(f"SELECT count(*) FROM messages WHERE {span}", (a, b)).fetchone()[0]
@@ -135,17 +138,28 @@ def _file_batches(con: sqlite3.Connection, ids: list[int], times: bool, exact: b
             stack += [(m, b), (a, m)]
             continue
         for off in range(0, n, 4 * BATCH) if n else ():
-            got = _fetch(con, ids, span, (a, b), off if n > 4 * BATCH else None, times, exact)
+            paged = n > 4 * BATCH
+            got = _fetch(con, where, (a, b, *ids), off if paged else None, times, exact, direct and not paged)
             if got is not None and len(got.lens):
                 yield got
 
 
-def _indexed(con: sqlite3.Connection) -> bool:
+def _index(con: sqlite3.Connection) -> Optional[str]:
+    """The name of an ascending index of messages led by timestamp, if any."""
     for idx in con.execute("PRAGMA index_list(messages)").fetchall():
-        first = con.execute(f"PRAGMA index_info('{idx[1]}')").fetchone()
-        if first is not None and first[2] == "timestamp":
-            return True
-    return False
+        first = con.execute(f"PRAGMA index_xinfo('{idx[1]}')").fetchone()
+        if first is not None and first[2] == "timestamp" and not first[3]:
+            return str(idx[1])
+    return None
+
+
+def _scans_in_order(con: sqlite3.Connection, index: str, where: str, n_ids: int) -> bool:
+    """sqlite's plan for an aggregate over ``where``: one range search of the
+    timestamp index, so rows come in (timestamp, insertion) order, the order
+    of ORDER BY timestamp, id, without the cost of a subquery that says so."""
+    q = f"EXPLAIN QUERY PLAN SELECT group_concat(data, x'') FROM messages WHERE {where}"
+    plan = [r[3] for r in con.execute(q, (0, 1, *[0] * n_ids))]
+    return len(plan) == 1 and plan[0] == f"SEARCH messages USING INDEX {index} (timestamp>? AND timestamp<?)"
 
 
 def _cursor(con: sqlite3.Connection, ids: list[int], times: bool) -> Iterator[Batch]:
@@ -164,36 +178,26 @@ def _joined(rows: list[tuple[bytes, int]], times: bool) -> Batch:
 
 
 def _fetch(
-    con: sqlite3.Connection,
-    ids: list[int],
-    span: str,
-    bounds: tuple[int, int],
-    off: Optional[int],
-    times: bool,
-    exact: bool,
+    con: sqlite3.Connection, where: str, args: tuple, off: Optional[int], times: bool, exact: bool, direct: bool
 ) -> Optional[Batch]:
-    """One batch: the topic's rows in ``span`` (the ``off``-th page of it when
-    one timestamp holds too many), concatenated by sqlite when ``exact``."""
-    where = f"{span} AND topic_id IN ({_marks(ids)})"
+    """One batch: the topic's rows ``where`` (the ``off``-th page of them when
+    one timestamp holds too many), concatenated by sqlite when ``exact``,
+    straight from the table when ``direct`` (its plan keeps the order)."""
     page = f" LIMIT {4 * BATCH} OFFSET {off}" if off is not None else ""
     rows = f"SELECT data, timestamp FROM messages WHERE {where} ORDER BY timestamp, id{page}"
-    args = (*bounds, *ids)
     if exact:
-        stamps = ", group_concat(timestamp)" if times else ""
-        q = (
-            "SELECT CAST(group_concat(data, x'') AS BLOB), count(*), min(length(data)), max(length(data)),"
-            f" sum(length(data)){stamps} FROM ({rows})"
-        )
-        raw, k, short, long_, total, *t = con.execute(q, args).fetchone()
+        src = f"messages WHERE {where}" if direct else f"({rows})"
+        cols = "CAST(group_concat(data, x'') AS BLOB), count(*), min(length(data)), max(length(data))"
+        q = f"SELECT {cols}{', group_concat(timestamp)' if times else ''} FROM {src}"
+        raw, k, short, long_, *t = con.execute(q, args).fetchone()
         if not k:
             return None
-        if raw is not None and len(raw) == total:
-            if short == long_:
-                lens = np.full(k, short, dtype=np.int64)
-            else:
-                text = con.execute(f"SELECT group_concat(length(data)) FROM ({rows})", args).fetchone()[0]
-                lens = np.fromstring(text, dtype=np.int64, sep=",")
-            when = np.fromstring(t[0], dtype=np.int64, sep=",") if times else None
-            if len(lens) == k and (when is None or len(when) == k):
-                return Batch(raw, lens, when)
+        if short == long_:
+            lens = np.full(k, short, dtype=np.int64)
+        else:
+            text = con.execute(f"SELECT group_concat(length(data)) FROM {src}", args).fetchone()[0]
+            lens = np.fromstring(text, dtype=np.int64, sep=",")
+        when = np.fromstring(t[0], dtype=np.int64, sep=",") if times else None
+        if raw is not None and len(lens) == k and len(raw) == lens.sum() and (when is None or len(when) == k):
+            return Batch(raw, lens, when)
     return _joined(con.execute(rows, args).fetchall(), times)  # a row at a time: what group_concat could not give
