@@ -25,7 +25,7 @@ import numpy as np
 
 from ..channels import CHANNELS
 from ..errors import InputError
-from . import bagdb3, imumsg
+from . import bagdb3, bagmcap, imumsg
 from .timing import rate_from_time
 
 IMU_TYPE = "sensor_msgs/msg/Imu"
@@ -117,6 +117,63 @@ class RosbagsBackend(Backend):
         return self._deser(raw)
 
 
+class McapBackend(RosbagsBackend):
+    """A ROS 2 MCAP bag (uncompressed as a bag; its chunks may be): rosbags'
+    chunk index and decompression, the records found as arrays (bagmcap.py)."""
+
+    def __init__(self, path: str, name: str) -> None:
+        super().__init__(path, name)
+        self.ros1 = False
+
+    @staticmethod
+    def fits(path: str) -> bool:
+        """A bag whose every storage is an indexed MCAP with chunks in time order."""
+        from rosbags.rosbag2 import Reader
+
+        try:
+            with Reader(path) as r:
+                storages = _mcap_storages(r)
+                return bool(storages) and all(bagmcap.chunks_in_order(s) for s in storages)
+        except Exception:  # rosbags will say what is wrong
+            return False
+
+    def choose(self, topic: str) -> None:
+        super().choose(topic)
+        self.ros1 = False
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        from rosbags.rosbag2 import Reader
+
+        r = _reader(self.path, self.name)
+        self._deser = lambda raw: r.deserialize(raw, IMU_TYPE)
+        left = limit
+        try:
+            with Reader(self.path) as bag:
+                for st in _mcap_storages(bag):
+                    ids = {c.id for c in st.connections if c.topic == self.topic and c.msgtype == IMU_TYPE}
+                    for raw, lens, t in bagmcap.chunk_messages(st, ids) if ids else ():
+                        if left is not None:
+                            raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
+                            left -= len(lens)
+                        yield Raw(raw, lens, t)
+                        if left is not None and left <= 0:
+                            return
+        finally:
+            r.close()
+
+
+def _mcap_storages(reader: Any) -> list[Any]:
+    """The MCAP storages of an open rosbags Reader (none when another, or compressed as a bag)."""
+    st = reader.storage
+    if type(st).__name__ == "McapReader":
+        return [st]
+    meta = getattr(st, "metadata", None)
+    subs = list(getattr(st, "storages", []))
+    if meta is None or meta.compression_mode or not subs or any(type(s).__name__ != "McapReader" for s in subs):
+        return []
+    return subs
+
+
 def _conns(reader: Any, topic: str) -> list[Any]:
     return [c for c in reader.connections if c.topic == topic and c.msgtype == IMU_TYPE]
 
@@ -169,6 +226,8 @@ def _backend(path: str, name: str) -> Backend:
             raise InputError(f"'{name}': reading ROS bags needs the rosbags package (pip install rosbags)") from None
         except Exception:  # sqlite's or the schema's surprises: rosbags says what is wrong
             pass
+    elif McapBackend.fits(path):
+        return McapBackend(path, name)
     return RosbagsBackend(path, name)
 
 
