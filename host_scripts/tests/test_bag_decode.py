@@ -142,7 +142,7 @@ def _rosbags_read(path: Path, topic: str) -> tuple[np.ndarray, np.ndarray]:
 def test_bags_read_as_arrays_equal_rosbags_message_by_message(kind: str, tmp_path: Path) -> None:
     bag = _write(tmp_path / ("run.bag" if kind == "ros1" else "run"), kind)
     backend = rosbag._backend(str(bag), "run")
-    assert type(backend).__name__ == {"ros1": "RosbagsBackend", "db3": "Db3Backend", "mcap": "McapBackend"}[kind]
+    assert type(backend).__name__ == {"ros1": "Ros1Backend", "db3": "Db3Backend", "mcap": "McapBackend"}[kind]
     if kind == "db3":  # rosbags' writer's bag: read straight from the table, its plan keeping the order
         con = bagdb3._connect(str(bag))
         assert bagdb3._scans_in_order(con, "timestamp_idx", "timestamp >= ? AND timestamp < ? AND topic_id IN (?)", 1)
@@ -221,6 +221,53 @@ def test_an_mcap_of_zstd_chunks_and_times_out_of_order(tmp_path: Path) -> None:
         want_t = [t for c, t, _ in r.messages() if c.topic == "/imu"]
     assert np.array_equal(np.concatenate([g[2] for g in got]), want_t)
     assert np.all(np.diff(want_t) >= 0)  # sorted, though 31 were logged after the next message
+
+
+def _ros1_bag(path: Path, fmt: Any, chunk: int, late: int) -> Path:
+    """Chunks of about ``chunk`` bytes (compressed or not), every ``late``-th
+    message written after the next one (0: none), a second IMU topic of the
+    same layout in between."""
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    rng = np.random.default_rng(13)
+    w = Writer1(path)
+    if fmt:
+        w.set_compression(getattr(Writer1.CompressionFormat, fmt))
+    w.chunk_threshold = chunk
+    with w:
+        a, b = (w.add_connection(t, IMU, typestore=ts) for t in ("/imu", "/imu2"))
+        for i in range(2000):
+            t = 10**9 + i * 1_000_000 + (1_500_000 if late and i % late == 5 else 0)
+            for c in (a, b) if i % 3 else (a,):
+                w.write(c, t, ts.serialize_ros1(_msg(ts, rng, i, "imu", 1, i), IMU))
+    return path
+
+
+@pytest.mark.parametrize("fmt", [None, "BZ2", "LZ4"])
+@pytest.mark.parametrize("chunk, late", [(20_000, 0), (1 << 30, 41), (20_000, 41)])
+def test_a_ros1_bag_of_many_chunks_compressed_and_times_out_of_order(
+    fmt: Any, chunk: int, late: int, tmp_path: Path
+) -> None:
+    """Many small chunks, or one chunk of messages out of time order (rosbags
+    orders by time, then chunk, then place): what rosbags gives, in its order.
+    Chunks whose times overlap are left to rosbags."""
+    from rosbags.rosbag1 import Reader as Reader1
+
+    path = _ros1_bag(tmp_path / "c.bag", fmt, chunk, late)
+    with Reader1(path) as r:
+        spans = [(c.start_time, c.end_time) for c in r.chunk_infos]
+    overlap = any(b[0] < a[1] - 1 for a, b in zip(spans, spans[1:]))  # rosbags' end: the last time + 1
+    assert overlap == (chunk < 1 << 30 and late > 0)  # as this bag was written to be
+    backend = rosbag._backend(str(path), "c")
+    assert type(backend).__name__ == ("RosbagsBackend" if overlap else "Ros1Backend")
+    want, want_stamps = _rosbags_read(path, "/imu")
+    backend.choose("/imu")
+    assert backend.count == 2000
+    got = list(rosbag._decoded(backend, "c", True))
+    assert np.array_equal(np.concatenate([g[0] for g in got], axis=1), want)
+    assert np.array_equal(np.concatenate([g[1] for g in got]), want_stamps)
+    with AnyReader([path]) as r:
+        want_t = [t for c, t, _ in r.messages() if c.topic == "/imu"]
+    assert np.array_equal(np.concatenate([g[2] for g in got]), want_t)
 
 
 CUSTOM = """std_msgs/Header header

@@ -9,15 +9,18 @@ the sample rate and the gaps (timing.py), or, when a driver leaves them zero,
 the times the bag recorded the messages.
 
 Messages are never deserialised one by one in Python: their raw bytes come
-in bulk (a ROS 2 sqlite3 bag straight from sqlite, bagdb3.py; the others
-through rosbags' reader) and are decoded as arrays (imumsg.py). One message
-of each layout (length, byte order) is also deserialised by rosbags, and a
-disagreement (a message definition not the standard one), like a message of
-no known layout, is deserialised by rosbags, message by message.
+in bulk (a ROS 2 sqlite3 bag straight from sqlite, bagdb3.py; an MCAP and a
+ROS 1 bag chunk by chunk, bagmcap.py and bagros1.py; anything else, such as a
+bag compressed as a whole, through rosbags' reader) and are decoded as
+arrays (imumsg.py). One message of each layout (length, byte order) is also
+deserialised by rosbags, and a disagreement (a message definition not the
+standard one), like a message of no known layout, is deserialised by
+rosbags, message by message.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any, Callable, Iterator, NamedTuple, Optional
 
@@ -25,7 +28,7 @@ import numpy as np
 
 from ..channels import CHANNELS
 from ..errors import InputError
-from . import bagdb3, bagmcap, imumsg
+from . import bagdb3, bagmcap, bagros1, imumsg
 from .timing import rate_from_time
 
 IMU_TYPE = "sensor_msgs/msg/Imu"
@@ -162,6 +165,54 @@ class McapBackend(RosbagsBackend):
             r.close()
 
 
+class Ros1Backend(Backend):
+    """A ROS 1 bag read through its own index (bagros1.py); rosbags' ROS 1
+    typestore deserialises what the arrays do not decode."""
+
+    ros1 = True
+
+    def __init__(self, path: str, bag: bagros1.Bag) -> None:
+        from rosbags.typesys import Stores, get_typestore
+
+        self.path, self.bag, self.topic = path, bag, ""
+        self.topics = [(c.topic, c.msgtype) for c in bag.conns]
+        self._ts = get_typestore(Stores.ROS1_NOETIC)
+
+    @staticmethod
+    def open(path: str) -> Optional[bagros1.Bag]:
+        """The bag's index when it is read so: standard sensor_msgs/Imu definitions, chunks in time order."""
+        from rosbags.typesys import Stores, get_typestore
+
+        try:
+            with open(path, "rb") as f:
+                bag = bagros1.open_bag(f)
+        except Exception:  # rosbags says what is wrong
+            return None
+        std = get_typestore(Stores.ROS1_NOETIC).generate_msgdef(IMU_TYPE)[1]
+        return bag if bag is not None and all(c.md5sum == std for c in bag.conns if c.msgtype == IMU_TYPE) else None
+
+    def _ids(self) -> set[int]:
+        return {c.id for c in self.bag.conns if c.topic == self.topic and c.msgtype == IMU_TYPE}
+
+    def choose(self, topic: str) -> None:
+        self.topic = topic
+        self.count = sum(self.bag.counts.get(i, 0) for i in self._ids())
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        left = limit
+        with open(self.path, "rb") as f:
+            for raw, lens, t in bagros1.chunk_messages(f, self.bag, self._ids()):
+                if left is not None:
+                    raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
+                    left -= len(lens)
+                yield Raw(raw, lens, t)
+                if left is not None and left <= 0:
+                    return
+
+    def deserialize(self, raw: bytes) -> Any:
+        return self._ts.deserialize_ros1(raw, IMU_TYPE)
+
+
 def _mcap_storages(reader: Any) -> list[Any]:
     """The MCAP storages of an open rosbags Reader (none when another, or compressed as a bag)."""
     st = reader.storage
@@ -228,6 +279,8 @@ def _backend(path: str, name: str) -> Backend:
             pass
     elif McapBackend.fits(path):
         return McapBackend(path, name)
+    elif os.path.isfile(path) and (ros1 := Ros1Backend.open(path)) is not None:
+        return Ros1Backend(path, ros1)
     return RosbagsBackend(path, name)
 
 
