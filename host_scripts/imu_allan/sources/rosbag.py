@@ -21,6 +21,7 @@ rosbags, message by message.
 from __future__ import annotations
 
 import os
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable, Iterator, NamedTuple, Optional
 
@@ -58,6 +59,14 @@ class Backend:
 
     def deserialize(self, raw: bytes) -> Any:
         raise NotImplementedError
+
+
+@lru_cache(maxsize=2)
+def _store(ros1: bool) -> Any:
+    """rosbags' typestore of the standard messages (building one takes ~0.2 s)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
 
 
 def _reader(path: str, name: str) -> Any:
@@ -172,23 +181,19 @@ class Ros1Backend(Backend):
     ros1 = True
 
     def __init__(self, path: str, bag: bagros1.Bag) -> None:
-        from rosbags.typesys import Stores, get_typestore
-
         self.path, self.bag, self.topic = path, bag, ""
         self.topics = [(c.topic, c.msgtype) for c in bag.conns]
-        self._ts = get_typestore(Stores.ROS1_NOETIC)
+        self._ts = _store(ros1=True)
 
     @staticmethod
     def open(path: str) -> Optional[bagros1.Bag]:
         """The bag's index when it is read so: standard sensor_msgs/Imu definitions, chunks in time order."""
-        from rosbags.typesys import Stores, get_typestore
-
         try:
             with open(path, "rb") as f:
                 bag = bagros1.open_bag(f)
         except Exception:  # rosbags says what is wrong
             return None
-        std = get_typestore(Stores.ROS1_NOETIC).generate_msgdef(IMU_TYPE)[1]
+        std = _store(ros1=True).generate_msgdef(IMU_TYPE)[1]
         return bag if bag is not None and all(c.md5sum == std for c in bag.conns if c.msgtype == IMU_TYPE) else None
 
     def _ids(self) -> set[int]:
@@ -245,9 +250,7 @@ class Db3Backend(Backend):
     def __init__(self, paths: list[str], listing: list[tuple[str, str, str]]) -> None:
         self.paths, self.topics = paths, [(n, t) for n, t, _ in listing]
         self.topic = ""
-        from rosbags.typesys import Stores, get_typestore
-
-        self._ts = get_typestore(Stores.ROS2_HUMBLE)
+        self._ts = _store(ros1=False)
 
     def choose(self, topic: str) -> None:
         self.topic, self.count = topic, bagdb3.count(self.paths, topic, IMU_TYPE)
@@ -268,9 +271,7 @@ def _backend(path: str, name: str) -> Backend:
     if paths is not None:
         try:
             listing = bagdb3.topics(paths)
-            from rosbags.typesys import Stores, get_typestore
-
-            std = get_typestore(Stores.ROS2_HUMBLE).hash_rihs01(IMU_TYPE)
+            std = _store(ros1=False).hash_rihs01(IMU_TYPE)
             if all(h in ("", std) for _, t, h in listing if t == IMU_TYPE):
                 return Db3Backend(paths, listing)
         except ImportError:
