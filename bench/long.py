@@ -135,12 +135,13 @@ def tsv_vs_allantools(rows: int, pairs: int) -> dict:
 
 READ_CHILD = r"""
 import sys, time, json
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), time.process_time()
 from imu_allan.sources.detect import load
 n = sum(b.shape[1] for b in load(sys.argv[1]).samples.open_blocks())
-print(json.dumps({"s": time.perf_counter() - t0, "n": n}))
+print(json.dumps({"s": time.perf_counter() - t0, "cpu": time.process_time() - c0, "n": n}))
 """
-"""Reading alone (imports, the look at the file, every block), no statistics."""
+"""Reading alone (imports, the look at the file, every block), no statistics: wall
+and CPU seconds (CPU too, as other work on the machine stretches the wall time)."""
 
 
 def write_bag(tsv: Path, out: Path) -> None:
@@ -221,10 +222,11 @@ def bag_vs_tsv(rows: int, pairs: int) -> dict:
         w, m, _ = peak_mb([*analyze, str(tsv), "--fs", str(FS), "--json", "--quiet"])
         t_tsv.append(w)
         m_tsv.append(m)
-        r_bag.append(json.loads(peak_mb([sys.executable, "-c", READ_CHILD, str(bag)])[2])["s"])
-        r_tsv.append(json.loads(peak_mb([sys.executable, "-c", READ_CHILD, str(tsv)])[2])["s"])
+        r_bag.append(json.loads(peak_mb([sys.executable, "-c", READ_CHILD, str(bag)])[2]))
+        r_tsv.append(json.loads(peak_mb([sys.executable, "-c", READ_CHILD, str(tsv)])[2]))
     ratio = _spread([b / t for b, t in zip(t_bag, t_tsv)])
-    read = _spread([v * 1e6 / rows for v in r_bag])
+    read = _spread([v["s"] * 1e6 / rows for v in r_bag])
+    cpu = _spread([v["cpu"] * 1e6 / rows for v in r_bag])
     return {
         "bag_rows": rows,
         "bag_mb": round(sum(f.stat().st_size for f in bag.iterdir()) / 2**20, 1),
@@ -234,7 +236,10 @@ def bag_vs_tsv(rows: int, pairs: int) -> dict:
         "bag_over_tsv_min_max": [round(ratio[1], 2), round(ratio[2], 2)],
         "bag_read_s_per_1e6": round(read[0], 2),
         "bag_read_s_per_1e6_min_max": [round(read[1], 2), round(read[2], 2)],
-        "bag_tsv_read_s_per_1e6": round(_spread([v * 1e6 / rows for v in r_tsv])[0], 2),
+        "bag_read_cpu_s_per_1e6": round(cpu[0], 2),
+        "bag_read_cpu_s_per_1e6_min_max": [round(cpu[1], 2), round(cpu[2], 2)],
+        "bag_tsv_read_s_per_1e6": round(_spread([v["s"] * 1e6 / rows for v in r_tsv])[0], 2),
+        "bag_tsv_read_cpu_s_per_1e6": round(_spread([v["cpu"] * 1e6 / rows for v in r_tsv])[0], 2),
         "bag_peak_mb": max(m_bag),
         "bag_tsv_peak_mb": max(m_tsv),
     }
