@@ -186,7 +186,7 @@ class Ros1Backend(Backend):
         self._ts = _store(ros1=True)
 
     @staticmethod
-    def open(path: str) -> Optional[bagros1.Bag]:
+    def read_index(path: str) -> Optional[bagros1.Bag]:
         """The bag's index when it is read so: standard sensor_msgs/Imu definitions, chunks in time order."""
         try:
             with open(path, "rb") as f:
@@ -280,7 +280,7 @@ def _backend(path: str, name: str) -> Backend:
             pass
     elif McapBackend.fits(path):
         return McapBackend(path, name)
-    elif os.path.isfile(path) and (ros1 := Ros1Backend.open(path)) is not None:
+    elif os.path.isfile(path) and (ros1 := Ros1Backend.read_index(path)) is not None:
         return Ros1Backend(path, ros1)
     return RosbagsBackend(path, name)
 
