@@ -22,6 +22,7 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin  #
 from rosbags.rosbag2 import Writer as Writer2  # noqa: E402
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
+from imu_allan.errors import InputError  # noqa: E402
 from imu_allan.sources import bagdb3, imumsg, rosbag  # noqa: E402
 from imu_allan.sources.detect import load  # noqa: E402
 
@@ -268,6 +269,35 @@ def test_a_ros1_bag_of_many_chunks_compressed_and_times_out_of_order(
     with AnyReader([path]) as r:
         want_t = [t for c, t, _ in r.messages() if c.topic == "/imu"]
     assert np.array_equal(np.concatenate([g[2] for g in got]), want_t)
+
+
+def test_a_bad_message_stops_the_reading_thread_with_one_line(tmp_path: Path, monkeypatch) -> None:
+    """A value that is not finite (found as the blocks are handed over) and a
+    truncated message (found by the thread reading ahead) name their message;
+    the thread ends either way."""
+    import sqlite3
+    import threading
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    rng = np.random.default_rng(14)
+    path = tmp_path / "bad"
+    with Writer2(path, version=9) as w:
+        c = w.add_connection("/imu", IMU, typestore=ts)
+        for i in range(3000):
+            m = _msg(ts, rng, i, "imu", 1 + i // 1000, (i % 1000) * 1_000_000)
+            if i == 1234:
+                m.angular_velocity.y = float("nan")
+            w.write(c, 10**9 + i * 1_000_000, ts.serialize_cdr(m, IMU))
+    monkeypatch.setattr(bagdb3, "BATCH", 64)
+    before = threading.active_count()
+    with pytest.raises(InputError, match="message 1235: a value is not a finite number"):
+        list(load(str(path)).samples.open_blocks())
+    with sqlite3.connect(path / "bad.db3") as con:
+        con.execute("UPDATE messages SET data = (SELECT data FROM messages WHERE id = 1234) WHERE id = 1235")
+        con.execute("UPDATE messages SET data = substr(data, 1, 20) WHERE id = 2001")
+    with pytest.raises(InputError, match="message 2001 is not a readable sensor_msgs/Imu"):
+        list(load(str(path)).samples.open_blocks())
+    assert threading.active_count() == before
 
 
 CUSTOM = """std_msgs/Header header

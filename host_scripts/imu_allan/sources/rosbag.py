@@ -21,6 +21,8 @@ rosbags, message by message.
 from __future__ import annotations
 
 import os
+import queue
+import threading
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable, Iterator, NamedTuple, Optional
@@ -336,7 +338,7 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     def blocks() -> Iterator[np.ndarray]:
         check.start()
         done = 0
-        for vals, stamps, recorded in _decoded(bag, name, not use_stamps):
+        for vals, stamps, recorded in _ahead(_decoded(bag, name, not use_stamps)):
             when = stamps if use_stamps else recorded
             assert when is not None
             check.feed((when - t0).astype(np.float64))
@@ -350,6 +352,53 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
 
     src.open_blocks = blocks
     return src
+
+
+AHEAD = 2
+"""Blocks read ahead by a thread while the statistics work on the last one."""
+
+
+def _ahead(blocks: Iterator[Any]) -> Iterator[Any]:
+    """``blocks``, read by a thread ahead of the consumer: sqlite, the
+    decompressors and numpy let go of the GIL, so reading a bag overlaps the
+    statistics on a second core. Errors arrive in order, as raised."""
+    q: queue.Queue = queue.Queue(maxsize=AHEAD)
+    stop = threading.Event()
+
+    def put(item: tuple[str, Any]) -> bool:
+        while not stop.is_set():
+            try:
+                q.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def run() -> None:
+        try:
+            for b in blocks:
+                if not put(("block", b)):
+                    break
+            else:
+                put(("end", None))
+        except BaseException as exc:  # handed to the consumer, raised there
+            put(("error", exc))
+        finally:
+            getattr(blocks, "close", lambda: None)()
+
+    thread = threading.Thread(target=run, name="bag-reader", daemon=True)
+    thread.start()
+    try:
+        while True:
+            kind, item = q.get()
+            if kind == "end":
+                return
+            if kind == "error":
+                raise item
+            yield item
+    finally:
+        stop.set()
+        thread.join()
 
 
 def _decoded(
