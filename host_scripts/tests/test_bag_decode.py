@@ -336,3 +336,13 @@ def test_another_definition_named_sensor_msgs_imu_is_deserialised_by_rosbags(ros
             w.write(c, i * 5_000_000, (ts.serialize_ros1 if ros1 else ts.serialize_cdr)(m, IMU))
     got = np.concatenate(list(load(str(path)).samples.open_blocks()), axis=1)
     assert np.array_equal(got, vals)
+
+
+@pytest.mark.parametrize(
+    "name, head", [("x.db3", b"SQLite format 3\0"), ("x.mcap", b"\x89MCAP0\r\n"), ("x.bag", b"#ROSBAG V2.0\n")]
+)
+def test_a_damaged_bag_is_one_line_not_a_traceback(name: str, head: bytes, tmp_path: Path) -> None:
+    path = tmp_path / name
+    path.write_bytes(head + bytes(range(256)) * 20)
+    with pytest.raises(InputError, match="not a readable ROS bag"):
+        list(load(str(path)).samples.open_blocks())

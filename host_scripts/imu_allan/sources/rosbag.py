@@ -308,7 +308,12 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
 
     bag = _backend(path, name)
     chosen = _pick(name, bag.topics, topic)
-    bag.choose(chosen)
+    try:
+        bag.choose(chosen)
+    except InputError:
+        raise
+    except Exception as exc:  # sqlite's or rosbags' errors on a damaged bag
+        raise InputError(f"'{name}': not a readable ROS bag ({type(exc).__name__}: {exc})") from None
     others = sorted({t for t, _ in bag.topics} - {chosen})
     first = next(_decoded(bag, name, True, SNIFF_MESSAGES), None)
     if first is None or first[0].shape[1] < 3:
