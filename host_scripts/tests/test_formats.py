@@ -267,27 +267,6 @@ def test_integer_npy_is_adc_codes_like_a_rows_file(tmp_path: Path) -> None:
         list(load(str(tmp_path / "bad.npy")).samples.open_blocks())
 
 
-@pytest.mark.parametrize("store", [Stores.ROS1_NOETIC, Stores.ROS2_HUMBLE])
-def test_array_decoding_of_imu_messages_agrees_with_rosbags(store: Any, imu: dict[str, Any]) -> None:
-    """The offsets of every field move with the frame_id's length (CDR pads the
-    doubles to 8 bytes): lengths 0 to 17 decoded as arrays give what rosbags'
-    own deserializer gives, value for value and stamp for stamp."""
-    from imu_allan.sources import rosbag
-
-    ts = get_typestore(store)
-    ros1 = store == Stores.ROS1_NOETIC
-    frames = ["x" * k for k in range(18)]
-    msgs = [_imu_msg(ts, i, imu, frames[i % len(frames)]) for i in range(40)]
-    raws = [
-        bytes(ts.serialize_ros1(m, "sensor_msgs/msg/Imu") if ros1 else ts.serialize_cdr(m, "sensor_msgs/msg/Imu"))
-        for m in msgs
-    ]
-    vals, stamps = rosbag._fast(raws, ros1)
-    assert np.array_equal(vals, imu["values"][:, :40]) and np.array_equal(stamps, imu["stamps"][:40])
-    with pytest.raises(ValueError):
-        rosbag._fast([raws[0] + b"\0" * 8], ros1)  # another layout: not decoded as arrays
-
-
 def test_small_blocks_read_the_same_values_and_gaps(imu: dict[str, Any], tmp_path: Path, monkeypatch) -> None:
     """A CSV read 4 KB at a time (every block boundary inside the data, one
     across a gap) gives the values of one read and the gap once."""

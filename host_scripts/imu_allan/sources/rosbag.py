@@ -8,31 +8,67 @@ message defines (REP 103), so no --scale is needed; the header stamps give
 the sample rate and the gaps (timing.py), or, when a driver leaves them zero,
 the times the bag recorded the messages.
 
-Messages are decoded as arrays, a block of them at a time: the fields of
-sensor_msgs/Imu lie at offsets that only the frame_id's length moves (ROS 1
-packs them, CDR aligns the doubles to 8 bytes). The first message of a
-topic is decoded by rosbags too, and a disagreement (a message definition
-not the standard one) falls back to rosbags for every message.
+Messages are never deserialised one by one in Python: their raw bytes come
+in bulk (a ROS 2 sqlite3 bag straight from sqlite, bagdb3.py; an MCAP and a
+ROS 1 bag chunk by chunk, bagmcap.py and bagros1.py; anything else, such as a
+bag compressed as a whole, through rosbags' reader) and are decoded as
+arrays (imumsg.py). One message of each layout (length, byte order) is also
+deserialised by rosbags, and a disagreement (a message definition not the
+standard one), like a message of no known layout, is deserialised by
+rosbags, message by message.
 """
 
 from __future__ import annotations
 
+import os
+import queue
+import threading
+from functools import lru_cache
 from pathlib import Path
-from typing import Any, Iterator, Optional
+from typing import Any, Callable, Iterator, NamedTuple, Optional
 
 import numpy as np
 
 from ..channels import CHANNELS
 from ..errors import InputError
+from . import bagdb3, bagmcap, bagros1, imumsg
 from .timing import rate_from_time
 
 IMU_TYPE = "sensor_msgs/msg/Imu"
 BLOCK_MESSAGES = 1 << 16
-"""Messages decoded at a time: 6 values each, about 3 MB a block."""
+"""Messages rosbags' reader hands over before they are decoded: about 20 MB."""
 SNIFF_MESSAGES = 2048
 """Messages whose stamps give the sample rate before the pass."""
-_GYRO_AT, _ACC_AT, _TAIL = 104, 200, 296  # after the frame_id: 4+9 doubles, 3+9, 3+9
 UNITS = {ch: ("rad/s" if ch[0] == "g" else "m/s^2") for ch in CHANNELS}
+
+
+class Raw(NamedTuple):
+    raw: bytes  # messages end to end
+    lens: np.ndarray  # (k,)
+    times: Optional[np.ndarray]  # (k,) the bag's times, ns (when asked)
+
+
+class Backend:
+    """Where a topic's raw messages come from: ``open_raw(times, limit)``
+    yields Raw blocks; ``deserialize(raw)`` is rosbags' message."""
+
+    ros1 = False
+    topics: list[tuple[str, str]] = []  # (topic, message type) of every connection
+    count = 0
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        raise NotImplementedError
+
+    def deserialize(self, raw: bytes) -> Any:
+        raise NotImplementedError
+
+
+@lru_cache(maxsize=2)
+def _store(ros1: bool) -> Any:
+    """rosbags' typestore of the standard messages (building one takes ~0.2 s)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
 
 
 def _reader(path: str, name: str) -> Any:
@@ -48,10 +84,213 @@ def _reader(path: str, name: str) -> Any:
     return r
 
 
-def _pick(name: str, reader: Any, topic: Optional[str]) -> list[Any]:
-    imu = sorted({c.topic for c in reader.connections if c.msgtype == IMU_TYPE})
+class RosbagsBackend(Backend):
+    """rosbags' reader (ROS 1 .bag, .mcap, compressed or unusual ROS 2 bags): raw bytes per message."""
+
+    def __init__(self, path: str, name: str) -> None:
+        self.path, self.name = path, name
+        r = _reader(path, name)
+        try:
+            self.topics = [(c.topic, c.msgtype) for c in r.connections]
+        finally:
+            r.close()
+        self.topic: Optional[str] = None
+        self._deser: Optional[Callable[[bytes], Any]] = None
+
+    def choose(self, topic: str) -> None:
+        r = _reader(self.path, self.name)
+        try:
+            conns = _conns(r, topic)
+            self.topic, self.count, self.ros1 = topic, sum(c.msgcount for c in conns), _is_ros1(conns[0])
+        finally:
+            r.close()
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        r = _reader(self.path, self.name)
+        self._deser = lambda raw: r.deserialize(raw, IMU_TYPE)
+        raws: list[bytes] = []
+        stamps: list[int] = []
+        left = limit if limit is not None else -1
+        try:
+            for _, t, raw in r.messages(connections=_conns(r, str(self.topic))):
+                raws.append(raw)
+                stamps.append(t)
+                left -= 1
+                if len(raws) == BLOCK_MESSAGES or left == 0:
+                    yield _raw(raws, stamps)
+                    raws, stamps = [], []
+                if left == 0:
+                    return
+            if raws:
+                yield _raw(raws, stamps)
+        finally:
+            r.close()
+
+    def deserialize(self, raw: bytes) -> Any:
+        assert self._deser is not None
+        return self._deser(raw)
+
+
+class McapBackend(RosbagsBackend):
+    """A ROS 2 MCAP bag (uncompressed as a bag; its chunks may be): rosbags'
+    chunk index and decompression, the records found as arrays (bagmcap.py)."""
+
+    def __init__(self, path: str, name: str) -> None:
+        super().__init__(path, name)
+        self.ros1 = False
+
+    @staticmethod
+    def fits(path: str) -> bool:
+        """A bag whose every storage is an indexed MCAP with chunks in time order."""
+        from rosbags.rosbag2 import Reader
+
+        try:
+            with Reader(path) as r:
+                storages = _mcap_storages(r)
+                return bool(storages) and all(bagmcap.chunks_in_order(s) for s in storages)
+        except Exception:  # rosbags will say what is wrong
+            return False
+
+    def choose(self, topic: str) -> None:
+        super().choose(topic)
+        self.ros1 = False
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        from rosbags.rosbag2 import Reader
+
+        r = _reader(self.path, self.name)
+        self._deser = lambda raw: r.deserialize(raw, IMU_TYPE)
+        left = limit
+        try:
+            with Reader(self.path) as bag:
+                for st in _mcap_storages(bag):
+                    ids = {c.id for c in st.connections if c.topic == self.topic and c.msgtype == IMU_TYPE}
+                    for raw, lens, t in bagmcap.chunk_messages(st, ids) if ids else ():
+                        if left is not None:
+                            raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
+                            left -= len(lens)
+                        yield Raw(raw, lens, t)
+                        if left is not None and left <= 0:
+                            return
+        finally:
+            r.close()
+
+
+class Ros1Backend(Backend):
+    """A ROS 1 bag read through its own index (bagros1.py); rosbags' ROS 1
+    typestore deserialises what the arrays do not decode."""
+
+    ros1 = True
+
+    def __init__(self, path: str, bag: bagros1.Bag) -> None:
+        self.path, self.bag, self.topic = path, bag, ""
+        self.topics = [(c.topic, c.msgtype) for c in bag.conns]
+        self._ts = _store(ros1=True)
+
+    @staticmethod
+    def read_index(path: str) -> Optional[bagros1.Bag]:
+        """The bag's index when it is read so: standard sensor_msgs/Imu definitions, chunks in time order."""
+        try:
+            with open(path, "rb") as f:
+                bag = bagros1.open_bag(f)
+        except Exception:  # rosbags says what is wrong
+            return None
+        std = _store(ros1=True).generate_msgdef(IMU_TYPE)[1]
+        return bag if bag is not None and all(c.md5sum == std for c in bag.conns if c.msgtype == IMU_TYPE) else None
+
+    def _ids(self) -> set[int]:
+        return {c.id for c in self.bag.conns if c.topic == self.topic and c.msgtype == IMU_TYPE}
+
+    def choose(self, topic: str) -> None:
+        self.topic = topic
+        self.count = sum(self.bag.counts.get(i, 0) for i in self._ids())
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        left = limit
+        with open(self.path, "rb") as f:
+            for raw, lens, t in bagros1.chunk_messages(f, self.bag, self._ids()):
+                if left is not None:
+                    raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
+                    left -= len(lens)
+                yield Raw(raw, lens, t)
+                if left is not None and left <= 0:
+                    return
+
+    def deserialize(self, raw: bytes) -> Any:
+        return self._ts.deserialize_ros1(raw, IMU_TYPE)
+
+
+def _mcap_storages(reader: Any) -> list[Any]:
+    """The MCAP storages of an open rosbags Reader (none when another, or compressed as a bag)."""
+    st = reader.storage
+    if type(st).__name__ == "McapReader":
+        return [st]
+    meta = getattr(st, "metadata", None)
+    subs = list(getattr(st, "storages", []))
+    if meta is None or meta.compression_mode or not subs or any(type(s).__name__ != "McapReader" for s in subs):
+        return []
+    return subs
+
+
+def _conns(reader: Any, topic: str) -> list[Any]:
+    return [c for c in reader.connections if c.topic == topic and c.msgtype == IMU_TYPE]
+
+
+def _is_ros1(conn: Any) -> bool:
+    return type(conn.ext).__name__ == "ConnectionExtRosbag1"
+
+
+def _raw(raws: list[bytes], times: list[int]) -> Raw:
+    lens = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
+    return Raw(b"".join(raws), lens, np.asarray(times, dtype=np.int64))
+
+
+class Db3Backend(Backend):
+    """A ROS 2 sqlite3 bag read by sqlite in bulk (bagdb3.py); rosbags' own
+    typestore deserialises what the arrays do not decode."""
+
+    def __init__(self, paths: list[str], listing: list[tuple[str, str, str]]) -> None:
+        self.paths, self.topics = paths, [(n, t) for n, t, _ in listing]
+        self.topic = ""
+        self._ts = _store(ros1=False)
+
+    def choose(self, topic: str) -> None:
+        self.topic, self.count = topic, bagdb3.count(self.paths, topic, IMU_TYPE)
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        for b in bagdb3.batches(self.paths, self.topic, IMU_TYPE, times, limit):
+            yield Raw(b.raw, b.lens, b.times)
+
+    def deserialize(self, raw: bytes) -> Any:
+        return self._ts.deserialize_cdr(raw, IMU_TYPE)
+
+
+def _backend(path: str, name: str) -> Backend:
+    """sqlite straight when the bag is a plain ROS 2 sqlite3 bag whose
+    sensor_msgs/Imu is the standard one (its type hash, when it records
+    one), rosbags otherwise."""
+    paths = bagdb3.files(path)
+    if paths is not None:
+        try:
+            listing = bagdb3.topics(paths)
+            std = _store(ros1=False).hash_rihs01(IMU_TYPE)
+            if all(h in ("", std) for _, t, h in listing if t == IMU_TYPE):
+                return Db3Backend(paths, listing)
+        except ImportError:
+            raise InputError(f"'{name}': reading ROS bags needs the rosbags package (pip install rosbags)") from None
+        except Exception:  # sqlite's or the schema's surprises: rosbags says what is wrong
+            pass
+    elif McapBackend.fits(path):
+        return McapBackend(path, name)
+    elif os.path.isfile(path) and (ros1 := Ros1Backend.read_index(path)) is not None:
+        return Ros1Backend(path, ros1)
+    return RosbagsBackend(path, name)
+
+
+def _pick(name: str, topics: list[tuple[str, str]], topic: Optional[str]) -> str:
+    imu = sorted({t for t, m in topics if m == IMU_TYPE})
     if not imu:
-        seen = ", ".join(sorted({f"{c.topic} ({c.msgtype})" for c in reader.connections})) or "none"
+        seen = ", ".join(sorted({f"{t} ({m})" for t, m in topics})) or "none"
         raise InputError(f"'{name}': no sensor_msgs/Imu topic in the bag (topics: {seen})")
     if topic is None and len(imu) > 1:
         raise InputError(f"'{name}': {len(imu)} IMU topics: choose one with --topic ({', '.join(imu)})")
@@ -60,22 +299,23 @@ def _pick(name: str, reader: Any, topic: Optional[str]) -> list[Any]:
         raise InputError(
             f"'{name}': --topic {chosen}: no sensor_msgs/Imu messages on it (IMU topics: {', '.join(imu)})"
         )
-    return [c for c in reader.connections if c.topic == chosen and c.msgtype == IMU_TYPE]
+    return chosen
 
 
 def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     """The SampleSource of the IMU topic of the bag at ``path``."""
     from .source import SampleSource
 
-    reader = _reader(path, name)
+    bag = _backend(path, name)
+    chosen = _pick(name, bag.topics, topic)
     try:
-        conns = _pick(name, reader, topic)
-        chosen = conns[0].topic
-        count = sum(c.msgcount for c in conns)
-        others = sorted({c.topic for c in reader.connections} - {chosen})
-        first = next(_blocks(reader, conns, SNIFF_MESSAGES), None)
-    finally:
-        reader.close()
+        bag.choose(chosen)
+    except InputError:
+        raise
+    except Exception as exc:  # sqlite's or rosbags' errors on a damaged bag
+        raise InputError(f"'{name}': not a readable ROS bag ({type(exc).__name__}: {exc})") from None
+    others = sorted({t for t, _ in bag.topics} - {chosen})
+    first = next(_decoded(bag, name, True, SNIFF_MESSAGES), None)
     if first is None or first[0].shape[1] < 3:
         raise InputError(
             f"'{name}': topic {chosen} holds {0 if first is None else first[0].shape[1]} messages: too few"
@@ -83,11 +323,12 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     vals, stamps, recorded = first
     use_stamps = bool(np.all(np.diff(stamps) > 0))
     t = stamps if use_stamps else recorded
+    assert t is not None
     t0 = int(t[0])
     what = f"the header stamps of {chosen}" if use_stamps else f"the times the bag recorded {chosen}"
     check = rate_from_time(name, (t - t0).astype(np.float64), 1e-9, what)
     src = SampleSource(
-        "rosbag", name, list(CHANNELS), lambda: iter(()), False, fs=check.fs, n_hint=count, units=dict(UNITS)
+        "rosbag", name, list(CHANNELS), lambda: iter(()), False, fs=check.fs, n_hint=bag.count, units=dict(UNITS)
     )
     src.time, src.topic = check, chosen
     src.notes.append(check.note)
@@ -100,58 +341,121 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     )
 
     def blocks() -> Iterator[np.ndarray]:
-        r = _reader(path, name)
         check.start()
         done = 0
-        try:
-            for vals, stamps, recorded in _blocks(r, _pick(name, r, chosen), BLOCK_MESSAGES):
-                check.feed(((stamps if use_stamps else recorded) - t0).astype(np.float64))
-                bad = ~np.isfinite(vals).all(axis=0)
-                if bad.any():
-                    k = done + int(np.argmax(bad))
-                    raise InputError(f"'{name}': topic {chosen}, message {k + 1}: a value is not a finite number")
-                done += vals.shape[1]
-                yield vals
-        finally:
-            r.close()
+        for vals, stamps, recorded in _ahead(_decoded(bag, name, not use_stamps)):
+            when = stamps if use_stamps else recorded
+            assert when is not None
+            check.feed((when - t0).astype(np.float64))
+            bad = ~np.isfinite(vals).all(axis=0)
+            if bad.any():
+                k = done + int(np.argmax(bad))
+                raise InputError(f"'{name}': topic {chosen}, message {k + 1}: a value is not a finite number")
+            done += vals.shape[1]
+            yield vals
         check.finish(src.notes)
 
     src.open_blocks = blocks
     return src
 
 
-def _blocks(reader: Any, conns: list[Any], size: int) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """(6, k) values ax ay az gx gy gz, (k,) header stamps in ns, (k,) bag times in ns."""
-    fast: Optional[bool] = None
-    raws: list[bytes] = []
-    times: list[int] = []
-    ros1 = False
-    for conn, t, raw in reader.messages(connections=conns):
-        if fast is None:
-            ros1 = _is_ros1(conn)
-            fast = _agrees(reader, conn, raw, ros1)
-        raws.append(raw)
-        times.append(t)
-        if len(raws) == size:
-            yield _decode(reader, conns[0], raws, times, ros1, bool(fast))
-            raws, times = [], []
-    if raws:
-        yield _decode(reader, conns[0], raws, times, ros1, bool(fast))
+AHEAD = 2
+"""Blocks read ahead by a thread while the statistics work on the last one."""
 
 
-def _is_ros1(conn: Any) -> bool:
-    return type(conn.ext).__name__ == "ConnectionExtRosbag1"
+def _ahead(blocks: Iterator[Any]) -> Iterator[Any]:
+    """``blocks``, read by a thread ahead of the consumer: sqlite, the
+    decompressors and numpy let go of the GIL, so reading a bag overlaps the
+    statistics on a second core. Errors arrive in order, as raised."""
+    q: queue.Queue = queue.Queue(maxsize=AHEAD)
+    stop = threading.Event()
+
+    def put(item: tuple[str, Any]) -> bool:
+        while not stop.is_set():
+            try:
+                q.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def run() -> None:
+        try:
+            for b in blocks:
+                if not put(("block", b)):
+                    break
+            else:
+                put(("end", None))
+        except BaseException as exc:  # handed to the consumer, raised there
+            put(("error", exc))
+        finally:
+            getattr(blocks, "close", lambda: None)()
+
+    thread = threading.Thread(target=run, name="bag-reader", daemon=True)
+    thread.start()
+    try:
+        while True:
+            kind, item = q.get()
+            if kind == "end":
+                return
+            if kind == "error":
+                raise item
+            yield item
+    finally:
+        stop.set()
+        thread.join()
 
 
-def _agrees(reader: Any, conn: Any, raw: bytes, ros1: bool) -> bool:
+def _decoded(
+    bag: Backend, name: str, times: bool, limit: Optional[int] = None
+) -> Iterator[tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]]:
+    """(6, k) values ax ay az gx gy gz, (k,) header stamps in ns, (k,) bag
+    times in ns (when ``times``), block by block: arrays where a message's
+    layout is the standard one and rosbags agrees on its first message,
+    rosbags' deserialiser for the rest."""
+    agreed: dict[int, bool] = {}
+    done = 0
+    try:
+        for block in bag.open_raw(times, limit):
+            vals, stamps, odd, keys = imumsg.decode(block.raw, block.lens, bag.ros1)
+            start = np.cumsum(block.lens) - block.lens
+            for key in np.unique(keys[~odd]):
+                if int(key) not in agreed:
+                    i = int(np.flatnonzero((keys == key) & ~odd)[0])
+                    agreed[int(key)] = _agrees(bag, _slice(block, start, i), vals[:, i], int(stamps[i]))
+                if not agreed[int(key)]:
+                    odd |= keys == key
+            for i in np.flatnonzero(odd):
+                m = _deserialize(bag, _slice(block, start, int(i)), name, done + int(i))
+                vals[:, i], stamps[i] = _values(m), _stamp(m)
+            done += len(block.lens)
+            yield vals, stamps, block.times
+    except InputError:
+        raise
+    except Exception as exc:  # sqlite's or rosbags' errors on a damaged bag
+        raise InputError(f"'{name}': not a readable ROS bag ({type(exc).__name__}: {exc})") from None
+
+
+def _slice(block: Raw, start: np.ndarray, i: int) -> bytes:
+    return bytes(block.raw[int(start[i]) : int(start[i] + block.lens[i])])
+
+
+def _agrees(bag: Backend, raw: bytes, vals: np.ndarray, stamp: int) -> bool:
     """The array decoding gives what rosbags gives on this message."""
     try:
-        vals, stamp = _fast([raw], ros1)
-    except ValueError:
+        m = bag.deserialize(raw)
+    except Exception:
         return False
-    m = reader.deserialize(raw, conn.msgtype)
-    want = _values(m)
-    return bool(np.array_equal(vals[:, 0], want, equal_nan=True)) and int(stamp[0]) == _stamp(m)
+    return bool(np.array_equal(vals, _values(m), equal_nan=True)) and stamp == _stamp(m)
+
+
+def _deserialize(bag: Backend, raw: bytes, name: str, k: int) -> Any:
+    try:
+        return bag.deserialize(raw)
+    except Exception as exc:
+        raise InputError(
+            f"'{name}': message {k + 1} is not a readable sensor_msgs/Imu ({type(exc).__name__})"
+        ) from None
 
 
 def _values(m: Any) -> np.ndarray:
@@ -162,51 +466,3 @@ def _values(m: Any) -> np.ndarray:
 def _stamp(m: Any) -> int:
     s = m.header.stamp
     return int(s.sec) * 1_000_000_000 + int(s.nanosec)
-
-
-def _decode(
-    reader: Any, conn: Any, raws: list[bytes], times: list[int], ros1: bool, fast: bool
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    recorded = np.asarray(times, dtype=np.int64)
-    if fast:
-        try:
-            vals, stamps = _fast(raws, ros1)
-            return vals, stamps, recorded
-        except ValueError:
-            pass  # a message of another length: every field through rosbags
-    msgs = [reader.deserialize(r, conn.msgtype) for r in raws]
-    vals = np.array([_values(m) for m in msgs], dtype=np.float64).T
-    stamps = np.array([_stamp(m) for m in msgs], dtype=np.int64)
-    return np.ascontiguousarray(vals), stamps, recorded
-
-
-def _gather(buf: np.ndarray, at: np.ndarray, nbytes: int, dtype: str) -> np.ndarray:
-    return buf[at[:, None] + np.arange(nbytes)].view(dtype)
-
-
-def _fast(raws: list[bytes], ros1: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Values (6, k) and stamps (k,) ns of standard sensor_msgs/Imu messages,
-    little-endian (ValueError when a message is not laid out so)."""
-    lens = np.fromiter(map(len, raws), dtype=np.int64, count=len(raws))
-    buf = np.frombuffer(b"".join(raws), dtype=np.uint8)
-    start = np.cumsum(lens) - lens
-    if np.any(lens < 24):
-        raise ValueError("short message")
-    if ros1:  # seq, secs, nsecs, frame_id (length, bytes), then packed doubles
-        sec = _gather(buf, start + 4, 4, "<u4")[:, 0].astype(np.int64)
-        nsec = _gather(buf, start + 8, 4, "<u4")[:, 0].astype(np.int64)
-        flen = _gather(buf, start + 12, 4, "<u4")[:, 0].astype(np.int64)
-        base = start + 16 + flen
-    else:  # CDR: 4-byte encapsulation (little-endian: 00 01), sec, nanosec, string, doubles aligned to 8
-        if np.any(buf[start + 1] != 1) or np.any(buf[start] != 0):
-            raise ValueError("not little-endian CDR")
-        sec = _gather(buf, start + 4, 4, "<i4")[:, 0].astype(np.int64)
-        nsec = _gather(buf, start + 8, 4, "<u4")[:, 0].astype(np.int64)
-        flen = _gather(buf, start + 12, 4, "<u4")[:, 0].astype(np.int64)
-        base = start + 4 + (12 + flen + 7) // 8 * 8  # the string starts 12 bytes into the payload
-    if np.any(base + _TAIL != start + lens):
-        raise ValueError("not the standard sensor_msgs/Imu layout")
-    acc = _gather(buf, base + _ACC_AT, 24, "<f8")
-    gyro = _gather(buf, base + _GYRO_AT, 24, "<f8")
-    vals = np.ascontiguousarray(np.concatenate([acc, gyro], axis=1).T)
-    return vals, sec * 1_000_000_000 + nsec
