@@ -172,7 +172,7 @@ ROBUST_GAP = (
     [(n, 1, e) for n in (20000, 50000, 200000) for e in ("rrw", "flicker")]
     + [
         pytest.param(20000, 2, "flicker", marks=pytest.mark.xfail(strict=True, reason=ROBUST_GAP)),
-        pytest.param(200000, 0, "rrw", marks=pytest.mark.xfail(strict=True, reason=ROBUST_GAP)),
+        (200000, 0, "rrw"),
     ],
 )
 def test_plain_white_noise_at_1khz_is_read_as_white_with_no_band_limit_near_nyquist(n, seed, extra) -> None:

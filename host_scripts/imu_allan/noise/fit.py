@@ -28,9 +28,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
-from .processes import Model
+from .processes import LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
-from .select import choose
+from .select import LP_BEND, choose
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
 
 Z95 = 1.959963984540054
@@ -240,13 +240,12 @@ def _nonlinear_terms(
         fc, sd = math.exp(theta[0]), sd_th[0]
         lo, hi = _lognormal(fc, sd)
         hi = min(hi, 0.5 * p.fs)
-        rng = (float(p.t[0]), float(min(p.t[-1], 4.0 / (2 * math.pi * fc))))
+        rng = (float(p.t[0]), _bend_end(s, fc, p.t, p.fs))
         note = (
-            f"the white noise N reaches the samples through a {'one' if s.lp == 1 else 'two'}"
-            f"-pole low-pass of {fc:.3g} Hz: the curve bends under N's line below about "
-            f"{1 / (2 * math.pi * fc):.3g} s"
+            f"the white noise N reaches the samples through {LP_WORDS[s.shape, s.lp]} of {fc:.3g} Hz: "
+            f"the curve bends under N's line (by {LP_BEND / 2:.0%} of the deviation or more) up to {rng[1]:.3g} s"
         )
-        extra = {"fc": fc, "fc_low": lo, "fc_high": hi, "order": s.lp}
+        extra = {"fc": fc, "fc_low": lo, "fc_high": hi, "order": s.lp, "shape": s.shape}
         out["LP"] = Term("LP", fc, lo, hi, rng, fc, hi, note, extra=extra)
         i_th = 1
     alive = [j for j in range(s.ngm) if c[names.index(f"GM{j + 1}")] > 0]
@@ -273,6 +272,24 @@ def _nonlinear_terms(
         )
         out["SIN"] = t
     return out
+
+
+LP_WORDS = {
+    ("pole", 1): "a one-pole low-pass",
+    ("pole", 2): "a two-pole low-pass",
+    ("average", 1): "a moving average",
+    ("average", 2): "two moving averages in cascade (a Bartlett window)",
+}
+
+
+def _bend_end(s: Structure, fc: float, t: np.ndarray, fs: float) -> float:
+    """The longest tau at which the band limit holds the curve LP_BEND (AVAR) or more
+    under N's line: the short-tau region it names (a bend fades as 1 / tau, not at 1 / fc)."""
+    grid = np.exp(np.linspace(math.log(t[0]), math.log(t[-1]), 400))
+    m = np.maximum(np.rint(grid * fs), 1.0)
+    ratio = LP(1.0, fc, s.lp, s.shape).avar(m, fs) / WN(1.0).avar(m, fs)
+    bent = np.flatnonzero(ratio <= 1.0 - LP_BEND)
+    return float(grid[bent[-1]]) if bent.size else float(t[0])
 
 
 def _lognormal(v: float, sd: float) -> tuple[float, float]:
