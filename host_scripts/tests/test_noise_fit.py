@@ -112,8 +112,10 @@ def test_fit_recovers_lowpassed_white_noise_from_an_independent_generator(order,
                 strict=True,
                 reason=(
                     "known gap: on this stream the rise at the last octaves is taken as a ramp R, not K "
-                    "(chi2 38 against 58 for N+K, whose K 6.9e-4 would pass: the walk's realization dips "
-                    "under K's line at 4-30 s and rises as tau^0.63 after; N is right)"
+                    "(the walk's realization dips under K's line at 4-30 s and rises as tau^0.63 after; N "
+                    "is right). Not this seed's alone: K = 8e-4 crosses N's line at 22 s of a 524 s record, "
+                    "and on seeds 0-7 of this generator K comes out identifiable once (R twice), with one "
+                    "RC pole as with two; the rrw cases above pass on their seed"
                 ),
             ),
         ),
@@ -160,20 +162,12 @@ def _adc_channel(rng: np.random.Generator, n: int, white: float, extra: str) -> 
     return np.round(x)
 
 
-ROBUST_GAP = (
-    "known gap: the second, robust selection (model error in the weights, points far off capped) "
-    "goes astray: here it drops K (the rise's points capped cost little) and N's interval is widened "
-    "by chi2/dof ~1000 / its iterated weights collapse N to a seventh of the white level"
-)
-
-
 @pytest.mark.parametrize(
     "n,seed,extra",
     [(n, 1, e) for n in (20000, 50000, 200000) for e in ("rrw", "flicker")]
-    + [
-        pytest.param(20000, 2, "flicker", marks=pytest.mark.xfail(strict=True, reason=ROBUST_GAP)),
-        (200000, 0, "rrw"),
-    ],
+    # two where the robust selection once ran away (a model leaving most points far off
+    # had them all capped, and dropped N or K for it)
+    + [(20000, 2, "flicker"), (200000, 0, "rrw")],
 )
 def test_plain_white_noise_at_1khz_is_read_as_white_with_no_band_limit_near_nyquist(n, seed, extra) -> None:
     """N on every channel within 10 %, its 95 % interval holding the truth on 5 of 6

@@ -171,9 +171,15 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
     if not bnds:
         return theta0, p.solve(s, theta0)[1]
     theta = np.array(theta0, dtype=np.float64)
+    lims = (np.array([b[0] for b in bnds]), np.array([b[1] for b in bnds]))
+    memo: dict[bytes, float] = {}
 
     def f(th: np.ndarray) -> float:
-        return p.solve(s, _clip(s, th, bnds))[1]
+        th = _clip(s, th, lims)
+        key = th.tobytes()
+        if key not in memo:  # the start and the best point are asked for again
+            memo[key] = p.solve(s, th)[1]
+        return memo[key]
 
     if new is not None:
         lo, hi = bnds[new]
@@ -200,7 +206,7 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
         )
         if r.fun <= f(theta):
             theta = np.asarray(r.x)
-    theta = _clip(s, theta, bnds)
+    theta = _clip(s, theta, lims)
     return theta, f(theta)
 
 
@@ -209,8 +215,8 @@ GM_LP_FACTOR = 10.0
 1 / (2 pi fc): a faster GM only reshapes the filter's bend."""
 
 
-def _clip(s: Structure, th: np.ndarray, bnds: list[tuple[float, float]]) -> np.ndarray:
-    th = np.clip(th, [b[0] for b in bnds], [b[1] for b in bnds])
+def _clip(s: Structure, th: np.ndarray, lims: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    th = np.clip(th, lims[0], lims[1])
     if s.lp and s.ngm:
         th[1 : 1 + s.ngm] = np.maximum(th[1 : 1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
     return th
@@ -237,8 +243,8 @@ def settle(p: _Problem, s: Structure, theta: np.ndarray) -> None:
     if p.robust_on:
         z = (p.y - mod) / p.gls.sd
         far = np.abs(z) > ROBUST_Z
-        # a model that leaves most points far off is wrong, not the points: their influence
-        # capped, it would be judged by what it fits (a runaway to any structure at all)
+        # a model that leaves most points far off is wrong, not the points: with all of them
+        # capped it would be judged only by the few it fits (a runaway to any structure)
         p.robust = np.maximum(1.0, (z / ROBUST_Z) ** 2) if np.mean(far) <= ROBUST_SHARE else np.ones(z.size)
         p.set_reference(mod)
 

@@ -106,7 +106,7 @@ def fit_curve(
     kind = "overlapping" if overlapping else "nonoverlapping"
     lin = tuple(k for k in LINEAR if k in allowed)
     p, s, theta = choose(tau[idx], avar[idx], fs, edf_of, kind, lin, extended)
-    res = _result(p, s, theta, fitted, tau.size)
+    res = _result(p, s, theta, fitted, tau.size, lin)
     e = p.edf_of(p.alpha)
     res.alpha[idx], res.edf[idx] = p.alpha, e
     res.b_classic = b_classic(tau, avar, used, res.edf)
@@ -156,7 +156,9 @@ def _covariance(
     return sd_c, sd_th
 
 
-def _result(p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int) -> CurveFit:
+def _result(
+    p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int, lin: tuple[str, ...] = LINEAR
+) -> CurveFit:
     """The fit of structure s read as terms, intervals, notes (``size`` input points)."""
     c, chi2, A = p.solve(s, theta)
     dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
@@ -174,6 +176,7 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, si
             f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
         )
     sd_c, sd_th = _covariance(p, s, theta, c, p.gls.white(A), max(1.0, chi2_red))
+    sd_c = np.sqrt(sd_c**2 + _selection_variance(p, s, theta, c, lin, max(1.0, chi2_red)))
     res = CurveFit(
         {},
         np.zeros(5),
@@ -209,6 +212,41 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, si
         )
     notes.extend(r["text"] for r in res.unexplained)
     return res
+
+
+def _selection_variance(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, lin: tuple[str, ...], red: float
+) -> np.ndarray:
+    """The variance the choice of structure adds to each coefficient: the structures one
+    IEEE 952 term away (each term dropped or added; Q not beside a band limit) and, for a
+    band limit, white N, weighted by their Akaike weights (QAIC: chi2 / red + 2 parameters),
+    sum_i w_i (c_i - c_mean)^2 (Burnham and Anderson's unconditional variance, the part
+    beyond the chosen model's own), over the structures that hold the term."""
+    names = s.names()
+    alts = [(s, theta)]
+    for k in lin:
+        if k == "Q" and s.lp:
+            continue
+        present = k in s.linear and c[names.index(k)] > 0
+        lin2 = tuple(x for x in LINEAR if (x in s.linear and x != k) or (x == k and not present))
+        alts.append((replace(s, linear=lin2), theta))
+    if s.lp:
+        alts.append((replace(s, lp=0), theta[1:]))
+    aic, coefs = [], []
+    for s2, th2 in alts:
+        c2, chi2, _ = p.solve(s2, th2)
+        aic.append(chi2 / red + 2.0 * (np.sum(c2 > 0) + th2.size))
+        n2 = s2.names()
+        coefs.append([c2[n2.index(k)] if k in n2 else 0.0 for k in names])
+    w = np.exp(-0.5 * (np.array(aic) - min(aic)))
+    cs = np.array(coefs)
+    out = np.zeros(len(names))
+    for j in range(len(names)):  # given the term present: whether it is, the selection test said
+        wj = np.where(cs[:, j] > 0, w, 0.0)
+        if wj.sum() > 0:
+            wj = wj / wj.sum()
+            out[j] = wj @ (cs[:, j] - wj @ cs[:, j]) ** 2
+    return out
 
 
 def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, term) -> dict[str, Term]:
