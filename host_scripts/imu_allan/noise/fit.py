@@ -281,7 +281,7 @@ def _nonlinear_terms(
         rng = (float(p.t[0]), _bend_end(s, fc, p.t, p.fs))
         note = (
             f"the white noise N reaches the samples through {LP_WORDS[s.shape, s.lp]} of {fc:.3g} Hz: "
-            f"the curve bends under N's line (by {LP_BEND / 2:.0%} of the deviation or more) up to {rng[1]:.3g} s"
+            f"the curve bends under N's line (by {LP_BEND / 2 * 100:g} % of the deviation or more) up to {rng[1]:.3g} s"
         )
         extra = {"fc": fc, "fc_low": lo, "fc_high": hi, "order": s.lp, "shape": s.shape}
         out["LP"] = Term("LP", fc, lo, hi, rng, fc, hi, note, extra=extra)
