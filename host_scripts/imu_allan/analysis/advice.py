@@ -114,10 +114,14 @@ def _jacobian(fit: Any, t: np.ndarray) -> np.ndarray:
     return np.stack(cols + extra, axis=1)
 
 
-def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapping: bool) -> dict[str, float]:
+def predicted_pct(
+    fit: Any, points: list[dict[str, Any]], scale: float, overlapping: bool, model_error: bool = True
+) -> dict[str, float]:
     """The interval (+-%, 95 %) each fitted term would have on a record ``scale`` times as long,
     were the sensor the fitted model: the generalized least squares of the fit (the points'
-    chi-squared variances from their EDF, correlated between octaves) with no model error.
+    chi-squared variances from their EDF, correlated between octaves) and, with
+    ``model_error``, the model error the fit granted (``fit.model_error``, the same share of
+    every point however long the record, and ``fit.widened``): at scale 1 the fit's own interval.
 
     ``points``: the fit's octave points now (tau_s, edf, used). A point keeps its tau and its
     EDF grows by ``scale`` (EDF ~ N/m once the record is many taus long); each doubling of the
@@ -135,11 +139,12 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
         edf = np.append(edf, used[-1]["edf"] * scale / 2**i)
     ref = fit.model(tau)
     alpha = F.alphas(tau, ref)
-    gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping")
+    floor, widened = (getattr(fit, "model_error", 0.0), getattr(fit, "widened", 1.0)) if model_error else (0.0, 1.0)
+    gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping", floor)
     Jw = gls.white(_jacobian(fit, tau))
     scale_cols = np.linalg.norm(Jw, axis=0)
     scale_cols[scale_cols == 0] = 1.0
-    cov = np.linalg.pinv((Jw / scale_cols).T @ (Jw / scale_cols)) / np.outer(scale_cols, scale_cols)
+    cov = np.linalg.pinv((Jw / scale_cols).T @ (Jw / scale_cols)) / np.outer(scale_cols, scale_cols) * widened
     out = {}
     for j, name in enumerate(_term_names(fit)):
         rel = math.sqrt(max(cov[j, j], 0.0))  # sd of log c, c the squared amplitude
@@ -149,15 +154,22 @@ def predicted_pct(fit: Any, points: list[dict[str, Any]], scale: float, overlapp
 
 
 def record_for_target(
-    fit: Any, points: list[dict[str, Any]], duration: float, overlapping: bool, targets=TARGETS_PCT
+    fit: Any,
+    points: list[dict[str, Any]],
+    duration: float,
+    overlapping: bool,
+    targets=TARGETS_PCT,
+    model_error: bool = False,
 ) -> dict[str, dict[str, Optional[float]]]:
-    """Per term: the predicted +-% now (under the fitted model) and the recording time (s) for
-    each target: found on a quarter-octave grid of longer records and interpolated in log-log;
-    for a target already met, the shorter record whose EDFs give it (every EDF in proportion)."""
+    """Per term: the predicted +-% now (``pct``) and the recording time (s) for each target,
+    under the fitted model and, with ``model_error``, the model error the fit granted (None: a
+    model error the record's length cannot beat): found on a quarter-octave grid of longer
+    records and interpolated in log-log; for a target already met, the shorter record whose
+    EDFs give it (every EDF in proportion)."""
     scales = 2.0 ** (np.arange(0, 4 * 24 + 1) / 4.0)
     preds: list[dict[str, float]] = []
     for sc in scales:  # until every term reaches the smallest target
-        preds.append(predicted_pct(fit, points, float(sc), overlapping))
+        preds.append(predicted_pct(fit, points, float(sc), overlapping, model_error))
         if all(v <= min(targets) for v in preds[-1].values()):
             break
     scales = scales[: len(preds)]
@@ -188,33 +200,44 @@ def _crossing(scales: np.ndarray, pct: np.ndarray, target: float, duration: floa
 
 def add_to_analysis(doc: dict[str, Any], level: float = LEVEL, fits: Optional[dict[str, Any]] = None) -> None:
     """Adds to every identified term of ``analyze``'s document ``interval_pct`` (its
-    interval now), ``expected_pct`` (the interval the fitted model predicts now) and
-    ``record_s_for_10pct``, ``record_s_for_25pct``: the recording time (s from the
-    start) after which it would be +-10 % and +-25 %.
+    interval now), ``expected_pct`` (the interval the points' EDFs give under the fitted
+    model, without its model error) and ``record_s_for_10pct``, ``record_s_for_25pct``:
+    the recording time (s from the start) after which it would be +-10 % and +-25 %
+    (None: the fit's model error keeps it wider however long the record).
 
     With the channels' ``fits`` (analyze's): from the fit's own least squares under
-    the fitted model (``record_for_target``). Without: from ``edf``, the degrees of
-    freedom of the points in the term's tau range (``term_edf``)."""
+    the fitted model (``record_for_target``); for a term whose interval is mostly the
+    fit's model error (over MODEL_ERROR_RATIO times ``expected_pct``), with that model
+    error, which recording longer keeps. A smaller model error is left out of the times:
+    it may be chance (a true model's chi2 passes its 95 % point on one record in twenty),
+    and counted it would lengthen the advice for nothing (it is counted only for a target
+    the EDFs alone call met while the interval is not). Without fits: from ``edf``, the degrees of freedom
+    of the points in the term's tau range (``term_edf``)."""
     duration = (doc.get("source") or {}).get("duration_s")
     for ch_name, ch in doc.get("channels", {}).items():
         overlapping = (ch.get("fit") or {}).get("statistic") == "oadev"
         points = (ch.get("fit") or {}).get("octave_points") or ch.get("curve") or []
         fit = (fits or {}).get(ch_name)
-        model = (
-            record_for_target(fit, points, duration, overlapping)
-            if fit is not None and duration and hasattr(fit, "fitted")
-            else {}
-        )
+        usable = fit is not None and duration and hasattr(fit, "fitted")
+        model = record_for_target(fit, points, duration, overlapping) if usable else {}
+        granted = usable and (getattr(fit, "model_error", 0.0) > 0 or getattr(fit, "widened", 1.0) > 1)
+        with_error = record_for_target(fit, points, duration, overlapping, model_error=True) if granted else model
         for name, term in (ch.get("terms") or {}).items():
             if not term:
                 continue
             term["interval_pct"] = term_interval_pct(term)
             nu = term_edf(points, term.get("tau_range_s"), name, overlapping)
             term["edf"] = nu
-            if name in model:
-                term["expected_pct"] = model[name]["pct"]
+            if model:  # a term the prediction leaves out (LP: its interval is fc's, no variance's): none
+                exp = term["expected_pct"] = model.get(name, {}).get("pct")
+                pct = term["interval_pct"]
+                # mostly model error (the text's mark): the times count it; a smaller one may be chance
+                times = with_error if exp and pct and pct > MODEL_ERROR_RATIO * exp else model
                 for target in TARGETS_PCT:
-                    term[f"record_s_for_{target}pct"] = model[name][target]
+                    t = times.get(name, {}).get(target)
+                    if pct and pct > target and t is not None and t <= duration:  # met by EDFs, not by the interval
+                        t = with_error.get(name, {}).get(target)
+                    term[f"record_s_for_{target}pct"] = t
                 continue
             term["expected_pct"] = 100 * halfwidth(nu, level) if nu else None
             for target in TARGETS_PCT:
@@ -259,16 +282,21 @@ def analysis_text(doc: dict[str, Any]) -> str:
             if exp and pct > MODEL_ERROR_RATIO * exp:  # the fit granted model error: time does not shrink it
                 part += " [model error]"
                 marked = True
-            pct = exp or pct
-            for tgt, t in ((25, t25), (10, t10)):
-                if t is not None and pct > tgt:
+            for tgt, t in ((25, t25), (10, t10)):  # from the interval now, model error included
+                if pct <= tgt or exp is None:
+                    continue
+                if t is None:
+                    part += f", +-{tgt} % not by recording longer"
+                    break
+                if t > duration:
                     part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
             parts.append(part)
         if parts:
             lines.append(f"  {name}: " + "; ".join(parts))
     if marked:
         lines.append("  [model error]: the interval is over 1.5 times what its points' EDFs give")
-        lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps")
+        lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps;")
+        lines.append("  the times count it")
     return "\n".join(lines) + "\n" if len(lines) > 1 else ""
 
 

@@ -12,10 +12,10 @@ with Greenhall's EDF for the local noise type, correlated between octaves),
 iterated with the model as the reference (GMWM, Guerrier et al. 2013, weights
 by the estimates' covariance the same way).  A real sensor is never exactly a
 sum of catalogue processes, and a million samples make the short-tau points
-so precise that any misfit there would decide everything: when chi2/dof
-exceeds 1, a model error (relative, at most MODEL_ERR of the deviation) is
-added in quadrature to each point's sd, the least that brings chi2/dof to 1
-(``set_floor``).
+so precise that any misfit there would decide everything: when chi2
+exceeds its 95 % point (a misfit beyond chance, ``misfits``), a model error
+(relative, at most MODEL_ERR of the deviation) is added in quadrature to each
+point's sd, the least that brings chi2/dof to 1 (``set_floor``).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, stats
 
 from ..stats.edf import alpha_from_slope
 from .processes import AR1, LP, QN, RW, WN, Ramp, Sine
@@ -257,9 +257,21 @@ counts as ROBUST_Z sd (capped influence: a resonance or a hump the catalogue lac
 cannot pull the other terms)."""
 
 
+FIT_LEVEL = 0.95
+"""A model misfits when its chi2 exceeds this point of chi2 with its degrees of freedom:
+below it, chi2/dof above 1 is chance, and the points' own variances (known from their
+EDF) stand; the intervals then depend on the record's length and the model only."""
+
+
+def misfits(chi2: float, dof: int) -> bool:
+    """chi2 beyond what chance gives a model that is the truth (FIT_LEVEL point)."""
+    return chi2 > float(stats.chi2.ppf(FIT_LEVEL, max(dof, 1)))
+
+
 def set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> float:
     """The least model error (relative sd of AVAR, up to 2 MODEL_ERR) that brings
-    chi2/dof to 1 at these parameters (set in p)."""
+    chi2/dof to 1 at these parameters (set in p); none when the model misfits
+    no more than chance allows (``misfits``)."""
     A = columns(s, theta, p.m, p.fs)
     mod = A @ c
 
@@ -268,7 +280,7 @@ def set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: 
         p.set_reference(mod)
         return float(np.sum((p.yw - p.gls.white(A) @ c) ** 2)) / dof
 
-    if red(0.0) <= 1.0:
+    if not misfits(red(0.0) * dof, dof):
         return 0.0
     top = 2.0 * MODEL_ERR
     if red(top) >= 1.0:

@@ -13,9 +13,10 @@ process of correlation time T_j; s a sinusoid of frequency f0).  The problem
 catalogue falls short, the fit of one structure) is curve.py's; which
 processes the curve needs, select.py's.  Here: the result.  Intervals (95 %):
 from the covariance of all parameters (Jacobian of the whitened residuals),
-widened by chi2/dof when above 1, chi-squared shaped for the c (never below
-0), log-normal for fc, T and f0; an absent IEEE 952 term gets a 95 % upper
-bound; the IEEE 952 slope reading stays beside the fit (reading.py).
+widened by chi2/dof only when the model misfits beyond chance (curve.misfits),
+chi-squared shaped for the c (never below 0), log-normal for fc, T and f0;
+an absent IEEE 952 term gets a 95 % upper bound; the IEEE 952 slope reading
+stays beside the fit (reading.py).
 """
 
 from __future__ import annotations
@@ -46,6 +47,10 @@ class CurveFit(FitResult):
     fitted: Model = field(default_factory=Model)
     structure: Structure = field(default_factory=Structure)
     slope: dict = field(default_factory=dict)
+    model_error: float = 0.0
+    """Relative sd of AVAR granted to every point as model error (curve.set_floor), 0 when
+    the model fits within chance; with ``widened``, the factor on the covariance beyond it."""
+    widened: float = 1.0
 
     def model(self, tau: np.ndarray) -> np.ndarray:
         return self.fitted.avar(np.asarray(tau, dtype=np.float64) * self.fs, self.fs)
@@ -160,6 +165,8 @@ def _result(
     p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int, lin: tuple[str, ...] = LINEAR
 ) -> CurveFit:
     """The fit of structure s read as terms, intervals, notes (``size`` input points)."""
+    from .curve import misfits
+
     c, chi2, A = p.solve(s, theta)
     dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
     notes: list[str] = []
@@ -171,12 +178,13 @@ def _result(
             f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)"
         )
     chi2_red = chi2 / dof
-    if chi2_red > 2.0:
+    inflate = max(1.0, chi2_red) if misfits(chi2, dof) else 1.0  # chi2/dof above 1 by chance: no widening
+    if chi2_red > 2.0 and inflate > 1.0:
         notes.append(
             f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
         )
-    sd_c, sd_th = _covariance(p, s, theta, c, p.gls.white(A), max(1.0, chi2_red))
-    sd_c = np.sqrt(sd_c**2 + _selection_variance(p, s, theta, c, lin, max(1.0, chi2_red)))
+    sd_c, sd_th = _covariance(p, s, theta, c, p.gls.white(A), inflate)
+    sd_c = np.sqrt(sd_c**2 + _selection_variance(p, s, theta, c, lin, inflate))
     res = CurveFit(
         {},
         np.zeros(5),
@@ -189,6 +197,8 @@ def _result(
         fs=p.fs,
         fitted=to_model(s, theta, c),
         structure=s,
+        model_error=floor,
+        widened=inflate,
     )
     grid = np.exp(np.linspace(math.log(p.t[0]), math.log(p.t[-1]), 200))
     comps = res.components(grid)

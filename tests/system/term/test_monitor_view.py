@@ -26,10 +26,16 @@ LINE = re.compile(rb"\$([\x20-\x7e]*)\*([0-9A-F]{4})\Z")
 
 def _bodies(log: bytes) -> tuple[list[str], int]:
     """The bodies of the intact framed lines of ``log`` (CRC-16/CCITT-FALSE
-    checked), and how many lines holding a '$' were damaged."""
+    checked), and how many lines came damaged: a framed line that fails, and
+    a line that lost its '$' (every line the device sends in summary mode is
+    framed, but for the echo of a typed command, ``> ...``; the capture's
+    first line may start mid-line, so it is not judged, nor is the text after
+    the last line end: that line is still open)."""
     ok, bad = [], 0
-    for raw in re.split(rb"\r\n|\r|\n", log):
+    ended = log[: log.rfind(b"\n") + 1]
+    for i, raw in enumerate(re.split(rb"\r\n|\r|\n", ended)):
         if b"$" not in raw:
+            bad += bool(i and raw and not raw.startswith(b"> "))
             continue
         dollars = raw.count(b"$")
         m = LINE.fullmatch(raw[raw.rindex(b"$") :])
