@@ -58,7 +58,9 @@ def _in_memory(codes: np.ndarray) -> sources.Source:
     )
 
 
-def _check(doc: dict, tol: float, which: dict[str, tuple[str, ...]]) -> dict[str, dict[str, float]]:
+def _check(
+    doc: dict, tol: float, which: dict[str, tuple[str, ...]], tol_k: float | None = None
+) -> dict[str, dict[str, float]]:
     errors: dict[str, dict[str, float]] = {}
     for ch in CH:
         true = thesis.terms_si(ch)
@@ -73,7 +75,7 @@ def _check(doc: dict, tol: float, which: dict[str, tuple[str, ...]]) -> dict[str
                 assert t["low"] <= true[k] * (1 + tol) and true[k] * (1 - tol) <= t["high"], (ch, k, t)
             if ch in which.get(k, ()):
                 assert t is not None, (ch, k, doc["channels"][ch]["term_notes"].get(k))
-                assert abs(errors[ch][k]) < tol, (ch, k, errors[ch][k])
+                assert abs(errors[ch][k]) < (tol_k if k == "K" and tol_k else tol), (ch, k, errors[ch][k])
     return errors
 
 
@@ -91,22 +93,16 @@ def test_recovered_from_the_raw_rows(codes: np.ndarray) -> None:
     assert max(abs(e["N"]) for e in errors.values()) < 0.02
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "known gap: the device's non-overlapping curve (up to 164 s) gives ay's K 10.6 % high on this "
-        "seed (tolerance 10 %), its 95 % interval -4 % .. +31 % holding the truth: K is held to about "
-        "+-20 % by these points, so 10 % is its scatter on one seed, not a bias of the fit"
-    ),
-)
 def test_recovered_from_the_device_log(codes: np.ndarray, tmp_path: Path, run_cli) -> None:
-    """The device's non-overlapping curve stops at tau = 164 s (15 levels at 100 Hz)."""
+    """The device's non-overlapping curve stops at tau = 164 s (15 levels at 100 Hz): K rests on
+    its last few points, which hold it to about +-20 % (95 %); the acceptance asks K within
+    30-40 % of the truth and the truth inside its interval, not the 10 % of N and B."""
     log = _device_log(codes[:, : 1 << 20], tmp_path / "device.log")
     rc, out, err = run_cli("analyze", log, "--json", "--no-model")
     assert rc == 0, err
     doc = json.loads(out)
     assert doc["source"]["kind"] == "device-log" and doc["source"]["n"] == 1 << 20
-    _check(doc, 0.10, {"N": CH, "B": ("ax", "ay", "gx", "gy", "gz"), "K": ("ax", "ay")})
+    _check(doc, 0.10, {"N": CH, "B": ("ax", "ay", "gx", "gy", "gz"), "K": ("ax", "ay")}, tol_k=0.35)
 
 
 def test_device_and_rows_agree(codes: np.ndarray, tmp_path: Path, run_cli) -> None:

@@ -45,6 +45,7 @@ class Structure:
     lp: int = 0  # 0: white N; 1 or 2: N low-passed (order)
     ngm: int = 0
     sine: int = 0  # 1: a sinusoid (amplitude, frequency)
+    shape: str = "pole"  # the low-pass: "pole" (RC, Butterworth) or "average" (box, Bartlett)
 
     def names(self) -> list[str]:
         return list(self.linear) + [f"GM{j + 1}" for j in range(self.ngm)] + ["SIN"] * self.sine
@@ -56,25 +57,35 @@ class Structure:
 def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.ndarray:
     """(points, columns) AVAR per unit coefficient, in the order of s.names()."""
     cols = []
-    i = 0
-    fc = math.exp(theta[0]) if s.lp else None
     for k in s.linear:
-        if k == "Q":
-            cols.append(QN(1.0).avar(m, fs))
-        elif k == "N":
-            cols.append(LP(1.0, fc, s.lp).avar(m, fs) if s.lp else WN(1.0).avar(m, fs))
-        elif k == "B":
-            cols.append(np.full(m.shape, B_FACTOR))
-        elif k == "K":
-            cols.append(RW(1.0).avar(m, fs))
-        elif k == "R":
-            cols.append(Ramp(1.0).avar(m, fs))
+        if k == "N" and s.lp:
+            cols.append(LP(1.0, math.exp(theta[0]), s.lp, s.shape).avar(m, fs))
+        else:
+            cols.append(_fixed(k, m, fs))
     i = 1 if s.lp else 0
     for j in range(s.ngm):
         cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
     if s.sine:
         cols.append(Sine(1.0, math.exp(theta[-1])).avar(m, fs))
     return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
+
+
+_FIXED: dict[tuple, np.ndarray] = {}
+
+
+def _fixed(k: str, m: np.ndarray, fs: float) -> np.ndarray:
+    """The column of an IEEE 952 term without parameters (the fit asks for it thousands of
+    times on the same taus): computed once per curve."""
+    key = (k, fs, m.tobytes())
+    col = _FIXED.get(key)
+    if col is None:
+        proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k)
+        col = proc.avar(m, fs) if proc is not None else np.full(m.shape, B_FACTOR)
+        col.setflags(write=False)
+        if len(_FIXED) > 256:
+            _FIXED.clear()
+        _FIXED[key] = col
+    return col
 
 
 class _Gls:
@@ -160,9 +171,15 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
     if not bnds:
         return theta0, p.solve(s, theta0)[1]
     theta = np.array(theta0, dtype=np.float64)
+    lims = (np.array([b[0] for b in bnds]), np.array([b[1] for b in bnds]))
+    memo: dict[bytes, float] = {}
 
     def f(th: np.ndarray) -> float:
-        return p.solve(s, _clip(s, th, bnds))[1]
+        th = _clip(s, th, lims)
+        key = th.tobytes()
+        if key not in memo:  # the start and the best point are asked for again
+            memo[key] = p.solve(s, th)[1]
+        return memo[key]
 
     if new is not None:
         lo, hi = bnds[new]
@@ -189,7 +206,7 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
         )
         if r.fun <= f(theta):
             theta = np.asarray(r.x)
-    theta = _clip(s, theta, bnds)
+    theta = _clip(s, theta, lims)
     return theta, f(theta)
 
 
@@ -198,8 +215,8 @@ GM_LP_FACTOR = 10.0
 1 / (2 pi fc): a faster GM only reshapes the filter's bend."""
 
 
-def _clip(s: Structure, th: np.ndarray, bnds: list[tuple[float, float]]) -> np.ndarray:
-    th = np.clip(th, [b[0] for b in bnds], [b[1] for b in bnds])
+def _clip(s: Structure, th: np.ndarray, lims: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    th = np.clip(th, lims[0], lims[1])
     if s.lp and s.ngm:
         th[1 : 1 + s.ngm] = np.maximum(th[1 : 1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
     return th
@@ -213,17 +230,27 @@ def fit_structure(
     for _ in range(rounds):
         theta, _ = _optimize(p, s, theta, new)
         new = None
-        c, chi2, A = p.solve(s, theta)
-        mod = A @ c
-        p.set_reference(mod)
-        if p.robust_on:
-            z = (p.y - mod) / p.gls.sd
-            p.robust = np.maximum(1.0, (z / ROBUST_Z) ** 2)
-            p.set_reference(mod)
+        settle(p, s, theta)
     c, chi2, _ = p.solve(s, theta)
     return theta, c, chi2
 
 
+def settle(p: _Problem, s: Structure, theta: np.ndarray) -> None:
+    """The weights (reference curve, robust variances) set to the model of s at theta."""
+    c, _, A = p.solve(s, theta)
+    mod = A @ c
+    p.set_reference(mod)
+    if p.robust_on:
+        z = (p.y - mod) / p.gls.sd
+        far = np.abs(z) > ROBUST_Z
+        # a model that leaves most points far off is wrong, not the points: with all of them
+        # capped it would be judged only by the few it fits (a runaway to any structure)
+        p.robust = np.maximum(1.0, (z / ROBUST_Z) ** 2) if np.mean(far) <= ROBUST_SHARE else np.ones(z.size)
+        p.set_reference(mod)
+
+
+ROBUST_SHARE = 1.0 / 3.0
+"""At most this share of the points may be counted as far off (ROBUST_Z) at once."""
 ROBUST_Z = 3.0
 """A point more than this many sd off the model gets its variance raised so that it
 counts as ROBUST_Z sd (capped influence: a resonance or a hump the catalogue lacks

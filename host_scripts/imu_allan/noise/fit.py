@@ -29,9 +29,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
-from .processes import Model
+from .processes import LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
-from .select import choose
+from .select import LP_BEND, choose
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
 
 Z95 = 1.959963984540054
@@ -111,7 +111,7 @@ def fit_curve(
     kind = "overlapping" if overlapping else "nonoverlapping"
     lin = tuple(k for k in LINEAR if k in allowed)
     p, s, theta = choose(tau[idx], avar[idx], fs, edf_of, kind, lin, extended)
-    res = _result(p, s, theta, fitted, tau.size)
+    res = _result(p, s, theta, fitted, tau.size, lin)
     e = p.edf_of(p.alpha)
     res.alpha[idx], res.edf[idx] = p.alpha, e
     res.b_classic = b_classic(tau, avar, used, res.edf)
@@ -161,7 +161,9 @@ def _covariance(
     return sd_c, sd_th
 
 
-def _result(p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int) -> CurveFit:
+def _result(
+    p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int, lin: tuple[str, ...] = LINEAR
+) -> CurveFit:
     """The fit of structure s read as terms, intervals, notes (``size`` input points)."""
     from .curve import misfits
 
@@ -182,6 +184,7 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, si
             f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
         )
     sd_c, sd_th = _covariance(p, s, theta, c, p.gls.white(A), inflate)
+    sd_c = np.sqrt(sd_c**2 + _selection_variance(p, s, theta, c, lin, inflate))
     res = CurveFit(
         {},
         np.zeros(5),
@@ -221,6 +224,41 @@ def _result(p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, si
     return res
 
 
+def _selection_variance(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, lin: tuple[str, ...], red: float
+) -> np.ndarray:
+    """The variance the choice of structure adds to each coefficient: the structures one
+    IEEE 952 term away (each term dropped or added; Q not beside a band limit) and, for a
+    band limit, white N, weighted by their Akaike weights (QAIC: chi2 / red + 2 parameters),
+    sum_i w_i (c_i - c_mean)^2 (Burnham and Anderson's unconditional variance, the part
+    beyond the chosen model's own), over the structures that hold the term."""
+    names = s.names()
+    alts = [(s, theta)]
+    for k in lin:
+        if k == "Q" and s.lp:
+            continue
+        present = k in s.linear and c[names.index(k)] > 0
+        lin2 = tuple(x for x in LINEAR if (x in s.linear and x != k) or (x == k and not present))
+        alts.append((replace(s, linear=lin2), theta))
+    if s.lp:
+        alts.append((replace(s, lp=0), theta[1:]))
+    aic, coefs = [], []
+    for s2, th2 in alts:
+        c2, chi2, _ = p.solve(s2, th2)
+        aic.append(chi2 / red + 2.0 * (np.sum(c2 > 0) + th2.size))
+        n2 = s2.names()
+        coefs.append([c2[n2.index(k)] if k in n2 else 0.0 for k in names])
+    w = np.exp(-0.5 * (np.array(aic) - min(aic)))
+    cs = np.array(coefs)
+    out = np.zeros(len(names))
+    for j in range(len(names)):  # given the term present: whether it is, the selection test said
+        wj = np.where(cs[:, j] > 0, w, 0.0)
+        if wj.sum() > 0:
+            wj = wj / wj.sum()
+            out[j] = wj @ (cs[:, j] - wj @ cs[:, j]) ** 2
+    return out
+
+
 def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, term) -> dict[str, Term]:
     """Q N B K R: each fitted one with its interval, each absent one with its upper bound."""
     names = s.names()
@@ -250,13 +288,12 @@ def _nonlinear_terms(
         fc, sd = math.exp(theta[0]), sd_th[0]
         lo, hi = _lognormal(fc, sd)
         hi = min(hi, 0.5 * p.fs)
-        rng = (float(p.t[0]), float(min(p.t[-1], 4.0 / (2 * math.pi * fc))))
+        rng = (float(p.t[0]), _bend_end(s, fc, p.t, p.fs))
         note = (
-            f"the white noise N reaches the samples through a {'one' if s.lp == 1 else 'two'}"
-            f"-pole low-pass of {fc:.3g} Hz: the curve bends under N's line below about "
-            f"{1 / (2 * math.pi * fc):.3g} s"
+            f"the white noise N reaches the samples through {LP_WORDS[s.shape, s.lp]} of {fc:.3g} Hz: "
+            f"the curve bends under N's line (by {LP_BEND / 2 * 100:g} % of the deviation or more) up to {rng[1]:.3g} s"
         )
-        extra = {"fc": fc, "fc_low": lo, "fc_high": hi, "order": s.lp}
+        extra = {"fc": fc, "fc_low": lo, "fc_high": hi, "order": s.lp, "shape": s.shape}
         out["LP"] = Term("LP", fc, lo, hi, rng, fc, hi, note, extra=extra)
         i_th = 1
     alive = [j for j in range(s.ngm) if c[names.index(f"GM{j + 1}")] > 0]
@@ -283,6 +320,24 @@ def _nonlinear_terms(
         )
         out["SIN"] = t
     return out
+
+
+LP_WORDS = {
+    ("pole", 1): "a one-pole low-pass",
+    ("pole", 2): "a two-pole low-pass",
+    ("average", 1): "a moving average",
+    ("average", 2): "two moving averages in cascade (a Bartlett window)",
+}
+
+
+def _bend_end(s: Structure, fc: float, t: np.ndarray, fs: float) -> float:
+    """The longest tau at which the band limit holds the curve LP_BEND (AVAR) or more
+    under N's line: the short-tau region it names (a bend fades as 1 / tau, not at 1 / fc)."""
+    grid = np.exp(np.linspace(math.log(t[0]), math.log(t[-1]), 400))
+    m = np.maximum(np.rint(grid * fs), 1.0)
+    ratio = LP(1.0, fc, s.lp, s.shape).avar(m, fs) / WN(1.0).avar(m, fs)
+    bent = np.flatnonzero(ratio <= 1.0 - LP_BEND)
+    return float(grid[bent[-1]]) if bent.size else float(t[0])
 
 
 def _lognormal(v: float, sd: float) -> tuple[float, float]:

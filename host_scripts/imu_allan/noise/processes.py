@@ -31,6 +31,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import signal
 
+from . import averaging
+
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
 """AVAR of flicker rate noise per unit B^2 (IEEE 952: ADEV floor 0.664 B)."""
 
@@ -52,6 +54,11 @@ def _geo_sum(m: np.ndarray, p: complex | float) -> np.ndarray:
 def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np.ndarray:
     """AVAR of a stationary sequence with r(0) = r0 and r(k) = sum c_i p_i^k (k >= 1)."""
     m = _m(m)
+    if len(p) == 1 and not np.iscomplexobj(p):  # one real pole (RC, Gauss-Markov): the common case
+        p1, c1 = float(p[0]), float(c[0])
+        with np.errstate(under="ignore"):
+            g1, g2 = (p1 * (n * (1 - p1) - (1 - np.power(p1, n))) / (1 - p1) ** 2 for n in (m, 2.0 * m))
+        return (4.0 * (m * r0 + 2.0 * c1 * g1) - (2.0 * m * r0 + 2.0 * c1 * g2)) / (2.0 * m * m)
     mm = np.concatenate((m.ravel(), 2.0 * m.ravel()))  # S at m and 2m in one pass
     tot = mm * r0
     for ci, pi in zip(c, p):  # over the poles (one or two)
@@ -243,13 +250,16 @@ def _lp_shape(fc: float, fs: float, order: int) -> tuple:
 @dataclass(repr=False)
 class LP(Process):
     """White rate noise through a one- or two-pole low-pass of cutoff fc
-    (band-limited white noise): N [u sqrt(s)] is its LOW-FREQUENCY density in
+    (band-limited white noise; ``shape`` "pole"), or through one or two cascaded
+    averages (``shape`` "average", order the number of averages: 2 is the Bartlett
+    window; averaging.py): N [u sqrt(s)] is its LOW-FREQUENCY density in
     the samples (the level of the -1/2 line at long tau, what a navigation
     filter needs); below ~1/(2 pi fc) the curve bends under that line."""
 
     N: float
     fc: float
     order: int = 1
+    shape: str = "pole"
     name = "LP"
     meaning = (
         "white rate noise through the sensor's low-pass (band-limited white): N is its "
@@ -257,27 +267,39 @@ class LP(Process):
     )
 
     def params(self) -> dict[str, float]:
-        return {"N": self.N, "fc": self.fc, "order": self.order}
+        return {"N": self.N, "fc": self.fc, "order": self.order, "shape": self.shape}
 
     def _shape(self, fs: float) -> tuple:
         return _lp_shape(float(self.fc), float(fs), int(self.order))
 
+    def _acov(self, fs: float) -> np.ndarray:
+        return averaging.average_autocov(float(self.fc), float(fs), int(self.order))
+
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
+        if self.shape == "average":
+            return self.N**2 * averaging.avar_from_autocov(m, self._acov(fs))
         b, a, r0, c, p, dc = self._shape(fs)
         scale = self.N**2 * fs / dc**2  # input variance per sample so that the output's LF density is N^2
         return scale * avar_from_poles(m, r0, c, p)
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
+        if self.shape == "average":
+            return self.N**2 * averaging.psd_from_autocov(f, fs, self._acov(fs))
         b, a, *_rest, dc = self._shape(fs)
         _, h = signal.freqz(b, a, worN=_m(f), fs=fs)
         return 2.0 * self.N**2 * np.abs(h) ** 2 / dc**2
 
     def variance(self, fs: float) -> float:
         """Variance of the samples, u^2."""
+        if self.shape == "average":
+            return self.N**2 * float(self._acov(fs)[0])
         b, a, r0, c, p, dc = self._shape(fs)
         return self.N**2 * fs / dc**2 * r0
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
+        if self.shape == "average":  # the taps carry the whole scale (unit white in)
+            b = averaging.ma_factor(self._acov(fs))
+            return _Filtered(b, np.array([1.0]), self.N, np.random.default_rng(seed))
         b, a, r0, c, p, dc = self._shape(fs)
         return _Filtered(b, a, self.N * math.sqrt(fs) / dc, np.random.default_rng(seed))
 
@@ -287,9 +309,9 @@ class _Filtered(_Stream):
 
     def __init__(self, b: np.ndarray, a: np.ndarray, s: float, rng: np.random.Generator) -> None:
         self.b, self.a, self.s, self.rng = b, a, s, rng
-        zi = signal.lfilter_zi(b, a) * 0.0
+        zi = np.zeros(max(a.size, b.size) - 1)
         pmax = float(np.max(np.abs(np.roots(a)))) if a.size > 1 else 0.0
-        warm = int(min(max(50.0 / max(1e-12, -math.log(max(pmax, 1e-12))), 16), 1 << 20))
+        warm = int(min(max(50.0 / max(1e-12, -math.log(max(pmax, 1e-12))), 16, b.size), 1 << 20))
         _, self.zi = signal.lfilter(b, a, s * rng.standard_normal(warm), zi=zi)
 
     def take(self, L: int) -> np.ndarray:
@@ -382,16 +404,8 @@ class _FlickerBank(_Stream):
             D = 1 << max(int(math.floor(math.log2(max(T * fs / 32.0, 1.0)))), 0)
             a = math.exp(-D / (fs * T))
             rng = np.random.default_rng(ss)
-            self.procs.append(
-                {
-                    "D": D,
-                    "a": a,
-                    "b": sigma * math.sqrt(1.0 - a * a),
-                    "rng": rng,
-                    "q": -1,
-                    "v": sigma * rng.standard_normal(),
-                }
-            )
+            g = {"D": D, "a": a, "b": sigma * math.sqrt(1.0 - a * a), "rng": rng, "q": -1}
+            self.procs.append(dict(g, v=sigma * rng.standard_normal()))
 
     def take(self, length: int) -> np.ndarray:
         start = self.pos

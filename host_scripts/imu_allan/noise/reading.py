@@ -41,6 +41,9 @@ def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total:
                 "its range: where its share is at least half that"
             )
     if c < Z95 * sd:
+        # the chi-squared shape assumes an estimate well clear of 0; here, as for a term left
+        # out (fit._upper), the bound is the normal one on the square
+        hi = math.sqrt(c + Z95 * sd)
         return Term(
             k,
             None,
@@ -127,7 +130,7 @@ def to_model(s: Any, theta: np.ndarray, c: np.ndarray) -> Model:
         parts.append(QN(math.sqrt(vals["Q"])))
     if vals.get("N", 0) > 0:
         n = math.sqrt(vals["N"])
-        parts.append(LP(n, math.exp(theta[0]), s.lp) if s.lp else WN(n))
+        parts.append(LP(n, math.exp(theta[0]), s.lp, s.shape) if s.lp else WN(n))
     if vals.get("B", 0) > 0:
         parts.append(Flicker(math.sqrt(vals["B"])))
     if vals.get("K", 0) > 0:

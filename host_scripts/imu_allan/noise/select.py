@@ -23,11 +23,14 @@ from typing import Callable
 import numpy as np
 from scipy import stats
 
-from .curve import Structure, _Problem, bounds, columns, fit_structure, set_floor
+from .curve import Structure, _Problem, bounds, columns, fit_structure, set_floor, settle
 from .reading import _unexplained
 from .terms import CHI2_1_95
 
 MAX_GM = 2
+LP_FORMS = (("pole", 1), ("pole", 2), ("average", 1), ("average", 2))
+"""The band limits tried: a one-pole RC, a two-pole Butterworth, a moving average, two
+averages in cascade (the Bartlett window of parts that average at an internal rate)."""
 CHI2_1_999 = 10.83
 """The 99.9 % point of chi2 with one degree of freedom."""
 SINE = False
@@ -60,8 +63,7 @@ def choose(
     c, chi2, _ = p.solve(s, theta)
     floor = set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
     if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
-        c, _, A = p.solve(s, theta)  # a sinusoid only where the curve shows an oscillation's hump
-        osc = any(r["kind"] == "oscillation" for r in _unexplained(p, A @ c, p.e))
+        osc = _shows_oscillation(p, s, theta)
         s1, th1 = s, theta
         p, s, theta = select(floor, robust=True, sine=osc)
         # the first structure under the same weights: the robust selection may wander off
@@ -71,7 +73,22 @@ def choose(
         c2, chi2_, _ = p.solve(s, theta)
         if chi1 + 2 * (np.sum(c1 > 0) + th1.size) < chi2_ + 2 * (np.sum(c2 > 0) + theta.size):
             p, s, theta = p1, s1, th1
+    settle(p, s, theta)  # the weights of the model chosen, not of the last candidate tried
     return p, s, theta
+
+
+def _shows_oscillation(p: _Problem, s: Structure, theta: np.ndarray) -> bool:
+    """A sinusoid is tried only where the curve shows an oscillation's hump: left
+    unexplained by the first model, or by it without its Gauss-Markov processes (a GM
+    may have stood in for the hump, not fitting it)."""
+    forms = [(s, theta)]
+    if s.ngm:
+        forms.append((replace(s, ngm=0), theta[: 1 if s.lp else 0]))
+    for s1, th1 in forms:
+        c, _, A = p.solve(s1, th1)
+        if any(r["kind"] == "oscillation" for r in _unexplained(p, A @ c, p.e)):
+            return True
+    return False
 
 
 def _test(gain: float, chi2_big: float, dof_big: int, params: int) -> bool:
@@ -123,11 +140,11 @@ def _extend(
     # a quantization's rise and a filter's bend would only trade against each other
     base_lin = tuple(k for k in lin if k != "Q")
     cands = []
-    for order in (1, 2):
-        s2 = Structure(base_lin, order, 0)
+    for shape, order in LP_FORMS:
+        s2 = Structure(base_lin, order, 0, shape=shape)
         th, c2, chi2b = fit_structure(p, s2, np.array([math.log(0.25 * p.fs)]), 0)
         cands.append((chi2b, s2, th, c2))
-    chi2b, s2, th, c2 = min(cands, key=lambda x: x[0])
+    chi2b, s2, th, c2 = _lp_form(p, cands)
     dof = max(p.t.size - int(np.sum(c2 > 0)) - 1, 1)
     # its gain is judged against white N with the same terms: the terms let in again
     # must not pass their own gain off as the band limit's
@@ -135,7 +152,7 @@ def _extend(
     if c2[s2.names().index("N")] > 0 and _lp_shows(p, s2, th, c2) and _test(min(chi2, chi2w) - chi2b, chi2b, dof, 1):
         s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
     for _j in range(MAX_GM):
-        s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1)
+        s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1, shape=s.shape)
         if p.t.size - (len(s2.linear) + s2.ngm + len(s2.nonlinear())) < 2:
             break
         th0 = np.concatenate((theta, [math.log(p.t[p.t.size // 2])]))
@@ -149,6 +166,18 @@ def _extend(
     if p.sine_on:
         s, theta, c, chi2 = _try_sine(p, s, theta, c, chi2)
     return s, theta, c, chi2
+
+
+def _lp_form(p: _Problem, cands: list[tuple]) -> tuple:
+    """The band limit's form: the better pole (RC or Butterworth), unless an average
+    fits decisively better (a 95 % F test with one degree of freedom): on a curve that
+    cannot tell them apart, the classic form."""
+    pole = min((x for x in cands if x[1].shape == "pole"), key=lambda x: x[0])
+    avg = min((x for x in cands if x[1].shape != "pole"), key=lambda x: x[0], default=None)
+    if avg is None:
+        return pole
+    dof = max(p.t.size - int(np.sum(avg[3] > 0)) - 1, 1)
+    return avg if _test(pole[0] - avg[0], avg[0], dof, 1) else pole
 
 
 def _try_sine(
@@ -203,7 +232,7 @@ def _lp_shows(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bo
     if math.exp(theta[0]) >= LP_FC_MAX * p.fs:
         return False
     white = columns(Structure(("N",)), np.zeros(0), p.m, p.fs)[:, 0]
-    lp = columns(Structure(("N",), s.lp), theta[:1], p.m, p.fs)[:, 0]
+    lp = columns(Structure(("N",), s.lp, shape=s.shape), theta[:1], p.m, p.fs)[:, 0]
     return int(np.sum(lp <= (1.0 - LP_BEND) * white)) >= 2
 
 

@@ -400,6 +400,12 @@ def outlier_lines(c: dict[str, Any]) -> list[str]:
     return out
 
 
+def _lp_form(t: dict[str, Any]) -> str:
+    if t.get("shape") == "average":
+        return "moving average" if t["order"] == 1 else "two averages (Bartlett)"
+    return f"{'one' if t['order'] == 1 else 'two'}-pole"
+
+
 def _process_lines(c: dict[str, Any]) -> list[str]:
     """The fitted processes beyond the IEEE 952 five: band limit, Gauss-Markov, sinusoid;
     and the IEEE 952 slope reading beside the whole-curve fit."""
@@ -410,8 +416,8 @@ def _process_lines(c: dict[str, Any]) -> list[str]:
         if k == "LP":
             out.append(
                 f"  LP band limit         fc {g(t['fc'])} [{g(t['fc_low'])}, {g(t['fc_high'])}] Hz, "
-                f"{'one' if t['order'] == 1 else 'two'}-pole: the white noise N reaches the samples "
-                f"through it (the curve bends under N's line below {g(1 / (2 * math.pi * t['fc']))} s)"
+                f"{_lp_form(t)}: the white noise N reaches the samples "
+                f"through it (the curve bends under N's line up to {g(t['tau_range_s'][1])} s)"
             )
         elif k.startswith("GM"):
             out.append(
