@@ -2,7 +2,8 @@
  * as the fallback when this extension is not built).
  *
  * Plain C with the buffer protocol: no numpy headers.  This file is the
- * Python glue; the kernels are in ck_core.c, ck_octave.c and ck_phase.c.  Every function takes a
+ * Python glue; the kernels are in ck_core.c, ck_octave.c and ck_phase.c, the
+ * numeric text readers (rows and delimited tables) in ck_text.c.  Every function takes a
  * C-contiguous 1-D buffer of rate samples (float64/32, int8..int64, uint8..32;
  * a numpy array or an np.memmap of a file) and the offset removed before
  * summing, and fills a float64 buffer of sums of squares, one per level.
@@ -238,7 +239,65 @@ static PyObject *any_m(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
+/* parse_rows(data, ncol, maxval, out, cap) -> rows, or -1 (a fault: the exact
+ * reader names it).  out: writable uint16, (ncol, cap) channel-major. */
+static PyObject *parse_rows(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer d, o;
+    int ncol, maxval;
+    Py_ssize_t cap, rows;
+    if (!PyArg_ParseTuple(args, "y*iiw*n", &d, &ncol, &maxval, &o, &cap)) return NULL;
+    if (ncol < 1 || cap < 0 || o.len < (Py_ssize_t)(ncol * cap * 2)) {
+        PyBuffer_Release(&d);
+        PyBuffer_Release(&o);
+        PyErr_SetString(PyExc_ValueError, "out: at least ncol * cap uint16");
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS rows = ck_parse_rows(d.buf, d.len, ncol, maxval, o.buf, cap);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&d);
+    PyBuffer_Release(&o);
+    return PyLong_FromSsize_t(rows);
+}
+
+/* parse_table(data, delim, which, tcol, out, tint, tflt, cap) -> (rows, time_is_float);
+ * rows < 0: -(1 + the first line not plainly a row).  which: int32 per column. */
+static PyObject *parse_table(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer d, w, o, ti, tf;
+    int delim, tcol, tfloat = 0;
+    Py_ssize_t cap, rows;
+    if (!PyArg_ParseTuple(args, "y*iy*iw*w*w*n", &d, &delim, &w, &tcol, &o, &ti, &tf, &cap)) return NULL;
+    int ncols = (int)(w.len / (Py_ssize_t)sizeof(int)), nout = 0;
+    for (int k = 0; k < ncols; k++)
+        if (((const int *)w.buf)[k] >= nout) nout = ((const int *)w.buf)[k] + 1;
+    int bad = cap < 0 || tcol >= ncols || o.len < (Py_ssize_t)(nout * cap * 8) ||
+              (tcol >= 0 && (ti.len < cap * 8 || tf.len < cap * 8));
+    struct ck_table t = {delim, w.buf, ncols, tcol, o.buf, cap, ti.buf, tf.buf, &tfloat};
+    if (!bad) {
+        Py_BEGIN_ALLOW_THREADS rows = ck_parse_table(d.buf, d.len, &t);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&d);
+    PyBuffer_Release(&w);
+    PyBuffer_Release(&o);
+    PyBuffer_Release(&ti);
+    PyBuffer_Release(&tf);
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, "parse_table: buffers too small for cap");
+        return NULL;
+    }
+    return Py_BuildValue("ni", rows, tfloat);
+}
+
 static PyMethodDef methods[] = {
+    {"parse_rows", parse_rows, METH_VARARGS,
+     "parse_rows(data, ncol, maxval, out, cap) -> rows (-1: a fault)\n"
+     "Rows of ncol integer codes into out (uint16, (ncol, cap))."},
+    {"parse_table", parse_table, METH_VARARGS,
+     "parse_table(data, delim, which, tcol, out, tint, tflt, cap) -> (rows, time_is_float)\n"
+     "Delimited numbers: wanted columns into out (float64, (k, cap)), the time column into tint/tflt."},
     {"octave_overlap", octave_overlap, METH_VARARGS,
      "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0, exact=0) -> levels\n"
      "Overlapping octave sums of squares into out[k] (m = 2^k)."},

@@ -1,0 +1,196 @@
+/* Delimited numeric text to channel-major arrays, in one pass over the bytes
+ * (the readers of imu_allan.sources: rows.py, table.py).  No Python here.
+ *
+ * ck_parse_rows: the thesis' rows (rows.py's rules): lines of ncol unsigned
+ *   decimal integers separated by blanks (space, tab, VT, FF, CR); '#' starts
+ *   a comment to the end of the line; a line starting with '$' (a protocol
+ *   line of a raw capture) is skipped whole; a line with no number is skipped.
+ *   Any other byte, a line with another count of numbers, a number of more
+ *   than 9 digits or above ``maxval`` is a fault: the caller's exact reader
+ *   then names the line.
+ *
+ * ck_parse_table: delimited numbers (a CSV's data rows, after its header):
+ *   fields separated by ``delim`` (or runs of blanks when delim is 0), blanks
+ *   around a field ignored; the wanted columns parsed as decimal numbers
+ *   (strtod's syntax without hex, inf or nan: sign, digits, '.', exponent),
+ *   the others skipped unread.  A plain integer of up to 18 digits is
+ *   converted exactly; any other number by strtod, which is correctly
+ *   rounded (glibc), as pandas' round-trip parser and Python's float() are.
+ *   Blank lines and lines whose first non-blank byte is '#' are skipped; a
+ *   row with fewer fields than the last wanted column, or a wanted field that
+ *   is not a number, is a fault (the caller's reader names it).
+ */
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "ckernels.h"
+
+static inline int is_blank(unsigned char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap)
+{
+    const unsigned char *p = (const unsigned char *)buf, *end = p + len;
+    ssz row = 0;
+    while (p < end) {
+        /* one line */
+        if (*p == '$') {
+            while (p < end && *p != '\n') p++;
+            p += p < end;
+            continue;
+        }
+        int col = 0;
+        while (p < end && *p != '\n') {
+            unsigned c = *p;
+            if (c - '0' < 10u) {
+                const unsigned char *start = p;
+                uint32_t v = 0;
+                while (p < end && (unsigned)(*p - '0') < 10u) v = v * 10 + (*p++ - '0');
+                if (p - start > 9 || v > (uint32_t)maxval || col >= ncol || row >= cap) return -1;
+                out[(ssz)col * cap + row] = (uint16_t)v;
+                col++;
+            } else if (is_blank((unsigned char)c)) {
+                p++;
+            } else if (c == '#') {
+                while (p < end && *p != '\n') p++;
+            } else {
+                return -1;
+            }
+        }
+        p += p < end;
+        if (col == ncol)
+            row++;
+        else if (col)
+            return -1;
+    }
+    return row;
+}
+
+/* A field's blanks: space and tab (pandas' own; other control bytes are data). */
+static inline int is_sp(unsigned char c)
+{
+    return c == ' ' || c == '\t';
+}
+
+/* Digits at [p, end): 0 and *u set when they are 1..19 decimal digits, else -1. */
+static inline int digits19(const unsigned char *p, const unsigned char *end, uint64_t *u)
+{
+    if (p == end || end - p > 19) return -1;
+    uint64_t v = 0;
+    for (; p < end; p++) {
+        if ((unsigned)(*p - '0') >= 10u) return -1;
+        v = v * 10 + (uint64_t)(*p - '0');
+    }
+    *u = v;
+    return 0;
+}
+
+/* The number of the field [p, end), blanks around it skipped: 1 when it is a
+ * plain integer (*i and *v set; |value| <= INT64_MAX), 0 when another decimal
+ * number (*v set), -1 when not a number. */
+static int number(const unsigned char *p, const unsigned char *end, double *v, int64_t *i)
+{
+    while (p < end && is_sp(*p)) p++;
+    while (end > p && is_sp(end[-1])) end--;
+    const unsigned char *d = p + (p < end && (*p == '+' || *p == '-'));
+    int neg = d > p && *p == '-';
+    uint64_t u;
+    if (digits19(d, end, &u) == 0 && u <= (uint64_t)INT64_MAX) {
+        *i = neg ? -(int64_t)u : (int64_t)u;
+        *v = neg ? -(double)u : (double)u; /* correctly rounded, as strtod; "-0" is -0.0 */
+        return 1;
+    }
+    /* the syntax first (strtod would also take hex, inf and nan) */
+    const unsigned char *q = d;
+    ssz digits = 0;
+    while (q < end && (unsigned)(*q - '0') < 10u) q++, digits++;
+    if (q < end && *q == '.') {
+        q++;
+        while (q < end && (unsigned)(*q - '0') < 10u) q++, digits++;
+    }
+    if (!digits) return -1;
+    if (q < end && (*q == 'e' || *q == 'E')) {
+        q++;
+        q += q < end && (*q == '+' || *q == '-');
+        const unsigned char *e = q;
+        while (q < end && (unsigned)(*q - '0') < 10u) q++;
+        if (q == e) return -1;
+    }
+    if (q != end) return -1;
+    char tmp[128], *s = tmp, *stop;
+    ssz k = end - p;
+    if (k >= (ssz)sizeof tmp && !(s = malloc((size_t)k + 1))) return -1;
+    memcpy(s, p, (size_t)k);
+    s[k] = '\0';
+    *v = strtod(s, &stop);
+    int ok = stop == s + k;
+    if (s != tmp) free(s);
+    return ok ? 0 : -1;
+}
+
+/* One line's content [p, ce) split into fields: the wanted ones parsed into
+ * row ``row``.  Returns the count of fields, or -1. */
+static int table_line(const unsigned char *p, const unsigned char *ce, const struct ck_table *t, ssz row)
+{
+    int col = 0;
+    if (!t->delim)
+        while (p < ce && is_sp(*p)) p++;
+    for (;;) {
+        const unsigned char *f = p;
+        if (t->delim) {
+            while (p < ce && *p != t->delim && *p != '"' && *p != '\r') p++;
+        } else {
+            while (p < ce && !is_sp(*p) && *p != '"' && *p != '\r') p++;
+        }
+        if (p < ce && (*p == '"' || *p == '\r')) return -1; /* quoting, a lone CR: pandas' */
+        if (col < t->ncols && (t->which[col] >= 0 || col == t->tcol)) {
+            double v;
+            int64_t i = 0;
+            int kind = number(f, p, &v, &i);
+            if (kind < 0) return -1;
+            if (col == t->tcol) {
+                t->tint[row] = i;
+                t->tflt[row] = v;
+                t->tfloat[0] |= kind == 0;
+            } else {
+                t->out[(ssz)t->which[col] * t->cap + row] = v;
+            }
+        }
+        col++;
+        if (!t->delim)
+            while (p < ce && is_sp(*p)) p++;
+        if (p >= ce) return col;
+        if (t->delim) p++; /* past the delimiter: a field follows, maybe empty */
+    }
+}
+
+/* Rows of delimited numbers (t): the rows, or -(1 + the index of the first line
+ * that is not plainly such a row; line 0: the buffer's first). */
+ssz ck_parse_table(const char *buf, ssz len, const struct ck_table *t)
+{
+    const unsigned char *p = (const unsigned char *)buf, *end = p + len;
+    ssz row = 0, line = 0;
+    int fields = -1;
+    for (; p < end; line++) {
+        const unsigned char *eol = memchr(p, '\n', (size_t)(end - p));
+        if (!eol) eol = end;
+        const unsigned char *ce = memchr(p, '#', (size_t)(eol - p)); /* a comment ends the row */
+        if (!ce) {
+            ce = eol;
+            if (ce > p && ce[-1] == '\r') ce--; /* CR LF */
+        }
+        if (ce == p) { /* an empty or comment line: skipped */
+            p = eol + 1;
+            continue;
+        }
+        if (row >= t->cap) return -(1 + line);
+        int nf = table_line(p, ce, t, row);
+        if (nf < 0 || nf < t->ncols || (fields >= 0 && nf != fields)) return -(1 + line);
+        fields = nf;
+        row++;
+        p = eol + 1;
+    }
+    return row;
+}
