@@ -291,7 +291,61 @@ static PyObject *parse_table(PyObject *self, PyObject *args)
     return Py_BuildValue("ni", rows, tfloat);
 }
 
+/* diff_look(x, prev, has_prev, pos, step, sub, st) -> values put in sub;
+ * diff_grid(x, prev, has_prev, q, gmax, cnt) -> not numbers: the outlier scan's two passes
+ * over one piece (x: contiguous float64) of a channel's first differences. */
+static PyObject *diff_look(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer x, sub, st;
+    double prev;
+    int has_prev;
+    Py_ssize_t pos, step, k = -1;
+    if (!PyArg_ParseTuple(args, "y*dinnw*w*", &x, &prev, &has_prev, &pos, &step, &sub, &st)) return NULL;
+    ssz n = x.len / 8;
+    if (step >= 1 && st.len >= 32 && sub.len >= 8 * (n / step + 1)) {
+        Py_BEGIN_ALLOW_THREADS k = ck_diff_look(x.buf, n, prev, has_prev, pos, step, sub.buf, st.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&x);
+    PyBuffer_Release(&sub);
+    PyBuffer_Release(&st);
+    if (k < 0) {
+        PyErr_SetString(PyExc_ValueError, "diff_look: step >= 1, st of 4, sub of n / step + 1");
+        return NULL;
+    }
+    return PyLong_FromSsize_t(k);
+}
+
+static PyObject *diff_grid(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer x, cnt;
+    double prev, q;
+    int has_prev, gmax;
+    if (!PyArg_ParseTuple(args, "y*didiw*", &x, &prev, &has_prev, &q, &gmax, &cnt)) return NULL;
+    int ok = gmax >= 0 && q > 0 && cnt.len >= 8 * (2 * (Py_ssize_t)gmax + 1);
+    Py_ssize_t bad = 0;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS bad = ck_diff_grid(x.buf, x.len / 8, prev, has_prev, q, gmax, cnt.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&x);
+    PyBuffer_Release(&cnt);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "diff_grid: q > 0, cnt of 2 gmax + 1 int64");
+        return NULL;
+    }
+    return PyLong_FromSsize_t(bad);
+}
+
 static PyMethodDef methods[] = {
+    {"diff_look", diff_look, METH_VARARGS,
+     "diff_look(x, prev, has_prev, pos, step, sub, st) -> k\n"
+     "First differences of a piece: every step-th into sub, min nonzero |d|, max, min into st."},
+    {"diff_grid", diff_grid, METH_VARARGS,
+     "diff_grid(x, prev, has_prev, q, gmax, cnt) -> differences not numbers\n"
+     "Counts of rint(d / q) clipped to +-gmax of a piece's first differences."},
     {"parse_rows", parse_rows, METH_VARARGS,
      "parse_rows(data, ncol, maxval, out, cap) -> rows (-1: a fault)\n"
      "Rows of ncol integer codes into out (uint16, (ncol, cap))."},

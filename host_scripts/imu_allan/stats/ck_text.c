@@ -194,3 +194,48 @@ ssz ck_parse_table(const char *buf, ssz len, const struct ck_table *t)
     }
     return row;
 }
+
+/* ---- the outlier scan's passes over first differences ------------------------ */
+
+/* d[i] = x[i] - x[i-1] over one piece of a channel (x[-1] = *prev when
+ * has_prev): every d at a global index pos + i that is a multiple of step into
+ * sub (returns how many), and st[0..2] updated with the smallest nonzero |d|,
+ * the largest and the smallest d; st[3] set when a d is not finite (the
+ * caller's numpy pass then decides). */
+ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz step, double *sub,
+                 double *st)
+{
+    ssz k = 0, i0 = has_prev ? 0 : 1;
+    double nz = st[0], hi = st[1], lo = st[2];
+    ssz g = pos - i0; /* the global index of d at i: g + i */
+    for (ssz i = i0; i < n; i++) {
+        double d = x[i] - (i ? x[i - 1] : prev);
+        if (!isfinite(d)) st[3] = 1;
+        double a = fabs(d);
+        if (d != 0 && a < nz) nz = a;
+        if (d > hi) hi = d;
+        if (d < lo) lo = d;
+        if ((g + i) % step == 0) sub[k++] = d;
+    }
+    st[0] = nz;
+    st[1] = hi;
+    st[2] = lo;
+    return k;
+}
+
+/* The counts of rint(d / q) clipped to +-gmax, at index k + gmax; returns the
+ * differences left out as not numbers (the caller's numpy pass then decides). */
+ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt)
+{
+    ssz bad = 0;
+    for (ssz i = has_prev ? 0 : 1; i < n; i++) {
+        double r = rint((x[i] - (i ? x[i - 1] : prev)) / q);
+        if (r != r) {
+            bad++;
+            continue;
+        }
+        r = r < -gmax ? -gmax : r > gmax ? gmax : r;
+        cnt[(ssz)r + gmax]++;
+    }
+    return bad;
+}

@@ -105,5 +105,8 @@ struct ck_table {
     int *tfloat; /* set when a time value is not a plain integer */
 };
 ssz ck_parse_table(const char *buf, ssz len, const struct ck_table *t);
+ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz step, double *sub,
+                 double *st);
+ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt);
 
 #endif
