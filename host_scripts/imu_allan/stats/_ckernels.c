@@ -339,7 +339,57 @@ static PyObject *diff_grid(PyObject *self, PyObject *args)
     return PyLong_FromSsize_t(bad);
 }
 
+/* welch_prep(x, nseg, step, k, mean, window, out) and welch_acc(spec, k, nf, acc):
+ * psd.Welch's segments, demeaned and windowed, and its periodograms summed. */
+static PyObject *welch_prep(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer x, m, w, o;
+    Py_ssize_t nseg, step, k;
+    if (!PyArg_ParseTuple(args, "y*nnny*y*w*", &x, &nseg, &step, &k, &m, &w, &o)) return NULL;
+    int ok = nseg >= 1 && step >= 1 && k >= 0 && x.len >= 8 * ((k ? (k - 1) * step : 0) + nseg) &&
+             m.len >= 8 * k && w.len >= 8 * nseg && o.len >= 8 * k * nseg;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS ck_welch_prep(x.buf, nseg, step, k, m.buf, w.buf, o.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&x);
+    PyBuffer_Release(&m);
+    PyBuffer_Release(&w);
+    PyBuffer_Release(&o);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "welch_prep: buffers too small");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *welch_acc(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer z, a;
+    Py_ssize_t k, nf;
+    if (!PyArg_ParseTuple(args, "y*nnw*", &z, &k, &nf, &a)) return NULL;
+    int ok = k >= 0 && nf >= 0 && z.len >= 16 * k * nf && a.len >= 8 * nf;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS ck_welch_acc(z.buf, k, nf, a.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&z);
+    PyBuffer_Release(&a);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "welch_acc: buffers too small");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
+    {"welch_prep", welch_prep, METH_VARARGS,
+     "welch_prep(x, nseg, step, k, mean, window, out)\n"
+     "k segments of x, step apart: (x - mean[s]) * window into out (k, nseg)."},
+    {"welch_acc", welch_acc, METH_VARARGS,
+     "welch_acc(spec, k, nf, acc)\nacc += |spec[s]|^2 for each of k spectra, in order."},
     {"diff_look", diff_look, METH_VARARGS,
      "diff_look(x, prev, has_prev, pos, step, sub, st) -> k\n"
      "First differences of a piece: every step-th into sub, min nonzero |d|, max, min into st."},

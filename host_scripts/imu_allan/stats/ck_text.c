@@ -239,3 +239,30 @@ ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, in
     }
     return bad;
 }
+
+/* ---- Welch's segments (psd.py) ------------------------------------------------- */
+
+/* out[s][i] = (x[s step + i] - mean[s]) * w[i], s < k, i < nseg: numpy's
+ * (seg - mean) * window, the same two roundings, in one pass. */
+void ck_welch_prep(const double *x, ssz nseg, ssz step, ssz k, const double *mean, const double *w,
+                   double *out)
+{
+    for (ssz s = 0; s < k; s++) {
+        const double *src = x + s * step;
+        double *dst = out + s * nseg, m = mean[s];
+        for (ssz i = 0; i < nseg; i++) dst[i] = (src[i] - m) * w[i];
+    }
+}
+
+/* acc[f] += re^2 + im^2 of each of k spectra of nf bins (re, im interleaved),
+ * in segment order: numpy's (re * re + im * im), added one segment at a time. */
+void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc)
+{
+    for (ssz s = 0; s < k; s++) {
+        const double *z = spec + 2 * s * nf;
+        for (ssz f = 0; f < nf; f++) {
+            double re = z[2 * f] * z[2 * f], im = z[2 * f + 1] * z[2 * f + 1];
+            acc[f] += re + im;
+        }
+    }
+}

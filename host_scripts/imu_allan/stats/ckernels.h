@@ -107,6 +107,9 @@ struct ck_table {
 ssz ck_parse_table(const char *buf, ssz len, const struct ck_table *t);
 ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz step, double *sub,
                  double *st);
+void ck_welch_prep(const double *x, ssz nseg, ssz step, ssz k, const double *mean, const double *w,
+                   double *out);
+void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc);
 ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt);
 
 #endif

@@ -64,24 +64,37 @@ class Welch:
         periodogram added in segment order, so the result does not depend on
         how the stream was cut."""
         a = np.asarray(block, dtype=np.float64)
-        buf = np.concatenate((self.buf, a), axis=1) if self.buf.shape[1] else a
+        buf = np.concatenate((self.buf, a), axis=1) if self.buf.shape[1] else np.ascontiguousarray(a)
         nfull = (buf.shape[1] - self.nseg) // self.step + 1 if buf.shape[1] >= self.nseg else 0
-        per_call = max(1, (1 << 21) // (self.C * self.nseg))  # a few M values per FFT call
+        per_call = max(1, (1 << 19) // self.nseg)  # segments per FFT call: a few MB
         for k0 in range(0, nfull, per_call):
             k1 = min(k0 + per_call, nfull)
-            seg = np.lib.stride_tricks.sliding_window_view(buf, self.nseg, axis=1)[
-                :, k0 * self.step : k1 * self.step : self.step
-            ]
-            seg = seg - seg.mean(axis=2, keepdims=True)
-            seg *= self.window
-            spec = _rfft(seg, self.nfft)
-            ri = spec.view(np.float64)  # re, im interleaved: squared in place, then paired
-            ri *= ri
-            p = ri[..., 0::2] + ri[..., 1::2]
-            for j in range(k1 - k0):
-                self.acc += p[:, j]
+            for c in range(self.C):
+                self._segments(buf[c], k0, k1, self.acc[c])
             self.count += k1 - k0
         self.buf = buf[:, nfull * self.step :].copy()
+
+    def _segments(self, x: np.ndarray, k0: int, k1: int, acc: np.ndarray) -> None:
+        """Segments k0 .. k1-1 of one channel's buffer ``x`` into ``acc``: demeaned,
+        windowed, transformed, squared, added (compiled where built: the same
+        operations in the same order, fewer passes)."""
+        from .kernels import _C
+
+        seg = np.lib.stride_tricks.sliding_window_view(x, self.nseg)[k0 * self.step : k1 * self.step : self.step]
+        mean = seg.mean(axis=1)
+        if _C is not None:
+            w = np.empty(seg.shape)
+            _C.welch_prep(x[k0 * self.step :], self.nseg, self.step, k1 - k0, mean, self.window, w)
+            spec = _rfft(w, self.nfft)
+            _C.welch_acc(spec, k1 - k0, spec.shape[1], acc)
+            return
+        w = seg - mean[:, None]
+        w *= self.window
+        ri = _rfft(w, self.nfft).view(np.float64)  # re, im interleaved: squared in place, then paired
+        ri *= ri
+        p = ri[:, 0::2] + ri[:, 1::2]
+        for j in range(k1 - k0):
+            acc += p[j]
 
     def result(self) -> tuple[np.ndarray, np.ndarray]:
         """(f, psd (channels, f)) one-sided in u^2/Hz; empty without a whole segment."""
