@@ -74,55 +74,72 @@ static inline int is_sp(unsigned char c)
     return c == ' ' || c == '\t';
 }
 
-/* Digits at [p, end): 0 and *u set when they are 1..19 decimal digits, else -1. */
-static inline int digits19(const unsigned char *p, const unsigned char *end, uint64_t *u)
-{
-    if (p == end || end - p > 19) return -1;
-    uint64_t v = 0;
-    for (; p < end; p++) {
-        if ((unsigned)(*p - '0') >= 10u) return -1;
-        v = v * 10 + (uint64_t)(*p - '0');
-    }
-    *u = v;
-    return 0;
-}
+static const double P10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                             1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
-/* The number of the field [p, end), blanks around it skipped: 1 when it is a
- * plain integer (*i and *v set; |value| <= INT64_MAX), 0 when another decimal
- * number (*v set), -1 when not a number. */
+/* The number of the field [p, end), blanks around it skipped, in one pass:
+ * 1 when it is a plain integer (*i and *v set; |value| <= INT64_MAX), 0 when
+ * another decimal number (*v set), -1 when not a number (strtod's syntax
+ * without hex, inf or nan: sign, digits, '.', exponent).
+ * A decimal of at most 19 significant digits whose integer mantissa M is at
+ * most 2^53 and whose power of ten 10^e has |e| <= 22 is Clinger's exact
+ * case: M and 10^e are exact doubles, so M * 10^e or M / 10^-e, one IEEE
+ * operation, is the correctly rounded value; any other goes to strtod
+ * (correctly rounded in glibc), as pandas' and Python's parsers round. */
 static int number(const unsigned char *p, const unsigned char *end, double *v, int64_t *i)
 {
     while (p < end && is_sp(*p)) p++;
     while (end > p && is_sp(end[-1])) end--;
-    const unsigned char *d = p + (p < end && (*p == '+' || *p == '-'));
-    int neg = d > p && *p == '-';
-    uint64_t u;
-    if (digits19(d, end, &u) == 0 && u <= (uint64_t)INT64_MAX) {
-        *i = neg ? -(int64_t)u : (int64_t)u;
-        *v = neg ? -(double)u : (double)u; /* correctly rounded, as strtod; "-0" is -0.0 */
-        return 1;
-    }
-    /* the syntax first (strtod would also take hex, inf and nan) */
-    const unsigned char *q = d;
-    ssz digits = 0;
-    while (q < end && (unsigned)(*q - '0') < 10u) q++, digits++;
-    if (q < end && *q == '.') {
-        q++;
-        while (q < end && (unsigned)(*q - '0') < 10u) q++, digits++;
+    const unsigned char *start = p;
+    int neg = 0;
+    if (p < end && (*p == '+' || *p == '-')) neg = *p++ == '-';
+    uint64_t m = 0;
+    int sig = 0, e = 0, digits = 0, point = 0, expo = 0;
+    for (; p < end; p++) {
+        unsigned c = (unsigned)(*p - '0');
+        if (c < 10u) {
+            digits++;
+            if (m || c) {
+                if (++sig <= 19)
+                    m = m * 10 + c;
+                else if (!point)
+                    e++; /* a digit past 19: only its place counts (inexact: strtod) */
+            }
+            e -= point && sig <= 19;
+        } else if (*p == '.' && !point) {
+            point = 1;
+        } else {
+            break;
+        }
     }
     if (!digits) return -1;
-    if (q < end && (*q == 'e' || *q == 'E')) {
-        q++;
-        q += q < end && (*q == '+' || *q == '-');
-        const unsigned char *e = q;
-        while (q < end && (unsigned)(*q - '0') < 10u) q++;
-        if (q == e) return -1;
+    if (p < end) { /* the exponent */
+        if (*p != 'e' && *p != 'E') return -1;
+        p++;
+        int eneg = p < end && *p == '-', x = 0;
+        p += p < end && (*p == '+' || *p == '-');
+        if (p == end) return -1;
+        for (; p < end; p++) {
+            if ((unsigned)(*p - '0') >= 10u) return -1;
+            if (x < 100000) x = x * 10 + (*p - '0');
+        }
+        e += eneg ? -x : x;
+        expo = 1;
     }
-    if (q != end) return -1;
+    if (!point && !expo && sig <= 19 && m <= (uint64_t)INT64_MAX) { /* a plain integer */
+        *i = neg ? -(int64_t)m : (int64_t)m;
+        *v = neg ? -(double)m : (double)m; /* correctly rounded, as strtod; "-0" is -0.0 */
+        return 1;
+    }
+    if (sig <= 19 && m <= ((uint64_t)1 << 53) && (m == 0 || (e >= -22 && e <= 22))) {
+        double r = m == 0 ? 0.0 : e < 0 ? (double)m / P10[-e] : (double)m * P10[e];
+        *v = neg ? -r : r;
+        return 0;
+    }
     char tmp[128], *s = tmp, *stop;
-    ssz k = end - p;
+    ssz k = end - start;
     if (k >= (ssz)sizeof tmp && !(s = malloc((size_t)k + 1))) return -1;
-    memcpy(s, p, (size_t)k);
+    memcpy(s, start, (size_t)k);
     s[k] = '\0';
     *v = strtod(s, &stop);
     int ok = stop == s + k;
