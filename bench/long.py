@@ -11,7 +11,7 @@ Also a ROS 2 bag (sqlite3, sensor_msgs/Imu) of ``--bag-rows`` messages
 against the TSV of the same length (a bag of the full 8 h would take ~10 GB).
 
 Usage: bench/long.py [--rows N] [--pairs K] [--bag-rows N] [--out FILE]
-(BENCH_ROWS / BENCH_BAG_ROWS in the environment: the same, for make bench)
+(BENCH_ROWS / BENCH_BAG_ROWS / BENCH_PAIRS in the environment: the same, for make bench)
 """
 
 from __future__ import annotations
@@ -198,7 +198,12 @@ def long_figures(rows: int, pairs: int, bag_rows: int) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rows", type=int, default=int(os.environ.get("BENCH_ROWS") or ROWS_8H))
-    ap.add_argument("--pairs", type=int, default=1, help="A/B pairs (each a whole analysis and six oadev)")
+    ap.add_argument(
+        "--pairs",
+        type=int,
+        default=int(os.environ.get("BENCH_PAIRS") or 1),
+        help="A/B pairs (each a whole analysis and six oadev; BENCH_PAIRS)",
+    )
     ap.add_argument("--bag-rows", type=int, default=int(os.environ.get("BENCH_BAG_ROWS") or ROWS_8H // 8))
     ap.add_argument("--out", default=str(REPO / "bench" / "results.json"), help="merged into this JSON")
     args = ap.parse_args()
