@@ -13,7 +13,7 @@ of the full 8 h takes ~10 GB), and the bag's reading alone per 1e6 messages.
 
 Usage: bench/long.py [--rows N] [--pairs K] [--bag-rows N] [--bag-pairs K] [--out FILE]
 (--rows 0: the bag's figures only)
-(BENCH_ROWS / BENCH_BAG_ROWS in the environment: the same, for make bench)
+(BENCH_ROWS / BENCH_BAG_ROWS / BENCH_PAIRS in the environment: the same, for make bench)
 """
 
 from __future__ import annotations
@@ -255,7 +255,12 @@ def long_figures(rows: int, pairs: int, bag_rows: int, bag_pairs: int) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rows", type=int, default=int(os.environ.get("BENCH_ROWS") or ROWS_8H))
-    ap.add_argument("--pairs", type=int, default=1, help="A/B pairs (each a whole analysis and six oadev)")
+    ap.add_argument(
+        "--pairs",
+        type=int,
+        default=int(os.environ.get("BENCH_PAIRS") or 1),
+        help="A/B pairs (each a whole analysis and six oadev; BENCH_PAIRS)",
+    )
     ap.add_argument("--bag-rows", type=int, default=int(os.environ.get("BENCH_BAG_ROWS") or ROWS_8H // 8))
     ap.add_argument("--bag-pairs", type=int, default=3, help="bag/TSV pairs (each an analysis of both, and a read)")
     ap.add_argument("--out", default=str(REPO / "bench" / "results.json"), help="merged into this JSON")

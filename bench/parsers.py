@@ -11,7 +11,10 @@ float64 or uint16 arrays by
 * ``numpy``: the project's numpy readers (rows.parse_exact for the codes,
   numpy.loadtxt per block for the floats: the CSV reader before pandas),
 * ``pyarrow``: pyarrow.csv.open_csv, streamed record batches,
-* ``pandas``: pandas.read_csv(engine="c", chunksize=...), when pandas is installed.
+* ``pandas``: pandas.read_csv(engine="c", chunksize=...), when pandas is installed,
+* ``compiled``: the project's compiled readers (stats/ck_text.c, the path the
+  command takes: rows.parse_block for the codes, table.parse_csv for the floats),
+  when the extension is built.
 
 Rounds alternate the order of the readers (A B C, then C B A ...); each reader's
 time is reported as median, min and max over the rounds, with its ratio to
@@ -74,6 +77,21 @@ def _bodies(path: Path, skip: bool) -> Iterator[bytes]:
                 yield body
             if not chunk:
                 return
+
+
+def compiled_rows(path: Path) -> list[np.ndarray]:
+    from imu_allan.sources.rows import parse_block
+
+    return [parse_block(body, "codes", 1, 7) for body in _bodies(path, skip=False)]
+
+
+def compiled_floats(path: Path) -> list[np.ndarray]:
+    from imu_allan.sources.table import parse_csv
+
+    cols = list(range(1, 7))
+    return [
+        np.vstack([t[None, :], v]) for v, t in (parse_csv(b, "f", 1, "\t", cols, 0) for b in _bodies(path, skip=True))
+    ]
 
 
 def numpy_floats(path: Path) -> list[np.ndarray]:
@@ -148,6 +166,8 @@ def main() -> int:
         has_pandas = True
     except ImportError:
         has_pandas = False
+    from imu_allan.stats import kernels
+
     with tempfile.TemporaryDirectory() as d:
         rows, floats = write_files(Path(d), int(a.rows))
         res = {"rows": int(a.rows), "columns": 7, "rounds": a.rounds}
@@ -158,6 +178,8 @@ def main() -> int:
             readers = {"pyarrow": lambda p=path, h=header: pyarrow_read(p, h), "numpy": lambda p=path, f=own: f(p)}
             if has_pandas:
                 readers["pandas"] = lambda p=path, h=header: pandas_read(p, h)
+            if kernels.COMPILED:
+                readers["compiled"] = lambda p=path, f=(compiled_rows if own is numpy_rows else compiled_floats): f(p)
             res[label] = measure(readers, a.rounds)
             res[label]["bytes"] = path.stat().st_size
     print(json.dumps(res, indent=1))

@@ -14,7 +14,7 @@ from setuptools import Extension, setup
 # -Wno-psabi: the 32-byte vector helpers are inlined; their ABI note does not apply.
 ARGS = [] if sys.platform == "win32" else ["-O3", "-std=gnu99", "-Wno-psabi"]
 
-SOURCES = [f"imu_allan/stats/{f}.c" for f in ("_ckernels", "ck_core", "ck_octave", "ck_phase")]
+SOURCES = [f"imu_allan/stats/{f}.c" for f in ("_ckernels", "ck_core", "ck_octave", "ck_phase", "ck_text")]
 
 setup(
     ext_modules=[

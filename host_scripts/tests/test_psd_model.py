@@ -99,3 +99,27 @@ def test_fit_percent() -> None:
     dev = np.geomspace(1e-2, 1e-3, 20)
     assert model.fit_percent(np.log10(dev), np.log10(dev * 1.1)) > 97
     assert model.fit_nrmse(np.log10(dev), np.log10(dev * 1.1)) < 90
+
+
+def test_welch_compiled_segments_are_numpys_bit_for_bit(monkeypatch) -> None:
+    """The compiled demean-window and periodogram sums (stats/ck_text.c) do numpy's
+    operations in numpy's order: the same bits, whatever the segment length."""
+    from imu_allan.stats import kernels
+
+    if not kernels.COMPILED:
+        pytest.skip("the compiled kernels are not built")
+    x = np.rint(np.random.default_rng(3).standard_normal((2, 300_001)) * 2 + 500)
+
+    def run() -> list:
+        out = []
+        for nseg in (psd.segment_length(x.shape[1]), 4096, 1000):
+            w = psd.Welch(2, 1000.0, nseg)
+            for a in range(0, x.shape[1], 77_777):
+                w.push(x[:, a : a + 77_777])
+            out.append(w.result()[1])
+        return out
+
+    fast = run()
+    monkeypatch.setattr(kernels, "_C", None)
+    for a, b in zip(fast, run()):
+        assert a.shape == b.shape and a.view(np.int64).tolist() == b.view(np.int64).tolist()

@@ -16,6 +16,7 @@ from test_real_recording import SCALE, _find
 
 from imu_allan.analysis import diffscan, outliers
 from imu_allan.analysis.store import MemoryStore, SpillStore, collect
+from imu_allan.stats import kernels
 
 
 def _oavar_definition(x: np.ndarray, m: int) -> float:
@@ -71,6 +72,7 @@ def test_the_outlier_scan_by_pieces_is_the_scan_of_the_whole(quantized: bool) ->
         st = MemoryStore(x)
         st.blocks = lambda c, size=size, st=st: (st.read(c, a, min(size, st.n - a)) for a in range(0, st.n, size))
         got = outliers.scan_store(st, 100.0)
+        assert (diffscan._compiled(diffscan.of_store(st, 0)) is not None) == kernels.COMPILED
         assert got.events == whole.events
         for a, b in zip(got.channels, whole.channels):
             assert (a.scale, a.quantum, a.peak, a.core_ratio) == (b.scale, b.quantum, b.peak, b.core_ratio)

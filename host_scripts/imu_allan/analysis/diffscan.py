@@ -42,12 +42,56 @@ def of_store(store, c: int) -> Pieces:
                 yield pos, d
                 pos += d.size
 
+    gen.samples = lambda: (b.astype(np.float64) for b in store.blocks(c))  # type: ignore[attr-defined]
     return gen
+
+
+def _compiled(pieces: Pieces) -> Optional[Callable[[], Iterator[tuple[int, float, bool, np.ndarray]]]]:
+    """The pieces as (first difference's index, previous sample, whether there is
+    one, float64 samples) for the compiled passes (stats/ck_text.c: the same
+    differences, one pass each, no array of them), when they come from samples
+    and the kernels are built; else None."""
+    from ..stats.kernels import _C
+
+    samples = getattr(pieces, "samples", None)
+    if _C is None or samples is None:
+        return None
+
+    def gen() -> Iterator[tuple[int, float, bool, np.ndarray]]:
+        prev, has, pos = 0.0, False, 0
+        for x in samples():
+            if x.size:
+                yield pos, prev, has, x
+                pos += x.size - (not has)
+                prev, has = float(x[-1]), True
+
+    return gen
+
+
+def _first_look_compiled(pieces: Pieces, n: int, keep: int) -> Optional[tuple[np.ndarray, float, float, float]]:
+    from ..stats.kernels import _C
+
+    blocks = _compiled(pieces)
+    if blocks is None:
+        return None
+    step = max(n >> keep, 1)
+    st = np.array([math.inf, -math.inf, math.inf, 0.0])
+    sub = []
+    for pos, prev, has, x in blocks():
+        out = np.empty(x.size // step + 1)
+        k = _C.diff_look(x, prev, has, pos, step, out, st)
+        sub.append(out[:k])
+    if st[3]:  # a value not finite: numpy's rules
+        return None
+    return (np.concatenate(sub) if sub else np.zeros(0)), float(st[0]), float(st[1]), float(st[2])
 
 
 def first_look(pieces: Pieces, n: int, keep: int) -> tuple[np.ndarray, float, float, float]:
     """One pass: the subsample d[::max(n >> keep, 1)], the smallest nonzero |d|
     (inf when none), and the largest and smallest d."""
+    fast = _first_look_compiled(pieces, n, keep)
+    if fast is not None:
+        return fast
     step = max(n >> keep, 1)
     sub, nzmin, hi, lo = [], math.inf, -math.inf, math.inf
     for pos, d in pieces():
@@ -62,6 +106,14 @@ def first_look(pieces: Pieces, n: int, keep: int) -> tuple[np.ndarray, float, fl
 def grid_counts(pieces: Pieces, q: float, grid_max: int) -> np.ndarray:
     """Counts of rint(d / q), clipped to +-grid_max, at index k + grid_max."""
     cnt = np.zeros(2 * grid_max + 1, dtype=np.int64)
+    blocks = _compiled(pieces)
+    if blocks is not None:
+        from ..stats.kernels import _C
+
+        bad = sum(_C.diff_grid(x, prev, has, q, grid_max, cnt) for _, prev, has, x in blocks())
+        if not bad:
+            return cnt
+        cnt[:] = 0
     for _, d in pieces():
         k = np.clip(np.rint(d / q), -grid_max, grid_max).astype(np.int64) + grid_max
         cnt += np.bincount(k, minlength=2 * grid_max + 1)

@@ -23,7 +23,7 @@ from ..sources.detect import SampleSource
 from ..stats import allan, psd
 from . import outliers
 from .outlier_pass import OutlierPass, note_outliers
-from .store import MemoryStore, Store, collect, replaced
+from .store import MemoryStore, Store, collect, replaced, take_ahead
 
 
 @dataclass
@@ -109,7 +109,9 @@ def welch(store: Store, fs: float) -> tuple[np.ndarray, np.ndarray]:
 
 def host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Any, notes: list[str]) -> HostPass:
     sel = [samples.channels.index(c) for c in chans]
-    store = collect(samples.open_blocks(), sel, opts.memory_budget, samples.name, samples.n_hint)
+    store = take_ahead(samples, sel, opts.memory_budget) or collect(
+        samples.open_blocks(), sel, opts.memory_budget, samples.name, samples.n_hint
+    )
     try:
         return _statistics(store, samples, fs, opts, notes, chans)
     except BaseException:

@@ -1,11 +1,13 @@
 """The thesis' noise model (Gauss-Markov bias + rate random walk + white
-noise, noise/model.py) built from each channel's fitted terms, simulated as
-long as the recording, and its FIT% against the measurement: on the octave
-ADEV, on the PSD and, with samples, on the time series itself ("signal").
+noise, noise/model.py) built from each channel's fitted terms, and its FIT%
+against the measurement: on the octave ADEV, on the PSD and, with samples,
+on the time series itself ("signal").
 
-The simulation is streamed like the samples (store.py): each block goes to
-the Welch PSD and the signal's sums, and to a store whose octave curves the
-compiled kernels compute; memory stays bounded whatever the length.
+The model's ADEV and PSD are its processes' own (the noise catalogue's exact
+discrete-time Allan variance and PSD, noise/processes.py): what a simulation
+as long as the recording estimates, without its scatter, and at a cost that
+does not grow with the recording. The time series is simulated for the
+first ``SIGNAL_SAMPLES`` samples and compared with the recording's first ones.
 """
 
 from __future__ import annotations
@@ -18,11 +20,15 @@ import numpy as np
 
 from ..device.records import DeviceReport
 from ..noise import model, terms
+from ..noise.streams import NoiseParams, NoiseProcess
 from ..profiles import Profile
 from ..progress import Progress
 from ..stats import psd
 from .host_pass import WORKERS, HostPass
-from .store import collect
+
+SIGNAL_SAMPLES = 1 << 20
+"""Samples of the time series' FIT% (the model simulated, the recording's first
+ones): its value settles to ~0.1 % long before, and the cost stays fixed."""
 
 
 def _tau_b(fit: terms.FitResult) -> Optional[float]:
@@ -38,33 +44,29 @@ def _list(a: np.ndarray) -> list[Optional[float]]:
     return [float(v) if math.isfinite(v) else None for v in np.asarray(a, dtype=np.float64).tolist()]
 
 
-def _simulate(i: int, p: Any, n: int, fs: float, host: Optional[HostPass], scale: float, opts: Any) -> dict[str, Any]:
-    """One channel's model, simulated: its octave result, PSD and signal sums."""
-    welch = psd.Welch(1, fs, psd.segment_length(n)) if host is not None else None
-    store = host.store if host is not None else None
-    mean = 0.0
-    if store is not None:  # the same pieces in memory and from files: the same mean
-        mean = sum(float(b.sum(dtype=np.float64)) for b in store.blocks(i)) / store.n * scale
-    sums = [0.0, 0.0]
+def theory(p: model.ModelParams) -> Any:
+    """The model as the noise catalogue's sum of processes (its exact AVAR and PSD)."""
+    rng = np.random.default_rng(0)  # the streams' generators: unused here
+    q = NoiseParams(white=p.white, gm_sigma=p.gm_sigma, gm_tau=p.gm_tau, rrw=p.rrw, quant=p.quant, ramp=p.ramp)
+    return NoiseProcess(q, p.fs, 1, rng, rng, rng, quant_rng=rng).model
 
-    def blocks():
+
+def _simulate(i: int, p: Any, host: Optional[HostPass], scale: float, opts: Any) -> dict[str, Any]:
+    """One channel's model: its processes, and the signal FIT%'s sums on the
+    first SIGNAL_SAMPLES samples (recording minus its mean there, and the model)."""
+    store = host.store if host is not None else None
+    sums = [0.0, 0.0]
+    if store is not None:
+        n = min(store.n, SIGNAL_SAMPLES)
+        head = store.read(i, 0, n).astype(np.float64) * scale
+        head -= float(head.sum()) / n
         done = 0
         for b in model.simulate(p, n, seed=opts.seed * 1000 + i):
-            if welch is not None:
-                welch.push(b[None, :])
-            if store is not None:
-                s = store.read(i, done, b.size).astype(np.float64) * scale - mean
-                sums[0] += float(np.sum((s - b) ** 2))
-                sums[1] += float(np.sum(s**2))
+            s = head[done : done + b.size]
+            sums[0] += float(np.sum((s - b) ** 2))
+            sums[1] += float(np.sum(s**2))
             done += b.size
-            yield b[None, :]
-
-    sim = collect(blocks(), [0], opts.memory_budget // 8, "model", None, quiet=True)
-    try:
-        res = sim.octave(0)
-    finally:
-        sim.close()
-    return {"res": res, "psd": welch.result() if welch is not None else None, "sig": sums, "held": store is not None}
+    return {"model": theory(p), "sig": sums, "held": store is not None}
 
 
 def model_all(
@@ -97,7 +99,7 @@ def model_all(
         ThreadPoolExecutor(WORKERS) as pool,
     ):
         sims = []
-        jobs = [pool.submit(_simulate, i, p, n, fs, host, scale[i], opts) for i, p in enumerate(params)]
+        jobs = [pool.submit(_simulate, i, p, host, scale[i], opts) for i, p in enumerate(params)]
         for j in jobs:
             sims.append(j.result())
             bar.update(len(sims))
@@ -106,27 +108,26 @@ def model_all(
 
 
 def _one(c: dict[str, Any], mp: Any, sim: dict[str, Any], fit_curve: list, fs: float, host: Optional[HostPass]) -> dict:
-    res = sim["res"]
     out: dict[str, Any] = {"params": mp.as_dict(), "fit_percent": {}}
     # ADEV curves on the fit's octave grid whatever --taus shows, so FIT% does not depend on it
-    sim_v = {int(m): v for m, v in zip(res.ms, res.oavar[:, 0] if host is not None else res.avar[:, 0])}
-    pts = [(m, d) for m, d in fit_curve if m in sim_v and math.isfinite(sim_v[m]) and sim_v[m] > 0]
+    ms = np.array([m for m, _ in fit_curve], dtype=np.float64)
+    sim_v = dict(zip((m for m, _ in fit_curve), sim["model"].avar(ms, fs).tolist())) if ms.size else {}
+    pts = [(m, d) for m, d in fit_curve if math.isfinite(sim_v[m]) and sim_v[m] > 0]
     pairs = [(d, math.sqrt(sim_v[m])) for m, d in pts]
     out["curve"] = [{"tau_s": m / fs, "dev": math.sqrt(sim_v[m])} for m, _ in pts]
     if pairs:
         s_, m_ = np.log10([a for a, _ in pairs]), np.log10([b for _, b in pairs])
         out["fit_percent"]["adev_log10"] = model.fit_percent(s_, m_)
         out["fit_percent"]["adev_log10_nrmse"] = model.fit_nrmse(s_, m_)
-    if sim["psd"] is not None and "psd" in c:
-        f, p = sim["psd"]
-        if p.shape[1]:
-            fb, pb = psd.log_bins(f, p)
-            sp = np.array(c["psd"]["psd"], dtype=np.float64)
-            if sp.size == pb.shape[1] and sp.size:
-                ok = (sp > 0) & (pb[0] > 0)
-                out["fit_percent"]["psd_log10"] = model.fit_percent(np.log10(sp[ok]), np.log10(pb[0][ok]))
-                out["fit_percent"]["psd_log10_nrmse"] = model.fit_nrmse(np.log10(sp[ok]), np.log10(pb[0][ok]))
-                out["psd"] = _list(pb[0])
+    if host is not None and "psd" in c and host.psd[1].shape[1]:
+        f = host.psd[0][host.psd[0] > 0]
+        fb, pb = psd.log_bins(f, sim["model"].psd(f, fs)[None, :])
+        sp = np.array(c["psd"]["psd"], dtype=np.float64)
+        if sp.size == pb.shape[1] and sp.size:
+            ok = (sp > 0) & (pb[0] > 0)
+            out["fit_percent"]["psd_log10"] = model.fit_percent(np.log10(sp[ok]), np.log10(pb[0][ok]))
+            out["fit_percent"]["psd_log10_nrmse"] = model.fit_nrmse(np.log10(sp[ok]), np.log10(pb[0][ok]))
+            out["psd"] = _list(pb[0])
     num, den = sim["sig"]
     if sim["held"] and den > 0:
         out["fit_percent"]["signal"] = (1.0 - math.sqrt(num / den)) * 100.0

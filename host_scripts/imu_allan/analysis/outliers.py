@@ -52,6 +52,8 @@ during a burst (the line between its ends is no measurement).
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Iterator, Optional
 
@@ -265,8 +267,10 @@ def scan_pieces(
     chans: list[ChannelScan] = []
     g_start, g_stop, g_chan, g_peak = [], [], [], []
     none = np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
+    with ThreadPoolExecutor(max(1, min(2, os.cpu_count() or 1))) as pool:  # the passes release the GIL
+        scales = list(pool.map(lambda p: _scale(p, max(n - 1, 0)), channels))
     for c, pieces in enumerate(channels):
-        med, s, q, ratio, dmax, dmin = _scale(pieces, max(n - 1, 0))
+        med, s, q, ratio, dmax, dmin = scales[c]
         if s <= 0 or not np.isfinite(s):
             chans.append(ChannelScan(float(s), q, *none, 0.0, ratio))
             continue

@@ -114,7 +114,7 @@ class SpillStore(Store):
                 raise ValueError(f"a block of {row.dtype} after blocks of {dt}")
             if dt.kind in "iu" and row.size:
                 self.span[c] = max(self.span[c], abs(int(row.max())), abs(int(row.min())))
-            f.write(np.ascontiguousarray(row, dtype=dt).tobytes())
+            f.write(memoryview(np.ascontiguousarray(row, dtype=dt)))
         self.n += block.shape[1]
 
     def flush(self) -> None:
@@ -170,7 +170,7 @@ def collect(
     spill: Optional[SpillStore] = None
     n = 0
     with (Quiet if quiet else Progress)(f"reading {name}", hint, unit=" rows") as bar:
-        for block in blocks:
+        for block in ahead(blocks):
             b = block[sel] if len(sel) != block.shape[0] else block
             if not b.shape[1]:
                 continue
@@ -192,6 +192,60 @@ def collect(
     if not kept:
         return MemoryStore(np.zeros((len(sel), 0)))
     return MemoryStore(np.concatenate(kept, axis=1))
+
+
+_AHEAD: dict[int, tuple[Any, list[int], int, Any]] = {}
+"""Reads started by ``read_ahead``: id(samples) -> (samples, channels, budget, future store)."""
+
+
+def read_ahead(samples: Any, wanted: Optional[list[str]], budget: int) -> None:
+    """Start reading ``samples`` (``collect``, channels ``wanted`` or all) in another
+    thread, for the analysis that ``take_ahead`` hands it to: the command reads
+    the file while it loads the statistics' modules (scipy: a second or two)."""
+    if samples is None or (wanted and any(c not in samples.channels for c in wanted)):
+        return
+    import atexit
+    from concurrent.futures import ThreadPoolExecutor
+
+    sel = [i for i, c in enumerate(samples.channels) if not wanted or c in wanted]
+    pool = ThreadPoolExecutor(1)
+    fut = pool.submit(collect, samples.open_blocks(), sel, budget, samples.name, samples.n_hint)
+    pool.shutdown(wait=False)
+    if not _AHEAD:
+        atexit.register(_drop_ahead)
+    _AHEAD[id(samples)] = (samples, sel, budget, fut)
+
+
+def take_ahead(samples: Any, sel: list[int], budget: int) -> Optional[Store]:
+    """The store ``read_ahead`` read of ``samples`` (its errors raised here), or None."""
+    got = _AHEAD.get(id(samples))
+    if got is None or got[0] is not samples or got[1] != sel or got[2] != budget:
+        return None
+    del _AHEAD[id(samples)]
+    return got[3].result()
+
+
+def _drop_ahead() -> None:
+    """At exit: the stores read ahead and never taken (an error before the statistics)."""
+    for _, _, _, fut in _AHEAD.values():
+        if not fut.cancelled() and fut.exception() is None:
+            fut.result().close()
+    _AHEAD.clear()
+
+
+def ahead(blocks: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
+    """``blocks``, the next one read and parsed in another thread while this one
+    is stored (the compiled readers and the writes release the GIL)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(1) as pool:
+        nxt = pool.submit(next, blocks, None)
+        while True:
+            block = nxt.result()
+            if block is None:
+                return
+            nxt = pool.submit(next, blocks, None)
+            yield block
 
 
 def _pieces(store: Store, c: int) -> Iterator[tuple[int, np.ndarray]]:

@@ -226,7 +226,6 @@ CMD_TRIES = 3
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    from ..analysis.pipeline import Options, analyze
     from ..profiles import build_profile, parse_scales, resolve_range, scales_for_input
     from ..sources.detect import check_options, load, load_device_report
 
@@ -245,6 +244,11 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if samples is not None and args.profile is None and (samples.units or not samples.integer):
         scales = scales_for_input(src.name, samples.channels, samples.integer, samples.units, scales)
     profile = build_profile(args.profile, scales, range_g)
+    from ..analysis.store import read_ahead
+
+    read_ahead(samples, args.channels, args.memory * 2**20)  # while the statistics' modules load
+    from ..analysis.pipeline import Options, analyze
+
     opts = Options(
         fs=args.fs,
         taus=args.taus,

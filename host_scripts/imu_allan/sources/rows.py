@@ -7,10 +7,11 @@ replies inside a raw capture of the device) and is skipped whole, as
 imu-sim does; blank lines are ignored. ``-`` as a path means stdin/stdout.
 A capture with binary frames or damaged rows: ``imu-allan rows`` (stream.py).
 
-Reading goes a few MB at a time through pandas' C reader (bench/parsers.py
-measured it beside pyarrow's and this module's numpy reader), and through the
-numpy reader for blocks with comments, protocol lines or a fault (which it
-names by line); writing is vectorized the same way.
+Reading goes a few MB at a time through the compiled reader beside the Allan
+kernels (stats/ck_text.c; pandas' C reader where it is not built; bench/parsers.py
+measures them beside pyarrow's and this module's numpy reader), and through the
+numpy reader for a block with a fault, which it names by line; writing is
+vectorized the same way.
 """
 
 from __future__ import annotations
@@ -85,11 +86,23 @@ _ROW_BYTES = b"0123456789 \t\n"
 
 
 def _compiled(block: bytes, ncol: int) -> Optional[np.ndarray]:
-    """The block through pandas' C reader when it is plain rows (digits, blanks,
-    line ends; no comment, no protocol line), else None: anything else, and any
-    doubt (a blank line, a short row, a code out of range), goes to the exact
-    reader below, which names the line."""
-    if not block or b"#" in block or b"$" in block or block.translate(None, _ROW_BYTES):
+    """The block through the compiled reader (stats/ck_text.c: every rule of
+    the format in one pass), or pandas' C reader where the extension is not
+    built (plain rows only: digits, blanks, line ends); None on any fault or
+    doubt (a blank line for pandas, a short row, a code out of range): the
+    exact reader below then names the line."""
+    if not block:
+        return None
+    from ..stats.kernels import _C
+
+    if _C is not None:
+        cap = block.count(b"\n") + (not block.endswith(b"\n"))
+        out = np.empty((ncol, cap), dtype=np.uint16)
+        rows = _C.parse_rows(block, ncol, CODE_MAX, out, cap)
+        if rows < 0:
+            return None
+        return out if rows == cap else np.ascontiguousarray(out[:, :rows])
+    if b"#" in block or b"$" in block or block.translate(None, _ROW_BYTES):
         return None
     try:
         import pandas as pd

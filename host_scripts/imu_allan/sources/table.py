@@ -10,8 +10,10 @@ sensor_msgs/Imu defines (and the formats that feed it: EuRoC, Kalibr's CSV)
 carry their units by definition: rad/s and m/s^2. Every column not used is
 named in a note. Separators: , ; tab or blanks.
 
-Rows are parsed by pandas' C reader, a few MB at a time (bench/parsers.py
-measured it against pyarrow.csv and numpy); a bad row is parsed again by
+Rows are parsed a few MB at a time by the compiled reader beside the Allan
+kernels (stats/ck_text.c) when each line is plainly a row of numbers, else by
+pandas' C reader (bench/parsers.py measures them beside pyarrow.csv and
+numpy); the two give the same values. A bad row is parsed again by
 numpy.loadtxt only to name its line.
 """
 
@@ -310,6 +312,9 @@ def parse_csv(
     """Whole lines of text -> ((len(cols), rows) float64, the time column or None);
     an integer time column stays int64 (epoch ns do not fit a double's 53 bits).
     One line naming the row on error."""
+    fast = _compiled(body, delim, cols, time_col)
+    if fast is not None:
+        return fast
     import pandas as pd
 
     every = cols + ([time_col] if time_col is not None else [])
@@ -337,6 +342,36 @@ def parse_csv(
         r = int(np.argmax(~np.all(np.isfinite(both), axis=0)))
         raise InputError(f"'{name}': line {first_line + 1 + r}: a value is not a finite number")
     return np.ascontiguousarray(a), t
+
+
+def _compiled(
+    body: bytes, delim: Optional[str], cols: list[int], time_col: Optional[int]
+) -> Optional[tuple[np.ndarray, Optional[np.ndarray]]]:
+    """``parse_csv`` by the compiled reader (stats/ck_text.c) when every line is
+    plainly a row of numbers as pandas reads it (the same values: correctly
+    rounded floats, an integer time column as int64); None otherwise (quotes,
+    ragged rows, empty fields, words, no extension): pandas decides."""
+    from ..stats.kernels import _C
+
+    if _C is None or (delim is not None and len(delim.encode()) != 1):
+        return None
+    ncols = max(cols + ([time_col] if time_col is not None else [])) + 1
+    which = np.full(ncols, -1, dtype=np.intc)
+    which[cols] = np.arange(len(cols), dtype=np.intc)
+    cap = body.count(b"\n") + (not body.endswith(b"\n"))
+    out = np.empty((len(cols), cap))
+    tint = np.empty(cap if time_col is not None else 0, dtype=np.int64)
+    tflt = np.empty(tint.size)
+    d = delim.encode()[0] if delim is not None else 0
+    rows, tfloat = _C.parse_table(body, d, which, -1 if time_col is None else time_col, out, tint, tflt, cap)
+    if rows <= 0 or not np.all(np.isfinite(out[:, :rows])):
+        return None
+    a = out if rows == cap else np.ascontiguousarray(out[:, :rows])
+    if time_col is None:
+        return a, None
+    if tfloat and not np.all(np.isfinite(tflt[:rows])):
+        return None
+    return a, (tflt if tfloat else tint)[:rows].copy()
 
 
 @functools.lru_cache(maxsize=1)

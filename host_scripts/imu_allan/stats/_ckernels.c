@@ -2,7 +2,8 @@
  * as the fallback when this extension is not built).
  *
  * Plain C with the buffer protocol: no numpy headers.  This file is the
- * Python glue; the kernels are in ck_core.c, ck_octave.c and ck_phase.c.  Every function takes a
+ * Python glue; the kernels are in ck_core.c, ck_octave.c and ck_phase.c, the
+ * numeric text readers (rows and delimited tables) in ck_text.c.  Every function takes a
  * C-contiguous 1-D buffer of rate samples (float64/32, int8..int64, uint8..32;
  * a numpy array or an np.memmap of a file) and the offset removed before
  * summing, and fills a float64 buffer of sums of squares, one per level.
@@ -238,7 +239,169 @@ static PyObject *any_m(PyObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
+/* parse_rows(data, ncol, maxval, out, cap) -> rows, or -1 (a fault: the exact
+ * reader names it).  out: writable uint16, (ncol, cap) channel-major. */
+static PyObject *parse_rows(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer d, o;
+    int ncol, maxval;
+    Py_ssize_t cap, rows;
+    if (!PyArg_ParseTuple(args, "y*iiw*n", &d, &ncol, &maxval, &o, &cap)) return NULL;
+    if (ncol < 1 || cap < 0 || o.len < (Py_ssize_t)(ncol * cap * 2)) {
+        PyBuffer_Release(&d);
+        PyBuffer_Release(&o);
+        PyErr_SetString(PyExc_ValueError, "out: at least ncol * cap uint16");
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS rows = ck_parse_rows(d.buf, d.len, ncol, maxval, o.buf, cap);
+    Py_END_ALLOW_THREADS PyBuffer_Release(&d);
+    PyBuffer_Release(&o);
+    return PyLong_FromSsize_t(rows);
+}
+
+/* parse_table(data, delim, which, tcol, out, tint, tflt, cap) -> (rows, time_is_float);
+ * rows < 0: -(1 + the first line not plainly a row).  which: int32 per column. */
+static PyObject *parse_table(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer d, w, o, ti, tf;
+    int delim, tcol, tfloat = 0;
+    Py_ssize_t cap, rows;
+    if (!PyArg_ParseTuple(args, "y*iy*iw*w*w*n", &d, &delim, &w, &tcol, &o, &ti, &tf, &cap)) return NULL;
+    int ncols = (int)(w.len / (Py_ssize_t)sizeof(int)), nout = 0;
+    for (int k = 0; k < ncols; k++)
+        if (((const int *)w.buf)[k] >= nout) nout = ((const int *)w.buf)[k] + 1;
+    int bad = cap < 0 || tcol >= ncols || o.len < (Py_ssize_t)(nout * cap * 8) ||
+              (tcol >= 0 && (ti.len < cap * 8 || tf.len < cap * 8));
+    struct ck_table t = {delim, w.buf, ncols, tcol, o.buf, cap, ti.buf, tf.buf, &tfloat};
+    if (!bad) {
+        Py_BEGIN_ALLOW_THREADS rows = ck_parse_table(d.buf, d.len, &t);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&d);
+    PyBuffer_Release(&w);
+    PyBuffer_Release(&o);
+    PyBuffer_Release(&ti);
+    PyBuffer_Release(&tf);
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError, "parse_table: buffers too small for cap");
+        return NULL;
+    }
+    return Py_BuildValue("ni", rows, tfloat);
+}
+
+/* diff_look(x, prev, has_prev, pos, step, sub, st) -> values put in sub;
+ * diff_grid(x, prev, has_prev, q, gmax, cnt) -> not numbers: the outlier scan's two passes
+ * over one piece (x: contiguous float64) of a channel's first differences. */
+static PyObject *diff_look(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer x, sub, st;
+    double prev;
+    int has_prev;
+    Py_ssize_t pos, step, k = -1;
+    if (!PyArg_ParseTuple(args, "y*dinnw*w*", &x, &prev, &has_prev, &pos, &step, &sub, &st)) return NULL;
+    ssz n = x.len / 8;
+    if (step >= 1 && st.len >= 32 && sub.len >= 8 * (n / step + 1)) {
+        Py_BEGIN_ALLOW_THREADS k = ck_diff_look(x.buf, n, prev, has_prev, pos, step, sub.buf, st.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&x);
+    PyBuffer_Release(&sub);
+    PyBuffer_Release(&st);
+    if (k < 0) {
+        PyErr_SetString(PyExc_ValueError, "diff_look: step >= 1, st of 4, sub of n / step + 1");
+        return NULL;
+    }
+    return PyLong_FromSsize_t(k);
+}
+
+static PyObject *diff_grid(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer x, cnt;
+    double prev, q;
+    int has_prev, gmax;
+    if (!PyArg_ParseTuple(args, "y*didiw*", &x, &prev, &has_prev, &q, &gmax, &cnt)) return NULL;
+    int ok = gmax >= 0 && q > 0 && cnt.len >= 8 * (2 * (Py_ssize_t)gmax + 1);
+    Py_ssize_t bad = 0;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS bad = ck_diff_grid(x.buf, x.len / 8, prev, has_prev, q, gmax, cnt.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&x);
+    PyBuffer_Release(&cnt);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "diff_grid: q > 0, cnt of 2 gmax + 1 int64");
+        return NULL;
+    }
+    return PyLong_FromSsize_t(bad);
+}
+
+/* welch_prep(x, nseg, step, k, mean, window, out) and welch_acc(spec, k, nf, acc):
+ * psd.Welch's segments, demeaned and windowed, and its periodograms summed. */
+static PyObject *welch_prep(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer x, m, w, o;
+    Py_ssize_t nseg, step, k;
+    if (!PyArg_ParseTuple(args, "y*nnny*y*w*", &x, &nseg, &step, &k, &m, &w, &o)) return NULL;
+    int ok = nseg >= 1 && step >= 1 && k >= 0 && x.len >= 8 * ((k ? (k - 1) * step : 0) + nseg) &&
+             m.len >= 8 * k && w.len >= 8 * nseg && o.len >= 8 * k * nseg;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS ck_welch_prep(x.buf, nseg, step, k, m.buf, w.buf, o.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&x);
+    PyBuffer_Release(&m);
+    PyBuffer_Release(&w);
+    PyBuffer_Release(&o);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "welch_prep: buffers too small");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *welch_acc(PyObject *self, PyObject *args)
+{
+    (void)self;
+    Py_buffer z, a;
+    Py_ssize_t k, nf;
+    if (!PyArg_ParseTuple(args, "y*nnw*", &z, &k, &nf, &a)) return NULL;
+    int ok = k >= 0 && nf >= 0 && z.len >= 16 * k * nf && a.len >= 8 * nf;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS ck_welch_acc(z.buf, k, nf, a.buf);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&z);
+    PyBuffer_Release(&a);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "welch_acc: buffers too small");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
+    {"welch_prep", welch_prep, METH_VARARGS,
+     "welch_prep(x, nseg, step, k, mean, window, out)\n"
+     "k segments of x, step apart: (x - mean[s]) * window into out (k, nseg)."},
+    {"welch_acc", welch_acc, METH_VARARGS,
+     "welch_acc(spec, k, nf, acc)\nacc += |spec[s]|^2 for each of k spectra, in order."},
+    {"diff_look", diff_look, METH_VARARGS,
+     "diff_look(x, prev, has_prev, pos, step, sub, st) -> k\n"
+     "First differences of a piece: every step-th into sub, min nonzero |d|, max, min into st."},
+    {"diff_grid", diff_grid, METH_VARARGS,
+     "diff_grid(x, prev, has_prev, q, gmax, cnt) -> differences not numbers\n"
+     "Counts of rint(d / q) clipped to +-gmax of a piece's first differences."},
+    {"parse_rows", parse_rows, METH_VARARGS,
+     "parse_rows(data, ncol, maxval, out, cap) -> rows (-1: a fault)\n"
+     "Rows of ncol integer codes into out (uint16, (ncol, cap))."},
+    {"parse_table", parse_table, METH_VARARGS,
+     "parse_table(data, delim, which, tcol, out, tint, tflt, cap) -> (rows, time_is_float)\n"
+     "Delimited numbers: wanted columns into out (float64, (k, cap)), the time column into tint/tflt."},
     {"octave_overlap", octave_overlap, METH_VARARGS,
      "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0, exact=0) -> levels\n"
      "Overlapping octave sums of squares into out[k] (m = 2^k)."},

@@ -91,4 +91,25 @@ int ck_octave_nonoverlap(const void *x, int fmt, ssz n, double off, ssz chunk, l
 int ck_any_m(const void *x, int fmt, ssz n, double off, const int64_t *ms, ssz nm, int overlapping, int exact,
              double *out);
 
+/* Numeric text (ck_text.c). */
+ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap);
+struct ck_table {
+    int delim;        /* the separator byte, or 0: runs of blanks */
+    const int *which; /* per column up to the last wanted: its output row, or -1 */
+    int ncols;
+    int tcol;    /* the time column, or -1 */
+    double *out; /* (rows of which, cap) float64 */
+    ssz cap;
+    int64_t *tint; /* the time column as integers and as float64 (cap each) */
+    double *tflt;
+    int *tfloat; /* set when a time value is not a plain integer */
+};
+ssz ck_parse_table(const char *buf, ssz len, const struct ck_table *t);
+ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz step, double *sub,
+                 double *st);
+void ck_welch_prep(const double *x, ssz nseg, ssz step, ssz k, const double *mean, const double *w,
+                   double *out);
+void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc);
+ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt);
+
 #endif
