@@ -122,7 +122,7 @@ include tests/firmware/fuzz/fuzz.mk
 # make flash / make fuses through avrdude (boards.mk explains the values).
 include boards.mk
 
-.PHONY: all help facts pyflakes lint format bench bench-long ext firmware other-mcus deps test firmware-test unit pytest sim-test soak term-test flash-test demo demo-native clean version
+.PHONY: all help facts pyflakes lint format bench bench-long ext firmware other-mcus deps test firmware-test unit pytest sim-test system-test soak term-test flash-test demo demo-native clean version
 
 all: firmware ## the firmware (the default goal): build/avr-MCU/imu-allan.hex
 
@@ -198,7 +198,17 @@ ext: ## build the host package's compiled Allan kernels in place
 	cd host_scripts && $(PYTHON) setup.py -q build_ext --inplace --build-temp $(CURDIR)/$(BUILD)/ext
 
 # ---- tests ---------------------------------------------------------------
-test: lint firmware other-mcus firmware-test pytest sim-test term-test flash-test fuzz-smoke ## every test (8+ minutes)
+test: lint firmware other-mcus firmware-test pytest system-test ## every test (8+ minutes)
+	$(MAKE) --no-print-directory -j 2 --output-sync=target fuzz-smoke
+
+# The three system test sets side by side.  sim-test keeps both cores busy
+# (pytest -n 2, each worker running imu-sim flat out); term-test and
+# flash-test mostly wait on devices simulated in real time (imu-sim --pty
+# uses about a tenth of a core), so they run beside it, one after the other,
+# and sim-test runs niced: a busy core never makes their devices fall behind
+# the wall clock.  Each set's output is shown whole when it ends.
+system-test: firmware $(IMU_SIM) bootloader ## sim-test beside term-test then flash-test (part of make test)
+	$(MAKE) --no-print-directory -j 2 --output-sync=target SIM_NICE="nice -n 10" sim-test term-test flash-test
 
 # The ATmega328P build must keep compiling (20 octaves, 48-bit accumulators).
 other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still compiles
@@ -207,7 +217,7 @@ other-mcus: ## the ATmega328P build (20 octaves, 48-bit accumulators) still comp
 firmware-test unit: ## the firmware's Unity and native tests (cmake, ctest); unit: its former name
 	cmake -S tests/firmware/unit -B $(BUILD)/firmware-test -DUNITY_DIR=$(UNITY_DIR) >/dev/null
 	cmake --build $(BUILD)/firmware-test -j 2
-	cd $(BUILD)/firmware-test && ctest --output-on-failure
+	cd $(BUILD)/firmware-test && ctest --output-on-failure -j 2
 
 # The host tests that drive the real firmware in imu-sim (sweep, the report
 # check line) need both built; without them they would skip.
@@ -224,8 +234,10 @@ flash-test: firmware $(IMU_SIM) bootloader ## make flash with avrdude and optibo
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) -m pytest -q -p no:cacheprovider tests/system/flash
 
 # The real firmware ELF in simavr on synthetic streams, each checked exactly.
+# SIM_NICE: a command in front of it (system-test's `nice -n 10`).
+SIM_NICE ?=
 sim-test: firmware $(IMU_SIM) ## the firmware ELF in simavr on synthetic streams, checked exactly
-	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(PYTHON) -m pytest -q -n 2 tests/system/sim
+	BUILD=$(CURDIR)/$(BUILD) PYTHONPATH=$(CURDIR)/host_scripts $(SIM_NICE) $(PYTHON) -m pytest -q -n 2 tests/system/sim
 
 # ---- lint and format -------------------------------------------------------
 # Python: ruff (ruff.toml: check and format); C: clang-format (.clang-format,

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import report_lines, thesis_like
 
 HOST = Path(__file__).resolve().parents[1]
 HEAVY = ("numpy", "scipy", "matplotlib", "serial")
@@ -57,3 +58,16 @@ def test_the_package_loads_its_api_on_first_use() -> None:
     assert got["heavy"] == []
     got = _loaded_after("import imu_allan\nimu_allan.oadev")
     assert "numpy" in got["heavy"]  # the probe sees an import when there is one
+
+
+@pytest.mark.parametrize("json_out", [False, True], ids=["text", "json"])
+def test_decode_imports_no_scipy(tmp_path: Path, json_out: bool) -> None:
+    """decode reads a device log and prints it: numpy, never scipy (whose
+    import alone costs more than the decoding)."""
+    log = tmp_path / "dev.log"
+    log.write_bytes(b"".join(report_lines(thesis_like(600, 3), levels=8)))
+    argv = ["decode", *(["--json"] if json_out else []), str(log)]
+    got = _loaded_after(f"from imu_allan.cli.main import main\nassert main({argv!r}) == 0")
+    roots = {m.split(".")[0] for m in got["heavy"]}
+    assert "numpy" in roots and "scipy" not in roots, got["heavy"]
+    assert "imu_allan.device.records" in got["ours"]  # the probe really decoded

@@ -6,10 +6,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +17,6 @@ from imu_allan.cli.study import write_model_rows
 from imu_allan.noise import sensor
 from imu_allan.profiles import parse_scales
 
-REPO = Path(__file__).resolve().parents[2]
 TEMPCO = {"ax": 0.3, "ay": -0.2, "az": 0.0, "gx": 0.15, "gy": 0.05, "gz": -0.1}
 
 
@@ -131,36 +127,38 @@ def test_block_covariance_of_white_noise_is_diagonal():
     assert np.allclose(S, np.eye(3) * 0.16 / 5.0)
 
 
-def _cli(*args: str) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
-    return subprocess.run([sys.executable, "-m", "imu_allan.cli", *args], capture_output=True, text=True, env=env)
-
-
-def test_cli_json_shape_and_errors(capture, tmp_path):
+@pytest.fixture(scope="module")
+def short_cycle(capture, tmp_path_factory) -> Path:
+    """A third of the temperature cycle (400 s at 50 Hz) of the same model."""
     _, model = capture
-    rows = tmp_path / "short-cycle.tsv"
+    rows = tmp_path_factory.mktemp("thermal-short") / "short-cycle.tsv"
     write_model_rows(str(rows), model, 50.0, 20_000, seed=2)
-    p = _cli("thermal", str(rows), "--fs", "50", "--json")
-    assert p.returncode == 0, p.stderr
-    d = json.loads(p.stdout)
+    return rows
+
+
+def test_cli_json_shape_and_errors(short_cycle, run_cli, tmp_path):
+    rows = short_cycle
+    rc, out, err = run_cli("thermal", rows, "--fs", "50", "--json")
+    assert rc == 0, err
+    d = json.loads(out)
     gx = d["channels"]["gx"]
     assert set(gx["tempco"]) == {"value", "low", "high", "unit"} and gx["tempco"]["unit"] == "counts/code"
     assert "N" in gx["terms_before"] and "N" in gx["terms_after"]
-    p = _cli("thermal", str(rows))
-    assert p.returncode == 2 and "--fs" in p.stderr and len(p.stderr.splitlines()) == 1
+    rc, _, err = run_cli("thermal", rows)
+    assert rc == 2 and "--fs" in err and len(err.splitlines()) == 1
     short = tmp_path / "short.tsv"
     short.write_text("500\t500\t500\t500\t500\t500\t63\n" * 10)
-    p = _cli("thermal", str(short), "--fs", "50")
-    assert p.returncode == 2 and "too few" in p.stderr
+    rc, _, err = run_cli("thermal", short, "--fs", "50")
+    assert rc == 2 and "too few" in err
     csv = tmp_path / "no-temp.csv"
     csv.write_text("t,ax,ay,az,gx,gy,gz\n" + "".join(f"{i * 0.02:.2f},1,2,3,4,5,6\n" for i in range(2000)))
-    p = _cli("thermal", str(csv))
-    assert p.returncode == 2 and "no temperature column" in p.stderr and len(p.stderr.splitlines()) == 1
-    p = _cli("thermal", str(rows), "--fs", "50", "--temp-scale", "abc")
-    assert p.returncode == 2 and "C_PER_COUNT" in p.stderr
+    rc, _, err = run_cli("thermal", csv)
+    assert rc == 2 and "no temperature column" in err and len(err.splitlines()) == 1
+    rc, _, err = run_cli("thermal", rows, "--fs", "50", "--temp-scale", "abc")
+    assert rc == 2 and "C_PER_COUNT" in err
 
 
-def test_a_temperature_that_does_not_vary_gets_no_fit_and_says_so(tmp_path: Path) -> None:
+def test_a_temperature_that_does_not_vary_gets_no_fit_and_says_so(tmp_path: Path, run_cli) -> None:
     """A still temperature (only its sensor's noise): no tempco (a fit would print 0 [0, 0], a
     false measured zero), one sentence why, exit status 0."""
     spec = {"temperature": {"start_c": 25.0, "ramp_c_per_s": 0.0, "sine_c": 0.0, "period_s": 1200.0}}
@@ -170,20 +168,21 @@ def test_a_temperature_that_does_not_vary_gets_no_fit_and_says_so(tmp_path: Path
     write_model_rows(str(rows), sensor.load_model(str(mf)), 50.0, 50 * 600, seed=3)
     codes, _, _ = thermal.read_with_temperature(str(rows))
     assert codes[6].max() - codes[6].min() <= 4  # a still temperature: its sensor's noise only
-    cmd = [sys.executable, "-m", "imu_allan.cli", "thermal", str(rows), "--fs", "50"]
-    env = {**os.environ, "PYTHONPATH": str(REPO / "host_scripts")}
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    assert out.returncode == 0, out.stderr
-    assert re.search(r"temperature does not vary \(range 0\.\d+ code, under 3 codes\): no thermal fit", out.stdout)
-    assert "tempco" not in out.stdout
-    doc = json.loads(subprocess.run([*cmd, "--json"], capture_output=True, text=True, env=env).stdout)
+    rc, out, err = run_cli("thermal", rows, "--fs", "50")
+    assert rc == 0, err
+    assert re.search(r"temperature does not vary \(range 0\.\d+ code, under 3 codes\): no thermal fit", out)
+    assert "tempco" not in out
+    rc, out, err = run_cli("thermal", rows, "--fs", "50", "--json")
+    assert rc == 0, err
+    doc = json.loads(out)
     assert doc["fitted"] is False and doc["channels"] == {}
 
 
-def test_scale_gives_the_tempco_in_the_sensors_units(capture) -> None:
+def test_scale_gives_the_tempco_in_the_sensors_units(capture, short_cycle) -> None:
     """--scale gx=0.5 (deg/s per count): gx's tempco is half its value in counts,
-    the other channels unchanged."""
-    rows, model = capture
+    the other channels unchanged (an exact relation: a third of the cycle shows it)."""
+    _, model = capture
+    rows = short_cycle
     tp = model.doc["temperature"]
     ts = (tp["c_per_count"], tp["offset_c"])
     base = thermal.study(str(rows), fs=50.0, temp_scale=ts, segments=1)

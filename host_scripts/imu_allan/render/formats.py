@@ -11,7 +11,6 @@ import math
 from typing import Any, Optional
 
 from ..errors import InputError
-from ..noise.terms import TERMS
 from .text import ACC, GYRO, NAMES, Doc, literature_value
 
 
@@ -60,6 +59,8 @@ TERM_CSV = (
 
 
 def terms_csv(doc: dict[str, Any]) -> str:
+    from ..noise.terms import TERMS  # here: noise.terms imports scipy, which decode never needs
+
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(TERM_CSV)

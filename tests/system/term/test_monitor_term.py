@@ -13,9 +13,10 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Iterator, Optional
+from typing import Iterator, Optional
 
 import pytest
+from tmux_window import Tmux
 
 REPO = Path(__file__).resolve().parents[3]
 BUILD = Path(os.environ.get("BUILD", REPO / "build"))
@@ -57,44 +58,6 @@ def link(tmp_path: Path) -> Iterator[Path]:
             proc.kill()
             proc.wait()
         err.close()
-
-
-class Tmux:
-    """One tmux server of our own (-L) with one window running a command."""
-
-    def __init__(self, tmp: Path, command: str, width: int = 80, height: int = 24) -> None:
-        self.socket = f"imu-allan-test-{os.getpid()}-{id(self)}"
-        self.run("-f", "/dev/null", "new-session", "-d", "-s", "t", "-x", str(width), "-y", str(height), command)
-        self.run("set-option", "-t", "t", "remain-on-exit", "on")
-
-    def run(self, *args: str) -> str:
-        return subprocess.run(["tmux", "-L", self.socket, *args], capture_output=True, text=True, check=True).stdout
-
-    def keys(self, *keys: str) -> None:
-        self.run("send-keys", "-t", "t", *keys)
-
-    def screen(self) -> list[str]:
-        return self.run("capture-pane", "-p", "-t", "t").split("\n")[:-1]
-
-    def everything(self) -> str:
-        """The scrollback and the screen."""
-        return self.run("capture-pane", "-p", "-S", "-", "-t", "t")
-
-    def value(self, name: str) -> str:
-        return self.run("display-message", "-p", "-t", "t", f"#{{{name}}}").strip()
-
-    def wait(self, ok: Callable[[list[str]], bool], what: str, timeout: float = 20.0) -> list[str]:
-        deadline = time.monotonic() + timeout
-        while True:
-            lines = self.screen()
-            if ok(lines):
-                return lines
-            if time.monotonic() > deadline:
-                raise AssertionError(f"not on the screen after {timeout} s: {what}\n" + "\n".join(lines))
-            time.sleep(0.1)
-
-    def kill(self) -> None:
-        subprocess.run(["tmux", "-L", self.socket, "kill-server"], capture_output=True)
 
 
 def _monitor_command(link: Path, log: Optional[Path]) -> str:
