@@ -9,6 +9,7 @@
 
 #include "adc.h"
 #include "allan.h"
+#include "board.h"
 #include "config.h"
 #include "console.h"
 #include "fmt.h"
@@ -41,8 +42,6 @@ static struct {
   uint8_t part, ch, level;
   uint16_t seq;   /* of the report being written; +1 when one starts */
   uint8_t run_id; /* +1 with every new run (report_new_run) */
-  uint8_t counts; /* the units setting as the report began (in its header): a
-                    `units` typed while it is sent takes effect with the next one */
   union {
     struct { /* an L row's snapshot */
       uint8_t flags;
@@ -68,11 +67,17 @@ void report_new_run(void)
   rep.run_id++;
 }
 
-#define rep_counts() (rep.counts)
+/* The units setting as the report began (in its header): a `units` typed
+ * while it is sent takes effect with the next one.  A flag of board.h's
+ * (no SRAM). */
+#define rep_counts() (BOARD_FLAGS & BOARD_FLAG_COUNTS)
 
 void report_begin(void)
 {
-  rep.counts = settings.counts;
+  if (settings.counts)
+    BOARD_FLAGS |= BOARD_FLAG_COUNTS;
+  else
+    BOARD_FLAGS &= (uint8_t)~BOARD_FLAG_COUNTS;
   rep.part = PART_HEADER;
   rep.ch = 0;
   rep.level = 0;
@@ -188,7 +193,8 @@ uint8_t report_boot_step(uint8_t step)
  * one step (at most 16 characters: `1023.0:1023:1023`), so that no sample
  * can come between the mean and the extremes; `-` when the interval holds
  * no sample.  The mean to one decimal (fmt_mean: exact over the longest
- * interval).  The next report's interval starts here. */
+ * interval).  The next report's interval starts after this step
+ * (REPORT_INTERVAL: the main loop restarts it before the next set). */
 static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
@@ -202,13 +208,14 @@ static __attribute__((noinline)) void put_temp(void)
   } else {
     proto_putc('-');
   }
-  sample_interval_restart();
 }
 
 /* config.h's numbers as text (plain integer literals there). */
 #define REP_STR_(x) #x
 #define REP_STR(x) REP_STR_(x)
 
+/* A step of the header: 0 (more), 1 (the line is written), or
+ * REPORT_INTERVAL after the temperature. */
 static __attribute__((noinline)) uint8_t step_header(uint8_t step)
 {
   const uint8_t clip0 = 12, temp = clip0 + ADC_COLUMNS;
@@ -240,8 +247,9 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
       proto_puts_P(PSTR(",temp="));
   } else if (step == temp) {
     put_temp();
+    return REPORT_INTERVAL;
   } else if ((uint8_t)(step - temp - 1) < SETTINGS_IN_HEADER) {
-    reply_put_setting((uint8_t)(step - temp - 1), ',', rep_counts());
+    reply_put_setting((uint8_t)(step - temp - 1), ',', rep_counts() != 0);
   } else if (step == temp + 1 + SETTINGS_IN_HEADER) {
     proto_puts_P(reset_key_P);
   } else if (step == temp + 2 + SETTINGS_IN_HEADER) {
@@ -584,8 +592,8 @@ uint8_t report_step(uint8_t step)
     proto_end();
     return REPORT_DONE;
   }
-  if (!done)
-    return REPORT_MORE;
+  if (done != 1)
+    return done; /* REPORT_MORE (0), or the header's REPORT_INTERVAL */
   next_line();
   return REPORT_LINE_DONE;
 }
