@@ -80,6 +80,7 @@
 #define BOARD_FLAG_SET_DONE 0x10u /* stream.c: the oldest set's row or frame is written */
 #define BOARD_FLAG_COUNTS 0x20u   /* report.c: the report in progress is in counts */
 #define BOARD_FLAG_BOUND 0x40u    /* proto.c: the line being written is bound */
+#define BOARD_FLAG_INTERVAL 0x80u /* report.c to loop.c: a header has written its interval's temperature */
 
 /* MMA7260Q g-select: GS1 on PD6, GS2 on PD7 (00=1.5g 01=2g 10=4g 11=6g). */
 #define BOARD_GSEL_DDR DDRD

@@ -2,6 +2,7 @@
 #include "loop.h"
 
 #include "adc.h"
+#include "board.h"
 #include "console.h"
 #include "control.h"
 #include "sample.h"
@@ -23,8 +24,11 @@ uint8_t loop_pass(void)
     console_receive(); /* between two pieces too: the RX ring lasts 0.69 ms */
     return 1;
   }
-  if (switchboard_poll())
-    sample_interval_restart(); /* the report's header took the interval's temperature */
+  switchboard_poll();
+  if (BOARD_FLAGS & BOARD_FLAG_INTERVAL) { /* a report's header took the interval's temperature */
+    BOARD_FLAGS &= (uint8_t)~BOARD_FLAG_INTERVAL;
+    sample_interval_restart();
+  }
   control_poll();
   return 0;
 }

@@ -193,8 +193,9 @@ uint8_t report_boot_step(uint8_t step)
  * one step (at most 16 characters: `1023.0:1023:1023`), so that no sample
  * can come between the mean and the extremes; `-` when the interval holds
  * no sample.  The mean to one decimal (fmt_mean: exact over the longest
- * interval).  The next report's interval starts after this step
- * (REPORT_INTERVAL: the main loop restarts it before the next set). */
+ * interval).  The next report's interval starts after this step: a flag
+ * says so to the loop's pass (loop.c), which restarts it before it takes
+ * another set. */
 static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
@@ -208,14 +209,13 @@ static __attribute__((noinline)) void put_temp(void)
   } else {
     proto_putc('-');
   }
+  BOARD_FLAGS |= BOARD_FLAG_INTERVAL;
 }
 
 /* config.h's numbers as text (plain integer literals there). */
 #define REP_STR_(x) #x
 #define REP_STR(x) REP_STR_(x)
 
-/* A step of the header: 0 (more), 1 (the line is written), or
- * REPORT_INTERVAL after the temperature. */
 static __attribute__((noinline)) uint8_t step_header(uint8_t step)
 {
   const uint8_t clip0 = 12, temp = clip0 + ADC_COLUMNS;
@@ -247,7 +247,6 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
       proto_puts_P(PSTR(",temp="));
   } else if (step == temp) {
     put_temp();
-    return REPORT_INTERVAL;
   } else if ((uint8_t)(step - temp - 1) < SETTINGS_IN_HEADER) {
     reply_put_setting((uint8_t)(step - temp - 1), ',', rep_counts() != 0);
   } else if (step == temp + 1 + SETTINGS_IN_HEADER) {
@@ -592,8 +591,8 @@ uint8_t report_step(uint8_t step)
     proto_end();
     return REPORT_DONE;
   }
-  if (done != 1)
-    return done; /* REPORT_MORE (0), or the header's REPORT_INTERVAL */
+  if (!done)
+    return REPORT_MORE;
   next_line();
   return REPORT_LINE_DONE;
 }

@@ -26,10 +26,6 @@ void report_begin(void);
 #define REPORT_MORE 0      /* the line goes on: call again with step + 1 */
 #define REPORT_LINE_DONE 1 /* a line is written: the next starts at step 0 */
 #define REPORT_DONE 2      /* the end line is written: the report is whole */
-#define REPORT_INTERVAL                                                                                      \
-  3 /* as REPORT_MORE, and the header has written the
-                            * report interval's temperature: the next
-                            * interval starts now (sample_interval_restart) */
 
 /* One step of the current line of the report, the engine settled
  * (sample.h's sample_settle has nothing left to do). */

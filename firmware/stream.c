@@ -47,7 +47,9 @@ void stream_restart(void)
 
 uint8_t stream_holds_oldest(void)
 {
-  return settings.mode != MODE_ALLAN && !SET_DONE;
+  if (settings.mode == MODE_ALLAN)
+    return 0;
+  return (uint8_t)(~BOARD_FLAGS & BOARD_FLAG_SET_DONE); /* not 0 until written */
 }
 
 void stream_taken(void)

@@ -14,8 +14,8 @@
 /* Rows and frames count from 0 again (mode entered, a new run). */
 void stream_restart(void);
 
-/* 1 while the oldest sampled set still has to be written (raw, binary and
- * both modes), so it must stay in the ADC ring for now. */
+/* Not 0 while the oldest sampled set still has to be written (raw, binary
+ * and both modes), so it must stay in the ADC ring for now. */
 uint8_t stream_holds_oldest(void);
 
 /* The oldest set went to the engine: the next one is due for output. */

@@ -180,9 +180,8 @@ static void job_done(void)
   }
 }
 
-uint8_t switchboard_poll(void)
+void switchboard_poll(void)
 {
-  uint8_t interval_end = 0;
   while (switchboard_can_write()) {
     uint8_t done;
     if (stream_step(at_line_boundary(), out.flags & HOLD_ROWS)) {
@@ -196,10 +195,6 @@ uint8_t switchboard_poll(void)
     if (out.job == JOB_REPORT) {
       uint8_t room = uart_tx_room();
       done = report_step(out_step);
-      if (done == REPORT_INTERVAL) {
-        interval_end = 1;
-        done = REPORT_MORE;
-      }
       if (done == REPORT_MORE && uart_tx_room() == room) {
         out_step++; /* a step that only computed (a T line's search): the loop */
         break;      /* feeds the engine before the next one */
@@ -219,5 +214,4 @@ uint8_t switchboard_poll(void)
     if (done)
       job_done();
   }
-  return interval_end;
 }

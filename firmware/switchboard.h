@@ -58,9 +58,7 @@ void switchboard_restart_rows(void);
 /* 1 when the TX ring takes a whole step now. */
 uint8_t switchboard_can_write(void);
 
-/* Write as much as the TX ring takes now.  Returns 1 when a report's
- * header has written the report interval's temperature: the caller (the
- * main loop) starts the next interval before it takes another set. */
-uint8_t switchboard_poll(void);
+/* Write as much as the TX ring takes now. */
+void switchboard_poll(void);
 
 #endif /* SWITCHBOARD_H */
