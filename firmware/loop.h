@@ -5,11 +5,11 @@
  *
  * The sample path is a straight line, each step called from here: a
  * finished scan waits in the ADC ring; in modes raw, binary and both the
- * stream writes it first (through the output scheduler) and marks it in
- * the ring; then the engine takes it (sample.c).  Nothing on the path
- * calls back up: the output says through switchboard_poll()'s result when
- * a report has written its interval's temperature, and this pass starts
- * the next interval before it takes another set.
+ * stream writes it first (through the output scheduler); then the engine
+ * takes it (sample.c) and the stream is told.  Nothing on the path calls
+ * back up: a report's header that has written its interval's temperature
+ * raises a flag (board.h's BOARD_FLAG_INTERVAL), and this pass starts the
+ * next interval before it takes another set.
  */
 #ifndef LOOP_H
 #define LOOP_H

@@ -42,8 +42,8 @@ void sample_reset(void);
 
 /* Start a new report interval (temperature statistics and the periodic
  * report's sample count): a new run, and the report's header once it has
- * written the interval's temperature (the main loop, told so by
- * switchboard_poll()). */
+ * written the interval's temperature (the loop's pass, told so by the
+ * header's flag: loop.h). */
 void sample_interval_restart(void);
 
 #endif /* SAMPLE_H */
