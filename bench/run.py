@@ -435,7 +435,9 @@ TARGETS = [
     # 15250 again once the room the console and the commands' check took
     # was made elsewhere (docs/firmware.md, "The console's room").
     ("flash_bytes", "<=", 15250, "bytes", "avr-size -A: .text + .data, ATmega168 (optiboot's 512 bytes leave 15872)"),
-    ("ram_static_bytes", "<=", None, "bytes", "avr-size -A: .data + .bss + .noinit"),
+    # 889: the static RAM of before the console, back since its line state
+    # and counters found room (docs/firmware.md, "RAM back to 889").
+    ("ram_static_bytes", "<=", 889, "bytes", "avr-size -A: .data + .bss + .noinit"),
     (
         "stack_free_bytes",
         ">=",

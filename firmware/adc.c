@@ -40,11 +40,12 @@ static volatile uint8_t scan_col;
 /* A scan's first conversion, the next ones started by the ADC itself
  * (ADCSRB's ADTS = 0: free running) until the interrupt clears ADATE. */
 #define ADCSRA_SCAN (ADCSRA_IDLE | (1 << ADSC) | (1 << ADATE))
-/* SCANNING while a scan runs, LIMITED when `start <count>` counts scans:
- * one byte for both, as every byte of SRAM is stack margin. */
-static volatile uint8_t flags;
-#define SCANNING 0x01u
-#define LIMITED 0x02u
+/* SCANNING while a scan runs, LIMITED when `start <count>` counts scans,
+ * and the dither phase: bits of board.h's BOARD_FLAGS (no SRAM). */
+#define adc_flags BOARD_FLAGS
+#define SCANNING BOARD_FLAG_SCANNING
+#define LIMITED BOARD_FLAG_LIMITED
+#define DITHER BOARD_FLAG_DITHER
 static volatile uint32_t budget;   /* scans left when limited */
 static volatile uint8_t isr_drops; /* counted by the ISRs, 8 bits to keep them small */
 static uint32_t drops;             /* folded in by the main loop */
@@ -77,7 +78,7 @@ void adc_init(void)
  * most one CPU cycle (0.1 us) off the ideal grid, far less than the up to
  * one ADC clock (6.4 us) by which the ADC's clock edge already moves every
  * conversion's start (docs/firmware.md, Timing).  The dither's state is
- * GPIOR0, an I/O register nothing else uses (no SRAM): 0 for an exact
+ * two bits of BOARD_FLAGS, an I/O register (no SRAM): 0 for an exact
  * rate, else the phase 3, 2, 1 of the period in progress. */
 #define DITHER_HZ 1500u
 #define DITHER_TOP (F_CPU / DITHER_HZ - 1u)                             /* OCR1A of a short period */
@@ -90,17 +91,18 @@ void adc_init(void)
 #endif
 
 /* OCR1A of each rate in vocab_rates' order, worked out by the compiler
- * (no division at run time; 1500 Hz's entry is not used: GPIOR0). */
+ * (no division at run time; 1500 Hz's entry is not used: the dither). */
 #define OCR_ITEM(a, hz) (uint16_t)(F_CPU / BOARD_TIMER1_PRESCALER / (hz)-1u),
 static const uint16_t rate_ocr[] PROGMEM = {VOCAB_RATES(OCR_ITEM, 0)};
 
 void adc_set_rate(uint16_t hz)
 {
+  /* Stopped: no tick rewrites the flags meanwhile. */
   if (hz == DITHER_HZ) { /* the only rate in the list without an exact period */
-    GPIOR0 = 3;
+    adc_flags |= DITHER; /* phase 3 */
     OCR1A = (uint16_t)(DITHER_TOP + (3u <= DITHER_LONG));
   } else {
-    GPIOR0 = 0;
+    adc_flags &= (uint8_t)~DITHER;
     OCR1A = pgm_read_word(&rate_ocr[vocab_rate_index(hz)]); /* hz: one of the list */
   }
 }
@@ -109,7 +111,7 @@ uint16_t adc_rate(void)
 {
   const uint16_t *p = rate_ocr;
   uint16_t ocr = OCR1A;
-  if (GPIOR0)
+  if (adc_flags & DITHER)
     return DITHER_HZ;
   /* From the timer itself: the rate whose period it counts (always one of
    * the list: adc_set_rate wrote it; the last one if not). */
@@ -121,12 +123,15 @@ uint16_t adc_rate(void)
 void adc_start(uint8_t lim, uint32_t count)
 {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    flags = (uint8_t)((flags & SCANNING) | (lim ? LIMITED : 0u));
+    if (lim)
+      adc_flags |= LIMITED;
+    else
+      adc_flags &= (uint8_t)~LIMITED;
     budget = count;
     TCNT1 = 0;
     TIFR1 = (1 << OCF1A);
     if (!lim || count) { /* else nothing to take: the timer stays off */
-      TCCR1B = (uint8_t)((1 << WGM12) | (GPIOR0 ? (1 << CS10) : BOARD_TIMER1_CS));
+      TCCR1B = (uint8_t)((1 << WGM12) | ((adc_flags & DITHER) ? (1 << CS10) : BOARD_TIMER1_CS));
       TIMSK1 = (1 << OCIE1A);
     }
   }
@@ -136,7 +141,7 @@ uint32_t adc_remaining(void)
 {
   uint32_t r;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    r = (flags & LIMITED) ? budget : ADC_UNLIMITED;
+    r = (adc_flags & LIMITED) ? budget : ADC_UNLIMITED;
   }
   return r;
 }
@@ -145,7 +150,7 @@ void adc_limit(uint32_t total)
 {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     uint8_t waiting = adc_pending();
-    flags |= LIMITED;
+    adc_flags |= LIMITED;
     budget = total > waiting ? total - waiting : 0;
     if (!budget) { /* enough taken: the tick stops (a scan under way lands) */
       TIMSK1 = 0;
@@ -158,7 +163,7 @@ void adc_stop(void)
 {
   TIMSK1 = 0;
   TCCR1B = (1 << WGM12);
-  while (flags & SCANNING)
+  while (adc_flags & SCANNING)
     ;
 }
 
@@ -166,7 +171,7 @@ uint8_t adc_running(void)
 {
   /* The tick stops as the last scan of a `start <count>` begins; that
    * scan still counts as running until it lands in the ring. */
-  return (TIMSK1 & (1 << OCIE1A)) || (flags & SCANNING);
+  return (TIMSK1 & (1 << OCIE1A)) || (adc_flags & SCANNING);
 }
 
 /* Move the ISRs' count into the 32-bit total (main loop only). */
@@ -266,8 +271,8 @@ void adc_count_drop(void)
 
 ISR(TIMER1_COMPA_vect)
 {
-  uint8_t g;
-  if (flags & SCANNING) {
+  uint8_t g, phase;
+  if (adc_flags & SCANNING) {
     drop_one(); /* previous scan unfinished: the rate outruns the ADC */
   } else {      /* the scan starts first thing */
     ADMUX = BOARD_ADMUX_REF | pgm_read_byte(&adc_mux[0]);
@@ -277,11 +282,11 @@ ISR(TIMER1_COMPA_vect)
     ADCSRB = 0;
     /* `start <count>`: the tick stops as its last scan begins (adc_start
      * and adc_limit never leave it running with nothing left). */
-    if ((flags & LIMITED) && --budget == 0) {
+    if ((adc_flags & LIMITED) && --budget == 0) {
       TIMSK1 = 0;
       TCCR1B = (1 << WGM12);
     }
-    flags |= SCANNING;
+    adc_flags |= SCANNING;
     scan_col = 0;
     ring[ring_head].hi = 0;
     /* The second conversion takes the channel set when the first ends: it
@@ -292,12 +297,14 @@ ISR(TIMER1_COMPA_vect)
   }
   /* Dithered: the period under way (its count still far from OCR1A) gets
    * the next phase's length. */
-  g = GPIOR0;
-  if (g) {
-    if (--g == 0)
-      g = 3;
-    GPIOR0 = g;
-    OCR1A = (uint16_t)(DITHER_TOP + (g <= DITHER_LONG));
+  g = adc_flags;
+  phase = g;
+  phase &= DITHER;
+  if (phase) {
+    if (--phase == 0)
+      phase = 3;
+    adc_flags = (uint8_t)((g & (uint8_t)~DITHER) | phase);
+    OCR1A = (uint16_t)(DITHER_TOP + (phase <= DITHER_LONG));
   }
 }
 
@@ -421,9 +428,7 @@ ISR(ADC_vect, ISR_NAKED)
       "5:\n\t"
       "sts %[head], r24\n"
       "6:\n\t"
-      "lds r25, %[flags]\n\t"
-      "andi r25, %[notscan]\n\t"
-      "sts %[flags], r25\n"
+      "cbi %[flagreg], %[scanbit]\n"
       "9:\n\t" ADC_ISR_PROBE_OFF "pop r31\n\t"
       "pop r30\n\t"
       "pop r27\n\t"
@@ -441,6 +446,6 @@ ISR(ADC_vect, ISR_NAKED)
 #endif
         [head] "i"(&ring_head), [tail] "i"(&ring_tail), [col] "i"(&scan_col), [ring] "i"(ring),
         [hilo] "n"(ADC_COLUMNS), [ncol] "n"(ADC_COLUMNS), [nring] "n"(ADC_RING), [mux1] "i"(&adc_mux[1]),
-        [ref] "n"(BOARD_ADMUX_REF), [idle] "n"(ADCSRA_IDLE), [drops] "i"(&isr_drops), [flags] "i"(&flags),
-        [notscan] "n"((uint8_t)~SCANNING));
+        [ref] "n"(BOARD_ADMUX_REF), [idle] "n"(ADCSRA_IDLE), [drops] "i"(&isr_drops),
+        [flagreg] "I"(_SFR_IO_ADDR(BOARD_FLAGS)), [scanbit] "I"(__builtin_ctz(SCANNING)));
 }

@@ -61,10 +61,26 @@
 
 /* A byte of state in an I/O register rather than in SRAM, whose every
  * byte is the stack's margin: GPIOR2, a general-purpose register nothing
- * else uses (GPIOR0 holds adc.c's dither phase, GPIOR1 clock.c's silence
+ * else uses (GPIOR0 holds the flags below, GPIOR1 clock.c's silence
  * count).  in/out reach it in one word where lds/sts take two: it holds
  * the output scheduler's step, read and written on every step. */
 #define BOARD_SPARE_REG GPIOR2
+
+/* Flags in GPIOR0, the one general-purpose I/O register that sbi, cbi,
+ * sbis and sbic reach: a flag costs no SRAM and one instruction to set,
+ * clear or test, where a byte of its own costs three.  The Timer1
+ * interrupt rewrites the register (the dither phase), so outside
+ * interrupts a bit is changed only by sbi or cbi (one instruction: no
+ * interrupt comes between its read and its write) or with interrupts
+ * off.  Bits 0..1: adc.c's 1500 Hz dither phase; the others one flag each. */
+#define BOARD_FLAGS GPIOR0
+#define BOARD_FLAG_DITHER 0x03u   /* adc.c: the dither phase 3, 2, 1; 0: no dither */
+#define BOARD_FLAG_SCANNING 0x04u /* adc.c: a scan runs */
+#define BOARD_FLAG_LIMITED 0x08u  /* adc.c: `start <count>` counts scans */
+#define BOARD_FLAG_SET_DONE 0x10u /* stream.c: the oldest set's row or frame is written */
+#define BOARD_FLAG_COUNTS 0x20u   /* report.c: the report in progress is in counts */
+#define BOARD_FLAG_BOUND 0x40u    /* proto.c: the line being written is bound */
+#define BOARD_FLAG_INTERVAL 0x80u /* report.c to loop.c: a header has written its interval's temperature */
 
 /* MMA7260Q g-select: GS1 on PD6, GS2 on PD7 (00=1.5g 01=2g 10=4g 11=6g). */
 #define BOARD_GSEL_DDR DDRD

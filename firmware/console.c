@@ -25,7 +25,7 @@
 #define RUN 2    /* taken: the end of its echo frees it */
 #define OPEN 4   /* an echo line is on the screen: "> " out, its CR LF not yet */
 #define DROP 8   /* that echo line was dropped: "^C" CR LF due */
-#define STAR 16  /* the line's check `*XXXX` has begun: bytes go to sum */
+#define STAR 16  /* the line's check `*XXXX` has begun: bytes are its digits */
 #define DIGIT 32 /* the check's hex digits so far, in the 3 top bits (7: malformed) */
 #define DIGITS (DIGIT * 7)
 
@@ -36,7 +36,6 @@ static struct {
   uint8_t flags;
   uint8_t shown;                  /* characters of text on the screen (echo) */
   uint8_t keep;                   /* of them, still equal to text */
-  uint16_t sum;                   /* the check's digits so far (not in text, not echoed) */
   uint16_t count[CONSOLE_COUNTS]; /* console.h's console_count() */
 } con;
 
@@ -73,22 +72,24 @@ static void feed(uint8_t c)
     con.flags = f;
     con.len = con.err = con.keep = 0; /* gone, lost bytes with it */
   } else if (f & STAR) {
-    /* A digit of the check: the text is final, its CRC known (sum); each
-     * digit must be the next one of that CRC in upper-case hex. */
-    uint8_t d = (uint8_t)(con.sum >> 12);
+    /* A digit of the check: the text is final; each digit must be the
+     * next one of its CRC in upper-case hex.  The CRC is worked out again
+     * for each digit rather than kept: two bytes of RAM are scarcer than
+     * the few hundred cycles of a 16-character line. */
+    uint16_t crc = CRC16_INIT;
+    uint8_t i, d;
+    for (i = 0; i < con.len; i++)
+      crc = crc16_update(crc, (uint8_t)con.text[i]);
+    for (i = f; i >= DIGIT; i = (uint8_t)(i - DIGIT)) /* the digits already taken */
+      crc = (uint16_t)(crc << 4);
+    d = (uint8_t)(crc >> 12);
     d = (uint8_t)(d + (d > 9 ? 'A' - 10 : '0'));
-    con.sum = (uint16_t)(con.sum << 4);
     if (d != c || (f & 4 * DIGIT)) /* 4 digits already (or malformed) */
       f |= DIGITS;                 /* never 4 digits again: refused at the end */
     else
       f += DIGIT;
     con.flags = f;
   } else if (c == '*') {
-    uint16_t crc = CRC16_INIT;
-    uint8_t i;
-    for (i = 0; i < con.len; i++)
-      crc = crc16_update(crc, (uint8_t)con.text[i]);
-    con.sum = crc;
     con.flags = f | STAR;
   } else if (c == 0x08 || c == 0x7F) {
     if (con.len && con.err != CMD_ERR_LONG)

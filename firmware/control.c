@@ -14,9 +14,21 @@
 #include "proto.h"
 #include "sample.h"
 #include "settings.h"
+#include "stream.h"
 #include "switchboard.h"
 #include "uart.h"
 #include "vocab.h"
+
+/* Every set sampled so far that the stream no longer holds, to the
+ * engine (stop, start and reset must see them): the main loop's order
+ * (loop.c), without its receiving. */
+static void feed(void)
+{
+  while (adc_pending() && !stream_holds_oldest()) {
+    sample_take();
+    stream_taken();
+  }
+}
 
 /* MMA7260Q g-select pins: GS1 = bit 0, GS2 = bit 1 of the range code. */
 static void range_pins(uint8_t range)
@@ -96,7 +108,7 @@ void control_init(void)
 static void run_start(const command_t *cmd)
 {
   uint32_t have = 0; /* without a count, arg is 0: adc_start(0, 0) */
-  sample_feed();
+  feed();
   if (cmd->has_arg)
     have = sets_taken();
   if (cmd->arg < have) {
@@ -145,12 +157,10 @@ static void run_mode(uint8_t mode)
 
 static __attribute__((noinline)) void run_load(void)
 {
-  settings_t before = settings;
-  uint8_t source = settings_source;
+  settings_t before = settings; /* its source too */
   uint8_t loaded = settings_load();
   if (loaded != CFG_SAVED) {
     settings = before; /* nothing usable saved: keep what is in force */
-    settings_source = source;
     switchboard_error(CMD_ERR_STATE, CMD_LOAD,
                       loaded == CFG_INFEASIBLE ? link_slow_P : PSTR("nothing saved\0save first"));
     return;
@@ -171,7 +181,7 @@ static void run_report(void)
 static void run_reset(void)
 {
   uint32_t count;
-  sample_feed(); /* sets taken so far belong to the old run */
+  feed(); /* sets taken so far belong to the old run */
   count = count_in_force();
   new_run();
   if (count)
@@ -196,7 +206,7 @@ static void execute(const command_t *cmd)
   case CMD_RESET: run_reset(); break;
   case CMD_STOP:
     adc_stop();
-    sample_feed();
+    feed();
     switchboard_ok_n(PSTR("stopped n="), sample_engine.n);
     break;
   case CMD_START: run_start(cmd); break;

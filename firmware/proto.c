@@ -6,14 +6,22 @@
 #include "pgm.h"
 
 #ifdef __AVR__
+#  include "board.h"
 #  include "uart.h"
 #  define proto_sink uart_write
+/* The current line is bound: a flag of board.h's on the device (no SRAM). */
+#  define bound_on() (BOARD_FLAGS & BOARD_FLAG_BOUND)
+#  define bound_set() (BOARD_FLAGS |= BOARD_FLAG_BOUND)
+#  define bound_clear() (BOARD_FLAGS &= (uint8_t)~BOARD_FLAG_BOUND)
 #else
 static proto_sink_t proto_sink;
+static uint8_t proto_bound_on;
+#  define bound_on() (proto_bound_on)
+#  define bound_set() (proto_bound_on = 1)
+#  define bound_clear() (proto_bound_on = 0)
 #endif
 static uint16_t proto_crc;
 static uint16_t proto_bound_crc;
-static uint8_t proto_bound_on; /* the current line is bound */
 
 #ifndef __AVR__
 void proto_init(proto_sink_t sink)
@@ -25,14 +33,14 @@ void proto_init(proto_sink_t sink)
 void proto_begin(void)
 {
   proto_crc = CRC16_INIT;
-  proto_bound_on = 0;
+  bound_clear();
   proto_sink('$');
 }
 
 void proto_begin_bound(void)
 {
   proto_begin();
-  proto_bound_on = 1;
+  bound_set();
 }
 
 void proto_bound_restart(void)
@@ -51,7 +59,7 @@ void proto_putc(char c)
   if (c == '$' || c == '*' || (uint8_t)c < 0x20 || (uint8_t)c > 0x7E)
     c = '?';
   proto_crc = crc16_update(proto_crc, (uint8_t)c);
-  if (proto_bound_on)
+  if (bound_on())
     proto_bound_crc = crc16_modbus_update(proto_bound_crc, (uint8_t)c);
   proto_sink((uint8_t)c);
 }
@@ -98,7 +106,7 @@ void proto_end(void)
    * outside the bound CRC; the line CRC they update restarts with the
    * next line. */
   uint16_t crc = proto_crc;
-  proto_bound_on = 0;
+  bound_clear();
   proto_sink('*');
   proto_hex(crc, 4);
   proto_sink('\r');

@@ -9,6 +9,7 @@
 
 #include "adc.h"
 #include "allan.h"
+#include "board.h"
 #include "config.h"
 #include "console.h"
 #include "fmt.h"
@@ -41,8 +42,6 @@ static struct {
   uint8_t part, ch, level;
   uint16_t seq;   /* of the report being written; +1 when one starts */
   uint8_t run_id; /* +1 with every new run (report_new_run) */
-  uint8_t counts; /* the units setting as the report began (in its header): a
-                    `units` typed while it is sent takes effect with the next one */
   union {
     struct { /* an L row's snapshot */
       uint8_t flags;
@@ -68,11 +67,17 @@ void report_new_run(void)
   rep.run_id++;
 }
 
-#define rep_counts() (rep.counts)
+/* The units setting as the report began (in its header): a `units` typed
+ * while it is sent takes effect with the next one.  A flag of board.h's
+ * (no SRAM). */
+#define rep_counts() (BOARD_FLAGS & BOARD_FLAG_COUNTS)
 
 void report_begin(void)
 {
-  rep.counts = settings.counts;
+  if (settings.counts)
+    BOARD_FLAGS |= BOARD_FLAG_COUNTS;
+  else
+    BOARD_FLAGS &= (uint8_t)~BOARD_FLAG_COUNTS;
   rep.part = PART_HEADER;
   rep.ch = 0;
   rep.level = 0;
@@ -188,7 +193,9 @@ uint8_t report_boot_step(uint8_t step)
  * one step (at most 16 characters: `1023.0:1023:1023`), so that no sample
  * can come between the mean and the extremes; `-` when the interval holds
  * no sample.  The mean to one decimal (fmt_mean: exact over the longest
- * interval).  The next report's interval starts here. */
+ * interval).  The next report's interval starts after this step: a flag
+ * says so to the loop's pass (loop.c), which restarts it before it takes
+ * another set. */
 static __attribute__((noinline)) void put_temp(void)
 {
   uint32_t n = sample_stats.since_report;
@@ -202,7 +209,7 @@ static __attribute__((noinline)) void put_temp(void)
   } else {
     proto_putc('-');
   }
-  sample_interval_restart();
+  BOARD_FLAGS |= BOARD_FLAG_INTERVAL;
 }
 
 /* config.h's numbers as text (plain integer literals there). */
@@ -241,7 +248,7 @@ static __attribute__((noinline)) uint8_t step_header(uint8_t step)
   } else if (step == temp) {
     put_temp();
   } else if ((uint8_t)(step - temp - 1) < SETTINGS_IN_HEADER) {
-    reply_put_setting((uint8_t)(step - temp - 1), ',', rep_counts());
+    reply_put_setting((uint8_t)(step - temp - 1), ',', rep_counts() != 0);
   } else if (step == temp + 1 + SETTINGS_IN_HEADER) {
     proto_puts_P(reset_key_P);
   } else if (step == temp + 2 + SETTINGS_IN_HEADER) {

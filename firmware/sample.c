@@ -3,7 +3,6 @@
 
 #include "board.h"
 #include "config.h"
-#include "stream.h"
 
 allan_t sample_engine;
 sample_stats_t sample_stats;
@@ -26,15 +25,11 @@ static inline __attribute__((always_inline)) void temp_add(uint16_t code)
 #endif
 }
 
-uint8_t sample_take(void)
+void sample_take(void)
 {
   uint8_t i, counted;
-  /* In raw and binary modes a set stays in the ring until its row or frame
-   * is written (stream.c), so that output and engine see the same sets.
-   * Codes are read one at a time from the ring: no copy on the stack of
+  /* Codes are read one at a time from the ring: no copy on the stack of
    * the engine's deepest path. */
-  if (!adc_pending() || stream_holds_oldest())
-    return 0;
   BOARD_PROBE_SAMPLE_ON();
   /* A set the engine refuses (its 32-bit count is full) is lost like a
    * dropped one, and counted as such. */
@@ -63,9 +58,7 @@ uint8_t sample_take(void)
   }
   sample_stats.since_report++;
   adc_discard();
-  stream_taken();
   BOARD_PROBE_SAMPLE_OFF();
-  return 1;
 }
 
 uint8_t sample_settle(void)
@@ -76,12 +69,6 @@ uint8_t sample_settle(void)
   allan_settle_some(&sample_engine);
   BOARD_PROBE_ALLAN_OFF();
   return 1;
-}
-
-void sample_feed(void)
-{
-  while (sample_take())
-    ;
 }
 
 void sample_reset(void)

@@ -1,6 +1,9 @@
 /*
  * sample.h - the main loop's side of sampling: drains finished scans into
- * the Allan engine and keeps the per-run and per-report statistics.
+ * the Allan engine and keeps the per-run and per-report statistics.  It
+ * reads the ADC ring and calls nothing else: which set may go when (the
+ * stream's rows first) and when a report interval ends are the main
+ * loop's to say (loop.h).
  */
 #ifndef SAMPLE_H
 #define SAMPLE_H
@@ -21,11 +24,11 @@ typedef struct {
 extern allan_t sample_engine;
 extern sample_stats_t sample_stats;
 
-/* Feed the oldest finished scan to the engine and the statistics, unless
- * the stream still holds it; 1 if one was fed.  The main loop calls it a
- * set at a time, receiving command bytes between two sets (a set takes at
- * most 0.4 ms, the RX ring lasts 0.69 ms at 115200 baud). */
-uint8_t sample_take(void);
+/* Feed the oldest finished scan (one must wait: adc_pending()) to the
+ * engine and the statistics, and remove it from the ring.  The main loop
+ * calls it a set at a time, receiving command bytes between two sets (a
+ * set takes at most 0.4 ms, the RX ring lasts 0.69 ms at 115200 baud). */
+void sample_take(void);
 
 /* One piece of the engine's waiting work (a set's lagging channels, a
  * level's deferred pairs: allan.h), 1 if there was one.  The main loop
@@ -34,16 +37,13 @@ uint8_t sample_take(void);
  * the loop takes a waiting set between two pieces. */
 uint8_t sample_settle(void);
 
-/* Every finished scan the stream no longer holds: for commands that must
- * see every set taken so far (stop, start, reset); never by the output
- * code. */
-void sample_feed(void);
-
 /* Clear the engine, clips and drops (a new run). */
 void sample_reset(void);
 
 /* Start a new report interval (temperature statistics and the periodic
- * report's sample count). */
+ * report's sample count): a new run, and the report's header once it has
+ * written the interval's temperature (the loop's pass, told so by the
+ * header's flag: loop.h). */
 void sample_interval_restart(void);
 
 #endif /* SAMPLE_H */

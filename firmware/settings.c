@@ -21,7 +21,6 @@
 #define RECORD_BYTES (1u + sizeof(settings_t) + 2u)
 
 settings_t settings;
-uint8_t settings_source;
 
 /* Record bytes still to write; 0: idle (in .bss: no .data to copy at boot). */
 static uint8_t save_left;
@@ -49,7 +48,8 @@ static uint16_t record_crc(uint8_t version, const settings_t *s)
 static uint8_t valid(const settings_t *s)
 {
   return vocab_rate_ok(s->rate_hz) && s->interval_s <= VOCAB_INTERVAL_MAX_S && s->mode < VOCAB_MODES &&
-         s->range < VOCAB_RANGES && !s->unused;
+         s->range < VOCAB_RANGES &&
+         !(((const uint8_t *)s)[sizeof(settings_t) - 1] & 0xFCu); /* source (CFG_SAVED) and unused: 0 */
 }
 
 void settings_defaults(void)
@@ -72,29 +72,33 @@ uint8_t settings_load(void)
   } __attribute__((packed)) rec; /* the record as laid out above */
   _Static_assert(sizeof rec == RECORD_BYTES, "the record: version, settings, CRC");
   const uint8_t *b = (const uint8_t *)&rec;
-  uint8_t i, all = 0xFF;
+  uint8_t i, all = 0xFF, source;
   uint16_t crc;
   eeprom_read_block(&rec, (const void *)0, RECORD_BYTES);
   for (i = 0; i < RECORD_BYTES; i++)
     all &= b[i];
   crc = record_crc(rec.version, &rec.s);
-  settings_defaults();
   if (all == 0xFF) {
-    settings_source = CFG_BLANK;
+    source = CFG_BLANK;
   } else if (rec.version != SETTINGS_VERSION || rec.crc_hi != (uint8_t)(crc >> 8) ||
              rec.crc_lo != (uint8_t)crc || !valid(&rec.s)) {
-    settings_source = CFG_CORRUPT;
+    source = CFG_CORRUPT;
   } else if (!link_fits_here(rec.s.mode, rec.s.rate_hz)) {
-    settings_source = CFG_INFEASIBLE; /* refused like `rate` and `mode` would be */
+    source = CFG_INFEASIBLE; /* refused like `rate` and `mode` would be */
   } else {
-    settings = rec.s;
-    settings_source = CFG_SAVED;
+    settings = rec.s; /* source: CFG_SAVED, as valid() checked */
+    return CFG_SAVED;
   }
-  return settings_source;
+  settings_defaults();
+  settings_source = source;
+  return source;
 }
 
 void settings_save(void)
 {
+  /* The record holds source 0, CFG_SAVED: what the settings are from
+   * now on (`cfg=` says so while the bytes are being written). */
+  settings_source = CFG_SAVED;
   save_left = RECORD_BYTES;
 }
 
@@ -114,8 +118,5 @@ uint8_t settings_poll(void)
   eeprom_update_byte(
       (uint8_t *)(uintptr_t)pos,
       record_byte(pos, pos > sizeof(settings_t) ? record_crc(SETTINGS_VERSION, &settings) : 0));
-  if (--save_left)
-    return 0;
-  settings_source = CFG_SAVED;
-  return 1;
+  return --save_left == 0;
 }

@@ -18,13 +18,21 @@ typedef struct {
   uint8_t range;       /* RANGE_* */
   /* One byte, as in version 2 records before `units` (whose echo byte
    * was 0 or 1: counts 0, physical units, for them). */
-  uint8_t echo : 1;                   /* 1: typed characters are echoed (console.h) */
-  uint8_t counts : 1;                 /* 1: `units counts`, the summary in ADC counts; 0: physical units */
-  uint8_t unused : 6;                 /* 0 in a valid record */
+  uint8_t echo : 1;   /* 1: typed characters are echoed (console.h) */
+  uint8_t counts : 1; /* 1: `units counts`, the summary in ADC counts; 0: physical units */
+  /* CFG_*: where the settings came from (`cfg=`).  Not a setting: it
+   * lives in bits the record leaves 0 (so a record holds CFG_SAVED, 0,
+   * which is what the settings it holds are once loaded), where it costs
+   * no SRAM. */
+  uint8_t source : 3;
+  uint8_t unused : 3;                 /* 0 in a valid record */
 } __attribute__((packed)) settings_t; /* the EEPROM record holds it byte for byte, on the AVR and natively */
+#if CFG_SAVED != 0
+#  error "a record's source bits are 0: CFG_SAVED must be 0"
+#endif
 
 extern settings_t settings;
-extern uint8_t settings_source; /* CFG_*: where they came from (`cfg=`) */
+#define settings_source (settings.source)
 
 /* The built-in settings (config.h); source becomes CFG_DEFAULTS. */
 void settings_defaults(void);

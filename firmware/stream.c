@@ -2,6 +2,7 @@
 #include "stream.h"
 
 #include "adc.h"
+#include "board.h"
 #include "crc.h"
 #include "fmt.h"
 #include "link.h"
@@ -20,11 +21,14 @@ enum {
 };
 
 static struct {
-  uint8_t line;     /* LINE_* */
-  uint8_t set_done; /* the oldest set's row or frame is written */
-  uint16_t crc;     /* CRC-16/MODBUS of the rows or frames since the last count line */
-  uint32_t rows;    /* rows or frames written since stream_restart() */
+  uint8_t line;  /* LINE_* */
+  uint16_t crc;  /* CRC-16/MODBUS of the rows or frames since the last count line */
+  uint32_t rows; /* rows or frames written since stream_restart() */
 } st;
+/* The oldest set's row or frame is written: a flag of board.h's (no SRAM). */
+#define SET_DONE (BOARD_FLAGS & BOARD_FLAG_SET_DONE)
+#define set_done(on)                                                                                         \
+  ((on) ? (BOARD_FLAGS |= BOARD_FLAG_SET_DONE) : (BOARD_FLAGS &= (uint8_t)~BOARD_FLAG_SET_DONE))
 
 /* Every row or frame byte goes out here, into the count line's CRC. */
 static void put(uint8_t c)
@@ -36,19 +40,21 @@ static void put(uint8_t c)
 void stream_restart(void)
 {
   st.line = LINE_NONE;
-  st.set_done = 0;
+  set_done(0);
   st.rows = 0;
   st.crc = CRC16_MODBUS_INIT;
 }
 
 uint8_t stream_holds_oldest(void)
 {
-  return settings.mode != MODE_ALLAN && !st.set_done;
+  if (settings.mode == MODE_ALLAN)
+    return 0;
+  return (uint8_t)(~BOARD_FLAGS & BOARD_FLAG_SET_DONE); /* not 0 until written */
 }
 
 void stream_taken(void)
 {
-  st.set_done = 0;
+  set_done(0);
 }
 
 uint8_t stream_line_open(void)
@@ -66,7 +72,7 @@ uint8_t stream_busy(void)
  * before it). */
 static void set_written(void)
 {
-  st.set_done = 1;
+  set_done(1);
   st.rows++;
   if (st.rows % LINK_COUNT_EVERY == 0)
     st.line = LINE_COUNT_DUE;
@@ -139,7 +145,7 @@ uint8_t stream_step(uint8_t at_boundary, uint8_t held)
     return step_raw_row();
   if (st.line >= LINE_COUNT_HALF || (st.line == LINE_COUNT_DUE && at_boundary))
     return step_count_line();
-  if (settings.mode == MODE_ALLAN || st.set_done || held || !adc_pending())
+  if (settings.mode == MODE_ALLAN || SET_DONE || held || !adc_pending())
     return 0;
   if (settings.mode == MODE_BINARY)
     return step_frame();

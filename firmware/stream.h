@@ -2,8 +2,9 @@
  * stream.h - the sample stream of modes raw, binary and both
  * (docs/protocol.md): a raw thesis row or a binary frame for each sample
  * set, and a count line `$C,<rows>,<drops>` every LINK_COUNT_EVERY of them.
- * A producer: the output scheduler (switchboard.c) gives it its turns; the main loop
- * asks it whether the oldest set may be consumed yet.
+ * A producer: the output scheduler (switchboard.c) gives it its turns; the
+ * main loop asks it whether the oldest set may go to the engine yet, and
+ * tells it when the engine has taken it (loop.c).
  */
 #ifndef STREAM_H
 #define STREAM_H
@@ -13,11 +14,11 @@
 /* Rows and frames count from 0 again (mode entered, a new run). */
 void stream_restart(void);
 
-/* 1 while the oldest sampled set still has to be written (raw, binary and
- * both modes), so it must stay in the ADC ring for now. */
+/* Not 0 while the oldest sampled set still has to be written (raw, binary
+ * and both modes), so it must stay in the ADC ring for now. */
 uint8_t stream_holds_oldest(void);
 
-/* The oldest set was consumed: the next one is due for output. */
+/* The oldest set went to the engine: the next one is due for output. */
 void stream_taken(void);
 
 /* 1 while a row or count line of the stream is half written: nothing else

@@ -104,7 +104,7 @@ FUZZ_SRC_fuzz_command := command.c vocab.c
 FUZZ_SRC_fuzz_cmdline := console.c command.c vocab.c proto.c crc.c fmt.c
 FUZZ_XFLAGS_fuzz_cmdline := -DF_CPU=10000000UL
 # The whole device with tests/firmware/native's fakes (included by fuzz_line.c).
-FUZZ_SRC_fuzz_line := switchboard.c report.c reply.c stream.c control.c console.c sample.c settings.c \
+FUZZ_SRC_fuzz_line := loop.c switchboard.c report.c reply.c stream.c control.c console.c sample.c settings.c \
                       command.c vocab.c link.c proto.c crc.c fmt.c allan.c units.c
 FUZZ_SRC_fuzz_proto := proto.c crc.c fmt.c
 FUZZ_SRC_fuzz_fmt := fmt.c

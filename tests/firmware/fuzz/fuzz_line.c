@@ -211,20 +211,9 @@ static void image_restore(void)
 }
 
 /* ---- driving the device ---- */
-/* main.c's test before it sleeps: work the loop can do now.  A report's
- * step may only compute (settling the engine a piece a call) and write
- * nothing: the device is busy all the same. */
-static int has_work(void)
-{
-  uint8_t can_write = switchboard_can_write();
-  if (adc_pending() && (!stream_holds_oldest() || can_write))
-    return 1;
-  return control_has_work() || (switchboard_busy() && can_write);
-}
-
 /* fx_run_us() with the waits skipped: after a few loop passes in which
  * nothing moved (nothing written, read, sampled or taken) and the device
- * would sleep (has_work()), the loop would only spin until the next
+ * would sleep (loop_has_work()), the loop would only spin until the next
  * event, so the clock jumps there: a byte leaving the TX ring, one
  * arriving, an ADC tick.  The loop runs a pass at every event, as before.
  * (Skipping while the device had work once froze a report's settling for
@@ -258,12 +247,9 @@ static void run_us(uint64_t us)
       ring_full = 1;
     if (rx_gap_more)
       gaps_merged = 1;
-    while (sample_take()) /* main.c's loop body */
-      console_receive();
-    switchboard_poll();
-    control_poll();
+    loop_pass(); /* main.c's loop body */
     still = (out == fx_out_len && rx == rx_tail && sets == ring_tail && ready == console_ready() &&
-             !settings_saving() && !has_work()) ?
+             !settings_saving() && !loop_has_work()) ?
                 still + 1 :
                 0;
   }

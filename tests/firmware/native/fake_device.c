@@ -12,13 +12,14 @@
 #include "console.h"
 #include "control.h"
 #include "fixture.h"
+#include "loop.h"
 #include "reset.h"
 #include "sample.h"
 #include "switchboard.h"
 #include "uart.h"
 #include <avr/eeprom.h>
 
-volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd, fake_gpior2;
+volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd, fake_gpior0, fake_gpior2;
 uint8_t fake_eeprom[E2END + 1];
 
 char fx_out[1 << 20];
@@ -383,15 +384,7 @@ void fx_run_us(uint64_t us)
   uint64_t end = now_ns + us * 1000u;
   while (now_ns < end) {
     advance_to(now_ns + 20000u); /* one loop pass: 20 us */
-    /* main.c's loop body */
-    while (sample_take())
-      console_receive();
-    if (sample_settle()) {
-      console_receive();
-      continue;
-    }
-    switchboard_poll();
-    control_poll();
+    loop_pass();                 /* main.c's loop body */
   }
 }
 

@@ -682,6 +682,43 @@ static void test_infeasible_saved_settings_load_defaults_and_say_so(void)
   TEST_ASSERT_EQUAL_STRING("error:4 load: link too slow; lower rate", b);
 }
 
+/* A record with a good CRC loads only with its flag byte's bits 2..7
+ * clear (echo and units are bits 0 and 1): with any of them set it is
+ * refused as corrupt and the settings in force stay. */
+static void write_record(const uint8_t rec[8])
+{
+  unsigned crc = ref_crc16_modbus(rec, 8);
+  memcpy(fake_eeprom, rec, 8);
+  fake_eeprom[8] = (uint8_t)(crc >> 8);
+  fake_eeprom[9] = (uint8_t)crc;
+}
+
+static void test_saved_record_with_a_spare_bit_set_is_refused(void)
+{
+  char b[256];
+  /* record v2: allan at 250 Hz, interval 5, range 2 g, echo on, units counts */
+  uint8_t rec[8] = {2, 250, 0, 5, 0, 0, 1, 3};
+  unsigned bit;
+  fx_boot(1);
+  fx_run_us(60000);
+  for (bit = 2; bit < 8; bit++) {
+    rec[7] = (uint8_t)(3u | (1u << bit));
+    write_record(rec);
+    command("load");
+    line("error:", bit - 2, b, sizeof b);
+    TEST_ASSERT_EQUAL_STRING("error:4 load: nothing saved; save first", b);
+  }
+  rec[7] = 3;
+  write_record(rec);
+  command("load");
+  line("ok loaded", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING("ok loaded reset", b);
+  command("status");
+  line("ok status", 0, b, sizeof b);
+  TEST_ASSERT_EQUAL_STRING(
+      "ok status run=1 mode=allan range=2 units=counts cfg=saved fs=250 interval=5 link=0 rx=0:0:0:0", b);
+}
+
 /* CRC-16/MODBUS over the bodies of report seq's H and L lines, in order. */
 static unsigned bound_crc(unsigned seq)
 {
@@ -1055,6 +1092,7 @@ static const struct {
     T(test_backspace_and_delete_erase_the_last_character),
     T(test_report_header_temp_is_dash_or_mean_min_max),
     T(test_infeasible_saved_settings_load_defaults_and_say_so),
+    T(test_saved_record_with_a_spare_bit_set_is_refused),
     T(test_report_check_line_binds_rows_to_header),
     T(test_seq_advances_when_a_report_starts_and_reset_changes_id),
     T(test_start_count_stops_at_count_through_a_reset),

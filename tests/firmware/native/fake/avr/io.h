@@ -13,7 +13,8 @@ extern volatile uint8_t fake_ddrb, fake_portb, fake_ddrd, fake_portd;
 #define PORTB fake_portb
 #define DDRD fake_ddrd
 #define PORTD fake_portd
-extern volatile uint8_t fake_gpior2; /* board.h's BOARD_SPARE_REG */
+extern volatile uint8_t fake_gpior0, fake_gpior2; /* board.h's BOARD_FLAGS, BOARD_SPARE_REG */
+#define GPIOR0 fake_gpior0
 #define GPIOR2 fake_gpior2
 #define PB0 0
 #define PB1 1
