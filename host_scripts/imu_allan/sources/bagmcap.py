@@ -18,6 +18,8 @@ from typing import Any, Iterator, Optional
 
 import numpy as np
 
+from .imumsg import in_time_order
+
 RUN0 = 64
 """Records first checked as one run; doubled while the run holds."""
 
@@ -86,12 +88,4 @@ def _records(data: bytes, ids: set[int]) -> Optional[tuple[bytes, np.ndarray, np
             w *= 2
     if not parts:
         return None
-    t = np.concatenate(times)
-    ln = np.concatenate(lens)
-    raw = np.concatenate(parts)
-    if np.any(np.diff(t) < 0):  # rosbags sorts a chunk's messages by log time
-        order = np.argsort(t, kind="stable")
-        start = np.cumsum(ln) - ln
-        raw = np.concatenate([raw[start[i] : start[i] + ln[i]] for i in order])
-        t, ln = t[order], ln[order]
-    return raw.tobytes(), ln, t
+    return in_time_order(times, lens, parts)  # rosbags sorts a chunk by log time

@@ -20,6 +20,8 @@ from typing import BinaryIO, Iterator, NamedTuple, Optional
 
 import numpy as np
 
+from .imumsg import in_time_order
+
 MAGIC = b"#ROSBAG V2.0\n"
 RUN0 = 64
 """Records first checked as one run; doubled while the run holds."""
@@ -177,10 +179,4 @@ def _records(data: bytes, ids: set[int]) -> Optional[tuple[bytes, np.ndarray, np
             w *= 2
     if not parts:
         return None
-    t, ln, raw = np.concatenate(times), np.concatenate(lens), np.concatenate(parts)
-    if np.any(np.diff(t) < 0):  # rosbags orders a chunk's messages by time
-        order = np.argsort(t, kind="stable")
-        start = np.cumsum(ln) - ln
-        raw = np.concatenate([raw[start[i] : start[i] + ln[i]] for i in order])
-        t, ln = t[order], ln[order]
-    return raw.tobytes(), ln, t
+    return in_time_order(times, lens, parts)  # rosbags sorts a chunk by log time

@@ -119,3 +119,17 @@ def decode(buf: Bytes, lens: np.ndarray, ros1: bool) -> tuple[np.ndarray, np.nda
         vals[:, idx], stamps[idx] = v, s
         odd[idx[ok]] = False
     return vals, stamps, odd, keys
+
+
+def in_time_order(
+    times: list[np.ndarray], lens: list[np.ndarray], parts: list[np.ndarray]
+) -> tuple[bytes, np.ndarray, np.ndarray]:
+    """A chunk's messages (their bytes back to back, lengths, stamps in ns)
+    joined and stably sorted by time, as rosbags orders a chunk's messages."""
+    t, ln, raw = np.concatenate(times), np.concatenate(lens), np.concatenate(parts)
+    if np.any(np.diff(t) < 0):
+        order = np.argsort(t, kind="stable")
+        start = np.cumsum(ln) - ln
+        raw = np.concatenate([raw[start[i] : start[i] + ln[i]] for i in order])
+        t, ln = t[order], ln[order]
+    return raw.tobytes(), ln, t

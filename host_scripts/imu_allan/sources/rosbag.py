@@ -160,20 +160,29 @@ class McapBackend(RosbagsBackend):
 
         r = _reader(self.path, self.name)
         self._deser = lambda raw: r.deserialize(raw, IMU_TYPE)
-        left = limit
         try:
             with Reader(self.path) as bag:
-                for st in _mcap_storages(bag):
-                    ids = {c.id for c in st.connections if c.topic == self.topic and c.msgtype == IMU_TYPE}
-                    for raw, lens, t in bagmcap.chunk_messages(st, ids) if ids else ():
-                        if left is not None:
-                            raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
-                            left -= len(lens)
-                        yield Raw(raw, lens, t)
-                        if left is not None and left <= 0:
-                            return
+                chunks = (
+                    chunk
+                    for st in _mcap_storages(bag)
+                    for ids in [{c.id for c in st.connections if c.topic == self.topic and c.msgtype == IMU_TYPE}]
+                    for chunk in (bagmcap.chunk_messages(st, ids) if ids else ())
+                )
+                yield from _first(chunks, limit)
         finally:
             r.close()
+
+
+def _first(chunks: Iterator[tuple[bytes, np.ndarray, np.ndarray]], limit: Optional[int]) -> Iterator[Raw]:
+    """The chunks' messages as ``Raw`` blocks, the first ``limit`` of them (all: None)."""
+    left = limit
+    for raw, lens, t in chunks:
+        if left is not None:
+            raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
+            left -= len(lens)
+        yield Raw(raw, lens, t)
+        if left is not None and left <= 0:
+            return
 
 
 class Ros1Backend(Backend):
@@ -206,15 +215,8 @@ class Ros1Backend(Backend):
         self.count = sum(self.bag.counts.get(i, 0) for i in self._ids())
 
     def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
-        left = limit
         with open(self.path, "rb") as f:
-            for raw, lens, t in bagros1.chunk_messages(f, self.bag, self._ids()):
-                if left is not None:
-                    raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
-                    left -= len(lens)
-                yield Raw(raw, lens, t)
-                if left is not None and left <= 0:
-                    return
+            yield from _first(bagros1.chunk_messages(f, self.bag, self._ids()), limit)
 
     def deserialize(self, raw: bytes) -> Any:
         return self._ts.deserialize_ros1(raw, IMU_TYPE)
