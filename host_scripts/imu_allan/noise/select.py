@@ -86,7 +86,7 @@ def _shows_oscillation(p: _Problem, s: Structure, theta: np.ndarray) -> bool:
         forms.append((replace(s, ngm=0), theta[: 1 if s.lp else 0]))
     for s1, th1 in forms:
         c, _, A = p.solve(s1, th1)
-        if any(r["kind"] == "oscillation" for r in _unexplained(p, A @ c, p.e)):
+        if any(r["kind"] in ("oscillation", "hump") for r in _unexplained(p, A @ c, p.e)):
             return True
     return False
 
