@@ -273,8 +273,8 @@ def analysis_text(doc: dict[str, Any]) -> str:
     """The advice block of ``analyze``'s text."""
     duration = (doc.get("source") or {}).get("duration_s") or 0.0
     lines = [
-        f"Recording length (estimate: the fitted model holds and a longer record is fitted with it, "
-        f"each point's EDF grows with time; 95 % intervals; recorded {fmt_time(duration)}):"
+        "Recording length (an estimate: the fitted model holds, and a longer record is fitted",
+        f"with it; each point's EDF grows with time; 95 % intervals; recorded {fmt_time(duration)}):",
     ]
     marked = rough = False
     for name, ch in doc.get("channels", {}).items():
@@ -309,7 +309,7 @@ def analysis_text(doc: dict[str, Any]) -> str:
     if rough:
         lines.append("  (rough): the term is over 1.5 times that target now, and its own error moves the")
         lines.append("  time: ask again on the way (docs/dynamic.md, section 4)")
-    return "\n".join(lines) + "\n" if len(lines) > 1 else ""
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
 
 # ---- from the device's reports alone --------------------------------------------------------
