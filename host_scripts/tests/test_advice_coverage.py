@@ -6,17 +6,23 @@ for the rate random walk K, Kasdin's fractional differencing for flicker B), the
 advice for the term at +-10 %, then the same record continued to the advised
 length (as a user does: the advice says how much MORE to record; each process
 draws from its own stream, so a longer record of a seed starts with the shorter
-one) and the interval ``analyze`` then gives the term. The advice is an estimate
-under the fitted model; it is graded on the seeds whose two fits are the
-generator's model (its processes, and an interval that the points' EDFs
-explain): there the term's interval must be within +-10 % of the target (9 % to
-11 %) in at least 80 % of the seeds. The seeds where a fit departs (model
-selection at 95 % admits a process the generator lacks in about one fit in
-ten: a Gauss-Markov process or Q beside B, B beside K) are counted and printed
-with the all-seeds figure; they must stay a minority.
+one) and the interval ``analyze`` then gives the term. Every seed run is graded:
+one without the term after T0 (no advice to follow), or whose fit at either
+length takes another structure, counts as it comes out (no term: a miss). Each
+seed's advised time, intervals and models are printed (pytest -s).
+
+The records start with the term at about +-13 %, 1.3 times the target: the
+advice calls a time from over 1.5 times the target rough (advice.ROUGH_RATIO),
+as the term's own error then moves it (docs/dynamic.md, section 4, measures
+both). The test asserts that the share within +-10 % of the target (9 % to
+11 %) over all seeds is not below 80 % beyond chance (a one-sided binomial
+test at 5 %: 8 seeds cannot show a share to better than +-15 %), that the
+interval at the advised time is 10 % in the median, and that few seeds lack
+the term after T0. The share itself, over 40 seeds, is in docs/dynamic.md.
 
 IMU_ALLAN_ADVICE_SEEDS sets the number of seeds (default 8, for make test; the
-figures in docs/dynamic.md, section 4, are from 40)."""
+figures in docs/dynamic.md, section 4, are from 40), IMU_ALLAN_ADVICE_T0 the first
+record's length."""
 
 from __future__ import annotations
 
@@ -27,6 +33,7 @@ import re
 import numpy as np
 import pytest
 from scipy import signal
+from scipy import stats as sps
 
 from imu_allan.analysis import advice
 from imu_allan.analysis.pipeline import Options, analyze
@@ -34,7 +41,6 @@ from imu_allan.profiles import build_profile
 from imu_allan.sources.detect import SampleSource, Source
 
 FS = 10.0
-T0 = 3000.0
 SEEDS = int(os.environ.get("IMU_ALLAN_ADVICE_SEEDS", "8"))
 SENSORS = {
     # white noise N and a rate random walk K crossing at sqrt(3) N / K = 52 s
@@ -42,6 +48,11 @@ SENSORS = {
     # white noise N and flicker B: 0.664 B meets N / sqrt(tau) near 20 s
     "B": dict(n_=0.3, b=0.1, k=0.0),
 }
+T0 = {"K": 16000.0, "B": 4500.0}
+"""The first record (s): the term at about +-13 % in the median (K: +-33 % after 3000 s).
+IMU_ALLAN_ADVICE_T0 (s) sets both, for the figures from farther in docs/dynamic.md."""
+if os.environ.get("IMU_ALLAN_ADVICE_T0"):
+    T0 = dict.fromkeys(T0, float(os.environ["IMU_ALLAN_ADVICE_T0"]))
 
 
 def _sensor(n: int, seed: int, n_: float, b: float, k: float) -> np.ndarray:
@@ -83,30 +94,50 @@ def test_a_longer_record_of_a_seed_continues_the_shorter() -> None:
     assert np.allclose(long_[:3000], short, rtol=0, atol=1e-12)
 
 
+def _procs(ch: dict) -> str:
+    return "+".join(re.findall(r"(\w+)\(", ch["fit"]["model"]))
+
+
 @pytest.mark.parametrize("term", sorted(SENSORS))
 def test_recording_the_advised_time_gives_the_target_interval(term: str) -> None:
-    sensor = SENSORS[term]
-    got, clean, skipped = [], [], 0
+    sensor, t0 = SENSORS[term], T0[term]
+    got, rows, missing, clean = [], [], 0, 0
     for seed in range(SEEDS):
-        first = _analysis(_sensor(int(T0 * FS), seed, **sensor))
+        first = _analysis(_sensor(int(t0 * FS), seed, **sensor))
         t = first["terms"][term]
         if t is None or t["record_s_for_10pct"] is None:
-            skipped += 1  # no term to advise on after T0
+            missing += 1  # no term to advise on after T0: a miss
+            got.append(math.inf)
+            rows.append(f"  seed {seed:2d}: no {term} after {t0:.0f} s ({_procs(first)})")
             continue
         advised = t["record_s_for_10pct"]
-        assert advised > T0  # +-10 % is not reached after T0 on these sensors
         second = _analysis(_sensor(int(round(advised * FS)), seed, **sensor))
         t2 = second["terms"][term]
         got.append(t2["interval_pct"] if t2 else math.inf)
-        clean.append(not _departs(first, sensor, term) and not _departs(second, sensor, term))
-    g, c = np.array(got), np.array(clean, dtype=bool)
-    near = np.abs(g / 10.0 - 1) <= 0.1 + 1e-9
+        clean += not _departs(first, sensor, term) and not _departs(second, sensor, term)
+        rows.append(
+            f"  seed {seed:2d}: +-{t['interval_pct']:.1f} % now, advised {advised:.0f} s, "
+            f"+-{got[-1]:.2f} % then; {_procs(first)} -> {_procs(second)}"
+        )
+    g = np.array(got)
+    near = int(np.sum(np.abs(g / 10.0 - 1) <= 0.1 + 1e-9))
+    chance = float(sps.binom.cdf(near, g.size, 0.8))  # P(so few or fewer | a share of 80 %)
     print(
-        f"\n{term}: +-% at the advised time {np.round(np.sort(g), 1).tolist()}; within +-10 % of the "
-        f"target: {near[c].sum()}/{c.sum()} seeds whose fits are the generator's model, "
-        f"{near.sum()}/{g.size} of all advised ({skipped} without the term after T0)"
+        f"\n{term} from {t0:.0f} s:\n" + "\n".join(rows) + f"\n{term}: within +-10 % of the target on {near}/{g.size} "
+        f"seeds ({missing} without the term after T0, {clean} with the generator's model at both lengths)"
     )
-    assert skipped <= SEEDS // 5
-    assert c.sum() >= 0.6 * g.size
-    assert 9.0 <= np.median(g[c]) <= 11.0
-    assert near[c].sum() >= 0.8 * c.sum()
+    assert missing <= SEEDS // 5
+    assert 9.0 <= np.median(g) <= 11.0
+    assert chance >= 0.05, f"{near}/{g.size} within +-10 %: below 80 % beyond chance"
+
+
+def test_a_time_from_over_one_and_a_half_times_the_target_is_marked_rough() -> None:
+    """+-33 % now after 50 min: the time for +-25 % (1.32 times) is given plainly, the one
+    for +-10 % (3.3 times) marked rough, with the line saying why."""
+    term = {"interval_pct": 33.0, "expected_pct": 32.0, "record_s_for_10pct": 30000.0, "record_s_for_25pct": 5000.0}
+    doc = {"source": {"duration_s": 3000.0}, "channels": {"gx": {"terms": {"K": term}}}}
+    text = advice.analysis_text(doc)
+    assert "K +-33 % now, +-25 % after about 33 min more, +-10 % after about 7.5 h more (rough)" in text
+    assert "(rough): the term is over 1.5 times that target now" in text
+    term["interval_pct"] = 14.0
+    assert "(rough)" not in advice.analysis_text(doc)

@@ -250,6 +250,12 @@ MODEL_ERROR_RATIO = 1.5
 """A term's interval this much wider than its points' EDFs give is mostly the fit's
 model error (noise/fit.py), which does not shrink with time: the text says so."""
 
+ROUGH_RATIO = 1.5
+"""A time for a target is marked rough from a term now over this many times the target:
+the term's own error now moves the time (the time goes as about the square of the
+interval now), and the interval the longer record then gives scatters wider than +-10 %
+of the target (docs/dynamic.md, section 4, measures how much)."""
+
 
 def fmt_time(s: Optional[float]) -> str:
     if s is None:
@@ -267,10 +273,10 @@ def analysis_text(doc: dict[str, Any]) -> str:
     """The advice block of ``analyze``'s text."""
     duration = (doc.get("source") or {}).get("duration_s") or 0.0
     lines = [
-        f"Recording length (estimate: the model holds, each point's EDF grows with time; "
-        f"95 % intervals; recorded {fmt_time(duration)}):"
+        "Recording length (an estimate: the fitted model holds, and a longer record is fitted",
+        f"with it; each point's EDF grows with time; 95 % intervals; recorded {fmt_time(duration)}):",
     ]
-    marked = False
+    marked = rough = False
     for name, ch in doc.get("channels", {}).items():
         parts = []
         for k, term in (ch.get("terms") or {}).items():
@@ -290,6 +296,9 @@ def analysis_text(doc: dict[str, Any]) -> str:
                     break
                 if t > duration:
                     part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
+                    if pct > ROUGH_RATIO * tgt:
+                        part += " (rough)"
+                        rough = True
             parts.append(part)
         if parts:
             lines.append(f"  {name}: " + "; ".join(parts))
@@ -297,7 +306,10 @@ def analysis_text(doc: dict[str, Any]) -> str:
         lines.append("  [model error]: the interval is over 1.5 times what its points' EDFs give")
         lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps;")
         lines.append("  the times count it")
-    return "\n".join(lines) + "\n" if len(lines) > 1 else ""
+    if rough:
+        lines.append("  (rough): the term is over 1.5 times that target now, and its own error moves the")
+        lines.append("  time: ask again on the way (docs/dynamic.md, section 4)")
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
 
 # ---- from the device's reports alone --------------------------------------------------------
