@@ -140,6 +140,10 @@ def _statistics(
         raise InputError(f"'{samples.name}': refused: {why}; --outliers keep analyzes it as it is")
     if why:
         notes.append(f"{why}: kept as asked (--outliers keep); its statistics describe the spikes")
+    if getattr(opts, "keep_store", False) and n >= 64:  # the warm-up's windows, from the octave pass
+        from .dynamic import raw_windows
+
+        store.windows = raw_windows(n, fs)[:2]
     res = octaves(store)
     other = None
     if found.count:

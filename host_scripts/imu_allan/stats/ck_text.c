@@ -271,6 +271,18 @@ void ck_welch_prep(const double *x, ssz nseg, ssz step, ssz k, const double *mea
     }
 }
 
+/* The same, rounded once more to float32 (numpy's astype(float32) of it). */
+void ck_welch_prep32(const double *x, ssz nseg, ssz step, ssz k, const double *mean, const double *w,
+                     float *out)
+{
+    for (ssz s = 0; s < k; s++) {
+        const double *src = x + s * step;
+        float *dst = out + s * nseg;
+        double m = mean[s];
+        for (ssz i = 0; i < nseg; i++) dst[i] = (float)((src[i] - m) * w[i]);
+    }
+}
+
 /* acc[f] += re^2 + im^2 of each of k spectra of nf bins (re, im interleaved),
  * in segment order: numpy's (re * re + im * im), added one segment at a time. */
 void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc)
@@ -279,6 +291,19 @@ void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc)
         const double *z = spec + 2 * s * nf;
         for (ssz f = 0; f < nf; f++) {
             double re = z[2 * f] * z[2 * f], im = z[2 * f + 1] * z[2 * f + 1];
+            acc[f] += re + im;
+        }
+    }
+}
+
+/* The same of float32 spectra, each part widened to float64 before squaring. */
+void ck_welch_acc32(const float *spec, ssz k, ssz nf, double *acc)
+{
+    for (ssz s = 0; s < k; s++) {
+        const float *z = spec + 2 * s * nf;
+        for (ssz f = 0; f < nf; f++) {
+            double a = z[2 * f], b = z[2 * f + 1];
+            double re = a * a, im = b * b;
             acc[f] += re + im;
         }
     }
