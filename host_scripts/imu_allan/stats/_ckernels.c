@@ -309,19 +309,24 @@ static PyObject *any_m(PyObject *self, PyObject *args)
 static PyObject *parse_rows(PyObject *self, PyObject *args)
 {
     (void)self;
-    Py_buffer d, o;
+    Py_buffer d, o, l = {0};
     int ncol, maxval;
-    Py_ssize_t cap, rows;
-    if (!PyArg_ParseTuple(args, "y*iiw*n", &d, &ncol, &maxval, &o, &cap)) return NULL;
-    if (ncol < 1 || cap < 0 || o.len < (Py_ssize_t)(ncol * cap * 2)) {
+    Py_ssize_t cap, rows, lines = 0;
+    if (!PyArg_ParseTuple(args, "y*iiw*n|w*", &d, &ncol, &maxval, &o, &cap, &l)) return NULL;
+    if (ncol < 1 || cap < 0 || o.len < (Py_ssize_t)(ncol * cap * 2) || (l.buf && l.len < 8)) {
         PyBuffer_Release(&d);
         PyBuffer_Release(&o);
-        PyErr_SetString(PyExc_ValueError, "out: at least ncol * cap uint16");
+        if (l.buf) PyBuffer_Release(&l);
+        PyErr_SetString(PyExc_ValueError, "out: at least ncol * cap uint16; lines: an int64");
         return NULL;
     }
-    Py_BEGIN_ALLOW_THREADS rows = ck_parse_rows(d.buf, d.len, ncol, maxval, o.buf, cap);
+    Py_BEGIN_ALLOW_THREADS rows = ck_parse_rows(d.buf, d.len, ncol, maxval, o.buf, cap, &lines);
     Py_END_ALLOW_THREADS PyBuffer_Release(&d);
     PyBuffer_Release(&o);
+    if (l.buf) {
+        *(int64_t *)l.buf = lines;
+        PyBuffer_Release(&l);
+    }
     return PyLong_FromSsize_t(rows);
 }
 
@@ -467,8 +472,8 @@ static PyMethodDef methods[] = {
      "diff_grid(x, prev, has_prev, q, gmax, cnt) -> differences not numbers\n"
      "Counts of rint(d / q) clipped to +-gmax of a piece's first differences."},
     {"parse_rows", parse_rows, METH_VARARGS,
-     "parse_rows(data, ncol, maxval, out, cap) -> rows (-1: a fault)\n"
-     "Rows of ncol integer codes into out (uint16, (ncol, cap))."},
+     "parse_rows(data, ncol, maxval, out, cap, lines=None) -> rows (-1: a fault)\n"
+     "Rows of ncol integer codes into out (uint16, (ncol, cap)); the line ends read into lines[0] (int64)."},
     {"parse_table", parse_table, METH_VARARGS,
      "parse_table(data, delim, which, tcol, out, tint, tflt, cap) -> (rows, time_is_float)\n"
      "Delimited numbers: wanted columns into out (float64, (k, cap)), the time column into tint/tflt."},

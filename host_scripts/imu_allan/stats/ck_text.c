@@ -30,14 +30,15 @@ static inline int is_blank(unsigned char c)
     return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
 }
 
-ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap)
+ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap, ssz *lines)
 {
     const unsigned char *p = (const unsigned char *)buf, *end = p + len;
-    ssz row = 0;
+    ssz row = 0, ends = 0;
     while (p < end) {
         /* one line */
         if (*p == '$') {
             while (p < end && *p != '\n') p++;
+            ends += p < end;
             p += p < end;
             continue;
         }
@@ -59,12 +60,14 @@ ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out,
                 return -1;
             }
         }
+        ends += p < end;
         p += p < end;
         if (col == ncol)
             row++;
         else if (col)
             return -1;
     }
+    *lines = ends;
     return row;
 }
 

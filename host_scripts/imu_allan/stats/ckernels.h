@@ -109,7 +109,7 @@ int ck_any_m(const void *x, int fmt, ssz n, double off, const int64_t *ms, ssz n
              double *out);
 
 /* Numeric text (ck_text.c). */
-ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap);
+ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap, ssz *lines);
 struct ck_table {
     int delim;        /* the separator byte, or 0: runs of blanks */
     const int *which; /* per column up to the last wanted: its output row, or -1 */
