@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import io
 import re
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Iterator, Optional
 
 import numpy as np
@@ -45,13 +47,10 @@ def iter_blocks(
     the file (``name``: how to call it, e.g. ``<stdin>`` for its spooled copy)
     and line on the first malformed line.
     """
-    from collections import deque
-    from concurrent.futures import ThreadPoolExecutor
-
     name = input_name(path) if name is None else name
     line = 1  # file line number of the first line of the next block
     with ThreadPoolExecutor(PARSERS) as pool:
-        pending: deque = deque()
+        pending: deque[tuple[bytes, Future[Optional[tuple[np.ndarray, int]]]]] = deque()
         for text, whole in _line_blocks(path, block_bytes):
             if not whole:  # a line longer than MAX_ROW_LINE after the blocks pending
                 while pending:
@@ -89,7 +88,9 @@ def _line_blocks(path: PathLike, block_bytes: int) -> Iterator[tuple[bytes, bool
         yield line_ends(tail), True
 
 
-def _parsed(text: bytes, fut, name: str, line: int, ncol: int) -> tuple[np.ndarray, int]:
+def _parsed(
+    text: bytes, fut: Future[Optional[tuple[np.ndarray, int]]], name: str, line: int, ncol: int
+) -> tuple[np.ndarray, int]:
     """A block from its compiled parse (or, on a fault, the exact reader, which
     names the line), and the line number after it."""
     got = fut.result()
