@@ -93,8 +93,10 @@ void ck_marks_done(struct ck_marks *mk, int levels, const ld *acc, const u128 *e
 /* The running second differences of the levels K .. levels-1 (m >= 2^K):
  * d_m(i) = y_m(i+m) - y_m(i), d_m(i+1) = d_m(i) + x[i+2m] - 2 x[i+m] + x[i]
  * (the offset cancels).  Long double; all levels advance together over
- * blocks of i so that the input is read once per block per distinct offset. */
-#define CHAIN_BLOCK 2048
+ * blocks of i so that the input is read once per block per distinct offset
+ * (8192: a file's pread calls per level are a quarter of 2048's, 15 % less time
+ * on a spilled channel; the blocks of ~12 offsets still fit in L2). */
+#define CHAIN_BLOCK 8192
 
 static void chains(const void *x, int fmt, ssz n, int K, int levels, ld *acc, u128 *ex, struct ck_marks *mk)
 {
