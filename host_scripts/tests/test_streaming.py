@@ -79,6 +79,20 @@ def test_the_outlier_scan_by_pieces_is_the_scan_of_the_whole(quantized: bool) ->
             assert np.array_equal(a.spans, b.spans) and np.array_equal(a.steps, b.steps)
 
 
+@pytest.mark.parametrize("piece", [7, 1000, 1 << 16])
+def test_first_look_by_pieces_takes_every_step_th_difference(piece: int) -> None:
+    """The scan's first pass (compiled where built) on a store's pieces: the
+    subsample d[::step] of the whole record's differences, and their max and min."""
+    rng = np.random.default_rng(6)
+    for n in (10, 1000, 100_001):
+        x = np.rint(rng.normal(0, 3, (1, n)) + 500)
+        s = collect(_pieces(x, piece), [0], 1 << 30, "t", None, quiet=True)
+        d = np.diff(x[0])
+        for keep in (3, 8, 16):
+            sub, _, hi, lo = diffscan.first_look(diffscan.of_store(s, 0), n - 1, keep)
+            assert np.array_equal(sub, d[:: max((n - 1) >> keep, 1)]) and (hi, lo) == (d.max(), d.min())
+
+
 def test_exact_quantiles_by_windows_are_numpys() -> None:
     rng = np.random.default_rng(5)
     v = np.concatenate([rng.standard_normal(300_001), rng.standard_cauchy(1000) * 1e6, np.zeros(5000)])

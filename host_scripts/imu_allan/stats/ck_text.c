@@ -227,7 +227,9 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
 {
     ssz k = 0, i0 = has_prev ? 0 : 1;
     double nz = st[0], hi = st[1], lo = st[2];
-    ssz g = pos - i0; /* the global index of d at i: g + i */
+    ssz g = pos - i0;                   /* the global index of d at i: g + i */
+    ssz r = (g + i0) % step;            /* g + i0 >= 0: the first difference's global index */
+    ssz take = i0 + (r ? step - r : 0); /* the next i whose global index is a multiple of step */
     for (ssz i = i0; i < n; i++) {
         double d = x[i] - (i ? x[i - 1] : prev);
         if (!isfinite(d)) st[3] = 1;
@@ -235,7 +237,10 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
         if (d != 0 && a < nz) nz = a;
         if (d > hi) hi = d;
         if (d < lo) lo = d;
-        if ((g + i) % step == 0) sub[k++] = d;
+        if (i == take) {
+            sub[k++] = d;
+            take += step;
+        }
     }
     st[0] = nz;
     st[1] = hi;
@@ -248,6 +253,18 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
 ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt)
 {
     ssz bad = 0;
+    if (q == 1.0) { /* codes: d / 1 is d; the same counts without a division each */
+        for (ssz i = has_prev ? 0 : 1; i < n; i++) {
+            double r = rint(x[i] - (i ? x[i - 1] : prev));
+            if (r != r) {
+                bad++;
+                continue;
+            }
+            r = r < -gmax ? -gmax : r > gmax ? gmax : r;
+            cnt[(ssz)r + gmax]++;
+        }
+        return bad;
+    }
     for (ssz i = has_prev ? 0 : 1; i < n; i++) {
         double r = rint((x[i] - (i ? x[i - 1] : prev)) / q);
         if (r != r) {
