@@ -131,7 +131,7 @@ class SpillStore(Store):
             row, dt = block[c], self.dtypes[c]
             if not np.can_cast(row.dtype, dt, "safe"):
                 raise ValueError(f"a block of {row.dtype} after blocks of {dt}")
-            if dt.kind in "iu" and row.size:
+            if dt.kind in "iu" and dt.itemsize > 2 and row.size:  # 1 or 2 bytes: the type bounds them
                 self.span[c] = max(self.span[c], abs(int(row.max())), abs(int(row.min())))
             f.write(memoryview(np.ascontiguousarray(row, dtype=dt)))
         self.n += block.shape[1]
