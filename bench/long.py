@@ -2,10 +2,16 @@
 """The long-recording figures of `make bench`: an 8 h recording at 1 kHz
 (2.88e7 rows x 7 columns of TSV, generated once into build/bench/, never
 committed) analysed end to end by `imu-allan analyze` in a child process
-(wall time, the child's peak memory from wait4), side by side with
+(wall time, the child's CPU time and peak memory from wait4), side by side with
 allantools' `oadev` on the same six channels already in memory at octave
-taus (another child; only the oadev calls are timed), alternating A and B.
-And N on every channel against the generator's own parameters.
+taus (another child; only the oadev calls are timed, wall and CPU), alternating
+A and B. And N on every channel against the generator's own parameters.
+
+imu-allan uses the machine's cores (up to two threads: the compiled kernels,
+the FFTs and the text reader release the GIL); allantools uses one. The wall
+ratio is the criterion; the CPU ratio (long_cpu_ratio) is the same work on one
+core, and what to read when other work loads the machine (long_how says the
+load, the cores and the date of the run that wrote every long_* figure).
 
 Also a ROS 2 bag (sqlite3, sensor_msgs/Imu) of ``--bag-rows`` messages
 against the TSV of the same length, ``--bag-pairs`` times alternating (a bag
@@ -40,21 +46,31 @@ import numpy as np, allantools
 from imu_allan.sources.detect import load
 s = load(sys.argv[1]).samples
 x = np.concatenate(list(s.open_blocks()), axis=1).astype(np.float64)  # (6, n) in memory, not timed
-t0 = time.perf_counter()
+t0, c0 = time.perf_counter(), time.process_time()
 for c in range(x.shape[0]):
     allantools.oadev(x[c], rate=float(sys.argv[2]), data_type="freq", taus="octave")
-print(json.dumps({"s": time.perf_counter() - t0, "n": int(x.shape[1])}))
+print(json.dumps({"s": time.perf_counter() - t0, "cpu": time.process_time() - c0, "n": int(x.shape[1])}))
 """
 
 
 def peak_mb(cmd: list[str]) -> tuple[float, int, str]:
     """Run ``cmd``: (wall seconds, its peak resident memory in MB (GNU time's %M), stdout)."""
+    wall, _, mb, out = run_child(cmd)
+    return wall, mb, out
+
+
+def run_child(cmd: list[str]) -> tuple[float, float, int, str]:
+    """Run ``cmd``: (wall seconds, CPU seconds (user + system, every thread), peak
+    resident memory in MB (GNU time's %M), stdout)."""
     t0 = time.perf_counter()
-    p = subprocess.run(["/usr/bin/time", "-f", "%M", *cmd], capture_output=True, env=ENV, text=True, errors="replace")
+    p = subprocess.run(
+        ["/usr/bin/time", "-f", "%M %U %S", *cmd], capture_output=True, env=ENV, text=True, errors="replace"
+    )
     wall = time.perf_counter() - t0
     if p.returncode:
         raise SystemExit(f"bench: {' '.join(cmd[:5])} failed: {p.stderr[-400:]}")
-    return wall, int(p.stderr.strip().splitlines()[-1]) // 1024, p.stdout
+    kb, user, system = p.stderr.strip().splitlines()[-1].split()
+    return wall, float(user) + float(system), int(kb) // 1024, p.stdout
 
 
 def generate(rows: int) -> Path:
@@ -104,25 +120,34 @@ def true_n(path: Path, doc: dict) -> dict:
 
 def tsv_vs_allantools(rows: int, pairs: int) -> dict:
     path = generate(rows)
-    ours, theirs, mem, doc = [], [], [], None
+    ours, ours_cpu, theirs, theirs_cpu, mem, doc = [], [], [], [], [], None
+    load = [round(os.getloadavg()[0], 2)]
     for _ in range(pairs):  # alternating A and B
-        wall, mb, out = peak_mb(
+        wall, cpu, mb, out = run_child(
             [sys.executable, "-m", "imu_allan.cli", "analyze", str(path), "--fs", str(FS), "--json", "--quiet"]
         )
         ours.append(wall)
+        ours_cpu.append(cpu)
         mem.append(mb)
         doc = json.loads(out)
-        _, _, out = peak_mb([sys.executable, "-c", ALLANTOOLS_CHILD, str(path), str(FS)])
-        theirs.append(json.loads(out)["s"])
-    ratios = sorted(t / o for o, t in zip(ours, theirs))
+        got = json.loads(run_child([sys.executable, "-c", ALLANTOOLS_CHILD, str(path), str(FS)])[3])
+        theirs.append(got["s"])
+        theirs_cpu.append(got["cpu"])
+        load.append(round(os.getloadavg()[0], 2))
+    ratio = _spread([t / o for o, t in zip(ours, theirs)])
+    cpu_ratio = _spread([t / o for o, t in zip(ours_cpu, theirs_cpu)])
     ns = true_n(path, doc)
     return {
         "long_rows": rows,
         "long_tsv_mb": round(path.stat().st_size / 2**20, 1),
         "long_analyze_s": [round(v, 1) for v in ours],
+        "long_analyze_cpu_s": [round(v, 1) for v in ours_cpu],
         "long_allantools_oadev_s": [round(v, 1) for v in theirs],
-        "long_speedup_vs_allantools": round(ratios[len(ratios) // 2], 2),
-        "long_speedup_min_max": [round(ratios[0], 2), round(ratios[-1], 2)],
+        "long_allantools_oadev_cpu_s": [round(v, 1) for v in theirs_cpu],
+        "long_speedup_vs_allantools": round(ratio[0], 2),
+        "long_speedup_min_max": [round(ratio[1], 2), round(ratio[2], 2)],
+        "long_cpu_ratio": round(cpu_ratio[0], 2),
+        "long_cpu_ratio_min_max": [round(cpu_ratio[1], 2), round(cpu_ratio[2], 2)],
         "long_peak_mb": max(mem),
         "long_n_rel_err_max": round(max(abs(v["rel_err"]) for v in ns.values() if v["rel_err"] is not None), 4)
         if all(v["fitted"] for v in ns.values())
@@ -130,6 +155,20 @@ def tsv_vs_allantools(rows: int, pairs: int) -> dict:
         "long_n_identified": sum(1 for v in ns.values() if v["fitted"]),
         "long_n": ns,
         "long_streamed": any("streamed" in s for s in doc["notes"]),
+        "long_how": {
+            "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "command": f"bench/long.py --rows {rows} --pairs {pairs} --bag-rows 0",
+            "pairs": pairs,
+            "cores": os.cpu_count(),
+            "load_1min": load,
+            "quick": rows < ROWS_8H,
+            "ours": "imu-allan analyze FILE --fs 1000 --json --quiet, end to end in a child (imports, "
+            "reading, six channels, terms, PSD, warm-up windows, JSON): wall, and CPU of every thread "
+            "(up to two at once)",
+            "theirs": "allantools.oadev(x, rate, data_type='freq', taus='octave') on each of the six "
+            "channels held in memory as float64 (one thread): only those calls timed",
+            "ratios": "per A/B pair theirs / ours; median, then min and max",
+        },
     }
 
 
@@ -268,10 +307,12 @@ def main() -> int:
     res = long_figures(args.rows, args.pairs, args.bag_rows, args.bag_pairs)
     out = Path(args.out)
     doc = json.loads(out.read_text()) if out.exists() else {}
+    if args.rows:  # one run's coherent set: no long_* figure of another run left beside it
+        doc = {k: v for k, v in doc.items() if not k.startswith("long_")}
     doc.update(res)
     out.write_text(json.dumps(doc, indent=2) + "\n")
     for k, v in res.items():
-        if k != "long_n":
+        if k not in ("long_n", "long_how"):
             print(f"{k:34} {v}  {_verdict(k, v)}")
     return 0
 

@@ -29,6 +29,26 @@ def test_welch_streams_like_scipy() -> None:
     assert n == 50_000 // 4.5 and w.nfft == 16384  # pwelch: 8 segments, half overlapping, 2^k FFT
 
 
+def test_long_segments_float32_transforms_stay_within_1e_5_of_scipy() -> None:
+    """Segments of 2^16 samples go through float32 transforms (psd.SINGLE_FROM): a
+    random walk over white noise, rounded to codes (a PSD over five decades), against
+    scipy's float64 Welch with the same segments, bin by bin."""
+    rng = np.random.default_rng(4)
+    n = 600_000
+    x = np.rint(np.cumsum(rng.standard_normal(n)) * 0.05 + rng.standard_normal(n) * 2 + 500)
+    nseg = psd.segment_length(n)
+    w = psd.Welch(1, 1000.0, nseg)
+    for a in range(0, n, 77_777):
+        w.push(x[None, a : a + 77_777])
+    f, p = w.result()
+    f2, p2 = scipy.signal.welch(
+        x, 1000.0, window=np.hamming(nseg), nperseg=nseg, noverlap=nseg // 2, nfft=w.nfft, detrend="constant"
+    )
+    assert w.single and nseg == psd.SINGLE_FROM and p2.max() / p2[1:].min() > 1e5
+    np.testing.assert_allclose(f, f2)
+    np.testing.assert_allclose(p[0], p2, rtol=1e-5)
+
+
 def test_term_levels_match_simulated_noise() -> None:
     fs, n = 100.0, 1 << 19
     rng = np.random.default_rng(1)

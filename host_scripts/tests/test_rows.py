@@ -61,6 +61,19 @@ def test_error_line_numbers_across_blocks(tmp_path: Path) -> None:
             pass
 
 
+def test_a_line_too_long_for_a_row_is_named_after_the_rows_before_it(tmp_path: Path) -> None:
+    from imu_allan.sources.rows import MAX_ROW_LINE
+
+    rows = thesis_like(3000, 5)
+    p = write_rows(tmp_path / "r.txt", rows, comment="# a\n")
+    p.write_bytes(p.read_bytes() + b"7" * (2 * MAX_ROW_LINE) + b"\n")
+    got = []
+    with pytest.raises(InputError, match=f"line {3000 + 2}: longer than"):
+        for b in iter_blocks(p, block_bytes=1 << 12):
+            got.append(b)
+    assert np.array_equal(np.concatenate(got, axis=1).T, rows)  # every row before it, in order
+
+
 def test_protocol_lines_are_skipped(tmp_path: Path, run_cli) -> None:
     """A raw capture (rows, count lines, replies) replays through the readers."""
     rows = thesis_like(250, 4)

@@ -79,6 +79,20 @@ def test_the_outlier_scan_by_pieces_is_the_scan_of_the_whole(quantized: bool) ->
             assert np.array_equal(a.spans, b.spans) and np.array_equal(a.steps, b.steps)
 
 
+@pytest.mark.parametrize("piece", [7, 1000, 1 << 16])
+def test_first_look_by_pieces_takes_every_step_th_difference(piece: int) -> None:
+    """The scan's first pass (compiled where built) on a store's pieces: the
+    subsample d[::step] of the whole record's differences, and their max and min."""
+    rng = np.random.default_rng(6)
+    for n in (10, 1000, 100_001):
+        x = np.rint(rng.normal(0, 3, (1, n)) + 500)
+        s = collect(_pieces(x, piece), [0], 1 << 30, "t", None, quiet=True)
+        d = np.diff(x[0])
+        for keep in (3, 8, 16):
+            sub, _, hi, lo = diffscan.first_look(diffscan.of_store(s, 0), n - 1, keep)
+            assert np.array_equal(sub, d[:: max((n - 1) >> keep, 1)]) and (hi, lo) == (d.max(), d.min())
+
+
 def test_exact_quantiles_by_windows_are_numpys() -> None:
     rng = np.random.default_rng(5)
     v = np.concatenate([rng.standard_normal(300_001), rng.standard_cauchy(1000) * 1e6, np.zeros(5000)])
@@ -90,6 +104,35 @@ def test_exact_quantiles_by_windows_are_numpys() -> None:
     finally:
         diffscan.COLLECT = old
     np.testing.assert_allclose(got, np.quantile(v, [0.5, 0.25, 0.999, 0.0, 1.0]), rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.float64])
+def test_warmup_windows_taken_from_the_octave_pass_are_each_windows_own(dtype) -> None:
+    """The windows' overlapping AVAR that the record's octave pass notes on its way
+    (store.windows, planned before it) against each window computed by itself, and
+    against the definition in integers on a few windows, in memory and streamed."""
+    from imu_allan.analysis import dynamic
+
+    rng = np.random.default_rng(8)
+    n = 150_001
+    x = 500 + np.cumsum(rng.normal(0, 0.05, (2, n)), axis=1) + rng.normal(0, 2, (2, n))
+    x = np.rint(x).astype(np.uint16) if dtype is np.uint16 else x
+    starts, size, _ = dynamic.raw_windows(n, 100.0)
+    alone = dynamic.from_store(MemoryStore(x), 100.0, ["a", "b"])  # no plan: a pass per window
+    spill = collect(_pieces(x, 7777), [0, 1], 1000, "test", None, quiet=True)
+    try:
+        for store in (MemoryStore(x), spill):
+            store.windows = (starts, size)
+            ws = dynamic.from_store(store, 100.0, ["a", "b"])
+            assert store.window_sums(1, starts, size) is not None and ws.var.shape == alone.var.shape
+            np.testing.assert_allclose(ws.var, alone.var, rtol=1e-13)
+            assert np.array_equal(ws.weight, alone.weight)
+            if dtype is np.uint16:
+                for w, k in ((0, 0), (7, 3), (len(starts) - 1, ws.ms.size - 1)):
+                    seg = x[1, starts[w] : starts[w] + size]
+                    assert ws.var[w, 1, k] == pytest.approx(_oavar_definition(seg, int(ws.ms[k])), rel=1e-15)
+    finally:
+        spill.close()
 
 
 def _walk(a, b, path, diffs: list) -> None:

@@ -68,13 +68,16 @@ def test_rows_reader_matches_the_exact_one(seed: int) -> None:
         assert got == want
     else:
         assert got.dtype == want.dtype == np.uint16 and np.array_equal(got, want)
-        assert rows._compiled(text, 7) is not None  # the compiled reader read it, not the fallback
+        fast = rows._compiled(text, 7)
+        assert fast is not None  # the compiled reader read it, not the fallback
+        assert fast[1] == text.count(b"\n")  # and counted its lines (the next block's first line)
 
 
 def test_rows_reader_takes_comments_and_protocol_lines_itself() -> None:
     text = b"# head\n1 2 3 4 5 6 7 # x\n$C,1*00\n\n8\t9\t10\t11\t12\t13\t1023\r\n"
     got = rows._compiled(text, 7)
-    assert got is not None and got.T.tolist() == [[1, 2, 3, 4, 5, 6, 7], [8, 9, 10, 11, 12, 13, 1023]]
+    assert got is not None and got[0].T.tolist() == [[1, 2, 3, 4, 5, 6, 7], [8, 9, 10, 11, 12, 13, 1023]]
+    assert got[1] == 5
 
 
 def _number(rng: np.random.Generator) -> str:

@@ -194,6 +194,21 @@ def from_samples(
     return from_store(MemoryStore(np.asarray(data, dtype=np.float64)), fs, channels, window_s, step_s, temp)
 
 
+def raw_windows(
+    n: int, fs: float, window_s: Optional[float] = None, step_s: Optional[float] = None
+) -> tuple[np.ndarray, int, int]:
+    """(starts, size, step) of ``from_store``'s windows over n samples (an analysis
+    plans them before its pass: store.Store.windows)."""
+    size = int(round(window_s * fs)) if window_s else n // RAW_WINDOWS
+    size = min(max(size, 32), n)
+    step = max(int(round(step_s * fs)), 1) if step_s else max(size // 2, 1)
+    if (n - size) // step + 1 > MAX_WINDOWS:
+        from ..errors import InputError
+
+        raise InputError(f"{(n - size) // step + 1} windows: more than {MAX_WINDOWS}; give a longer --window or --step")
+    return np.array(list(range(0, n - size + 1, step)) or [0], dtype=np.int64), size, step
+
+
 def from_store(
     store: Any,
     fs: float,
@@ -206,14 +221,7 @@ def from_store(
     window of one channel in memory at a time; the whole record's curve from
     the store's octave kernels."""
     C, n = store.channels, store.n
-    size = int(round(window_s * fs)) if window_s else n // RAW_WINDOWS
-    size = min(max(size, 32), n)
-    step = max(int(round(step_s * fs)), 1) if step_s else max(size // 2, 1)
-    if (n - size) // step + 1 > MAX_WINDOWS:
-        from ..errors import InputError
-
-        raise InputError(f"{(n - size) // step + 1} windows: more than {MAX_WINDOWS}; give a longer --window or --step")
-    starts = list(range(0, n - size + 1, step)) or [0]
+    starts, size, step = raw_windows(n, fs, window_s, step_s)
     ms = np.array([1 << k for k in range(40) if (1 << k) * 10 <= size], dtype=np.int64)
     W, L = len(starts), ms.size
     var, weight, edfs = (np.full((W, C, L), np.nan) for _ in range(3))
@@ -222,17 +230,22 @@ def from_store(
         r = store.octave(c)
         whole[c] = r.oavar[np.searchsorted(r.ms, ms), 0]
     alphas = _alphas(whole, ms)
+    terms = size - 2 * ms + 1
 
     def channel(c: int) -> None:  # the kernels release the GIL: channels side by side
-        for w, a in enumerate(starts):
-            var[w, c], weight[w, c] = allan.oavar(store.read(c, a, size).astype(np.float64), ms)
+        sums = store.window_sums(c, starts, size)  # taken by the record's own pass, when planned
+        for w, a in enumerate(starts.tolist()):
+            if sums is not None:
+                var[w, c], weight[w, c] = sums[np.log2(ms).astype(np.int64), w] / (2.0 * ms * ms * terms), terms
+            else:
+                var[w, c], weight[w, c] = allan.oavar(store.read(c, a, size).astype(np.float64), ms)
 
     from concurrent.futures import ThreadPoolExecutor
 
     with ThreadPoolExecutor(max(1, min(2, os.cpu_count() or 1))) as pool:
         list(pool.map(channel, range(C)))
     temps: list[Optional[dict]] = []
-    for w, a in enumerate(starts):
+    for w, a in enumerate(starts.tolist()):
         for c in range(C):
             edfs[w, c] = [_edf(int(alphas[c, k]), int(ms[k]), size + 1, 1) for k in range(L)]
         if temp is not None and temp.size >= a + size:
@@ -240,7 +253,7 @@ def from_store(
             temps.append({"mean": round(float(t.mean()), 1), "min": int(t.min()), "max": int(t.max())})
         else:
             temps.append(None)
-    t0 = np.array(starts, dtype=np.float64) / fs
+    t0 = starts.astype(np.float64) / fs
     return Windows(
         "raw samples",
         fs,

@@ -10,7 +10,7 @@ sample at once (MDEV, HDEV, other tau grids) wait for the samples in memory.
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
@@ -35,7 +35,8 @@ class HostPass:
     octave: allan.OctaveResult
     data: Optional[np.ndarray]
     """(channels, n) samples in input units, or None when streamed."""
-    psd: tuple[np.ndarray, np.ndarray]
+    psd_later: "Future[tuple[np.ndarray, np.ndarray]]"
+    """The Welch PSD, computed in the background while the noise terms are fitted."""
     taus: str
     """The tau grid of the curves: the one asked, or octave when streamed."""
     clipped: Optional[np.ndarray] = None
@@ -44,7 +45,14 @@ class HostPass:
     store: Optional[Store] = None
     """The samples (after any replacement of outliers), open until ``close``."""
 
+    @property
+    def psd(self) -> tuple[np.ndarray, np.ndarray]:
+        """(f, psd (channels, f)): the Welch PSD of every channel (waits for it)."""
+        return self.psd_later.result()
+
     def close(self) -> None:
+        if not self.psd_later.cancel():  # it reads the store: let it end first
+            self.psd_later.exception()
         if self.store is not None:
             self.store.close()
 
@@ -93,8 +101,9 @@ def join(parts: list[allan.OctaveResult]) -> allan.OctaveResult:
     )
 
 
-def welch(store: Store, fs: float) -> tuple[np.ndarray, np.ndarray]:
-    """The Welch PSD of every channel (pwelch's segments for the store's n)."""
+def welch(store: Store, fs: float, label: Optional[str] = "PSD") -> tuple[np.ndarray, np.ndarray]:
+    """The Welch PSD of every channel (pwelch's segments for the store's n);
+    ``label`` None: no progress line (in the background)."""
     nseg = psd.segment_length(store.n)
 
     def one(c: int) -> tuple[np.ndarray, np.ndarray]:
@@ -103,8 +112,21 @@ def welch(store: Store, fs: float) -> tuple[np.ndarray, np.ndarray]:
             w.push(b[None, :])
         return w.result()
 
-    parts = per_channel(store, one, "PSD")
+    if label is None:
+        with ThreadPoolExecutor(WORKERS) as pool:
+            parts = list(pool.map(one, range(store.channels)))
+    else:
+        parts = per_channel(store, one, label)
     return parts[0][0], np.concatenate([p for _, p in parts], axis=0)
+
+
+def welch_later(store: Store, fs: float) -> "Future[tuple[np.ndarray, np.ndarray]]":
+    """``welch`` started in another thread: the FFTs and the compiled loops release
+    the GIL, so it runs beside the noise fits (Python) that do not need it."""
+    pool = ThreadPoolExecutor(1)
+    fut = pool.submit(welch, store, fs, None)
+    pool.shutdown(wait=False)
+    return fut
 
 
 def host_pass(samples: SampleSource, chans: list[str], fs: float, opts: Any, notes: list[str]) -> HostPass:
@@ -140,6 +162,10 @@ def _statistics(
         raise InputError(f"'{samples.name}': refused: {why}; --outliers keep analyzes it as it is")
     if why:
         notes.append(f"{why}: kept as asked (--outliers keep); its statistics describe the spikes")
+    if getattr(opts, "keep_store", False) and n >= 64:  # the warm-up's windows, from the octave pass
+        from .dynamic import raw_windows
+
+        store.windows = raw_windows(n, fs)[:2]
     res = octaves(store)
     other = None
     if found.count:
@@ -165,7 +191,7 @@ def _statistics(
         n,
         res,
         data,
-        welch(store, fs),
+        welch_later(store, fs),
         opts.taus if data is not None else "octave",
         clipped,
         OutlierPass(found, opts.outliers, other),

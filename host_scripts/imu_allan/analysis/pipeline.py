@@ -124,6 +124,10 @@ def analyze(src: Source, profile: Profile, opts: Options, device: Optional[Devic
     try:
         for c_i, ch in enumerate(chans):
             doc["channels"][ch], fits[ch], fit_curves[ch] = _channel(ch, c_i, profile, fs, host, report, opts, notes)
+        for c_i, ch in enumerate(chans):  # after every fit: the PSD ran beside them (host_pass.welch_later)
+            if host is not None:
+                sc = profile.scale(ch)
+                doc["channels"][ch]["psd"] = _psd_json(host, c_i, sc.unit, sc.per_count**2, fits[ch], fs)
         doc["outliers"] = outliers_doc(host.outliers if host is not None else None, chans, opts.outliers)
         if opts.model:
             model_all(doc, fits, fit_curves, chans, profile, fs, host, report, opts)
@@ -247,7 +251,7 @@ def _channel(
     if dev is not None and host is not None:
         out["device"] = _device_json(dev, fs, k2, fit, main)
     if host is not None:
-        out["psd"] = _psd_json(host, c_i, sc.unit, k2, fit, fs)
+        out["psd"] = None  # filled once every channel is fitted (analyze)
     out["si"] = _si_json(sc, out["terms"])
     fl = fitc.flags if fitc.flags else [[] for _ in range(fitc.ms.size)]
     fit_curve = [

@@ -53,15 +53,34 @@ class Store:
         """The offset the kernels remove (kernels.offset of the first HEAD samples)."""
         return float(kernels.offset(self.read(c, 0, min(kernels.HEAD, self.n))))
 
+    windows: Optional[tuple[np.ndarray, int]] = None
+    """(starts, size): windows whose overlapping sums ``octave`` takes from its
+    own pass (dynamic.from_store's warm-up windows), set before the first ``octave``."""
+
     def octave(self, c: int) -> allan.OctaveResult:
         """Overlapping and non-overlapping AVAR of channel ``c`` at every octave
-        (every offset: stride 1), by the compiled kernels when built; computed once."""
+        (every offset: stride 1), by the compiled kernels when built; computed once
+        (with the sums of ``windows``, when set, from the same pass)."""
         memo = self.__dict__.setdefault("_octaves", {})
         if c not in memo:
-            memo[c] = self._octave(c)
+            plan = None
+            if self.windows is not None:
+                starts, size = self.windows
+                plan = (starts, size, np.full((kernels.levels(self.n), starts.size), np.nan))
+            memo[c] = self._octave(c, plan)
+            if plan is not None and np.all(np.isfinite(plan[2])):  # not filled: no compiled kernels
+                self.__dict__.setdefault("_wsums", {})[c] = (starts, size, plan[2])
         return memo[c]
 
-    def _octave(self, c: int) -> allan.OctaveResult:
+    def window_sums(self, c: int, starts: np.ndarray, size: int) -> Optional[np.ndarray]:
+        """The overlapping sums (levels, windows) of windows (starts, size) of channel
+        ``c`` that ``octave`` took from its pass, or None (not planned)."""
+        got = self.__dict__.get("_wsums", {}).get(c)
+        if got is None or got[1] != size or not np.array_equal(got[0], starts):
+            return None
+        return got[2]
+
+    def _octave(self, c: int, windows: Optional[kernels.Windows] = None) -> allan.OctaveResult:
         raise NotImplementedError
 
     def in_memory(self) -> Optional[np.ndarray]:
@@ -86,8 +105,8 @@ class MemoryStore(Store):
     def read(self, c: int, start: int, count: int) -> np.ndarray:
         return self.data[c][start : start + count]
 
-    def _octave(self, c: int) -> allan.OctaveResult:
-        return allan.octave_mapped(self.data[c])
+    def _octave(self, c: int, windows: Optional[kernels.Windows] = None) -> allan.OctaveResult:
+        return allan.octave_mapped(self.data[c], windows=windows)
 
     def in_memory(self) -> Optional[np.ndarray]:
         if len({d for d in self.dtypes}) == 1:
@@ -112,7 +131,7 @@ class SpillStore(Store):
             row, dt = block[c], self.dtypes[c]
             if not np.can_cast(row.dtype, dt, "safe"):
                 raise ValueError(f"a block of {row.dtype} after blocks of {dt}")
-            if dt.kind in "iu" and row.size:
+            if dt.kind in "iu" and dt.itemsize > 2 and row.size:  # 1 or 2 bytes: the type bounds them
                 self.span[c] = max(self.span[c], abs(int(row.max())), abs(int(row.min())))
             f.write(memoryview(np.ascontiguousarray(row, dtype=dt)))
         self.n += block.shape[1]
@@ -128,9 +147,9 @@ class SpillStore(Store):
             raise InputError(f"the samples' temporary file {self.files[c].name} is short (disk full?)")
         return np.frombuffer(raw, dtype=dt)
 
-    def _octave(self, c: int) -> allan.OctaveResult:
+    def _octave(self, c: int, windows: Optional[kernels.Windows] = None) -> allan.OctaveResult:
         dt = self.dtypes[c]
-        r = kernels.octave_file_sums(self.files[c].fileno(), dt, self.n, self.offset(c), self.span[c])
+        r = kernels.octave_file_sums(self.files[c].fileno(), dt, self.n, self.offset(c), self.span[c], windows)
         if r is None:  # no compiled kernels: the numpy ones on the channel in memory
             return allan.octave_mapped(self.read(c, 0, self.n))
         return allan.octave_from_sums(self.n, *r)
@@ -278,6 +297,8 @@ def replaced(store: Store, found: Any) -> Store:
                 for c in range(store.channels)
             ]
         )
-    memo = store.__dict__.get("_octaves", {})
-    out.__dict__["_octaves"] = {c: r for c, r in memo.items() if c not in changes}  # the unchanged channels'
+    out.windows = store.windows
+    for key in ("_octaves", "_wsums"):  # the unchanged channels'
+        memo = store.__dict__.get(key, {})
+        out.__dict__[key] = {c: r for c, r in memo.items() if c not in changes}
     return out

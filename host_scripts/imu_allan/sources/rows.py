@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import io
 import re
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Iterator, Optional
 
 import numpy as np
@@ -31,6 +33,11 @@ _PROTOCOL_LINE = re.compile(rb"^\$[^\n]*", re.MULTILINE)
 _POW10 = 10 ** np.arange(10, dtype=np.int64)
 
 
+PARSERS = 2
+"""Blocks parsed at once (the compiled reader releases the GIL): the split into
+whole lines stays in order, the numbers of the next block are read meanwhile."""
+
+
 def iter_blocks(
     path: PathLike, block_bytes: int = BLOCK_BYTES, ncol: int = len(COLUMNS), name: Optional[str] = None
 ) -> Iterator[np.ndarray]:
@@ -41,8 +48,31 @@ def iter_blocks(
     and line on the first malformed line.
     """
     name = input_name(path) if name is None else name
-    tail = b""
     line = 1  # file line number of the first line of the next block
+    with ThreadPoolExecutor(PARSERS) as pool:
+        pending: deque[tuple[bytes, Future[Optional[tuple[np.ndarray, int]]]]] = deque()
+        for text, whole in _line_blocks(path, block_bytes):
+            if not whole:  # a line longer than MAX_ROW_LINE after the blocks pending
+                while pending:
+                    block, line = _parsed(*pending.popleft(), name, line, ncol)
+                    yield block
+                at = line + text.count(b"\n")
+                raise InputError(
+                    f"{name}: line {at}: longer than {MAX_ROW_LINE} bytes without a line end: not a rows file"
+                )
+            pending.append((text, pool.submit(_compiled, text, ncol)))
+            if len(pending) > PARSERS:
+                block, line = _parsed(*pending.popleft(), name, line, ncol)
+                yield block
+        while pending:
+            block, line = _parsed(*pending.popleft(), name, line, ncol)
+            yield block
+
+
+def _line_blocks(path: PathLike, block_bytes: int) -> Iterator[tuple[bytes, bool]]:
+    """The text of ``path`` in blocks of whole lines (line ends as LF), in order:
+    (text, True); (the text before it, False) at a line too long to be a row."""
+    tail = b""
     for chunk in read_blocks(path, block_bytes):
         chunk = tail + chunk
         held = b"\r" if chunk.endswith(b"\r") else b""  # maybe the CR of a CR LF cut in two
@@ -50,13 +80,23 @@ def iter_blocks(
         cut = chunk.rfind(b"\n") + 1
         tail = chunk[cut:] + held
         if len(tail) > MAX_ROW_LINE:
-            at = line + chunk.count(b"\n", 0, cut)
-            raise InputError(f"{name}: line {at}: longer than {MAX_ROW_LINE} bytes without a line end: not a rows file")
+            yield chunk[:cut], False
+            return
         if cut:
-            yield parse_block(chunk[:cut], name, line, ncol)
-            line += chunk.count(b"\n", 0, cut)
+            yield chunk[:cut], True
     if tail:
-        yield parse_block(line_ends(tail), name, line, ncol)
+        yield line_ends(tail), True
+
+
+def _parsed(
+    text: bytes, fut: Future[Optional[tuple[np.ndarray, int]]], name: str, line: int, ncol: int
+) -> tuple[np.ndarray, int]:
+    """A block from its compiled parse (or, on a fault, the exact reader, which
+    names the line), and the line number after it."""
+    got = fut.result()
+    if got is None:
+        return parse_exact(text, name, line, ncol), line + text.count(b"\n")
+    return got[0], line + got[1]
 
 
 MAX_ROW_LINE = 1 << 20
@@ -85,23 +125,24 @@ _CLASS[0x30:0x3A] = 2
 _ROW_BYTES = b"0123456789 \t\n"
 
 
-def _compiled(block: bytes, ncol: int) -> Optional[np.ndarray]:
+def _compiled(block: bytes, ncol: int) -> Optional[tuple[np.ndarray, int]]:
     """The block through the compiled reader (stats/ck_text.c: every rule of
     the format in one pass), or pandas' C reader where the extension is not
-    built (plain rows only: digits, blanks, line ends); None on any fault or
-    doubt (a blank line for pandas, a short row, a code out of range): the
-    exact reader below then names the line."""
+    built (plain rows only: digits, blanks, line ends), and its line ends; None
+    on any fault or doubt (a blank line for pandas, a short row, a code out of
+    range): the exact reader below then names the line."""
     if not block:
         return None
     from ..stats.kernels import _C
 
     if _C is not None:
-        cap = block.count(b"\n") + (not block.endswith(b"\n"))
+        cap = (len(block) + 1) // (2 * ncol - 1) + 1  # a row holds ncol digits and ncol - 1 blanks at least
         out = np.empty((ncol, cap), dtype=np.uint16)
-        rows = _C.parse_rows(block, ncol, CODE_MAX, out, cap)
+        lines = np.zeros(1, dtype=np.int64)
+        rows = _C.parse_rows(block, ncol, CODE_MAX, out, cap, lines)
         if rows < 0:
             return None
-        return out if rows == cap else np.ascontiguousarray(out[:, :rows])
+        return (out if rows == cap else np.ascontiguousarray(out[:, :rows])), int(lines[0])
     if b"#" in block or b"$" in block or block.translate(None, _ROW_BYTES):
         return None
     try:
@@ -115,13 +156,13 @@ def _compiled(block: bytes, ncol: int) -> Optional[np.ndarray]:
         return None
     if v.size and (v.min() < 0 or v.max() > CODE_MAX):
         return None
-    return np.ascontiguousarray(v.T.astype(np.uint16))
+    return np.ascontiguousarray(v.T.astype(np.uint16)), block.count(b"\n")
 
 
 def parse_block(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarray:
     """Parse whole lines of text into a (ncol, rows) uint16 array."""
     fast = _compiled(block, ncol)
-    return fast if fast is not None else parse_exact(block, name, first_line, ncol)
+    return fast[0] if fast is not None else parse_exact(block, name, first_line, ncol)
 
 
 def parse_exact(block: bytes, name: str, first_line: int, ncol: int) -> np.ndarray:

@@ -86,14 +86,60 @@ static int get_out(PyObject *obj, Py_buffer *v, ssz need)
     return 0;
 }
 
+/* The optional windows of the overlapping sums (struct ck_marks): starts (int64,
+ * W), size and out (float64, levels x W); none when starts is None. */
+static int get_marks(PyObject *so, Py_ssize_t size, PyObject *wo, int levels, Py_buffer *sv, Py_buffer *wv,
+                     struct ck_marks *mk, struct ck_marks **use)
+{
+    *use = NULL;
+    if (so == NULL || so == Py_None) return 0;
+    if (PyObject_GetBuffer(so, sv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) return -1;
+    if (sv->ndim != 1 || sv->itemsize != 8 || !sv->format || !strpbrk(sv->format, "qlL") || size < 1) {
+        PyBuffer_Release(sv);
+        PyErr_SetString(PyExc_ValueError, "starts: int64 window starts; size >= 1");
+        return -1;
+    }
+    ssz W = sv->shape[0];
+    if (get_out(wo, wv, (ssz)levels * W) < 0) {
+        PyBuffer_Release(sv);
+        return -1;
+    }
+    const int64_t *st = sv->buf;
+    for (ssz w = 0; w < W; w++)
+        if (st[w] < 0 || (w && st[w] < st[w - 1])) {
+            PyBuffer_Release(sv);
+            PyBuffer_Release(wv);
+            PyErr_SetString(PyExc_ValueError, "starts: non-negative and in order");
+            return -1;
+        }
+    if (ck_marks_init(mk, levels, st, W, size, wv->buf) < 0) {
+        PyBuffer_Release(sv);
+        PyBuffer_Release(wv);
+        PyErr_NoMemory();
+        return -1;
+    }
+    *use = mk;
+    return 0;
+}
+
+static void free_marks(struct ck_marks *use, Py_buffer *sv, Py_buffer *wv)
+{
+    if (!use) return;
+    free(use->mem);
+    PyBuffer_Release(sv);
+    PyBuffer_Release(wv);
+}
+
 static PyObject *py_octave(PyObject *args, int kind)
 {
-    PyObject *xo, *oo;
+    PyObject *xo, *oo, *so = NULL, *wo = NULL;
     double off;
-    Py_ssize_t p1 = 1 << 17, p2 = 1 << 14;
+    Py_ssize_t p1 = 1 << 17, p2 = 1 << 14, size = 0;
     int stream = 0, exact = 0;
     if (kind == 0) {
-        if (!PyArg_ParseTuple(args, "OdO|nnii", &xo, &off, &oo, &p1, &p2, &stream, &exact)) return NULL;
+        if (!PyArg_ParseTuple(args, "OdO|nniiOnO", &xo, &off, &oo, &p1, &p2, &stream, &exact, &so, &size,
+                              &wo))
+            return NULL;
     } else {
         if (!PyArg_ParseTuple(args, "OdO|ni", &xo, &off, &oo, &p1, &exact)) return NULL;
     }
@@ -118,11 +164,20 @@ static PyObject *py_octave(PyObject *args, int kind)
     u128 ex[MAXLEV];
     int rc;
     memset(ex, 0, sizeof ex);
+    struct ck_marks mk, *use = NULL;
+    Py_buffer sv, wv;
+    if (kind == 0 && stream && get_marks(so, size, wo, levels, &sv, &wv, &mk, &use) < 0) {
+        PyBuffer_Release(&xv);
+        PyBuffer_Release(&ov);
+        return NULL;
+    }
     Py_BEGIN_ALLOW_THREADS rc =
-        kind == 0 ? ck_octave_overlap(xv.buf, fmt, n, off, p1, p2, stream, acc, exact ? ex : NULL) :
+        kind == 0 ? ck_octave_overlap(xv.buf, fmt, n, off, p1, p2, stream, acc, exact ? ex : NULL, use) :
                     ck_octave_nonoverlap(xv.buf, fmt, n, off, p1, acc, exact ? ex : NULL);
+    if (use && !rc) ck_marks_done(use, levels, acc, exact ? ex : NULL);
     Py_END_ALLOW_THREADS for (int k = 0; k < levels; k++) /* exact: the integer sum, rounded once */
         ((double *)ov.buf)[k] = exact ? (double)ex[k] : (double)acc[k];
+    free_marks(use, &sv, &wv);
     PyBuffer_Release(&xv);
     PyBuffer_Release(&ov);
     if (rc) return PyErr_NoMemory();
@@ -150,10 +205,11 @@ static PyObject *octave_file(PyObject *self, PyObject *args)
     (void)self;
     int fd, exact = 0;
     const char *code;
-    Py_ssize_t n;
+    Py_ssize_t n, size = 0;
     double off;
-    PyObject *oo, *no;
-    if (!PyArg_ParseTuple(args, "isndOO|i", &fd, &code, &n, &off, &oo, &no, &exact)) return NULL;
+    PyObject *oo, *no, *so = NULL, *wo = NULL;
+    if (!PyArg_ParseTuple(args, "isndOO|iOnO", &fd, &code, &n, &off, &oo, &no, &exact, &so, &size, &wo))
+        return NULL;
     if (exact && !EXACT_OK) {
         PyErr_SetString(PyExc_ValueError, "exact: no 128-bit integers in this build");
         return NULL;
@@ -181,8 +237,16 @@ static PyObject *octave_file(PyObject *self, PyObject *args)
     int rc;
     memset(ex, 0, sizeof ex);
     memset(nex, 0, sizeof nex);
+    struct ck_marks mk, *use = NULL;
+    Py_buffer sv, wv;
+    if (get_marks(so, size, wo, levels, &sv, &wv, &mk, &use) < 0) {
+        PyBuffer_Release(&ov);
+        PyBuffer_Release(&nv);
+        return NULL;
+    }
     Py_BEGIN_ALLOW_THREADS rc =
-        ck_octave_overlap(&f, CK_FILE, n, off, 1 << 17, 1 << 14, 1, acc, exact ? ex : NULL);
+        ck_octave_overlap(&f, CK_FILE, n, off, 1 << 17, 1 << 14, 1, acc, exact ? ex : NULL, use);
+    if (use && !rc) ck_marks_done(use, levels, acc, exact ? ex : NULL);
     if (!rc) rc = ck_octave_nonoverlap(&f, CK_FILE, n, off, 1 << 16, nacc, exact ? nex : NULL);
     Py_END_ALLOW_THREADS for (int k = 0; k < levels; k++)
     {
@@ -191,6 +255,7 @@ static PyObject *octave_file(PyObject *self, PyObject *args)
     }
     PyBuffer_Release(&ov);
     PyBuffer_Release(&nv);
+    free_marks(use, &sv, &wv);
     if (rc) return PyErr_NoMemory();
     if (f.err) {
         PyErr_SetString(PyExc_OSError,
@@ -244,19 +309,24 @@ static PyObject *any_m(PyObject *self, PyObject *args)
 static PyObject *parse_rows(PyObject *self, PyObject *args)
 {
     (void)self;
-    Py_buffer d, o;
+    Py_buffer d, o, l = {0};
     int ncol, maxval;
-    Py_ssize_t cap, rows;
-    if (!PyArg_ParseTuple(args, "y*iiw*n", &d, &ncol, &maxval, &o, &cap)) return NULL;
-    if (ncol < 1 || cap < 0 || o.len < (Py_ssize_t)(ncol * cap * 2)) {
+    Py_ssize_t cap, rows, lines = 0;
+    if (!PyArg_ParseTuple(args, "y*iiw*n|w*", &d, &ncol, &maxval, &o, &cap, &l)) return NULL;
+    if (ncol < 1 || cap < 0 || o.len < (Py_ssize_t)(ncol * cap * 2) || (l.buf && l.len < 8)) {
         PyBuffer_Release(&d);
         PyBuffer_Release(&o);
-        PyErr_SetString(PyExc_ValueError, "out: at least ncol * cap uint16");
+        if (l.buf) PyBuffer_Release(&l);
+        PyErr_SetString(PyExc_ValueError, "out: at least ncol * cap uint16; lines: an int64");
         return NULL;
     }
-    Py_BEGIN_ALLOW_THREADS rows = ck_parse_rows(d.buf, d.len, ncol, maxval, o.buf, cap);
+    Py_BEGIN_ALLOW_THREADS rows = ck_parse_rows(d.buf, d.len, ncol, maxval, o.buf, cap, &lines);
     Py_END_ALLOW_THREADS PyBuffer_Release(&d);
     PyBuffer_Release(&o);
+    if (l.buf) {
+        *(int64_t *)l.buf = lines;
+        PyBuffer_Release(&l);
+    }
     return PyLong_FromSsize_t(rows);
 }
 
@@ -346,11 +416,13 @@ static PyObject *welch_prep(PyObject *self, PyObject *args)
     (void)self;
     Py_buffer x, m, w, o;
     Py_ssize_t nseg, step, k;
-    if (!PyArg_ParseTuple(args, "y*nnny*y*w*", &x, &nseg, &step, &k, &m, &w, &o)) return NULL;
+    int single = 0;
+    if (!PyArg_ParseTuple(args, "y*nnny*y*w*|p", &x, &nseg, &step, &k, &m, &w, &o, &single)) return NULL;
     int ok = nseg >= 1 && step >= 1 && k >= 0 && x.len >= 8 * ((k ? (k - 1) * step : 0) + nseg) &&
-             m.len >= 8 * k && w.len >= 8 * nseg && o.len >= 8 * k * nseg;
+             m.len >= 8 * k && w.len >= 8 * nseg && o.len >= (single ? 4 : 8) * k * nseg;
     if (ok) {
-        Py_BEGIN_ALLOW_THREADS ck_welch_prep(x.buf, nseg, step, k, m.buf, w.buf, o.buf);
+        Py_BEGIN_ALLOW_THREADS if (single) ck_welch_prep32(x.buf, nseg, step, k, m.buf, w.buf, o.buf);
+        else ck_welch_prep(x.buf, nseg, step, k, m.buf, w.buf, o.buf);
         Py_END_ALLOW_THREADS
     }
     PyBuffer_Release(&x);
@@ -369,10 +441,12 @@ static PyObject *welch_acc(PyObject *self, PyObject *args)
     (void)self;
     Py_buffer z, a;
     Py_ssize_t k, nf;
-    if (!PyArg_ParseTuple(args, "y*nnw*", &z, &k, &nf, &a)) return NULL;
-    int ok = k >= 0 && nf >= 0 && z.len >= 16 * k * nf && a.len >= 8 * nf;
+    int single = 0;
+    if (!PyArg_ParseTuple(args, "y*nnw*|p", &z, &k, &nf, &a, &single)) return NULL;
+    int ok = k >= 0 && nf >= 0 && z.len >= (single ? 8 : 16) * k * nf && a.len >= 8 * nf;
     if (ok) {
-        Py_BEGIN_ALLOW_THREADS ck_welch_acc(z.buf, k, nf, a.buf);
+        Py_BEGIN_ALLOW_THREADS if (single) ck_welch_acc32(z.buf, k, nf, a.buf);
+        else ck_welch_acc(z.buf, k, nf, a.buf);
         Py_END_ALLOW_THREADS
     }
     PyBuffer_Release(&z);
@@ -386,10 +460,11 @@ static PyObject *welch_acc(PyObject *self, PyObject *args)
 
 static PyMethodDef methods[] = {
     {"welch_prep", welch_prep, METH_VARARGS,
-     "welch_prep(x, nseg, step, k, mean, window, out)\n"
-     "k segments of x, step apart: (x - mean[s]) * window into out (k, nseg)."},
+     "welch_prep(x, nseg, step, k, mean, window, out, single=False)\n"
+     "k segments of x, step apart: (x - mean[s]) * window into out (k, nseg; float32 if single)."},
     {"welch_acc", welch_acc, METH_VARARGS,
-     "welch_acc(spec, k, nf, acc)\nacc += |spec[s]|^2 for each of k spectra, in order."},
+     "welch_acc(spec, k, nf, acc, single=False)\n"
+     "acc += |spec[s]|^2 for each of k spectra (complex64 if single), in order."},
     {"diff_look", diff_look, METH_VARARGS,
      "diff_look(x, prev, has_prev, pos, step, sub, st) -> k\n"
      "First differences of a piece: every step-th into sub, min nonzero |d|, max, min into st."},
@@ -397,20 +472,21 @@ static PyMethodDef methods[] = {
      "diff_grid(x, prev, has_prev, q, gmax, cnt) -> differences not numbers\n"
      "Counts of rint(d / q) clipped to +-gmax of a piece's first differences."},
     {"parse_rows", parse_rows, METH_VARARGS,
-     "parse_rows(data, ncol, maxval, out, cap) -> rows (-1: a fault)\n"
-     "Rows of ncol integer codes into out (uint16, (ncol, cap))."},
+     "parse_rows(data, ncol, maxval, out, cap, lines=None) -> rows (-1: a fault)\n"
+     "Rows of ncol integer codes into out (uint16, (ncol, cap)); the line ends read into lines[0] (int64)."},
     {"parse_table", parse_table, METH_VARARGS,
      "parse_table(data, delim, which, tcol, out, tint, tflt, cap) -> (rows, time_is_float)\n"
      "Delimited numbers: wanted columns into out (float64, (k, cap)), the time column into tint/tflt."},
     {"octave_overlap", octave_overlap, METH_VARARGS,
-     "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0, exact=0) -> levels\n"
-     "Overlapping octave sums of squares into out[k] (m = 2^k)."},
+     "octave_overlap(x, off, out, tile=2**17, split=2**14, stream=0, exact=0, starts=None, size=0, wout=None)\n"
+     "-> levels. Overlapping octave sums of squares into out[k] (m = 2^k); stream=1 and starts:\n"
+     "also each window's (starts[w], size samples) into wout[k * W + w]."},
     {"octave_nonoverlap", octave_nonoverlap, METH_VARARGS,
      "octave_nonoverlap(x, off, out, chunk=2**16, exact=0) -> levels\n"
      "Non-overlapping octave sums of squares into out[k]."},
     {"octave_file", octave_file, METH_VARARGS,
-     "octave_file(fd, code, n, off, over, non, exact=0) -> levels\n"
-     "Overlapping and non-overlapping octave sums of a file's n samples (pread)."},
+     "octave_file(fd, code, n, off, over, non, exact=0, starts=None, size=0, wout=None) -> levels\n"
+     "Overlapping and non-overlapping octave sums of a file's n samples (pread); windows as octave_overlap."},
     {"any_m", any_m, METH_VARARGS,
      "any_m(x, off, ms, out, overlapping, exact=0)\n"
      "Sums of squared second differences of the phase at each m (nan where no term)."},

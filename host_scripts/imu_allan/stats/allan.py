@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike
 
 from ..progress import ProgressFn
 from . import TAU_KINDS  # noqa: F401  (numpy-free in __init__.py, for the CLI parser)
-from .kernels import DOT_MAX, HEAD, any_m_sums, octave_avar_sums, octave_oavar_sums, offset, rowdots
+from .kernels import DOT_MAX, HEAD, Windows, any_m_sums, octave_avar_sums, octave_oavar_sums, offset, rowdots
 from .kernels import blocked as _blocked
 from .kernels import sumsq as _ssq
 from .kernels import sumsq_any as _sumsq
@@ -544,7 +544,7 @@ def octave_oavar(x: ArrayLike, exact_max: Optional[int] = None, nonoverlapping: 
     return eng.finish()
 
 
-def octave_mapped(x: ArrayLike, nonoverlapping: bool = True) -> OctaveResult:
+def octave_mapped(x: ArrayLike, nonoverlapping: bool = True, windows: Optional[Windows] = None) -> OctaveResult:
     """One channel too large for memory, e.g. ``np.load(path, mmap_mode="r")`` of an
     .npy file: overlapping (and non-overlapping) AVAR at m = 1, 2, 4 ... n/2,
     exact at every octave (every offset, stride 1), with O(1) extra memory.
@@ -554,13 +554,14 @@ def octave_mapped(x: ArrayLike, nonoverlapping: bool = True) -> OctaveResult:
     d_m(i+1) = d_m(i) + x[i+2m] - 2 x[i+m] + x[i] (long double; exact for
     integer codes) advancing over the file with three pointers. Without the
     compiled kernels this falls back to the in-memory kernels (a buffer the
-    size of the input)."""
+    size of the input). ``windows``: their sums from the same pass (kernels.Windows;
+    compiled kernels only)."""
     a = np.asarray(x)
     if a.ndim != 1:
         raise ValueError("one channel at a time: x must be 1-D")
     n = a.size
     off = float(offset(a[:HEAD])) if n else 0.0
-    acc, _ = octave_oavar_sums(a, off, stream=True)
+    acc, _ = octave_oavar_sums(a, off, stream=True, windows=windows)
     return octave_from_sums(n, acc, octave_avar_sums(a, off)[0] if nonoverlapping else None)
 
 

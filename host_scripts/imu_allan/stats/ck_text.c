@@ -30,14 +30,15 @@ static inline int is_blank(unsigned char c)
     return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
 }
 
-ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap)
+ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap, ssz *lines)
 {
     const unsigned char *p = (const unsigned char *)buf, *end = p + len;
-    ssz row = 0;
+    ssz row = 0, ends = 0;
     while (p < end) {
         /* one line */
         if (*p == '$') {
             while (p < end && *p != '\n') p++;
+            ends += p < end;
             p += p < end;
             continue;
         }
@@ -59,12 +60,14 @@ ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out,
                 return -1;
             }
         }
+        ends += p < end;
         p += p < end;
         if (col == ncol)
             row++;
         else if (col)
             return -1;
     }
+    *lines = ends;
     return row;
 }
 
@@ -224,7 +227,9 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
 {
     ssz k = 0, i0 = has_prev ? 0 : 1;
     double nz = st[0], hi = st[1], lo = st[2];
-    ssz g = pos - i0; /* the global index of d at i: g + i */
+    ssz g = pos - i0;                   /* the global index of d at i: g + i */
+    ssz r = (g + i0) % step;            /* g + i0 >= 0: the first difference's global index */
+    ssz take = i0 + (r ? step - r : 0); /* the next i whose global index is a multiple of step */
     for (ssz i = i0; i < n; i++) {
         double d = x[i] - (i ? x[i - 1] : prev);
         if (!isfinite(d)) st[3] = 1;
@@ -232,7 +237,10 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
         if (d != 0 && a < nz) nz = a;
         if (d > hi) hi = d;
         if (d < lo) lo = d;
-        if ((g + i) % step == 0) sub[k++] = d;
+        if (i == take) {
+            sub[k++] = d;
+            take += step;
+        }
     }
     st[0] = nz;
     st[1] = hi;
@@ -245,6 +253,18 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
 ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt)
 {
     ssz bad = 0;
+    if (q == 1.0) { /* codes: d / 1 is d; the same counts without a division each */
+        for (ssz i = has_prev ? 0 : 1; i < n; i++) {
+            double r = rint(x[i] - (i ? x[i - 1] : prev));
+            if (r != r) {
+                bad++;
+                continue;
+            }
+            r = r < -gmax ? -gmax : r > gmax ? gmax : r;
+            cnt[(ssz)r + gmax]++;
+        }
+        return bad;
+    }
     for (ssz i = has_prev ? 0 : 1; i < n; i++) {
         double r = rint((x[i] - (i ? x[i - 1] : prev)) / q);
         if (r != r) {
@@ -271,6 +291,18 @@ void ck_welch_prep(const double *x, ssz nseg, ssz step, ssz k, const double *mea
     }
 }
 
+/* The same, rounded once more to float32 (numpy's astype(float32) of it). */
+void ck_welch_prep32(const double *x, ssz nseg, ssz step, ssz k, const double *mean, const double *w,
+                     float *out)
+{
+    for (ssz s = 0; s < k; s++) {
+        const double *src = x + s * step;
+        float *dst = out + s * nseg;
+        double m = mean[s];
+        for (ssz i = 0; i < nseg; i++) dst[i] = (float)((src[i] - m) * w[i]);
+    }
+}
+
 /* acc[f] += re^2 + im^2 of each of k spectra of nf bins (re, im interleaved),
  * in segment order: numpy's (re * re + im * im), added one segment at a time. */
 void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc)
@@ -279,6 +311,19 @@ void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc)
         const double *z = spec + 2 * s * nf;
         for (ssz f = 0; f < nf; f++) {
             double re = z[2 * f] * z[2 * f], im = z[2 * f + 1] * z[2 * f + 1];
+            acc[f] += re + im;
+        }
+    }
+}
+
+/* The same of float32 spectra, each part widened to float64 before squaring. */
+void ck_welch_acc32(const float *spec, ssz k, ssz nf, double *acc)
+{
+    for (ssz s = 0; s < k; s++) {
+        const float *z = spec + 2 * s * nf;
+        for (ssz f = 0; f < nf; f++) {
+            double a = z[2 * f], b = z[2 * f + 1];
+            double re = a * a, im = b * b;
             acc[f] += re + im;
         }
     }

@@ -83,8 +83,25 @@ ld ck_step(const double *buf, ssz m, ssz c, ssz L, double *nxt, u128 *ex);
 /* ck_octave.c: sums per level k (m = 2^k) into acc, or exactly into ex (non-NULL);
  * 0, or -1 when out of memory */
 int ck_levels(ssz n);
+/* Windows of the overlapping sums taken from the same pass (stream mode): for
+ * each start[w], the sum over the terms i in [start[w], start[w] + size - 2m]
+ * of every level, into out[k * W + w]; the running sums are noted at every
+ * window's two ends (mark), so the windows cost no second pass. */
+struct ck_marks {
+    ssz W, size;
+    const int64_t *start;
+    double *out;
+    ssz *pos[MAXLEV];      /* each level's 2W ends, in order */
+    int32_t *slot[MAXLEV]; /* the end each is: w (a start) or W + w (an end) */
+    ld *cl[MAXLEV];
+    u128 *ce[MAXLEV];
+    ssz next[MAXLEV];
+    void *mem;
+};
+int ck_marks_init(struct ck_marks *mk, int levels, const int64_t *start, ssz W, ssz size, double *out);
+void ck_marks_done(struct ck_marks *mk, int levels, const ld *acc, const u128 *ex);
 int ck_octave_overlap(const void *x, int fmt, ssz n, double off, ssz tile, ssz split, int stream, ld *acc,
-                      u128 *ex);
+                      u128 *ex, struct ck_marks *mk);
 int ck_octave_nonoverlap(const void *x, int fmt, ssz n, double off, ssz chunk, ld *acc, u128 *ex);
 
 /* ck_phase.c: sums at each m of ms (nan where no term) into out */
@@ -92,7 +109,7 @@ int ck_any_m(const void *x, int fmt, ssz n, double off, const int64_t *ms, ssz n
              double *out);
 
 /* Numeric text (ck_text.c). */
-ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap);
+ssz ck_parse_rows(const char *buf, ssz len, int ncol, int maxval, uint16_t *out, ssz cap, ssz *lines);
 struct ck_table {
     int delim;        /* the separator byte, or 0: runs of blanks */
     const int *which; /* per column up to the last wanted: its output row, or -1 */
@@ -109,6 +126,9 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
                  double *st);
 void ck_welch_prep(const double *x, ssz nseg, ssz step, ssz k, const double *mean, const double *w,
                    double *out);
+void ck_welch_prep32(const double *x, ssz nseg, ssz step, ssz k, const double *mean, const double *w,
+                     float *out);
+void ck_welch_acc32(const float *spec, ssz k, ssz nf, double *acc);
 void ck_welch_acc(const double *spec, ssz k, ssz nf, double *acc);
 ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt);
 

@@ -135,20 +135,38 @@ def _exact_span(dt: np.dtype, n: int, off: float, span: int) -> int:
     return int(n * a < (1 << 52) and n**3 * a * a < (1 << 127))
 
 
+Windows = tuple[np.ndarray, int, np.ndarray]
+"""(starts, size, out): windows of ``size`` samples at ``starts`` (int64, in order)
+whose overlapping sums the same pass writes into ``out`` (float64, (levels, W)):
+level k's sum over the terms i in [start, start + size - 2^(k+1)], the sums of
+``octave_oavar_sums`` on each window alone (exactly for integer codes, else to
+float order) without a second pass."""
+
+
+def _window_args(windows: Optional[Windows], levels: int) -> tuple:
+    if windows is None:
+        return ()
+    starts, size, out = windows
+    if out.shape != (levels, starts.size) or out.dtype != np.float64 or not out.flags.c_contiguous:
+        raise ValueError("windows: out must be float64 (levels, windows)")
+    return (np.ascontiguousarray(starts, dtype=np.int64), int(size), out.reshape(-1))
+
+
 def octave_file_sums(
-    fd: int, dt: np.dtype, n: int, off: float, span: int = 0
+    fd: int, dt: np.dtype, n: int, off: float, span: int = 0, windows: Optional[Windows] = None
 ) -> Optional[tuple[np.ndarray, np.ndarray]]:
     """(overlapping, non-overlapping) octave sums of the n samples of type ``dt``
     stored from byte 0 of the open file ``fd``, read with pread in tiles: the
     numbers ``octave_oavar_sums(x, off, stream=True)`` and ``octave_avar_sums(x, off)``
-    give on the same samples in memory (the same C code), in O(1) memory.
-    None without the compiled kernels."""
+    give on the same samples in memory (the same C code), in O(1) memory; and
+    the ``windows``' sums (see Windows). None without the compiled kernels."""
     dt = np.dtype(dt)
     if _C is None or not dt.isnative or dt.kind not in _C_KINDS:
         return None
     levels = max(_levels(n), 1)
     over, non = np.zeros(levels), np.zeros(levels)
-    got = _C.octave_file(fd, dt.char, n, float(off), over, non, _exact_span(dt, n, off, span))
+    ex = _exact_span(dt, n, off, span)
+    got = _C.octave_file(fd, dt.char, n, float(off), over, non, ex, *_window_args(windows, _levels(n)))
     return over[:got], non[:got]
 
 
@@ -156,19 +174,28 @@ def _levels(n: int) -> int:
     return int(math.log2(n // 2)) + 1 if n >= 2 else 0
 
 
-def octave_oavar_sums(x: np.ndarray, off: float, stream: bool = False) -> tuple[np.ndarray, np.ndarray]:
+levels = _levels
+"""Octave levels of n samples (m = 1, 2, 4 ... n/2)."""
+
+
+def octave_oavar_sums(
+    x: np.ndarray, off: float, stream: bool = False, windows: Optional[Windows] = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Overlapping octave sums (see octave_oavar_sums_numpy), compiled when available:
     for integer codes (see _exact) the exact integer sums, rounded once.
 
     ``stream``: above the first stage, one running second difference per level
     read straight from ``x`` (long double) instead of the buffer of y_SPLIT:
-    O(1) extra memory, for an np.memmap of a file larger than memory."""
+    O(1) extra memory, for an np.memmap of a file larger than memory; and the
+    ``windows``' sums (see Windows; stream mode and the compiled kernels only:
+    ``out`` is left alone otherwise)."""
     c = _c_input(x)
     if c is None:
         return octave_oavar_sums_numpy(x, off)
     n = c.size
     acc = np.zeros(max(_levels(n), 1))
-    levels = _C.octave_overlap(c, float(off), acc, OCTAVE_TILE, OCTAVE_SPLIT, int(stream), _exact(c, off))
+    more = _window_args(windows, _levels(n)) if stream else ()
+    levels = _C.octave_overlap(c, float(off), acc, OCTAVE_TILE, OCTAVE_SPLIT, int(stream), _exact(c, off), *more)
     ms = np.left_shift(1, np.arange(levels, dtype=np.int64))
     return acc[:levels], n - 2 * ms + 1
 

@@ -8,7 +8,12 @@ segment, one-sided density in u^2/Hz. Segments are capped at 2^16 samples
 minute; the Allan curves cover the longer ones) so that a file of any length
 streams through at the cost of FFTs that fit in cache; a longer record then
 averages more segments. ``scipy.signal.welch`` with the
-same parameters gives the same numbers (tested).
+same parameters gives the same numbers (tested). Segments of ``SINGLE_FROM``
+samples and more (records from 4.5 x 2^16 = 295,000 samples) are transformed
+in float32, demeaned and windowed in float64 first and their periodograms
+summed in float64: 2.4x faster than float64 transforms, within 1e-5 of them
+(tested) where float64's own agreement with scipy's is 1e-10 (the rounding of
+float32 sits ~1e-14 under a bin's power, below a Hamming window's leakage).
 
 One-sided PSD of each term (rate unit u, IEEE 952 Annex C, f in Hz, fs the
 sample rate):
@@ -28,6 +33,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 SEGMENT_MAX = 1 << 16
+SINGLE_FROM = 1 << 16
+"""Segments at least this long go through float32 transforms (see above)."""
 
 
 def _rfft(seg: np.ndarray, nfft: int) -> np.ndarray:
@@ -55,6 +62,7 @@ class Welch:
         self.window = np.hamming(self.nseg) if self.nseg > 1 else np.ones(1)
         self.nfft = max(256, 1 << int(math.ceil(math.log2(self.nseg))))
         self.scale = 1.0 / (self.fs * float(np.sum(self.window**2)))
+        self.single = self.nseg >= SINGLE_FROM
         self.acc = np.zeros((channels, self.nfft // 2 + 1))
         self.count = 0
         self.buf = np.zeros((channels, 0))
@@ -82,15 +90,18 @@ class Welch:
 
         seg = np.lib.stride_tricks.sliding_window_view(x, self.nseg)[k0 * self.step : k1 * self.step : self.step]
         mean = seg.mean(axis=1)
+        one = self.single
         if _C is not None:
-            w = np.empty(seg.shape)
-            _C.welch_prep(x[k0 * self.step :], self.nseg, self.step, k1 - k0, mean, self.window, w)
+            w = np.empty(seg.shape, dtype=np.float32 if one else np.float64)
+            _C.welch_prep(x[k0 * self.step :], self.nseg, self.step, k1 - k0, mean, self.window, w, one)
             spec = _rfft(w, self.nfft)
-            _C.welch_acc(spec, k1 - k0, spec.shape[1], acc)
+            _C.welch_acc(spec, k1 - k0, spec.shape[1], acc, spec.dtype == np.complex64)
             return
         w = seg - mean[:, None]
         w *= self.window
-        ri = _rfft(w, self.nfft).view(np.float64)  # re, im interleaved: squared in place, then paired
+        spec = _rfft(w.astype(np.float32) if one else w, self.nfft)
+        # re, im interleaved (float64): squared in place, then paired
+        ri = spec.view(np.float32).astype(np.float64) if spec.dtype == np.complex64 else spec.view(np.float64)
         ri *= ri
         p = ri[:, 0::2] + ri[:, 1::2]
         for j in range(k1 - k0):
