@@ -155,11 +155,15 @@ def _extend(
         s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1, shape=s.shape)
         if p.t.size - (len(s2.linear) + s2.ngm + len(s2.nonlinear())) < 2:
             break
+        # its gain is judged against the same terms without it: the terms let in again
+        # beside it (a stepwise drop may have left one out by a hair) must not pass their
+        # gain off as the GM's (a rate random walk read as a ramp plus a GM of T beyond the record)
+        s0 = replace(s2, ngm=s.ngm)
+        chi2_0 = chi2 if s0 == s else fit_structure(p, s0, theta, None, rounds=1)[2]
         th0 = np.concatenate((theta, [math.log(p.t[p.t.size // 2])]))
         th, c2, chi2b = fit_structure(p, s2, th0, th0.size - 1)
-        c2 = np.concatenate((c2[:-1], [c2[-1]]))
         dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
-        if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
+        if c2[-1] > 0 and _test(min(chi2, chi2_0) - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
             s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
         else:
             break
