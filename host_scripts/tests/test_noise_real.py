@@ -85,6 +85,36 @@ def test_gyro_N_moves_less_than_3_percent_when_averaged_down_by_10(data, fits, c
     assert n10 is not None and abs(n10 / fits[c].terms["N"].value - 1) < 0.03
 
 
+_ACC_AVERAGED = (
+    "known gap: the accelerometers' spectrum is not one white level within 3 % (Welch: 2-8 Hz 2-4 % "
+    "under 8-16 Hz, a 0.6 Hz oscillation's skirt and flicker rising under 2 Hz); averaged down, N is read "
+    "at 1-5 Hz beside the oscillation's hump, where it trades with the sinusoid and B (the full record "
+    "reads it at 5-30 Hz): 4-5 % lower here, 1-7.5 % lower on all 18 accelerometers of six units"
+)
+
+
+@pytest.mark.parametrize(
+    "c",
+    [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=_ACC_AVERAGED)) for c in ACCS[:2]] + list(ACCS[2:]),
+)
+def test_accelerometer_N_moves_less_than_3_percent_when_averaged_down_by_10(data, fits, c) -> None:
+    x = data[:, c]
+    slow = x[: x.size // 10 * 10].reshape(-1, 10).mean(axis=1)
+    n10 = api.noise_terms(slow, FS / 10).terms["N"].value
+    assert n10 is not None and abs(n10 / fits[c].terms["N"].value - 1) < 0.03
+
+
+@pytest.mark.parametrize("c", ACCS)
+def test_accelerometer_N_averaged_down_by_10_agrees_within_the_two_intervals(data, fits, c) -> None:
+    # where the two readings differ, the intervals say by how much N may: the band limit's form,
+    # the GM and the linear terms are choices of structure, and their spread is in N's interval
+    x = data[:, c]
+    slow = x[: x.size // 10 * 10].reshape(-1, 10).mean(axis=1)
+    n10 = api.noise_terms(slow, FS / 10).terms["N"]
+    full = fits[c].terms["N"]
+    assert n10.value is not None and n10.low <= full.high and full.low <= n10.high, (n10, full)
+
+
 @pytest.mark.parametrize("c", GYROS)
 def test_the_first_1000_s_give_N_with_a_wider_interval(data, fits, c) -> None:
     short = api.noise_terms(data[: int(1000 * FS), c], FS).terms["N"]

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
 from .processes import LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
-from .select import LP_BEND, choose
+from .select import LP_BEND, LP_FORMS, choose
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
 
 Z95 = 1.959963984540054
@@ -228,10 +228,13 @@ def _selection_variance(
     p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, lin: tuple[str, ...], red: float
 ) -> np.ndarray:
     """The variance the choice of structure adds to each coefficient: the structures one
-    IEEE 952 term away (each term dropped or added; Q not beside a band limit) and, for a
-    band limit, white N, weighted by their Akaike weights (QAIC: chi2 / red + 2 parameters),
-    sum_i w_i (c_i - c_mean)^2 (Burnham and Anderson's unconditional variance, the part
-    beyond the chosen model's own), over the structures that hold the term."""
+    IEEE 952 term away (each term dropped or added; Q not beside a band limit), for a band
+    limit white N and the catalogue's other band-limit forms (their cutoffs refitted), and
+    without its last Gauss-Markov process, weighted by their Akaike weights (QAIC:
+    chi2 / red + 2 parameters), sum_i w_i (c_i - c_mean)^2 (Burnham and Anderson's
+    unconditional variance, the part beyond the chosen model's own), over the structures
+    that hold the term.  The band limit's form and a GM trade with N by a few per cent
+    on a real part (its bend's tail reaches the taus N is read on): the interval says so."""
     names = s.names()
     alts = [(s, theta)]
     for k in lin:
@@ -242,6 +245,13 @@ def _selection_variance(
         alts.append((replace(s, linear=lin2), theta))
     if s.lp:
         alts.append((replace(s, lp=0), theta[1:]))
+        for shape, order in LP_FORMS:
+            if (shape, order) != (s.shape, s.lp):
+                s2 = replace(s, lp=order, shape=shape)
+                alts.append((s2, _refit(p, s2, theta)))
+    if s.ngm:  # the last GM (the newest: the one the selection judged last)
+        i = (1 if s.lp else 0) + s.ngm - 1
+        alts.append((replace(s, ngm=s.ngm - 1), np.delete(theta, i)))
     aic, coefs = [], []
     for s2, th2 in alts:
         c2, chi2, _ = p.solve(s2, th2)
@@ -257,6 +267,30 @@ def _selection_variance(
             wj = wj / wj.sum()
             out[j] = wj @ (cs[:, j] - wj @ cs[:, j]) ** 2
     return out
+
+
+FORM_FC = 2.5
+
+
+def _refit(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
+    """The cutoff of the band limit of s refitted under p's weights, the GMs' T held
+    (p left as it is): a bounded scalar search over log fc within a factor FORM_FC of the
+    chosen form's (the forms' cutoffs on one curve differ by less: 26-44 Hz on a real part)."""
+    from scipy import optimize
+
+    from .curve import bounds
+
+    lo, hi = bounds(s, p.t, p.fs)[0]
+    lo, hi = max(lo, theta[0] - math.log(FORM_FC)), min(hi, theta[0] + math.log(FORM_FC))
+    th = np.array(theta, dtype=np.float64)
+
+    def f(x: float) -> float:
+        th[0] = x
+        return p.solve(s, th)[1]
+
+    r = optimize.minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": 1e-2})
+    th[0] = r.x
+    return th
 
 
 def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, term) -> dict[str, Term]:

@@ -55,10 +55,11 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
     """AVAR of a stationary sequence with r(0) = r0 and r(k) = sum c_i p_i^k (k >= 1)."""
     m = _m(m)
     if len(p) == 1 and not np.iscomplexobj(p):  # one real pole (RC, Gauss-Markov): the common case
+        # 4 S(m) - S(2m) = 2 m r0 + 2 c p ((2 m (1 - p) - (1 - p^m)(3 - p^m)) / (1 - p)^2: one power
         p1, c1 = float(p[0]), float(c[0])
         with np.errstate(under="ignore"):
-            g1, g2 = (p1 * (n * (1 - p1) - (1 - np.power(p1, n))) / (1 - p1) ** 2 for n in (m, 2.0 * m))
-        return (4.0 * (m * r0 + 2.0 * c1 * g1) - (2.0 * m * r0 + 2.0 * c1 * g2)) / (2.0 * m * m)
+            q = np.power(p1, m)
+        return (m * r0 + c1 * p1 * (2.0 * m * (1.0 - p1) - (1.0 - q) * (3.0 - q)) / (1.0 - p1) ** 2) / (m * m)
     mm = np.concatenate((m.ravel(), 2.0 * m.ravel()))  # S at m and 2m in one pass
     tot = mm * r0
     for ci, pi in zip(c, p):  # over the poles (one or two)

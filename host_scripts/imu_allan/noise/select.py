@@ -4,10 +4,12 @@ The IEEE 952 terms first (stepwise, terms.py), then a band limit (replacing
 white N by the low-passed one; order 1 or 2, whichever fits better) and up to
 MAX_GM Gauss-Markov processes are each kept only when they lower chi-squared
 by the 95 % point of chi2 with their number of parameters (times chi2/dof when
-above 1: an F test; the band limit against white N with the same terms, and
-only where the curve can show its bend: _lp_shows); then each linear term whose
-removal costs less than 3.84 is dropped.  A sinusoid is tried last (where the curve shows an oscillation's
-hump), started where the model leaves its largest hump.  On a real sensor
+above 1: an F test; each against the same terms without it as well, and the
+band limit only where the curve can show its bend: _lp_shows); then each linear
+term whose removal costs less than 3.84 is dropped.  A sinusoid is tried last
+(where the curve shows an oscillation's hump, or where the largest model error
+leaves the first model off the curve), started where the model leaves its
+largest hump.  On a real sensor
 (chi2/dof above 1 at the first selection) the selection runs again with the
 model error in the weights and points far off the model given capped
 influence; the first structure, refitted under the same weights, stays when
@@ -23,7 +25,7 @@ from typing import Callable
 import numpy as np
 from scipy import stats
 
-from .curve import Structure, _Problem, bounds, columns, fit_structure, set_floor, settle
+from .curve import MODEL_ERR, Structure, _Problem, bounds, columns, fit_structure, set_floor, settle
 from .reading import _unexplained
 from .terms import CHI2_1_95
 
@@ -63,7 +65,9 @@ def choose(
     c, chi2, _ = p.solve(s, theta)
     floor = set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
     if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
-        osc = _shows_oscillation(p, s, theta)
+        # a sinusoid where the curve shows an oscillation's hump, or where no model error the
+        # fit may grant brings the first model to the curve (the one process not tried yet)
+        osc = floor >= 2.0 * MODEL_ERR or _shows_oscillation(p, s, theta)
         s1, th1 = s, theta
         p, s, theta = select(floor, robust=True, sine=osc)
         # the first structure under the same weights: the robust selection may wander off
@@ -155,11 +159,15 @@ def _extend(
         s2 = Structure(tuple(k for k in lin if k in s.linear or k in ("B", "K", "R")), s.lp, s.ngm + 1, shape=s.shape)
         if p.t.size - (len(s2.linear) + s2.ngm + len(s2.nonlinear())) < 2:
             break
+        # its gain is judged against the same terms without it: the terms let in again
+        # beside it (a stepwise drop may have left one out by a hair) must not pass their
+        # gain off as the GM's (a rate random walk read as a ramp plus a GM of T beyond the record)
+        s0 = replace(s2, ngm=s.ngm)
+        chi2_0 = chi2 if s0 == s else fit_structure(p, s0, theta, None, rounds=1)[2]
         th0 = np.concatenate((theta, [math.log(p.t[p.t.size // 2])]))
         th, c2, chi2b = fit_structure(p, s2, th0, th0.size - 1)
-        c2 = np.concatenate((c2[:-1], [c2[-1]]))
         dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
-        if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
+        if c2[-1] > 0 and _test(min(chi2, chi2_0) - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
             s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
         else:
             break
