@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import io
+import math
 import re
 from dataclasses import dataclass, field
 from typing import Any, Iterator, Optional
@@ -238,7 +239,8 @@ def csv_source(path: str, name: str, line: str, lineno: int, size: int) -> Any:
     note = unused_note(h.unused())
     if note:
         src.notes.append(note)
-    first = next(csv_blocks(path, name, lineno, h.delim, use, h.time_col, max_bytes=SNIFF_BYTES), None)
+    nf = len(h.cols)
+    first = next(csv_blocks(path, name, lineno, h.delim, use, h.time_col, SNIFF_BYTES, nf), None)
     if first is None or not first[0].size:
         raise InputError(f"'{name}': line {lineno} is a header, and no data row follows it")
     vals, t = first
@@ -253,7 +255,7 @@ def csv_source(path: str, name: str, line: str, lineno: int, size: int) -> Any:
     def blocks() -> Iterator[np.ndarray]:
         if check is not None:
             check.start()
-        for vals, t in csv_blocks(path, name, lineno, h.delim, use, h.time_col):
+        for vals, t in csv_blocks(path, name, lineno, h.delim, use, h.time_col, nfields=nf):
             if check is not None:
                 check.feed((t - t0).astype(np.float64))
             yield vals
@@ -272,6 +274,7 @@ def csv_blocks(
     use: list[int],
     time_col: Optional[int],
     max_bytes: Optional[int] = None,
+    nfields: Optional[int] = None,
 ) -> Iterator[tuple[np.ndarray, Optional[np.ndarray]]]:
     """Blocks of ((channels, rows) float64, time or None) after the header line;
     ``max_bytes`` reads only the start."""
@@ -292,7 +295,7 @@ def csv_blocks(
             cut = data.rfind(b"\n") + 1 if chunk else len(data)
             body, tail = data[:cut], data[cut:]
             if body.strip():
-                yield parse_csv(body, name, line, delim, use, time_col)
+                yield parse_csv(body, name, line, delim, use, time_col, nfields)
             line += body.count(b"\n")
             if not chunk or (max_bytes is not None and total >= max_bytes):
                 break
@@ -307,14 +310,24 @@ def _then_end(blocks: Iterator[bytes]) -> Iterator[bytes]:
 
 
 def parse_csv(
-    body: bytes, name: str, first_line: int, delim: Optional[str], cols: list[int], time_col: Optional[int] = None
+    body: bytes,
+    name: str,
+    first_line: int,
+    delim: Optional[str],
+    cols: list[int],
+    time_col: Optional[int] = None,
+    nfields: Optional[int] = None,
 ) -> tuple[np.ndarray, Optional[np.ndarray]]:
     """Whole lines of text -> ((len(cols), rows) float64, the time column or None);
     an integer time column stays int64 (epoch ns do not fit a double's 53 bits).
-    One line naming the row on error."""
+    One line naming the row on error; with ``nfields`` (the header's), a row
+    with more or fewer fields is one (its extra value would be dropped unseen,
+    or its columns shifted)."""
     fast = _compiled(body, delim, cols, time_col)
-    if fast is not None:
+    if fast is not None:  # every row has the same fields: the first says if they are the header's
+        _check_fields(body[: body.find(b"\n", 0, 1 << 16) + 1 or len(body)], name, first_line, delim, nfields)
         return fast
+    _check_fields(body, name, first_line, delim, nfields)
     import pandas as pd
 
     every = cols + ([time_col] if time_col is not None else [])
@@ -338,9 +351,9 @@ def parse_csv(
         both = _slow_parse(body, name, first_line, delim, every)
         a, t = both[: len(cols)], (both[len(cols)] if time_col is not None else None)
     if not np.all(np.isfinite(a)) or (t is not None and t.dtype.kind == "f" and not np.all(np.isfinite(t))):
-        both = _slow_parse(body, name, first_line, delim, every)  # the line of an empty field
-        r = int(np.argmax(~np.all(np.isfinite(both), axis=0)))
-        raise InputError(f"'{name}': line {first_line + 1 + r}: a value is not a finite number")
+        bad = _bad_line(body, delim, every)
+        where = f"line {first_line + 1 + bad[0]}" if bad else f"after line {first_line}"
+        raise InputError(f"'{name}': {where}: {bad[1] if bad else 'a value is not a finite number'}")
     return np.ascontiguousarray(a), t
 
 
@@ -388,9 +401,66 @@ def _slow_parse(body: bytes, name: str, first_line: int, delim: Optional[str], c
     try:
         a = np.loadtxt(io.BytesIO(body), delimiter=delim, usecols=cols, comments="#", ndmin=2, dtype=np.float64)
     except ValueError as exc:
-        msg = str(exc)
-        m = re.search(r"at row (\d+)", msg)
-        where = f"line {first_line + 1 + int(m.group(1))}" if m else f"after line {first_line}"
-        what = msg.split(" at row")[0].split("\n")[0]
+        # numpy counts its rows from 0 or from 1 depending on the fault, and skips blank
+        # and comment lines: the line is found here instead, by the same reading
+        bad = _bad_line(body, delim, cols)
+        where = f"line {first_line + 1 + bad[0]}" if bad else f"after line {first_line}"
+        what = bad[1] if bad else str(exc).split(" at row")[0].split("\n")[0]
         raise InputError(f"'{name}': {where}: {what}") from None
     return a.T
+
+
+def _bad_line(body: bytes, delim: Optional[str], cols: list[int]) -> Optional[tuple[int, str]]:
+    """(index among the lines of ``body``, what is wrong) of its first row whose
+    used fields are missing, not numbers or not finite; blank lines and ``#``
+    comments skipped as the readers skip them."""
+    for i, raw in enumerate(body.split(b"\n")):
+        text = raw.split(b"#", 1)[0].decode("utf-8", "replace").strip()
+        if not text:
+            continue
+        fields = [f.strip() for f in text.split(delim)] if delim is not None else text.split()
+        if len(fields) <= max(cols):
+            return i, f"{_fields(len(fields))}, column {max(cols) + 1} expected"
+        for c in cols:
+            try:
+                v = float(fields[c].replace("_", " "))  # float() takes 1_0; the readers do not
+            except ValueError:
+                return i, f"could not convert string {fields[c]!r} to float64"
+            if not math.isfinite(v):
+                return i, f"{fields[c]!r} is not a finite number"
+    return None
+
+
+def _check_fields(body: bytes, name: str, first_line: int, delim: Optional[str], nfields: Optional[int]) -> None:
+    """The error naming the first row of ``body`` whose number of fields is not
+    the header's ``nfields`` (one more is allowed when it is empty: a trailing
+    separator). Blank lines, ``#`` comments and lines with quotes (pandas
+    reads those) are not counted; blank-separated text is not checked."""
+    if nfields is None or delim is None or len(delim.encode()) != 1 or b'"' in body:
+        return
+    b = np.frombuffer(body, dtype=np.uint8)
+    ends = np.flatnonzero(b == 10)
+    if not body.endswith(b"\n"):
+        ends = np.append(ends, b.size)
+    starts = np.concatenate(([0], ends[:-1] + 1))
+    hashes = np.flatnonzero(b == 35)
+    if hashes.size:  # each line cut at its first '#'
+        h = np.searchsorted(hashes, starts)
+        ends = np.minimum(ends, np.where(h < hashes.size, hashes[np.minimum(h, hashes.size - 1)], b.size))
+    seps = np.flatnonzero(b == delim.encode()[0])
+    count = np.searchsorted(seps, ends) - np.searchsorted(seps, starts)
+    solid = np.flatnonzero((b != 32) & (b != 9) & (b != 13) & (b != 10))
+    k = np.searchsorted(solid, ends)
+    filled = k > np.searchsorted(solid, starts)
+    last = b[solid[np.maximum(k - 1, 0)]] if solid.size else np.zeros(0, np.uint8)
+    trailing = filled & (count == nfields) & (last == delim.encode()[0]) if solid.size else filled
+    wrong = np.flatnonzero(filled & (count != nfields - 1) & ~trailing)
+    if wrong.size:
+        i = int(wrong[0])
+        raise InputError(
+            f"'{name}': line {first_line + 1 + i}: {_fields(int(count[i]) + 1)}, but the header names {nfields}"
+        )
+
+
+def _fields(k: int) -> str:
+    return f"{k} field{'' if k == 1 else 's'}"
