@@ -346,3 +346,20 @@ def test_an_array_is_analysed_in_text_as_well_as_json(tmp_path: Path) -> None:
         )
         assert out.returncode == 0, out.stderr[-500:]
     assert " ".join(out.stdout.split()).startswith("still.npy: NumPy array, 20000 samples at 100 Hz")
+
+
+@pytest.mark.parametrize("damage", ["cut", "flipped"])
+def test_a_damaged_npz_is_one_line_naming_it(tmp_path: Path, run_cli, damage: str) -> None:
+    """A .npz cut short (a copy stopped midway) or with one byte changed (its
+    CRC no longer holds): one line naming the file, no traceback."""
+    rng = np.random.default_rng(8)
+    p = tmp_path / "imu.npz"
+    np.savez(p, t=np.arange(3000) / 100.0, acc=rng.normal(size=(3000, 3)), gyro=rng.normal(size=(3000, 3)))
+    data = bytearray(p.read_bytes())
+    if damage == "cut":
+        data = data[: len(data) // 2]
+    else:
+        data[len(data) // 3] ^= 0xFF  # inside the first member's bytes
+    p.write_bytes(bytes(data))
+    rc, out, err = run_cli("analyze", p)
+    assert rc == 2 and out == "" and err.count("\n") == 1 and "imu.npz" in err and "Traceback" not in err
