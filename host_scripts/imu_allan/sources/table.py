@@ -54,6 +54,7 @@ _ACC = (
     "{}_acc",
     "alpha_{}",
     "a_rs_s_{}",
+    "accelerometer_m_s2_{}",
 )
 _GYRO = (
     "g{}",
@@ -70,6 +71,8 @@ _GYRO = (
     "{}gyro",
     "{}_gyro",
     "w_rs_s_{}",
+    "gyro_rad_{}",
+    "gyroscope_{}",
 )
 ALIASES = {f"a{x}": _names(_ACC, x) for x in "xyz"} | {f"g{x}": _names(_GYRO, x) for x in "xyz"}
 """Column names (normalized: lower case, runs of other characters as ``_``) per channel."""
@@ -81,6 +84,8 @@ DEFINED_UNITS = {
     "w_rs_s_": "rad/s",
     "alpha_": "m/s^2",  # Kalibr's IMU CSV, written into sensor_msgs/Imu as is
     "omega_": "rad/s",
+    "accelerometer_m_s2_": "m/s^2",  # PX4's sensor_combined (ulog2csv): the unit in the field's name
+    "gyro_rad_": "rad/s",
 }
 """Names whose unit a format fixes by definition (used when the header names none)."""
 
@@ -110,9 +115,17 @@ _UNITS = {"ns": 1e-9, "us": 1e-6, "µs": 1e-6, "ms": 1e-3, "s": 1.0}
 _UNIT_IN_NAME = re.compile(r"[\[(]\s*([^\])]*?)\s*[\])]")
 
 
+_AXIS_INDEX = re.compile(r"\[\s*([012])\s*\]\s*$")
+"""An array index as the axis, as ulog2csv writes PX4's vectors: ``gyro_rad[0]`` is x."""
+_TIME_WITH_UNIT = re.compile(r"^(t|ts|time|timestamp|stamp|time_stamp|sample_time)_(ns|us|ms|s)$")
+"""``t_ms``, ``time_us``, ``timestamp_ns`` ...: a time column whose name gives its unit."""
+
+
 def normalize(col: str) -> tuple[str, Optional[str]]:
-    """A header field as (key, unit): ``'w_RS_S_x [rad s^-1]'`` -> ``('w_rs_s_x', 'rad/s')``."""
+    """A header field as (key, unit): ``'w_RS_S_x [rad s^-1]'`` -> ``('w_rs_s_x', 'rad/s')``;
+    ``'gyro_rad[0]'`` -> ``('gyro_rad_x', None)``."""
     unit = None
+    col = _AXIS_INDEX.sub(lambda m: "_" + "xyz"[int(m.group(1))], col)
     m = _UNIT_IN_NAME.search(col)
     if m:
         unit = re.sub(r"\s*\bs\^-1$", "/s", m.group(1))
@@ -127,9 +140,13 @@ def normalize(col: str) -> tuple[str, Optional[str]]:
 def split_header(line: str) -> tuple[Optional[str], list[str]]:
     """The separator (None: blanks) and the fields; blanks inside brackets do not split."""
     for d in (",", ";", "\t"):
-        if d in line:
-            return d, [p.strip() for p in line.split(d)]
+        if d in line:  # a name in quotes (phyphox, spreadsheets) is the name
+            return d, [_unquote(p.strip()) for p in line.split(d)]
     return None, re.findall(r"(?:[^\s\[(]|\s*\[[^\]]*\]|\s*\([^)]*\))+", line.strip())
+
+
+def _unquote(field: str) -> str:
+    return field[1:-1].strip() if len(field) >= 2 and field[0] == field[-1] == '"' else field
 
 
 def channel_of(key: str) -> Optional[str]:
@@ -177,13 +194,19 @@ def parse_header(line: str) -> Header:
                     h.units[ch] = defined
                     h.defined.append(ch)
             continue
-        if key in _TIME and _TIME[key][1] < pref:
-            h.time_col, (h.time_factor, pref) = i, _TIME[key]
+        named = _TIME.get(key) or _time_with_unit(key)
+        if named and named[1] < pref:
+            h.time_col, (h.time_factor, pref) = i, named
             if unit in _UNITS:
                 h.time_factor = _UNITS[unit]
     if len(cols) == 1 and not h.chan_col:
         _unit_only(h, cols[0])
     return h
+
+
+def _time_with_unit(key: str) -> Optional[tuple[Optional[float], int]]:
+    m = _TIME_WITH_UNIT.match(key)
+    return (_UNITS[m.group(2)], 1) if m else None
 
 
 def _unit_only(h: Header, col: str) -> None:
@@ -234,7 +257,7 @@ def csv_source(path: str, name: str, line: str, lineno: int, size: int) -> Any:
     if h.defined:
         src.notes.append(
             f"units of {' '.join(h.defined)} by the format's definition "
-            "(sensor_msgs/Imu, EuRoC, Kalibr: rad/s and m/s^2)"
+            "(sensor_msgs/Imu, EuRoC, Kalibr, PX4: rad/s and m/s^2)"
         )
     note = unused_note(h.unused())
     if note:
