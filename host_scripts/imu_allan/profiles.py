@@ -41,7 +41,14 @@ KIND = {"ax": "acc", "ay": "acc", "az": "acc", "gx": "gyro", "gy": "gyro", "gz":
 RATE_UNIT = {"acc": "m/s^2", "gyro": "deg/s"}
 UNIT_FACTORS = {
     "acc": {"m/s^2": 1.0, "m/s2": 1.0, "m/s/s": 1.0, "g": G0, "mg": G0 * 1e-3, "ug": G0 * 1e-6},
-    "gyro": {"deg/s": 1.0, "dps": 1.0, "rad/s": 180.0 / math.pi, "mrad/s": 0.18 / math.pi, "deg/h": 1.0 / 3600.0},
+    "gyro": {
+        "deg/s": 1.0,
+        "dps": 1.0,
+        "rad/s": 180.0 / math.pi,
+        "mrad/s": 0.18 / math.pi,
+        "deg/h": 1.0 / 3600.0,
+        "mdps": 1e-3,
+    },
 }
 
 

@@ -346,3 +346,61 @@ def test_an_array_is_analysed_in_text_as_well_as_json(tmp_path: Path) -> None:
         )
         assert out.returncode == 0, out.stderr[-500:]
     assert " ".join(out.stdout.split()).startswith("still.npy: NumPy array, 20000 samples at 100 Hz")
+
+
+@pytest.mark.parametrize("damage", ["cut", "flipped"])
+def test_a_damaged_npz_is_one_line_naming_it(tmp_path: Path, run_cli, damage: str) -> None:
+    """A .npz cut short (a copy stopped midway) or with one byte changed (its
+    CRC no longer holds): one line naming the file, no traceback."""
+    rng = np.random.default_rng(8)
+    p = tmp_path / "imu.npz"
+    np.savez(p, t=np.arange(3000) / 100.0, acc=rng.normal(size=(3000, 3)), gyro=rng.normal(size=(3000, 3)))
+    data = bytearray(p.read_bytes())
+    if damage == "cut":
+        data = data[: len(data) // 2]
+    else:
+        data[len(data) // 3] ^= 0xFF  # inside the first member's bytes
+    p.write_bytes(bytes(data))
+    rc, out, err = run_cli("analyze", p)
+    assert rc == 2 and out == "" and err.count("\n") == 1 and "imu.npz" in err and "Traceback" not in err
+
+
+HEADERS = {
+    # PX4's sensor_combined through ulog2csv: vectors as name[0..2], the unit in the name, time in us
+    "px4": (
+        "timestamp,gyro_rad[0],gyro_rad[1],gyro_rad[2],gyro_integral_dt,accelerometer_m_s2[0],"
+        "accelerometer_m_s2[1],accelerometer_m_s2[2]",
+        lambda k, g, a: f"{1_000_000 + k * 5000},{g[0]!r},{g[1]!r},{g[2]!r},5000,{a[0]!r},{a[1]!r},{a[2]!r}",
+        {"gx": math.degrees(1.0), "ax": 1.0},
+    ),
+    # phyphox and spreadsheets quote the names; a time column named with its unit
+    "quoted": (
+        '"t_ms";"Gyroscope x (rad/s)";"Gyroscope y (rad/s)";"Gyroscope z (rad/s)"',
+        lambda k, g, a: f"{k * 5.0!r};{g[0]!r};{g[1]!r};{g[2]!r}",
+        {"gx": math.degrees(1.0)},
+    ),
+    # ST's MEMS drivers give rates in mdps
+    "mdps": (
+        "time_us\tgx [mdps]\tgy [mdps]\tgz [mdps]",
+        lambda k, g, a: f"{k * 5000}\t{g[0]!r}\t{g[1]!r}\t{g[2]!r}",
+        {"gx": 1e-3},
+    ),
+}
+
+
+@pytest.mark.parametrize("layout", sorted(HEADERS))
+def test_headers_other_tools_write(layout: str, tmp_path: Path, run_cli) -> None:
+    """Each channel found by its name, in the unit its name or bracket says,
+    the rate from a time column named with its unit or told from its step (200 Hz),
+    with no option: the first Allan point is the one computed here from the values
+    written, times the unit's factor to deg/s or m/s^2."""
+    header, row, factor = HEADERS[layout]
+    rng = np.random.default_rng(4)
+    g, a = rng.normal(0.0, 0.01, (3000, 3)), rng.normal(0.0, 0.05, (3000, 3))
+    p = tmp_path / f"{layout}.csv"
+    p.write_text(header + "\n" + "".join(row(k, g[k].tolist(), a[k].tolist()) + "\n" for k in range(3000)))
+    doc = _analyze(run_cli, p)
+    assert doc["source"]["fs_hz"] == pytest.approx(200.0, rel=1e-9)
+    for ch, f in factor.items():
+        x = (g if ch[0] == "g" else a)[:, "xyz".index(ch[1])]
+        assert doc["channels"][ch]["curve"][0]["dev"] == pytest.approx(_first_point(x) * f, rel=1e-9)

@@ -330,3 +330,38 @@ def test_a_device_log_alone_says_outliers_were_not_checked_and_a_streamed_file_i
     assert streamed["channels"]["gy"]["outliers"]["checked"] is True
     assert streamed["channels"]["gy"]["outliers"]["times_s"] == [12_345 / 100]
     assert streamed["outliers"] == held["outliers"]
+
+
+def _band_limited(rng: np.random.Generator, n: int, fs: float, fc: float) -> np.ndarray:
+    """White noise through a one-pole RC low-pass (y = a y + (1 - a) x, a = exp(-2 pi fc / fs))."""
+    from scipy.signal import lfilter
+
+    a = math.exp(-2 * math.pi * fc / fs)
+    return lfilter([1 - a], [1, -a], rng.standard_normal(n))
+
+
+def test_a_knock_at_1_khz_is_replaced_on_every_axis_it_shook_and_only_there() -> None:
+    """At 1 kHz a knock's 15 Hz swings, 100 sample sd high, move a difference of
+    a wide-band channel (fc 250 Hz) by at most 7.5 of its sd: under the spike
+    threshold, so only the band-limited channels (fc 10 Hz: 27 sd) flag it; the
+    burst test then finds it on the wide-band ones too. A channel the knock did not reach is left alone. Knock and span are
+    the ones put in here."""
+    fs, n = 1000.0, 1 << 19
+    rng = np.random.default_rng(21)
+    fcs = [10.0, 250.0, 250.0, 50.0, 10.0, 250.0]
+    x = np.stack([_band_limited(rng, n, fs, fc) for fc in fcs])
+    x /= x.std(axis=1, keepdims=True)
+    t0, length = 300_000, 1200
+    tt = np.arange(length) / fs
+    knock = 100 * np.exp(-tt / 0.3) * np.sin(2 * np.pi * 15 * tt)
+    y = x.copy()
+    y[:5, t0 : t0 + length] += knock  # the last channel is not reached
+    assert outliers.scan(x, fs).count == 0
+    found = outliers.scan(y, fs)
+    near = [e for e in found.events if abs(e.start - t0) < fs]
+    assert len(near) == 1 and abs(near[0].start - t0) <= 5
+    assert near[0].channels == (0, 1, 2, 3, 4)
+    for c in range(5):  # the knock's loud part, its first 0.3 s, is replaced on each
+        sp = found.channels[c].spans
+        assert ((sp[:, 0] <= t0 + 5) & (sp[:, 1] >= t0 + 300)).any()
+    assert found.channels[5].count == 0

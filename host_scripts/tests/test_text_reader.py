@@ -191,3 +191,67 @@ def test_a_csv_file_reads_alike_both_ways(tmp_path: Path, monkeypatch: pytest.Mo
     monkeypatch.setattr(table, "_compiled", lambda *a: None)
     slow = np.concatenate(list(load(str(p)).samples.open_blocks()), axis=1)
     assert fast.view(np.int64).tolist() == slow.view(np.int64).tolist()
+
+
+def _csv_with_fault(rng: np.random.Generator, n: int, fault: str, at: int) -> tuple[list[str], int]:
+    """Kalibr-style lines (header first) with blank lines and comments here and
+    there, and one faulty row put at list index ``at``: the lines and the
+    faulty row's line number, counted on the list itself (1 = the header)."""
+    lines = ["timestamp,omega_x,omega_y,omega_z,alpha_x,alpha_y,alpha_z"]
+    for k in range(n):
+        if k % 97 == 5:
+            lines.append("")
+        elif k % 89 == 7:
+            lines.append("# a comment, with, separators")
+        lines.append(f"{1_700_000_000_000_000_000 + k * 5_000_000}," + ",".join(_number(rng) for _ in range(6)))
+    good = lines[at].split(",")
+    lines[at] = {
+        "short": ",".join(good[:3]),
+        "long": ",".join(good + ["0.5"]),
+        "word": ",".join(good[:2] + ["abc"] + good[3:]),
+        "empty": ",".join(good[:4] + [""] + good[5:]),
+        "nan": ",".join(good[:5] + ["nan"] + good[6:]),
+        "garbage": "\x01\x02garbage",
+    }[fault]
+    return lines, at + 1
+
+
+@pytest.mark.parametrize("fault", ["short", "long", "word", "empty", "nan", "garbage"])
+@pytest.mark.parametrize("block", [1 << 12, 1 << 22])
+def test_a_faulty_row_is_named_by_its_own_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fault: str, block: int
+) -> None:
+    """Wherever it falls (the first block or a later one, after blank lines and
+    comments), a row with missing, extra, empty, non-numeric or non-finite
+    fields stops the reading with one line naming the file and that row's line:
+    an extra field is not dropped unseen."""
+    from imu_allan.sources.detect import load
+
+    monkeypatch.setattr(table, "BLOCK_BYTES", block)
+    rng = np.random.default_rng(11)
+    lines, lineno = _csv_with_fault(rng, 3000, fault, 2500)
+    p = tmp_path / "imu.csv"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError) as exc:
+        list(load(str(p)).samples.open_blocks())
+    msg = str(exc.value)
+    assert msg.startswith(f"'{p}': line {lineno}: ") and "\n" not in msg
+
+
+def test_a_trailing_separator_on_every_row_loses_nothing(tmp_path: Path) -> None:
+    """``1,2,3,`` under a header of three names: an empty last field, read as the
+    same values as without it."""
+    from imu_allan.sources.detect import load
+
+    x = np.random.default_rng(3).normal(size=(400, 3))
+    p, q = tmp_path / "a.csv", tmp_path / "b.csv"
+    p.write_text(
+        "t,gx [rad/s],gy [rad/s]\n"
+        + "".join(f"{k / 100!r},{float(v[1])!r},{float(v[2])!r},\n" for k, v in enumerate(x))
+    )
+    q.write_text(
+        "t,gx [rad/s],gy [rad/s]\n" + "".join(f"{k / 100!r},{float(v[1])!r},{float(v[2])!r}\n" for k, v in enumerate(x))
+    )
+    a = np.concatenate(list(load(str(p)).samples.open_blocks()), axis=1)
+    assert np.array_equal(a, x[:, 1:].T)
+    assert np.array_equal(a, np.concatenate(list(load(str(q)).samples.open_blocks()), axis=1))

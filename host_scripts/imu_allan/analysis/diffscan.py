@@ -225,3 +225,30 @@ def runs_above(
         np.array(cores, dtype=bool),
         np.array(peaks, dtype=np.float64),
     )
+
+
+CHUNK = 64
+"""Differences per count of ``counts_above``'s record-wide tally."""
+
+
+def counts_above(
+    pieces: Pieces, med: float, s: float, level: float, spans: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """How many differences have |d - med| / s > ``level``: in each run of
+    ``CHUNK`` differences of the channel (the last one shorter), and inside
+    each span [a, b) of difference indices (counts: exact whatever the pieces)."""
+    chunks: list[np.ndarray] = []
+    carry = np.zeros(0, dtype=bool)
+    inside = np.zeros(len(spans), dtype=np.int64)
+    for pos, d in pieces():
+        flag = np.abs(d - med) > level * s
+        if len(spans):
+            c = np.concatenate(([0], np.cumsum(flag, dtype=np.int64)))
+            inside += c[np.clip(spans[:, 1] - pos, 0, d.size)] - c[np.clip(spans[:, 0] - pos, 0, d.size)]
+        f = np.concatenate((carry, flag))
+        k = f.size // CHUNK * CHUNK
+        chunks.append(f[:k].reshape(-1, CHUNK).sum(axis=1))
+        carry = f[k:]
+    if carry.size:
+        chunks.append(np.array([carry.sum()]))
+    return (np.concatenate(chunks) if chunks else np.zeros(0, dtype=np.int64)), inside

@@ -32,7 +32,12 @@ in process modeling and identification", IEEE Trans. Control Syst. Technol.
    dip under any threshold between their peaks), are one group when they hold
    a core (a spike's second difference, a burst's decaying tail).
 4. Groups of every channel closer than ``MERGE_S`` are one *event* (a knock
-   hits every axis at once). Its time is its first disturbed sample.
+   hits every axis at once). Its time is its first disturbed sample. An event
+   of ``BURST_S`` or longer (a burst) is tested on the channels that did not
+   flag it: one whose differences in its span exceed ``BURST_LEVEL`` s more
+   often than its quiet stretches of that length do (mean + ``BURST_Z``
+   standard deviations of their counts) was shaken too, by swings too slow
+   for its differences to pass 12 s (a knock at 1 kHz on a wide-band axis).
 5. A group of differences i = a .. b disturbs samples a+1 .. b: they are
    replaced, on the channels where it was seen, by the straight line between
    the good samples x[a] and x[b+1], so the series stays evenly sampled. A
@@ -41,7 +46,7 @@ in process modeling and identification", IEEE Trans. Control Syst. Technol.
 
 What it cannot tell: a spike in the first or last sample (one difference only:
 a step); spikes smaller than 12 s (they are noise to it); a burst of slow swings
-whose differences stay under 12 s; a recording whose samples are mostly
+whose differences stay under 12 s on every channel; a recording whose samples are mostly
 spikes (spikes on about an eighth to a half of the samples: refused, see
 ``mostly_spikes``; more, and they are the noise as far as any median can
 tell); dense spikes one by one (closer than ``BRIDGE_S`` they are replaced
@@ -51,6 +56,7 @@ during a burst (the line between its ends is no measurement).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 from concurrent.futures import ThreadPoolExecutor
@@ -82,6 +88,13 @@ MAD_TO_SIGMA = 1.482602218505602
 """1 / Phi^-1(3/4): MAD to the standard deviation of a Gaussian."""
 Q1_TO_SIGMA = 1.0 / 0.31863936396437514
 """1 / Phi^-1(5/8): the lower quartile of |d| to the standard deviation of a Gaussian."""
+BURST_S = 0.1
+"""A disturbance this long (seconds) or longer is a burst: the channels that did not
+flag it are tested over its span (``_bursts_elsewhere``)."""
+BURST_LEVEL = 1.5
+"""Level (robust sigmas) of the differences counted in that test."""
+BURST_Z = 5.0
+"""The test's threshold, in standard deviations of the channel's own counts (``_usual``)."""
 MODES = ("replace", "keep")
 GRID_MAX = 1 << 16
 """Quantized differences are counted up to this many steps (wilder ones count as
@@ -299,6 +312,7 @@ def scan_pieces(
     res = OutlierScan(n, float(fs), chans)
     if g_start:
         _events(res, *(np.concatenate(v) for v in (g_start, g_stop, g_chan, g_peak)), gap, len(channels))
+        _bursts_elsewhere(res, channels, scales, int(math.ceil(BURST_S * fs)))
     return res
 
 
@@ -313,6 +327,48 @@ def _events(res: OutlierScan, st: np.ndarray, sp: np.ndarray, ch: np.ndarray, pk
     for e in range(es.size):
         members = tuple(c for c in range(C) if int(masks[e]) >> c & 1)
         res.events.append(Event(int(es[e]), int(et[e]) if moved[e] else int(es[e]), members, float(peaks[e])))
+
+
+def _bursts_elsewhere(res: OutlierScan, channels: list[diffscan.Pieces], scales: list[tuple], min_len: int) -> None:
+    """A burst seen on some channels (a knock shakes every axis) is replaced on
+    the others too when their differences inside its span exceed ``BURST_LEVEL``
+    sigmas more often than the channel's quiet stretches of that length do
+    (``_usual``): at 1 kHz a knock's slow swings move each difference by a sigma
+    or two, under the spike threshold, yet many differences at once. Counts,
+    not sums: the same answer whatever the pieces."""
+    bursts = [i for i, e in enumerate(res.events) if e.stop - e.start >= min_len]
+    if not bursts:
+        return
+    for c, ch in enumerate(res.channels):
+        med, s = scales[c][0], ch.scale
+        todo = [i for i in bursts if c not in res.events[i].channels]
+        if not todo or s <= 0 or not np.isfinite(s):
+            continue
+        ev = [res.events[i] for i in todo]
+        spans = np.array([[e.start - 1, e.stop] for e in ev], dtype=np.int64)  # their differences
+        tally, inside = diffscan.counts_above(channels[c], med, s, BURST_LEVEL, spans)
+        hit = np.array([k > _usual(tally, int(b - a)) for k, (a, b) in zip(inside, spans)], dtype=bool)
+        if not hit.any():
+            continue
+        new = np.array([[e.start, e.stop] for e, h in zip(ev, hit) if h], dtype=np.int64)
+        st, sp, _ = _merge(np.concatenate([ch.spans[:, 0], new[:, 0]]), np.concatenate([ch.spans[:, 1], new[:, 1]]), 1)
+        res.channels[c] = dataclasses.replace(ch, spans=np.stack([st, sp], axis=1).astype(np.int64))
+        for i, h in zip(todo, hit):
+            if h:
+                e = res.events[i]
+                res.events[i] = dataclasses.replace(e, channels=tuple(sorted(e.channels + (c,))))
+
+
+def _usual(tally: np.ndarray, L: int) -> float:
+    """The most a stretch of L differences of the channel holds above the level
+    in its quiet life: the mean plus ``BURST_Z`` standard deviations of the counts
+    in windows of about L tiling the record (their spread, not a binomial's:
+    the differences of band-limited noise are correlated), plus 2."""
+    m = max(1, int(round(L / diffscan.CHUNK)))
+    w = np.add.reduceat(tally, np.arange(0, tally.size, m))[: max(tally.size // m, 1)].astype(np.float64)
+    r = L / (m * diffscan.CHUNK)
+    sd = float(w.std(ddof=1)) if w.size > 1 else math.inf
+    return r * float(w.mean()) + BURST_Z * math.sqrt(r) * sd + 2
 
 
 def replace(data: np.ndarray, found: OutlierScan, inplace: bool = False) -> np.ndarray:

@@ -18,6 +18,8 @@ member is decompressed whole when read (zip members do not map).
 
 from __future__ import annotations
 
+import zipfile
+import zlib
 from typing import Any, Callable, Iterator, Optional
 
 import numpy as np
@@ -28,6 +30,8 @@ from .table import channel_of, normalize, unused_note
 from .timing import rate_from_time
 
 BLOCK_ROWS = 1 << 18
+_BROKEN = (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error)
+"""What numpy and zipfile raise on a cut or damaged .npy / .npz (a bad CRC, a member cut short)."""
 SI = {ch: ("rad/s" if ch[0] == "g" else "m/s^2") for ch in CHANNELS}
 
 
@@ -39,7 +43,7 @@ def array_source(path: str, name: str) -> Any:
                 members = {k: (z[k].shape, z[k].dtype) for k in z.files}
             return _named(name, members, lambda used: _npz_members(path, used))
         a = np.load(path, mmap_mode="r", allow_pickle=False)
-    except (ValueError, OSError) as exc:
+    except _BROKEN as exc:
         raise InputError(f"'{name}': not a readable NumPy file ({exc})") from None
     if a.dtype.names:
         return _structured(path, name, a)
@@ -151,8 +155,11 @@ def _match(name: str, keys: list[str]) -> tuple[dict[str, tuple[str, int]], dict
 
 
 def _npz_members(path: str, used: set[str]) -> dict[str, np.ndarray]:
-    with np.load(path, allow_pickle=False) as z:
-        return {m: z[m] for m in used}
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {m: z[m] for m in used}
+    except _BROKEN as exc:
+        raise InputError(f"'{path}': not a readable NumPy file ({exc})") from None
 
 
 def _named(

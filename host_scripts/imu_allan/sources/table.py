@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import io
+import math
 import re
 from dataclasses import dataclass, field
 from typing import Any, Iterator, Optional
@@ -53,6 +54,7 @@ _ACC = (
     "{}_acc",
     "alpha_{}",
     "a_rs_s_{}",
+    "accelerometer_m_s2_{}",
 )
 _GYRO = (
     "g{}",
@@ -69,6 +71,8 @@ _GYRO = (
     "{}gyro",
     "{}_gyro",
     "w_rs_s_{}",
+    "gyro_rad_{}",
+    "gyroscope_{}",
 )
 ALIASES = {f"a{x}": _names(_ACC, x) for x in "xyz"} | {f"g{x}": _names(_GYRO, x) for x in "xyz"}
 """Column names (normalized: lower case, runs of other characters as ``_``) per channel."""
@@ -80,6 +84,8 @@ DEFINED_UNITS = {
     "w_rs_s_": "rad/s",
     "alpha_": "m/s^2",  # Kalibr's IMU CSV, written into sensor_msgs/Imu as is
     "omega_": "rad/s",
+    "accelerometer_m_s2_": "m/s^2",  # PX4's sensor_combined (ulog2csv): the unit in the field's name
+    "gyro_rad_": "rad/s",
 }
 """Names whose unit a format fixes by definition (used when the header names none)."""
 
@@ -109,9 +115,17 @@ _UNITS = {"ns": 1e-9, "us": 1e-6, "µs": 1e-6, "ms": 1e-3, "s": 1.0}
 _UNIT_IN_NAME = re.compile(r"[\[(]\s*([^\])]*?)\s*[\])]")
 
 
+_AXIS_INDEX = re.compile(r"\[\s*([012])\s*\]\s*$")
+"""An array index as the axis, as ulog2csv writes PX4's vectors: ``gyro_rad[0]`` is x."""
+_TIME_WITH_UNIT = re.compile(r"^(t|ts|time|timestamp|stamp|time_stamp|sample_time)_(ns|us|ms|s)$")
+"""``t_ms``, ``time_us``, ``timestamp_ns`` ...: a time column whose name gives its unit."""
+
+
 def normalize(col: str) -> tuple[str, Optional[str]]:
-    """A header field as (key, unit): ``'w_RS_S_x [rad s^-1]'`` -> ``('w_rs_s_x', 'rad/s')``."""
+    """A header field as (key, unit): ``'w_RS_S_x [rad s^-1]'`` -> ``('w_rs_s_x', 'rad/s')``;
+    ``'gyro_rad[0]'`` -> ``('gyro_rad_x', None)``."""
     unit = None
+    col = _AXIS_INDEX.sub(lambda m: "_" + "xyz"[int(m.group(1))], col)
     m = _UNIT_IN_NAME.search(col)
     if m:
         unit = re.sub(r"\s*\bs\^-1$", "/s", m.group(1))
@@ -126,9 +140,13 @@ def normalize(col: str) -> tuple[str, Optional[str]]:
 def split_header(line: str) -> tuple[Optional[str], list[str]]:
     """The separator (None: blanks) and the fields; blanks inside brackets do not split."""
     for d in (",", ";", "\t"):
-        if d in line:
-            return d, [p.strip() for p in line.split(d)]
+        if d in line:  # a name in quotes (phyphox, spreadsheets) is the name
+            return d, [_unquote(p.strip()) for p in line.split(d)]
     return None, re.findall(r"(?:[^\s\[(]|\s*\[[^\]]*\]|\s*\([^)]*\))+", line.strip())
+
+
+def _unquote(field: str) -> str:
+    return field[1:-1].strip() if len(field) >= 2 and field[0] == field[-1] == '"' else field
 
 
 def channel_of(key: str) -> Optional[str]:
@@ -176,13 +194,19 @@ def parse_header(line: str) -> Header:
                     h.units[ch] = defined
                     h.defined.append(ch)
             continue
-        if key in _TIME and _TIME[key][1] < pref:
-            h.time_col, (h.time_factor, pref) = i, _TIME[key]
+        named = _TIME.get(key) or _time_with_unit(key)
+        if named and named[1] < pref:
+            h.time_col, (h.time_factor, pref) = i, named
             if unit in _UNITS:
                 h.time_factor = _UNITS[unit]
     if len(cols) == 1 and not h.chan_col:
         _unit_only(h, cols[0])
     return h
+
+
+def _time_with_unit(key: str) -> Optional[tuple[Optional[float], int]]:
+    m = _TIME_WITH_UNIT.match(key)
+    return (_UNITS[m.group(2)], 1) if m else None
 
 
 def _unit_only(h: Header, col: str) -> None:
@@ -233,12 +257,13 @@ def csv_source(path: str, name: str, line: str, lineno: int, size: int) -> Any:
     if h.defined:
         src.notes.append(
             f"units of {' '.join(h.defined)} by the format's definition "
-            "(sensor_msgs/Imu, EuRoC, Kalibr: rad/s and m/s^2)"
+            "(sensor_msgs/Imu, EuRoC, Kalibr, PX4: rad/s and m/s^2)"
         )
     note = unused_note(h.unused())
     if note:
         src.notes.append(note)
-    first = next(csv_blocks(path, name, lineno, h.delim, use, h.time_col, max_bytes=SNIFF_BYTES), None)
+    nf = len(h.cols)
+    first = next(csv_blocks(path, name, lineno, h.delim, use, h.time_col, SNIFF_BYTES, nf), None)
     if first is None or not first[0].size:
         raise InputError(f"'{name}': line {lineno} is a header, and no data row follows it")
     vals, t = first
@@ -253,7 +278,7 @@ def csv_source(path: str, name: str, line: str, lineno: int, size: int) -> Any:
     def blocks() -> Iterator[np.ndarray]:
         if check is not None:
             check.start()
-        for vals, t in csv_blocks(path, name, lineno, h.delim, use, h.time_col):
+        for vals, t in csv_blocks(path, name, lineno, h.delim, use, h.time_col, nfields=nf):
             if check is not None:
                 check.feed((t - t0).astype(np.float64))
             yield vals
@@ -272,6 +297,7 @@ def csv_blocks(
     use: list[int],
     time_col: Optional[int],
     max_bytes: Optional[int] = None,
+    nfields: Optional[int] = None,
 ) -> Iterator[tuple[np.ndarray, Optional[np.ndarray]]]:
     """Blocks of ((channels, rows) float64, time or None) after the header line;
     ``max_bytes`` reads only the start."""
@@ -292,7 +318,7 @@ def csv_blocks(
             cut = data.rfind(b"\n") + 1 if chunk else len(data)
             body, tail = data[:cut], data[cut:]
             if body.strip():
-                yield parse_csv(body, name, line, delim, use, time_col)
+                yield parse_csv(body, name, line, delim, use, time_col, nfields)
             line += body.count(b"\n")
             if not chunk or (max_bytes is not None and total >= max_bytes):
                 break
@@ -307,14 +333,24 @@ def _then_end(blocks: Iterator[bytes]) -> Iterator[bytes]:
 
 
 def parse_csv(
-    body: bytes, name: str, first_line: int, delim: Optional[str], cols: list[int], time_col: Optional[int] = None
+    body: bytes,
+    name: str,
+    first_line: int,
+    delim: Optional[str],
+    cols: list[int],
+    time_col: Optional[int] = None,
+    nfields: Optional[int] = None,
 ) -> tuple[np.ndarray, Optional[np.ndarray]]:
     """Whole lines of text -> ((len(cols), rows) float64, the time column or None);
     an integer time column stays int64 (epoch ns do not fit a double's 53 bits).
-    One line naming the row on error."""
+    One line naming the row on error; with ``nfields`` (the header's), a row
+    with more or fewer fields is one (its extra value would be dropped unseen,
+    or its columns shifted)."""
     fast = _compiled(body, delim, cols, time_col)
-    if fast is not None:
+    if fast is not None:  # every row has the same fields: the first says if they are the header's
+        _check_fields(body[: body.find(b"\n", 0, 1 << 16) + 1 or len(body)], name, first_line, delim, nfields)
         return fast
+    _check_fields(body, name, first_line, delim, nfields)
     import pandas as pd
 
     every = cols + ([time_col] if time_col is not None else [])
@@ -338,9 +374,9 @@ def parse_csv(
         both = _slow_parse(body, name, first_line, delim, every)
         a, t = both[: len(cols)], (both[len(cols)] if time_col is not None else None)
     if not np.all(np.isfinite(a)) or (t is not None and t.dtype.kind == "f" and not np.all(np.isfinite(t))):
-        both = _slow_parse(body, name, first_line, delim, every)  # the line of an empty field
-        r = int(np.argmax(~np.all(np.isfinite(both), axis=0)))
-        raise InputError(f"'{name}': line {first_line + 1 + r}: a value is not a finite number")
+        bad = _bad_line(body, delim, every)
+        where = f"line {first_line + 1 + bad[0]}" if bad else f"after line {first_line}"
+        raise InputError(f"'{name}': {where}: {bad[1] if bad else 'a value is not a finite number'}")
     return np.ascontiguousarray(a), t
 
 
@@ -388,9 +424,63 @@ def _slow_parse(body: bytes, name: str, first_line: int, delim: Optional[str], c
     try:
         a = np.loadtxt(io.BytesIO(body), delimiter=delim, usecols=cols, comments="#", ndmin=2, dtype=np.float64)
     except ValueError as exc:
-        msg = str(exc)
-        m = re.search(r"at row (\d+)", msg)
-        where = f"line {first_line + 1 + int(m.group(1))}" if m else f"after line {first_line}"
-        what = msg.split(" at row")[0].split("\n")[0]
+        # numpy counts its rows from 0 or from 1 depending on the fault, and skips blank
+        # and comment lines: the line is found here instead, by the same reading
+        bad = _bad_line(body, delim, cols)
+        where = f"line {first_line + 1 + bad[0]}" if bad else f"after line {first_line}"
+        what = bad[1] if bad else str(exc).split(" at row")[0].split("\n")[0]
         raise InputError(f"'{name}': {where}: {what}") from None
     return a.T
+
+
+def _bad_line(body: bytes, delim: Optional[str], cols: list[int]) -> Optional[tuple[int, str]]:
+    """(index among the lines of ``body``, what is wrong) of its first row whose
+    used fields are missing, not numbers or not finite; blank lines and ``#``
+    comments skipped as the readers skip them."""
+    for i, raw in enumerate(body.split(b"\n")):
+        text = raw.split(b"#", 1)[0].decode("utf-8", "replace").strip()
+        if not text:
+            continue
+        fields = [f.strip() for f in text.split(delim)] if delim is not None else text.split()
+        if len(fields) <= max(cols):
+            return i, f"{_fields(len(fields))}, column {max(cols) + 1} expected"
+        for c in cols:
+            try:
+                v = float(fields[c].replace("_", " "))  # float() takes 1_0; the readers do not
+            except ValueError:
+                return i, f"could not convert string {fields[c]!r} to float64"
+            if not math.isfinite(v):
+                return i, f"{fields[c]!r} is not a finite number"
+    return None
+
+
+def _check_fields(body: bytes, name: str, first_line: int, delim: Optional[str], nfields: Optional[int]) -> None:
+    """The error naming the first row of ``body`` whose number of fields is not
+    the header's ``nfields`` (one more is allowed when it is empty: a trailing
+    separator). Blank lines, ``#`` comments and lines with quotes (pandas
+    reads those) are not counted; blank-separated text is not checked."""
+    if nfields is None or delim is None or len(delim.encode()) != 1 or b'"' in body:
+        return
+    b = np.frombuffer(body, dtype=np.uint8)
+    ends = np.flatnonzero(b == 10)
+    if not body.endswith(b"\n"):
+        ends = np.append(ends, b.size)
+    starts = np.concatenate(([0], ends[:-1] + 1))
+    hashes = np.flatnonzero(b == 35)
+    if hashes.size:  # each line cut at its first '#'
+        h = np.searchsorted(hashes, starts)
+        ends = np.minimum(ends, np.where(h < hashes.size, hashes[np.minimum(h, hashes.size - 1)], b.size))
+    sep = delim.encode()
+    seps = np.flatnonzero(b == sep[0])
+    count = np.searchsorted(seps, ends) - np.searchsorted(seps, starts)
+    for i in np.flatnonzero(count != nfields - 1).tolist():  # few: blank lines, comments, faults
+        line = body[starts[i] : ends[i]].strip()
+        if not line or (count[i] == nfields and line.endswith(sep)):
+            continue
+        raise InputError(
+            f"'{name}': line {first_line + 1 + i}: {_fields(int(count[i]) + 1)}, but the header names {nfields}"
+        )
+
+
+def _fields(k: int) -> str:
+    return f"{k} field{'' if k == 1 else 's'}"
