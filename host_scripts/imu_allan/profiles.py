@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Iterable, Optional
 
 from ._firmware_facts import RANGES_G
 from .channels import CHANNELS, CODE_MAX
@@ -180,14 +180,26 @@ def unit_factor(ch: str, unit: str) -> float:
     raise InputError(f"{ch}: unit {unit!r} is not a {KIND[ch]} rate unit ({', '.join(table)})")
 
 
-def build_profile(name: Optional[str], scales: dict[str, tuple[float, str]], range_g: Optional[str] = None) -> Profile:
-    """``--profile`` (default thesis when no scale is given) with ``--scale`` on top."""
+def build_profile(
+    name: Optional[str],
+    scales: dict[str, tuple[float, str]],
+    range_g: Optional[str] = None,
+    channels: Optional[Iterable[str]] = None,
+) -> Profile:
+    """``--profile`` (default thesis when no scale is given) with ``--scale`` on top.
+
+    ``channels``: the input's channels, when known, so that the note on channels left
+    in ADC counts names only channels the input has (a three-gyro file with its units
+    in the header has none left in counts)."""
     if name is None:
         base = counts_profile() if scales else thesis_profile(range_g or "1.5")
         if scales:
             base.name = "generic"
-            some_in_counts = set(scales) < set(KIND)  # a channel without a unit stays in counts
-            base.notes = ["generic profile: channels without --scale stay in ADC counts"] if some_in_counts else []
+            present = set(KIND if channels is None else channels)
+            in_counts = [ch for ch in KIND if ch in present and ch not in scales]
+            base.notes = (
+                [f"generic profile: {', '.join(in_counts)} without --scale stay in ADC counts"] if in_counts else []
+            )
     elif name == "thesis":
         base = thesis_profile(range_g or "1.5")
     elif name == "counts":

@@ -404,3 +404,5 @@ def test_headers_other_tools_write(layout: str, tmp_path: Path, run_cli) -> None
     for ch, f in factor.items():
         x = (g if ch[0] == "g" else a)[:, "xyz".index(ch[1])]
         assert doc["channels"][ch]["curve"][0]["dev"] == pytest.approx(_first_point(x) * f, rel=1e-9)
+    # every channel the file has carries its unit: none is said to stay in ADC counts
+    assert not [n for n in doc["notes"] if "ADC counts" in n]

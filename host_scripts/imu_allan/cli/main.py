@@ -243,7 +243,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     samples = src.samples
     if samples is not None and args.profile is None and (samples.units or not samples.integer):
         scales = scales_for_input(src.name, samples.channels, samples.integer, samples.units, scales)
-    profile = build_profile(args.profile, scales, range_g)
+    profile = build_profile(args.profile, scales, range_g, samples.channels if samples is not None else None)
     from ..analysis.store import read_ahead
 
     read_ahead(samples, args.channels, args.memory * 2**20)  # while the statistics' modules load
