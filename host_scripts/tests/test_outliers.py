@@ -344,8 +344,8 @@ def test_a_knock_at_1_khz_is_replaced_on_every_axis_it_shook_and_only_there() ->
     """At 1 kHz a knock's 15 Hz swings, 100 sample sd high, move a difference of
     a wide-band channel (fc 250 Hz) by at most 7.5 of its sd: under the spike
     threshold, so only the band-limited channels (fc 10 Hz: 27 sd) flag it; the
-    burst test then finds it on the wide-band ones too. A channel the knock did not reach is left alone. Knock and span are
-    the ones put in here."""
+    burst test then finds it on the wide-band ones too. A channel the knock did not
+    reach is left alone. Knock and span are the ones put in here."""
     fs, n = 1000.0, 1 << 19
     rng = np.random.default_rng(21)
     fcs = [10.0, 250.0, 250.0, 50.0, 10.0, 250.0]
