@@ -23,7 +23,7 @@ from rosbags.rosbag2 import Writer as Writer2  # noqa: E402
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 from imu_allan.errors import InputError  # noqa: E402
-from imu_allan.sources import bagdb3, imumsg, rosbag  # noqa: E402
+from imu_allan.sources import bagdb3, db3pages, imumsg, rosbag  # noqa: E402
 from imu_allan.sources.detect import load  # noqa: E402
 
 IMU = "sensor_msgs/msg/Imu"
@@ -160,15 +160,37 @@ def test_bags_read_as_arrays_equal_rosbags_message_by_message(kind: str, tmp_pat
         assert np.array_equal(stamps, want_stamps)
 
 
-def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(tmp_path: Path, monkeypatch) -> None:
-    """Small batches, a range halved around a burst and a timestamp holding
-    more than a batch (paged) give the rows in rosbags' order, and the bag's
-    times when the stamps are zero."""
+WRITTEN_LATE = {
+    "in order": [],
+    "a row long before the rows around it": [(100, 450)],
+    "a row of the burst's stamp after it": [(350, 799)],
+    "the first row last": [(0, 799)],
+}
+"""Rows written out of time order, (row of the time, row it is written after):
+the table read along its ids stops before the batch that would let one of
+them pass, and the index gives the rest, in rosbags' order."""
+
+
+def _recorded(late: str) -> list[int]:
+    """Times (ns) of 800 rows, 200 of them on one stamp, as written: ``WRITTEN_LATE[late]``."""
+    ms = 1_000_000
+    recorded = [int(t) for t in np.r_[np.arange(300) * ms, np.full(200, 300 * ms), 300 * ms + np.arange(1, 301) * ms]]
+    for row, after in WRITTEN_LATE[late]:
+        recorded.insert(after, recorded.pop(row))
+    return recorded
+
+
+@pytest.mark.parametrize("pages", [True, False], ids=["pages", "sqlite"])
+@pytest.mark.parametrize("late", WRITTEN_LATE)
+def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(late: str, pages: bool, tmp_path: Path, monkeypatch) -> None:
+    """Small batches, a range halved around a burst, a timestamp holding more
+    than a batch (paged), rows written out of time order, read from the
+    file's pages a page at a time or through sqlite: the rows in rosbags'
+    order, and the bag's times when the stamps are zero."""
     ts = get_typestore(Stores.ROS2_HUMBLE)
     rng = np.random.default_rng(9)
     path = tmp_path / "burst"
-    ms = 1_000_000
-    recorded = np.r_[np.arange(300) * ms, np.full(200, 300 * ms), 300 * ms + np.arange(1, 301) * ms]
+    recorded = _recorded(late)
     with Writer2(path, version=9) as w:
         c = w.add_connection("/imu", IMU, typestore=ts)
         for i, t in enumerate(recorded):
@@ -176,7 +198,11 @@ def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(tmp_path: Path, monkey
     want_vals, _ = _rosbags_read(path, "/imu")
     with AnyReader([path]) as r:
         want_t = np.array([t for _, t, _ in r.messages()], dtype=np.int64)
+    assert np.array_equal(want_t, np.sort(recorded)) and np.array_equal(want_t, recorded) == (late == "in order")
     monkeypatch.setattr(bagdb3, "BATCH", 16)
+    monkeypatch.setattr(db3pages, "PIECE", 1)
+    if not pages:
+        monkeypatch.setattr(db3pages, "_C", None)
     for plan_in_order in (True, False):  # straight from the table, or through an ordered subquery
         monkeypatch.setattr(bagdb3, "_scans_in_order", lambda *_, keep=plan_in_order: keep)
         got = list(bagdb3.batches([str(path / "burst.db3")], "/imu", IMU, True))
@@ -187,6 +213,48 @@ def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(tmp_path: Path, monkey
     s = load(str(path)).samples
     assert any("bag's times" in n for n in s.notes)
     assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), want_vals)
+
+
+def test_db3_rows_along_the_table_stop_where_the_order_breaks(tmp_path: Path, monkeypatch) -> None:
+    """The table read along its ids (through sqlite) gives batches up to the
+    last one that holds every row of its times (counted independently here),
+    then says where the index takes over; all along when the table is in time order."""
+    monkeypatch.setattr(db3pages, "_C", None)
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    rng = np.random.default_rng(3)
+    for late in WRITTEN_LATE:
+        path = tmp_path / late.replace(" ", "_")
+        recorded = _recorded(late)
+        with Writer2(path, version=9) as w:
+            c = w.add_connection("/imu", IMU, typestore=ts)
+            for i, t in enumerate(recorded):
+                w.write(c, int(t), ts.serialize_cdr(_msg(ts, rng, i, "imu", 0, 0), IMU))
+        con = bagdb3._connect(str(path / f"{path.name}.db3"))
+        old, bagdb3.BATCH = bagdb3.BATCH, 16
+        try:
+            gen, got = bagdb3._in_rowid_order(con, str(path / f"{path.name}.db3"), [1], True, True), []
+            while True:
+                try:
+                    got.append(next(gen).times)
+                except StopIteration as stop:
+                    where = stop.value
+                    break
+        finally:
+            bagdb3.BATCH = old
+            con.close()
+        given = np.concatenate(got) if got else np.zeros(0, dtype=np.int64)
+        # the longest run of whole batches of 16 rows (by id) sorted, each leaving no later row before its end
+        k = 0
+        while 16 * (k + 1) <= len(recorded):
+            nxt = recorded[: 16 * (k + 1)]
+            if np.any(np.diff(nxt) < 0) or min(recorded[16 * (k + 1) :] or [np.inf]) < nxt[-1]:
+                break
+            k += 1
+        if 16 * k >= len(recorded):
+            assert where is None and np.array_equal(given, recorded)
+        else:
+            assert np.array_equal(given, recorded[: 16 * k])
+            assert where == ((int(recorded[16 * k - 1]) if k else None), 16 * k + 1)
 
 
 def test_a_compressed_bag_is_read_by_rosbags(tmp_path: Path) -> None:
