@@ -257,6 +257,50 @@ def test_db3_rows_along_the_table_stop_where_the_order_breaks(tmp_path: Path, mo
             assert where == ((int(recorded[16 * k - 1]) if k else None), 16 * k + 1)
 
 
+def test_db3_pages_give_sqlite_rows_and_stop_before_a_row_that_spills(tmp_path: Path, monkeypatch) -> None:
+    """The leaf pages read by the compiled reader give the IMU topic's rows in
+    id order as sqlite gives them, another topic's rows that spill to
+    overflow pages skipped; they stop before an IMU message that spills (a
+    frame_id of 6000 bytes) and say where; the bag still reads as rosbags reads it."""
+    if db3pages._C is None:
+        pytest.skip("the compiled page reader is not built (make ext)")
+    monkeypatch.setattr(db3pages, "PIECE", 1)
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    rng = np.random.default_rng(5)
+    path = tmp_path / "spill"
+    with Writer2(path, version=9) as w:
+        imu = w.add_connection("/imu", IMU, typestore=ts)
+        log = w.add_connection("/log", "std_msgs/msg/String", typestore=ts)
+        for i in range(3000):
+            t = 10**9 + i * 1_000_000
+            frame = "f" * 6000 if i == 2500 else "imu"
+            w.write(imu, t, ts.serialize_cdr(_msg(ts, rng, i, frame, t // 10**9, t % 10**9), IMU))
+            if i % 100 == 0:
+                text = ts.types["std_msgs/msg/String"](data="x" * (5000 + i))
+                w.write(log, t + 1, ts.serialize_cdr(text, "std_msgs/msg/String"))
+    db = str(path / "spill.db3")
+    con = bagdb3._connect(db)
+    rows = con.execute("SELECT id, timestamp, data FROM messages WHERE topic_id = 1 ORDER BY id").fetchall()
+    spill = next(i for i, r in enumerate(rows) if len(r[2]) > 6000)
+    gen, got = db3pages.along(db, con, [1], 1), []
+    while True:
+        try:
+            got.append(next(gen))
+        except StopIteration as stop:
+            where = stop.value
+            break
+    con.close()
+    assert rows[spill - 20][0] < where <= rows[spill][0]  # stopped at the page holding it
+    given = [r for r in rows if r[0] < where]
+    assert b"".join(bytes(g.raw) for g in got) == b"".join(r[2] for r in given)
+    assert np.array_equal(np.concatenate([g.times for g in got]), [r[1] for r in given])
+    assert np.array_equal(np.concatenate([g.lens for g in got]), [len(r[2]) for r in given])
+    assert got[-1].after == where
+    want_vals, want_stamps = _rosbags_read(path, "/imu")
+    s = load(str(path), "/imu").samples
+    assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), want_vals)
+
+
 def test_a_compressed_bag_is_read_by_rosbags(tmp_path: Path) -> None:
     bag = _write(tmp_path / "zrun", "db3", compress=True).parent
     assert isinstance(rosbag._backend(str(bag), "zrun"), rosbag.RosbagsBackend)
