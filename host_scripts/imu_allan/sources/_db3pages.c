@@ -62,6 +62,7 @@ typedef struct {
   int64_t *lens, *times, *ids;
   int64_t cap, k; /* rows of the wanted topics */
   int64_t rows;   /* every row */
+  int64_t first;  /* the first rowid */
   int64_t last;   /* the last rowid */
 } Out;
 
@@ -78,6 +79,8 @@ static int cell(const uint8_t *c, const uint8_t *end, int64_t usable, Out *o)
   c += n;
   if ((int64_t)rowid <= o->last)
     return ORDER;
+  if (!o->rows)
+    o->first = (int64_t)rowid;
   o->last = (int64_t)rowid;
   const uint8_t *rec = c;
   int64_t local = (int64_t)size, most = usable - 35;
@@ -156,8 +159,9 @@ static PyObject *leaf_rows(PyObject *self, PyObject *args)
   if (!PyArg_ParseTuple(args, "y*y*nny*Lw*w*w*w*", &buf, &at, &page_size, &usable, &want, &last, &raw, &lens,
                         &times, &ids))
     return NULL;
-  Out o = {want.buf,          want.len, raw.buf, raw.len, 0,   ARR(lens, int64_t), ARR(times, int64_t),
-           ARR(ids, int64_t), 0,        0,       0,       last};
+  Out o = {
+      want.buf, want.len, raw.buf, raw.len, 0,   ARR(lens, int64_t), ARR(times, int64_t), ARR(ids, int64_t),
+      0,        0,        0,       0,       last};
   o.cap = lens.len / 8;
   if (times.len / 8 < o.cap)
     o.cap = times.len / 8;
@@ -176,14 +180,14 @@ static PyObject *leaf_rows(PyObject *self, PyObject *args)
   Py_END_ALLOW_THREADS;
   PyBuffer_Release(&buf), PyBuffer_Release(&at), PyBuffer_Release(&want), PyBuffer_Release(&raw);
   PyBuffer_Release(&lens), PyBuffer_Release(&times), PyBuffer_Release(&ids);
-  return Py_BuildValue("iLLLL", status, (long long)o.k, (long long)o.raw_len, (long long)o.rows,
+  return Py_BuildValue("iLLLL", status, (long long)o.k, (long long)o.raw_len, (long long)o.first,
                        (long long)o.last);
 }
 
 static PyMethodDef methods[] = {
     {"leaf_rows", leaf_rows, METH_VARARGS,
      "leaf_rows(buf, at, page_size, usable, want, last, raw, lens, times, ids)\n"
-     "-> (status, k, raw_len, rows, last): the rows of the table leaf pages at offsets at (int64) in buf\n"
+     "-> (status, k, raw_len, first, last): the rows of the table leaf pages at offsets at (int64) in buf\n"
      "whose topic_id t has want[t] (uint8): data into raw, lengths, timestamps and rowids into the\n"
      "int64 arrays; rowids above last. status < 0: stopped (-1 page, -2 cell, -3 overflow, -4 full, -5 order)."},
     {NULL, NULL, 0, NULL}};

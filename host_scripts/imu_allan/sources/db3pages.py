@@ -17,6 +17,9 @@ from __future__ import annotations
 
 import os
 import sqlite3
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+from itertools import islice
 from typing import Generator, NamedTuple, Optional
 
 import numpy as np
@@ -74,32 +77,60 @@ def _leaves(fd: int, con: sqlite3.Connection) -> Optional[tuple[np.ndarray, int,
 
 def along(path: str, con: sqlite3.Connection, ids: list[int], first: int) -> Generator[Rows, None, Optional[int]]:
     """The rows of topics ``ids`` in rowid order (the least rowid: ``first``),
-    piece by piece (each at least one row). Returns None when every row was
-    read, else the first rowid not read (the rest for sqlite to read)."""
+    piece by piece (each at least one row), the next pieces read and decoded
+    by another thread meanwhile (the reads and the compiled reader let go of
+    the GIL). Returns None when every row was read, else the first rowid not
+    read (the rest for sqlite to read)."""
     if _C is None or os.path.exists(path + "-wal") and os.path.getsize(path + "-wal"):
         return first
     want = np.zeros(max(ids) + 1, dtype=np.uint8)
     want[ids] = 1
-    with open(path, "rb") as f:
+    with open(path, "rb") as f, ThreadPoolExecutor(1) as pool:
         got = _leaves(f.fileno(), con)
         if got is None:
             return first
         leaves, size, usable = got
         last = first - 1  # the last rowid read
-        for a in range(0, len(leaves), PIECE):
-            buf, at = _piece(f.fileno(), leaves[a : a + PIECE], size)
-            if buf is None:
-                return last + 1
-            cells = int((buf[at + 3].astype(np.int64) << 8 | buf[at + 4]).sum())
-            raw = np.empty(len(buf), dtype=np.uint8)
-            lens, times, rowids = (np.empty(cells, dtype=np.int64) for _ in range(3))
-            status, k, nbytes, _, end = _C.leaf_rows(buf, at, size, usable, want, last, raw, lens, times, rowids)
-            if status < 0:
-                return last + 1
-            if k:
-                yield Rows(raw[:nbytes], lens[:k], times[:k], end + 1)
-            last = end
+        todo = iter(range(0, len(leaves), PIECE))
+        ahead = deque(
+            pool.submit(_rows, f.fileno(), leaves[a : a + PIECE], size, usable, want) for a in islice(todo, AHEAD)
+        )
+        try:
+            while ahead:
+                piece = ahead.popleft().result()
+                ahead.extend(
+                    pool.submit(_rows, f.fileno(), leaves[a : a + PIECE], size, usable, want) for a in islice(todo, 1)
+                )
+                if piece is None or piece[0] <= last:  # not read, or its rowids not after the last piece's
+                    return last + 1
+                if len(piece[1].lens):
+                    yield piece[1]
+                last = piece[1].after - 1
+        finally:
+            for job in ahead:
+                job.cancel()
     return None
+
+
+AHEAD = 2
+"""Pieces read and decoded ahead by the reading thread."""
+LEAST = -(2**63)
+
+
+def _rows(fd: int, pages: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
+    """The first rowid of the leaf pages ``pages`` and the rows of the topics
+    ``want`` on them (``after``: the first rowid past the pages); None when
+    they are not read so."""
+    buf, at = _piece(fd, pages, size)
+    if buf is None:
+        return None
+    cells = int((buf[at + 3].astype(np.int64) << 8 | buf[at + 4]).sum())
+    raw = np.empty(len(buf), dtype=np.uint8)
+    lens, times, rowids = (np.empty(cells, dtype=np.int64) for _ in range(3))
+    status, k, nbytes, lo, hi = _C.leaf_rows(buf, at, size, usable, want, LEAST, raw, lens, times, rowids)
+    if status < 0 or hi == LEAST:
+        return None
+    return lo, Rows(raw[:nbytes], lens[:k], times[:k], hi + 1)
 
 
 def _piece(fd: int, pages: np.ndarray, size: int) -> tuple[Optional[np.ndarray], np.ndarray]:
