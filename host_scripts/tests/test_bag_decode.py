@@ -9,6 +9,7 @@ deserialised by rosbags, never guessed."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -299,6 +300,56 @@ def test_db3_pages_give_sqlite_rows_and_stop_before_a_row_that_spills(tmp_path: 
     want_vals, want_stamps = _rosbags_read(path, "/imu")
     s = load(str(path), "/imu").samples
     assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), want_vals)
+
+
+def test_db3_page_reader_refuses_what_is_not_a_table_leaf_and_never_reads_past_a_page(tmp_path: Path) -> None:
+    """A real leaf page gives sqlite's rows; its type byte changed, a cell
+    pointer past the page, a record header claiming another column: refused
+    (a negative status, the rest read by sqlite); random pages never give a
+    row longer than the page or crash the process."""
+    if db3pages._C is None:
+        pytest.skip("the compiled page reader is not built (make ext)")
+    db = _write(tmp_path / "run", "db3")
+    con = bagdb3._connect(str(db))
+    with open(db, "rb") as f:
+        leaves, size, usable = db3pages._leaves(f.fileno(), con)
+        page = np.frombuffer(os.pread(f.fileno(), size, (int(leaves[0]) - 1) * size), dtype=np.uint8).copy()
+    want = np.ones(8, dtype=np.uint8)
+
+    def read(pg: np.ndarray) -> tuple[int, list[tuple[int, int, bytes]]]:
+        raw, cap = np.empty(size, dtype=np.uint8), size // 4
+        lens, times, ids = (np.zeros(cap, dtype=np.int64) for _ in range(3))
+        st, k, nb, _, _ = db3pages._C.leaf_rows(
+            pg, np.zeros(1, dtype=np.int64), size, usable, want, -(2**63), raw, lens, times, ids
+        )
+        assert 0 <= k <= cap and nb == lens[:k].sum() <= size and np.all(lens[:k] < size)
+        at = np.cumsum(lens[:k]) - lens[:k]
+        return st, [(int(ids[i]), int(times[i]), raw[at[i] : at[i] + lens[i]].tobytes()) for i in range(k)]
+
+    status, rows = read(page)
+    n = int(page[3]) << 8 | int(page[4])
+    assert (
+        status == 0
+        and rows == con.execute("SELECT id, timestamp, data FROM messages ORDER BY id LIMIT ?", (n,)).fetchall()
+    )
+    con.close()
+    bad = page.copy()
+    bad[0] = 10  # an index's leaf
+    assert read(bad)[0] == -1
+    bad = page.copy()
+    bad[8:10] = [0xFF, 0xFF]  # the first cell beyond the page
+    assert read(bad)[0] == -2
+    cell = int(page[8]) << 8 | int(page[9])
+    assert page[cell] >= 0x80 > page[cell + 1] and page[cell + 2] < 0x80  # size: 2 bytes, rowid: 1, then the record
+    assert list(page[cell + 3 : cell + 6]) == [6, 0, 9]  # a header of 6 bytes: id NULL, topic_id the constant 1
+    bad = page.copy()
+    bad[cell + 5] = 7  # topic_id a float
+    assert read(bad)[0] == -2
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        junk = rng.integers(0, 256, size, dtype=np.uint8)
+        junk[0], junk[3], junk[4] = 13, 0, rng.integers(1, 40)
+        assert read(junk)[0] in (0, -2, -3, -4, -5)
 
 
 def test_a_compressed_bag_is_read_by_rosbags(tmp_path: Path) -> None:
