@@ -282,6 +282,19 @@ def _same_figures(bag: dict, tsv: dict) -> float:
     return worst
 
 
+BAG_HOW = {
+    "bag_over_tsv_time": "bench/long.py: wall time of `imu-allan analyze BAG --json --quiet` (a ROS 2 sqlite3 bag "
+    "of sensor_msgs/Imu written by rosbags, the TSV's rows in rad/s and m/s^2) over that of `imu-allan analyze TSV "
+    "--fs 1000 --json --quiet` on the same rows, child processes, alternating bag and TSV; median of --bag-pairs, "
+    "min and max beside; bag_over_tsv_cpu: the same with user + system CPU seconds (GNU time), steadier under load",
+    "bag_over_tsv_memory": "the bag's analysis' peak resident set over the TSV's (GNU time %M, largest of the pairs)",
+    "bag_read_s_per_1e6": "the bag read alone (imports, every block decoded, no statistics), wall seconds per 1e6 "
+    "messages, median of the pairs; _cpu_: its CPU seconds",
+    "bag_curve_rel_diff": "largest relative departure, over every channel and tau, of the ratio of the bag's Allan "
+    "deviation curve to the TSV's from its value at the first tau (the bag holds the TSV's codes times a scale)",
+}
+
+
 def long_figures(rows: int, pairs: int, bag_rows: int, bag_pairs: int) -> dict:
     r = tsv_vs_allantools(rows, pairs) if rows else {}
     if bag_rows:
@@ -306,6 +319,8 @@ def main() -> int:
     out = Path(args.out)
     doc = json.loads(out.read_text()) if out.exists() else {}
     doc.update(res)
+    if "bag_rows" in res:
+        doc.setdefault("how", {}).update(BAG_HOW)
     out.write_text(json.dumps(doc, indent=2) + "\n")
     for k, v in res.items():
         if k != "long_n":

@@ -110,7 +110,8 @@ def batches(paths: list[str], topic: str, msgtype: str, times: bool, limit: Opti
             if not ids:
                 continue
             exact = con.execute("PRAGMA encoding").fetchone()[0] == "UTF-8"
-            for b in _file_batches(con, p, ids, times, exact):
+            pages = p if limit is None or limit > 4 * BATCH else ""  # a few: the walk to the leaves is not worth it
+            for b in _file_batches(con, pages, ids, times, exact):
                 if left is not None:
                     b = Batch(
                         b.raw[: int(b.lens[:left].sum())], b.lens[:left], None if b.times is None else b.times[:left]
@@ -216,7 +217,9 @@ def _along(
     id order: from the file's pages (db3pages.py), then, from where they
     stopped, from sqlite (``group_concat`` when ``exact``). Returns whether
     every row was given (else it stopped before a batch it could not read whole)."""
-    stop = yield from db3pages.along(path, con, ids, first)
+    stop: Optional[int] = first
+    if path:  # none: through sqlite only
+        stop = yield from db3pages.along(path, con, ids, first)
     if stop is None:
         return True
     if not exact:
