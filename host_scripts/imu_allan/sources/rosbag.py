@@ -421,7 +421,8 @@ def _decoded(
         for block in bag.open_raw(times, limit):
             vals, stamps, odd, keys = imumsg.decode(block.raw, block.lens, bag.ros1)
             start = np.cumsum(block.lens) - block.lens
-            for key in np.unique(keys[~odd]):
+            ok = keys[~odd]
+            for key in ok[:1] if len(ok) and np.all(ok == ok[0]) else np.unique(ok):  # one layout: the usual bag
                 if int(key) not in agreed:
                     i = int(np.flatnonzero((keys == key) & ~odd)[0])
                     agreed[int(key)] = _agrees(bag, _slice(block, start, i), vals[:, i], int(stamps[i]))
