@@ -236,11 +236,13 @@ def bag_vs_tsv(rows: int, pairs: int) -> dict:
     tsv, bag = generate(rows), bag_path(rows)
     analyze = [sys.executable, "-m", "imu_allan.cli", "analyze"]
     runs: dict[str, list[tuple[float, float, int, str]]] = {k: [] for k in ("bag", "tsv", "bag_read", "tsv_read")}
+    load = [os.getloadavg()[0]]  # the machine's load before and after: other work stretches the wall times
     for _ in range(pairs):
         runs["bag"].append(timed([*analyze, str(bag), "--json", "--quiet"]))
         runs["tsv"].append(timed([*analyze, str(tsv), "--fs", str(FS), "--json", "--quiet"]))
         runs["bag_read"].append(timed([sys.executable, "-c", READ_CHILD, str(bag)]))
         runs["tsv_read"].append(timed([sys.executable, "-c", READ_CHILD, str(tsv)]))
+    load.append(os.getloadavg()[0])
     doc_bag, doc_tsv = (json.loads(runs[k][-1][3]) for k in ("bag", "tsv"))
     wall = _spread([b[0] / t[0] for b, t in zip(runs["bag"], runs["tsv"])])
     cpu = _spread([b[1] / t[1] for b, t in zip(runs["bag"], runs["tsv"])])
@@ -264,6 +266,7 @@ def bag_vs_tsv(rows: int, pairs: int) -> dict:
         "bag_tsv_peak_mb": max(r[2] for r in runs["tsv"]),
         "bag_over_tsv_memory": round(max(r[2] for r in runs["bag"]) / max(r[2] for r in runs["tsv"]), 2),
         "bag_curve_rel_diff": _same_figures(doc_bag, doc_tsv),
+        "bag_load_avg": [round(v, 1) for v in load],
     }
 
 
