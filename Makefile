@@ -282,10 +282,10 @@ soak: firmware $(IMU_SIM) ## the link soak: 1,000 runs of random commands over a
 # Device, simulator and host side by side; writes bench/results.json.
 # Then the long recording (bench/long.py): 8 h at 1 kHz of TSV (generated once
 # into build/bench/) through `imu-allan analyze` beside allantools' oadev, and
-# a ROS 2 bag against the TSV of its length.  BENCH_QUICK=1: a sixteenth of
-# each; BENCH_ROWS=N, BENCH_BAG_ROWS=N (0: no bag) for other sizes.
+# a ROS 2 bag of the same 8 h against it (~10 GB, written once into build/bench/).
+# BENCH_QUICK=1: a sixteenth of each; BENCH_ROWS=N, BENCH_BAG_ROWS=N (0: no bag) for other sizes.
 BENCH_ROWS ?= $(if $(BENCH_QUICK),1800000,28800000)
-BENCH_BAG_ROWS ?= $(if $(BENCH_QUICK),225000,3600000)
+BENCH_BAG_ROWS ?= $(BENCH_ROWS)
 bench: firmware $(IMU_SIM) ext ## device, simulator and host figures side by side into bench/results.json
 	BUILD=$(CURDIR)/$(BUILD) $(PYTHON) bench/run.py $(BENCH_ARGS) $(if $(BENCH_QUICK),--quick)
 	$(MAKE) --no-print-directory bench-long

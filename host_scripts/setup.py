@@ -1,4 +1,5 @@
-"""Builds the optional compiled Allan kernels (imu_allan/stats/_ckernels.c, ck_*.c).
+"""Builds the optional compiled Allan kernels (imu_allan/stats/_ckernels.c, ck_*.c)
+and the ROS 2 sqlite3 bags' page reader (imu_allan/sources/_db3pages.c).
 
 Everything else about the package is in pyproject.toml.  The extension is
 optional: where no C compiler is available the install still succeeds and
@@ -24,6 +25,12 @@ setup(
             depends=["imu_allan/stats/ckernels.h"],
             extra_compile_args=ARGS,
             optional=True,
-        )
+        ),
+        Extension(  # a ROS 2 sqlite3 bag's rows from its pages (sources/db3pages.py)
+            "imu_allan.sources._db3pages",
+            ["imu_allan/sources/_db3pages.c"],
+            extra_compile_args=ARGS,
+            optional=True,
+        ),
     ]
 )

@@ -9,6 +9,7 @@ deserialised by rosbags, never guessed."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +24,7 @@ from rosbags.rosbag2 import Writer as Writer2  # noqa: E402
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
 from imu_allan.errors import InputError  # noqa: E402
-from imu_allan.sources import bagdb3, imumsg, rosbag  # noqa: E402
+from imu_allan.sources import bagdb3, db3pages, imumsg, rosbag  # noqa: E402
 from imu_allan.sources.detect import load  # noqa: E402
 
 IMU = "sensor_msgs/msg/Imu"
@@ -160,15 +161,37 @@ def test_bags_read_as_arrays_equal_rosbags_message_by_message(kind: str, tmp_pat
         assert np.array_equal(stamps, want_stamps)
 
 
-def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(tmp_path: Path, monkeypatch) -> None:
-    """Small batches, a range halved around a burst and a timestamp holding
-    more than a batch (paged) give the rows in rosbags' order, and the bag's
-    times when the stamps are zero."""
+WRITTEN_LATE = {
+    "in order": [],
+    "a row long before the rows around it": [(100, 450)],
+    "a row of the burst's stamp after it": [(350, 799)],
+    "the first row last": [(0, 799)],
+}
+"""Rows written out of time order, (row of the time, row it is written after):
+the table read along its ids stops before the batch that would let one of
+them pass, and the index gives the rest, in rosbags' order."""
+
+
+def _recorded(late: str) -> list[int]:
+    """Times (ns) of 800 rows, 200 of them on one stamp, as written: ``WRITTEN_LATE[late]``."""
+    ms = 1_000_000
+    recorded = [int(t) for t in np.r_[np.arange(300) * ms, np.full(200, 300 * ms), 300 * ms + np.arange(1, 301) * ms]]
+    for row, after in WRITTEN_LATE[late]:
+        recorded.insert(after, recorded.pop(row))
+    return recorded
+
+
+@pytest.mark.parametrize("pages", [True, False], ids=["pages", "sqlite"])
+@pytest.mark.parametrize("late", WRITTEN_LATE)
+def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(late: str, pages: bool, tmp_path: Path, monkeypatch) -> None:
+    """Small batches, a range halved around a burst, a timestamp holding more
+    than a batch (paged), rows written out of time order, read from the
+    file's pages a page at a time or through sqlite: the rows in rosbags'
+    order, and the bag's times when the stamps are zero."""
     ts = get_typestore(Stores.ROS2_HUMBLE)
     rng = np.random.default_rng(9)
     path = tmp_path / "burst"
-    ms = 1_000_000
-    recorded = np.r_[np.arange(300) * ms, np.full(200, 300 * ms), 300 * ms + np.arange(1, 301) * ms]
+    recorded = _recorded(late)
     with Writer2(path, version=9) as w:
         c = w.add_connection("/imu", IMU, typestore=ts)
         for i, t in enumerate(recorded):
@@ -176,7 +199,11 @@ def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(tmp_path: Path, monkey
     want_vals, _ = _rosbags_read(path, "/imu")
     with AnyReader([path]) as r:
         want_t = np.array([t for _, t, _ in r.messages()], dtype=np.int64)
+    assert np.array_equal(want_t, np.sort(recorded)) and np.array_equal(want_t, recorded) == (late == "in order")
     monkeypatch.setattr(bagdb3, "BATCH", 16)
+    monkeypatch.setattr(db3pages, "PIECE", 1)
+    if not pages:
+        monkeypatch.setattr(db3pages, "_C", None)
     for plan_in_order in (True, False):  # straight from the table, or through an ordered subquery
         monkeypatch.setattr(bagdb3, "_scans_in_order", lambda *_, keep=plan_in_order: keep)
         got = list(bagdb3.batches([str(path / "burst.db3")], "/imu", IMU, True))
@@ -187,6 +214,142 @@ def test_db3_batches_of_any_size_and_a_burst_on_one_stamp(tmp_path: Path, monkey
     s = load(str(path)).samples
     assert any("bag's times" in n for n in s.notes)
     assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), want_vals)
+
+
+def test_db3_rows_along_the_table_stop_where_the_order_breaks(tmp_path: Path, monkeypatch) -> None:
+    """The table read along its ids (through sqlite) gives batches up to the
+    last one that holds every row of its times (counted independently here),
+    then says where the index takes over; all along when the table is in time order."""
+    monkeypatch.setattr(db3pages, "_C", None)
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    rng = np.random.default_rng(3)
+    for late in WRITTEN_LATE:
+        path = tmp_path / late.replace(" ", "_")
+        recorded = _recorded(late)
+        with Writer2(path, version=9) as w:
+            c = w.add_connection("/imu", IMU, typestore=ts)
+            for i, t in enumerate(recorded):
+                w.write(c, int(t), ts.serialize_cdr(_msg(ts, rng, i, "imu", 0, 0), IMU))
+        con = bagdb3._connect(str(path / f"{path.name}.db3"))
+        old, bagdb3.BATCH = bagdb3.BATCH, 16
+        try:
+            gen, got = bagdb3._in_rowid_order(con, str(path / f"{path.name}.db3"), [1], True, True), []
+            while True:
+                try:
+                    got.append(next(gen).times)
+                except StopIteration as stop:
+                    where = stop.value
+                    break
+        finally:
+            bagdb3.BATCH = old
+            con.close()
+        given = np.concatenate(got) if got else np.zeros(0, dtype=np.int64)
+        # the longest run of whole batches of 16 rows (by id) sorted, each leaving no later row before its end
+        k = 0
+        while 16 * (k + 1) <= len(recorded):
+            nxt = recorded[: 16 * (k + 1)]
+            if np.any(np.diff(nxt) < 0) or min(recorded[16 * (k + 1) :] or [np.inf]) < nxt[-1]:
+                break
+            k += 1
+        if 16 * k >= len(recorded):
+            assert where is None and np.array_equal(given, recorded)
+        else:
+            assert np.array_equal(given, recorded[: 16 * k])
+            assert where == ((int(recorded[16 * k - 1]) if k else None), 16 * k + 1)
+
+
+def test_db3_pages_give_sqlite_rows_and_stop_before_a_row_that_spills(tmp_path: Path, monkeypatch) -> None:
+    """The leaf pages read by the compiled reader give the IMU topic's rows in
+    id order as sqlite gives them, another topic's rows that spill to
+    overflow pages skipped; they stop before an IMU message that spills (a
+    frame_id of 6000 bytes) and say where; the bag still reads as rosbags reads it."""
+    if db3pages._C is None:
+        pytest.skip("the compiled page reader is not built (make ext)")
+    monkeypatch.setattr(db3pages, "PIECE", 1)
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    rng = np.random.default_rng(5)
+    path = tmp_path / "spill"
+    with Writer2(path, version=9) as w:
+        imu = w.add_connection("/imu", IMU, typestore=ts)
+        log = w.add_connection("/log", "std_msgs/msg/String", typestore=ts)
+        for i in range(3000):
+            t = 10**9 + i * 1_000_000
+            frame = "f" * 6000 if i == 2500 else "imu"
+            w.write(imu, t, ts.serialize_cdr(_msg(ts, rng, i, frame, t // 10**9, t % 10**9), IMU))
+            if i % 100 == 0:
+                text = ts.types["std_msgs/msg/String"](data="x" * (5000 + i))
+                w.write(log, t + 1, ts.serialize_cdr(text, "std_msgs/msg/String"))
+    db = str(path / "spill.db3")
+    con = bagdb3._connect(db)
+    rows = con.execute("SELECT id, timestamp, data FROM messages WHERE topic_id = 1 ORDER BY id").fetchall()
+    spill = next(i for i, r in enumerate(rows) if len(r[2]) > 6000)
+    gen, got = db3pages.along(db, con, [1], 1), []
+    while True:
+        try:
+            got.append(next(gen))
+        except StopIteration as stop:
+            where = stop.value
+            break
+    con.close()
+    assert rows[spill - 20][0] < where <= rows[spill][0]  # stopped at the page holding it
+    given = [r for r in rows if r[0] < where]
+    assert b"".join(bytes(g.raw) for g in got) == b"".join(r[2] for r in given)
+    assert np.array_equal(np.concatenate([g.times for g in got]), [r[1] for r in given])
+    assert np.array_equal(np.concatenate([g.lens for g in got]), [len(r[2]) for r in given])
+    assert got[-1].after == where
+    want_vals, want_stamps = _rosbags_read(path, "/imu")
+    s = load(str(path), "/imu").samples
+    assert np.array_equal(np.concatenate(list(s.open_blocks()), axis=1), want_vals)
+
+
+def test_db3_page_reader_refuses_what_is_not_a_table_leaf_and_never_reads_past_a_page(tmp_path: Path) -> None:
+    """A real leaf page gives sqlite's rows; its type byte changed, a cell
+    pointer past the page, a record header claiming another column: refused
+    (a negative status, the rest read by sqlite); random pages never give a
+    row longer than the page or crash the process."""
+    if db3pages._C is None:
+        pytest.skip("the compiled page reader is not built (make ext)")
+    db = _write(tmp_path / "run", "db3")
+    con = bagdb3._connect(str(db))
+    with open(db, "rb") as f:
+        leaves, size, usable = db3pages._leaves(f.fileno(), con)
+        page = np.frombuffer(os.pread(f.fileno(), size, (int(leaves[0]) - 1) * size), dtype=np.uint8).copy()
+    want = np.ones(8, dtype=np.uint8)
+
+    def read(pg: np.ndarray) -> tuple[int, list[tuple[int, int, bytes]]]:
+        raw, cap = np.empty(size, dtype=np.uint8), size // 4
+        lens, times, ids = (np.zeros(cap, dtype=np.int64) for _ in range(3))
+        st, k, nb, _, _ = db3pages._C.leaf_rows(
+            pg, np.zeros(1, dtype=np.int64), size, usable, want, -(2**63), raw, lens, times, ids
+        )
+        assert 0 <= k <= cap and nb == lens[:k].sum() <= size and np.all(lens[:k] < size)
+        at = np.cumsum(lens[:k]) - lens[:k]
+        return st, [(int(ids[i]), int(times[i]), raw[at[i] : at[i] + lens[i]].tobytes()) for i in range(k)]
+
+    status, rows = read(page)
+    n = int(page[3]) << 8 | int(page[4])
+    assert (
+        status == 0
+        and rows == con.execute("SELECT id, timestamp, data FROM messages ORDER BY id LIMIT ?", (n,)).fetchall()
+    )
+    con.close()
+    bad = page.copy()
+    bad[0] = 10  # an index's leaf
+    assert read(bad)[0] == -1
+    bad = page.copy()
+    bad[8:10] = [0xFF, 0xFF]  # the first cell beyond the page
+    assert read(bad)[0] == -2
+    cell = int(page[8]) << 8 | int(page[9])
+    assert page[cell] >= 0x80 > page[cell + 1] and page[cell + 2] < 0x80  # size: 2 bytes, rowid: 1, then the record
+    assert list(page[cell + 3 : cell + 6]) == [6, 0, 9]  # a header of 6 bytes: id NULL, topic_id the constant 1
+    bad = page.copy()
+    bad[cell + 5] = 7  # topic_id a float
+    assert read(bad)[0] == -2
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        junk = rng.integers(0, 256, size, dtype=np.uint8)
+        junk[0], junk[3], junk[4] = 13, 0, rng.integers(1, 40)
+        assert read(junk)[0] in (0, -2, -3, -4, -5)
 
 
 def test_a_compressed_bag_is_read_by_rosbags(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ the sample rate and the gaps (timing.py), or, when a driver leaves them zero,
 the times the bag recorded the messages.
 
 Messages are never deserialised one by one in Python: their raw bytes come
-in bulk (a ROS 2 sqlite3 bag straight from sqlite, bagdb3.py; an MCAP and a
+in bulk (a ROS 2 sqlite3 bag from its file's pages or sqlite, bagdb3.py; an MCAP and a
 ROS 1 bag chunk by chunk, bagmcap.py and bagros1.py; anything else, such as a
 bag compressed as a whole, through rosbags' reader) and are decoded as
 arrays (imumsg.py). One message of each layout (length, byte order) is also
@@ -421,7 +421,8 @@ def _decoded(
         for block in bag.open_raw(times, limit):
             vals, stamps, odd, keys = imumsg.decode(block.raw, block.lens, bag.ros1)
             start = np.cumsum(block.lens) - block.lens
-            for key in np.unique(keys[~odd]):
+            ok = keys[~odd]
+            for key in ok[:1] if len(ok) and np.all(ok == ok[0]) else np.unique(ok):  # one layout: the usual bag
                 if int(key) not in agreed:
                     i = int(np.flatnonzero((keys == key) & ~odd)[0])
                     agreed[int(key)] = _agrees(bag, _slice(block, start, i), vals[:, i], int(stamps[i]))
