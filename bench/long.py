@@ -31,6 +31,7 @@ import json
 import math
 import os
 import re
+import statistics
 import subprocess
 import sys
 import time
@@ -236,19 +237,9 @@ BAG_SCALE = {"g": 0.017, "a": 0.038}
 
 
 def _spread(vals: list[float]) -> tuple[float, float, float]:
+    """(median, min, max); the median of an even count is the mean of its middle two."""
     v = sorted(vals)
-    return v[len(v) // 2], v[0], v[-1]
-
-
-def timed(cmd: list[str]) -> tuple[float, float, int, str]:
-    """Run ``cmd``: (wall seconds, CPU seconds (user + system), peak resident MB, stdout)."""
-    t0 = time.perf_counter()
-    p = subprocess.run(["/usr/bin/time", "-f", "%M %U %S", *cmd], capture_output=True, env=ENV, text=True)
-    wall = time.perf_counter() - t0
-    if p.returncode:
-        raise SystemExit(f"bench: {' '.join(cmd[:5])} failed: {p.stderr[-400:]}")
-    kb, user, sys_ = p.stderr.strip().splitlines()[-1].split()
-    return wall, float(user) + float(sys_), int(kb) // 1024, p.stdout
+    return statistics.median(v), v[0], v[-1]
 
 
 def bag_path(rows: int) -> Path:
@@ -277,10 +268,10 @@ def bag_vs_tsv(rows: int, pairs: int) -> dict:
     runs: dict[str, list[tuple[float, float, int, str]]] = {k: [] for k in ("bag", "tsv", "bag_read", "tsv_read")}
     load = [os.getloadavg()[0]]  # the machine's load before and after: other work stretches the wall times
     for _ in range(pairs):
-        runs["bag"].append(timed([*analyze, str(bag), "--json", "--quiet"]))
-        runs["tsv"].append(timed([*analyze, str(tsv), "--fs", str(FS), "--json", "--quiet"]))
-        runs["bag_read"].append(timed([sys.executable, "-c", READ_CHILD, str(bag)]))
-        runs["tsv_read"].append(timed([sys.executable, "-c", READ_CHILD, str(tsv)]))
+        runs["bag"].append(run_child([*analyze, str(bag), "--json", "--quiet"]))
+        runs["tsv"].append(run_child([*analyze, str(tsv), "--fs", str(FS), "--json", "--quiet"]))
+        runs["bag_read"].append(run_child([sys.executable, "-c", READ_CHILD, str(bag)]))
+        runs["tsv_read"].append(run_child([sys.executable, "-c", READ_CHILD, str(tsv)]))
     load.append(os.getloadavg()[0])
     doc_bag, doc_tsv = (json.loads(runs[k][-1][3]) for k in ("bag", "tsv"))
     wall = _spread([b[0] / t[0] for b, t in zip(runs["bag"], runs["tsv"])])
