@@ -93,10 +93,24 @@ def _basic_sum(J: float, M: float, S: float, F: float, alpha: int, d: int) -> fl
     first = float(_sz(np.array([0.0]), F, alpha, d)[0]) ** 2
     second = (1 - J / M) * float(_sz(np.array([J / S]), F, alpha, d)[0]) ** 2
     third = 0.0
+    if alpha == 2 and math.isfinite(F):
+        # white PM: sx is a triangle of half-width 1/F, so sz(t) is zero but within 1/F of
+        # t = 0..d; only those j (a few, where J reaches 2m ~ n at the longest taus) count
+        j = _near_integers(J, S, F, d)
+        return first + second + float(np.sum(2 * (1 - j / M) * _sz(j / S, F, alpha, d) ** 2))
     for a in range(1, J, SUM_CHUNK):  # in chunks: J reaches 2m (~n) for white PM at the longest taus
         j = np.arange(a, min(a + SUM_CHUNK, J), dtype=np.float64)
         third += float(np.sum(2 * (1 - j / M) * _sz(j / S, F, alpha, d) ** 2))
     return first + second + third
+
+
+def _near_integers(J: int, S: float, F: float, d: int) -> np.ndarray:
+    """The j in 1..J-1 with j / S within 1/F (and a step's margin) of one of 0..d."""
+    picks = set()
+    for k in range(d + 1):
+        lo, hi = math.floor(S * (k - 1.0 / F)) - 1, math.ceil(S * (k + 1.0 / F)) + 1
+        picks.update(range(max(lo, 1), min(hi, J - 1) + 1))
+    return np.array(sorted(picks), dtype=np.float64)
 
 
 SUM_CHUNK = 1 << 16
