@@ -248,25 +248,15 @@ ssz ck_diff_look(const double *x, ssz n, double prev, int has_prev, ssz pos, ssz
     return k;
 }
 
-/* The counts of rint(d / q) clipped to +-gmax, at index k + gmax; returns the
- * differences left out as not numbers (the caller's numpy pass then decides). */
-ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt)
+/* One pass of ck_diff_grid; inlined twice, so that codes (q == 1: d / 1 is d) pay no
+ * division per difference. */
+static inline ssz diff_grid_pass(const double *x, ssz n, double prev, int has_prev, double q, int gmax,
+                                 int64_t *cnt, int divide)
 {
     ssz bad = 0;
-    if (q == 1.0) { /* codes: d / 1 is d; the same counts without a division each */
-        for (ssz i = has_prev ? 0 : 1; i < n; i++) {
-            double r = rint(x[i] - (i ? x[i - 1] : prev));
-            if (r != r) {
-                bad++;
-                continue;
-            }
-            r = r < -gmax ? -gmax : r > gmax ? gmax : r;
-            cnt[(ssz)r + gmax]++;
-        }
-        return bad;
-    }
     for (ssz i = has_prev ? 0 : 1; i < n; i++) {
-        double r = rint((x[i] - (i ? x[i - 1] : prev)) / q);
+        double d = x[i] - (i ? x[i - 1] : prev);
+        double r = rint(divide ? d / q : d);
         if (r != r) {
             bad++;
             continue;
@@ -275,6 +265,14 @@ ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, in
         cnt[(ssz)r + gmax]++;
     }
     return bad;
+}
+
+/* The counts of rint(d / q) clipped to +-gmax, at index k + gmax; returns the
+ * differences left out as not numbers (the caller's numpy pass then decides). */
+ssz ck_diff_grid(const double *x, ssz n, double prev, int has_prev, double q, int gmax, int64_t *cnt)
+{
+    return q == 1.0 ? diff_grid_pass(x, n, prev, has_prev, 1.0, gmax, cnt, 0) :
+                      diff_grid_pass(x, n, prev, has_prev, q, gmax, cnt, 1);
 }
 
 /* ---- Welch's segments (psd.py) ------------------------------------------------- */
