@@ -24,7 +24,8 @@ from typing import Any, Optional
 
 import numpy as np
 from scipy import optimize
-from scipy import stats as sps
+
+from ..stats import dist
 
 LEVEL = 0.95
 TARGETS_PCT = (10, 25)
@@ -34,8 +35,8 @@ def halfwidth(nu: float, level: float = LEVEL) -> float:
     """Relative half-width of the ``level`` interval of a deviation estimated
     with ``nu`` degrees of freedom: (sqrt(nu/chi2_lo) - sqrt(nu/chi2_hi)) / 2."""
     a = 1.0 - level
-    hi = math.sqrt(nu / sps.chi2.ppf(a / 2, nu))
-    lo = math.sqrt(nu / sps.chi2.ppf(1 - a / 2, nu))
+    hi = math.sqrt(nu / dist.chi2_ppf(a / 2, nu))
+    lo = math.sqrt(nu / dist.chi2_ppf(1 - a / 2, nu))
     return (hi - lo) / 2
 
 

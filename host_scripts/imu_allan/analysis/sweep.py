@@ -39,10 +39,10 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
 import numpy as np
-from scipy import stats
 
 from ..channels import CHANNELS
 from ..errors import InputError
+from ..stats import dist
 
 STATE = "sweep.json"
 STATE_VERSION = 1
@@ -301,8 +301,8 @@ def power_law(fs: list[float], vals: list[dict[str, Any]]) -> Optional[dict[str,
         chi2 = float(np.sum(w * (y - X @ coef) ** 2))
         dof = n - 2
         red = chi2 / dof
-        p = float(stats.chi2.sf(chi2, dof))
-        q = stats.t.ppf(0.975, dof) if red > 1 else Z95
+        p = float(dist.chi2_sf(chi2, dof))
+        q = dist.t_ppf(0.975, dof) if red > 1 else Z95
         var_b = cov[1, 1] * max(red, 1.0)
         out.update({"chi2_dof": red, "p_value": p, "power_law_fits": p >= 0.01})
     else:

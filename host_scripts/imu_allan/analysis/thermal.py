@@ -40,11 +40,11 @@ import math
 from typing import Any, Optional
 
 import numpy as np
-from scipy import stats
 from scipy.linalg import solve_triangular
 
 from ..channels import CHANNELS
 from ..errors import InputError
+from ..stats import dist
 
 Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
@@ -148,7 +148,7 @@ def regress(temp: np.ndarray, bias: np.ndarray, S: Optional[np.ndarray] = None) 
     out["quadratic_test"] = {
         "chi2_gain": gain,
         "needed": need,
-        "p_value": float(stats.chi2.sf(gain / max(1.0, chi2 / dof2), 1)),
+        "p_value": float(dist.chi2_sf(gain / max(1.0, chi2 / dof2), 1)),
     }
     if gain >= need:
         out["quadratic"] = {"c1": iv(b2, cov2, 1), "c2": iv(b2, cov2, 2)}
@@ -463,7 +463,7 @@ def linear_slope(x: list[float], vals: list[Optional[dict[str, Any]]]) -> Option
     beta = cov @ (X.T @ (w * y))
     dof = len(pts) - 2
     red = float(np.sum(w * (y - X @ beta) ** 2)) / dof if dof > 0 else 0.0
-    q = stats.t.ppf(0.975, dof) if dof > 0 and red > 1 else Z95
+    q = dist.t_ppf(0.975, dof) if dof > 0 and red > 1 else Z95
     half = float(q * math.sqrt(cov[1, 1] * max(red, 1.0)))
     b = float(beta[1])
     rel = b / float(np.average(y, weights=w))

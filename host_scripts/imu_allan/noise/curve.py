@@ -25,8 +25,9 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
+from ..stats import dist
 from ..stats.edf import alpha_from_slope
 from .processes import AR1, LP, QN, RW, WN, Ramp, Sine
 from .terms import B_FACTOR, _nnls
@@ -273,7 +274,7 @@ EDF) stand; the intervals then depend on the record's length and the model only.
 
 def misfits(chi2: float, dof: int) -> bool:
     """chi2 beyond what chance gives a model that is the truth (FIT_LEVEL point)."""
-    return chi2 > float(stats.chi2.ppf(FIT_LEVEL, max(dof, 1)))
+    return chi2 > float(dist.chi2_ppf(FIT_LEVEL, max(dof, 1)))
 
 
 def set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> float:

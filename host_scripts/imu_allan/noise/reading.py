@@ -8,8 +8,8 @@ import math
 from typing import Any, Optional
 
 import numpy as np
-from scipy import stats
 
+from ..stats import dist
 from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
 from .terms import B_FACTOR, Term
 
@@ -20,7 +20,7 @@ def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total:
     est = math.sqrt(c)
     if sd > 0:
         nu = 2.0 * (c / sd) ** 2
-        q_hi, q_lo = float(stats.chi2.ppf(0.975, nu)), float(stats.chi2.ppf(0.025, nu))
+        q_hi, q_lo = float(dist.chi2_ppf(0.975, nu)), float(dist.chi2_ppf(0.025, nu))
         lo = math.sqrt(c * nu / q_hi) if q_hi > 0 else 0.0
         hi = math.sqrt(c * nu / q_lo) if q_lo > 0 else math.inf
     else:

@@ -23,8 +23,8 @@ from dataclasses import replace
 from typing import Callable
 
 import numpy as np
-from scipy import stats
 
+from ..stats import dist
 from .curve import MODEL_ERR, Structure, _Problem, bounds, columns, fit_structure, set_floor, settle
 from .reading import _unexplained
 from .terms import CHI2_1_95
@@ -96,7 +96,7 @@ def _shows_oscillation(p: _Problem, s: Structure, theta: np.ndarray) -> bool:
 
 
 def _test(gain: float, chi2_big: float, dof_big: int, params: int) -> bool:
-    q = CHI2_1_95 if params == 1 else float(stats.chi2.ppf(0.95, params))
+    q = CHI2_1_95 if params == 1 else float(dist.chi2_ppf(0.95, params))
     return gain >= q * max(1.0, chi2_big / max(dof_big, 1))
 
 

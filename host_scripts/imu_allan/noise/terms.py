@@ -49,7 +49,9 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import optimize, stats
+from scipy import optimize
+
+from ..stats import dist
 
 TERMS = ("Q", "N", "B", "K", "R")
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
@@ -504,7 +506,7 @@ def _interval(c: float, sd: float) -> tuple[float, float]:
     if sd <= 0:
         return math.sqrt(c), math.sqrt(c)
     nu = 2.0 * (c / sd) ** 2
-    q_hi, q_lo = float(stats.chi2.ppf(0.975, nu)), float(stats.chi2.ppf(0.025, nu))
+    q_hi, q_lo = float(dist.chi2_ppf(0.975, nu)), float(dist.chi2_ppf(0.025, nu))
     return (math.sqrt(c * nu / q_hi) if q_hi > 0 else 0.0), (math.sqrt(c * nu / q_lo) if q_lo > 0 else math.inf)
 
 

@@ -26,7 +26,9 @@ import math
 from typing import Optional
 
 import numpy as np
-from scipy import special, stats
+from scipy import special
+
+from . import dist
 
 J_MAX = 100
 ALPHA_OF_TERM = {"Q": 2, "N": 0, "B": -1, "K": -2, "R": -2}
@@ -211,8 +213,8 @@ def chi2_interval(
     e = np.asarray(edf, dtype=np.float64)
     lo_q = (1 - level) / 2
     with np.errstate(invalid="ignore", divide="ignore"):
-        low = e * v / stats.chi2.ppf(1 - lo_q, e)
-        high = e * v / stats.chi2.ppf(lo_q, e)
+        low = e * v / dist.chi2_ppf(1 - lo_q, e)
+        high = e * v / dist.chi2_ppf(lo_q, e)
     return low, high
 
 
