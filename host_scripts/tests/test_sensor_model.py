@@ -184,3 +184,19 @@ def test_gen_model_writes_the_model_rows(tmp_path):
         env=env,
     )
     assert p.returncode == 2 and "none.json" in p.stderr and len(p.stderr.splitlines()) == 1
+
+
+@pytest.mark.parametrize("order,fc", [(1, 5.0), (2, 40.0), (2, 240.0)])
+def test_the_band_limit_psd_is_the_filters_frequency_response(order, fc):
+    """LP's PSD, 2 N^2 |H|^2 / H(0)^2, with H evaluated without scipy.signal, against
+    scipy.signal.freqz of the same filter (one pole, or a two-pole Butterworth, at 1 kHz)."""
+    from scipy import signal
+
+    from imu_allan.noise.processes import LP, lowpass_filter
+
+    fs, lp = 1000.0, LP(N=0.3, fc=fc, order=order)
+    b, a = lowpass_filter(fc, fs, order)
+    f = np.linspace(0.0, fs / 2, 257)
+    _, h = signal.freqz(b, a, worN=f, fs=fs)
+    dc = np.sum(b) / np.sum(a)
+    assert lp.psd(f, fs) == pytest.approx(2 * 0.3**2 * np.abs(h) ** 2 / dc**2, rel=1e-9, abs=1e-15)

@@ -29,7 +29,6 @@ from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import signal
 
 from . import averaging
 
@@ -49,6 +48,21 @@ def _geo_sum(m: np.ndarray, p: complex | float) -> np.ndarray:
     with np.errstate(under="ignore"):
         pm = np.power(p, m)
     return p * (m * (1 - p) - (1 - pm)) / (1 - p) ** 2
+
+
+def _lfilter(*args, **kw):
+    """scipy.signal.lfilter, imported when a stream is simulated: the import costs
+    ~0.7 s of CPU (it brings scipy.stats), which ``analyze`` does not need."""
+    from scipy import signal
+
+    return signal.lfilter(*args, **kw)
+
+
+def _freq_response(b: np.ndarray, a: np.ndarray, f: np.ndarray, fs: float) -> np.ndarray:
+    """H(e^{j 2 pi f / fs}) of the digital filter b/a (scipy.signal.freqz's sum at
+    the given frequencies, without importing scipy.signal)."""
+    zm1 = np.exp(-2j * np.pi * np.asarray(f, dtype=np.float64) / fs)
+    return np.polynomial.polynomial.polyval(zm1, b) / np.polynomial.polynomial.polyval(zm1, a)
 
 
 def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -287,7 +301,7 @@ class LP(Process):
         if self.shape == "average":
             return self.N**2 * averaging.psd_from_autocov(f, fs, self._acov(fs))
         b, a, *_rest, dc = self._shape(fs)
-        _, h = signal.freqz(b, a, worN=_m(f), fs=fs)
+        h = _freq_response(b, a, _m(f), fs)
         return 2.0 * self.N**2 * np.abs(h) ** 2 / dc**2
 
     def variance(self, fs: float) -> float:
@@ -313,10 +327,10 @@ class _Filtered(_Stream):
         zi = np.zeros(max(a.size, b.size) - 1)
         pmax = float(np.max(np.abs(np.roots(a)))) if a.size > 1 else 0.0
         warm = int(min(max(50.0 / max(1e-12, -math.log(max(pmax, 1e-12))), 16, b.size), 1 << 20))
-        _, self.zi = signal.lfilter(b, a, s * rng.standard_normal(warm), zi=zi)
+        _, self.zi = _lfilter(b, a, s * rng.standard_normal(warm), zi=zi)
 
     def take(self, L: int) -> np.ndarray:
-        y, self.zi = signal.lfilter(self.b, self.a, self.s * self.rng.standard_normal(L), zi=self.zi)
+        y, self.zi = _lfilter(self.b, self.a, self.s * self.rng.standard_normal(L), zi=self.zi)
         return y
 
 
@@ -358,7 +372,7 @@ class _AR1(_Stream):
         self.state = phi * sigma * rng.standard_normal()  # lfilter's zi: phi * a stationary x_{-1}
 
     def take(self, L: int) -> np.ndarray:
-        y, zf = signal.lfilter([self.b], [1.0, -self.phi], self.rng.standard_normal(L), zi=[self.state])
+        y, zf = _lfilter([self.b], [1.0, -self.phi], self.rng.standard_normal(L), zi=[self.state])
         self.state = float(zf[0])
         return y
 
@@ -417,7 +431,7 @@ class _FlickerBank(_Stream):
             D, q_first, q_last = g["D"], start // g["D"], (start + length - 1) // g["D"]
             new = q_last - g["q"]
             if new > 0:
-                y, _ = signal.lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new), zi=[g["a"] * g["v"]])
+                y, _ = _lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new), zi=[g["a"] * g["v"]])
                 vals = np.concatenate(([g["v"]], y)) if q_first == g["q"] else y
                 g["q"], g["v"] = q_last, float(y[-1])
             else:
