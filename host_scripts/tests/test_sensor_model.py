@@ -192,7 +192,8 @@ def test_the_band_limit_psd_is_the_filters_frequency_response(order, fc):
     scipy.signal.freqz of the same filter (one pole, or a two-pole Butterworth, at 1 kHz)."""
     from scipy import signal
 
-    from imu_allan.noise.processes import LP, lowpass_filter
+    from imu_allan.noise.filters import lowpass_filter
+    from imu_allan.noise.processes import LP
 
     fs, lp = 1000.0, LP(N=0.3, fc=fc, order=order)
     b, a = lowpass_filter(fc, fs, order)

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import averaging
+from .filters import filter_autocov, freq_response, lfilter, lowpass_filter
 
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
 """AVAR of flicker rate noise per unit B^2 (IEEE 952: ADEV floor 0.664 B)."""
@@ -48,21 +49,6 @@ def _geo_sum(m: np.ndarray, p: complex | float) -> np.ndarray:
     with np.errstate(under="ignore"):
         pm = np.power(p, m)
     return p * (m * (1 - p) - (1 - pm)) / (1 - p) ** 2
-
-
-def _lfilter(*args, **kw):
-    """scipy.signal.lfilter, imported when a stream is simulated: the import costs
-    ~0.7 s of CPU (it brings scipy.stats), which ``analyze`` does not need."""
-    from scipy import signal
-
-    return signal.lfilter(*args, **kw)
-
-
-def _freq_response(b: np.ndarray, a: np.ndarray, f: np.ndarray, fs: float) -> np.ndarray:
-    """H(e^{j 2 pi f / fs}) of the digital filter b/a (scipy.signal.freqz's sum at
-    the given frequencies, without importing scipy.signal)."""
-    zm1 = np.exp(-2j * np.pi * np.asarray(f, dtype=np.float64) / fs)
-    return np.polynomial.polynomial.polyval(zm1, b) / np.polynomial.polynomial.polyval(zm1, a)
 
 
 def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -198,57 +184,6 @@ class _White(_Stream):
         return self.s * self.rng.standard_normal(L)
 
 
-def lowpass_filter(fc: float, fs: float, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """The discrete low-pass of the LP process: order 1 the sampled RC (a pole at
-    exp(-2 pi fc / fs), what an analog one-pole gives the samples); order 2 a
-    digital Butterworth (bilinear, as a sensor's DLPF; scipy.signal.butter's
-    coefficients).  fc at most 0.49 fs."""
-    fc = min(float(fc), 0.49 * fs)
-    if order == 1:
-        a1 = math.exp(-2.0 * math.pi * fc / fs)
-        return np.array([1.0 - a1]), np.array([1.0, -a1])
-    if order == 2:
-        k = math.tan(math.pi * fc / fs)
-        g = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
-        b0 = k * k * g
-        return (
-            np.array([b0, 2.0 * b0, b0]),
-            np.array([1.0, 2.0 * (k * k - 1.0) * g, (1.0 - math.sqrt(2.0) * k + k * k) * g]),
-        )
-    raise ValueError(f"low-pass order must be 1 or 2, got {order}")
-
-
-def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Autocovariance of unit white noise through b/a (len(b) <= len(a), distinct
-    poles): r(0) and (c, p) with r(k) = sum c_i p_i^k for k >= 1, by residues:
-    r(k) = sum_i Res_{p_i} H(z) H(1/z) z^(k-1), plus H(0) H(inf) at k = 0."""
-    na = a.size - 1
-    bp = np.concatenate((b, np.zeros(na + 1 - b.size)))  # numerator in powers of z, degree na
-    p = _poles(a)
-
-    def H(z: np.ndarray) -> np.ndarray:
-        return np.polyval(bp, z) / np.polyval(a, z)
-
-    c = np.empty(na, dtype=np.complex128)
-    for i in range(na):  # over the poles (one or two)
-        others = np.prod([p[i] - p[j] for j in range(na) if j != i]) if na > 1 else 1.0
-        c[i] = np.polyval(bp, p[i]) / others * H(1.0 / p[i]) / p[i]
-    h0 = bp[-1] / a[-1]  # H(0) (z -> 0 of the z-polynomial form)
-    r0 = float(np.real(h0 * bp[0] + np.sum(c)))
-    return r0, c, p
-
-
-def _poles(a: np.ndarray) -> np.ndarray:
-    """Roots of the denominator a (z-polynomial form): in closed form for one or two
-    poles (the fit asks for thousands of cutoffs; np.roots' eigenvalues cost most of it)."""
-    if a.size == 2:
-        return np.array([-a[1] / a[0]], dtype=np.complex128)
-    if a.size == 3:
-        q = np.sqrt(complex(a[1] * a[1] - 4.0 * a[0] * a[2]))
-        return np.array([(-a[1] + q) / (2.0 * a[0]), (-a[1] - q) / (2.0 * a[0])], dtype=np.complex128)
-    return np.roots(a).astype(np.complex128)
-
-
 @functools.lru_cache(maxsize=4096)
 def _lp_shape(fc: float, fs: float, order: int) -> tuple:
     b, a = lowpass_filter(fc, fs, order)
@@ -301,7 +236,7 @@ class LP(Process):
         if self.shape == "average":
             return self.N**2 * averaging.psd_from_autocov(f, fs, self._acov(fs))
         b, a, *_rest, dc = self._shape(fs)
-        h = _freq_response(b, a, _m(f), fs)
+        h = freq_response(b, a, _m(f), fs)
         return 2.0 * self.N**2 * np.abs(h) ** 2 / dc**2
 
     def variance(self, fs: float) -> float:
@@ -327,10 +262,10 @@ class _Filtered(_Stream):
         zi = np.zeros(max(a.size, b.size) - 1)
         pmax = float(np.max(np.abs(np.roots(a)))) if a.size > 1 else 0.0
         warm = int(min(max(50.0 / max(1e-12, -math.log(max(pmax, 1e-12))), 16, b.size), 1 << 20))
-        _, self.zi = _lfilter(b, a, s * rng.standard_normal(warm), zi=zi)
+        _, self.zi = lfilter(b, a, s * rng.standard_normal(warm), zi=zi)
 
     def take(self, L: int) -> np.ndarray:
-        y, self.zi = _lfilter(self.b, self.a, self.s * self.rng.standard_normal(L), zi=self.zi)
+        y, self.zi = lfilter(self.b, self.a, self.s * self.rng.standard_normal(L), zi=self.zi)
         return y
 
 
@@ -372,7 +307,7 @@ class _AR1(_Stream):
         self.state = phi * sigma * rng.standard_normal()  # lfilter's zi: phi * a stationary x_{-1}
 
     def take(self, L: int) -> np.ndarray:
-        y, zf = _lfilter([self.b], [1.0, -self.phi], self.rng.standard_normal(L), zi=[self.state])
+        y, zf = lfilter([self.b], [1.0, -self.phi], self.rng.standard_normal(L), zi=[self.state])
         self.state = float(zf[0])
         return y
 
@@ -431,7 +366,7 @@ class _FlickerBank(_Stream):
             D, q_first, q_last = g["D"], start // g["D"], (start + length - 1) // g["D"]
             new = q_last - g["q"]
             if new > 0:
-                y, _ = _lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new), zi=[g["a"] * g["v"]])
+                y, _ = lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new), zi=[g["a"] * g["v"]])
                 vals = np.concatenate(([g["v"]], y)) if q_first == g["q"] else y
                 g["q"], g["v"] = q_last, float(y[-1])
             else:
