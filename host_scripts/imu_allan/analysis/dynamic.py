@@ -355,6 +355,8 @@ class Verdict:
     tau_range_s: dict[str, Optional[tuple[float, float]]]
     """Taus at which windows after the warm-up depart (None: none)."""
     iterations: int = 0
+    transient: dict[str, Any] = field(default_factory=dict)
+    """Per channel: how the warm-up's end was found (transient.Transient, or None)."""
 
 
 def assess(ws: Windows, level: float = LEVEL) -> Verdict:
@@ -388,10 +390,13 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
             if not new.any() or np.array_equal(new, ref):
                 break
             ref = new
-    warm, stat, taus = {}, {}, {}
+    warm, stat, taus, fits = {}, {}, {}, {}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        excess = ws.var / ref_var - 1.0
     for c, ch in enumerate(ws.channels):
-        warm[ch], stat[ch], taus[ch] = _warmup(ws, departs[:, c], hit[:, c])
-    return Verdict(level, p, thr, hit, departs, ref_var, warm, stat, taus, iterations)
+        fits[ch] = _transient(ws, c, departs[:, c], excess[:, c], tested[:, c], hit[:, c])
+        warm[ch], stat[ch], taus[ch] = _warmup(ws, departs[:, c], hit[:, c], fits[ch])
+    return Verdict(level, p, thr, hit, departs, ref_var, warm, stat, taus, iterations, fits)
 
 
 def _test_window(
@@ -419,12 +424,9 @@ def _test_window(
     p[w, c] = out
 
 
-def _warmup(
-    ws: Windows, dep: np.ndarray, hits: np.ndarray
-) -> tuple[Optional[float], bool, Optional[tuple[float, float]]]:
-    """The leading stretch of departing windows (one calm window inside it
-    bridged): its end, in s; whether nothing departs after it; the taus at
-    which later windows depart."""
+def _stretch(dep: np.ndarray) -> int:
+    """The last window of the leading stretch of departing windows (one calm
+    window inside it bridged); -1 when the first window does not depart."""
     W = dep.size
     last = -1
     i = 0
@@ -436,10 +438,33 @@ def _warmup(
             i += 1
         else:
             break
+    return last
+
+
+def _transient(ws: Windows, c: int, dep: np.ndarray, excess: np.ndarray, tested: np.ndarray, hits: np.ndarray) -> Any:
+    """The warm-up's end fitted over the windows (transient.py), when a
+    stretch departs and windows follow it."""
+    from .transient import warmup_end
+
+    last = _stretch(dep)
+    if last < 0 or last + 1 >= dep.size:
+        return None
+    return warmup_end(ws.t0, ws.t1, excess, ws.edf[:, c], tested, hits, last, ws.overlap)
+
+
+def _warmup(
+    ws: Windows, dep: np.ndarray, hits: np.ndarray, fit: Any = None
+) -> tuple[Optional[float], bool, Optional[tuple[float, float]]]:
+    """The warm-up's end, in s: the transient's fitted end (``fit``), else
+    where the leading stretch of departing windows ends; whether nothing
+    departs after it; the taus at which later windows depart."""
+    W = dep.size
+    last = _stretch(dep)
     warm = None
     if last >= 0 and last + 1 < W:
-        warm = float(ws.t0[last + 1])
-    after = [w for w in range(last + 1, W) if dep[w] and ws.t0[w] >= (ws.t1[last] if last >= 0 else -1)]
+        warm = fit.end_s if fit is not None else float(ws.t0[last + 1])
+    start = max(ws.t1[last], warm or 0.0) if last >= 0 else -1
+    after = [w for w in range(last + 1, W) if dep[w] and ws.t0[w] >= start]
     if last == W - 1 and W:
         after = list(range(W))  # departs throughout: no settled part to compare with
     stationary = not after
