@@ -20,7 +20,8 @@ with the two EDFs (Greenhall's, ``stats/edf.py``) under the hypothesis that
 nothing changed; a window departs on a channel when any of its taus has a
 two-sided p-value below the Sidak level that keeps the whole channel's
 false-alarm rate at ``1 - level`` over all windows and taus tested.  The
-warm-up is the leading stretch of departing windows.
+warm-up is there when the leading windows depart; it ends where the transient
+fitted over them has settled (transient.py), not where they stop departing.
 """
 
 from __future__ import annotations

@@ -129,6 +129,6 @@ def warmup_end(
     else:
         p, e = float(POWERS[i_pow]), float(stops[j_pow])
         out = Transient(e * (1 - SETTLED ** (2 / p)), f"(1 - t/E)^{p:g}", None, e, stretch)
-    out.end_s = float(min(max(out.end_s, t0[last]), t0[-1]))
+    out.end_s = float(min(max(out.end_s, stretch), t0[-1]))  # never before the departing windows end
     out.stop_gain = c_open - min(c_cut, c_pow)
     return out
