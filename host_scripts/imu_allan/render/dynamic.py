@@ -153,9 +153,7 @@ def verdict_lines(doc: dict[str, Any]) -> list[str]:
         out.append(text)
         fit = (doc.get("warmup_fit") or {}).get(ch)
         if warm is not None and fit:  # the windows alone depart less long than a weak transient lasts
-            out.append(
-                f"    (windows alone depart to {fit['stretch_s']:.0f} s; fitted transient: {fit['shape']})"
-            )
+            out.append(f"    (windows alone depart to {fit['stretch_s']:.0f} s; fitted transient: {fit['shape']})")
     return out
 
 
