@@ -60,7 +60,7 @@ def verdicts() -> dict:
 
 def test_strong_and_weak_drifts_and_a_settling_noise_end_within_30_percent(verdicts) -> None:
     """Measured on seeds 0-39 of this generator: strong drift 40 of 40 within
-    30 % (-6..+3 %), weak 35 of 40 (-20..+62 %), settling noise 37 of 40
+    30 % (-6..+3 %), weak 34 of 40 (-79..+62 %), settling noise 37 of 40
     (-32..+13 %); the departing stretch alone ended the weak one at 225-450 s.
     Here: the strong one always, the others on all but at most 2 of 8."""
     errors: dict[str, list[float]] = {ch: [] for ch in CHANNELS[:3]}

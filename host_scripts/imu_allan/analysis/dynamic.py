@@ -444,11 +444,14 @@ def _stretch(dep: np.ndarray) -> int:
 
 def _transient(ws: Windows, c: int, dep: np.ndarray, excess: np.ndarray, tested: np.ndarray, hits: np.ndarray) -> Any:
     """The warm-up's end fitted over the windows (transient.py), when a
-    stretch departs and windows follow it."""
+    stretch departs, windows follow it and none departs in the record's later
+    half: a channel whose settled part departs is not one transient settling
+    (a sensor whose oscillations come and go), and its stretch's end stands."""
     from .transient import warmup_end
 
     last = _stretch(dep)
-    if last < 0 or last + 1 >= dep.size:
+    mid = 0.5 * (ws.t0.min() + ws.t1.max())
+    if last < 0 or last + 1 >= dep.size or (dep & (ws.t0 >= max(mid, ws.t1[last]))).any():
         return None
     return warmup_end(ws.t0, ws.t1, excess, ws.edf[:, c], tested, hits, last, ws.overlap)
 

@@ -102,8 +102,10 @@ def warmup_end(
 ) -> Optional[Transient]:
     """The end of the warm-up whose departing stretch is windows 0..``last``:
     ``x`` (W, K) each window's excess over its reference, ``edf`` its EDF,
-    ``tested`` the points tested, ``hits`` the points that departed.  None
-    when nothing is left to fit (the stretch's own end stands)."""
+    ``tested`` the points tested, ``hits`` the points that departed,
+    ``overlap`` the fraction of a window shared with the next.  None when
+    nothing is left to fit or the fitted transient would not have settled in
+    the record's first half (the stretch's own end stands)."""
     stretch = float(t0[last + 1])
     near = np.asarray(t0 < t1[last] + SPAN * (t1[last] - t0[0]))
     taus = np.asarray(hits[: last + 1].any(axis=0))
@@ -129,6 +131,8 @@ def warmup_end(
     else:
         p, e = float(POWERS[i_pow]), float(stops[j_pow])
         out = Transient(e * (1 - SETTLED ** (2 / p)), f"(1 - t/E)^{p:g}", None, e, stretch)
-    out.end_s = float(min(max(out.end_s, stretch), t0[-1]))  # never before the departing windows end
+    if out.end_s > 0.5 * (t0.min() + t1.max()):
+        return None  # not settled in the first half, the departure test's reference: no transient of this shape
+    out.end_s = max(out.end_s, stretch)  # never before the departing windows end
     out.stop_gain = c_open - min(c_cut, c_pow)
     return out
