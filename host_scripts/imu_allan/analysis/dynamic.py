@@ -20,7 +20,8 @@ with the two EDFs (Greenhall's, ``stats/edf.py``) under the hypothesis that
 nothing changed; a window departs on a channel when any of its taus has a
 two-sided p-value below the Sidak level that keeps the whole channel's
 false-alarm rate at ``1 - level`` over all windows and taus tested.  The
-warm-up is the leading stretch of departing windows.
+warm-up is there when the leading windows depart; it ends where the transient
+fitted over them has settled (transient.py), not where they stop departing.
 """
 
 from __future__ import annotations
@@ -368,6 +369,8 @@ class Verdict:
     tau_range_s: dict[str, Optional[tuple[float, float]]]
     """Taus at which windows after the warm-up depart (None: none)."""
     iterations: int = 0
+    transient: dict[str, Any] = field(default_factory=dict)
+    """Per channel: how the warm-up's end was found (transient.Transient, or None)."""
 
 
 def assess(ws: Windows, level: float = LEVEL) -> Verdict:
@@ -401,10 +404,13 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
             if not new.any() or np.array_equal(new, ref):
                 break
             ref = new
-    warm, stat, taus = {}, {}, {}
+    warm, stat, taus, fits = {}, {}, {}, {}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        excess = ws.var / ref_var - 1.0
     for c, ch in enumerate(ws.channels):
-        warm[ch], stat[ch], taus[ch] = _warmup(ws, departs[:, c], hit[:, c])
-    return Verdict(level, p, thr, hit, departs, ref_var, warm, stat, taus, iterations)
+        fits[ch] = _transient(ws, c, departs[:, c], excess[:, c], tested[:, c], hit[:, c])
+        warm[ch], stat[ch], taus[ch] = _warmup(ws, departs[:, c], hit[:, c], fits[ch])
+    return Verdict(level, p, thr, hit, departs, ref_var, warm, stat, taus, iterations, fits)
 
 
 def _test_window(
@@ -432,12 +438,9 @@ def _test_window(
     p[w, c] = out
 
 
-def _warmup(
-    ws: Windows, dep: np.ndarray, hits: np.ndarray
-) -> tuple[Optional[float], bool, Optional[tuple[float, float]]]:
-    """The leading stretch of departing windows (one calm window inside it
-    bridged): its end, in s; whether nothing departs after it; the taus at
-    which later windows depart."""
+def _stretch(dep: np.ndarray) -> int:
+    """The last window of the leading stretch of departing windows (one calm
+    window inside it bridged); -1 when the first window does not depart."""
     W = dep.size
     last = -1
     i = 0
@@ -449,10 +452,36 @@ def _warmup(
             i += 1
         else:
             break
+    return last
+
+
+def _transient(ws: Windows, c: int, dep: np.ndarray, excess: np.ndarray, tested: np.ndarray, hits: np.ndarray) -> Any:
+    """The warm-up's end fitted over the windows (transient.py), when a
+    stretch departs, windows follow it and none departs in the record's later
+    half: a channel whose settled part departs is not one transient settling
+    (a sensor whose oscillations come and go), and its stretch's end stands."""
+    from .transient import warmup_end
+
+    last = _stretch(dep)
+    mid = 0.5 * (ws.t0.min() + ws.t1.max())
+    if last < 0 or last + 1 >= dep.size or (dep & (ws.t0 >= max(mid, ws.t1[last]))).any():
+        return None
+    return warmup_end(ws.t0, ws.t1, excess, ws.edf[:, c], tested, hits, last, ws.overlap)
+
+
+def _warmup(
+    ws: Windows, dep: np.ndarray, hits: np.ndarray, fit: Any = None
+) -> tuple[Optional[float], bool, Optional[tuple[float, float]]]:
+    """The warm-up's end, in s: the transient's fitted end (``fit``), else
+    where the leading stretch of departing windows ends; whether nothing
+    departs after it; the taus at which later windows depart."""
+    W = dep.size
+    last = _stretch(dep)
     warm = None
     if last >= 0 and last + 1 < W:
-        warm = float(ws.t0[last + 1])
-    after = [w for w in range(last + 1, W) if dep[w] and ws.t0[w] >= (ws.t1[last] if last >= 0 else -1)]
+        warm = fit.end_s if fit is not None else float(ws.t0[last + 1])
+    start = max(ws.t1[last], warm or 0.0) if last >= 0 else -1
+    after = [w for w in range(last + 1, W) if dep[w] and ws.t0[w] >= start]
     if last == W - 1 and W:
         after = list(range(W))  # departs throughout: no settled part to compare with
     stationary = not after

@@ -32,9 +32,11 @@ def add_subcommands(sub: Any) -> dict[str, Callable[[argparse.Namespace], int]]:
             "Each window's deviation at each tau is tested against the pooled rest of the\n"
             "record (F test with Greenhall's degrees of freedom); a window 'departs' when\n"
             "some tau lies beyond its interval, at --level confidence per channel over all\n"
-            "windows and taus together. The warm-up is the leading stretch of departing\n"
-            "windows; departures after it make the channel non-stationary (with the taus\n"
-            "affected). Deviations are in the input's units (ADC counts for codes)."
+            "windows and taus together. A warm-up is there when the first windows depart;\n"
+            "it ends where the transient fitted over them is 95 % settled (a weak one\n"
+            "departs for less time than it lasts); departures after it make the channel\n"
+            "non-stationary (with the taus affected). Deviations are in the input's units\n"
+            "(ADC counts for codes)."
         ),
         epilog=(
             "examples:\n"

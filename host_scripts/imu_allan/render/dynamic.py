@@ -38,6 +38,7 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
         "whole": {"adev": {ch: _devs(ws.whole[c]) for c, ch in enumerate(ws.channels)}},
         "windows": windows,
         "warmup_s": dict(v.warmup_s),
+        "warmup_fit": {ch: _fit(v.transient.get(ch)) for ch in ws.channels},
         "stationary": {
             ch: {
                 "stationary": v.stationary[ch],
@@ -49,6 +50,15 @@ def build_doc(ws: Windows, v: Verdict, name: str, tool: str, notes: list[str]) -
         "temp_bins": bins,
         "notes": notes + list(ws.notes),
     }
+
+
+def _fit(f: Any) -> Optional[dict[str, Any]]:
+    """How a warm-up's end was found (analysis/transient.py): the fitted shape,
+    the amplitude's time constant, where it stops, where the departing windows
+    alone end."""
+    if f is None:
+        return None
+    return {"shape": f.shape, "decay_s": f.decay_s, "stop_s": f.stop_s, "stretch_s": f.stretch_s}
 
 
 def _window(ws: Windows, v: Verdict, w: int, taus: list[float]) -> dict[str, Any]:
@@ -141,6 +151,9 @@ def verdict_lines(doc: dict[str, Any]) -> list[str]:
             taus = f" at tau {tr[0]:.3g}-{tr[1]:.3g} s" if tr else ""
             text += f"; NOT stationary: {st['departing_windows']} of {doc['source']['windows']} windows depart{taus}"
         out.append(text)
+        fit = (doc.get("warmup_fit") or {}).get(ch)
+        if warm is not None and fit:  # the windows alone depart less long than a weak transient lasts
+            out.append(f"    (windows alone depart to {fit['stretch_s']:.0f} s; fitted transient: {fit['shape']})")
     return out
 
 
