@@ -33,11 +33,10 @@ from dataclasses import dataclass, field
 from typing import Any, Optional, Sequence
 
 import numpy as np
-from scipy import stats as sps
 
 from ..channels import CHANNELS
 from ..device.records import FLAG_RANGE, FLAG_SAT, DeviceReport, LRow
-from ..stats import allan, edf
+from ..stats import allan, dist, edf
 
 LEVEL = 0.95
 """Confidence of the departure test, per channel over the whole record (family-wise)."""
@@ -433,7 +432,7 @@ def _test_window(
     if sel.any():
         ratio = ws.var[w, c, sel] / pooled[sel]
         d1, d2 = ws.edf[w, c, sel], e_ref[sel]
-        lo, hi = sps.f.cdf(ratio, d1, d2), sps.f.sf(ratio, d1, d2)
+        lo, hi = dist.f_cdf(ratio, d1, d2), dist.f_sf(ratio, d1, d2)
         out[sel] = np.minimum(2.0 * np.minimum(lo, hi), 1.0)
     p[w, c] = out
 
