@@ -82,6 +82,7 @@ def test_analyze_reports_warm_up_and_record_times(tmp_path: Path) -> None:
     w = doc["warmup"]
     assert abs(w["warmup_s"]["gx"] - warm) <= 0.3 * warm and w["warmup_s"]["gy"] is None
     assert w["without_warmup"]["skip_s"] == w["warmup_s"]["gx"]
+    assert w["without_warmup"]["left_out_s"] == w["without_warmup"]["skip_s"]  # raw rows: cut where asked
     n_term = doc["channels"]["gy"]["terms"]["N"]
     assert n_term["record_s_for_10pct"] > 0 and n_term["record_s_for_25pct"] < n_term["record_s_for_10pct"]
     skipped = json.loads(run("--json", "--skip", "300").stdout)

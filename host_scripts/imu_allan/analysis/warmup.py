@@ -77,6 +77,14 @@ def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> t
     )
 
 
+def _left_out(src: Any, other: Any, asked_s: float) -> float:
+    """Seconds actually left out: a raw recording is cut at the sample asked, the
+    device's sums only at a report (the first one after it)."""
+    if src.samples is None and src.report is not None and other.report is not None:
+        return (src.report.header.n - other.report.header.n) / float(src.report.header.fs_hz)
+    return asked_s
+
+
 def warmup_section(
     doc: dict[str, Any],
     src: Any,
@@ -129,6 +137,7 @@ def warmup_section(
             without = rerun(other)
             out["without_warmup"] = {
                 "skip_s": cut,
+                "left_out_s": _left_out(src, other, cut),
                 "note": note,
                 "terms": {ch: c.get("terms") for ch, c in without["channels"].items()},
             }
@@ -161,7 +170,9 @@ def warmup_text(doc: dict[str, Any]) -> str:
         )
     wo = w.get("without_warmup")
     if wo and "terms" in wo:
-        lines.append(f"  terms without the first {wo['skip_s']:.0f} s:")
+        gone = wo.get("left_out_s", wo["skip_s"])
+        at = f" (the device's sums cut at its first report after {wo['skip_s']:.0f} s)" if gone != wo["skip_s"] else ""
+        lines.append(f"  terms without the first {gone:.0f} s{at}:")
         for ch, ts in wo["terms"].items():
             vals = [f"{k} {t['value']:.4g}" for k, t in (ts or {}).items() if t]
             with_ = [f"{k} {t['value']:.4g}" for k, t in (doc["channels"][ch].get("terms") or {}).items() if t]

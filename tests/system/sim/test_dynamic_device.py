@@ -132,6 +132,14 @@ def test_analyze_of_the_device_log_reports_the_warm_up_and_cuts_it_at_a_report(d
     w = doc["warmup"]
     assert w["from"] == "device reports" and abs(w["warmup_s"]["gx"] - WARM) <= 0.3 * WARM
     assert w["without_warmup"]["skip_s"] == max(v for v in w["warmup_s"].values() if v is not None)
+    # the device's sums are cut at the first report at or after the warm-up's end
+    first = next(
+        r
+        for r in runs(decode_bytes(log.read_bytes()).reports)[-1]
+        if r.header.n >= round(w["without_warmup"]["skip_s"] * FS)
+    )
+    left_out = first.header.n / FS
+    assert w["without_warmup"]["left_out_s"] == pytest.approx(left_out, abs=1.0 / FS)
     assert doc["channels"]["gy"]["terms"]["N"]["record_s_for_10pct"] is not None
     reports = runs(decode_bytes(log.read_bytes()).reports)[-1]
     cut = next(r for r in reports if r.header.n >= 200 * FS)
