@@ -46,10 +46,12 @@ def report_since(reports: list[DeviceReport], n_from: int) -> DeviceReport:
     return DeviceReport(last.seq, head, rows)
 
 
-def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> tuple[Any, str]:
-    """``src`` without its first ``skip_s`` seconds, and a note saying so."""
+def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> tuple[Any, str, float]:
+    """``src`` without its first ``skip_s`` seconds, a note saying so, and the seconds
+    left out: ``skip_s`` for rows, cut at the sample asked; for a device log the time
+    of its first report at or after it (its sums can only be cut at a report)."""
     if skip_s <= 0:
-        return src, ""
+        return src, "", 0.0
     if src.samples is not None:
         fs = src.samples.fs or (float(src.report.header.fs_hz) if src.report else None) or fs
         if fs is None:
@@ -62,7 +64,8 @@ def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> t
             open_temperature=(lambda: _skip_blocks(old_t(), k)) if old_t else None,
             n_hint=max(src.samples.n_hint - k, 0) if src.samples.n_hint else None,
         )
-        return (dataclasses.replace(src, samples=samples), f"the first {skip_s:g} s ({k} samples) left out (--skip)")
+        note = f"the first {skip_s:g} s ({k} samples) left out (--skip)"
+        return dataclasses.replace(src, samples=samples), note, skip_s
     from ..device.records import decode_bytes
 
     with open(path, "rb") as f:
@@ -74,15 +77,8 @@ def skipped(src: Any, path: str, skip_s: float, fs: Optional[float] = None) -> t
         dataclasses.replace(src, report=rep),
         f"the first {cut:g} s left out (--skip {skip_s:g}: the device's sums cut at the first "
         "report after it; its report minus that one)",
+        cut,
     )
-
-
-def _left_out(src: Any, other: Any, asked_s: float) -> float:
-    """Seconds actually left out: a raw recording is cut at the sample asked, the
-    device's sums only at a report (the first one after it)."""
-    if src.samples is None and src.report is not None and other.report is not None:
-        return (src.report.header.n - other.report.header.n) / float(src.report.header.fs_hz)
-    return asked_s
 
 
 def warmup_section(
@@ -133,11 +129,11 @@ def warmup_section(
     if warm:
         cut = max(warm)
         try:
-            other, note = skipped(src, path, cut, fs or doc["source"].get("fs_hz"))
+            other, note, left_out = skipped(src, path, cut, fs or doc["source"].get("fs_hz"))
             without = rerun(other)
             out["without_warmup"] = {
                 "skip_s": cut,
-                "left_out_s": _left_out(src, other, cut),
+                "left_out_s": left_out,
                 "note": note,
                 "terms": {ch: c.get("terms") for ch, c in without["channels"].items()},
             }

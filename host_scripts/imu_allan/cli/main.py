@@ -234,7 +234,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     check_options(src, args.fs, scales)
     from ..analysis.warmup import skipped, warmup_section
 
-    src, skip_note = skipped(src, args.file, args.skip or 0.0, args.fs)
+    src, skip_note, _ = skipped(src, args.file, args.skip or 0.0, args.fs)
     if skip_note:
         src.notes.append(skip_note)
     device = load_device_report(args.device) if args.device else None
