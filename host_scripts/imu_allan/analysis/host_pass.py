@@ -72,14 +72,19 @@ WORKERS = max(1, min(2, os.cpu_count() or 1))
 """Channels computed at once (the kernels and the FFTs release the GIL)."""
 
 
-def per_channel(store: Store, fn: Callable[[int], Any], label: str) -> list[Any]:
-    """fn(c) for every channel of ``store``, ``WORKERS`` at a time, in channel order."""
+def per_channel(store: Store, fn: Callable[[int], Any], label: Optional[str]) -> list[Any]:
+    """fn(c) for every channel of ``store``, ``WORKERS`` at a time, in channel order;
+    a progress line ``label`` (None: none, as in the background)."""
     C = store.channels
-    with Progress(label, C, unit=" channels") as bar, ThreadPoolExecutor(WORKERS) as pool:
+    with ThreadPoolExecutor(WORKERS) as pool:
+        results = pool.map(fn, range(C))
+        if label is None:
+            return list(results)
         out = []
-        for i, r in enumerate(pool.map(fn, range(C))):
-            out.append(r)
-            bar.update(i + 1)
+        with Progress(label, C, unit=" channels") as bar:
+            for i, r in enumerate(results):
+                out.append(r)
+                bar.update(i + 1)
     return out
 
 
@@ -112,11 +117,7 @@ def welch(store: Store, fs: float, label: Optional[str] = "PSD") -> tuple[np.nda
             w.push(b[None, :])
         return w.result()
 
-    if label is None:
-        with ThreadPoolExecutor(WORKERS) as pool:
-            parts = list(pool.map(one, range(store.channels)))
-    else:
-        parts = per_channel(store, one, label)
+    parts = per_channel(store, one, label)
     return parts[0][0], np.concatenate([p for _, p in parts], axis=0)
 
 
