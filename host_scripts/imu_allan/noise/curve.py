@@ -166,7 +166,8 @@ def alphas(t: np.ndarray, model: np.ndarray) -> np.ndarray:
 
 RES_TAUS = 5.0
 """A resonance's ADEV hump (a sinusoid's peak at 0.371 / f0) lies within this many shortest taus
-(three octaves), where the band limit lives: a slower oscillation is the sinusoid's."""
+(f0 at least 0.074 fs), where the band limit lives: a slower oscillation is the sinusoid's (whose
+range ends at 0.093 fs)."""
 RES_Q = (5.0, 200.0)
 """The resonance's quality factor Q = pi f0 T: a broader peak is a Gauss-Markov's or the band
 limit's shape, a narrower one a sinusoid to the octave taus."""

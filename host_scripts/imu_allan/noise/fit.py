@@ -316,7 +316,7 @@ def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, ter
 def _nonlinear_terms(
     p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, sd_th: np.ndarray, term
 ) -> dict[str, Term]:
-    """LP (fc, order), GM1, GM2 (tau_c) and SIN (f0), with log-normal intervals."""
+    """LP (fc, order), GM1, GM2 (tau_c), RES (f0, quality) and SIN (f0), with log-normal intervals."""
     names = s.names()
     out: dict[str, Term] = {}
     i_th = 0
@@ -368,8 +368,9 @@ def _res_term(s: Structure, theta: np.ndarray, c: np.ndarray, sd_th: np.ndarray,
     q_lo, q_hi = _lognormal(q, sd_th[i + 1])
     t.extra = {"f0_hz": f0, "f0_low": f_lo, "f0_high": f_hi, "quality": q, "quality_low": q_lo, "quality_high": q_hi}
     t.extra["tau_c"] = q / (math.pi * f0)
+    sd = math.sqrt(c[s.names().index("RES")])
     t.note = (t.note + "; " if t.note else "") + (
-        f"a resonance of {f0:.3g} Hz (quality {q:.3g}: a mode rung by the bench), sd {math.sqrt(c[-1 - s.sine]):.3g}; "
+        f"a resonance of {f0:.3g} Hz (quality {q:.3g}: a mode rung by the bench), sd {sd:.3g}; "
         "what it adds to the short taus is not white noise, N is read under it"
     )
     return t

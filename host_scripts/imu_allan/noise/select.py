@@ -237,7 +237,7 @@ def _try_res(
     A = columns(s2, th, p.m, p.fs)
     seen = bool(np.any(A[:, k] * c2[k] >= RES_SHARE * (A @ c2)))
     # resolved only where the rest of the model fits within chance: under a model error its
-    # bump and the band limit's bend trade (on real gyros and accelerometers it moved N by -7 to +4 %)
+    # bump and the band limit's bend trade (on real gyros and accelerometers it moved N by -7 to +3 %)
     if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and not misfits(chi2b, dof):
         return _stepwise(p, s2, th, keep=("N",))
     p.set_reference(saved)
