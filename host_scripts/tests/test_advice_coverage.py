@@ -165,7 +165,7 @@ def test_a_time_from_over_1_35_times_the_target_is_rough_and_staged() -> None:
     term["recheck_s_for_10pct"] = 3000.0 + 5400.0
     doc = {"source": {"duration_s": 3000.0}, "channels": {"gx": {"terms": {"K": term}}}}
     text = advice.analysis_text(doc)
-    assert "+-25 % after about 33 min more, +-10 % after about 7.5 h more (rough: ask again after 1.5 h more)" in text
+    assert "+-25 % after about 33 min more, +-10 % after about 7.5 h more (rough: ask again in 1.5 h)" in text
     assert "(rough): the term is over 1.35 times that target now" in text
     term["recheck_s_for_10pct"] = None  # no check to give: the mark alone
     assert "+-10 % after about 7.5 h more (rough);" not in advice.analysis_text(doc)

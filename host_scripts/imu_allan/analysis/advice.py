@@ -350,7 +350,7 @@ def analysis_text(doc: dict[str, Any]) -> str:
                     part += f", +-{tgt} % after about {fmt_time(t - duration)} more"
                     if pct > ROUGH_RATIO * tgt:
                         check = term.get(f"recheck_s_for_{tgt}pct")
-                        part += f" (rough: ask again after {fmt_time(check - duration)} more)" if check else " (rough)"
+                        part += f" (rough: ask again in {fmt_time(check - duration)})" if check else " (rough)"
                         rough = True
             parts.append(part)
         if parts:
