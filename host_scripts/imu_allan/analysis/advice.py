@@ -209,7 +209,10 @@ def add_to_analysis(doc: dict[str, Any], level: float = LEVEL, fits: Optional[di
     interval now), ``expected_pct`` (the interval the points' EDFs give under the fitted
     model, without its model error) and ``record_s_for_10pct``, ``record_s_for_25pct``:
     the recording time (s from the start) after which it would be +-10 % and +-25 %
-    (None: the fit's model error keeps it wider however long the record).
+    (None: the fit's model error keeps it wider however long the record), and
+    ``recheck_s_for_10pct``, ``recheck_s_for_25pct``: where that time is rough (the term
+    now over ROUGH_RATIO times the target), the check to record to and ask again at (None:
+    the time is firm, follow it).
 
     With the channels' ``fits`` (analyze's): from the fit's own least squares under
     the fitted model (``record_for_target``); for a term whose interval is mostly the
