@@ -194,6 +194,60 @@ def shown(p: _Problem, s: Structure, theta: np.ndarray, k: str) -> bool:
     return l0 - log_chi2(p, A @ c) >= CHI2_1_95
 
 
+def k_profile(p: _Problem, s: Structure, theta: np.ndarray) -> tuple[float, float]:
+    """95 % interval of K from the profile of chi2 on log AVAR: the K whose model (the other
+    terms refitted, each under the weights of the model at that K) costs no more than
+    CHI2_1_95 over the best (p's weights set back).  The other terms' trade with K (a B, a
+    GM beside it) is in it, and the last octaves' skew: the normal bound, c + 1.96 sd under
+    the weights of a model without K, is as tight as that model is low there, and under a
+    walk whose realization dips at the end it fell under the truth."""
+    from .terms import _nnls
+
+    s2 = replace(s, linear=tuple(x for x in LINEAR if x in s.linear or x == "K"))
+    j = s2.names().index("K")
+    A = columns(s2, theta, p.m, p.fs)
+    rest = np.delete(A, j, axis=1)
+    ref0 = p.ref.copy()
+
+    def cost(u: float) -> float:
+        mod = ref0
+        for _ in range(PROFILE_ROUNDS):
+            p.set_reference(mod)
+            co = _nnls(p.gls.white(rest), p.yw - p.gls.white(A[:, j]) * u)
+            mod = np.maximum(rest @ co + u * A[:, j], 1e-300)
+        p.set_reference(mod)
+        return log_chi2(p, mod)
+
+    # K's line alone touching the curve: the profile's grid spans 2^-8 .. 2^4 of it in K
+    grid = float(np.min(p.y / A[:, j])) * 2.0 ** np.arange(-16.0, 8.5, 1.0)
+    costs = np.array([cost(u) for u in grid])
+    zero = cost(0.0)
+    best = min(float(costs.min()), zero)
+    ok = np.flatnonzero(costs - best <= CHI2_1_95)
+    if ok.size == 0:
+        p.set_reference(ref0)
+        return 0.0, 0.0
+
+    def edge(inside: float, outside: float) -> float:
+        for _ in range(4):  # to 2^(1/32) in K^2
+            mid = math.sqrt(inside * outside) if outside > 0 else 0.5 * inside
+            if cost(mid) - best <= CHI2_1_95:
+                inside = mid
+            else:
+                outside = mid
+        return inside
+
+    i, k = int(ok[0]), int(ok[-1])
+    hi = edge(grid[k], grid[min(k + 1, grid.size - 1)])
+    lo = 0.0 if zero - best <= CHI2_1_95 else edge(grid[i], grid[i - 1] if i > 0 else 0.0)
+    p.set_reference(ref0)
+    return math.sqrt(lo), math.sqrt(hi)
+
+
+PROFILE_ROUNDS = 3
+"""Rounds of the weights for each K of the profile (its model as the reference)."""
+
+
 def _shows_oscillation(p: _Problem, s: Structure, theta: np.ndarray) -> bool:
     """A sinusoid is tried only where the curve shows an oscillation's hump: left
     unexplained by the first model, or by it without its Gauss-Markov processes (a GM
