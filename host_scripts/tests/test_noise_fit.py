@@ -105,19 +105,9 @@ def test_fit_recovers_lowpassed_white_noise_from_an_independent_generator(order,
     [
         (FS / 20, "none"),
         (FS / 4, "gm"),
-        pytest.param(
-            FS / 4,
-            "rrw",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason=(
-                    "known gap: on this stream K is fitted (0.85 of the truth) but not identifiable: the two "
-                    "RC poles are not a catalogue band limit, the short-tau misfit grants a model error, and "
-                    "the robust weights then count the walk's rise (its realization runs 3.5-4.5x above its K "
-                    "line over its four longest octaves) as points far off. N is right"
-                ),
-            ),
-        ),
+        # the walk's realization runs 3.5-4.5x above its K line over its four longest octaves,
+        # and the two RC poles (not a catalogue band limit) make the fit grant a model error
+        (FS / 4, "rrw"),
     ],
 )
 def test_fit_recovers_two_rc_poles_in_cascade(fc, extra) -> None:
@@ -131,8 +121,10 @@ def test_a_rate_random_walk_rising_at_the_records_end_is_read_as_K(order) -> Non
     record: the walk rules only the last four octaves, of few degrees of freedom, where a
     realization may run well above or below K's line and carries a trend of its own.  On
     eight streams the rise is never given to a ramp, a Gauss-Markov process or a sinusoid;
-    K's 95 % interval (or its bound) holds the truth on six or more (five of eight would be
-    below 95 % coverage beyond chance, p < 0.006) and K is within 35 % on five or more."""
+    K's 95 % interval (or its bound) holds the truth on seven or more (a 95 % interval does
+    so with probability 0.94; on the one stream missed here the curve runs at 0.46-0.67 of the
+    true one over
+    its last three octaves, where flicker is read) and K is within 35 % on five or more."""
     near, held, rivals = 0, 0, []
     for seed in range(8):
         fit = api.noise_terms(_independent(1 << 19, seed, order, FS / 4, "rrw"), FS)
@@ -143,7 +135,7 @@ def test_a_rate_random_walk_rising_at_the_records_end_is_read_as_K(order) -> Non
         if t["R"].value is not None or any(n.startswith(("GM", "SIN")) for n in t):
             rivals.append((seed, fit.fitted))
     assert not rivals
-    assert held >= 6, held
+    assert held >= 7, held
     assert near >= 5, near
 
 

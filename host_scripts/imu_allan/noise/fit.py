@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
 from .processes import LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
-from .select import LP_BEND, LP_FORMS, choose, k_profile, shown
+from .select import LP_BEND, LP_FORMS, choose, k_bound, shown
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
 
 Z95 = 1.959963984540054
@@ -313,14 +313,11 @@ def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, ter
             )
             out[k] = Term(k, None, None, None, None, 0.0, 0.0 if up is None else up, why)
     t = out["K"]
-    if t.upper > 0:  # K's interval or bound widened to its profile's on log AVAR
-        lo, up = k_profile(p, s, theta)
-        if t.value is None and up > t.upper:
+    if t.value is None and t.upper > 0:  # K's bound widened to its profile's on log AVAR
+        up = k_bound(p, s, theta)
+        if up > t.upper:
             t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {up:.3g}")
-        elif t.value is not None:
-            t.low = min(t.low, lo)
-            t.high = max(t.high, up)
-        t.upper = max(t.upper, up)
+            t.upper = up
     return out
 
 
