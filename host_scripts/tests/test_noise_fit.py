@@ -122,9 +122,9 @@ def test_a_rate_random_walk_rising_at_the_records_end_is_read_as_K(order) -> Non
     realization may run well above or below K's line and carries a trend of its own.  On
     eight streams the rise is never given to a ramp, a Gauss-Markov process or a sinusoid;
     K's 95 % interval (or its bound) holds the truth on seven or more (a 95 % interval does
-    so with probability 0.94; on the one stream missed here the curve runs at 0.46-0.67 of the
-    true one over
-    its last three octaves, where flicker is read) and K is within 35 % on five or more."""
+    so with probability 0.94; on the one stream missed here the curve runs at 0.46-0.67 of
+    the true one over its last three octaves, where flicker is read) and K is within 35 %
+    on five or more."""
     near, held, rivals = 0, 0, []
     for seed in range(8):
         fit = api.noise_terms(_independent(1 << 19, seed, order, FS / 4, "rrw"), FS)
