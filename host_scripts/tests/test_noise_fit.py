@@ -105,25 +105,38 @@ def test_fit_recovers_lowpassed_white_noise_from_an_independent_generator(order,
     [
         (FS / 20, "none"),
         (FS / 4, "gm"),
-        pytest.param(
-            FS / 4,
-            "rrw",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason=(
-                    "known gap: on this stream the rise at the last octaves is taken as a ramp R, not K "
-                    "(the walk's realization dips under K's line at 4-30 s and rises as tau^0.63 after; N "
-                    "is right). Not this seed's alone: K = 8e-4 crosses N's line at 22 s of a 524 s record, "
-                    "and on seeds 0-7 of this generator K comes out identifiable once (R twice), with one "
-                    "RC pole as with two; the rrw cases above pass on their seed"
-                ),
-            ),
-        ),
+        # the walk's realization runs 3.5-4.5x above its K line over its four longest octaves,
+        # and the two RC poles (not a catalogue band limit) make the fit grant a model error
+        (FS / 4, "rrw"),
     ],
 )
 def test_fit_recovers_two_rc_poles_in_cascade(fc, extra) -> None:
     x = _independent(1 << 19, 5, 3, fc, extra)
     _check(api.noise_terms(x, FS), extra)
+
+
+@pytest.mark.parametrize("order", (1, 2))
+def test_a_rate_random_walk_rising_at_the_records_end_is_read_as_K(order) -> None:
+    """IEEE 952 reads a +1/2 slope as K.  K = 8e-4 crosses N's line at 22 s of a 524 s
+    record: the walk rules only the last four octaves, of few degrees of freedom, where a
+    realization may run well above or below K's line and carries a trend of its own.  On
+    eight streams the rise is never given to a ramp, a Gauss-Markov process or a sinusoid;
+    K's 95 % interval (or its bound) holds the truth on seven or more (a 95 % interval does
+    so with probability 0.94; on the one stream missed here the curve runs at 0.46-0.67 of
+    the true one over its last three octaves, where flicker is read) and K is within 35 %
+    on five or more."""
+    near, held, rivals = 0, 0, []
+    for seed in range(8):
+        fit = api.noise_terms(_independent(1 << 19, seed, order, FS / 4, "rrw"), FS)
+        t = fit.terms
+        k = t["K"]
+        near += k.value is not None and abs(k.value / K_TRUE - 1) < 0.35
+        held += (k.low if k.value else 0.0) <= K_TRUE <= (k.high if k.value else k.upper)
+        if t["R"].value is not None or any(n.startswith(("GM", "SIN")) for n in t):
+            rivals.append((seed, fit.fitted))
+    assert not rivals
+    assert held >= 7, held
+    assert near >= 5, near
 
 
 @pytest.mark.parametrize("order,fc,extra", CASES[::2])

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
 from .processes import LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
-from .select import LP_BEND, LP_FORMS, choose
+from .select import LP_BEND, LP_FORMS, choose, k_bound, shown
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
 
 Z95 = 1.959963984540054
@@ -165,7 +165,7 @@ def _result(
     p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int, lin: tuple[str, ...] = LINEAR
 ) -> CurveFit:
     """The fit of structure s read as terms, intervals, notes (``size`` input points)."""
-    from .curve import misfits
+    from .curve import log_chi2, misfits
 
     c, chi2, A = p.solve(s, theta)
     dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
@@ -178,7 +178,8 @@ def _result(
             f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)"
         )
     chi2_red = chi2 / dof
-    inflate = max(1.0, chi2_red) if misfits(chi2, dof) else 1.0  # chi2/dof above 1 by chance: no widening
+    # chi2/dof above 1 by chance (judged on log AVAR too: curve.log_chi2): no widening
+    inflate = max(1.0, chi2_red) if misfits(chi2, dof) and misfits(log_chi2(p, A @ c), dof) else 1.0
     if chi2_red > 2.0 and inflate > 1.0:
         notes.append(
             f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
@@ -206,7 +207,10 @@ def _result(
 
     def term(name: str) -> Term:
         k = s.names().index(name)
-        return _linear_term(name, c[k], sd_c[k], comps.get(name), total, grid)
+        # K's coefficient may sit under 1.96 sd while the curve shows the walk plainly
+        # (select.shown): then its chi-squared shaped interval, not a bound
+        rise = name == "K" and 0 < c[k] < Z95 * sd_c[k] and shown(p, s, theta, "K")
+        return _linear_term(name, c[k], sd_c[k], comps.get(name), total, grid, shown=rise)
 
     res.terms = _ieee_terms(p, s, theta, c, term)
     res.terms.update(_nonlinear_terms(p, s, theta, c, sd_th, term))
@@ -310,6 +314,12 @@ def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, ter
                 else f"not in the data (the model does without it; at most {up:.3g})"
             )
             out[k] = Term(k, None, None, None, None, 0.0, 0.0 if up is None else up, why)
+    t = out["K"]
+    if t.value is None and t.upper > 0:  # K's bound widened to its profile's on log AVAR
+        up = k_bound(p, s, theta)
+        if up > t.upper:
+            t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {up:.3g}")
+            t.upper = up
     return out
 
 

@@ -17,7 +17,11 @@ from .terms import B_FACTOR, Term
 Z95 = 1.959963984540054
 
 
-def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total: np.ndarray, grid: np.ndarray) -> Term:
+def _linear_term(
+    k: str, c: float, sd: float, comp: Optional[np.ndarray], total: np.ndarray, grid: np.ndarray, shown: bool = False
+) -> Term:
+    """The term of coefficient c (sd sd): its value and chi-squared shaped 95 % interval, or,
+    when c < 1.96 sd and the selection has not ``shown`` it present, its upper bound only."""
     est = math.sqrt(c)
     if sd > 0:
         nu = 2.0 * (c / sd) ** 2
@@ -41,7 +45,7 @@ def _linear_term(k: str, c: float, sd: float, comp: Optional[np.ndarray], total:
                 f"nowhere the larger part of the curve (at most {share[i] * 100:.0f} %, at {grid[i]:.3g} s); "
                 "its range: where its share is at least half that"
             )
-    if c < Z95 * sd:
+    if c < Z95 * sd and not shown:
         # the chi-squared shape assumes an estimate well clear of 0; here, as for a term left
         # out (fit._upper), the bound is the normal one on the square
         hi = math.sqrt(c + Z95 * sd)

@@ -13,7 +13,10 @@ largest hump.  On a real sensor
 (chi2/dof above 1 at the first selection) the selection runs again with the
 model error in the weights and points far off the model given capped
 influence; the first structure, refitted under the same weights, stays when
-the information criterion prefers it.
+the information criterion prefers it.  Last, a rise at the curve's end taken by a
+ramp, a long Gauss-Markov process or a sinusoid is read as K unless they beat K on
+log AVAR by the 99.9 % point (_rise_as_k); the weights of the structure chosen are
+iterated to their fixed point (converge).
 """
 
 from __future__ import annotations
@@ -25,7 +28,21 @@ from typing import Callable
 import numpy as np
 
 from ..stats import dist
-from .curve import MODEL_ERR, Structure, _Problem, bounds, columns, fit_structure, misfits, set_floor, settle
+from .curve import (
+    LINEAR,
+    MODEL_ERR,
+    ROBUST_SHARE,
+    ROBUST_Z,
+    Structure,
+    _Problem,
+    bounds,
+    columns,
+    fit_structure,
+    log_chi2,
+    misfits,
+    set_floor,
+    settle,
+)
 from .reading import _unexplained
 from .terms import CHI2_1_95
 
@@ -77,8 +94,162 @@ def choose(
         c2, chi2_, _ = p.solve(s, theta)
         if chi1 + 2 * (np.sum(c1 > 0) + th1.size) < chi2_ + 2 * (np.sum(c2 > 0) + theta.size):
             p, s, theta = p1, s1, th1
-    settle(p, s, theta)  # the weights of the model chosen, not of the last candidate tried
+    if extended and "K" in lin:
+        s, theta = _rise_as_k(p, s, theta)
+    converge(p, s, theta)  # the weights of the model chosen, not of the last candidate tried
     return p, s, theta
+
+
+def converge(p: _Problem, s: Structure, theta: np.ndarray, rounds: int = 30, tol: float = 1e-3) -> None:
+    """The weights set to the model of s at theta, and the model refitted under them, until
+    the two agree (a fixed point; each reference the geometric mean of the last one and the
+    model: on the last octaves, where the weights scale with the model, an undamped round
+    can swing K from half its value to twice and to 0 in turn)."""
+    settle(p, s, theta)
+    for _ in range(rounds):
+        c, _, A = p.solve(s, theta)
+        mod = np.maximum(A @ c, 1e-300)
+        ref = np.sqrt(p.ref * mod)
+        step = float(np.max(np.abs(np.log(ref / p.ref))))
+        p.set_reference(ref)
+        if p.robust_on:
+            z = (p.y - mod) / p.gls.sd
+            far = np.abs(z) > ROBUST_Z
+            if np.mean(far) <= ROBUST_SHARE:
+                p.robust = np.maximum(1.0, (z / ROBUST_Z) ** 2)
+                p.set_reference(ref)
+        if step < tol:
+            break
+
+
+RISE_OCTAVES = 3.0
+"""A ramp, a Gauss-Markov process whose ADEV peaks (1.89 T) or a sinusoid whose ADEV peaks
+(0.371 / f0) within this many octaves of the last tau, or beyond, is a rival of K for the
+rise at the curve's end."""
+RISE_LEVEL = 0.999
+"""The rivals must beat K by this point of chi2 (degrees of freedom: their parameters beyond
+K's, at least one) on the log-AVAR scale."""
+
+
+def _rivals(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> tuple[bool, list[int], bool]:
+    """(R, the GMs, the sinusoid) of s that take the rise at the curve's end."""
+    names = s.names()
+    near = p.t[-1] * 2.0**-RISE_OCTAVES
+    r = "R" in s.linear and c[names.index("R")] > 0
+    i0 = 1 if s.lp else 0
+    gms = [j for j in range(s.ngm) if c[names.index(f"GM{j + 1}")] > 0 and 1.89 * math.exp(theta[i0 + j]) >= near]
+    sine = bool(s.sine) and c[names.index("SIN")] > 0 and 0.371 / math.exp(theta[-1]) >= near
+    return r, gms, sine
+
+
+def _rise_as_k(p: _Problem, s: Structure, theta: np.ndarray) -> tuple[Structure, np.ndarray]:
+    """A rise at the curve's end is read as K (IEEE 952: a +1/2 slope) unless a ramp, a long
+    Gauss-Markov process or a sinusoid beats K by the RISE_LEVEL point on the log-AVAR scale.
+
+    The last octaves hold a few degrees of freedom: their estimates are chi-squared with one
+    to five, skewed far from the normal the weights assume (a point 5 times its mean costs
+    a normal weight 4 times what the chi-squared gives it), and a finite record of a random
+    walk carries a trend of its own (the least-squares slope of a walk over T has variance
+    1.2 K^2 / T: its AVAR at T / 2 matches K's line), so a +1 or a bending rise there is
+    weak evidence against K.  Both structures are judged by log AVAR (Bartlett and Kendall
+    1946: log chi2_nu / nu has variance psi'(nu / 2), mean psi(nu / 2) - log(nu / 2)), each
+    under its own weights."""
+    c, _, _ = p.solve(s, theta)
+    r, gms, sine = _rivals(p, s, theta, c)
+    if not (r or gms or sine):
+        return s, theta
+    i0 = 1 if s.lp else 0
+    drop = [i0 + j for j in gms] + ([theta.size - 1] if sine else [])
+    lin = tuple(k for k in LINEAR if (k in s.linear and k != "R") or k == "K")
+    sk = replace(s, linear=lin, ngm=s.ngm - len(gms), sine=0 if sine else s.sine)
+    # from the curve's own weights: under the rivals' (their model dips or bends at the end)
+    # K's fit could stay at 0, each model's weights holding it there
+    p.set_reference(p.y)
+    thk = fit_structure(p, sk, np.delete(theta, drop), None)[0]
+    converge(p, sk, thk)
+    ck, _, A = p.solve(sk, thk)
+    if ck[sk.names().index("K")] <= 0:
+        return s, theta
+    lk = log_chi2(p, A @ ck)
+    converge(p, s, theta)
+    c, _, A = p.solve(s, theta)
+    ls = log_chi2(p, A @ c)
+    extra = max(1, int(np.sum(c > 0)) + theta.size - int(np.sum(ck > 0)) - thk.size)
+    if lk - ls >= float(dist.chi2_ppf(RISE_LEVEL, extra)):
+        return s, theta
+    return sk, thk
+
+
+def shown(p: _Problem, s: Structure, theta: np.ndarray, k: str) -> bool:
+    """The curve shows term k beyond doubt on log AVAR: the structure without it, under its
+    own weights, costs CHI2_1_95 more (p's weights set back to s).  A rate random walk read
+    off the last octaves has a coefficient whose sd, under weights that grow with the model,
+    can reach half its value while a curve twice N's line says plainly that it is there.
+    Judged with no point's influence capped: the model without k would have its evidence,
+    the points it leaves far off, counted at 3 sd."""
+    s0 = replace(s, linear=tuple(x for x in s.linear if x != k))
+    saved = p.robust, p.robust_on
+    p.robust, p.robust_on = np.ones(p.t.size), False
+    gain = 0.0
+    for sign, s1 in ((1.0, s0), (-1.0, s)):
+        p.set_reference(p.y)
+        converge(p, s1, theta)
+        c1, _, A1 = p.solve(s1, theta)
+        gain += sign * log_chi2(p, A1 @ c1)
+    p.robust, p.robust_on = saved
+    converge(p, s, theta)
+    return gain >= CHI2_1_95
+
+
+def k_bound(p: _Problem, s: Structure, theta: np.ndarray) -> float:
+    """95 % upper bound of K from the profile of chi2 on log AVAR: the largest K whose model
+    (the other terms refitted, each under the weights of the model at that K) costs no more
+    than CHI2_1_95 over the best (p's weights set back).  The other terms' trade with K (a
+    B beside it) is in it, and the last octaves' skew: the normal bound, c + 1.96 sd under
+    the weights of a model without K, is as tight as that model is low there, and under a
+    walk whose realization dips at the end it fell under the truth.  (On log AVAR a point of
+    nu degrees of freedom carries 1 / psi'(nu / 2) of information on its scale, less than the
+    nu / 2 of its chi-squared: a bound, conservative; an interval of an identified K from it
+    would be too wide, by a fifth on a 16000 s record.)"""
+    from .terms import _nnls
+
+    s2 = replace(s, linear=tuple(x for x in LINEAR if x in s.linear or x == "K"))
+    j = s2.names().index("K")
+    A = columns(s2, theta, p.m, p.fs)
+    rest = np.delete(A, j, axis=1)
+    ref0 = p.ref.copy()
+
+    def cost(u: float) -> float:
+        mod = ref0
+        for _ in range(PROFILE_ROUNDS):
+            p.set_reference(mod)
+            co = _nnls(p.gls.white(rest), p.yw - p.gls.white(A[:, j]) * u)
+            mod = np.maximum(rest @ co + u * A[:, j], 1e-300)
+        p.set_reference(mod)
+        return log_chi2(p, mod)
+
+    # K's line alone touching the curve: the profile's grid spans 2^-8 .. 2^4 of it in K
+    grid = float(np.min(p.y / A[:, j])) * 2.0 ** np.arange(-16.0, 8.5, 1.0)
+    costs = np.array([cost(u) for u in grid])
+    best = min(float(costs.min()), cost(0.0))
+    ok = np.flatnonzero(costs - best <= CHI2_1_95)
+    if ok.size == 0:
+        p.set_reference(ref0)
+        return 0.0
+    k = int(ok[-1])
+    lo, hi = grid[k], grid[min(k + 1, grid.size - 1)]
+    for _ in range(4):  # to 2^(1/32) in K^2
+        mid = math.sqrt(lo * hi)
+        if cost(mid) - best <= CHI2_1_95:
+            lo = mid
+        else:
+            hi = mid
+    p.set_reference(ref0)
+    return math.sqrt(lo)
+
+
+PROFILE_ROUNDS = 3
+"""Rounds of the weights for each K of the profile (its model as the reference)."""
 
 
 def _shows_oscillation(p: _Problem, s: Structure, theta: np.ndarray) -> bool:

@@ -25,6 +25,7 @@ import queue
 import threading
 from functools import lru_cache
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Callable, Iterator, NamedTuple, Optional
 
 import numpy as np
@@ -108,21 +109,8 @@ class RosbagsBackend(Backend):
     def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
         r = _reader(self.path, self.name)
         self._deser = lambda raw: r.deserialize(raw, IMU_TYPE)
-        raws: list[bytes] = []
-        stamps: list[int] = []
-        left = limit if limit is not None else -1
         try:
-            for _, t, raw in r.messages(connections=_conns(r, str(self.topic))):
-                raws.append(raw)
-                stamps.append(t)
-                left -= 1
-                if len(raws) == BLOCK_MESSAGES or left == 0:
-                    yield _raw(raws, stamps)
-                    raws, stamps = [], []
-                if left == 0:
-                    return
-            if raws:
-                yield _raw(raws, stamps)
+            yield from _first(_blocks(r.messages(connections=_conns(r, str(self.topic))), limit), limit)
         finally:
             r.close()
 
@@ -173,6 +161,21 @@ class McapBackend(RosbagsBackend):
             r.close()
 
 
+def _blocks(messages: Iterator[tuple[Any, int, bytes]], limit: Optional[int]) -> Iterator[Raw]:
+    """rosbags' (connection, time, bytes) messages as Raw blocks, no longer than ``limit`` needs."""
+    size = BLOCK_MESSAGES if limit is None else max(1, min(limit, BLOCK_MESSAGES))
+    raws: list[bytes] = []
+    stamps: list[int] = []
+    for _, t, raw in messages:
+        raws.append(raw)
+        stamps.append(t)
+        if len(raws) == size:
+            yield _raw(raws, stamps)
+            raws, stamps = [], []
+    if raws:
+        yield _raw(raws, stamps)
+
+
 def _first(chunks: Iterator[tuple[bytes, np.ndarray, np.ndarray]], limit: Optional[int]) -> Iterator[Raw]:
     """The chunks' messages as ``Raw`` blocks, the first ``limit`` of them (all: None)."""
     left = limit
@@ -183,6 +186,72 @@ def _first(chunks: Iterator[tuple[bytes, np.ndarray, np.ndarray]], limit: Option
         yield Raw(raw, lens, t)
         if left is not None and left <= 0:
             return
+
+
+class CarrierBackend(RosbagsBackend):
+    """A driver's own message that holds one sensor_msgs/Imu field (e.g. a
+    VectorNav driver's {header, imu, mag_field, ...}): every message is
+    deserialised by rosbags with the bag's own definitions, and the field is
+    read as the IMU message. Its stamps are the field's header's, or, where
+    those are not valid times (nanosec past a second), the message's own
+    header's."""
+
+    def __init__(self, path: str, name: str, msgtype: str, field: str) -> None:
+        super().__init__(path, name)
+        self.msgtype, self.field, self.outer_stamps = msgtype, field, False
+
+    def choose(self, topic: str) -> None:
+        r = _reader(self.path, self.name)
+        try:
+            conns = _conns(r, topic, self.msgtype)
+            self.topic, self.count, self.ros1 = topic, sum(c.msgcount for c in conns), _is_ros1(conns[0])
+            first = next(iter(r.messages(connections=conns)), None)
+            if first is not None:
+                m = r.deserialize(first[2], self.msgtype)
+                inner = getattr(m, self.field).header.stamp
+                self.outer_stamps = not _valid(inner) and _valid(getattr(getattr(m, "header", None), "stamp", None))
+        finally:
+            r.close()
+
+    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
+        r = _reader(self.path, self.name)
+        msgtype, field, outer = self.msgtype, self.field, self.outer_stamps
+        self._deser = lambda raw: _lift(r.deserialize(raw, msgtype), field, outer)
+        try:
+            yield from _first(_blocks(r.messages(connections=_conns(r, str(self.topic), msgtype)), limit), limit)
+        finally:
+            r.close()
+
+
+def _valid(stamp: Any) -> bool:
+    """A header stamp that is a time: nanoseconds within a second, not zero."""
+    return stamp is not None and 0 <= int(stamp.nanosec) < 1_000_000_000 and (stamp.sec, stamp.nanosec) != (0, 0)
+
+
+def _lift(m: Any, field: str, outer: bool) -> Any:
+    """The sensor_msgs/Imu field of a driver's message, stamped by the message's own header when ``outer``."""
+    inner = getattr(m, field)
+    if not outer:
+        return inner
+    return SimpleNamespace(
+        header=m.header, angular_velocity=inner.angular_velocity, linear_acceleration=inner.linear_acceleration
+    )
+
+
+def carriers(path: str, name: str) -> dict[str, tuple[str, str]]:
+    """Topics whose message type holds exactly one sensor_msgs/Imu field, read
+    from the bag's own definitions: topic -> (message type, field)."""
+    r = _reader(path, name)
+    try:
+        found = {}
+        for c in r.connections:
+            fields = r.typestore.fielddefs.get(c.msgtype, ((), []))[1] if c.msgtype != IMU_TYPE else []
+            imu = [f for f, (_, sub) in fields if sub == IMU_TYPE]
+            if len(imu) == 1:
+                found[c.topic] = (c.msgtype, imu[0])
+        return found
+    finally:
+        r.close()
 
 
 class Ros1Backend(Backend):
@@ -234,8 +303,8 @@ def _mcap_storages(reader: Any) -> list[Any]:
     return subs
 
 
-def _conns(reader: Any, topic: str) -> list[Any]:
-    return [c for c in reader.connections if c.topic == topic and c.msgtype == IMU_TYPE]
+def _conns(reader: Any, topic: str, msgtype: str = IMU_TYPE) -> list[Any]:
+    return [c for c in reader.connections if c.topic == topic and c.msgtype == msgtype]
 
 
 def _is_ros1(conn: Any) -> bool:
@@ -289,27 +358,34 @@ def _backend(path: str, name: str) -> Backend:
     return RosbagsBackend(path, name)
 
 
-def _pick(name: str, topics: list[tuple[str, str]], topic: Optional[str]) -> str:
-    imu = sorted({t for t, m in topics if m == IMU_TYPE})
-    if not imu:
-        seen = ", ".join(sorted({f"{t} ({m})" for t, m in topics})) or "none"
-        raise InputError(f"'{name}': no sensor_msgs/Imu topic in the bag (topics: {seen})")
+def _pick(path: str, name: str, bag: Backend, topic: Optional[str]) -> tuple[Backend, str]:
+    """The backend and topic to read: a sensor_msgs/Imu topic (``--topic``, or
+    the only one), else a topic whose own message type holds one."""
+    imu = sorted({t for t, m in bag.topics if m == IMU_TYPE})
     if topic is None and len(imu) > 1:
         raise InputError(f"'{name}': {len(imu)} IMU topics: choose one with --topic ({', '.join(imu)})")
-    chosen = topic if topic is not None else imu[0]
-    if chosen not in imu:
+    if imu and topic in (None, *imu):
+        return bag, topic if topic is not None else imu[0]
+    held = carriers(path, name)
+    if topic is None and len(held) > 1:
         raise InputError(
-            f"'{name}': --topic {chosen}: no sensor_msgs/Imu messages on it (IMU topics: {', '.join(imu)})"
+            f"'{name}': {len(held)} topics hold a sensor_msgs/Imu: choose one with --topic ({', '.join(sorted(held))})"
         )
-    return chosen
+    chosen = topic if topic is not None else next(iter(held), None)
+    if chosen in held:
+        return CarrierBackend(path, name, *held[chosen]), chosen
+    if topic is not None and (imu or held):
+        found = ", ".join(imu + sorted(held))
+        raise InputError(f"'{name}': --topic {topic}: no sensor_msgs/Imu messages on it (IMU topics: {found})")
+    seen = ", ".join(sorted({f"{t} ({m})" for t, m in bag.topics})) or "none"
+    raise InputError(f"'{name}': no sensor_msgs/Imu topic in the bag (topics: {seen})")
 
 
 def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     """The SampleSource of the IMU topic of the bag at ``path``."""
     from .source import SampleSource
 
-    bag = _backend(path, name)
-    chosen = _pick(name, bag.topics, topic)
+    bag, chosen = _pick(path, name, _backend(path, name), topic)
     try:
         bag.choose(chosen)
     except InputError:
@@ -336,11 +412,17 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     src.notes.append(check.note)
     if not use_stamps:
         src.notes.append(f"the header stamps of {chosen} do not increase (left zero?): the bag's times used")
+    held = f"{bag.msgtype}): its field {bag.field} (sensor_msgs/Imu" if isinstance(bag, CarrierBackend) else ""
     src.notes.append(
-        f"topic {chosen} (sensor_msgs/Imu): angular_velocity and linear_acceleration read in rad/s "
+        f"topic {chosen} ({held or 'sensor_msgs/Imu'}): angular_velocity and linear_acceleration read in rad/s "
         "and m/s^2 (the message's units); orientation and the three covariances not used"
+        + (f"; the rest of {bag.msgtype} not used" if held else "")
         + (f"; topics not read: {', '.join(others)}" if others else "")
     )
+    if isinstance(bag, CarrierBackend) and bag.outer_stamps:
+        src.notes.append(
+            f"the stamps of {bag.field}.header are not times (nanoseconds past a second): {chosen}'s own header used"
+        )
 
     def blocks() -> Iterator[np.ndarray]:
         check.start()
