@@ -119,7 +119,7 @@ def _why(
         lo, hi = t["tau_range_s"]
         if lo <= horizon:
             label = {"B": "bias instability B", "Q": "quantization Q", "R": "rate ramp R"}
-            what = label.get(name, "an oscillation" if name == "SIN" else f"Gauss-Markov {name}")
+            what = label.get(name, {"SIN": "an oscillation", "RES": "a resonance"}.get(name, f"Gauss-Markov {name}"))
             others.append(f"{what} ({lo:.3g}-{min(hi, horizon):.3g} s)")
     factors = " and ".join(f"{name} x{f:.3g}" if f is not None else f"{name} (not fitted)" for name, f in infl.items())
     cover = (

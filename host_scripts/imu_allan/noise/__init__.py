@@ -13,10 +13,14 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["AR1", "GM", "LP", "QN", "RW", "WN", "Flicker", "Model", "Process", "Ramp", "Sine"]
+__all__ = ["AR1", "GM", "LP", "QN", "RW", "WN", "Flicker", "Model", "Process", "Ramp", "Resonance", "Sine"]
 
 
 def __getattr__(name: str) -> Any:
+    if name == "Resonance":
+        from .resonance import Resonance
+
+        return Resonance
     if name in __all__:
         from . import processes
 

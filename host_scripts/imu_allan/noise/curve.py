@@ -30,6 +30,7 @@ from scipy import optimize
 from ..stats import dist
 from ..stats.edf import alpha_from_slope
 from .processes import AR1, LP, QN, RW, WN, Ramp, Sine
+from .resonance import Resonance
 from .terms import B_FACTOR, _nnls
 
 GM_T_MIN = 10.0
@@ -46,13 +47,20 @@ class Structure:
     lp: int = 0  # 0: white N; 1 or 2: N low-passed (order)
     ngm: int = 0
     sine: int = 0  # 1: a sinusoid (amplitude, frequency)
+    res: int = 0  # 1: a resonance (sd; frequency and quality, theta before the sinusoid's)
     shape: str = "pole"  # the low-pass: "pole" (RC, Butterworth) or "average" (box, Bartlett)
 
     def names(self) -> list[str]:
-        return list(self.linear) + [f"GM{j + 1}" for j in range(self.ngm)] + ["SIN"] * self.sine
+        gms = [f"GM{j + 1}" for j in range(self.ngm)]
+        return list(self.linear) + gms + ["RES"] * self.res + ["SIN"] * self.sine
 
     def nonlinear(self) -> list[str]:
-        return (["fc"] if self.lp else []) + [f"T{j + 1}" for j in range(self.ngm)] + ["f0"] * self.sine
+        gms = [f"T{j + 1}" for j in range(self.ngm)]
+        return (["fc"] if self.lp else []) + gms + ["f_res", "q_res"] * self.res + ["f0"] * self.sine
+
+    def res_at(self) -> int:
+        """Index in theta of the resonance's log frequency (its log quality next)."""
+        return (1 if self.lp else 0) + self.ngm
 
 
 def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.ndarray:
@@ -66,6 +74,8 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
     i = 1 if s.lp else 0
     for j in range(s.ngm):
         cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
+    if s.res:
+        cols.append(resonance(theta, s.res_at()).avar(m, fs))
     if s.sine:
         cols.append(Sine(1.0, math.exp(theta[-1])).avar(m, fs))
     return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
@@ -154,12 +164,30 @@ def alphas(t: np.ndarray, model: np.ndarray) -> np.ndarray:
     return out
 
 
+RES_TAUS = 5.0
+"""A resonance's ADEV hump (a sinusoid's peak at 0.371 / f0) lies within this many shortest taus
+(f0 at least 0.074 fs), where the band limit lives: a slower oscillation is the sinusoid's (whose
+range ends at 0.093 fs)."""
+RES_Q = (5.0, 200.0)
+"""The resonance's quality factor Q = pi f0 T: a broader peak is a Gauss-Markov's or the band
+limit's shape, a narrower one a sinusoid to the octave taus."""
+
+
+def resonance(theta: np.ndarray, i: int, sigma: float = 1.0) -> Resonance:
+    """The resonance of theta[i] (log f0) and theta[i + 1] (log Q)."""
+    f0 = math.exp(theta[i])
+    return Resonance(sigma, f0, math.exp(theta[i + 1]) / (math.pi * f0))
+
+
 def bounds(s: Structure, t: np.ndarray, fs: float) -> list[tuple[float, float]]:
     out = []
     if s.lp:
         out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(0.49 * fs)))
     for _ in range(s.ngm):  # a faster GM is white noise to these taus: N's, not a GM's
         out.append((math.log(t[0] * GM_T_MIN), math.log(t[-1] * 4.0)))
+    if s.res:  # a mode whose hump (a sinusoid's ADEV peak at 0.371 / f0) is on the first octaves
+        out.append((math.log(0.371 / (RES_TAUS * t[0])), math.log(0.49 * fs)))
+        out.append((math.log(RES_Q[0]), math.log(RES_Q[1])))
     if s.sine:  # its ADEV peaks at 0.371 / f0: inside the measured taus
         out.append((math.log(0.371 * 4 / t[-1]), math.log(min(0.371 / (4 * t[0]), 0.45 * fs))))
     return out

@@ -253,6 +253,8 @@ def _selection_variance(
             if (shape, order) != (s.shape, s.lp):
                 s2 = replace(s, lp=order, shape=shape)
                 alts.append((s2, _refit(p, s2, theta)))
+    if s.res:
+        alts.append((replace(s, res=0), np.delete(theta, [s.res_at(), s.res_at() + 1])))
     if s.ngm:  # the last GM (the newest: the one the selection judged last)
         i = (1 if s.lp else 0) + s.ngm - 1
         alts.append((replace(s, ngm=s.ngm - 1), np.delete(theta, i)))
@@ -324,7 +326,7 @@ def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, ter
 def _nonlinear_terms(
     p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, sd_th: np.ndarray, term
 ) -> dict[str, Term]:
-    """LP (fc, order), GM1, GM2 (tau_c) and SIN (f0), with log-normal intervals."""
+    """LP (fc, order), GM1, GM2 (tau_c), RES (f0, quality) and SIN (f0), with log-normal intervals."""
     names = s.names()
     out: dict[str, Term] = {}
     i_th = 0
@@ -354,6 +356,8 @@ def _nonlinear_terms(
                 f"acts as a rate random walk K = {k_eq:.3g}"
             )
         out[t.name] = t
+    if s.res and c[names.index("RES")] > 0:
+        out["RES"] = _res_term(s, theta, c, sd_th, term("RES"))
     if s.sine and c[names.index("SIN")] > 0:
         t = term("SIN")
         f0, sdf = math.exp(theta[-1]), sd_th[-1]
@@ -364,6 +368,22 @@ def _nonlinear_terms(
         )
         out["SIN"] = t
     return out
+
+
+def _res_term(s: Structure, theta: np.ndarray, c: np.ndarray, sd_th: np.ndarray, t: Term) -> Term:
+    """The resonance: sd (value), frequency and quality with log-normal intervals."""
+    i = s.res_at()
+    f0, q = math.exp(theta[i]), math.exp(theta[i + 1])
+    f_lo, f_hi = _lognormal(f0, sd_th[i])
+    q_lo, q_hi = _lognormal(q, sd_th[i + 1])
+    t.extra = {"f0_hz": f0, "f0_low": f_lo, "f0_high": f_hi, "quality": q, "quality_low": q_lo, "quality_high": q_hi}
+    t.extra["tau_c"] = q / (math.pi * f0)
+    sd = math.sqrt(c[s.names().index("RES")])
+    t.note = (t.note + "; " if t.note else "") + (
+        f"a resonance of {f0:.3g} Hz (quality {q:.3g}: a mode rung by the bench), sd {sd:.3g}; "
+        "what it adds to the short taus is not white noise, N is read under it"
+    )
+    return t
 
 
 LP_WORDS = {

@@ -51,6 +51,8 @@ def _extra_terms(c: dict[str, Any]) -> list[str]:
             )
         elif k == "SIN":
             out.append(f"SIN {num(t['value'])} {c['unit']} at {num(t['f0_hz'])} Hz")
+        elif k == "RES":
+            out.append(f"RES {num(t['value'])} {c['unit']} at {num(t['f0_hz'])} Hz, quality {num(t['quality'])}")
         elif k in lit:
             unit, f = lit[k]
             out.append(f"{k} {'quantization' if k == 'Q' else 'rate ramp'} {cell(t, f, None)} {unit}")

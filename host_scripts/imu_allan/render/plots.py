@@ -172,6 +172,8 @@ def term_words(c: dict[str, Any], k: str) -> tuple[str, str, str]:
         return "Gauss-Markov: sigma, correlation time = {v}", f"{num(t['value'])} {c['unit']}, {num(t['tau_c'])} s", ""
     if k == "SIN":
         return "oscillation at {v}", f"{num(t['f0_hz'])} Hz", ""
+    if k == "RES":
+        return "resonance at {v}", f"{num(t['f0_hz'])} Hz", ""
     return k, "", ""
 
 

@@ -429,6 +429,11 @@ def _process_lines(c: dict[str, Any]) -> list[str]:
                 f"  SIN oscillation       amplitude {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] "
                 f"{c['unit']} at {g(t['f0_hz'])} Hz"
             )
+        elif k == "RES":
+            out.append(
+                f"  RES resonance         sd {g(t['value'])} [{g(t['low'])}, {g(t['high'])}] {c['unit']} at "
+                f"{g(t['f0_hz'])} [{g(t['f0_low'])}, {g(t['f0_high'])}] Hz, quality {g(t['quality'])}"
+            )
         else:
             continue
         if c["term_notes"].get(k) and k != "LP":
