@@ -35,11 +35,22 @@ COLUMNS = [("id", 1), ("topic_id", 0), ("timestamp", 0), ("data", 0)]
 """The messages table's columns (name, part of the primary key) as rosbag2 makes them."""
 
 
+class Decoded(NamedTuple):
+    """The rows' messages decoded as sensor_msgs/Imu (imumsg.decode's results) by the compiled reader."""
+
+    vals: np.ndarray  # (6, k) ax ay az gx gy gz
+    stamps: np.ndarray  # (k,) header stamps, ns
+    odd: np.ndarray  # (k,) bool: not the standard layout (values meaningless)
+    keys: np.ndarray  # (k,) layout: 2 x length + 1 if big-endian
+    ids: np.ndarray  # (k,) rowids: sqlite gives a message's bytes when they are needed
+
+
 class Rows(NamedTuple):
-    raw: np.ndarray  # the rows' data end to end (uint8)
+    raw: np.ndarray  # the rows' data end to end (uint8); empty when ``imu``
     lens: np.ndarray  # (k,)
     times: np.ndarray  # (k,) the times the bag recorded them, ns
     after: int  # the first rowid past these rows
+    imu: Optional[Decoded] = None  # the messages decoded instead of copied
 
 
 def _leaves(fd: int, con: sqlite3.Connection) -> Optional[tuple[np.ndarray, int, int]]:
@@ -75,16 +86,22 @@ def _leaves(fd: int, con: sqlite3.Connection) -> Optional[tuple[np.ndarray, int,
     return None
 
 
-def along(path: str, con: sqlite3.Connection, ids: list[int], first: int) -> Generator[Rows, None, Optional[int]]:
+def along(
+    path: str, con: sqlite3.Connection, ids: list[int], first: int, imu: bool = False
+) -> Generator[Rows, None, Optional[int]]:
     """The rows of topics ``ids`` in rowid order (the least rowid: ``first``),
-    piece by piece (each at least one row), the next pieces read and decoded
-    by another thread meanwhile (the reads and the compiled reader let go of
-    the GIL). Returns None when every row was read, else the first rowid not
-    read (the rest for sqlite to read)."""
+    piece by piece (each at least one row), the next pieces read by another
+    thread meanwhile, each decoded by the compiled reader here (it lets go of
+    the GIL; the arrays it fills are made by the thread that keeps them, as
+    pieces kept from the reading thread's heap hold its memory after they are
+    freed); ``imu``: the messages decoded as CDR sensor_msgs/Imu
+    (``Rows.imu``), not copied. Returns None when every row was read, else
+    the first rowid not read (the rest for sqlite to read)."""
     if _C is None or os.path.exists(path + "-wal") and os.path.getsize(path + "-wal"):
         return first
     want = np.zeros(max(ids) + 1, dtype=np.uint8)
     want[ids] = 1
+    rows = _imu_rows if imu else _rows
     with open(path, "rb") as f, ThreadPoolExecutor(1) as pool:
         got = _leaves(f.fileno(), con)
         if got is None:
@@ -92,15 +109,12 @@ def along(path: str, con: sqlite3.Connection, ids: list[int], first: int) -> Gen
         leaves, size, usable = got
         last = first - 1  # the last rowid read
         todo = iter(range(0, len(leaves), PIECE))
-        ahead = deque(
-            pool.submit(_rows, f.fileno(), leaves[a : a + PIECE], size, usable, want) for a in islice(todo, AHEAD)
-        )
+        ahead = deque(pool.submit(_piece, f.fileno(), leaves[a : a + PIECE], size) for a in islice(todo, AHEAD))
         try:
             while ahead:
-                piece = ahead.popleft().result()
-                ahead.extend(
-                    pool.submit(_rows, f.fileno(), leaves[a : a + PIECE], size, usable, want) for a in islice(todo, 1)
-                )
+                buf, at = ahead.popleft().result()
+                ahead.extend(pool.submit(_piece, f.fileno(), leaves[a : a + PIECE], size) for a in islice(todo, 1))
+                piece = None if buf is None else rows(buf, at, size, usable, want)
                 if piece is None or piece[0] <= last:  # not read, or its rowids not after the last piece's
                     return last + 1
                 if len(piece[1].lens):
@@ -113,17 +127,14 @@ def along(path: str, con: sqlite3.Connection, ids: list[int], first: int) -> Gen
 
 
 AHEAD = 2
-"""Pieces read and decoded ahead by the reading thread."""
+"""Pieces read ahead by the reading thread."""
 LEAST = -(2**63)
 
 
-def _rows(fd: int, pages: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
-    """The first rowid of the leaf pages ``pages`` and the rows of the topics
-    ``want`` on them (``after``: the first rowid past the pages); None when
-    they are not read so."""
-    buf, at = _piece(fd, pages, size)
-    if buf is None:
-        return None
+def _rows(buf: np.ndarray, at: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
+    """The first rowid of the leaf pages at offsets ``at`` of ``buf`` and the
+    rows of the topics ``want`` on them (``after``: the first rowid past the
+    pages); None when they are not read so."""
     cells = int((buf[at + 3].astype(np.int64) << 8 | buf[at + 4]).sum())
     raw = np.empty(len(buf), dtype=np.uint8)
     lens, times, rowids = (np.empty(cells, dtype=np.int64) for _ in range(3))
@@ -133,10 +144,24 @@ def _rows(fd: int, pages: np.ndarray, size: int, usable: int, want: np.ndarray) 
     return lo, Rows(raw[:nbytes], lens[:k], times[:k], hi + 1)
 
 
+def _imu_rows(buf: np.ndarray, at: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
+    """``_rows``, each message decoded as sensor_msgs/Imu instead of copied (``Rows.imu``)."""
+    cells = int((buf[at + 3].astype(np.int64) << 8 | buf[at + 4]).sum())
+    lens, times, rowids, stamps, keys = (np.empty(cells, dtype=np.int64) for _ in range(5))
+    vals, odd = np.empty((6, cells)), np.empty(cells, dtype=np.uint8)
+    args = (lens, times, rowids, vals, stamps, keys, odd)
+    status, k, lo, hi = _C.leaf_imu(buf, at, size, usable, want, LEAST, *args)
+    if status < 0 or hi == LEAST:
+        return None
+    dec = Decoded(vals[:, :k], stamps[:k], odd[:k].view(bool), keys[:k], rowids[:k])
+    return lo, Rows(np.empty(0, dtype=np.uint8), lens[:k], times[:k], hi + 1, dec)
+
+
 def _piece(fd: int, pages: np.ndarray, size: int) -> tuple[Optional[np.ndarray], np.ndarray]:
     """The pages (numbers) read into one buffer, and each one's offset in it:
     one read of the whole span when they lie close together (they do when a
-    bag was written in one go), else one read a page."""
+    bag was written in one go), else one read a page. (Mapping the file
+    instead costs more CPU than the copy: its page tables, unmapping.)"""
     lo, hi = int(pages.min()), int(pages.max())
     if hi - lo + 1 <= 2 * len(pages):
         want = (hi - lo + 1) * size

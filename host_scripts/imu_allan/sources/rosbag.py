@@ -43,9 +43,11 @@ UNITS = {ch: ("rad/s" if ch[0] == "g" else "m/s^2") for ch in CHANNELS}
 
 
 class Raw(NamedTuple):
-    raw: bytes  # messages end to end
+    raw: bytes  # messages end to end (empty when ``imu``)
     lens: np.ndarray  # (k,)
     times: Optional[np.ndarray]  # (k,) the bag's times, ns (when asked)
+    imu: Any = None  # db3pages.Decoded: the messages decoded already (imumsg.decode's results)
+    fetch: Optional[Callable[[int], bytes]] = None  # with ``imu``: message i's bytes
 
 
 class Backend:
@@ -260,8 +262,8 @@ class Db3Backend(Backend):
         self.topic, self.count = topic, bagdb3.count(self.paths, topic, IMU_TYPE)
 
     def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
-        for b in bagdb3.batches(self.paths, self.topic, IMU_TYPE, times, limit):
-            yield Raw(b.raw, b.lens, b.times)
+        for b in bagdb3.batches(self.paths, self.topic, IMU_TYPE, times, limit, imu=True):
+            yield Raw(b.raw, b.lens, b.times, b.imu, b.fetch)
 
     def deserialize(self, raw: bytes) -> Any:
         return self._ts.deserialize_cdr(raw, IMU_TYPE)
@@ -419,7 +421,10 @@ def _decoded(
     done = 0
     try:
         for block in bag.open_raw(times, limit):
-            vals, stamps, odd, keys = imumsg.decode(block.raw, block.lens, bag.ros1)
+            if block.imu is not None:
+                vals, stamps, odd, keys = block.imu.vals, block.imu.stamps, block.imu.odd.copy(), block.imu.keys
+            else:
+                vals, stamps, odd, keys = imumsg.decode(block.raw, block.lens, bag.ros1)
             start = np.cumsum(block.lens) - block.lens
             ok = keys[~odd]
             for key in ok[:1] if len(ok) and np.all(ok == ok[0]) else np.unique(ok):  # one layout: the usual bag
@@ -440,6 +445,8 @@ def _decoded(
 
 
 def _slice(block: Raw, start: np.ndarray, i: int) -> bytes:
+    if block.fetch is not None:
+        return block.fetch(i)
     return bytes(block.raw[int(start[i]) : int(start[i] + block.lens[i])])
 
 
