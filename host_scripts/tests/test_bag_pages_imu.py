@@ -72,7 +72,7 @@ def test_page_decoder_gives_the_array_decoders_results_on_every_layout(tmp_path:
     db = str(path / "layouts.db3")
     con = bagdb3._connect(db)
     rows = con.execute("SELECT id, timestamp, data FROM messages WHERE topic_id = 1 ORDER BY id").fetchall()
-    gen, got = db3pages.along(db, con, [1], 1, imu=True), []
+    gen, got = db3pages.along(db, con, [1], 1, imu=True, join=100), []
     while True:
         try:
             got.append(next(gen))
@@ -81,6 +81,7 @@ def test_page_decoder_gives_the_array_decoders_results_on_every_layout(tmp_path:
             break
     con.close()
     assert len(got) > 10 and all(g.imu is not None and len(g.raw) == 0 for g in got)
+    assert all(100 <= len(g.lens) < 100 + 3 * 12 for g in got[:-1])  # 12 messages a page at most
     data = [r[2] for r in rows]
     vals, stamps, odd, keys = imumsg.decode(b"".join(data), [len(d) for d in data], False)
     cat = {f: np.concatenate([getattr(g.imu, f) for g in got], axis=-1) for f in db3pages.Decoded._fields}

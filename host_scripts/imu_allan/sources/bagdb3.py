@@ -259,7 +259,7 @@ def _along(
     before a batch it could not read whole)."""
     stop: Optional[int] = first
     if path:  # none: through sqlite only
-        stop = yield from db3pages.along(path, con, ids, first, imu)
+        stop = yield from db3pages.along(path, con, ids, first, imu, BATCH)
     if stop is None:
         return True
     if not exact:

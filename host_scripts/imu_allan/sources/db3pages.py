@@ -29,8 +29,9 @@ try:
 except ImportError:  # built by `make ext`; without it sqlite reads every row
     _C = None
 
-PIECE = 512
-"""Leaf pages read and decoded at a time (2 MB of 4 KB pages: ~6000 sensor_msgs/Imu)."""
+PIECE = 256
+"""Leaf pages read and decoded at a time (1 MB of 4 KB pages, ~3000 sensor_msgs/Imu: in a core's
+cache when the reader comes to them, where 2 MB pieces took about 1.4 times the CPU)."""
 COLUMNS = [("id", 1), ("topic_id", 0), ("timestamp", 0), ("data", 0)]
 """The messages table's columns (name, part of the primary key) as rosbag2 makes them."""
 
@@ -87,34 +88,55 @@ def _leaves(fd: int, con: sqlite3.Connection) -> Optional[tuple[np.ndarray, int,
 
 
 def along(
-    path: str, con: sqlite3.Connection, ids: list[int], first: int, imu: bool = False
+    path: str, con: sqlite3.Connection, ids: list[int], first: int, imu: bool = False, join: int = 1
 ) -> Generator[Rows, None, Optional[int]]:
     """The rows of topics ``ids`` in rowid order (the least rowid: ``first``),
-    piece by piece (each at least one row), the next pieces read by another
-    thread meanwhile, each decoded by the compiled reader here (it lets go of
-    the GIL; the arrays it fills are made by the thread that keeps them, as
-    pieces kept from the reading thread's heap hold its memory after they are
-    freed); ``imu``: the messages decoded as CDR sensor_msgs/Imu
-    (``Rows.imu``), not copied. Returns None when every row was read, else
-    the first rowid not read (the rest for sqlite to read)."""
+    in batches of pieces of ``PIECE`` pages joined until they hold ``join``
+    rows (the work per batch downstream, in Python, is then small), the next pieces read and decoded by other threads
+    meanwhile (the reads and the compiled reader let go of the GIL); ``imu``:
+    the messages decoded as CDR sensor_msgs/Imu (``Rows.imu``), not copied.
+    Returns None when every row was read, else the first rowid not read (the
+    rest for sqlite to read)."""
+    held: list[Rows] = []
+    pieces = _pieces(path, con, ids, first, imu)
+    while True:
+        try:
+            piece = next(pieces)
+        except StopIteration as stop:
+            if held:
+                yield _joined(held)
+            return stop.value
+        held.append(piece)
+        if sum(len(h.lens) for h in held) >= join:
+            yield _joined(held)
+            held = []
+
+
+def _pieces(
+    path: str, con: sqlite3.Connection, ids: list[int], first: int, imu: bool
+) -> Generator[Rows, None, Optional[int]]:
+    """``along``'s rows piece by piece (each at least one row)."""
     if _C is None or os.path.exists(path + "-wal") and os.path.getsize(path + "-wal"):
         return first
     want = np.zeros(max(ids) + 1, dtype=np.uint8)
     want[ids] = 1
     rows = _imu_rows if imu else _rows
-    with open(path, "rb") as f, ThreadPoolExecutor(1) as pool:
+    with open(path, "rb") as f, ThreadPoolExecutor(AHEAD) as pool:
         got = _leaves(f.fileno(), con)
         if got is None:
             return first
         leaves, size, usable = got
         last = first - 1  # the last rowid read
         todo = iter(range(0, len(leaves), PIECE))
-        ahead = deque(pool.submit(_piece, f.fileno(), leaves[a : a + PIECE], size) for a in islice(todo, AHEAD))
+        ahead = deque(
+            pool.submit(rows, f.fileno(), leaves[a : a + PIECE], size, usable, want) for a in islice(todo, AHEAD)
+        )
         try:
             while ahead:
-                buf, at = ahead.popleft().result()
-                ahead.extend(pool.submit(_piece, f.fileno(), leaves[a : a + PIECE], size) for a in islice(todo, 1))
-                piece = None if buf is None else rows(buf, at, size, usable, want)
+                piece = ahead.popleft().result()
+                ahead.extend(
+                    pool.submit(rows, f.fileno(), leaves[a : a + PIECE], size, usable, want) for a in islice(todo, 1)
+                )
                 if piece is None or piece[0] <= last:  # not read, or its rowids not after the last piece's
                     return last + 1
                 if len(piece[1].lens):
@@ -126,15 +148,33 @@ def along(
     return None
 
 
+def _joined(pieces: list[Rows]) -> Rows:
+    """The pieces as one batch, its arrays made by this thread: kept arrays
+    made by the reading threads would pin their heaps after the rest is freed
+    (a pass in memory took a third more)."""
+    if len(pieces) == 1:
+        return pieces[0]._replace(
+            imu=None if pieces[0].imu is None else pieces[0].imu._replace(vals=pieces[0].imu.vals.copy())
+        )
+    imu = None
+    if pieces[0].imu is not None:
+        imu = Decoded(*(np.concatenate([getattr(p.imu, f) for p in pieces], axis=-1) for f in Decoded._fields))
+    cat = [np.concatenate([getattr(p, f) for p in pieces]) for f in ("raw", "lens", "times")]
+    return Rows(cat[0], cat[1], cat[2], pieces[-1].after, imu)
+
+
 AHEAD = 2
-"""Pieces read ahead by the reading thread."""
+"""Pieces read and decoded ahead, each by a thread of its own."""
 LEAST = -(2**63)
 
 
-def _rows(buf: np.ndarray, at: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
-    """The first rowid of the leaf pages at offsets ``at`` of ``buf`` and the
-    rows of the topics ``want`` on them (``after``: the first rowid past the
-    pages); None when they are not read so."""
+def _rows(fd: int, pages: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
+    """The first rowid of the leaf pages ``pages`` and the rows of the topics
+    ``want`` on them (``after``: the first rowid past the pages); None when
+    they are not read so."""
+    buf, at = _piece(fd, pages, size)
+    if buf is None:
+        return None
     cells = int((buf[at + 3].astype(np.int64) << 8 | buf[at + 4]).sum())
     raw = np.empty(len(buf), dtype=np.uint8)
     lens, times, rowids = (np.empty(cells, dtype=np.int64) for _ in range(3))
@@ -144,8 +184,11 @@ def _rows(buf: np.ndarray, at: np.ndarray, size: int, usable: int, want: np.ndar
     return lo, Rows(raw[:nbytes], lens[:k], times[:k], hi + 1)
 
 
-def _imu_rows(buf: np.ndarray, at: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
+def _imu_rows(fd: int, pages: np.ndarray, size: int, usable: int, want: np.ndarray) -> Optional[tuple[int, Rows]]:
     """``_rows``, each message decoded as sensor_msgs/Imu instead of copied (``Rows.imu``)."""
+    buf, at = _piece(fd, pages, size)
+    if buf is None:
+        return None
     cells = int((buf[at + 3].astype(np.int64) << 8 | buf[at + 4]).sum())
     lens, times, rowids, stamps, keys = (np.empty(cells, dtype=np.int64) for _ in range(5))
     vals, odd = np.empty((6, cells)), np.empty(cells, dtype=np.uint8)
