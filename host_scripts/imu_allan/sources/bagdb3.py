@@ -10,7 +10,8 @@ gives them (the files in the order the metadata lists them, each by
 
 - along the table, by id, while that is the time order (a writer's usual
   table; each batch checked against the timestamp index before it is
-  given): from the file's leaf pages (db3pages.py, compiled), else through
+  given): from the file's leaf pages (db3pages.py, compiled; with ``imu``
+  each message decoded there as sensor_msgs/Imu, not copied), else through
   sqlite, each batch a single ``group_concat`` of the raw CDR bytes (exact:
   the database's text is UTF-8, so bytes pass unchanged, and the total
   length is checked) plus the messages' lengths when they differ;

@@ -12,7 +12,10 @@ Messages are never deserialised one by one in Python: their raw bytes come
 in bulk (a ROS 2 sqlite3 bag from its file's pages or sqlite, bagdb3.py; an MCAP and a
 ROS 1 bag chunk by chunk, bagmcap.py and bagros1.py; anything else, such as a
 bag compressed as a whole, through rosbags' reader) and are decoded as
-arrays (imumsg.py). One message of each layout (length, byte order) is also
+arrays (imumsg.py; a ROS 2 sqlite3 bag's pages are decoded so by the
+compiled page reader itself, db3pages.py, no message's bytes copied, and
+sqlite gives the bytes of the few messages checked or deserialised). One
+message of each layout (length, byte order) is also
 deserialised by rosbags, and a disagreement (a message definition not the
 standard one), like a message of no known layout, is deserialised by
 rosbags, message by message.
