@@ -11,6 +11,7 @@ or in memory, reports the numbers an analysis of the same samples saved as a
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -129,6 +130,13 @@ def test_a_bag_of_both_byte_orders_reads_from_its_pages_as_rosbags_reads_it(tmp_
     got = np.concatenate(list(load(str(path)).samples.open_blocks()), axis=1)
     assert np.array_equal(got, want_vals) and decoded
     assert 1 <= len(fetched) <= 12  # one message of each layout (length, byte order): no more
+    calls = len(decoded)  # a reader built before it decoded messages: their bytes, decoded by numpy
+    copied: list[int] = []
+    real = db3pages._C.leaf_rows
+    monkeypatch.setattr(db3pages, "_C", SimpleNamespace(leaf_rows=lambda *a: copied.append(1) or real(*a)))
+    assert np.array_equal(np.concatenate(list(load(str(path)).samples.open_blocks()), axis=1), want_vals)
+    assert len(decoded) == calls and copied  # still from the pages
+    monkeypatch.undo()
     backend = rosbag._backend(str(path), "orders")
     backend.choose("/imu")
     assert np.array_equal(np.concatenate([b[1] for b in rosbag._decoded(backend, "orders", False)]), want_stamps)

@@ -120,7 +120,7 @@ def _pieces(
         return first
     want = np.zeros(max(ids) + 1, dtype=np.uint8)
     want[ids] = 1
-    rows = _imu_rows if imu else _rows
+    rows = _imu_rows if imu and hasattr(_C, "leaf_imu") else _rows  # a reader built before leaf_imu: the bytes
     with open(path, "rb") as f, ThreadPoolExecutor(AHEAD) as pool:
         got = _leaves(f.fileno(), con)
         if got is None:
