@@ -64,7 +64,67 @@ typedef struct {
   int64_t rows;   /* every row */
   int64_t first;  /* the first rowid */
   int64_t last;   /* the last rowid */
+  /* leaf_imu: each wanted row's sensor_msgs/Imu fields instead of its bytes */
+  double *vals;           /* (6, vstride): ax ay az gx gy gz */
+  int64_t vstride;        /* doubles from one channel's row to the next */
+  int64_t *stamps, *keys; /* header stamp (ns); layout: 2 x length + 1 if big-endian */
+  uint8_t *odd;           /* 1: not the standard CDR layout, its values meaningless */
 } Out;
+
+/* CDR's layout (imumsg.py): a 4-byte encapsulation header, stamp sec int32 and
+ * nanosec uint32, frame_id (uint32 length counting its NUL, bytes), padding to
+ * 8, then 37 float64: angular_velocity at the 13th, linear_acceleration at the 25th. */
+enum { CDR_FIXED = 4 + 8 * 37, CDR_FLOOR = CDR_FIXED + 16, GYRO_AT = 13 * 8, ACC_AT = 25 * 8 };
+
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+#  define HOST_BIG 1
+#else
+#  define HOST_BIG 0
+#endif
+
+/* Unsigned 32 bits at p in the message's byte order (big: big-endian). */
+static uint32_t u32(const uint8_t *p, int big)
+{
+  uint32_t x;
+  memcpy(&x, p, sizeof x);
+  return big == HOST_BIG ? x : __builtin_bswap32(x);
+}
+
+static double f64(const uint8_t *p, int big)
+{
+  uint64_t x;
+  memcpy(&x, p, sizeof x);
+  if (big != HOST_BIG)
+    x = __builtin_bswap64(x);
+  double d;
+  memcpy(&d, &x, sizeof d);
+  return d;
+}
+
+/* One message m of len bytes as imumsg.decode reads it: the six values and
+ * the stamp of a message at least CDR_FLOOR long (zeros below), odd unless
+ * its encapsulation is plain CDR in its byte order and its frame_id's length
+ * gives its total length. */
+static void imu_row(const uint8_t *m, int64_t len, Out *o)
+{
+  int64_t k = o->k, s = o->vstride;
+  int big = len >= 4 && m[1] == 0, odd = 1;
+  o->keys[k] = len * 2 + big;
+  if (len < CDR_FLOOR) {
+    o->stamps[k] = 0;
+    for (int c = 0; c < 6; c++)
+      o->vals[c * s + k] = 0.0;
+  } else {
+    int64_t flen = u32(m + 12, big), base = len - 8 * 37;
+    odd = !((m[0] << 8 | m[1]) == (big ? 0 : 1) && flen >= 1 && (12 + flen + 7) / 8 * 8 == len - CDR_FIXED);
+    o->stamps[k] = (int64_t)(int32_t)u32(m + 4, big) * 1000000000 + u32(m + 8, big);
+    for (int c = 0; c < 3; c++) {
+      o->vals[c * s + k] = f64(m + base + ACC_AT + 8 * c, big);
+      o->vals[(c + 3) * s + k] = f64(m + base + GYRO_AT + 8 * c, big);
+    }
+  }
+  o->odd[k] = (uint8_t)odd;
+}
 
 /* One cell at c of a leaf page ending at end; usable: the page's usable size. */
 static int cell(const uint8_t *c, const uint8_t *end, int64_t usable, Out *o)
@@ -117,10 +177,14 @@ static int cell(const uint8_t *c, const uint8_t *end, int64_t usable, Out *o)
     return OVERFLOW;
   if (p + len != stop)
     return BAD_CELL;
-  if (o->k == o->cap || o->raw_len + len > o->raw_cap)
+  if (o->k == o->cap || (!o->vals && o->raw_len + len > o->raw_cap))
     return FULL;
-  memcpy(o->raw + o->raw_len, p, (size_t)len);
-  o->raw_len += len;
+  if (o->vals) {
+    imu_row(p, len, o);
+  } else {
+    memcpy(o->raw + o->raw_len, p, (size_t)len);
+    o->raw_len += len;
+  }
   o->lens[o->k] = len;
   o->times[o->k] = stamp;
   o->ids[o->k] = (int64_t)rowid;
@@ -150,6 +214,28 @@ static int leaf(const uint8_t *pg, int64_t page_size, int64_t usable, Out *o)
 
 #define ARR(b, T) ((T *)(b).buf)
 
+/* The leaf pages at offsets at (int64) in buf into o; the GIL let go meanwhile. */
+static int pages(Py_buffer *buf, Py_buffer *at, Py_ssize_t page_size, Py_ssize_t usable, Out *o)
+{
+  int status = 0;
+  Py_ssize_t npage = at->len / 8;
+  Py_BEGIN_ALLOW_THREADS;
+  for (Py_ssize_t done = 0; done < npage && status == 0; done++) {
+    int64_t off = ARR(*at, int64_t)[done];
+    if (off < 0 || off + page_size > buf->len || usable > page_size || usable < 480)
+      status = BAD_PAGE;
+    else
+      status = leaf((const uint8_t *)buf->buf + off, page_size, usable, o);
+  }
+  Py_END_ALLOW_THREADS;
+  return status;
+}
+
+static Py_ssize_t least(Py_ssize_t a, Py_ssize_t b)
+{
+  return a < b ? a : b;
+}
+
 static PyObject *leaf_rows(PyObject *self, PyObject *args)
 {
   Py_buffer buf, at, want, raw, lens, times, ids;
@@ -159,29 +245,38 @@ static PyObject *leaf_rows(PyObject *self, PyObject *args)
   if (!PyArg_ParseTuple(args, "y*y*nny*Lw*w*w*w*", &buf, &at, &page_size, &usable, &want, &last, &raw, &lens,
                         &times, &ids))
     return NULL;
-  Out o = {
-      want.buf, want.len, raw.buf, raw.len, 0,   ARR(lens, int64_t), ARR(times, int64_t), ARR(ids, int64_t),
-      0,        0,        0,       0,       last};
-  o.cap = lens.len / 8;
-  if (times.len / 8 < o.cap)
-    o.cap = times.len / 8;
-  if (ids.len / 8 < o.cap)
-    o.cap = ids.len / 8;
-  int status = 0;
-  Py_ssize_t npage = at.len / 8, done = 0;
-  Py_BEGIN_ALLOW_THREADS;
-  for (; done < npage && status == 0; done++) {
-    int64_t off = ARR(at, int64_t)[done];
-    if (off < 0 || off + page_size > buf.len || usable > page_size || usable < 480)
-      status = BAD_PAGE;
-    else
-      status = leaf((const uint8_t *)buf.buf + off, page_size, usable, &o);
-  }
-  Py_END_ALLOW_THREADS;
+  Out o = {0};
+  o.want = want.buf, o.nwant = want.len, o.raw = raw.buf, o.raw_cap = raw.len, o.last = last;
+  o.lens = ARR(lens, int64_t), o.times = ARR(times, int64_t), o.ids = ARR(ids, int64_t);
+  o.cap = least(least(lens.len, times.len), ids.len) / 8;
+  int status = pages(&buf, &at, page_size, usable, &o);
   PyBuffer_Release(&buf), PyBuffer_Release(&at), PyBuffer_Release(&want), PyBuffer_Release(&raw);
   PyBuffer_Release(&lens), PyBuffer_Release(&times), PyBuffer_Release(&ids);
   return Py_BuildValue("iLLLL", status, (long long)o.k, (long long)o.raw_len, (long long)o.first,
                        (long long)o.last);
+}
+
+static PyObject *leaf_imu(PyObject *self, PyObject *args)
+{
+  Py_buffer buf, at, want, lens, times, ids, vals, stamps, keys, odd;
+  Py_ssize_t page_size, usable;
+  long long last;
+  (void)self;
+  if (!PyArg_ParseTuple(args, "y*y*nny*Lw*w*w*w*w*w*w*", &buf, &at, &page_size, &usable, &want, &last, &lens,
+                        &times, &ids, &vals, &stamps, &keys, &odd))
+    return NULL;
+  Out o = {0};
+  o.want = want.buf, o.nwant = want.len, o.last = last;
+  o.lens = ARR(lens, int64_t), o.times = ARR(times, int64_t), o.ids = ARR(ids, int64_t);
+  o.stamps = ARR(stamps, int64_t), o.keys = ARR(keys, int64_t), o.odd = odd.buf, o.vals = ARR(vals, double);
+  o.cap =
+      least(least(least(lens.len, times.len), least(ids.len, stamps.len)), least(keys.len, 8 * odd.len)) / 8;
+  o.vstride = o.cap = least(o.cap, vals.len / 48);
+  int status = pages(&buf, &at, page_size, usable, &o);
+  PyBuffer_Release(&buf), PyBuffer_Release(&at), PyBuffer_Release(&want), PyBuffer_Release(&lens);
+  PyBuffer_Release(&times), PyBuffer_Release(&ids), PyBuffer_Release(&vals), PyBuffer_Release(&stamps);
+  PyBuffer_Release(&keys), PyBuffer_Release(&odd);
+  return Py_BuildValue("iLLL", status, (long long)o.k, (long long)o.first, (long long)o.last);
 }
 
 static PyMethodDef methods[] = {
@@ -190,6 +285,11 @@ static PyMethodDef methods[] = {
      "-> (status, k, raw_len, first, last): the rows of the table leaf pages at offsets at (int64) in buf\n"
      "whose topic_id t has want[t] (uint8): data into raw, lengths, timestamps and rowids into the\n"
      "int64 arrays; rowids above last. status < 0: stopped (-1 page, -2 cell, -3 overflow, -4 full, -5 order)."},
+    {"leaf_imu", leaf_imu, METH_VARARGS,
+     "leaf_imu(buf, at, page_size, usable, want, last, lens, times, ids, vals, stamps, keys, odd)\n"
+     "-> (status, k, first, last): leaf_rows' rows decoded as sensor_msgs/Imu in CDR, as imumsg.decode\n"
+     "does, instead of copied: vals (6, cap) float64 C-contiguous (cap: the rows the arrays hold),\n"
+     "stamps and keys int64, odd uint8 (1: not the standard layout)."},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT,

@@ -10,7 +10,8 @@ gives them (the files in the order the metadata lists them, each by
 
 - along the table, by id, while that is the time order (a writer's usual
   table; each batch checked against the timestamp index before it is
-  given): from the file's leaf pages (db3pages.py, compiled), else through
+  given): from the file's leaf pages (db3pages.py, compiled; with ``imu``
+  each message decoded there as sensor_msgs/Imu, not copied), else through
   sqlite, each batch a single ``group_concat`` of the raw CDR bytes (exact:
   the database's text is UTF-8, so bytes pass unchanged, and the total
   length is checked) plus the messages' lengths when they differ;
@@ -28,7 +29,7 @@ from __future__ import annotations
 import os
 import sqlite3
 from contextlib import closing
-from typing import Any, Generator, Iterator, NamedTuple, Optional
+from typing import Any, Callable, Generator, Iterator, NamedTuple, Optional
 
 import numpy as np
 
@@ -40,9 +41,22 @@ holding more than 4 batches is halved, one timestamp holding more is paged."""
 
 
 class Batch(NamedTuple):
-    raw: bytes  # the messages end to end
+    raw: Any  # the messages end to end (bytes; empty when ``imu``)
     lens: np.ndarray  # (k,) their lengths
     times: Optional[np.ndarray]  # (k,) the times the bag recorded them (ns), when asked
+    imu: Optional[db3pages.Decoded] = None  # the messages decoded from the pages instead
+    fetch: Optional[Callable[[int], bytes]] = None  # with ``imu``: message i's bytes, from sqlite
+
+
+def _first(b: Batch, left: int) -> Batch:
+    """The first ``left`` messages of ``b``."""
+    if b.imu is not None:
+        return b._replace(lens=b.lens[:left], times=None if b.times is None else b.times[:left], imu=_cut(b.imu, left))
+    return Batch(b.raw[: int(b.lens[:left].sum())], b.lens[:left], None if b.times is None else b.times[:left])
+
+
+def _cut(d: db3pages.Decoded, left: int) -> db3pages.Decoded:
+    return db3pages.Decoded(d.vals[:, :left], d.stamps[:left], d.odd[:left], d.keys[:left], d.ids[:left])
 
 
 def files(path: str) -> Optional[list[str]]:
@@ -107,9 +121,13 @@ def _marks(ids: list[int]) -> str:
     return ",".join("?" * len(ids))
 
 
-def batches(paths: list[str], topic: str, msgtype: str, times: bool, limit: Optional[int] = None) -> Iterator[Batch]:
+def batches(
+    paths: list[str], topic: str, msgtype: str, times: bool, limit: Optional[int] = None, imu: bool = False
+) -> Iterator[Batch]:
     """The topic's messages, batch by batch, in rosbags' order; ``times``:
-    with the bag's times; ``limit``: the first ``limit`` messages only."""
+    with the bag's times; ``limit``: the first ``limit`` messages only;
+    ``imu``: the batches read from the file's pages come decoded as CDR
+    sensor_msgs/Imu (``Batch.imu``, ``Batch.fetch``) instead of as bytes."""
     left = limit
     for p in paths:
         with closing(_connect(p)) as con:
@@ -118,11 +136,9 @@ def batches(paths: list[str], topic: str, msgtype: str, times: bool, limit: Opti
                 continue
             exact = con.execute("PRAGMA encoding").fetchone()[0] == "UTF-8"
             pages = p if limit is None or limit > 4 * BATCH else ""  # a few: the walk to the leaves is not worth it
-            for b in _file_batches(con, pages, ids, times, exact):
+            for b in _file_batches(con, pages, ids, times, exact, imu):
                 if left is not None:
-                    b = Batch(
-                        b.raw[: int(b.lens[:left].sum())], b.lens[:left], None if b.times is None else b.times[:left]
-                    )
+                    b = _first(b, left)
                     left -= len(b.lens)
                 if len(b.lens):
                     yield b
@@ -130,13 +146,15 @@ def batches(paths: list[str], topic: str, msgtype: str, times: bool, limit: Opti
                     return
 
 
-def _file_batches(con: sqlite3.Connection, path: str, ids: list[int], times: bool, exact: bool) -> Iterator[Batch]:
+def _file_batches(
+    con: sqlite3.Connection, path: str, ids: list[int], times: bool, exact: bool, imu: bool = False
+) -> Iterator[Batch]:
     index = _index(con)
     if index is None:  # no timestamp index (an old bag): one ordered pass, a row at a time
         yield from _cursor(con, ids, times)
         return
     rest = ""
-    stop = yield from _in_rowid_order(con, path, ids, times, exact)
+    stop = yield from _in_rowid_order(con, path, ids, times, exact, imu)
     if stop is None:
         return
     last, after = stop  # the rows not given: (timestamp, id) after (last, after - 1)
@@ -176,7 +194,7 @@ def _ranges(
 
 
 def _in_rowid_order(
-    con: sqlite3.Connection, path: str, ids: list[int], times: bool, exact: bool
+    con: sqlite3.Connection, path: str, ids: list[int], times: bool, exact: bool, imu: bool = False
 ) -> Generator[Batch, None, Optional[tuple[Optional[int], int]]]:
     """The topic's rows straight along the table, by id (no look-up from the
     index per row: a third of the cost; from the file's pages, db3pages.py:
@@ -197,10 +215,11 @@ def _in_rowid_order(
     below = 0  # the topic's rows before ``last`` in the whole file, by the index
     given = same = 0  # rows given; of them, those at ``last``
     a = first  # the first id not given
-    rows = _along(con, path, ids, first, end, exact, topic, args)
+    rows = _along(con, path, ids, first, end, exact, topic, args, imu)
+    fetch = _fetcher(con)
     while True:
         try:
-            raw, lens, t, after = next(rows)
+            raw, lens, t, after, dec = next(rows)
         except StopIteration as stop:
             return None if stop.value else (last, a)
         if (last is not None and t[0] < last) or np.any(np.diff(t) < 0):
@@ -212,21 +231,36 @@ def _in_rowid_order(
         if below != given + len(t) - at_top:  # a row of the topic before ``top`` lies further on
             break
         given, same, last, a = given + len(t), at_top, top, after
-        yield Batch(raw, lens, t if times else None)
+        yield Batch(raw, lens, t if times else None, dec, None if dec is None else fetch(dec.ids))
     rows.close()
     return last, a
 
 
+def _fetcher(con: sqlite3.Connection) -> Callable[[np.ndarray], Callable[[int], bytes]]:
+    """For a batch of rowids: message i's bytes, read by sqlite (those the decoding checks or cannot read)."""
+    q = "SELECT data FROM messages WHERE id = ?"
+    return lambda rowids: lambda i: bytes(con.execute(q, (int(rowids[i]),)).fetchone()[0])
+
+
 def _along(
-    con: sqlite3.Connection, path: str, ids: list[int], first: int, end: int, exact: bool, topic: str, args: list
-) -> Generator[tuple[Any, np.ndarray, np.ndarray, int], None, bool]:
-    """(raw, lengths, times, the first id past them) of the topic's rows in
-    id order: from the file's pages (db3pages.py), then, from where they
-    stopped, from sqlite (``group_concat`` when ``exact``). Returns whether
-    every row was given (else it stopped before a batch it could not read whole)."""
+    con: sqlite3.Connection,
+    path: str,
+    ids: list[int],
+    first: int,
+    end: int,
+    exact: bool,
+    topic: str,
+    args: list,
+    imu: bool = False,
+) -> Generator[db3pages.Rows, None, bool]:
+    """(raw, lengths, times, the first id past them, decoded) of the topic's
+    rows in id order: from the file's pages (db3pages.py; decoded when
+    ``imu``), then, from where they stopped, from sqlite (``group_concat``
+    when ``exact``). Returns whether every row was given (else it stopped
+    before a batch it could not read whole)."""
     stop: Optional[int] = first
     if path:  # none: through sqlite only
-        stop = yield from db3pages.along(path, con, ids, first)
+        stop = yield from db3pages.along(path, con, ids, first, imu, BATCH)
     if stop is None:
         return True
     if not exact:
@@ -246,7 +280,7 @@ def _along(
             lens = np.fromstring(con.execute(q, (a, a + BATCH, *args)).fetchone()[0], dtype=np.int64, sep=",")
         if raw is None or len(lens) != k or len(t) != k or len(raw) != lens.sum():
             return False
-        yield raw, lens, t, a + BATCH
+        yield db3pages.Rows(raw, lens, t, a + BATCH)
     return True
 
 

@@ -12,7 +12,10 @@ Messages are never deserialised one by one in Python: their raw bytes come
 in bulk (a ROS 2 sqlite3 bag from its file's pages or sqlite, bagdb3.py; an MCAP and a
 ROS 1 bag chunk by chunk, bagmcap.py and bagros1.py; anything else, such as a
 bag compressed as a whole, through rosbags' reader) and are decoded as
-arrays (imumsg.py). One message of each layout (length, byte order) is also
+arrays (imumsg.py; a ROS 2 sqlite3 bag's pages are decoded so by the
+compiled page reader itself, db3pages.py, no message's bytes copied, and
+sqlite gives the bytes of the few messages checked or deserialised). One
+message of each layout (length, byte order) is also
 deserialised by rosbags, and a disagreement (a message definition not the
 standard one), like a message of no known layout, is deserialised by
 rosbags, message by message.
@@ -44,9 +47,11 @@ UNITS = {ch: ("rad/s" if ch[0] == "g" else "m/s^2") for ch in CHANNELS}
 
 
 class Raw(NamedTuple):
-    raw: bytes  # messages end to end
+    raw: bytes  # messages end to end (empty when ``imu``)
     lens: np.ndarray  # (k,)
     times: Optional[np.ndarray]  # (k,) the bag's times, ns (when asked)
+    imu: Any = None  # db3pages.Decoded: the messages decoded already (imumsg.decode's results)
+    fetch: Optional[Callable[[int], bytes]] = None  # with ``imu``: message i's bytes
 
 
 class Backend:
@@ -329,8 +334,8 @@ class Db3Backend(Backend):
         self.topic, self.count = topic, bagdb3.count(self.paths, topic, IMU_TYPE)
 
     def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
-        for b in bagdb3.batches(self.paths, self.topic, IMU_TYPE, times, limit):
-            yield Raw(b.raw, b.lens, b.times)
+        for b in bagdb3.batches(self.paths, self.topic, IMU_TYPE, times, limit, imu=True):
+            yield Raw(b.raw, b.lens, b.times, b.imu, b.fetch)
 
     def deserialize(self, raw: bytes) -> Any:
         return self._ts.deserialize_cdr(raw, IMU_TYPE)
@@ -501,7 +506,10 @@ def _decoded(
     done = 0
     try:
         for block in bag.open_raw(times, limit):
-            vals, stamps, odd, keys = imumsg.decode(block.raw, block.lens, bag.ros1)
+            if block.imu is not None:
+                vals, stamps, odd, keys = block.imu.vals, block.imu.stamps, block.imu.odd.copy(), block.imu.keys
+            else:
+                vals, stamps, odd, keys = imumsg.decode(block.raw, block.lens, bag.ros1)
             start = np.cumsum(block.lens) - block.lens
             ok = keys[~odd]
             for key in ok[:1] if len(ok) and np.all(ok == ok[0]) else np.unique(ok):  # one layout: the usual bag
@@ -522,6 +530,8 @@ def _decoded(
 
 
 def _slice(block: Raw, start: np.ndarray, i: int) -> bytes:
+    if block.fetch is not None:
+        return block.fetch(i)
     return bytes(block.raw[int(start[i]) : int(start[i] + block.lens[i])])
 
 
