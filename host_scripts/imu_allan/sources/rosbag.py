@@ -181,10 +181,11 @@ def _blocks(messages: Iterator[tuple[Any, int, bytes]], limit: Optional[int]) ->
         yield _raw(raws, stamps)
 
 
-def _first(chunks: Iterator[tuple[bytes, np.ndarray, np.ndarray]], limit: Optional[int]) -> Iterator[Raw]:
-    """The chunks' messages as ``Raw`` blocks, the first ``limit`` of them (all: None)."""
+def _first(chunks: Iterator[Any], limit: Optional[int]) -> Iterator[Raw]:
+    """The chunks' messages (bytes, lengths, times, as a tuple or a Raw with no ``imu``) as
+    ``Raw`` blocks, the first ``limit`` of them (all: None)."""
     left = limit
-    for raw, lens, t in chunks:
+    for raw, lens, t, *_ in chunks:
         if left is not None:
             raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
             left -= len(lens)
