@@ -12,7 +12,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from ..analysis.dynamic import MIN_EFFECT, Verdict, Windows, temperature_bins
+from ..analysis.dynamic import MIN_EFFECT, WARMUP_SHARE, Verdict, Windows, temperature_bins
 from ..analysis.windows import adev_list as _devs
 from ..analysis.windows import json_num as _num
 from ..stats.edf import chi2_interval
@@ -119,11 +119,17 @@ def _test(ws: Windows, v: Verdict) -> dict[str, Any]:
             "windows that do not depart (none overlapping it): F test with "
             "Greenhall's EDFs, two-sided; a window departs when a tau's p-value is "
             "below the per-point level, Sidak-corrected over every window and tau "
-            f"tested and its deviation differs by more than {MIN_EFFECT:.0%}: a "
+            f"tested and its deviation differs by more than {MIN_EFFECT:.0%}; the first "
+            "window also alone, one-sided (a warm-up adds variance), Sidak over its "
+            f"taus, at {WARMUP_SHARE:.0%} of the budget, the other test at the rest: a "
             f"stationary channel is flagged with probability at most {1 - v.level:.2g}"
         ),
         "min_effect": MIN_EFFECT,
         "per_point_level": {ch: float(v.threshold[c]) for c, ch in enumerate(ws.channels)},
+        "first_window_level": {
+            ch: (_num(v.lead_threshold[c]) if v.lead_threshold is not None else None)
+            for c, ch in enumerate(ws.channels)
+        },
     }
 
 
