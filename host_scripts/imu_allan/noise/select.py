@@ -13,9 +13,7 @@ largest hump.  On a real sensor
 (chi2/dof above 1 at the first selection) the selection runs again with the
 model error in the weights and points far off the model given capped
 influence; the first structure, refitted under the same weights, stays when
-the information criterion prefers it.  Where K remains, a Gauss-Markov process whose hump
-turns over two octaves or more before the last tau is tried in its place, judged by the
-information criterion on log AVAR (_gm_for_k).  Last, a rise at the curve's end taken by a
+the information criterion prefers it.  Last, a rise at the curve's end taken by a
 ramp, a long Gauss-Markov process or a sinusoid is read as K unless they beat K on
 log AVAR by the 99.9 % point (_rise_as_k); the weights of the structure chosen are
 iterated to their fixed point (converge).
@@ -139,11 +137,7 @@ def _rivals(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> tupl
     near = p.t[-1] * 2.0**-RISE_OCTAVES
     r = "R" in s.linear and c[names.index("R")] > 0
     i0 = 1 if s.lp else 0
-    gms = [
-        j
-        for j in range(s.ngm)
-        if c[names.index(f"GM{j + 1}")] > 0 and 1.89 * math.exp(theta[i0 + j]) >= near and not _turns(p, theta[i0 + j])
-    ]
+    gms = [j for j in range(s.ngm) if c[names.index(f"GM{j + 1}")] > 0 and 1.89 * math.exp(theta[i0 + j]) >= near]
     sine = bool(s.sine) and c[names.index("SIN")] > 0 and 0.371 / math.exp(theta[-1]) >= near
     return r, gms, sine
 
@@ -350,57 +344,8 @@ def _extend(
             break
     if p.sine_on:
         s, theta, c, chi2 = _try_sine(p, s, theta, c, chi2)
-    if "K" in s.linear and s.ngm < MAX_GM:
-        s, theta, c, chi2 = _gm_for_k(p, s, theta, c, chi2)
     if s.lp and p.floor == 0.0:
         s, theta, c, chi2 = _try_res(p, s, theta, c, chi2)
-    return s, theta, c, chi2
-
-
-HUMP_OCTAVES = 2.0
-"""A Gauss-Markov process whose ADEV peak (1.89 T) lies this many octaves or more before the
-last tau shows its turnover in the curve (its AVAR falling as 1 / tau past it, K's rising as
-tau): not a rise at the curve's end, it is judged against K by the information criterion."""
-
-
-GM_T_STEPS = np.log(2.0) * np.arange(-1.0, 0.51, 0.25)
-"""The steps in log T around the linear fit's T tried on log AVAR."""
-
-
-def _turns(p: _Problem, log_t: float) -> bool:
-    """The curve shows the turnover of a Gauss-Markov process of correlation time exp(log_t)."""
-    return 1.89 * math.exp(log_t) <= p.t[-1] * 2.0**-HUMP_OCTAVES
-
-
-def _gm_for_k(
-    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
-) -> tuple[Structure, np.ndarray, np.ndarray, float]:
-    """A Gauss-Markov process in place of K where the curve shows its turnover (_turns), kept when
-    the information criterion on log AVAR (log_chi2 plus twice the parameters, each structure
-    under its own weights) prefers it.  On the linear scale the two cannot be told apart: the
-    sd of a point scales with its reference, and K's line far above the hump's fall is charged
-    at most sqrt(nu / 2) sd on the last octaves, of one to four degrees of freedom."""
-    sg = replace(s, linear=tuple(k for k in s.linear if k not in ("K", "R")), ngm=s.ngm + 1)
-    saved = p.ref.copy(), p.robust.copy()
-
-    def aic(s1: Structure, th1: np.ndarray) -> float:
-        converge(p, s1, th1)
-        c1, _, A = p.solve(s1, th1)
-        return log_chi2(p, A @ c1) + 2.0 * (int(np.sum(c1 > 0)) + th1.size)
-
-    a0 = aic(s, theta)
-    j = (1 if s.lp else 0) + s.ngm  # the new T, before a resonance's and a sinusoid's parameters
-    thg = fit_structure(p, sg, np.insert(theta, j, math.log(p.t[p.t.size // 2])), j)[0]
-    # T on log AVAR too: on the linear scale the hump's fall, charged little where the model
-    # runs above it, lets T run long
-    grid = [np.concatenate((thg[:j], [thg[j] + d], thg[j + 1 :])) for d in GM_T_STEPS]
-    thg = min(grid, key=lambda th: aic(sg, th))
-    cg = p.solve(sg, thg)[0]
-    k = sg.names().index(f"GM{sg.ngm}")
-    if cg[k] > 0 and _turns(p, thg[j]) and _gm_visible(p, sg, thg, cg, k=k) and aic(sg, thg) < a0:
-        return _stepwise(p, sg, thg, keep=("N",))
-    p.robust = saved[1]
-    p.set_reference(saved[0])
     return s, theta, c, chi2
 
 
@@ -512,7 +457,7 @@ LP_FC_MAX = 0.45
 LP_BEND = 0.02
 
 
-def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5, k: int = -1) -> bool:
+def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5) -> bool:
     """A new Gauss-Markov process is kept only with white noise beside it and where
     it is at least half of the model somewhere (its hump shows): else it only
     stands in for the band limit or the white noise."""
@@ -520,5 +465,5 @@ def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, sha
     if "N" not in names or c[names.index("N")] <= 0:
         return False
     A = columns(s, theta, p.m, p.fs)
-    part = A[:, k] * c[k]
+    part = A[:, -1] * c[-1]
     return bool(np.any(part >= share * (A @ c)))
