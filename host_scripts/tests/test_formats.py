@@ -224,6 +224,7 @@ def test_stamps_show_the_gaps_of_a_bag(imu: dict[str, Any], tmp_path: Path, run_
     assert found["longest_gap_s"] == pytest.approx(41 * STEP_NS / 1e9)
     doc = _analyze(run_cli, bag)
     assert any("2 gaps" in n and "45 samples missing" in n for n in doc["notes"])
+    assert not any("over the whole file" in n for n in doc["notes"])  # missing samples are no change of rate
 
 
 def test_no_column_is_dropped_silently(imu: dict[str, Any], tmp_path: Path, run_cli) -> None:
@@ -406,3 +407,27 @@ def test_headers_other_tools_write(layout: str, tmp_path: Path, run_cli) -> None
         assert doc["channels"][ch]["curve"][0]["dev"] == pytest.approx(_first_point(x) * f, rel=1e-9)
     # every channel the file has carries its unit: none is said to stay in ADC counts
     assert not [n for n in doc["notes"] if "ADC counts" in n]
+
+
+def test_stamps_taken_on_arrival_come_bunched_and_the_span_gives_the_rate(tmp_path: Path, run_cli) -> None:
+    """A driver that stamps samples when they reach the computer: 50 Hz samples
+    arrive in pairs (0.1 ms apart) every 40 ms, each pair a few ms late. The
+    median step (40 ms) is no period: the rows over their span are. Samples
+    never sent (30 of them, late in the file) are still one gap, and the
+    bunching itself is none."""
+    fs, n, cut = 50.0, 12000, range(10000, 10030)
+    rng = np.random.default_rng(7)
+    k = np.arange(n)
+    t = (k // 2) * 2 / fs + np.repeat(rng.uniform(0.0, 4e-3, n // 2), 2) + (k % 2) * 1e-4
+    x = rng.normal(0.0, 0.3, n)
+    keep = np.array([i for i in k if i not in cut])
+    p = tmp_path / "arrivals.csv"
+    p.write_text("t,gz [deg/s]\n" + "".join(f"{float(t[i])!r},{float(x[i])!r}\n" for i in keep))
+    doc = _analyze(run_cli, p)
+    assert doc["source"]["fs_hz"] == pytest.approx(fs, rel=2e-3)
+    assert any("bunched" in note for note in doc["notes"])
+    gaps = [note for note in doc["notes"] if "gap" in note]
+    assert len(gaps) == 1 and gaps[0].count("1 gap ") == 1
+    # a pair's arrival stands for two samples: the count is known to one sample
+    assert "about 30 samples missing" in gaps[0] or "about 31 samples missing" in gaps[0]
+    assert not any("over the whole file" in note for note in doc["notes"])  # the gap is no change of rate

@@ -26,6 +26,13 @@ GAP_STEPS = 1.5
 FS_AGREE = 0.01
 """--fs and a time column agree within this fraction (clocks drift, stamps jitter)."""
 
+BUNCHED = 0.05
+"""Stamps are bunched when more than this fraction of the first steps are shorter
+than half the median step: a regular series has none, but stamps taken when the
+samples arrive (a bag's receive times, a driver's clock) come in pairs and bursts.
+The median step is then no period; the span over the rows is (bunching moves
+stamps, not the count of samples between them)."""
+
 UNIT_NAMES = {1e-9: "ns", 1e-6: "us", 1e-3: "ms", 1.0: "s"}
 
 
@@ -61,9 +68,13 @@ def rate_from_time(
     med = raw * factor
     fs = 1.0 / med
     span = float(t[-1] - t[0]) * factor
-    if span > 0 and np.all(np.abs(steps * factor - med) <= 0.01 * med):
+    bunched = span > 0 and float(np.mean(steps * factor < 0.5 * med)) > BUNCHED
+    gap_s = math.nan
+    if span > 0 and (bunched or np.all(np.abs(steps * factor - med) <= 0.01 * med)):
         fs = (t.size - 1) / span  # regular steps: the span, not one step, sets the rate
         # (epoch ns in float64 are quantized to 256 ns: one step is that coarse, the span is not)
+    if bunched:  # a gap is a step longer than the bunching's own long steps
+        gap_s = max(GAP_STEPS / fs, GAP_STEPS * float(np.percentile(steps, 99)) * factor)
     if not FS_RANGE[0] <= fs <= FS_RANGE[1]:
         raise InputError(
             f"'{name}': {what} gives {fs:.6g} Hz (median step {med:.6g} s, unit "
@@ -75,9 +86,15 @@ def rate_from_time(
     note = (
         f"sample rate {fs:.6g} Hz from {what} (in {unit}, {how}; median step {med:.6g} s"
         + (f", steps vary by up to {jitter * 100:.0f} %, more than 1 %" if jitter > 0.01 else "")
+        + (
+            f"; the stamps come bunched ({float(np.mean(steps * factor < 0.5 * med)) * 100:.0f} % of the steps"
+            " under half the median), so the rate is the rows over their span"
+            if bunched
+            else ""
+        )
         + ")"
     )
-    return TimeCheck(name, what, fs, factor, note)
+    return TimeCheck(name, what, fs, factor, note, gap_s=gap_s)
 
 
 @dataclass
@@ -91,6 +108,8 @@ class TimeCheck:
     fs: float
     factor: float
     note: str
+    gap_s: float = math.nan
+    """A step longer than this (s) is a gap; NaN: GAP_STEPS sample periods."""
     found: dict[str, Any] = field(default_factory=dict)
     _last: Optional[float] = None
     _first: Optional[float] = None
@@ -115,7 +134,7 @@ class TimeCheck:
         prev = t[0] if self._last is None else self._last
         steps = np.diff(t, prepend=prev) * self.factor  # seconds
         period = 1.0 / self.fs
-        gap = steps > GAP_STEPS * period
+        gap = steps > (GAP_STEPS * period if math.isnan(self.gap_s) else self.gap_s)
         if gap.any():
             self._gaps += int(np.count_nonzero(gap))
             self._missing += float(np.sum(np.rint(steps[gap] / period) - 1.0))
@@ -143,7 +162,8 @@ class TimeCheck:
         said = []
         if self._gaps:
             said.append(
-                f"{self._gaps} gap{'s' if self._gaps > 1 else ''} (steps over {GAP_STEPS:g} sample periods; "
+                f"{self._gaps} gap{'s' if self._gaps > 1 else ''} (steps over "
+                f"{GAP_STEPS if math.isnan(self.gap_s) else self.gap_s * self.fs:.3g} sample periods; "
                 f"about {int(self._missing)} samples missing; the longest {self._longest:.6g} s, "
                 f"{self._longest_at:.6g} s in): the series has gaps, which the statistics take as continuous"
             )
@@ -151,7 +171,7 @@ class TimeCheck:
             said.append(
                 f"{self._back} step{'s' if self._back > 1 else ''} that do not go forward (repeated or out of order)"
             )
-        whole = (self._rows - 1 - self._missing) / span if span > 0 else self.fs
+        whole = (self._rows - 1 + self._missing) / span if span > 0 else self.fs  # missing samples add periods
         if span > 0 and abs(whole - self.fs) > 1e-3 * self.fs:
             said.append(f"over the whole file the stamps give {whole:.6g} Hz, not the first rows' {self.fs:.6g} Hz")
         if said:
