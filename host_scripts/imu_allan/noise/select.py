@@ -110,7 +110,8 @@ def converge(p: _Problem, s: Structure, theta: np.ndarray, rounds: int = 30, tol
         c, _, A = p.solve(s, theta)
         mod = np.maximum(A @ c, 1e-300)
         ref = np.sqrt(p.ref * mod)
-        step = float(np.max(np.abs(np.log(ref / p.ref))))
+        # a curve point of exactly 0 (a channel that never moved) leaves its reference at 0
+        step = float(np.max(np.abs(np.log(np.maximum(ref, 1e-300) / np.maximum(p.ref, 1e-300)))))
         p.set_reference(ref)
         if p.robust_on:
             z = (p.y - mod) / p.gls.sd
