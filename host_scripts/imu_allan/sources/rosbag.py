@@ -27,6 +27,7 @@ import os
 import queue
 import threading
 from functools import lru_cache
+from itertools import islice
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any, Callable, Iterator, NamedTuple, Optional
@@ -93,6 +94,8 @@ def _reader(path: str, name: str) -> Any:
 class RosbagsBackend(Backend):
     """rosbags' reader (ROS 1 .bag, .mcap, compressed or unusual ROS 2 bags): raw bytes per message."""
 
+    msgtype = IMU_TYPE  # the topic's message type
+
     def __init__(self, path: str, name: str) -> None:
         self.path, self.name = path, name
         r = _reader(path, name)
@@ -106,16 +109,24 @@ class RosbagsBackend(Backend):
     def choose(self, topic: str) -> None:
         r = _reader(self.path, self.name)
         try:
-            conns = _conns(r, topic)
+            conns = _conns(r, topic, self.msgtype)
             self.topic, self.count, self.ros1 = topic, sum(c.msgcount for c in conns), _is_ros1(conns[0])
+            self._chosen(r, conns)
         finally:
             r.close()
 
+    def _chosen(self, reader: Any, conns: list[Any]) -> None:
+        """What a subclass learns from the chosen topic (its reader open)."""
+
+    def _read(self, m: Any) -> Any:
+        """The sensor_msgs/Imu of a deserialised message."""
+        return m
+
     def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
         r = _reader(self.path, self.name)
-        self._deser = lambda raw: r.deserialize(raw, IMU_TYPE)
+        self._deser = lambda raw: self._read(r.deserialize(raw, self.msgtype))
         try:
-            yield from _first(_blocks(r.messages(connections=_conns(r, str(self.topic))), limit), limit)
+            yield from _blocks(r.messages(connections=_conns(r, str(self.topic), self.msgtype)), limit)
         finally:
             r.close()
 
@@ -167,25 +178,23 @@ class McapBackend(RosbagsBackend):
 
 
 def _blocks(messages: Iterator[tuple[Any, int, bytes]], limit: Optional[int]) -> Iterator[Raw]:
-    """rosbags' (connection, time, bytes) messages as Raw blocks, no longer than ``limit`` needs."""
-    size = BLOCK_MESSAGES if limit is None else max(1, min(limit, BLOCK_MESSAGES))
+    """rosbags' (connection, time, bytes) messages as Raw blocks, the first ``limit`` of them (all: None)."""
     raws: list[bytes] = []
     stamps: list[int] = []
-    for _, t, raw in messages:
+    for _, t, raw in islice(messages, limit):
         raws.append(raw)
         stamps.append(t)
-        if len(raws) == size:
+        if len(raws) == BLOCK_MESSAGES:
             yield _raw(raws, stamps)
             raws, stamps = [], []
     if raws:
         yield _raw(raws, stamps)
 
 
-def _first(chunks: Iterator[Any], limit: Optional[int]) -> Iterator[Raw]:
-    """The chunks' messages (bytes, lengths, times, as a tuple or a Raw with no ``imu``) as
-    ``Raw`` blocks, the first ``limit`` of them (all: None)."""
+def _first(chunks: Iterator[tuple[bytes, np.ndarray, np.ndarray]], limit: Optional[int]) -> Iterator[Raw]:
+    """The chunks' messages as ``Raw`` blocks, the first ``limit`` of them (all: None)."""
     left = limit
-    for raw, lens, t, *_ in chunks:
+    for raw, lens, t in chunks:
         if left is not None:
             raw, lens, t = raw[: int(lens[:left].sum())], lens[:left], t[:left]
             left -= len(lens)
@@ -206,27 +215,15 @@ class CarrierBackend(RosbagsBackend):
         super().__init__(path, name)
         self.msgtype, self.field, self.outer_stamps = msgtype, field, False
 
-    def choose(self, topic: str) -> None:
-        r = _reader(self.path, self.name)
-        try:
-            conns = _conns(r, topic, self.msgtype)
-            self.topic, self.count, self.ros1 = topic, sum(c.msgcount for c in conns), _is_ros1(conns[0])
-            first = next(iter(r.messages(connections=conns)), None)
-            if first is not None:
-                m = r.deserialize(first[2], self.msgtype)
-                inner = getattr(m, self.field).header.stamp
-                self.outer_stamps = not _valid(inner) and _valid(getattr(getattr(m, "header", None), "stamp", None))
-        finally:
-            r.close()
+    def _chosen(self, reader: Any, conns: list[Any]) -> None:
+        first = next(iter(reader.messages(connections=conns)), None)
+        if first is not None:
+            m = reader.deserialize(first[2], self.msgtype)
+            inner = getattr(m, self.field).header.stamp
+            self.outer_stamps = not _valid(inner) and _valid(getattr(getattr(m, "header", None), "stamp", None))
 
-    def open_raw(self, times: bool, limit: Optional[int] = None) -> Iterator[Raw]:
-        r = _reader(self.path, self.name)
-        msgtype, field, outer = self.msgtype, self.field, self.outer_stamps
-        self._deser = lambda raw: _lift(r.deserialize(raw, msgtype), field, outer)
-        try:
-            yield from _first(_blocks(r.messages(connections=_conns(r, str(self.topic), msgtype)), limit), limit)
-        finally:
-            r.close()
+    def _read(self, m: Any) -> Any:
+        return _lift(m, self.field, self.outer_stamps)
 
 
 def _valid(stamp: Any) -> bool:
@@ -418,14 +415,15 @@ def bag_source(path: str, name: str, topic: Optional[str]) -> Any:
     src.notes.append(check.note)
     if not use_stamps:
         src.notes.append(f"the header stamps of {chosen} do not increase (left zero?): the bag's times used")
-    held = f"{bag.msgtype}): its field {bag.field} (sensor_msgs/Imu" if isinstance(bag, CarrierBackend) else ""
+    carrier = isinstance(bag, CarrierBackend)
+    read = f"({bag.msgtype}): its field {bag.field} (sensor_msgs/Imu)" if carrier else "(sensor_msgs/Imu)"
     src.notes.append(
-        f"topic {chosen} ({held or 'sensor_msgs/Imu'}): angular_velocity and linear_acceleration read in rad/s "
+        f"topic {chosen} {read}: angular_velocity and linear_acceleration read in rad/s "
         "and m/s^2 (the message's units); orientation and the three covariances not used"
-        + (f"; the rest of {bag.msgtype} not used" if held else "")
+        + (f"; the rest of {bag.msgtype} not used" if carrier else "")
         + (f"; topics not read: {', '.join(others)}" if others else "")
     )
-    if isinstance(bag, CarrierBackend) and bag.outer_stamps:
+    if carrier and bag.outer_stamps:
         src.notes.append(
             f"the stamps of {bag.field}.header are not times (nanoseconds past a second): {chosen}'s own header used"
         )
