@@ -68,13 +68,14 @@ def rate_from_time(
     med = raw * factor
     fs = 1.0 / med
     span = float(t[-1] - t[0]) * factor
-    bunched = span > 0 and float(np.mean(steps * factor < 0.5 * med)) > BUNCHED
-    gap_s = math.nan
+    short = float(np.mean(steps * factor < 0.5 * med))  # the share of steps under half the median
+    bunched = span > 0 and short > BUNCHED
     if span > 0 and (bunched or np.all(np.abs(steps * factor - med) <= 0.01 * med)):
         fs = (t.size - 1) / span  # regular steps: the span, not one step, sets the rate
         # (epoch ns in float64 are quantized to 256 ns: one step is that coarse, the span is not)
+    gap_s = GAP_STEPS / fs
     if bunched:  # a gap is a step longer than the bunching's own long steps
-        gap_s = max(GAP_STEPS / fs, GAP_STEPS * float(np.percentile(steps, 99)) * factor)
+        gap_s = max(gap_s, GAP_STEPS * float(np.percentile(steps, 99)) * factor)
     if not FS_RANGE[0] <= fs <= FS_RANGE[1]:
         raise InputError(
             f"'{name}': {what} gives {fs:.6g} Hz (median step {med:.6g} s, unit "
@@ -87,7 +88,7 @@ def rate_from_time(
         f"sample rate {fs:.6g} Hz from {what} (in {unit}, {how}; median step {med:.6g} s"
         + (f", steps vary by up to {jitter * 100:.0f} %, more than 1 %" if jitter > 0.01 else "")
         + (
-            f"; the stamps come bunched ({float(np.mean(steps * factor < 0.5 * med)) * 100:.0f} % of the steps"
+            f"; the stamps come bunched ({short * 100:.0f} % of the steps"
             " under half the median), so the rate is the rows over their span"
             if bunched
             else ""
@@ -108,8 +109,8 @@ class TimeCheck:
     fs: float
     factor: float
     note: str
-    gap_s: float = math.nan
-    """A step longer than this (s) is a gap; NaN: GAP_STEPS sample periods."""
+    gap_s: float
+    """A step longer than this (s) is a gap: GAP_STEPS sample periods, or the bunching's long steps'."""
     found: dict[str, Any] = field(default_factory=dict)
     _last: Optional[float] = None
     _first: Optional[float] = None
@@ -134,7 +135,7 @@ class TimeCheck:
         prev = t[0] if self._last is None else self._last
         steps = np.diff(t, prepend=prev) * self.factor  # seconds
         period = 1.0 / self.fs
-        gap = steps > (GAP_STEPS * period if math.isnan(self.gap_s) else self.gap_s)
+        gap = steps > self.gap_s
         if gap.any():
             self._gaps += int(np.count_nonzero(gap))
             self._missing += float(np.sum(np.rint(steps[gap] / period) - 1.0))
@@ -163,7 +164,7 @@ class TimeCheck:
         if self._gaps:
             said.append(
                 f"{self._gaps} gap{'s' if self._gaps > 1 else ''} (steps over "
-                f"{GAP_STEPS if math.isnan(self.gap_s) else self.gap_s * self.fs:.3g} sample periods; "
+                f"{self.gap_s * self.fs:.3g} sample periods; "
                 f"about {int(self._missing)} samples missing; the longest {self._longest:.6g} s, "
                 f"{self._longest_at:.6g} s in): the series has gaps, which the statistics take as continuous"
             )
