@@ -397,7 +397,7 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
     iterations = 0
     for c in range(C):
         K = int(tested[:, c].sum())
-        thr[c] = 1.0 - (1.0 - (1.0 - level) * (1.0 - WARMUP_SHARE)) ** (1.0 / K) if K else 0.0
+        thr[c] = _sidak((1.0 - level) * (1.0 - WARMUP_SHARE), K) if K else 0.0
         later = (ws.t0 + ws.t1) / 2 >= mid  # the reference: the later half (a sensor settles, it does
         ref = later  # not unsettle), less the windows of it that depart
         for it in range(20):
@@ -426,6 +426,11 @@ def assess(ws: Windows, level: float = LEVEL) -> Verdict:
     return Verdict(level, p, thr, hit, departs, ref_var, warm, stat, taus, iterations, fits, lead_thr)
 
 
+def _sidak(alpha: float, k: int) -> float:
+    """The per-point level of k independent tests that together reject with probability alpha."""
+    return 1.0 - (1.0 - alpha) ** (1.0 / k)
+
+
 def _first_window(up: np.ndarray, p: np.ndarray, tested: np.ndarray, level: float) -> tuple[np.ndarray, float]:
     """The warm-up's own test: the first window alone, one-sided (a warm-up adds
     variance: a drift its slope squared, a settling noise its own; ``up``: above
@@ -438,7 +443,7 @@ def _first_window(up: np.ndarray, p: np.ndarray, tested: np.ndarray, level: floa
     k = int(tested.sum())
     if not k:
         return np.zeros(p.shape, dtype=bool), math.nan
-    thr = 1.0 - (1.0 - (1.0 - level) * WARMUP_SHARE) ** (1.0 / k)
+    thr = _sidak((1.0 - level) * WARMUP_SHARE, k)
     one_sided = np.where(up, 0.5 * np.nan_to_num(p, nan=2.0), 1.0)
     return tested & up & (one_sided < thr), thr
 

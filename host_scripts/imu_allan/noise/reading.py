@@ -146,7 +146,7 @@ def to_model(s: Any, theta: np.ndarray, c: np.ndarray) -> Model:
     for j in range(s.ngm):
         if vals.get(f"GM{j + 1}", 0) > 0:
             parts.append(AR1(math.sqrt(vals[f"GM{j + 1}"]), math.exp(theta[i + j])))
-    if getattr(s, "res", 0) and vals.get("RES", 0) > 0:
+    if s.res and vals.get("RES", 0) > 0:
         parts.append(resonance(theta, s.res_at(), math.sqrt(vals["RES"])))
     if s.sine and vals.get("SIN", 0) > 0:
         parts.append(Sine(math.sqrt(vals["SIN"]), math.exp(theta[-1])))

@@ -406,8 +406,7 @@ def _try_res(
     th, c2, chi2b = fit_structure(p, s2, best[1], None)
     dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
     k = s2.names().index("RES")
-    A = columns(s2, th, p.m, p.fs)
-    seen = bool(np.any(A[:, k] * c2[k] >= RES_SHARE * (A @ c2)))
+    seen = _shows(p, s2, th, c2, k, RES_SHARE)
     # resolved only where the rest of the model fits within chance: under a model error its
     # bump and the band limit's bend trade (on real gyros and accelerometers it moved N by -7 to +3 %)
     if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and not misfits(chi2b, dof):
@@ -465,6 +464,10 @@ def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, sha
     names = s.names()
     if "N" not in names or c[names.index("N")] <= 0:
         return False
+    return _shows(p, s, theta, c, -1, share)
+
+
+def _shows(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, k: int, share: float) -> bool:
+    """Term k is at least ``share`` of the model's AVAR at some tau."""
     A = columns(s, theta, p.m, p.fs)
-    part = A[:, -1] * c[-1]
-    return bool(np.any(part >= share * (A @ c)))
+    return bool(np.any(A[:, k] * c[k] >= share * (A @ c)))
