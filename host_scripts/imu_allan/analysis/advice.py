@@ -363,9 +363,10 @@ def analysis_text(doc: dict[str, Any]) -> str:
         lines.append("  (expected_pct in --json): the fit's model error, which recording longer keeps;")
         lines.append("  the times count it")
     if rough:
-        lines.append("  (rough): the term is over 1.35 times that target now, and its own error moves the")
-        lines.append("  time: record to the check (where the term should be 1.25 times the target, or a")
-        lines.append("  third of its +-% now), ask again there and follow that time (docs/dynamic.md, 4)")
+        lines.append(f"  (rough): the term is over {ROUGH_RATIO:g} times that target now, and its own error")
+        lines.append(f"  moves the time: record to the check (where the term should be {STAGE_RATIO:g} times the")
+        lines.append(f"  target, or its +-% now divided by {MAX_STEP:g}), ask again there and follow that")
+        lines.append("  time (docs/dynamic.md, 4)")
     return "\n".join(lines) + "\n" if len(lines) > 2 else ""
 
 
