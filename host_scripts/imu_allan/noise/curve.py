@@ -29,9 +29,9 @@ from scipy import optimize
 
 from ..stats import dist
 from ..stats.edf import alpha_from_slope
-from .processes import AR1, LP, QN, RW, WN, Ramp, Sine
+from .processes import AR1, LP, QN, RW, WN, Flicker, Ramp, Sine
 from .resonance import Resonance
-from .terms import B_FACTOR, _nnls
+from .terms import _nnls
 
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
@@ -90,8 +90,8 @@ def _fixed(k: str, m: np.ndarray, fs: float) -> np.ndarray:
     key = (k, fs, m.tobytes())
     col = _FIXED.get(key)
     if col is None:
-        proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k)
-        col = proc.avar(m, fs) if proc is not None else np.full(m.shape, B_FACTOR)
+        proc = {"Q": QN(1.0), "N": WN(1.0), "B": Flicker(1.0), "K": RW(1.0), "R": Ramp(1.0)}[k]
+        col = proc.avar(m, fs)
         col.setflags(write=False)
         if len(_FIXED) > 256:
             _FIXED.clear()
