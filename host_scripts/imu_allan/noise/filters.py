@@ -86,8 +86,8 @@ def mean_pole_autocov(fc: float, fs: float, order: int) -> tuple[float, np.ndarr
     The filter's output has R(t) = sum_i A_i exp(l_i |t|) (l_i its poles, A_i the
     residues of H(s) H(-s) there); a mean over dt has, with x_i = l_i dt and p_i = e^x_i,
     r(0) = sum 2 A_i (p_i - 1 - x_i) / x_i^2 and r(k) = sum A_i (p_i - 1)^2 / x_i^2 p_i^(k - 1),
-    so that its Allan variance at m samples is the continuous one at tau = m dt (IEEE 952
-    eq. C.24 for order 1, the band-limited white noise's)."""
+    so that its Allan variance at m samples is the continuous one at tau = m dt (for order 1
+    IEEE 952's band-limited white noise, annex C's exponentially correlated noise)."""
     wc = 2.0 * math.pi * float(fc)
     if order == 1:
         lam, A = np.array([-wc], dtype=np.complex128), np.array([wc / 2.0], dtype=np.complex128)
