@@ -29,7 +29,7 @@ from scipy import optimize
 
 from ..stats import dist
 from ..stats.edf import alpha_from_slope
-from .processes import AR1, LP, QN, RW, WN, Ramp, Sine
+from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
 from .terms import B_FACTOR, _nnls
 
@@ -48,7 +48,7 @@ class Structure:
     ngm: int = 0
     sine: int = 0  # 1: a sinusoid (amplitude, frequency)
     res: int = 0  # 1: a resonance (sd; frequency and quality, theta before the sinusoid's)
-    shape: str = "pole"  # the low-pass: "pole" (RC, Butterworth) or "average" (box, Bartlett)
+    shape: str = "pole"  # the low-pass: "pole" (RC, Butterworth), "average" (box, Bartlett), "pole_mean" (averaged RC)
 
     def names(self) -> list[str]:
         gms = [f"GM{j + 1}" for j in range(self.ngm)]
@@ -182,7 +182,7 @@ def resonance(theta: np.ndarray, i: int, sigma: float = 1.0) -> Resonance:
 def bounds(s: Structure, t: np.ndarray, fs: float) -> list[tuple[float, float]]:
     out = []
     if s.lp:
-        out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(0.49 * fs)))
+        out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(FC_CEILING[s.shape] * fs)))
     for _ in range(s.ngm):  # a faster GM is white noise to these taus: N's, not a GM's
         out.append((math.log(t[0] * GM_T_MIN), math.log(t[-1] * 4.0)))
     if s.res:  # a mode whose hump (a sinusoid's ADEV peak at 0.371 / f0) is on the first octaves
