@@ -29,7 +29,7 @@ from scipy import optimize
 
 from ..stats import dist
 from ..stats.edf import alpha_from_slope
-from .processes import AR1, LP, QN, RW, WN, Flicker, Ramp, Sine
+from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Flicker, Ramp, Sine
 from .resonance import Resonance
 from .terms import _nnls
 
@@ -48,7 +48,7 @@ class Structure:
     ngm: int = 0
     sine: int = 0  # 1: a sinusoid (amplitude, frequency)
     res: int = 0  # 1: a resonance (sd; frequency and quality, theta before the sinusoid's)
-    shape: str = "pole"  # the low-pass: "pole" (RC, Butterworth) or "average" (box, Bartlett)
+    shape: str = "pole"  # the low-pass: "pole" (RC, Butterworth), "average" (box, Bartlett), "pole_mean" (averaged RC)
 
     def names(self) -> list[str]:
         gms = [f"GM{j + 1}" for j in range(self.ngm)]
@@ -57,6 +57,12 @@ class Structure:
     def nonlinear(self) -> list[str]:
         gms = [f"T{j + 1}" for j in range(self.ngm)]
         return (["fc"] if self.lp else []) + gms + ["f_res", "q_res"] * self.res + ["f0"] * self.sine
+
+    def flicker(self) -> str:
+        """How the samples see the flicker (processes.Flicker.sampling): as points where
+        the band limit is a pole read at instants; as means with no band limit (white
+        noise holds the first octaves, the IEEE constant as ever) or an averaging one."""
+        return "point" if self.lp and self.shape == "pole" else "mean"
 
     def res_at(self) -> int:
         """Index in theta of the resonance's log frequency (its log quality next)."""
@@ -70,7 +76,7 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
         if k == "N" and s.lp:
             cols.append(LP(1.0, math.exp(theta[0]), s.lp, s.shape).avar(m, fs))
         else:
-            cols.append(_fixed(k, m, fs))
+            cols.append(_fixed(k + s.flicker() if k == "B" else k, m, fs))
     i = 1 if s.lp else 0
     for j in range(s.ngm):
         cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
@@ -86,11 +92,11 @@ _FIXED: dict[tuple, np.ndarray] = {}
 
 def _fixed(k: str, m: np.ndarray, fs: float) -> np.ndarray:
     """The column of an IEEE 952 term without parameters (the fit asks for it thousands of
-    times on the same taus): computed once per curve."""
+    times on the same taus): computed once per curve; k "Bpoint" or "Bmean" for flicker."""
     key = (k, fs, m.tobytes())
     col = _FIXED.get(key)
     if col is None:
-        proc = {"Q": QN(1.0), "N": WN(1.0), "B": Flicker(1.0), "K": RW(1.0), "R": Ramp(1.0)}[k]
+        proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k) or Flicker(1.0, k[1:])
         col = proc.avar(m, fs)
         col.setflags(write=False)
         if len(_FIXED) > 256:
@@ -182,7 +188,7 @@ def resonance(theta: np.ndarray, i: int, sigma: float = 1.0) -> Resonance:
 def bounds(s: Structure, t: np.ndarray, fs: float) -> list[tuple[float, float]]:
     out = []
     if s.lp:
-        out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(0.49 * fs)))
+        out.append((math.log(max(0.5 / (2 * math.pi * t[-1]), fs / 5000.0)), math.log(FC_CEILING[s.shape] * fs)))
     for _ in range(s.ngm):  # a faster GM is white noise to these taus: N's, not a GM's
         out.append((math.log(t[0] * GM_T_MIN), math.log(t[-1] * 4.0)))
     if s.res:  # a mode whose hump (a sinusoid's ADEV peak at 0.371 / f0) is on the first octaves

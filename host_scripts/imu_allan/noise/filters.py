@@ -75,3 +75,49 @@ def _poles(a: np.ndarray) -> np.ndarray:
         q = np.sqrt(complex(a[1] * a[1] - 4.0 * a[0] * a[2]))
         return np.array([(-a[1] + q) / (2.0 * a[0]), (-a[1] - q) / (2.0 * a[0])], dtype=np.complex128)
     return np.roots(a).astype(np.complex128)
+
+
+def mean_pole_autocov(fc: float, fs: float, order: int) -> tuple[float, np.ndarray, np.ndarray]:
+    """Autocovariance of the block means (over each dt = 1/fs: integrate and dump, or a
+    faster record averaged down) of unit-density white noise (dt sum r = 1) through the
+    continuous one-pole RC (order 1) or two-pole Butterworth (order 2) of cutoff fc:
+    r(0) and (c, p) with r(k) = sum c_i p_i^k for k >= 1, valid for fc above fs / 2 too.
+
+    The filter's output has R(t) = sum_i A_i exp(l_i |t|) (l_i its poles, A_i the
+    residues of H(s) H(-s) there); a mean over dt has, with x_i = l_i dt and p_i = e^x_i,
+    r(0) = sum 2 A_i (p_i - 1 - x_i) / x_i^2 and r(k) = sum A_i (p_i - 1)^2 / x_i^2 p_i^(k - 1),
+    so that its Allan variance at m samples is the continuous one at tau = m dt (for order 1
+    IEEE 952's band-limited white noise, annex C's exponentially correlated noise)."""
+    wc = 2.0 * math.pi * float(fc)
+    if order == 1:
+        lam, A = np.array([-wc], dtype=np.complex128), np.array([wc / 2.0], dtype=np.complex128)
+    elif order == 2:
+        l1 = wc * np.exp(0.75j * math.pi)
+        lam = np.array([l1, np.conj(l1)])
+        A = np.array([wc**4 / ((u - v) * (-2.0 * u) * (-(u + v))) for u, v in ((lam[0], lam[1]), (lam[1], lam[0]))])
+    else:
+        raise ValueError(f"low-pass order must be 1 or 2, got {order}")
+    x = lam / float(fs)
+    em1 = np.expm1(x)
+    r0 = float(np.real(np.sum(2.0 * A * (em1 - x) / x**2)))
+    p = em1 + 1.0
+    c = A * em1**2 / (x**2 * p)
+    if order == 1:
+        return r0, np.real(c), np.real(p)
+    return r0, c, p
+
+
+def arma_factor(r0: float, c: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(b, a) such that unit white noise through b/a has the autocovariance r(0) = r0,
+    r(k) = sum c_i p_i^k (k >= 1): a the polynomial of the poles p, b the minimum-phase
+    factor (averaging.ma_factor) of the autocovariance of a * y, which is zero beyond
+    the order (an ARMA(q, q))."""
+    from .averaging import ma_factor
+
+    a = np.real(np.poly(p))
+    q = a.size - 1
+    lags = np.arange(2 * q + 1)
+    r = np.concatenate(([r0], np.real([np.sum(c * p**k) for k in lags[1:]])))
+    pairs = [(i, j) for i in range(q + 1) for j in range(q + 1)]
+    g = np.array([sum(a[i] * a[j] * r[abs(k + i - j)] for i, j in pairs) for k in range(q + 1)])
+    return ma_factor(g), a

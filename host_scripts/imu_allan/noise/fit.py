@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
-from .processes import LP, WN, Model
+from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
 from .select import LP_BEND, LP_FORMS, choose, k_bound, shown
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
@@ -287,7 +287,8 @@ def _refit(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
     from .curve import bounds
 
     lo, hi = bounds(s, p.t, p.fs)[0]
-    lo, hi = max(lo, theta[0] - math.log(FORM_FC)), min(hi, theta[0] + math.log(FORM_FC))
+    mid = min(max(theta[0], lo), hi)  # a cutoff above fs / 2 (averaged samples) is beyond a point form's
+    lo, hi = max(lo, mid - math.log(FORM_FC)), min(hi, mid + math.log(FORM_FC))
     th = np.array(theta, dtype=np.float64)
 
     def f(x: float) -> float:
@@ -333,7 +334,7 @@ def _nonlinear_terms(
     if s.lp:
         fc, sd = math.exp(theta[0]), sd_th[0]
         lo, hi = _lognormal(fc, sd)
-        hi = min(hi, 0.5 * p.fs)
+        hi = min(hi, max(0.5, FC_CEILING[s.shape]) * p.fs)
         rng = (float(p.t[0]), _bend_end(s, fc, p.t, p.fs))
         note = (
             f"the white noise N reaches the samples through {LP_WORDS[s.shape, s.lp]} of {fc:.3g} Hz: "
@@ -391,6 +392,8 @@ LP_WORDS = {
     ("pole", 2): "a two-pole low-pass",
     ("average", 1): "a moving average",
     ("average", 2): "two moving averages in cascade (a Bartlett window)",
+    ("pole_mean", 1): "a one-pole low-pass averaged over each sample",
+    ("pole_mean", 2): "a two-pole low-pass averaged over each sample",
 }
 
 

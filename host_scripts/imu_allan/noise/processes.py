@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import averaging
-from .filters import filter_autocov, freq_response, lfilter, lowpass_filter
+from .filters import arma_factor, filter_autocov, freq_response, lfilter, lowpass_filter, mean_pole_autocov
 from .terms import B_FACTOR
 
 
@@ -182,8 +182,20 @@ class _White(_Stream):
         return self.s * self.rng.standard_normal(L)
 
 
+FC_CEILING = {"pole": 0.49, "average": 0.49, "pole_mean": 5.0}
+"""The highest cutoff (in fs) of each band-limit form the fit searches: a point sample of a
+filter above fs / 2 is all but white (the spectrum folds flat), while a sample that averages
+over its period still carries the filter's delay, 1.5 / (2 pi fc) tau under N's line in AVAR
+(4.8 % at the first point and 2.4 % at the second for fc = 5 fs)."""
+
+
 @functools.lru_cache(maxsize=4096)
-def _lp_shape(fc: float, fs: float, order: int) -> tuple:
+def _lp_shape(fc: float, fs: float, order: int, shape: str = "pole") -> tuple:
+    """(b, a, r0, c, p, scale): the filter and the autocovariance of its output, scale the
+    input variance per unit N^2 (the low-frequency density of the output N^2)."""
+    if shape == "pole_mean":  # continuous time, per unit density already: fc may pass fs / 2
+        r0, c, p = mean_pole_autocov(fc, fs, order)
+        return None, None, r0, c, p, 1.0  # b, a only to simulate (_filter): the fit needs r alone
     b, a = lowpass_filter(fc, fs, order)
     if order == 1:  # an AR(1): r(k) = r0 a1^k, r0 = b0^2 / (1 - a1^2), with real numbers
         a1 = -float(a[1])
@@ -192,7 +204,7 @@ def _lp_shape(fc: float, fs: float, order: int) -> tuple:
     else:
         r0, c, p = filter_autocov(b, a)
     dc = float(np.sum(b) / np.sum(a))  # unit white in -> low-frequency gain dc
-    return b, a, r0, c, p, dc
+    return b, a, r0, c, p, fs / dc**2
 
 
 @dataclass(repr=False)
@@ -200,9 +212,12 @@ class LP(Process):
     """White rate noise through a one- or two-pole low-pass of cutoff fc
     (band-limited white noise; ``shape`` "pole"), or through one or two cascaded
     averages (``shape`` "average", order the number of averages: 2 is the Bartlett
-    window; averaging.py): N [u sqrt(s)] is its LOW-FREQUENCY density in
-    the samples (the level of the -1/2 line at long tau, what a navigation
-    filter needs); below ~1/(2 pi fc) the curve bends under that line."""
+    window; averaging.py), or through a continuous RC or Butterworth whose output
+    each sample averages over its period (``shape`` "pole_mean": integrate and dump,
+    or a faster record averaged down; fc may lie above fs / 2, where the samples
+    still show the filter's delay; filters.mean_pole_autocov): N [u sqrt(s)] is its
+    LOW-FREQUENCY density in the samples (the level of the -1/2 line at long tau,
+    what a navigation filter needs); below ~1/(2 pi fc) the curve bends under that line."""
 
     N: float
     fc: float
@@ -218,7 +233,7 @@ class LP(Process):
         return {"N": self.N, "fc": self.fc, "order": self.order, "shape": self.shape}
 
     def _shape(self, fs: float) -> tuple:
-        return _lp_shape(float(self.fc), float(fs), int(self.order))
+        return _lp_shape(float(self.fc), float(fs), int(self.order), self.shape)
 
     def _acov(self, fs: float) -> np.ndarray:
         return averaging.average_autocov(float(self.fc), float(fs), int(self.order))
@@ -226,30 +241,36 @@ class LP(Process):
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         if self.shape == "average":
             return self.N**2 * averaging.avar_from_autocov(m, self._acov(fs))
-        b, a, r0, c, p, dc = self._shape(fs)
-        scale = self.N**2 * fs / dc**2  # input variance per sample so that the output's LF density is N^2
-        return scale * avar_from_poles(m, r0, c, p)
+        b, a, r0, c, p, scale = self._shape(fs)
+        return self.N**2 * scale * avar_from_poles(m, r0, c, p)
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
         if self.shape == "average":
             return self.N**2 * averaging.psd_from_autocov(f, fs, self._acov(fs))
-        b, a, *_rest, dc = self._shape(fs)
+        b, a, scale = self._filter(fs)
         h = freq_response(b, a, _m(f), fs)
-        return 2.0 * self.N**2 * np.abs(h) ** 2 / dc**2
+        return 2.0 * self.N**2 * scale / fs * np.abs(h) ** 2
 
     def variance(self, fs: float) -> float:
         """Variance of the samples, u^2."""
         if self.shape == "average":
             return self.N**2 * float(self._acov(fs)[0])
-        b, a, r0, c, p, dc = self._shape(fs)
-        return self.N**2 * fs / dc**2 * r0
+        b, a, r0, c, p, scale = self._shape(fs)
+        return self.N**2 * scale * r0
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
         if self.shape == "average":  # the taps carry the whole scale (unit white in)
             b = averaging.ma_factor(self._acov(fs))
             return _Filtered(b, np.array([1.0]), self.N, np.random.default_rng(seed))
-        b, a, r0, c, p, dc = self._shape(fs)
-        return _Filtered(b, a, self.N * math.sqrt(fs) / dc, np.random.default_rng(seed))
+        b, a, scale = self._filter(fs)
+        return _Filtered(b, a, self.N * math.sqrt(scale), np.random.default_rng(seed))
+
+    def _filter(self, fs: float) -> tuple:
+        """(b, a, scale): white noise of variance scale N^2 per sample through b/a is the process."""
+        b, a, r0, c, p, scale = self._shape(fs)
+        if b is None:
+            b, a = arma_factor(r0, c, p)
+        return b, a, scale
 
 
 class _Filtered(_Stream):
@@ -313,17 +334,22 @@ class _AR1(_Stream):
 @dataclass(repr=False)
 class Flicker(Process):
     """Flicker rate noise B [u] (bias instability): PSD B^2 / (pi f) one-sided
-    (IEEE 952 C.3), ADEV floor 0.664 B.  Its AVAR is that of the 1/f PSD sampled
-    at fs (up to fs/2), averaged over m samples (``flicker_ratio``): the IEEE 952
-    constant (2 ln 2 / pi) B^2 times 1.189 at m = 1, 1.089 at 2, 1.029 at 4,
-    1.003 at 16, within 4e-6 of it from m = 1024.  The constant alone misfits the
-    first octaves by up to 19 %, which decides B wherever a low-pass has taken the
-    white noise out of them.  Simulation: a bank of Gauss-Markov processes,
-    correlation times 8^k dt up to 4 records, each of variance B^2 ln 8 / pi (the
-    fastest FLICKER_FAST times that), the slow ones drawn every T fs / 32 samples
-    and held; the bank's exact AVAR is within 1.3 % of ``avar`` at every m."""
+    (IEEE 952 C.3), ADEV floor 0.664 B.  ``sampling`` says how the samples see it:
+    - "point" (samples of the 1/f up to fs/2, as a textbook generator makes it):
+      AVAR of the sampled PSD averaged over m samples (``flicker_ratio``), the
+      IEEE 952 constant (2 ln 2 / pi) B^2 times 1.189 at m = 1, 1.089 at 2,
+      1.029 at 4, 1.003 at 16, within 4e-6 of it from m = 1024;
+    - "mean" (each sample the average of a continuous 1/f over its period, as in
+      a part that integrates or averages): the IEEE constant at every m, exactly.
+    The constant misfits point samples' first octaves by up to 19 %, which decides
+    B wherever a low-pass has taken the white noise out of them.  Simulation: a
+    bank of Gauss-Markov processes, correlation times 8^k dt up to 4 records, each
+    of variance B^2 ln 8 / pi (the fastest FLICKER_FAST times that), the slow ones
+    drawn every T fs / 32 samples and held: within 1.3 % of the point AVAR at
+    every m; "mean" averages that bank run FLICKER_MEAN_UP times faster."""
 
     B: float
+    sampling: str = "point"
     name = "B"
     meaning = "flicker rate noise B (bias instability; the flat floor of ADEV at 0.664 B)"
 
@@ -331,16 +357,33 @@ class Flicker(Process):
         return {"B": self.B}
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
+        if self.sampling == "mean":
+            return np.full(np.shape(m), B_FACTOR * self.B**2)
         return B_FACTOR * self.B**2 * flicker_ratio(m)
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
         return self.B**2 / (np.pi * _m(f))
 
     def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
+        if self.sampling == "mean":
+            return _Averaged(_FlickerBank(self.B, fs * FLICKER_MEAN_UP, n * FLICKER_MEAN_UP, seed), FLICKER_MEAN_UP)
         return _FlickerBank(self.B, fs, n, seed)
 
 
+class _Averaged(_Stream):
+    """Means of ``up`` consecutive samples of a faster stream."""
+
+    def __init__(self, fast: _Stream, up: int) -> None:
+        self.fast, self.up = fast, up
+
+    def take(self, length: int) -> np.ndarray:
+        return self.fast.take(length * self.up).reshape(length, self.up).mean(axis=1)
+
+
 FLICKER_SPACING = 8.0
+FLICKER_MEAN_UP = 8
+"""A "mean" flicker is the bank at this many times the rate, averaged: its AVAR at m
+is the point form's at 8 m, within 0.9 % of the constant (and the bank's 1.3 %)."""
 FLICKER_FAST = 1.056
 """The bank's fastest process (T = dt) carries this times its share: the minimax
 choice that brings the bank's AVAR within 1.3 % of the sampled 1/f's at every m

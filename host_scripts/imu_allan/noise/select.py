@@ -43,13 +43,16 @@ from .curve import (
     set_floor,
     settle,
 )
+from .processes import FC_CEILING
 from .reading import _unexplained
 from .terms import CHI2_1_95
 
 MAX_GM = 2
-LP_FORMS = (("pole", 1), ("pole", 2), ("average", 1), ("average", 2))
+LP_FORMS = (("pole", 1), ("pole", 2), ("average", 1), ("average", 2), ("pole_mean", 1))
 """The band limits tried: a one-pole RC, a two-pole Butterworth, a moving average, two
-averages in cascade (the Bartlett window of parts that average at an internal rate)."""
+averages in cascade (the Bartlett window of parts that average at an internal rate), an RC
+whose output each sample averages (a record averaged down: the one form whose cutoff may lie
+above fs / 2; there one order is all the curve can tell, the filter's delay)."""
 CHI2_1_999 = 10.83
 """The 99.9 % point of chi2 with one degree of freedom."""
 SINE = False
@@ -351,15 +354,21 @@ def _extend(
 
 
 def _lp_form(p: _Problem, cands: list[tuple]) -> tuple:
-    """The band limit's form: the better pole (RC or Butterworth), unless an average
-    fits decisively better (a 95 % F test with one degree of freedom): on a curve that
-    cannot tell them apart, the classic form."""
+    """The band limit's form: the better pole (RC or Butterworth), or where the pole is
+    pinned at its ceiling (a bend that needs a cutoff point samples cannot show) the RC
+    averaged over each sample; another form only where it fits decisively better (a 95 %
+    F test with one degree of freedom): on a curve that cannot tell them apart, the
+    classic form."""
     pole = min((x for x in cands if x[1].shape == "pole"), key=lambda x: x[0])
-    avg = min((x for x in cands if x[1].shape != "pole"), key=lambda x: x[0], default=None)
-    if avg is None:
-        return pole
-    dof = max(p.t.size - int(np.sum(avg[3] > 0)) - 1, 1)
-    return avg if _test(pole[0] - avg[0], avg[0], dof, 1) else pole
+    first = pole
+    if _pinned(pole[1], pole[2], p.fs):
+        first = next((x for x in cands if x[1].shape == "pole_mean" and not _pinned(x[1], x[2], p.fs)), pole)
+    others = [x for x in cands if x[1].shape not in ("pole", first[1].shape)]
+    alt = min(others, key=lambda x: x[0], default=None)
+    if alt is None:
+        return first
+    dof = max(p.t.size - int(np.sum(alt[3] > 0)) - 1, 1)
+    return alt if _test(first[0] - alt[0], alt[0], dof, 1) else first
 
 
 def _try_sine(
@@ -446,7 +455,7 @@ def _lp_shows(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bo
     column under white N's) at least LP_BEND on two octave points or more.  A bend
     of the first point alone is that point's scatter: a two-pole low-pass above
     ~0.4 fs lowers only the first octave (by 4 % at 0.49 fs, under 1 % the next)."""
-    if math.exp(theta[0]) >= LP_FC_MAX * p.fs:
+    if _pinned(s, theta, p.fs):
         return False
     white = columns(Structure(("N",)), np.zeros(0), p.m, p.fs)[:, 0]
     lp = columns(Structure(("N",), s.lp, shape=s.shape), theta[:1], p.m, p.fs)[:, 0]
@@ -455,6 +464,12 @@ def _lp_shows(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bo
 
 LP_FC_MAX = 0.45
 LP_BEND = 0.02
+
+
+def _pinned(s: Structure, theta: np.ndarray, fs: float) -> bool:
+    """The band limit's cutoff at its form's ceiling: LP_FC_MAX fs for the point-sampled
+    forms, as far under their search's ceiling for the others (processes.FC_CEILING)."""
+    return math.exp(theta[0]) >= LP_FC_MAX / FC_CEILING["pole"] * FC_CEILING[s.shape] * fs
 
 
 def _gm_visible(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, share: float = 0.5) -> bool:

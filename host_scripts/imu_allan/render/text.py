@@ -403,7 +403,8 @@ def outlier_lines(c: dict[str, Any]) -> list[str]:
 def _lp_form(t: dict[str, Any]) -> str:
     if t.get("shape") == "average":
         return "moving average" if t["order"] == 1 else "two averages (Bartlett)"
-    return f"{'one' if t['order'] == 1 else 'two'}-pole"
+    poles = f"{'one' if t['order'] == 1 else 'two'}-pole"
+    return poles + " averaged over each sample" if t.get("shape") == "pole_mean" else poles
 
 
 def _process_lines(c: dict[str, Any]) -> list[str]:
