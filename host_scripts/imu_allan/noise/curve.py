@@ -29,7 +29,8 @@ from scipy import optimize
 
 from ..stats import dist
 from ..stats.edf import alpha_from_slope
-from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Flicker, Ramp, Sine
+from .flicker import Flicker
+from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
 from .terms import _nnls
 

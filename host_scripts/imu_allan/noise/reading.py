@@ -11,7 +11,8 @@ import numpy as np
 
 from ..stats import dist
 from .curve import resonance
-from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
+from .flicker import Flicker
+from .processes import AR1, LP, QN, RW, WN, Model, Ramp, Sine
 from .terms import B_FACTOR, Term
 
 Z95 = 1.959963984540054
