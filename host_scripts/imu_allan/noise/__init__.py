@@ -21,6 +21,10 @@ def __getattr__(name: str) -> Any:
         from .resonance import Resonance
 
         return Resonance
+    if name == "Flicker":
+        from .flicker import Flicker
+
+        return Flicker
     if name in __all__:
         from . import processes
 

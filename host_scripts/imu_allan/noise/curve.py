@@ -29,9 +29,10 @@ from scipy import optimize
 
 from ..stats import dist
 from ..stats.edf import alpha_from_slope
+from .flicker import Flicker
 from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
-from .terms import B_FACTOR, _nnls
+from .terms import _nnls
 
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
@@ -58,6 +59,12 @@ class Structure:
         gms = [f"T{j + 1}" for j in range(self.ngm)]
         return (["fc"] if self.lp else []) + gms + ["f_res", "q_res"] * self.res + ["f0"] * self.sine
 
+    def flicker(self) -> str:
+        """How the samples see the flicker (processes.Flicker.sampling): as points where
+        the band limit is a pole read at instants; as means with no band limit (white
+        noise holds the first octaves, the IEEE constant as ever) or an averaging one."""
+        return "point" if self.lp and self.shape == "pole" else "mean"
+
     def res_at(self) -> int:
         """Index in theta of the resonance's log frequency (its log quality next)."""
         return (1 if self.lp else 0) + self.ngm
@@ -70,7 +77,7 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
         if k == "N" and s.lp:
             cols.append(LP(1.0, math.exp(theta[0]), s.lp, s.shape).avar(m, fs))
         else:
-            cols.append(_fixed(k, m, fs))
+            cols.append(_fixed(k + s.flicker() if k == "B" else k, m, fs))
     i = 1 if s.lp else 0
     for j in range(s.ngm):
         cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
@@ -86,12 +93,12 @@ _FIXED: dict[tuple, np.ndarray] = {}
 
 def _fixed(k: str, m: np.ndarray, fs: float) -> np.ndarray:
     """The column of an IEEE 952 term without parameters (the fit asks for it thousands of
-    times on the same taus): computed once per curve."""
+    times on the same taus): computed once per curve; k "Bpoint" or "Bmean" for flicker."""
     key = (k, fs, m.tobytes())
     col = _FIXED.get(key)
     if col is None:
-        proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k)
-        col = proc.avar(m, fs) if proc is not None else np.full(m.shape, B_FACTOR)
+        proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k) or Flicker(1.0, k[1:])
+        col = proc.avar(m, fs)
         col.setflags(write=False)
         if len(_FIXED) > 256:
             _FIXED.clear()

@@ -33,9 +33,6 @@ from numpy.typing import ArrayLike
 from . import averaging
 from .filters import arma_factor, filter_autocov, freq_response, lfilter, lowpass_filter, mean_pole_autocov
 
-B_FACTOR = 2.0 * math.log(2.0) / math.pi
-"""AVAR of flicker rate noise per unit B^2 (IEEE 952: ADEV floor 0.664 B)."""
-
 
 def _m(m: ArrayLike) -> np.ndarray:
     return np.asarray(m, dtype=np.float64)
@@ -331,72 +328,6 @@ class _AR1(_Stream):
         y, zf = lfilter([self.b], [1.0, -self.phi], self.rng.standard_normal(L), zi=[self.state])
         self.state = float(zf[0])
         return y
-
-
-@dataclass(repr=False)
-class Flicker(Process):
-    """Flicker rate noise B [u] (bias instability): PSD B^2 / (pi f) one-sided
-    (IEEE 952 C.3), ADEV floor 0.664 B.  Its AVAR here is the IEEE 952 constant
-    (2 ln 2 / pi) B^2 (no closed discrete form; the simulated bank stays within
-    1.5 % of it from 4 dt to a quarter of the record).  Simulation: a bank of
-    Gauss-Markov processes, correlation times 8^k dt up to 4 records, each of
-    variance B^2 ln 8 / pi, the slow ones drawn every T fs / 32 samples and held."""
-
-    B: float
-    name = "B"
-    meaning = "flicker rate noise B (bias instability; the flat floor of ADEV at 0.664 B)"
-
-    def params(self) -> dict[str, float]:
-        return {"B": self.B}
-
-    def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
-        return np.full(np.shape(m), B_FACTOR * self.B**2)
-
-    def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
-        return self.B**2 / (np.pi * _m(f))
-
-    def simulator(self, fs: float, n: int, seed: np.random.SeedSequence) -> _Stream:
-        return _FlickerBank(self.B, fs, n, seed)
-
-
-FLICKER_SPACING = 8.0
-
-
-class _FlickerBank(_Stream):
-    def __init__(self, b: float, fs: float, n: int, seed: np.random.SeedSequence) -> None:
-        r = FLICKER_SPACING
-        t_lo, t_hi = 1.0 / fs, max(4.0 * n / fs, 8.0 / fs)
-        count = int(math.ceil(math.log(t_hi / t_lo) / math.log(r))) + 1
-        sigma = b * math.sqrt(math.log(r) / math.pi)
-        self.procs = []
-        self.pos = 0
-        for k, ss in enumerate(seed.spawn(count)):
-            T = t_lo * r**k
-            D = 1 << max(int(math.floor(math.log2(max(T * fs / 32.0, 1.0)))), 0)
-            a = math.exp(-D / (fs * T))
-            rng = np.random.default_rng(ss)
-            g = {"D": D, "a": a, "b": sigma * math.sqrt(1.0 - a * a), "rng": rng, "q": -1}
-            self.procs.append(dict(g, v=sigma * rng.standard_normal()))
-
-    def take(self, length: int) -> np.ndarray:
-        start = self.pos
-        out = np.zeros(length)
-        if length == 0:
-            return out
-        for g in self.procs:  # over the bank (about ten processes), each vectorized
-            D, q_first, q_last = g["D"], start // g["D"], (start + length - 1) // g["D"]
-            new = q_last - g["q"]
-            if new > 0:
-                y, _ = lfilter([g["b"]], [1.0, -g["a"]], g["rng"].standard_normal(new), zi=[g["a"] * g["v"]])
-                vals = np.concatenate(([g["v"]], y)) if q_first == g["q"] else y
-                g["q"], g["v"] = q_last, float(y[-1])
-            else:
-                vals = np.array([g["v"]])
-            held = np.repeat(vals, D) if D > 1 else vals
-            off = start - q_first * D
-            out += held[off : off + length]
-        self.pos += length
-        return out
 
 
 @dataclass(repr=False)

@@ -11,7 +11,8 @@ import numpy as np
 
 from ..stats import dist
 from .curve import resonance
-from .processes import AR1, LP, QN, RW, WN, Flicker, Model, Ramp, Sine
+from .flicker import Flicker
+from .processes import AR1, LP, QN, RW, WN, Model, Ramp, Sine
 from .terms import B_FACTOR, Term
 
 Z95 = 1.959963984540054
@@ -137,7 +138,7 @@ def to_model(s: Any, theta: np.ndarray, c: np.ndarray) -> Model:
         n = math.sqrt(vals["N"])
         parts.append(LP(n, math.exp(theta[0]), s.lp, s.shape) if s.lp else WN(n))
     if vals.get("B", 0) > 0:
-        parts.append(Flicker(math.sqrt(vals["B"])))
+        parts.append(Flicker(math.sqrt(vals["B"]), s.flicker()))
     if vals.get("K", 0) > 0:
         parts.append(RW(math.sqrt(vals["K"])))
     if vals.get("R", 0) > 0:

@@ -69,7 +69,8 @@ import numpy as np
 
 from ..channels import CODE_MAX, COLUMNS
 from ..errors import InputError
-from .processes import AR1, RW, Flicker, Model
+from .flicker import Flicker
+from .processes import AR1, RW, Model
 
 SENSORS = COLUMNS[:6]
 F_ADC = 10_000_000 / 64

@@ -82,7 +82,9 @@ class NoiseProcess:
             self.model += cat.RW(p.rrw * math.sqrt(fs))
             self.streams.append(cat._Walk(p.rrw, rrw_rng))
         if p.flicker and flicker_seed is not None:
-            fl = cat.Flicker(p.flicker)
+            from .flicker import Flicker as Bank
+
+            fl = Bank(p.flicker)
             self.model += fl
             self.streams.append(fl.simulator(fs, n, flicker_seed))
         if p.quant and quant_rng is not None:
@@ -106,9 +108,9 @@ class Flicker:
     (imu_allan.noise.Flicker), ``take(start, length)`` on consecutive blocks."""
 
     def __init__(self, b: float, fs: float, n: int, seed: np.random.SeedSequence) -> None:
-        from . import processes as cat
+        from .flicker import Flicker as Bank
 
-        self._bank = cat.Flicker(b).simulator(fs, n, seed)
+        self._bank = Bank(b).simulator(fs, n, seed)
         self._done = 0
 
     def take(self, start: int, length: int) -> np.ndarray:
