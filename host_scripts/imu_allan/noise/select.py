@@ -70,7 +70,7 @@ def choose(
     """The structure the curve (t, y) needs and its nonlinear parameters, with the
     problem (weights) it was fitted under."""
 
-    def select(floor: float, robust: bool = False, sine: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
+    def select(floor: np.ndarray, robust: bool = False, sine: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
         p = _Problem(t, y, fs, edf_of, kind, floor)
         p.robust_on, p.sine_on = robust, sine or SINE
         s, theta, c, chi2 = _stepwise(p, Structure(lin), np.zeros(0))
@@ -78,13 +78,13 @@ def choose(
             s, theta, c, chi2 = _extend(p, s, theta, c, chi2, lin)
         return p, s, theta
 
-    p, s, theta = select(0.0)
+    p, s, theta = select(np.zeros(t.size))
     c, chi2, _ = p.solve(s, theta)
     floor = set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
-    if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
+    if floor.any():  # a real sensor: select again, the model error in the weights, robustly
         # a sinusoid where the curve shows an oscillation's hump, or where no model error the
         # fit may grant brings the first model to the curve (the one process not tried yet)
-        osc = floor >= 2.0 * MODEL_ERR or _shows_oscillation(p, s, theta)
+        osc = floor.max() >= 2.0 * MODEL_ERR or _shows_oscillation(p, s, theta)
         s1, th1 = s, theta
         p, s, theta = select(floor, robust=True, sine=osc)
         # the first structure under the same weights: the robust selection may wander off
@@ -345,8 +345,10 @@ def _extend(
             break
     if p.sine_on:
         s, theta, c, chi2 = _try_sine(p, s, theta, c, chi2)
-    if s.lp and p.floor == 0.0:
+    if s.lp and not p.floor.any():
         s, theta, c, chi2 = _try_res(p, s, theta, c, chi2)
+    elif s.lp:  # under a model error: the one the model with a resonance needs
+        s, theta, c, chi2 = _res_own_error(p, s, theta, c, chi2)
     return s, theta, c, chi2
 
 
@@ -412,6 +414,40 @@ def _try_res(
     if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and not misfits(chi2b, dof):
         return _stepwise(p, s2, th, keep=("N",))
     p.set_reference(saved)
+    return s, theta, c, chi2
+
+
+def _res_own_error(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """The resonance tried under the model error the model with it needs (set_floor, by tau
+    region): the error of the first model, granted on the short taus because it lacked the
+    resonance, would hide it there.  Fitted under the present weights, the model with it
+    sets the error; the structure without it is refitted under that error and _try_res
+    judges it (p's error and weights restored where it is not kept)."""
+    if s.res or p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 3) < 2:
+        return s, theta, c, chi2
+    saved = p.floor.copy(), p.ref.copy(), p.robust.copy()
+    s2 = replace(s, res=1)
+    i = s2.res_at()
+    (f_lo, f_hi), (q_lo, q_hi) = bounds(s2, p.t, p.fs)[i : i + 2]
+    best = (math.inf, theta)
+    for f in np.linspace(f_lo, f_hi, 9):
+        for q in np.linspace(q_lo, q_hi, 4):
+            th = np.concatenate((theta[:i], [f, q], theta[i:]))
+            v = p.solve(s2, th)[1]
+            if v < best[0]:
+                best = (v, th)
+    th2, c2, _ = fit_structure(p, s2, best[1], None)
+    dof = max(p.t.size - int(np.sum(c2 > 0)) - th2.size, 1)
+    f2 = set_floor(p, s2, th2, c2, dof)
+    p.floor = f2
+    th1, c1, chi1 = fit_structure(p, s, theta, None)
+    r = _try_res(p, s, th1, c1, chi1)
+    if r[0].res:
+        return r
+    p.floor, p.ref, p.robust = saved
+    p.set_reference(p.ref)
     return s, theta, c, chi2
 
 
