@@ -12,10 +12,18 @@ with Greenhall's EDF for the local noise type, correlated between octaves),
 iterated with the model as the reference (GMWM, Guerrier et al. 2013, weights
 by the estimates' covariance the same way).  A real sensor is never exactly a
 sum of catalogue processes, and a million samples make the short-tau points
-so precise that any misfit there would decide everything: when chi2
-exceeds its 95 % point (a misfit beyond chance, ``misfits``), a model error
-(relative, at most MODEL_ERR of the deviation) is added in quadrature to each
-point's sd, the least that brings chi2/dof to 1 (``set_floor``).
+so precise that any misfit there would decide everything: when chi2 on log
+AVAR exceeds its 95 % point (a misfit beyond chance, ``misfits``), a model
+error (relative, at most MODEL_ERR of the deviation) is added in quadrature to
+the sd of the points where the model misfits (``set_floor``): each window of
+five octaves whose chi2 is beyond chance (the 95 % point corrected for the
+windows, Sidak) gives its points the least error that brings it to its
+expectation (``local_floor``); a misfit that no window shows is granted on the
+points whose window's chi2 exceeds its expectation, the least that brings
+chi2/dof to 1.  The misfit of a real part sits in a tau region (lines and an
+excess at long taus, a resonance at short ones): granted there, it neither
+widens the intervals of terms read elsewhere (N on the short taus) nor hides a
+term that lives elsewhere from the selection's tests.
 """
 
 from __future__ import annotations
@@ -338,42 +346,51 @@ def log_chi2(p: _Problem, mod: np.ndarray) -> float:
     return _quad(u, (v + p.floor**2) * p.robust, C)
 
 
-LOCAL_OCTAVES = 1
+LOCAL_OCTAVES = 2
 """The model error is judged on windows of this many octaves either side of each point
-(three octaves: a line's or a resonance's ADEV hump is about two octaves wide)."""
+(five octaves: a line's or a resonance's ADEV hump and its flanks; on the six real units
+windows of three octaves left the accelerometers' N moving when averaged down by 10 on 7
+more channels)."""
 
 
 def local_floor(p: _Problem, mod: np.ndarray, dof: int) -> np.ndarray:
-    """The model error each point is granted by its own region of the curve: for the window
-    of LOCAL_OCTAVES either side of point i, the least relative error (AVAR, up to 2
+    """The model error each point is granted by its own region of the curve: for each window
+    of LOCAL_OCTAVES either side of a point, the least relative error (AVAR, up to 2
     MODEL_ERR, the same on the window's points) that brings the window's chi2 on log AVAR
     (its octaves correlated) to its expectation (its points times dof / points: the fitted
     parameters' share), granted only where that chi2 is beyond chance at the FIT_LEVEL
     point corrected for the number of windows (Sidak: on a curve the model fits, no window
-    is granted anything but by the chance FIT_LEVEL allows the whole curve); 0 elsewhere."""
+    is granted anything but by the chance FIT_LEVEL allows the whole curve); a point in
+    several such windows keeps the largest error, a point in none has 0."""
     u, v, C = _log_parts(p, mod)
     n = p.t.size
     v = v * p.robust
     level = FIT_LEVEL ** (1.0 / n)
     out = np.zeros(n)
-    top = 2.0 * MODEL_ERR
-    for i in range(n):
-        w = slice(max(i - LOCAL_OCTAVES, 0), min(i + LOCAL_OCTAVES + 1, n))
+    for w in _windows(n):
         expect = (w.stop - w.start) * max(dof, 1) / n
-        uw, vw, Cw = u[w], v[w], C[w, w]
-        if _quad(uw, vw, Cw) <= float(dist.chi2_ppf(level, expect)):
-            continue
-        lo, hi = 0.0, top
-        if _quad(uw, vw + top**2, Cw) >= expect:
-            lo = top
-        for _ in range(BISECT if lo < top else 0):
-            mid = 0.5 * (lo + hi)
-            if _quad(uw, vw + mid**2, Cw) > expect:
-                lo = mid
-            else:
-                hi = mid
-        out[i] = hi
+        if _quad(u[w], v[w], C[w, w]) > float(dist.chi2_ppf(level, expect)):
+            out[w] = np.maximum(out[w], _least_error(u[w], v[w], C[w, w], expect))
     return out
+
+
+def _windows(n: int) -> list[slice]:
+    return [slice(max(i - LOCAL_OCTAVES, 0), min(i + LOCAL_OCTAVES + 1, n)) for i in range(n)]
+
+
+def _least_error(u: np.ndarray, v: np.ndarray, C: np.ndarray, expect: float) -> float:
+    """The least relative error (up to 2 MODEL_ERR) that brings chi2 on log AVAR to ``expect``."""
+    top = 2.0 * MODEL_ERR
+    if _quad(u, v + top**2, C) >= expect:
+        return top
+    lo, hi = 0.0, top
+    for _ in range(BISECT):
+        mid = 0.5 * (lo + hi)
+        if _quad(u, v + mid**2, C) > expect:
+            lo = mid
+        else:
+            hi = mid
+    return hi
 
 
 BISECT = 8
@@ -407,17 +424,36 @@ def set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: 
     rest = local < top
     if not rest.any() or not _misfits_on(p, mod, rest, dof):
         return local
+    # a misfit no window shows beyond chance: granted on the points whose window's chi2
+    # exceeds its expectation (all of them if none does), the least that brings chi2/dof to 1
+    spread = _over(p, mod, dof) & rest
+    spread = spread if spread.any() else rest
+
+    def with_(g: float) -> np.ndarray:
+        return np.where(spread, np.maximum(local, g), local)
+
     lo, hi = 0.0, top
-    if red(np.maximum(local, top)) >= 1.0:
+    if red(with_(top)) >= 1.0:
         lo = top
     for _ in range(BISECT if lo < top else 0):
         mid = 0.5 * (lo + hi)
-        if red(np.maximum(local, mid)) > 1.0:
+        if red(with_(mid)) > 1.0:
             lo = mid
         else:
             hi = mid
-    red(np.maximum(local, hi))
-    return np.maximum(local, hi)
+    red(with_(hi))
+    return with_(hi)
+
+
+def _over(p: _Problem, mod: np.ndarray, dof: int) -> np.ndarray:
+    """The points whose window's chi2 on log AVAR (p's model error in it) exceeds its expectation."""
+    u, v, C = _log_parts(p, mod)
+    v = (v + p.floor**2) * p.robust
+    n = p.t.size
+    out = np.zeros(n, dtype=bool)
+    for i, w in enumerate(_windows(n)):
+        out[i] = _quad(u[w], v[w], C[w, w]) > (w.stop - w.start) * max(dof, 1) / n
+    return out
 
 
 def _misfits_on(p: _Problem, mod: np.ndarray, keep: np.ndarray, dof: int) -> bool:

@@ -11,7 +11,8 @@ term whose removal costs less than 3.84 is dropped.  A sinusoid is tried last
 leaves the first model off the curve), started where the model leaves its
 largest hump.  On a real sensor
 (chi2/dof above 1 at the first selection) the selection runs again with the
-model error in the weights and points far off the model given capped
+model error in the weights (by tau region: curve.set_floor; the resonance judged under
+the error the model with it needs) and points far off the model given capped
 influence; the first structure, refitted under the same weights, stays when
 the information criterion prefers it.  Last, a rise at the curve's end taken by a
 ramp, a long Gauss-Markov process or a sinusoid is read as K unless they beat K on
@@ -386,17 +387,10 @@ def _try_sine(
     return s, theta, c, chi2
 
 
-def _try_res(
-    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
-) -> tuple[Structure, np.ndarray, np.ndarray, float]:
-    """A resonance (resonance.py) on the first taus, kept when it lowers chi2 by the 95 %
-    point of chi2(3), is RES_SHARE of the model somewhere and the model with it fits within
-    chance (tried only without a model error, _extend's caller)."""
-    if s.res or p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 3) < 2:
-        return s, theta, c, chi2
+def _res_grid(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
+    """The parameters of s with a resonance added, its frequency and quality the best of a grid."""
     s2 = replace(s, res=1)
     i = s2.res_at()
-    saved = p.ref.copy()  # the weights as they were, exactly, where it is not kept
     (f_lo, f_hi), (q_lo, q_hi) = bounds(s2, p.t, p.fs)[i : i + 2]
     best = (math.inf, theta)
     for f in np.linspace(f_lo, f_hi, 9):
@@ -405,7 +399,20 @@ def _try_res(
             v = p.solve(s2, th)[1]
             if v < best[0]:
                 best = (v, th)
-    th, c2, chi2b = fit_structure(p, s2, best[1], None)
+    return best[1]
+
+
+def _try_res(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float, start=None
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """A resonance (resonance.py) on the first taus, kept when it lowers chi2 by the 95 %
+    point of chi2(3), is RES_SHARE of the model somewhere and the model with it fits within
+    chance (tried only without a model error, _extend's caller)."""
+    if s.res or p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 3) < 2:
+        return s, theta, c, chi2
+    s2 = replace(s, res=1)
+    saved = p.ref.copy()  # the weights as they were, exactly, where it is not kept
+    th, c2, chi2b = fit_structure(p, s2, _res_grid(p, s, theta) if start is None else start, None)
     dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
     k = s2.names().index("RES")
     seen = _shows(p, s2, th, c2, k, RES_SHARE)
@@ -429,21 +436,10 @@ def _res_own_error(
         return s, theta, c, chi2
     saved = p.floor.copy(), p.ref.copy(), p.robust.copy()
     s2 = replace(s, res=1)
-    i = s2.res_at()
-    (f_lo, f_hi), (q_lo, q_hi) = bounds(s2, p.t, p.fs)[i : i + 2]
-    best = (math.inf, theta)
-    for f in np.linspace(f_lo, f_hi, 9):
-        for q in np.linspace(q_lo, q_hi, 4):
-            th = np.concatenate((theta[:i], [f, q], theta[i:]))
-            v = p.solve(s2, th)[1]
-            if v < best[0]:
-                best = (v, th)
-    th2, c2, _ = fit_structure(p, s2, best[1], None)
-    dof = max(p.t.size - int(np.sum(c2 > 0)) - th2.size, 1)
-    f2 = set_floor(p, s2, th2, c2, dof)
-    p.floor = f2
-    th1, c1, chi1 = fit_structure(p, s, theta, None)
-    r = _try_res(p, s, th1, c1, chi1)
+    th2, c2, _ = fit_structure(p, s2, _res_grid(p, s, theta), None, rounds=1)
+    set_floor(p, s2, th2, c2, max(p.t.size - int(np.sum(c2 > 0)) - th2.size, 1))
+    th1, c1, chi1 = fit_structure(p, s, theta, None, rounds=1)
+    r = _try_res(p, s, th1, c1, chi1, start=th2)
     if r[0].res:
         return r
     p.floor, p.ref, p.robust = saved
