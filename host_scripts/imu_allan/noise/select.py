@@ -39,6 +39,7 @@ from .curve import (
     bounds,
     columns,
     fit_structure,
+    local_floor,
     log_chi2,
     misfits,
     set_floor,
@@ -416,9 +417,14 @@ def _try_res(
     dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
     k = s2.names().index("RES")
     seen = _shows(p, s2, th, c2, k, RES_SHARE)
-    # resolved only where the rest of the model fits within chance: under a model error its
-    # bump and the band limit's bend trade (on real gyros and accelerometers it moved N by -7 to +3 %)
-    if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and not misfits(chi2b, dof):
+    # resolved only where the model with it fits within chance: under a model error its bump and the
+    # band limit's bend trade (on real gyros and accelerometers it moved N by -7 to +3 %); on the whole
+    # curve, or where it lives (curve.local_floor on the points' chance variances: lines at long
+    # taus are no reason to set aside a resonance the short taus show beyond doubt)
+    A2 = columns(s2, th, p.m, p.fs)
+    lives = A2[:, k] * c2[k] >= RES_SHARE * (A2 @ c2)
+    fits = not misfits(chi2b, dof) or not local_floor(p, A2 @ c2, dof)[lives].any()
+    if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and fits:
         return _stepwise(p, s2, th, keep=("N",))
     p.set_reference(saved)
     return s, theta, c, chi2
