@@ -51,7 +51,8 @@ class CurveFit(FitResult):
     """The largest relative sd of AVAR granted to a point as model error (curve.set_floor), 0
     when the model fits within chance; with ``widened``, the factor on the covariance beyond it."""
     model_errors: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    """The model error of each fitted point (the tau region where the model misfits)."""
+    """The model error granted to each point of the curve (0 where the model fits within chance
+    or the point is not fitted): the tau regions where the model misfits."""
     widened: float = 1.0
 
     def model(self, tau: np.ndarray) -> np.ndarray:
@@ -116,6 +117,9 @@ def fit_curve(
     res = _result(p, s, theta, fitted, tau.size, lin)
     e = p.edf_of(p.alpha)
     res.alpha[idx], res.edf[idx] = p.alpha, e
+    errors = np.zeros(tau.size)
+    errors[idx] = res.model_errors
+    res.model_errors = errors
     res.b_classic = b_classic(tau, avar, used, res.edf)
     return res
 
@@ -239,12 +243,12 @@ def _error_note(t: np.ndarray, floor: np.ndarray) -> str:
         while j + 1 < t.size and floor[j + 1] > 0:
             j += 1
         top = float(floor[i : j + 1].max())
-        parts.append(f"{top / 2 * 100:.2g} % at {t[i]:.3g}" + (f"-{t[j]:.3g} s" if j > i else " s"))
+        parts.append(f"up to {top / 2 * 100:.2g} % at {t[i]:.3g}" + (f"-{t[j]:.3g} s" if j > i else " s"))
         i = j + 1
     return (
-        "model error granted to the processes where they misfit: "
+        "model error granted to the processes where they misfit beyond chance (of the deviation): "
         + ", ".join(parts)
-        + f" of the deviation (the least that brings chi2/dof to 1 there, at most {MODEL_ERR * 100:g} %)"
+        + f" (the least that brings chi2/dof to 1 there, at most {MODEL_ERR * 100:g} %)"
     )
 
 
