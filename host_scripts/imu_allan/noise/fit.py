@@ -48,8 +48,11 @@ class CurveFit(FitResult):
     structure: Structure = field(default_factory=Structure)
     slope: dict = field(default_factory=dict)
     model_error: float = 0.0
-    """Relative sd of AVAR granted to every point as model error (curve.set_floor), 0 when
-    the model fits within chance; with ``widened``, the factor on the covariance beyond it."""
+    """The largest relative sd of AVAR granted to a point as model error (curve.set_floor), 0
+    when the model fits within chance; with ``widened``, the factor on the covariance beyond it."""
+    model_errors: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The model error granted to each point of the curve (0 where the model fits within chance
+    or the point is not fitted): the tau regions where the model misfits."""
     widened: float = 1.0
 
     def model(self, tau: np.ndarray) -> np.ndarray:
@@ -114,6 +117,9 @@ def fit_curve(
     res = _result(p, s, theta, fitted, tau.size, lin)
     e = p.edf_of(p.alpha)
     res.alpha[idx], res.edf[idx] = p.alpha, e
+    errors = np.zeros(tau.size)
+    errors[idx] = res.model_errors
+    res.model_errors = errors
     res.b_classic = b_classic(tau, avar, used, res.edf)
     return res
 
@@ -171,12 +177,9 @@ def _result(
     dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
     notes: list[str] = []
     floor = set_floor(p, s, theta, c, dof)
-    if floor > 0:
+    if floor.any():
         c, chi2, A = p.solve(s, theta)
-        notes.append(
-            f"model error granted to the processes: {floor / 2 * 100:.2g} % of the deviation "
-            f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)"
-        )
+        notes.append(_error_note(p.t, floor))
     chi2_red = chi2 / dof
     # chi2/dof above 1 by chance (judged on log AVAR too: curve.log_chi2): no widening
     inflate = max(1.0, chi2_red) if misfits(chi2, dof) and misfits(log_chi2(p, A @ c), dof) else 1.0
@@ -198,7 +201,8 @@ def _result(
         fs=p.fs,
         fitted=to_model(s, theta, c),
         structure=s,
-        model_error=floor,
+        model_error=float(floor.max()),
+        model_errors=floor,
         widened=inflate,
     )
     grid = np.exp(np.linspace(math.log(p.t[0]), math.log(p.t[-1]), 200))
@@ -226,6 +230,26 @@ def _result(
         )
     notes.extend(r["text"] for r in res.unexplained)
     return res
+
+
+def _error_note(t: np.ndarray, floor: np.ndarray) -> str:
+    """The model error granted, by the tau regions that needed it."""
+    parts, i = [], 0
+    while i < t.size:
+        if floor[i] <= 0:
+            i += 1
+            continue
+        j = i
+        while j + 1 < t.size and floor[j + 1] > 0:
+            j += 1
+        top = float(floor[i : j + 1].max())
+        parts.append(f"up to {top / 2 * 100:.2g} % at {t[i]:.3g}" + (f"-{t[j]:.3g} s" if j > i else " s"))
+        i = j + 1
+    return (
+        "model error granted to the processes where they misfit beyond chance (of the deviation): "
+        + ", ".join(parts)
+        + f" (the least that brings chi2/dof to 1 there, at most {MODEL_ERR * 100:g} %)"
+    )
 
 
 def _selection_variance(
