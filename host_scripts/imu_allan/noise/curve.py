@@ -468,3 +468,49 @@ def _misfits_on(p: _Problem, mod: np.ndarray, keep: np.ndarray, dof: int) -> boo
     u, v, C = _log_parts(p, mod)
     chi2 = _quad(u[keep], ((v + p.floor**2) * p.robust)[keep], C[np.ix_(keep, keep)])
     return misfits(chi2, max(int(round(dof * keep.sum() / p.t.size)), 1))
+
+
+def covariance(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw: np.ndarray, inflate: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """sd of every c and every log fc / log T: the inverse of J'J, J the Jacobian of the
+    whitened residuals (active c analytically, fc and T numerically), widened by ``inflate``."""
+    act = np.flatnonzero(c > 0)
+    J = [Aw[:, j] for j in act]
+    free = free_parameters(p, s, theta)
+    for i in range(theta.size):
+        if not free[i]:  # at its search's bound: held there, not traded (its sd 0)
+            J.append(np.zeros(p.t.size))
+            continue
+        h = 1e-4
+        th = theta.copy()
+        th[i] += h
+        J.append((p.gls.white(columns(s, th, p.m, p.fs)) @ c - Aw @ c) / h)
+    J = np.stack(J, axis=1) if J else np.zeros((p.t.size, 0))
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
+    cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
+    sd_c = np.zeros(c.size)
+    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[: act.size], 0.0))
+    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size :], 0.0))
+    return sd_c, sd_th
+
+
+def free_parameters(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
+    """The nonlinear parameters the covariance counts free: all but a resonance's frequency or
+    quality at its search's bound (curve.bounds), where the constraint holds it (the curve
+    would take a broader or narrower peak than the catalogue's resonance; on real
+    accelerometers its quality sat at 5 or 200).  Counted free, that unpinned parameter's trade
+    with the band limit and N widened N's interval from 2-5 % to 15-32 %.  The band limit's
+    cutoff at its ceiling and a GM's time at its bound stay free: their forms' trade with N
+    is what _selection_variance and the profile bounds carry."""
+    free = np.ones(theta.size, dtype=bool)
+    if s.res:
+        i = s.res_at()
+        for j, (lo, hi) in zip((i, i + 1), bounds(s, p.t, p.fs)[i : i + 2]):
+            free[j] = lo + PIN_MARGIN < theta[j] < hi - PIN_MARGIN
+    return free
+
+
+PIN_MARGIN = 0.01
+"""A log parameter this close to its search's bound is at the bound (1 %)."""

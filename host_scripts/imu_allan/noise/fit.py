@@ -28,7 +28,7 @@ from typing import Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
+from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, covariance, free_parameters, set_floor
 from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
 from .select import LP_BEND, LP_FORMS, choose, k_bound, shown
@@ -145,28 +145,6 @@ def _upper(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, k: str) 
     return math.sqrt(max(float(cc[j]), 0.0) + Z95 * math.sqrt(max(float(cov[j, j]), 0.0)))
 
 
-def _covariance(
-    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw: np.ndarray, inflate: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """sd of every c and every log fc / log T: the inverse of J'J, J the Jacobian of the
-    whitened residuals (active c analytically, fc and T numerically), widened by ``inflate``."""
-    act = np.flatnonzero(c > 0)
-    J = [Aw[:, j] for j in act]
-    for i in range(theta.size):
-        h = 1e-4
-        th = theta.copy()
-        th[i] += h
-        J.append((p.gls.white(columns(s, th, p.m, p.fs)) @ c - Aw @ c) / h)
-    J = np.stack(J, axis=1) if J else np.zeros((p.t.size, 0))
-    scale = np.linalg.norm(J, axis=0)
-    scale[scale == 0] = 1.0
-    cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
-    sd_c = np.zeros(c.size)
-    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[: act.size], 0.0))
-    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size :], 0.0))
-    return sd_c, sd_th
-
-
 def _result(
     p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int, lin: tuple[str, ...] = LINEAR
 ) -> CurveFit:
@@ -187,7 +165,7 @@ def _result(
         notes.append(
             f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
         )
-    sd_c, sd_th = _covariance(p, s, theta, c, p.gls.white(A), inflate)
+    sd_c, sd_th = covariance(p, s, theta, c, p.gls.white(A), inflate)
     sd_c = np.sqrt(sd_c**2 + _selection_variance(p, s, theta, c, lin, inflate))
     res = CurveFit(
         {},
@@ -222,7 +200,10 @@ def _result(
     res.coef = np.array([c[names.index(k)] if k in names else 0.0 for k in TERMS])
     res.slope = slope_reading(p.t, p.y, p.edf_of(p.alpha))
     _compare(res, notes)
-    res.unexplained = _unexplained(p, A @ c, p.edf_of(p.alpha))
+    # a point's allowance is the model error granted to it (two sd of the deviation, as TOL is
+    # twice the model error of one for every point), at least the MODEL_ERR any point may be
+    # granted: a region the fit holds to its chance variances is not excused by another's error
+    res.unexplained = _unexplained(p, A @ c, p.edf_of(p.alpha), tol=np.maximum(floor, MODEL_ERR))
     off = p.robust > 1.0
     if off.any():
         notes.append(
@@ -278,7 +259,9 @@ def _selection_variance(
                 s2 = replace(s, lp=order, shape=shape)
                 alts.append((s2, _refit(p, s2, theta)))
     if s.res:
-        alts.append((replace(s, res=0), np.delete(theta, [s.res_at(), s.res_at() + 1])))
+        s2, th2 = replace(s, res=0), np.delete(theta, [s.res_at(), s.res_at() + 1])
+        alts.append((s2, _refit(p, s2, th2) if s.lp else th2))  # the band limit it trades with, refitted
+        alts.extend(_res_range(p, s, theta))
     if s.ngm:  # the last GM (the newest: the one the selection judged last)
         i = (1 if s.lp else 0) + s.ngm - 1
         alts.append((replace(s, ngm=s.ngm - 1), np.delete(theta, i)))
@@ -300,6 +283,43 @@ def _selection_variance(
 
 
 FORM_FC = 2.5
+
+
+def _res_range(p: _Problem, s: Structure, theta: np.ndarray) -> list[tuple[Structure, np.ndarray]]:
+    """A resonance's frequency or quality held at its search's bound (curve.free_parameters): the same
+    structure with it across its range (RES_STEPS values), the resonance's other parameter
+    and the band limit's cutoff it trades with refitted, for _selection_variance: what the
+    curve does not pin enters N's interval by what the curve allows (Akaike weights), not
+    by the linear trade of a parameter the curve cannot see (on the real accelerometers N
+    moves by about 1 % across the quality's range, where that trade gave 15-32 %)."""
+    from scipy import optimize
+
+    from .curve import bounds
+
+    lims, out = bounds(s, p.t, p.fs), []
+    i = s.res_at()
+    for j in np.flatnonzero(~free_parameters(p, s, theta)):
+        others = [k for k in ((0,) if s.lp else ()) + (i, i + 1) if k != j]
+        for v in np.linspace(*lims[j], RES_STEPS):
+            th = theta.copy()
+            th[j] = v
+            r = optimize.minimize(
+                _chi2_at, theta[others], args=(p, s, th, others), bounds=[lims[k] for k in others], method="L-BFGS-B"
+            )
+            th[others] = r.x
+            out.append((s, th))
+    return out
+
+
+def _chi2_at(x: np.ndarray, p: _Problem, s: Structure, th: np.ndarray, idx: list) -> float:
+    """chi2 of s with th's parameters idx set to x (th changed in place)."""
+    th[idx] = x
+    return p.solve(s, th)[1]
+
+
+RES_STEPS = 4
+"""Values across a resonance parameter's range for its share of the selection variance (the
+quality's search grid: select._res_grid)."""
 
 
 def _refit(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
@@ -404,9 +424,11 @@ def _res_term(s: Structure, theta: np.ndarray, c: np.ndarray, sd_th: np.ndarray,
     t.extra = {"f0_hz": f0, "f0_low": f_lo, "f0_high": f_hi, "quality": q, "quality_low": q_lo, "quality_high": q_hi}
     t.extra["tau_c"] = q / (math.pi * f0)
     sd = math.sqrt(c[s.names().index("RES")])
+    held = [w for w, v in (("frequency", sd_th[i]), ("quality", sd_th[i + 1])) if v == 0]
     t.note = (t.note + "; " if t.note else "") + (
         f"a resonance of {f0:.3g} Hz (quality {q:.3g}: a mode rung by the bench), sd {sd:.3g}; "
         "what it adds to the short taus is not white noise, N is read under it"
+        + (f"; its {' and '.join(held)} at the search's bound (the curve does not pin it there)" if held else "")
     )
     return t
 

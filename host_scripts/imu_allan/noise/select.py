@@ -38,6 +38,7 @@ from .curve import (
     _Problem,
     bounds,
     columns,
+    covariance,
     fit_structure,
     local_floor,
     log_chi2,
@@ -46,7 +47,7 @@ from .curve import (
     settle,
 )
 from .processes import FC_CEILING
-from .reading import _unexplained
+from .reading import Z95, _unexplained
 from .terms import CHI2_1_95
 
 MAX_GM = 2
@@ -433,7 +434,7 @@ def _try_res(
     A2 = columns(s2, th, p.m, p.fs)
     lives = A2[:, k] * c2[k] >= RES_SHARE * (A2 @ c2)
     fits = not misfits(chi2b, dof) or not local_floor(p, A2 @ c2, dof)[lives].any()
-    if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and fits:
+    if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and fits and _res_pinned(p, s2, th, c2):
         return _stepwise(p, s2, th, keep=("N",))
     p.set_reference(saved)
     return s, theta, c, chi2
@@ -460,6 +461,16 @@ def _res_own_error(
     p.floor, p.ref, p.robust = saved
     p.set_reference(p.ref)
     return s, theta, c, chi2
+
+
+def _res_pinned(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bool:
+    """The resonance's variance pinned by the curve: clear of 0 by 1.96 sd (the rule by which
+    the result gives a term a value rather than a bound; curve.covariance, its quality or
+    frequency held where the search's bound holds it).  One the curve does not pin trades
+    with the band limit's bend and with N while claiming a mode it cannot describe."""
+    k = s.names().index("RES")
+    sd_c, _ = covariance(p, s, theta, c, p.gls.white(columns(s, theta, p.m, p.fs)), 1.0)
+    return bool(c[k] > Z95 * sd_c[k])
 
 
 RES_SHARE = 0.05
