@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, covariance, free_parameters, set_floor
 from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
-from .select import LP_BEND, LP_FORMS, choose, k_bound, shown
+from .select import LP_BEND, LP_FORMS, choose, k_interval, shown
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
 
 Z95 = 1.959963984540054
@@ -166,7 +166,8 @@ def _result(
             f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
         )
     sd_c, sd_th = covariance(p, s, theta, c, p.gls.white(A), inflate)
-    sd_c = np.sqrt(sd_c**2 + _selection_variance(p, s, theta, c, lin, inflate))
+    sel = _selection_variance(p, s, theta, c, lin, inflate)
+    sd_c = np.sqrt(sd_c**2 + sel)
     res = CurveFit(
         {},
         np.zeros(5),
@@ -195,6 +196,9 @@ def _result(
         return _linear_term(name, c[k], sd_c[k], comps.get(name), total, grid, shown=rise)
 
     res.terms = _ieee_terms(p, s, theta, c, term)
+    if "K" in lin:
+        j = s.names().index("K") if "K" in s.names() else -1
+        _k_interval(p, s, theta, res.terms["K"], (sel[j], c[j]) if j >= 0 else (0.0, 0.0))
     res.terms.update(_nonlinear_terms(p, s, theta, c, sd_th, term))
     names = s.names()
     res.coef = np.array([c[names.index(k)] if k in names else 0.0 for k in TERMS])
@@ -359,13 +363,26 @@ def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, ter
                 else f"not in the data (the model does without it; at most {up:.3g})"
             )
             out[k] = Term(k, None, None, None, None, 0.0, 0.0 if up is None else up, why)
-    t = out["K"]
-    if t.value is None and t.upper > 0:  # K's bound widened to its profile's on log AVAR
-        up = k_bound(p, s, theta)
-        if up > t.upper:
-            t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {up:.3g}")
-            t.upper = up
     return out
+
+
+def _k_interval(p: _Problem, s: Structure, theta: np.ndarray, t: Term, fitted: tuple[float, float]) -> None:
+    """K's 95 % interval, or its bound, widened to the test inversion's where that reaches
+    further (select.k_interval: each K judged under the weights of its own model, the
+    structure's choice in the variance, relative): the interval from the fitted model's
+    covariance is as narrow as the fit is low at the curve's end; where a GM or flicker stands
+    beside K, the alternatives' spread may reach further in it.  ``fitted``: the choice of
+    structure's variance of K^2 and K^2 itself."""
+    sel, c = fitted
+    lo, hi = k_interval(p, s, theta, sel / c**2 if c > 0 else 0.0, c)
+    if t.value is None:
+        if hi > t.upper:
+            t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {hi:.3g}")
+            t.upper = hi
+        return
+    if hi > 0:
+        t.low, t.high = min(lo, t.low), max(hi, t.high)
+        t.upper = t.high
 
 
 def _nonlinear_terms(

@@ -1,0 +1,64 @@
+"""K's 95 % interval and bound, graded on textbook streams the package did not make.
+
+White noise of density N plus a rate random walk of coefficient K (the cumulative sum of
+Gaussian steps of sd K / sqrt(fs)), 16000 s at 10 Hz: K = 1e-3 crosses N's line at
+sqrt(3) N / K = 520 s, so the walk rules the last four octaves only, where each Allan
+estimate has one to eight degrees of freedom.  The control: the same white noise with
+flicker instead of the walk (Kasdin's fractional differencing, as in test_noise_fit)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from imu_allan import api
+
+FS = 10.0
+SECONDS = 16000
+N_TRUE = 0.3
+K_TRUE = 1e-3
+B_TRUE = 0.01
+STREAMS = 100
+
+
+def _stream(seed: int, k: float = 0.0, b: float = 0.0) -> np.ndarray:
+    n = int(SECONDS * FS)
+    x = np.random.default_rng([seed, 0]).standard_normal(n) * N_TRUE * math.sqrt(FS)
+    if k:
+        x += np.cumsum(np.random.default_rng([seed, 2]).standard_normal(n) * k / math.sqrt(FS))
+    if b:
+        j = np.arange(1, n)
+        h = np.concatenate(([1.0], np.cumprod((j - 1 + 0.5) / j)))
+        x += signal.fftconvolve(np.random.default_rng([seed, 3]).standard_normal(n) * b, h)[:n]
+    return x
+
+
+@pytest.fixture(scope="module")
+def walks() -> list:
+    return [api.noise_terms(_stream(seed, k=K_TRUE), FS).terms["K"] for seed in range(STREAMS)]
+
+
+def test_K_interval_or_bound_holds_a_walk_that_rules_only_the_last_octaves(walks) -> None:
+    """A 95 % interval holds the truth on 91 or more of 100 streams with probability 0.97.
+    Judged by the fitted model's covariance alone, the interval or bound held it on 88 of
+    these 100 (0.002 for a 95 % interval): where the realization runs low at the end, the
+    fit is low, its weights small, and K's bound fell under the truth (on 11 of the 17
+    streams where K was left out)."""
+    held = sum((k.low if k.value else 0.0) <= K_TRUE <= (k.high if k.value else k.upper) for k in walks)
+    identified = sum(k.value is not None for k in walks)
+    assert held >= 91, held
+    assert identified >= 75, identified  # the walk is there: mostly read, not only bounded
+
+
+def test_K_bound_on_white_noise_and_flicker_stays_under_a_walk_the_records_show(walks) -> None:
+    """With no walk, K is absent and its bound is small: its median under the K = 1e-3 that
+    the same records read on most streams (the previous test: 83 of 100)."""
+    bounds = []
+    for seed in range(20):
+        k = api.noise_terms(_stream(seed, b=B_TRUE if seed % 2 else 0.0), FS).terms["K"]
+        assert k.value is None, (seed, k)
+        bounds.append(k.upper)
+    assert 0 < float(np.median(bounds)) < K_TRUE, bounds
