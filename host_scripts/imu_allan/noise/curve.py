@@ -12,10 +12,18 @@ with Greenhall's EDF for the local noise type, correlated between octaves),
 iterated with the model as the reference (GMWM, Guerrier et al. 2013, weights
 by the estimates' covariance the same way).  A real sensor is never exactly a
 sum of catalogue processes, and a million samples make the short-tau points
-so precise that any misfit there would decide everything: when chi2
-exceeds its 95 % point (a misfit beyond chance, ``misfits``), a model error
-(relative, at most MODEL_ERR of the deviation) is added in quadrature to each
-point's sd, the least that brings chi2/dof to 1 (``set_floor``).
+so precise that any misfit there would decide everything: when chi2 on log
+AVAR exceeds its 95 % point (a misfit beyond chance, ``misfits``), a model
+error (relative, at most MODEL_ERR of the deviation) is added in quadrature to
+the sd of the points where the model misfits (``set_floor``): each window of
+five octaves whose chi2 is beyond chance (the 95 % point corrected for the
+windows, Sidak) gives its points the least error that brings it to its
+expectation (``local_floor``); a misfit that no window shows is granted on the
+points whose window's chi2 exceeds its expectation, the least that brings
+chi2/dof to 1.  The misfit of a real part sits in a tau region (lines and an
+excess at long taus, a resonance at short ones): granted there, it neither
+widens the intervals of terms read elsewhere (N on the short taus) nor hides a
+term that lives elsewhere from the selection's tests.
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import optimize
 
 from ..stats import dist
@@ -118,7 +127,7 @@ class _Gls:
         e: np.ndarray,
         alpha: np.ndarray,
         kind: str,
-        floor: float = 0.0,
+        floor: ArrayLike = 0.0,
         robust: Optional[np.ndarray] = None,
     ) -> None:
         from .terms import _cholesky, octave_correlation
@@ -139,10 +148,10 @@ class _Gls:
 class _Problem:
     """The points of one curve and their covariance model."""
 
-    def __init__(self, t: np.ndarray, y: np.ndarray, fs: float, edf_of, kind: str, floor: float = 0.0) -> None:
+    def __init__(self, t: np.ndarray, y: np.ndarray, fs: float, edf_of, kind: str, floor: ArrayLike = 0.0) -> None:
         self.t, self.y, self.fs, self.m = t, y, fs, t * fs
         self.edf_of, self.kind = edf_of, kind
-        self.floor = floor
+        self.floor = np.zeros(t.size) + floor  # the model error of each point (set_floor)
         self.robust = np.ones(t.size)
         self.robust_on = False
         self.sine_on = False
@@ -312,49 +321,196 @@ def misfits(chi2: float, dof: int) -> bool:
     return chi2 > float(dist.chi2_ppf(FIT_LEVEL, max(dof, 1)))
 
 
-def log_chi2(p: _Problem, mod: np.ndarray) -> float:
-    """chi2 of the model ``mod`` on log AVAR (Bartlett and Kendall 1946: log of chi2_nu / nu
-    has mean psi(nu / 2) - log(nu / 2) and variance psi'(nu / 2)), correlated between
-    octaves as the estimates are, with the model error and the capped influence of points
-    far off as in p's weights.  Where nu is large it is the chi2 of the weights; on the
-    last octaves (nu of 1 to 5, estimates skewed far from the normal) it does not charge
-    a point 5 times its mean 4 times what the chi-squared distribution gives it."""
+def _log_parts(p: _Problem, mod: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(residuals of log AVAR less their chance mean, their chance variance, their correlation):
+    Bartlett and Kendall 1946, log of chi2_nu / nu has mean psi(nu / 2) - log(nu / 2) and
+    variance psi'(nu / 2); correlated between octaves as the estimates are."""
     from scipy import special
 
-    from .terms import _cholesky, octave_correlation
+    from .terms import octave_correlation
 
     half = p.e / 2.0
     bias = special.digamma(half) - np.log(half)
-    sd = np.sqrt((special.polygamma(1, half) + p.floor**2) * p.robust)
-    S = octave_correlation(p.t, p.alpha, p.kind) * np.outer(sd, sd)
-    r = np.linalg.solve(_cholesky(S), np.log(p.y) - np.log(np.maximum(mod, 1e-300)) - bias)
+    u = np.log(p.y) - np.log(np.maximum(mod, 1e-300)) - bias
+    return u, special.polygamma(1, half), octave_correlation(p.t, p.alpha, p.kind)
+
+
+def _quad(u: np.ndarray, var: np.ndarray, C: np.ndarray) -> float:
+    from .terms import _cholesky
+
+    sd = np.sqrt(var)
+    r = np.linalg.solve(_cholesky(C * np.outer(sd, sd)), u)
     return float(r @ r)
 
 
-def set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> float:
-    """The least model error (relative sd of AVAR, up to 2 MODEL_ERR) that brings
-    chi2/dof to 1 at these parameters (set in p); none when the model misfits
-    no more than chance allows (``misfits``, on log AVAR: ``log_chi2``)."""
+def log_chi2(p: _Problem, mod: np.ndarray) -> float:
+    """chi2 of the model ``mod`` on log AVAR (_log_parts), with the model error and the
+    capped influence of points far off as in p's weights.  Where nu is large it is the chi2
+    of the weights; on the last octaves (nu of 1 to 5, estimates skewed far from the normal)
+    it does not charge a point 5 times its mean 4 times what the chi-squared distribution
+    gives it."""
+    u, v, C = _log_parts(p, mod)
+    return _quad(u, (v + p.floor**2) * p.robust, C)
+
+
+LOCAL_OCTAVES = 2
+"""The model error is judged on windows of this many octaves either side of each point
+(five octaves: a line's or a resonance's ADEV hump and its flanks; on the six real units
+windows of three octaves left the accelerometers' N moving when averaged down by 10 on 7
+more channels)."""
+
+
+def local_floor(p: _Problem, mod: np.ndarray, dof: int) -> np.ndarray:
+    """The model error each point is granted by its own region of the curve: for each window
+    of LOCAL_OCTAVES either side of a point, the least relative error (AVAR, up to 2
+    MODEL_ERR, the same on the window's points) that brings the window's chi2 on log AVAR
+    (its octaves correlated) to its expectation (its points times dof / points: the fitted
+    parameters' share), granted only where that chi2 is beyond chance at the FIT_LEVEL
+    point corrected for the number of windows (Sidak: on a curve the model fits, no window
+    is granted anything but by the chance FIT_LEVEL allows the whole curve); a point in
+    several such windows keeps the largest error, a point in none has 0."""
+    u, v, C = _log_parts(p, mod)
+    n = p.t.size
+    v = v * p.robust
+    level = FIT_LEVEL ** (1.0 / n)
+    out = np.zeros(n)
+    for w in _windows(n):
+        expect = (w.stop - w.start) * max(dof, 1) / n
+        if _quad(u[w], v[w], C[w, w]) > float(dist.chi2_ppf(level, expect)):
+            out[w] = np.maximum(out[w], _least_error(u[w], v[w], C[w, w], expect))
+    return out
+
+
+def _windows(n: int) -> list[slice]:
+    return [slice(max(i - LOCAL_OCTAVES, 0), min(i + LOCAL_OCTAVES + 1, n)) for i in range(n)]
+
+
+def _least_error(u: np.ndarray, v: np.ndarray, C: np.ndarray, expect: float) -> float:
+    """The least relative error (up to 2 MODEL_ERR) that brings chi2 on log AVAR to ``expect``."""
+    top = 2.0 * MODEL_ERR
+    if _quad(u, v + top**2, C) >= expect:
+        return top
+    lo, hi = 0.0, top
+    for _ in range(BISECT):
+        mid = 0.5 * (lo + hi)
+        if _quad(u, v + mid**2, C) > expect:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+BISECT = 8
+"""Bisection steps of a model error (to 2 MODEL_ERR / 256: 0.04 % of AVAR)."""
+
+
+def set_floor(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, dof: int) -> np.ndarray:
+    """The model error of each point (relative sd of AVAR, up to 2 MODEL_ERR; set in p): none
+    when the model misfits no more than chance allows (``misfits``, on log AVAR:
+    ``log_chi2``); else first each region's own (``local_floor``: a misfit is granted where
+    it lives, so a line or an excess at long taus neither widens N's interval nor hides a
+    short-tau term), then, if the curve still misfits beyond chance (a misfit spread thinly
+    over it), the least error on every point beside it that brings chi2/dof to 1."""
     A = columns(s, theta, p.m, p.fs)
     mod = A @ c
+    none = np.zeros(p.t.size)
 
-    def red(f: float) -> float:
+    def red(f: np.ndarray) -> float:
         p.floor = f
         p.set_reference(mod)
         return float(np.sum((p.yw - p.gls.white(A) @ c) ** 2)) / dof
 
-    red(0.0)
+    red(none)  # the weights of this model with no model error: chance's own variances
     if not misfits(log_chi2(p, mod), dof):  # judged on log AVAR: the last octaves' skew is chance
-        return 0.0
+        return none
+    local = local_floor(p, mod, dof)
+    red(local)
     top = 2.0 * MODEL_ERR
-    if red(top) >= 1.0:
-        return top
+    # where a region's misfit is beyond the largest error granted, that region's model is
+    # wrong there, not the rest of the curve: the rest is judged by itself
+    rest = local < top
+    if not rest.any() or not _misfits_on(p, mod, rest, dof):
+        return local
+    # a misfit no window shows beyond chance: granted on the points whose window's chi2
+    # exceeds its expectation (all of them if none does), the least that brings chi2/dof to 1
+    spread = _over(p, mod, dof) & rest
+    spread = spread if spread.any() else rest
+
+    def with_(g: float) -> np.ndarray:
+        return np.where(spread, np.maximum(local, g), local)
+
     lo, hi = 0.0, top
-    for _ in range(8):
+    if red(with_(top)) >= 1.0:
+        lo = top
+    for _ in range(BISECT if lo < top else 0):
         mid = 0.5 * (lo + hi)
-        if red(mid) > 1.0:
+        if red(with_(mid)) > 1.0:
             lo = mid
         else:
             hi = mid
-    red(hi)
-    return hi
+    red(with_(hi))
+    return with_(hi)
+
+
+def _over(p: _Problem, mod: np.ndarray, dof: int) -> np.ndarray:
+    """The points whose window's chi2 on log AVAR (p's model error in it) exceeds its expectation."""
+    u, v, C = _log_parts(p, mod)
+    v = (v + p.floor**2) * p.robust
+    n = p.t.size
+    out = np.zeros(n, dtype=bool)
+    for i, w in enumerate(_windows(n)):
+        out[i] = _quad(u[w], v[w], C[w, w]) > (w.stop - w.start) * max(dof, 1) / n
+    return out
+
+
+def _misfits_on(p: _Problem, mod: np.ndarray, keep: np.ndarray, dof: int) -> bool:
+    """``misfits`` of the points ``keep`` alone (their share of dof), on log AVAR."""
+    u, v, C = _log_parts(p, mod)
+    chi2 = _quad(u[keep], ((v + p.floor**2) * p.robust)[keep], C[np.ix_(keep, keep)])
+    return misfits(chi2, max(int(round(dof * keep.sum() / p.t.size)), 1))
+
+
+def covariance(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw: np.ndarray, inflate: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """sd of every c and every log fc / log T: the inverse of J'J, J the Jacobian of the
+    whitened residuals (active c analytically, fc and T numerically), widened by ``inflate``."""
+    act = np.flatnonzero(c > 0)
+    J = [Aw[:, j] for j in act]
+    free = free_parameters(p, s, theta)
+    for i in range(theta.size):
+        if not free[i]:  # at its search's bound: held there, not traded (its sd 0)
+            J.append(np.zeros(p.t.size))
+            continue
+        h = 1e-4
+        th = theta.copy()
+        th[i] += h
+        J.append((p.gls.white(columns(s, th, p.m, p.fs)) @ c - Aw @ c) / h)
+    J = np.stack(J, axis=1) if J else np.zeros((p.t.size, 0))
+    scale = np.linalg.norm(J, axis=0)
+    scale[scale == 0] = 1.0
+    cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
+    sd_c = np.zeros(c.size)
+    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[: act.size], 0.0))
+    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size :], 0.0))
+    return sd_c, sd_th
+
+
+def free_parameters(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
+    """The nonlinear parameters the covariance counts free: all but a resonance's frequency or
+    quality at its search's bound (curve.bounds), where the constraint holds it (the curve
+    would take a broader or narrower peak than the catalogue's resonance; on real
+    accelerometers its quality sat at 5 or 200).  Counted free, that unpinned parameter's trade
+    with the band limit and N widened N's interval from 2-5 % to 15-32 %.  The band limit's
+    cutoff at its ceiling and a GM's time at its bound stay free: their forms' trade with N
+    is what _selection_variance and the profile bounds carry."""
+    free = np.ones(theta.size, dtype=bool)
+    if s.res:
+        i = s.res_at()
+        for j, (lo, hi) in zip((i, i + 1), bounds(s, p.t, p.fs)[i : i + 2]):
+            free[j] = lo + PIN_MARGIN < theta[j] < hi - PIN_MARGIN
+    return free
+
+
+PIN_MARGIN = 0.01
+"""A log parameter this close to its search's bound is at the bound (1 %)."""

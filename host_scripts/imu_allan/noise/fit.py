@@ -28,7 +28,7 @@ from typing import Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, set_floor
+from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, covariance, free_parameters, set_floor
 from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
 from .select import LP_BEND, LP_FORMS, choose, k_interval, shown
@@ -48,8 +48,11 @@ class CurveFit(FitResult):
     structure: Structure = field(default_factory=Structure)
     slope: dict = field(default_factory=dict)
     model_error: float = 0.0
-    """Relative sd of AVAR granted to every point as model error (curve.set_floor), 0 when
-    the model fits within chance; with ``widened``, the factor on the covariance beyond it."""
+    """The largest relative sd of AVAR granted to a point as model error (curve.set_floor), 0
+    when the model fits within chance; with ``widened``, the factor on the covariance beyond it."""
+    model_errors: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The model error granted to each point of the curve (0 where the model fits within chance
+    or the point is not fitted): the tau regions where the model misfits."""
     widened: float = 1.0
 
     def model(self, tau: np.ndarray) -> np.ndarray:
@@ -114,6 +117,9 @@ def fit_curve(
     res = _result(p, s, theta, fitted, tau.size, lin)
     e = p.edf_of(p.alpha)
     res.alpha[idx], res.edf[idx] = p.alpha, e
+    errors = np.zeros(tau.size)
+    errors[idx] = res.model_errors
+    res.model_errors = errors
     res.b_classic = b_classic(tau, avar, used, res.edf)
     return res
 
@@ -139,28 +145,6 @@ def _upper(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, k: str) 
     return math.sqrt(max(float(cc[j]), 0.0) + Z95 * math.sqrt(max(float(cov[j, j]), 0.0)))
 
 
-def _covariance(
-    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, Aw: np.ndarray, inflate: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """sd of every c and every log fc / log T: the inverse of J'J, J the Jacobian of the
-    whitened residuals (active c analytically, fc and T numerically), widened by ``inflate``."""
-    act = np.flatnonzero(c > 0)
-    J = [Aw[:, j] for j in act]
-    for i in range(theta.size):
-        h = 1e-4
-        th = theta.copy()
-        th[i] += h
-        J.append((p.gls.white(columns(s, th, p.m, p.fs)) @ c - Aw @ c) / h)
-    J = np.stack(J, axis=1) if J else np.zeros((p.t.size, 0))
-    scale = np.linalg.norm(J, axis=0)
-    scale[scale == 0] = 1.0
-    cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
-    sd_c = np.zeros(c.size)
-    sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[: act.size], 0.0))
-    sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size :], 0.0))
-    return sd_c, sd_th
-
-
 def _result(
     p: _Problem, s: Structure, theta: np.ndarray, fitted: np.ndarray, size: int, lin: tuple[str, ...] = LINEAR
 ) -> CurveFit:
@@ -171,12 +155,9 @@ def _result(
     dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
     notes: list[str] = []
     floor = set_floor(p, s, theta, c, dof)
-    if floor > 0:
+    if floor.any():
         c, chi2, A = p.solve(s, theta)
-        notes.append(
-            f"model error granted to the processes: {floor / 2 * 100:.2g} % of the deviation "
-            f"(the least that brings chi2/dof to 1, at most {MODEL_ERR * 100:g} %)"
-        )
+        notes.append(_error_note(p.t, floor))
     chi2_red = chi2 / dof
     # chi2/dof above 1 by chance (judged on log AVAR too: curve.log_chi2): no widening
     inflate = max(1.0, chi2_red) if misfits(chi2, dof) and misfits(log_chi2(p, A @ c), dof) else 1.0
@@ -184,7 +165,7 @@ def _result(
         notes.append(
             f"the model fits the curve only to chi2/dof = {chi2_red:.3g} (> 2): intervals are widened accordingly"
         )
-    sd_c, sd_th = _covariance(p, s, theta, c, p.gls.white(A), inflate)
+    sd_c, sd_th = covariance(p, s, theta, c, p.gls.white(A), inflate)
     sel = _selection_variance(p, s, theta, c, lin, inflate)
     sd_c = np.sqrt(sd_c**2 + sel)
     res = CurveFit(
@@ -199,7 +180,8 @@ def _result(
         fs=p.fs,
         fitted=to_model(s, theta, c),
         structure=s,
-        model_error=floor,
+        model_error=float(floor.max()),
+        model_errors=floor,
         widened=inflate,
     )
     grid = np.exp(np.linspace(math.log(p.t[0]), math.log(p.t[-1]), 200))
@@ -222,7 +204,10 @@ def _result(
     res.coef = np.array([c[names.index(k)] if k in names else 0.0 for k in TERMS])
     res.slope = slope_reading(p.t, p.y, p.edf_of(p.alpha))
     _compare(res, notes)
-    res.unexplained = _unexplained(p, A @ c, p.edf_of(p.alpha))
+    # a point's allowance is the model error granted to it (two sd of the deviation, as TOL is
+    # twice the model error of one for every point), at least the MODEL_ERR any point may be
+    # granted: a region the fit holds to its chance variances is not excused by another's error
+    res.unexplained = _unexplained(p, A @ c, p.edf_of(p.alpha), tol=np.maximum(floor, MODEL_ERR))
     off = p.robust > 1.0
     if off.any():
         notes.append(
@@ -230,6 +215,26 @@ def _result(
         )
     notes.extend(r["text"] for r in res.unexplained)
     return res
+
+
+def _error_note(t: np.ndarray, floor: np.ndarray) -> str:
+    """The model error granted, by the tau regions that needed it."""
+    parts, i = [], 0
+    while i < t.size:
+        if floor[i] <= 0:
+            i += 1
+            continue
+        j = i
+        while j + 1 < t.size and floor[j + 1] > 0:
+            j += 1
+        top = float(floor[i : j + 1].max())
+        parts.append(f"up to {top / 2 * 100:.2g} % at {t[i]:.3g}" + (f"-{t[j]:.3g} s" if j > i else " s"))
+        i = j + 1
+    return (
+        "model error granted to the processes where they misfit beyond chance (of the deviation): "
+        + ", ".join(parts)
+        + f" (the least that brings chi2/dof to 1 there, at most {MODEL_ERR * 100:g} %)"
+    )
 
 
 def _selection_variance(
@@ -258,7 +263,9 @@ def _selection_variance(
                 s2 = replace(s, lp=order, shape=shape)
                 alts.append((s2, _refit(p, s2, theta)))
     if s.res:
-        alts.append((replace(s, res=0), np.delete(theta, [s.res_at(), s.res_at() + 1])))
+        s2, th2 = replace(s, res=0), np.delete(theta, [s.res_at(), s.res_at() + 1])
+        alts.append((s2, _refit(p, s2, th2) if s.lp else th2))  # the band limit it trades with, refitted
+        alts.extend(_res_range(p, s, theta))
     if s.ngm:  # the last GM (the newest: the one the selection judged last)
         i = (1 if s.lp else 0) + s.ngm - 1
         alts.append((replace(s, ngm=s.ngm - 1), np.delete(theta, i)))
@@ -280,6 +287,43 @@ def _selection_variance(
 
 
 FORM_FC = 2.5
+
+
+def _res_range(p: _Problem, s: Structure, theta: np.ndarray) -> list[tuple[Structure, np.ndarray]]:
+    """A resonance's frequency or quality held at its search's bound (curve.free_parameters): the same
+    structure with it across its range (RES_STEPS values), the resonance's other parameter
+    and the band limit's cutoff it trades with refitted, for _selection_variance: what the
+    curve does not pin enters N's interval by what the curve allows (Akaike weights), not
+    by the linear trade of a parameter the curve cannot see (on the real accelerometers N
+    moves by about 1 % across the quality's range, where that trade gave 15-32 %)."""
+    from scipy import optimize
+
+    from .curve import bounds
+
+    lims, out = bounds(s, p.t, p.fs), []
+    i = s.res_at()
+    for j in np.flatnonzero(~free_parameters(p, s, theta)):
+        others = [k for k in ((0,) if s.lp else ()) + (i, i + 1) if k != j]
+        for v in np.linspace(*lims[j], RES_STEPS):
+            th = theta.copy()
+            th[j] = v
+            r = optimize.minimize(
+                _chi2_at, theta[others], args=(p, s, th, others), bounds=[lims[k] for k in others], method="L-BFGS-B"
+            )
+            th[others] = r.x
+            out.append((s, th))
+    return out
+
+
+def _chi2_at(x: np.ndarray, p: _Problem, s: Structure, th: np.ndarray, idx: list) -> float:
+    """chi2 of s with th's parameters idx set to x (th changed in place)."""
+    th[idx] = x
+    return p.solve(s, th)[1]
+
+
+RES_STEPS = 4
+"""Values across a resonance parameter's range for its share of the selection variance (the
+quality's search grid: select._res_grid)."""
 
 
 def _refit(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
@@ -397,9 +441,11 @@ def _res_term(s: Structure, theta: np.ndarray, c: np.ndarray, sd_th: np.ndarray,
     t.extra = {"f0_hz": f0, "f0_low": f_lo, "f0_high": f_hi, "quality": q, "quality_low": q_lo, "quality_high": q_hi}
     t.extra["tau_c"] = q / (math.pi * f0)
     sd = math.sqrt(c[s.names().index("RES")])
+    held = [w for w, v in (("frequency", sd_th[i]), ("quality", sd_th[i + 1])) if v == 0]
     t.note = (t.note + "; " if t.note else "") + (
         f"a resonance of {f0:.3g} Hz (quality {q:.3g}: a mode rung by the bench), sd {sd:.3g}; "
         "what it adds to the short taus is not white noise, N is read under it"
+        + (f"; its {' and '.join(held)} at the search's bound (the curve does not pin it there)" if held else "")
     )
     return t
 

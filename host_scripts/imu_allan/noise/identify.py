@@ -209,8 +209,11 @@ def _quick(A: np.ndarray, y: np.ndarray, e: np.ndarray, keep: np.ndarray, coef: 
     return c if coef else A @ c
 
 
-def _regions(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) -> list[dict]:
-    """Runs of points set aside, described by where they lie and their shape."""
+def _regions(
+    t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray, tol: Optional[np.ndarray] = None
+) -> list[dict]:
+    """Runs of points set aside, described by where they lie and their shape (``tol``: each
+    point's widening, where it is not TOL)."""
     out: list[dict] = []
     i = 0
     n = t.size
@@ -274,11 +277,18 @@ def _regions(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.ndarray) 
                 "kind": kind,
                 "ratio": ratio,
                 "text": f"not explained by the terms (outside the points' 95 % intervals widened by "
-                f"{TOL * 100:g} %), left out of the fit: {text}",
+                f"{_widening(tol, sel)}), left out of the fit: {text}",
             }
         )
         i = j + 1
     return out
+
+
+def _widening(tol: Optional[np.ndarray], sel: slice) -> str:
+    if tol is None:
+        return f"{TOL * 100:g} %"
+    w = tol[sel] if tol.ndim else tol
+    return f"{float(np.max(w)) * 100:.2g} %: two sd of the model error granted there, at least {MODEL_ERR * 100:g} %"
 
 
 def _slope(mu: float) -> str:

@@ -71,13 +71,16 @@ def _unexplained_all(t: np.ndarray, y: np.ndarray, model: np.ndarray, keep: np.n
     return _regions(t, y, model, k)
 
 
-def _unexplained(p: Any, model: np.ndarray, e: np.ndarray) -> list[dict]:
+def _unexplained(p: Any, model: np.ndarray, e: np.ndarray, tol: Any = None) -> list[dict]:
+    """The runs of points whose 95 % interval, widened by ``tol`` (deviation; per point, or
+    identify.TOL), does not hold the model."""
     from ..stats.edf import chi2_interval
     from .identify import TOL, _regions
 
+    w = TOL if tol is None else np.asarray(tol)
     lo, hi = chi2_interval(p.y, e)
-    keep = (model >= lo / (1 + TOL) ** 2) & (model <= hi * (1 + TOL) ** 2)
-    return _regions(p.t, p.y, model, keep)
+    keep = (model >= lo / (1 + w) ** 2) & (model <= hi * (1 + w) ** 2)
+    return _regions(p.t, p.y, model, keep, None if tol is None else w)
 
 
 SLOPE = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}

@@ -11,7 +11,8 @@ term whose removal costs less than 3.84 is dropped.  A sinusoid is tried last
 leaves the first model off the curve), started where the model leaves its
 largest hump.  On a real sensor
 (chi2/dof above 1 at the first selection) the selection runs again with the
-model error in the weights and points far off the model given capped
+model error in the weights (by tau region: curve.set_floor; the resonance judged under
+the error the model with it needs) and points far off the model given capped
 influence; the first structure, refitted under the same weights, stays when
 the information criterion prefers it.  Last, a rise at the curve's end taken by a
 ramp, a long Gauss-Markov process or a sinusoid is read as K unless they beat K on
@@ -37,7 +38,9 @@ from .curve import (
     _Problem,
     bounds,
     columns,
+    covariance,
     fit_structure,
+    local_floor,
     log_chi2,
     misfits,
     set_floor,
@@ -73,7 +76,7 @@ def choose(
     """The structure the curve (t, y) needs and its nonlinear parameters, with the
     problem (weights) it was fitted under."""
 
-    def select(floor: float, robust: bool = False, sine: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
+    def select(floor: np.ndarray, robust: bool = False, sine: bool = False) -> tuple[_Problem, Structure, np.ndarray]:
         p = _Problem(t, y, fs, edf_of, kind, floor)
         p.robust_on, p.sine_on = robust, sine or SINE
         s, theta, c, chi2 = _stepwise(p, Structure(lin), np.zeros(0))
@@ -81,13 +84,13 @@ def choose(
             s, theta, c, chi2 = _extend(p, s, theta, c, chi2, lin)
         return p, s, theta
 
-    p, s, theta = select(0.0)
+    p, s, theta = select(np.zeros(t.size))
     c, chi2, _ = p.solve(s, theta)
     floor = set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
-    if floor > 0:  # a real sensor: select again, the model error in the weights, robustly
+    if floor.any():  # a real sensor: select again, the model error in the weights, robustly
         # a sinusoid where the curve shows an oscillation's hump, or where no model error the
         # fit may grant brings the first model to the curve (the one process not tried yet)
-        osc = floor >= 2.0 * MODEL_ERR or _shows_oscillation(p, s, theta)
+        osc = floor.max() >= 2.0 * MODEL_ERR or _shows_oscillation(p, s, theta)
         s1, th1 = s, theta
         p, s, theta = select(floor, robust=True, sine=osc)
         # the first structure under the same weights: the robust selection may wander off
@@ -407,8 +410,10 @@ def _extend(
             break
     if p.sine_on:
         s, theta, c, chi2 = _try_sine(p, s, theta, c, chi2)
-    if s.lp and p.floor == 0.0:
+    if s.lp and not p.floor.any():
         s, theta, c, chi2 = _try_res(p, s, theta, c, chi2)
+    elif s.lp:  # under a model error: the one the model with a resonance needs
+        s, theta, c, chi2 = _res_own_error(p, s, theta, c, chi2)
     return s, theta, c, chi2
 
 
@@ -452,17 +457,10 @@ def _try_sine(
     return s, theta, c, chi2
 
 
-def _try_res(
-    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
-) -> tuple[Structure, np.ndarray, np.ndarray, float]:
-    """A resonance (resonance.py) on the first taus, kept when it lowers chi2 by the 95 %
-    point of chi2(3), is RES_SHARE of the model somewhere and the model with it fits within
-    chance (tried only without a model error, _extend's caller)."""
-    if s.res or p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 3) < 2:
-        return s, theta, c, chi2
+def _res_grid(p: _Problem, s: Structure, theta: np.ndarray) -> np.ndarray:
+    """The parameters of s with a resonance added, its frequency and quality the best of a grid."""
     s2 = replace(s, res=1)
     i = s2.res_at()
-    saved = p.ref.copy()  # the weights as they were, exactly, where it is not kept
     (f_lo, f_hi), (q_lo, q_hi) = bounds(s2, p.t, p.fs)[i : i + 2]
     best = (math.inf, theta)
     for f in np.linspace(f_lo, f_hi, 9):
@@ -471,16 +469,67 @@ def _try_res(
             v = p.solve(s2, th)[1]
             if v < best[0]:
                 best = (v, th)
-    th, c2, chi2b = fit_structure(p, s2, best[1], None)
+    return best[1]
+
+
+def _try_res(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float, start=None
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """A resonance (resonance.py) on the first taus, kept when it lowers chi2 by the 95 %
+    point of chi2(3), is RES_SHARE of the model somewhere and the model with it fits within
+    chance (tried only without a model error, _extend's caller)."""
+    if s.res or p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 3) < 2:
+        return s, theta, c, chi2
+    s2 = replace(s, res=1)
+    saved = p.ref.copy()  # the weights as they were, exactly, where it is not kept
+    th, c2, chi2b = fit_structure(p, s2, _res_grid(p, s, theta) if start is None else start, None)
     dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
     k = s2.names().index("RES")
     seen = _shows(p, s2, th, c2, k, RES_SHARE)
-    # resolved only where the rest of the model fits within chance: under a model error its
-    # bump and the band limit's bend trade (on real gyros and accelerometers it moved N by -7 to +3 %)
-    if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and not misfits(chi2b, dof):
+    # resolved only where the model with it fits within chance: under a model error its bump and the
+    # band limit's bend trade (on real gyros and accelerometers it moved N by -7 to +3 %); on the whole
+    # curve, or where it lives (curve.local_floor on the points' chance variances: lines at long
+    # taus are no reason to set aside a resonance the short taus show beyond doubt)
+    A2 = columns(s2, th, p.m, p.fs)
+    lives = A2[:, k] * c2[k] >= RES_SHARE * (A2 @ c2)
+    fits = not misfits(chi2b, dof) or not local_floor(p, A2 @ c2, dof)[lives].any()
+    if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and seen and fits and _res_pinned(p, s2, th, c2):
         return _stepwise(p, s2, th, keep=("N",))
     p.set_reference(saved)
     return s, theta, c, chi2
+
+
+def _res_own_error(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, chi2: float
+) -> tuple[Structure, np.ndarray, np.ndarray, float]:
+    """The resonance tried under the model error the model with it needs (set_floor, by tau
+    region): the error of the first model, granted on the short taus because it lacked the
+    resonance, would hide it there.  Fitted under the present weights, the model with it
+    sets the error; the structure without it is refitted under that error and _try_res
+    judges it (p's error and weights restored where it is not kept)."""
+    if s.res or p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 3) < 2:
+        return s, theta, c, chi2
+    saved = p.floor.copy(), p.ref.copy(), p.robust.copy()
+    s2 = replace(s, res=1)
+    th2, c2, _ = fit_structure(p, s2, _res_grid(p, s, theta), None, rounds=1)
+    set_floor(p, s2, th2, c2, max(p.t.size - int(np.sum(c2 > 0)) - th2.size, 1))
+    th1, c1, chi1 = fit_structure(p, s, theta, None, rounds=1)
+    r = _try_res(p, s, th1, c1, chi1, start=th2)
+    if r[0].res:
+        return r
+    p.floor, p.ref, p.robust = saved
+    p.set_reference(p.ref)
+    return s, theta, c, chi2
+
+
+def _res_pinned(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> bool:
+    """The resonance's variance pinned by the curve: clear of 0 by 1.96 sd (the rule by which
+    the result gives a term a value rather than a bound; curve.covariance, its quality or
+    frequency held where the search's bound holds it).  One the curve does not pin trades
+    with the band limit's bend and with N while claiming a mode it cannot describe."""
+    k = s.names().index("RES")
+    sd_c, _ = covariance(p, s, theta, c, p.gls.white(columns(s, theta, p.m, p.fs)), 1.0)
+    return bool(c[k] > Z95 * sd_c[k])
 
 
 RES_SHARE = 0.05
