@@ -43,13 +43,13 @@ import numpy as np
 from ..channels import CHANNELS
 from ..errors import InputError
 from ..stats import dist
+from ..stats.dist import Z95
 
 STATE = "sweep.json"
 STATE_VERSION = 1
 QUANTITIES = ("N", "N_tau0", "B", "K", "sigma_sensor", "sigma_AVRW", "sigma_BIAS", "sigma_ARRW")
 GM_PER_B = 0.6642824702679406 / 0.6173643
 """sigma of the Gauss-Markov process whose ADEV peak sits on the flicker floor 0.664 B (model.py)."""
-Z95 = 1.959963984540054
 
 
 @dataclass

@@ -45,8 +45,8 @@ from scipy.linalg import solve_triangular
 from ..channels import CHANNELS
 from ..errors import InputError
 from ..stats import dist
+from ..stats.dist import Z95
 
-Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
 SEGMENTS = 3
 """Consecutive segments in which N and B are measured against their mean temperature."""

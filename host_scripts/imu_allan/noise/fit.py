@@ -28,13 +28,13 @@ from typing import Optional
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..stats.dist import Z95
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, covariance, free_parameters, set_floor
+from .kinterval import k_interval
 from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
-from .select import LP_BEND, LP_FORMS, choose, k_interval, shown
+from .select import LP_BEND, LP_FORMS, choose, shown
 from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
-
-Z95 = 1.959963984540054
 
 
 @dataclass
@@ -368,7 +368,7 @@ def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, ter
 
 def _k_interval(p: _Problem, s: Structure, theta: np.ndarray, t: Term, fitted: tuple[float, float]) -> None:
     """K's 95 % interval, or its bound, widened to the test inversion's where that reaches
-    further (select.k_interval: each K judged under the weights of its own model, the
+    further (kinterval.k_interval: each K judged under the weights of its own model, the
     structure's choice in the variance, relative): the interval from the fitted model's
     covariance is as narrow as the fit is low at the curve's end; where a GM or flicker stands
     beside K, the alternatives' spread may reach further in it.  ``fitted``: the choice of

@@ -10,12 +10,11 @@ from typing import Any, Optional
 import numpy as np
 
 from ..stats import dist
+from ..stats.dist import Z95
 from .curve import resonance
 from .flicker import Flicker
 from .processes import AR1, LP, QN, RW, WN, Model, Ramp, Sine
 from .terms import B_FACTOR, Term
-
-Z95 = 1.959963984540054
 
 
 def _linear_term(

@@ -52,6 +52,7 @@ from numpy.typing import ArrayLike
 from scipy import optimize
 
 from ..stats import dist
+from ..stats.dist import Z95
 
 TERMS = ("Q", "N", "B", "K", "R")
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
@@ -60,7 +61,6 @@ B_READOFF = math.sqrt(B_FACTOR)
 ALPHA = {"Q": 2, "N": 0, "B": -1, "K": -2, "R": -2}
 SLOPE = {"Q": -1.0, "N": -0.5, "B": 0.0, "K": 0.5, "R": 1.0}
 """log-log slope of ADEV where each term dominates."""
-Z95 = 1.959963984540054
 CHI2_1_95 = 3.841458820694124
 """A term must lower the weighted chi-squared by this much (95 %, 1 degree of freedom)."""
 

@@ -14,6 +14,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import special
 
+Z95 = 1.959963984540054
+"""The standard normal's 97.5 % point: a two-sided 95 % interval is +- Z95 sd."""
+
 
 def _valid(df: ArrayLike, p: ArrayLike | None = None) -> np.ndarray:
     ok = np.asarray(df, dtype=np.float64) > 0
