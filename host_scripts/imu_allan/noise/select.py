@@ -6,7 +6,11 @@ MAX_GM Gauss-Markov processes are each kept only when they lower chi-squared
 by the 95 % point of chi2 with their number of parameters (times chi2/dof when
 above 1: an F test; each against the same terms without it as well, and the
 band limit only where the curve can show its bend: _lp_shows); then each linear
-term whose removal costs less than 3.84 is dropped.  A sinusoid is tried last
+term whose removal costs less than 3.84 is dropped.  A first process that fails its
+test beside the terms already in may still take their place (_gm_in_place): a hump
+whose peak lies more than RISE_OCTAVES before the last tau, which flicker and a rate
+random walk together mimic, kept when the process with no rise beside it wins by the
+information criterion.  A sinusoid is tried last
 (where the curve shows an oscillation's hump, or where the largest model error
 leaves the first model off the curve), started where the model leaves its
 largest hump.  On a real sensor
@@ -301,6 +305,13 @@ def _extend(
         dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
         if c2[-1] > 0 and _test(min(chi2, chi2_0) - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
             s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
+        elif (
+            not s.ngm
+            and c2[-1] > 0
+            and _gm_visible(p, s2, th, c2)
+            and (alt := _gm_in_place(p, s2, th, chi2, s, theta, c))
+        ):
+            s, theta, c, chi2 = alt
         else:
             break
     if p.sine_on:
@@ -310,6 +321,28 @@ def _extend(
     elif s.lp:  # under a model error: the one the model with a resonance needs
         s, theta, c, chi2 = _res_own_error(p, s, theta, c, chi2)
     return s, theta, c, chi2
+
+
+def _gm_in_place(
+    p: _Problem, s2: Structure, th: np.ndarray, chi2: float, s: Structure, theta: np.ndarray, c: np.ndarray
+) -> tuple[Structure, np.ndarray, np.ndarray, float] | None:
+    """The Gauss-Markov process of s2 in place of the terms it makes needless, kept when that
+    structure, under its own weights, beats s by the information criterion and needs no rise
+    (K or a ramp) beside it: a hump that B and K, or a ramp, together mimic (beside them the
+    process adds little; in their place it fits better).  With a rise kept beside it, the
+    process would only bend a walk's line (a walk read as a ramp plus a long process).  Its
+    ADEV peak (1.89 T) must lie more than RISE_OCTAVES before the last tau, so that the curve
+    shows it fall: nearer the end it is K's rival for a rise (_rise_as_k), which the shared
+    unit's accelerometers, flat from 300 s to the end, would give to it."""
+    saved = p.ref.copy(), p.robust.copy()
+    s3, th3, c3, chi3 = _stepwise(p, s2, th, keep=("N",))
+    rise = [k for k, v in zip(s3.names(), c3) if k in ("K", "R") and v > 0]
+    if s3.ngm == s2.ngm and c3[-1] > 0 and not rise and s3.ngm - 1 not in _rivals(p, s3, th3, c3)[1]:
+        if chi3 + 2 * (np.sum(c3 > 0) + th3.size) < chi2 + 2 * (np.sum(c > 0) + theta.size):
+            return s3, th3, c3, chi3
+    p.robust = saved[1]
+    p.set_reference(saved[0])
+    return None
 
 
 def _lp_form(p: _Problem, cands: list[tuple]) -> tuple:
