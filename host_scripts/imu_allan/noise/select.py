@@ -9,8 +9,8 @@ band limit only where the curve can show its bend: _lp_shows); then each linear
 term whose removal costs less than 3.84 is dropped.  A first process that fails its
 test beside the terms already in may still take their place (_gm_in_place): a hump
 whose peak lies more than RISE_OCTAVES before the last tau, which flicker and a rate
-random walk together mimic, kept when the process with no rise beside it wins by the
-information criterion.  A sinusoid is tried last
+random walk together mimic, kept in place of the walk (or a ramp) when it wins by the
+information criterion with no rise left beside it.  A sinusoid is tried last
 (where the curve shows an oscillation's hump, or where the largest model error
 leaves the first model off the curve), started where the model leaves its
 largest hump.  On a real sensor
@@ -326,14 +326,17 @@ def _extend(
 def _gm_in_place(
     p: _Problem, s2: Structure, th: np.ndarray, chi2: float, s: Structure, theta: np.ndarray, c: np.ndarray
 ) -> tuple[Structure, np.ndarray, np.ndarray, float] | None:
-    """The Gauss-Markov process of s2 in place of the terms it makes needless, kept when that
-    structure, under its own weights, beats s by the information criterion and needs no rise
-    (K or a ramp) beside it: a hump that B and K, or a ramp, together mimic (beside them the
-    process adds little; in their place it fits better).  With a rise kept beside it, the
-    process would only bend a walk's line (a walk read as a ramp plus a long process).  Its
-    ADEV peak (1.89 T) must lie more than RISE_OCTAVES before the last tau, so that the curve
-    shows it fall: nearer the end it is K's rival for a rise (_rise_as_k), which the shared
-    unit's accelerometers, flat from 300 s to the end, would give to it."""
+    """The Gauss-Markov process of s2 in place of the rise of s (K or a ramp) and of the terms
+    it makes needless, kept when that structure, under its own weights, beats s by the
+    information criterion: a hump that flicker and a walk together mimic (beside them the
+    process adds little; in their place it fits better).  Not kept with a rise left beside it
+    (it would only bend a walk's line: a walk read as a ramp plus a long process), nor where
+    s has no rise (beside flicker alone it would only bend B's floor: a real gyro's N moved 4 %),
+    nor with its ADEV peak (1.89 T) within RISE_OCTAVES of the last tau: there it is K's rival
+    for a rise (_rise_as_k), and a curve flat to its end (the shared unit's accelerometers from
+    300 s on) would be given to it."""
+    if not any(k in ("K", "R") and v > 0 for k, v in zip(s.names(), c)):
+        return None
     saved = p.ref.copy(), p.robust.copy()
     s3, th3, c3, chi3 = _stepwise(p, s2, th, keep=("N",))
     rise = [k for k, v in zip(s3.names(), c3) if k in ("K", "R") and v > 0]
