@@ -97,13 +97,9 @@ def choose(
         # fit may grant brings the first model to the curve (the one process not tried yet)
         osc = floor.max() >= 2.0 * MODEL_ERR or _shows_oscillation(p, s, theta)
         s1, th1 = s, theta
-        first = columns(s, theta, p.m, p.fs) @ c
         p, s, theta = select(floor, robust=True, sine=osc)
         # the first structure under the same weights: the robust selection may wander off
-        # from where the first selection left it: from the curve's own weights, with the
-        # points of its model's rise capped as far off a model without it, a K may settle at 0
         p1 = _Problem(t, y, fs, edf_of, kind, floor)
-        p1.set_reference(first)
         p1.robust_on = True
         th1, c1, chi1 = fit_structure(p1, s1, th1, None)
         c2, chi2_, _ = p.solve(s, theta)
