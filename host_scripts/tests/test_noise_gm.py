@@ -67,8 +67,8 @@ def test_the_hump_is_sized_as_stated() -> None:
 
 def test_a_slow_gauss_markov_process_is_found_with_its_time_within_2x(fits) -> None:
     """The process fitted (GM1 or GM2, the larger) with T within a factor 2 of the truth on 19
-    or more of the 24 streams (17 before a GM could take the place of the walk that mimics its
-    hump), and N within 10 % on every one.  Not on all: on some records the hump's last
+    or more of the 24 streams (20 measured; 17-18 before a GM could take the place of the walk
+    that mimics its hump), and N within 10 % on every one.  Not on all: on some records the hump's last
     octaves, a few degrees of freedom each, fit flicker plus a walk as well as the process
     (chi-squared equal within 0.1, the same number of parameters), or a walk alone."""
     found = []
