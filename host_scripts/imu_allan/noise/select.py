@@ -404,7 +404,7 @@ def _try_res(
 ) -> tuple[Structure, np.ndarray, np.ndarray, float]:
     """A resonance (resonance.py) on the first taus, kept when it lowers chi2 by the 95 %
     point of chi2(3), is RES_SHARE of the model somewhere and the model with it fits within
-    chance (tried only without a model error, _extend's caller)."""
+    chance (on the whole curve or where it lives; under a model error through _res_own_error)."""
     if s.res or p.t.size - (len(s.linear) + s.ngm + len(s.nonlinear()) + 3) < 2:
         return s, theta, c, chi2
     s2 = replace(s, res=1)
