@@ -41,7 +41,7 @@ from ..stats.edf import alpha_from_slope
 from .flicker import Flicker
 from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
-from .terms import _nnls
+from .terms import _least_squares, _nnls
 
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
@@ -487,9 +487,7 @@ def covariance(
         th[i] += h
         J.append((p.gls.white(columns(s, th, p.m, p.fs)) @ c - Aw @ c) / h)
     J = np.stack(J, axis=1) if J else np.zeros((p.t.size, 0))
-    scale = np.linalg.norm(J, axis=0)
-    scale[scale == 0] = 1.0
-    cov = np.linalg.pinv((J / scale).T @ (J / scale)) / np.outer(scale, scale) * inflate
+    cov = _least_squares(J)[1] * inflate
     sd_c = np.zeros(c.size)
     sd_c[act] = np.sqrt(np.maximum(np.diag(cov)[: act.size], 0.0))
     sd_th = np.sqrt(np.maximum(np.diag(cov)[act.size :], 0.0))

@@ -34,7 +34,7 @@ from .kinterval import k_interval
 from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
 from .select import LP_BEND, LP_FORMS, choose, shown
-from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
+from .terms import TERMS, EdfFn, FitResult, Term, _least_squares, b_classic, fit_points, points_edf
 
 
 @dataclass
@@ -135,12 +135,7 @@ def _upper(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, k: str) 
     names = s2.names()
     old = s.names()
     keep = [i for i, n in enumerate(names) if n == k or (n in old and c[old.index(n)] > 0)]
-    X = A[:, keep]
-    scale = np.linalg.norm(X, axis=0)
-    scale[scale == 0] = 1.0
-    inv = np.linalg.pinv((X / scale).T @ (X / scale))
-    cc = inv @ ((X / scale).T @ p.yw) / scale
-    cov = inv / np.outer(scale, scale)
+    cc, cov = _least_squares(A[:, keep], p.yw)
     j = keep.index(names.index(k))
     return math.sqrt(max(float(cc[j]), 0.0) + Z95 * math.sqrt(max(float(cov[j, j]), 0.0)))
 

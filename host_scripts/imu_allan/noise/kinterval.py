@@ -85,7 +85,7 @@ def _k_at(p: _Problem, A: np.ndarray, j: int, u: float, ref0: np.ndarray) -> tup
     """The GLS estimate of K^2 (column j of A) and its variance under the weights of the model
     at K^2 = u (the other columns refitted, non-negative, PROFILE_ROUNDS times; those at 0 left
     out), each point's deviation from that model taken at its chi-squared quantile (_scores)."""
-    from .terms import _nnls
+    from .terms import _least_squares, _nnls
 
     rest = np.delete(A, j, axis=1)
     mod, co = ref0, np.zeros(rest.shape[1])
@@ -95,13 +95,9 @@ def _k_at(p: _Problem, A: np.ndarray, j: int, u: float, ref0: np.ndarray) -> tup
         mod = np.maximum(rest @ co + u * A[:, j], 1e-300)
     p.set_reference(mod)
     keep = [i for i in range(A.shape[1]) if i == j or co[i - (i > j)] > 0]
-    X = p.gls.white(A[:, keep])
-    scale = np.linalg.norm(X, axis=0)
-    scale[scale == 0] = 1.0
-    inv = np.linalg.pinv((X / scale).T @ (X / scale))
+    c, cov = _least_squares(p.gls.white(A[:, keep]), p.gls.white(_scores(p, mod)))
     k = keep.index(j)
-    c = float((inv @ ((X / scale).T @ p.gls.white(_scores(p, mod))))[k] / scale[k])
-    return c, max(float(inv[k, k]) / scale[k] ** 2, 0.0)
+    return float(c[k]), max(float(cov[k, k]), 0.0)
 
 
 def _scores(p: _Problem, mod: np.ndarray) -> np.ndarray:

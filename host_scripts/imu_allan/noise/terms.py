@@ -198,6 +198,17 @@ def _cholesky(S: np.ndarray) -> np.ndarray:
     return np.linalg.cholesky(C2) * d[:, None]
 
 
+def _least_squares(X: np.ndarray, y: Optional[np.ndarray] = None) -> tuple[Optional[np.ndarray], np.ndarray]:
+    """Unconstrained least squares min |X c - y| (c None without y) and the inverse of X'X,
+    computed on unit-norm columns: the terms' columns differ in scale by up to 1e20."""
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    inv = np.linalg.pinv(Xs.T @ Xs)
+    c = None if y is None else (inv @ (Xs.T @ y)) / scale
+    return c, inv / np.outer(scale, scale)
+
+
 def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np.ndarray:
     """min |Aw c - yw| with 0 <= c (<= ub, the caps that keep each term's line under the curve)."""
     scale = np.linalg.norm(Aw, axis=0)
@@ -527,13 +538,8 @@ def _upper(j: int, Aw: np.ndarray, yw: np.ndarray, active: np.ndarray, inflate: 
     the sign constraint, on the active terms plus j: sqrt(max(c_j, 0) + 1.96 sd)."""
     sel = active.copy()
     sel[j] = True
-    X = Aw[:, sel]
-    scale = np.linalg.norm(X, axis=0)
-    scale[scale == 0] = 1.0
-    Xs = X / scale
-    inv = np.linalg.pinv(Xs.T @ Xs)
-    c = (inv @ (Xs.T @ yw)) / scale
-    cov = inv / np.outer(scale, scale) * inflate
+    c, cov = _least_squares(Aw[:, sel], yw)
+    cov = cov * inflate
     pos = int(np.flatnonzero(np.flatnonzero(sel) == j)[0])
     return math.sqrt(max(float(c[pos]), 0.0) + Z95 * math.sqrt(max(float(cov[pos, pos]), 0.0)))
 
