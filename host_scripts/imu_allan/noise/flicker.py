@@ -80,12 +80,15 @@ FLICKER_EXACT_TO = 1024
 
 
 @functools.lru_cache(maxsize=1)
-def _flicker_table() -> tuple[np.ndarray, np.ndarray]:
-    """log m and log ratio at every m from 1 to 16 (between integers the ratio bends
-    most), then 4 points per octave to FLICKER_EXACT_TO (where it goes as ln m / m^2)."""
+def _flicker_curve():  # -> scipy.interpolate.PchipInterpolator
+    """log ratio against log m, a monotone cubic through every m from 1 to 16 (between
+    integers the ratio bends most), then 4 points per octave to FLICKER_EXACT_TO (where it
+    goes as ln m / m^2): built once a process."""
+    from scipy.interpolate import PchipInterpolator
+
     top = math.log2(FLICKER_EXACT_TO)
     m = np.concatenate((np.arange(1.0, 16.0), 2.0 ** np.linspace(4.0, top, 4 * int(round(top - 4.0)) + 1)))
-    return np.log(m), np.log([_flicker_ratio_at(v) for v in m])
+    return PchipInterpolator(np.log(m), np.log([_flicker_ratio_at(v) for v in m]))
 
 
 def _flicker_ratio_at(m: float) -> float:
@@ -102,12 +105,9 @@ def _flicker_ratio_at(m: float) -> float:
 def flicker_ratio(m: ArrayLike) -> np.ndarray:
     """AVAR of sampled flicker over the IEEE 952 constant at cluster size m (1 from
     FLICKER_EXACT_TO on): a monotone cubic through the table, within 2e-5 of the integral at every integer m."""
-    from scipy.interpolate import PchipInterpolator
-
     m = _m(m)
-    lm, lr = _flicker_table()
     x = np.log(np.clip(m, 1.0, FLICKER_EXACT_TO))
-    return np.where(m >= FLICKER_EXACT_TO, 1.0, np.exp(PchipInterpolator(lm, lr)(x)))
+    return np.where(m >= FLICKER_EXACT_TO, 1.0, np.exp(_flicker_curve()(x)))
 
 
 class _FlickerBank(_Stream):
