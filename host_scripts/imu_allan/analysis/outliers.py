@@ -224,12 +224,6 @@ def _grouped_quantile(cnt: np.ndarray, p: float) -> float:
     return lo + width * (target - below) / cnt[j]
 
 
-def _runs(flag: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """[start, stop) of the runs of True in ``flag``."""
-    e = np.diff(np.concatenate(([0], flag.view(np.int8), [0])))
-    return np.flatnonzero(e == 1), np.flatnonzero(e == -1)
-
-
 def _merge(starts: np.ndarray, stops: np.ndarray, gap: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Merge intervals closer than ``gap``: (starts, stops, group of each input)."""
     order = np.argsort(starts, kind="stable")

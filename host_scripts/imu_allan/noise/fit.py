@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 
 from ..stats.dist import Z95
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, covariance, free_parameters, set_floor
+from .identify import runs
 from .kinterval import k_interval
 from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
@@ -214,17 +215,10 @@ def _result(
 
 def _error_note(t: np.ndarray, floor: np.ndarray) -> str:
     """The model error granted, by the tau regions that needed it."""
-    parts, i = [], 0
-    while i < t.size:
-        if floor[i] <= 0:
-            i += 1
-            continue
-        j = i
-        while j + 1 < t.size and floor[j + 1] > 0:
-            j += 1
+    parts = []
+    for i, j in runs(floor > 0):
         top = float(floor[i : j + 1].max())
         parts.append(f"up to {top / 2 * 100:.2g} % at {t[i]:.3g}" + (f"-{t[j]:.3g} s" if j > i else " s"))
-        i = j + 1
     return (
         "model error granted to the processes where they misfit beyond chance (of the deviation): "
         + ", ".join(parts)

@@ -215,16 +215,9 @@ def _regions(
     """Runs of points set aside, described by where they lie and their shape (``tol``: each
     point's widening, where it is not TOL)."""
     out: list[dict] = []
-    i = 0
     n = t.size
     r = np.sqrt(y / np.where(model > 0, model, np.nan))  # deviation ratio curve / terms
-    while i < n:
-        if keep[i]:
-            i += 1
-            continue
-        j = i
-        while j + 1 < n and not keep[j + 1]:
-            j += 1
+    for i, j in runs(~np.asarray(keep, dtype=bool)):
         sel = slice(i, j + 1)
         rr = r[sel]
         span = (float(t[i]), float(t[j]))
@@ -280,8 +273,13 @@ def _regions(
                 f"{_widening(tol, sel)}), left out of the fit: {text}",
             }
         )
-        i = j + 1
     return out
+
+
+def runs(flag: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of each run of True in ``flag``."""
+    e = np.diff(np.concatenate(([0], np.asarray(flag, dtype=np.int8), [0])))
+    return [(int(i), int(j) - 1) for i, j in zip(np.flatnonzero(e == 1), np.flatnonzero(e == -1))]
 
 
 def _widening(tol: Optional[np.ndarray], sel: slice) -> str:
