@@ -86,7 +86,7 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
         if k == "N" and s.lp:
             cols.append(LP(1.0, math.exp(theta[0]), s.lp, s.shape).avar(m, fs))
         else:
-            cols.append(_fixed(k + s.flicker() if k == "B" else k, m, fs))
+            cols.append(_fixed(k, m, fs, s.flicker()))
     i = 1 if s.lp else 0
     for j in range(s.ngm):
         cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
@@ -100,13 +100,13 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
 _FIXED: dict[tuple, np.ndarray] = {}
 
 
-def _fixed(k: str, m: np.ndarray, fs: float) -> np.ndarray:
+def _fixed(k: str, m: np.ndarray, fs: float, flicker: str) -> np.ndarray:
     """The column of an IEEE 952 term without parameters (the fit asks for it thousands of
-    times on the same taus): computed once per curve; k "Bpoint" or "Bmean" for flicker."""
-    key = (k, fs, m.tobytes())
+    times on the same taus): computed once per curve; B's as the samples see it (``flicker``)."""
+    key = (k, flicker if k == "B" else "", fs, m.tobytes())
     col = _FIXED.get(key)
     if col is None:
-        proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k) or Flicker(1.0, k[1:])
+        proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k) or Flicker(1.0, flicker)
         col = proc.avar(m, fs)
         col.setflags(write=False)
         if len(_FIXED) > 256:
