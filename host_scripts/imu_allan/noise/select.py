@@ -105,71 +105,45 @@ def choose(
         c2, chi2_, _ = p.solve(s, theta)
         if chi1 + 2 * (np.sum(c1 > 0) + th1.size) < chi2_ + 2 * (np.sum(c2 > 0) + theta.size):
             p, s, theta = p1, s1, th1
-    if extended and floor.any() and s.sine:
-        p, s, theta = _first_octaves(_Problem(t, y, fs, edf_of, kind), p, s, theta, lin)
+    if extended and floor.any() and s.sine:  # the mode the first model's error hid (_res_at_chance)
+        p, s, theta = _res_at_chance(_Problem(t, y, fs, edf_of, kind), p, s, theta, lin)
     if extended and "K" in lin:
         s, theta = _rise_as_k(p, s, theta)
     converge(p, s, theta)  # the weights of the model chosen, not of the last candidate tried
     return p, s, theta
 
 
-def _first_octaves(
+def _res_at_chance(
     pc: _Problem, p: _Problem, s: Structure, theta: np.ndarray, lin: tuple[str, ...]
 ) -> tuple[_Problem, Structure, np.ndarray]:
-    """The processes of the first octaves judged there at chance (pc: no model error), beside a
-    structure that holds a sinusoid: a record averaged down's band limit (an averaged RC whose
-    cutoff lies above fs / 2: its droop of the first points; _band_mean) and a resonance (a
-    mount mode).  The model error of the first selection was set by a model without the
-    sinusoid (tried under the error only): its hump's misfit, granted over the windows that
-    reach the first points, hid the droop and the mode, whose evidence is the first points'
-    own precision, and the band limit's bend and N traded for them (a real accelerometer's N
-    read 3-7 % apart at 100 Hz and averaged down by 10).  Kept, the structure is refitted under
-    the model error it needs (set_floor), the resonance only where that error leaves it pinned."""
+    """A resonance (a mount mode) judged at chance (pc: no model error) beside a structure that
+    holds a sinusoid and a band limit, as _try_res judges it.  The model error of the first
+    selection was set by a model without the sinusoid (tried under the error only): its hump's
+    misfit, granted over the windows that reach the first points, hid the mode, whose evidence
+    is the first points' own precision, and the band limit's bend and N traded for it (a real
+    accelerometer's N read 3-7 % higher at 100 Hz than averaged down by 10, where the mode is
+    gone).  Kept, the structure is refitted under the model error it needs (set_floor), and the
+    resonance stays only where that error leaves it pinned (_res_pinned)."""
+    if s.res or not s.lp or pc.t.size - (len(lin) + s.ngm + len(s.nonlinear()) + 3) < 2:
+        return p, s, theta
     base = replace(s, linear=tuple(k for k in lin if k != "Q"))
     th, c, chi2 = fit_structure(pc, base, theta, None)
-    s0, lp = base, None
-    if not base.lp:
-        lp = _band_mean(pc, base, th, chi2)
-        if lp is not None:
-            s0, th, c, chi2 = lp
-    if s0.lp and not s0.res and pc.t.size - (len(s0.linear) + s0.ngm + len(s0.nonlinear()) + 3) >= 2:
-        s2 = replace(s0, res=1)
-        th2, c2, chi2b = fit_structure(pc, s2, _res_grid(pc, s0, th), None)
-        dof = max(pc.t.size - int(np.sum(c2 > 0)) - th2.size, 1)
-        k = s2.names().index("RES")
-        if c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and _shows(pc, s2, th2, c2, k, RES_SHARE):
-            if _res_pinned(pc, s2, th2, c2):
-                s0, th = s2, th2
-    for s1, th1 in [(s0, th)] + ([(lp[0], lp[1])] if s0.res and lp is not None else []):
-        if s1.lp == s.lp and s1.res == s.res:
-            break
-        s1, th1, c1, _ = _stepwise(pc, s1, th1, keep=("N",))
-        floor = set_floor(pc, s1, th1, c1, max(pc.t.size - int(np.sum(c1 > 0)) - th1.size, 1))
-        pc.floor = np.zeros(pc.t.size)
-        p2 = _Problem(pc.t, pc.y, pc.fs, pc.edf_of, pc.kind, floor)
-        p2.robust_on = True
-        th1, c1, _ = fit_structure(p2, s1, th1, None)
-        if c1[s1.names().index("N")] > 0 and (not s1.res or _res_pinned(p2, s1, th1, c1)):
-            return p2, s1, th1
+    s2 = replace(base, res=1)
+    th2, c2, chi2b = fit_structure(pc, s2, _res_grid(pc, base, th), None)
+    k = s2.names().index("RES")
+    dof = max(pc.t.size - int(np.sum(c2 > 0)) - th2.size, 1)
+    if not (c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and _shows(pc, s2, th2, c2, k, RES_SHARE)):
+        return p, s, theta
+    if not _res_pinned(pc, s2, th2, c2):
+        return p, s, theta
+    s2, th2, c2, _ = _stepwise(pc, s2, th2, keep=("N",))
+    floor = set_floor(pc, s2, th2, c2, max(pc.t.size - int(np.sum(c2 > 0)) - th2.size, 1))
+    p2 = _Problem(pc.t, pc.y, pc.fs, pc.edf_of, pc.kind, floor)
+    p2.robust_on = True
+    th2, c2, _ = fit_structure(p2, s2, th2, None)
+    if c2[s2.names().index("N")] > 0 and _res_pinned(p2, s2, th2, c2):
+        return p2, s2, th2
     return p, s, theta
-
-
-def _band_mean(pc: _Problem, s: Structure, theta: np.ndarray, chi2: float) -> tuple | None:
-    """The averaged RC (processes.LP "pole_mean") with its cutoff above fs / 2 beside s, kept where
-    it shows and passes the band limit's test; its cutoff found on a grid of BAND_GRID points
-    (the droop of one to three points has one minimum there, which the selection's coarse grid
-    can step over)."""
-    s2 = replace(s, lp=1, shape="pole_mean")
-    hi = bounds(s2, pc.t, pc.fs)[0][1]
-    grid = [np.concatenate(([g], theta)) for g in np.linspace(math.log(0.5 * pc.fs), hi, BAND_GRID)]
-    th, c, chi2b = fit_structure(pc, s2, min(grid, key=lambda th0: pc.solve(s2, th0)[1]), None)
-    dof = max(pc.t.size - int(np.sum(c > 0)) - th.size, 1)
-    if c[s2.names().index("N")] > 0 and _lp_shows(pc, s2, th, c) and _test(chi2 - chi2b, chi2b, dof, 1):
-        return s2, th, c, chi2b
-    return None
-
-
-BAND_GRID = 25
 
 
 def converge(p: _Problem, s: Structure, theta: np.ndarray, rounds: int = 30, tol: float = 1e-3) -> None:
