@@ -18,7 +18,10 @@ largest hump.  On a real sensor
 model error in the weights (by tau region: curve.set_floor; the resonance judged under
 the error the model with it needs) and points far off the model given capped
 influence; the first structure, refitted under the same weights, stays when
-the information criterion prefers it.  Last, a rise at the curve's end taken by a
+the information criterion prefers it.  Where the structure then holds a sinusoid and a band
+limit but no resonance, a resonance is judged again at chance (_res_at_chance: the error
+was set by a first model without the sinusoid, whose hump's misfit reached the first
+points and hid a mount mode there).  Last, a rise at the curve's end taken by a
 ramp, a long Gauss-Markov process or a sinusoid is read as K unless they beat K on
 log AVAR by the 99.9 % point (_rise_as_k); the weights of the structure chosen are
 iterated to their fixed point (converge).
