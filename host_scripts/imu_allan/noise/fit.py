@@ -194,7 +194,8 @@ def _result(
     res.terms = _ieee_terms(p, s, theta, c, term)
     if "K" in lin:
         j = s.names().index("K") if "K" in s.names() else -1
-        _k_interval(p, s, theta, res.terms["K"], (sel[j], c[j]) if j >= 0 else (0.0, 0.0))
+        absent_b = "B" in lin and ("B" not in s.names() or c[s.names().index("B")] <= 0)
+        _k_interval(p, s, theta, res.terms["K"], (sel[j], c[j]) if j >= 0 else (0.0, 0.0), absent_b)
     res.terms.update(_nonlinear_terms(p, s, theta, c, sd_th, term))
     names = s.names()
     res.coef = np.array([c[names.index(k)] if k in names else 0.0 for k in TERMS])
@@ -355,15 +356,27 @@ def _ieee_terms(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, ter
     return out
 
 
-def _k_interval(p: _Problem, s: Structure, theta: np.ndarray, t: Term, fitted: tuple[float, float]) -> None:
+def _k_interval(
+    p: _Problem, s: Structure, theta: np.ndarray, t: Term, fitted: tuple[float, float], flicker: bool = False
+) -> None:
     """K's 95 % interval, or its bound, widened to the test inversion's where that reaches
     further (kinterval.k_interval: each K judged under the weights of its own model, the
     structure's choice in the variance, relative): the interval from the fitted model's
     covariance is as narrow as the fit is low at the curve's end; where a GM or flicker stands
     beside K, the alternatives' spread may reach further in it.  ``fitted``: the choice of
-    structure's variance of K^2 and K^2 itself."""
+    structure's variance of K^2 and K^2 itself.  ``flicker``: B allowed but left out of s;
+    then the inversion is run with B beside K as well and the two intervals joined.  Near
+    the crossing of white noise and the walk, a sensor's own flicker (or a low-frequency
+    excess like it) and K's line trade: where the selection drops B as not needed, the
+    walk takes that excess (K 8-11 % high on real gyros), and K's interval must reach the
+    values the curve allows with flicker under them."""
     sel, c = fitted
     lo, hi = k_interval(p, s, theta, sel / c**2 if c > 0 else 0.0, c)
+    if flicker:
+        sb = replace(s, linear=tuple(x for x in LINEAR if x in s.linear or x == "B"))
+        lo_b, hi_b = k_interval(p, sb, theta, sel / c**2 if c > 0 else 0.0, c)
+        if hi_b > 0:
+            lo, hi = (min(lo, lo_b), max(hi, hi_b)) if hi > 0 else (lo_b, hi_b)
     if t.value is None:
         if hi > t.upper:
             t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {hi:.3g}")
