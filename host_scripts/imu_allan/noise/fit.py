@@ -196,6 +196,8 @@ def _result(
         j = s.names().index("K") if "K" in s.names() else -1
         absent_b = "B" in lin and ("B" not in s.names() or c[s.names().index("B")] <= 0)
         _k_interval(p, s, theta, res.terms["K"], (sel[j], c[j]) if j >= 0 else (0.0, 0.0), absent_b)
+        if res.terms["K"].value is None:
+            _gm_as_walk(p, s, theta, c, (sd_c, sd_th), res.terms["K"])
     res.terms.update(_nonlinear_terms(p, s, theta, c, sd_th, term))
     names = s.names()
     res.coef = np.array([c[names.index(k)] if k in names else 0.0 for k in TERMS])
@@ -385,6 +387,50 @@ def _k_interval(
     if hi > 0:
         t.low, t.high = min(lo, t.low), max(hi, t.high)
         t.upper = t.high
+
+
+def _gm_as_walk(
+    p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, sd: tuple[np.ndarray, np.ndarray], t: Term
+) -> None:
+    """An absent K read from the walk a Gauss-Markov process of s stands for (``sd``: the sd of
+    c and of theta).  Under its correlation time T a GM of variance s^2 rises as a rate random
+    walk of K = s sqrt(2 / T) (IEEE Std 952-1997 annex C).  Where a ramp carries the rise on
+    past T, the model rising to the curve's end (no fall of the GM seen), the two are a walk's
+    realization with a trend of its own, low at mid taus and high at the end: walks of K = 0.1
+    and 0.3 added to a real gyro were read so, K absent "at most" 0.8 and 0.9 of the truth.
+    Where the GM's walk line meets white noise's two octaves or more under T / 2, K is read
+    as that walk, its interval the GM's variance and T at their 95 % ends; one octave under,
+    K's bound reaches it (read there, a GM of T = 120 s and a ramp on textbook white noise
+    gave a K of their own)."""
+    names = s.names()
+    i0 = 1 if s.lp else 0
+    n2 = c[names.index("N")] if "N" in names else 0.0
+    if "R" not in names or c[names.index("R")] <= 0:
+        return
+    alive = [j for j in range(s.ngm) if c[names.index(f"GM{j + 1}")] > 0]  # named as _nonlinear_terms does
+    model = columns(s, theta, p.m, p.fs) @ c
+    for n_out, j in enumerate(alive):
+        k = names.index(f"GM{j + 1}")
+        T = math.exp(theta[i0 + j])
+        k_eq = math.sqrt(2.0 * c[k] / T)
+        cross = math.sqrt(3.0 * n2) / k_eq  # where its line meets N's
+        if cross > T / 4 or np.any(np.diff(model[p.t >= T / 2.0]) < 0):
+            continue
+        t_lo, t_hi = _lognormal(T, sd[1][i0 + j])
+        top = math.sqrt(2.0 * (c[k] + Z95 * sd[0][k]) / t_lo)
+        if cross > T / 8:  # an octave of the walk's rise shown, not two: K's bound reaches it
+            if top > t.upper:
+                t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {top:.3g}")
+                t.upper = top
+            continue
+        t.value, t.estimate = k_eq, k_eq
+        t.low, t.high, t.upper = math.sqrt(2.0 * max(c[k] - Z95 * sd[0][k], 0.0) / t_hi), top, top
+        t.tau_range = (cross, T / 2.0)
+        t.note = (
+            f"read from GM{n_out + 1} (correlation time {T:.3g} s), which rises as a rate random walk under it "
+            "(K = sd sqrt(2 / T)), the ramp R carrying the rise on past it: a walk's realization with a trend"
+        )
+        return
 
 
 def _nonlinear_terms(
