@@ -130,3 +130,11 @@ def test_a_GM_and_a_drift_on_white_noise_are_not_read_as_K() -> None:
     terms = api.noise_terms(x, fs).terms
     assert terms["R"].value is not None and terms["GM1"].value is not None, terms
     assert terms["K"].value is None, terms["K"]
+
+
+def test_K_s_interval_holds_a_walk_that_a_GM_beside_K_takes_part_of() -> None:
+    """The same walk beside a GM of 30 s: fitted as K and a GM whose rise stands in for part of
+    the walk (K read at half the truth), K's interval, judged without that GM as well, holds
+    the walk's K (it reached 0.084 of the 0.1)."""
+    k = api.noise_terms(_gm_walk_stream(30.0), 100.0).terms["K"]
+    assert k.value is not None and k.low <= 0.1 <= k.high, k
