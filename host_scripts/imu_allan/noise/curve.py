@@ -129,11 +129,12 @@ class _Gls:
         kind: str,
         floor: ArrayLike = 0.0,
         robust: Optional[np.ndarray] = None,
+        power: float = 1.0,
     ) -> None:
         from .terms import _cholesky, octave_correlation
 
         sd = ref * np.sqrt(2.0 / e)
-        S = octave_correlation(t, alpha, kind) * np.outer(sd, sd)
+        S = octave_correlation(t, alpha, kind, power) * np.outer(sd, sd)
         S[np.diag_indices_from(S)] += (floor * ref) ** 2
         self.sd = np.sqrt(np.diag(S))
         if robust is not None:  # points far off the model: their variance raised (influence capped)
@@ -155,13 +156,14 @@ class _Problem:
         self.robust = np.ones(t.size)
         self.robust_on = False
         self.sine_on = False
+        self.power = 1.0  # the octave correlation's decay (terms.octave_correlation); K's inversion sets its own
         self.set_reference(y)
 
     def set_reference(self, ref: np.ndarray) -> None:
         self.ref = np.where(ref > 0, ref, self.y)
         self.alpha = alphas(self.t, self.ref)
         self.e = self.edf_of(self.alpha)
-        self.gls = _Gls(self.t, self.ref, self.e, self.alpha, self.kind, self.floor, self.robust)
+        self.gls = _Gls(self.t, self.ref, self.e, self.alpha, self.kind, self.floor, self.robust, self.power)
         self.yw = self.gls.white(self.y)
 
     def solve(self, s: Structure, theta: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:

@@ -153,14 +153,15 @@ def _thin(t: np.ndarray) -> np.ndarray:
     return np.unique(np.concatenate((idx, [t.size - 1])))
 
 
-def octave_correlation(t: np.ndarray, alpha: np.ndarray, kind: str) -> np.ndarray:
+def octave_correlation(t: np.ndarray, alpha: np.ndarray, kind: str, power: float = 1.0) -> np.ndarray:
     """Correlation of the Allan estimates at octave taus ``t``: RHO per octave
-    apart for each point's noise type ``alpha``, the geometric mean of the two."""
+    apart for each point's noise type ``alpha``, the geometric mean of the two;
+    d octaves apart RHO^(d^power) (power 1: RHO^d)."""
     rho = RHO[kind]
     lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
     l2 = np.log2(t)
     dist = np.abs(l2[:, None] - l2[None, :])
-    return np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
+    return np.exp(-(dist if power == 1.0 else dist**power) * (lam[:, None] + lam[None, :]) / 2.0)
 
 
 class _Gls:
