@@ -37,11 +37,10 @@ from numpy.typing import ArrayLike
 from scipy import optimize
 
 from ..stats import dist
-from ..stats.edf import alpha_from_slope
 from .flicker import Flicker
 from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
-from .terms import _least_squares, _nnls
+from .terms import _least_squares, _nnls, local_alpha
 
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
@@ -82,19 +81,52 @@ class Structure:
 def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.ndarray:
     """(points, columns) AVAR per unit coefficient, in the order of s.names()."""
     cols = []
+    at = (fs, m.tobytes())
     for k in s.linear:
         if k == "N" and s.lp:
-            cols.append(LP(1.0, math.exp(theta[0]), s.lp, s.shape).avar(m, fs))
+            cols.append(_column(("LP", s.lp, s.shape, float(theta[0])), at, m, fs))
         else:
             cols.append(_fixed(k, m, fs, s.flicker()))
     i = 1 if s.lp else 0
     for j in range(s.ngm):
-        cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
+        cols.append(_column(("GM", float(theta[i + j])), at, m, fs))
     if s.res:
-        cols.append(resonance(theta, s.res_at()).avar(m, fs))
+        i = s.res_at()
+        cols.append(_column(("RES", float(theta[i]), float(theta[i + 1])), at, m, fs))
     if s.sine:
-        cols.append(Sine(1.0, math.exp(theta[-1])).avar(m, fs))
+        cols.append(_column(("SIN", float(theta[-1])), at, m, fs))
     return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
+
+
+_COLUMNS: dict[tuple, np.ndarray] = {}
+
+
+def _column(what: tuple, at: tuple, m: np.ndarray, fs: float) -> np.ndarray:
+    """The column of a process with parameters (``what``: its kind and log parameters), kept:
+    the selection asks for the same band limit, time or resonance again under other weights,
+    beside other terms or with another parameter changed (a grid, a refit of one parameter)."""
+    key = what + at
+    col = _COLUMNS.get(key)
+    if col is None:
+        kind = what[0]
+        if kind == "LP":
+            proc = LP(1.0, math.exp(what[3]), what[1], what[2])
+        elif kind == "GM":
+            proc = AR1(1.0, math.exp(what[1]))
+        elif kind == "RES":
+            proc = resonance(np.array(what[1:]), 0)
+        else:
+            proc = Sine(1.0, math.exp(what[1]))
+        col = proc.avar(m, fs)
+        col.setflags(write=False)
+        if len(_COLUMNS) > COLUMNS_KEPT:
+            _COLUMNS.clear()
+        _COLUMNS[key] = col
+    return col
+
+
+COLUMNS_KEPT = 4096
+"""Columns kept by _column (a fit asks for a few thousand, about a third of them again)."""
 
 
 _FIXED: dict[tuple, np.ndarray] = {}
@@ -136,7 +168,7 @@ class _Gls:
         S = octave_correlation(t, alpha, kind) * np.outer(sd, sd)
         S[np.diag_indices_from(S)] += (floor * ref) ** 2
         self.sd = np.sqrt(np.diag(S))
-        if robust is not None:  # points far off the model: their variance raised (influence capped)
+        if robust is not None and (robust != 1.0).any():  # points far off the model: their variance raised
             S = S * np.sqrt(np.outer(robust, robust))
         self.S = S
         self.Li = np.linalg.inv(_cholesky(S))
@@ -172,12 +204,8 @@ class _Problem:
 
 
 def alphas(t: np.ndarray, model: np.ndarray) -> np.ndarray:
-    lt, la = np.log(t), np.log(model)
-    out = np.zeros(t.size, dtype=np.int64)
-    for i in range(t.size):  # over curve points (tens)
-        a, b = max(i - 1, 0), min(i + 1, t.size - 1)
-        out[i] = alpha_from_slope((la[b] - la[a]) / (lt[b] - lt[a]) if b > a else -1.0)
-    return out
+    """The noise type of each point from the model's local slope (terms.local_alpha)."""
+    return local_alpha(t, model)
 
 
 RES_TAUS = 5.0

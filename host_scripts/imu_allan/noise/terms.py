@@ -124,15 +124,14 @@ class FitResult:
 
 def local_alpha(tau: np.ndarray, avar: np.ndarray) -> np.ndarray:
     """Noise type from the local log-log slope of AVAR (neighbours on each side)."""
-    from ..stats.edf import alpha_from_slope
+    from ..stats.edf import alpha_from_slopes
 
     lt, la = np.log(tau), np.log(avar)
-    out = np.zeros(tau.size, dtype=np.int64)
-    for i in range(tau.size):  # over curve points (tens), not samples
-        a, b = max(i - 1, 0), min(i + 1, tau.size - 1)
-        mu = (la[b] - la[a]) / (lt[b] - lt[a]) if b > a else -1.0
-        out[i] = alpha_from_slope(mu)
-    return out
+    i = np.arange(tau.size)
+    a, b = np.maximum(i - 1, 0), np.minimum(i + 1, tau.size - 1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # b == a (one point) takes -1
+        mu = np.where(b > a, (la[b] - la[a]) / (lt[b] - lt[a]), -1.0)
+    return alpha_from_slopes(mu)
 
 
 RHO = {
@@ -156,11 +155,23 @@ def _thin(t: np.ndarray) -> np.ndarray:
 def octave_correlation(t: np.ndarray, alpha: np.ndarray, kind: str) -> np.ndarray:
     """Correlation of the Allan estimates at octave taus ``t``: RHO per octave
     apart for each point's noise type ``alpha``, the geometric mean of the two."""
-    rho = RHO[kind]
-    lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
-    l2 = np.log2(t)
-    dist = np.abs(l2[:, None] - l2[None, :])
-    return np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
+    t, alpha = np.asarray(t), np.asarray(alpha)
+    key = (kind, t.dtype.str, t.tobytes(), alpha.dtype.str, alpha.tobytes())
+    out = _CORRELATION.get(key)  # a fit asks for the same noise types hundreds of times
+    if out is None:
+        rho = RHO[kind]
+        lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
+        l2 = np.log2(t)
+        dist = np.abs(l2[:, None] - l2[None, :])
+        out = np.exp(-dist * (lam[:, None] + lam[None, :]) / 2.0)
+        out.setflags(write=False)
+        if len(_CORRELATION) > 256:
+            _CORRELATION.clear()
+        _CORRELATION[key] = out
+    return out
+
+
+_CORRELATION: dict[tuple, np.ndarray] = {}
 
 
 class _Gls:
@@ -190,7 +201,7 @@ def _cholesky(S: np.ndarray) -> np.ndarray:
     C = S / np.outer(d, d)
     for jitter in (0.0, 1e-9, 1e-6, 1e-3, 1e-2):
         try:
-            return np.linalg.cholesky(C + jitter * np.eye(C.shape[0])) * d[:, None]
+            return np.linalg.cholesky(C + jitter * np.eye(C.shape[0]) if jitter else C) * d[:, None]
         except np.linalg.LinAlgError:
             continue
     w, V = np.linalg.eigh(C)  # last resort: clip the spectrum
@@ -250,11 +261,19 @@ def fit_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike]) -> 
 def points_edf(edf_fn: EdfFn, idx: np.ndarray, size: int) -> Callable[[np.ndarray], np.ndarray]:
     """EDF of the fitted points (idx of ``size``) for their noise types; 1 where none."""
 
+    seen: dict[bytes, np.ndarray] = {}
+
     def edf_of(alpha: np.ndarray) -> np.ndarray:
-        full = np.zeros(size, dtype=np.int64)
-        full[idx] = alpha
-        e = np.asarray(edf_fn(full), dtype=np.float64)[idx]
-        return np.where(np.isfinite(e) & (e > 0), e, 1.0)
+        key = np.asarray(alpha, dtype=np.int64).tobytes()
+        e = seen.get(key)  # a fit asks for the same noise types hundreds of times
+        if e is None:
+            full = np.zeros(size, dtype=np.int64)
+            full[idx] = alpha
+            e = np.asarray(edf_fn(full), dtype=np.float64)[idx]
+            e = np.where(np.isfinite(e) & (e > 0), e, 1.0)
+            e.setflags(write=False)
+            seen[key] = e
+        return e
 
     return edf_of
 
