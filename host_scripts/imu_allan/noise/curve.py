@@ -95,7 +95,10 @@ def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.nda
         cols.append(_column(("RES", float(theta[i]), float(theta[i + 1])), at, m, fs))
     if s.sine:
         cols.append(_column(("SIN", float(theta[-1])), at, m, fs))
-    return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
+    out = np.empty((m.size, len(cols)))
+    for j, col in enumerate(cols):
+        out[:, j] = col
+    return out
 
 
 _COLUMNS: dict[tuple, np.ndarray] = {}
@@ -165,11 +168,12 @@ class _Gls:
         from .terms import _cholesky, octave_correlation
 
         sd = ref * np.sqrt(2.0 / e)
-        S = octave_correlation(t, alpha, kind) * np.outer(sd, sd)
-        S[np.diag_indices_from(S)] += (floor * ref) ** 2
-        self.sd = np.sqrt(np.diag(S))
+        S = octave_correlation(t, alpha, kind) * (sd[:, None] * sd[None, :])
+        diag = S.reshape(-1)[:: t.size + 1]  # a view: the variances
+        diag += (floor * ref) ** 2
+        self.sd = np.sqrt(diag)
         if robust is not None and (robust != 1.0).any():  # points far off the model: their variance raised
-            S = S * np.sqrt(np.outer(robust, robust))
+            S = S * np.sqrt(robust[:, None] * robust[None, :])
         self.S = S
         self.Li = np.linalg.inv(_cholesky(S))
 
@@ -187,20 +191,35 @@ class _Problem:
         self.robust = np.ones(t.size)
         self.robust_on = False
         self.sine_on = False
+        self._weights: dict[tuple, tuple] = {}
         self.set_reference(y)
 
     def set_reference(self, ref: np.ndarray) -> None:
-        self.ref = np.where(ref > 0, ref, self.y)
-        self.alpha = alphas(self.t, self.ref)
-        self.e = self.edf_of(self.alpha)
-        self.gls = _Gls(self.t, self.ref, self.e, self.alpha, self.kind, self.floor, self.robust)
-        self.yw = self.gls.white(self.y)
+        key = tuple(np.asarray(v, dtype=np.float64).tobytes() for v in (ref, self.floor, self.robust))
+        w = self._weights.get(key)  # the selection sets weights it had before (a structure's, restored)
+        if w is None:
+            r = np.where(ref > 0, ref, self.y)
+            alpha = alphas(self.t, r)
+            e = self.edf_of(alpha)
+            gls = _Gls(self.t, r, e, alpha, self.kind, self.floor, self.robust)
+            w = (r, alpha, e, gls, gls.white(self.y))
+            for v in (r, alpha, w[4]):
+                v.setflags(write=False)
+            if len(self._weights) > WEIGHTS_KEPT:
+                self._weights.clear()
+            self._weights[key] = w
+        self.ref, self.alpha, self.e, self.gls, self.yw = w
 
     def solve(self, s: Structure, theta: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         A = columns(s, theta, self.m, self.fs)
         Aw = self.gls.white(A)
         c = _nnls(Aw, self.yw) if A.shape[1] else np.zeros(0)
-        return c, float(np.sum((self.yw - Aw @ c) ** 2)), A
+        r = self.yw - Aw @ c
+        return c, float((r * r).sum()), A
+
+
+WEIGHTS_KEPT = 64
+"""Weights kept by _Problem.set_reference (each a covariance and its inverse factor)."""
 
 
 def alphas(t: np.ndarray, model: np.ndarray) -> np.ndarray:

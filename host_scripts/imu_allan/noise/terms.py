@@ -127,10 +127,11 @@ def local_alpha(tau: np.ndarray, avar: np.ndarray) -> np.ndarray:
     from ..stats.edf import alpha_from_slopes
 
     lt, la = np.log(tau), np.log(avar)
-    i = np.arange(tau.size)
-    a, b = np.maximum(i - 1, 0), np.minimum(i + 1, tau.size - 1)
-    with np.errstate(divide="ignore", invalid="ignore"):  # b == a (one point) takes -1
-        mu = np.where(b > a, (la[b] - la[a]) / (lt[b] - lt[a]), -1.0)
+    mu = np.full(tau.size, -1.0)  # one point: -1
+    if tau.size > 1:  # each point's neighbours, the end points' one and themselves
+        mu[1:-1] = (la[2:] - la[:-2]) / (lt[2:] - lt[:-2])
+        mu[0] = (la[1] - la[0]) / (lt[1] - lt[0])
+        mu[-1] = (la[-1] - la[-2]) / (lt[-1] - lt[-2])
     return alpha_from_slopes(mu)
 
 
@@ -197,8 +198,8 @@ class _Gls:
 
 
 def _cholesky(S: np.ndarray) -> np.ndarray:
-    d = np.sqrt(np.diag(S))
-    C = S / np.outer(d, d)
+    d = np.sqrt(S.reshape(-1)[:: S.shape[0] + 1])
+    C = S / (d[:, None] * d[None, :])
     for jitter in (0.0, 1e-9, 1e-6, 1e-3, 1e-2):
         try:
             return np.linalg.cholesky(C + jitter * np.eye(C.shape[0]) if jitter else C) * d[:, None]
@@ -222,7 +223,7 @@ def _least_squares(X: np.ndarray, y: Optional[np.ndarray] = None) -> tuple[Optio
 
 def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np.ndarray:
     """min |Aw c - yw| with 0 <= c (<= ub, the caps that keep each term's line under the curve)."""
-    scale = np.linalg.norm(Aw, axis=0)
+    scale = np.sqrt(np.add.reduce(Aw * Aw, axis=0))  # the columns' norms (numpy.linalg.norm's sum)
     scale[scale == 0] = 1.0
     if ub is None or not np.any(np.isfinite(ub)):
         c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))

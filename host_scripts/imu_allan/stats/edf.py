@@ -229,7 +229,7 @@ def alpha_from_slopes(mu: ArrayLike) -> np.ndarray:
     (half to even) and kept within the IMU noise types (+2 for mu <= -1.5: white angle; 0
     where mu is not finite)."""
     mu = np.asarray(mu, dtype=np.float64)
-    a = np.where(mu <= -1.5, 2.0, np.clip(np.rint(-mu - 1.0), -2.0, 0.0))
+    a = np.where(mu <= -1.5, 2.0, np.minimum(np.maximum(np.rint(-mu - 1.0), -2.0), 0.0))
     return np.where(np.isfinite(mu), a, 0.0).astype(np.int64)
 
 
