@@ -316,7 +316,7 @@ GM_LP_FACTOR = 10.0
 
 
 def _clip(s: Structure, th: np.ndarray, lims: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    th = np.clip(th, lims[0], lims[1])
+    th = np.minimum(np.maximum(th, lims[0]), lims[1])  # numpy.clip's own rule, without its wrapper
     if s.lp and s.ngm:
         th[1 : 1 + s.ngm] = np.maximum(th[1 : 1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
     return th
@@ -386,7 +386,7 @@ def _quad(u: np.ndarray, var: np.ndarray, C: np.ndarray) -> float:
     from .terms import _cholesky
 
     sd = np.sqrt(var)
-    r = np.linalg.solve(_cholesky(C * np.outer(sd, sd)), u)
+    r = np.linalg.solve(_cholesky(C * (sd[:, None] * sd[None, :])), u)
     return float(r @ r)
 
 
