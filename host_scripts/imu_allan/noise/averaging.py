@@ -54,7 +54,7 @@ def average_autocov(fc: float, fs: float, stages: int) -> np.ndarray:
     r = bspline(np.arange(q + 1) / w, 2 * stages - 1)
     nz = np.flatnonzero(r)  # the trailing zeros cut (numpy.trim_zeros, at a tenth of its cost)
     r = r[: nz[-1] + 1 if nz.size else 0]
-    r = r * (fs / (r[0] + 2.0 * np.sum(r[1:])))
+    r = r * (fs / (r[0] + 2.0 * r[1:].sum()))
     r.setflags(write=False)  # shared by the cache
     return r
 

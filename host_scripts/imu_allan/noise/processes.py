@@ -204,7 +204,7 @@ def _lp_shape(fc: float, fs: float, order: int, shape: str = "pole") -> tuple:
         c, p = np.array([r0]), np.array([a1])
     else:
         r0, c, p = filter_autocov(b, a)
-    dc = float(np.sum(b) / np.sum(a))  # unit white in -> low-frequency gain dc
+    dc = float(b.sum() / a.sum())  # unit white in -> low-frequency gain dc
     return b, a, r0, c, p, fs / dc**2
 
 
