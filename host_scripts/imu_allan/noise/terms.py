@@ -226,7 +226,12 @@ def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np
     scale = np.sqrt(np.add.reduce(Aw * Aw, axis=0))  # the columns' norms (numpy.linalg.norm's sum)
     scale[scale == 0] = 1.0
     if ub is None or not np.any(np.isfinite(ub)):
-        c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
+        maxiter = 50 * max(Aw.shape[1], 1)
+        if _NNLS is not None and np.isfinite(Aw).all() and np.isfinite(yw).all():
+            c, _, info = _NNLS(np.ascontiguousarray(Aw / scale), np.ascontiguousarray(yw, dtype=np.float64), maxiter)
+            if info != 3:  # else scipy's own call, which says so
+                return c / scale
+        c, _ = optimize.nnls(Aw / scale, yw, maxiter=maxiter)
         return c / scale
     hi = np.where(np.isfinite(ub), ub * scale, np.inf)
     r = optimize.lsq_linear(
@@ -236,6 +241,26 @@ def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np
         method="bvls",
     )
     return np.clip(r.x, 0.0, hi) / scale
+
+
+def _nnls_kernel() -> Optional[Callable]:
+    """scipy.optimize.nnls's own solver without its argument checks, which cost twice the
+    solve on the fit's problems (twenty points, a few columns; the fit solves thousands):
+    where scipy has it (1.15 on) and it answers a problem as scipy.optimize.nnls does, else
+    None (that function then)."""
+    try:
+        from scipy.optimize._nnls import _nnls as kernel
+
+        A = np.array([[1.0, 0.0, 2.0], [1.0, 1.0, 0.0], [0.0, 1.0, 1.0], [2.0, 0.0, 1.0]])
+        b = np.array([2.0, -1.0, 1.0, 3.0])
+        x, rnorm, info = kernel(A, b, 150)
+        ok = np.array_equal(x, optimize.nnls(A, b, maxiter=150)[0]) and info != 3
+    except Exception:  # a scipy without it, or with another form of it
+        return None
+    return kernel if ok else None
+
+
+_NNLS = _nnls_kernel()
 
 
 def usable_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike] = None) -> np.ndarray:
