@@ -156,11 +156,10 @@ def _thin(t: np.ndarray) -> np.ndarray:
 def octave_correlation(t: np.ndarray, alpha: np.ndarray, kind: str) -> np.ndarray:
     """Correlation of the Allan estimates at octave taus ``t``: RHO per octave
     apart for each point's noise type ``alpha``, the geometric mean of the two."""
-    t, alpha = np.asarray(t), np.asarray(alpha)
-    key = (kind, t.dtype.str, t.tobytes(), alpha.dtype.str, alpha.tobytes())
+    t, alpha, rho = np.asarray(t), np.asarray(alpha), RHO[kind]
+    key = (tuple(rho.items()), t.dtype.str, t.tobytes(), alpha.dtype.str, alpha.tobytes())
     out = _CORRELATION.get(key)  # a fit asks for the same noise types hundreds of times
     if out is None:
-        rho = RHO[kind]
         lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
         l2 = np.log2(t)
         dist = np.abs(l2[:, None] - l2[None, :])
