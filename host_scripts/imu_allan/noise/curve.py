@@ -38,9 +38,10 @@ from scipy import optimize
 
 from ..stats import dist
 from .flicker import Flicker
+from .lsq import _least_squares, _nnls
 from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
-from .terms import _least_squares, _nnls, local_alpha
+from .terms import local_alpha
 
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
@@ -165,7 +166,8 @@ class _Gls:
         floor: ArrayLike = 0.0,
         robust: Optional[np.ndarray] = None,
     ) -> None:
-        from .terms import _cholesky, octave_correlation
+        from .lsq import _cholesky
+        from .terms import octave_correlation
 
         sd = ref * np.sqrt(2.0 / e)
         S = octave_correlation(t, alpha, kind) * (sd[:, None] * sd[None, :])
@@ -383,7 +385,7 @@ def _log_parts(p: _Problem, mod: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
 
 
 def _quad(u: np.ndarray, var: np.ndarray, C: np.ndarray) -> float:
-    from .terms import _cholesky
+    from .lsq import _cholesky
 
     sd = np.sqrt(var)
     r = np.linalg.solve(_cholesky(C * (sd[:, None] * sd[None, :])), u)
