@@ -43,6 +43,8 @@ def test_fit_holds_blas_to_one_thread_and_restores(monkeypatch):
     var = allan.oavar(x, ms)[0]
     efn = edf.edf_function(ms, np.full(ms.size, x.size + 1), np.ones(ms.size, dtype=np.int64))
     with threadpoolctl.threadpool_limits(limits=2, user_api="blas"):
+        if set(_blas_threads()) != {2}:
+            pytest.skip("the BLAS libraries here run on one thread only")
         free = fit.fit_curve.__wrapped__(ms / 100.0, var, efn, fs=100.0)  # the fit as it was
         on_free = seen[:]
         seen.clear()
