@@ -563,7 +563,9 @@ REAL = REPO.parent / "shared" / "data" / "adis16405_imu2_codes.tsv.gz"
 def noise_fit_real() -> dict:
     """The same fit's seconds on each channel of the real recording (gyros and accelerometers:
     the accelerometers' resonance and line trials cost the most), process CPU time; each
-    channel's curve once, after one untimed fit (the flicker table is built once a process)."""
+    channel's curve once, after one untimed fit of a textbook curve on the same taus (what a
+    process builds once, the flicker table, is built; the columns the fit keeps are not those of
+    a curve timed after it: the first channel's own curve would be fitted from its own)."""
     if not REAL.is_file():
         return {"noise_fit_real": f"skipped: {REAL.name} absent"}
     import gzip
@@ -577,7 +579,8 @@ def noise_fit_real() -> dict:
     ms = allan.tau_grid("octave", allan.max_m("oavar", n))
     efn = edf.edf_function(ms, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
     curves = [allan.oavar(rows[:, c], ms)[0] for c in range(6)]
-    fit_curve(ms / fs, curves[0], efn, fs=fs)
+    tau = ms / fs
+    fit_curve(tau, 1e-4 / tau + 1e-8 * tau, efn, fs=fs)  # white noise and a walk
     out = []
     for var in curves:
         t0 = time.process_time()

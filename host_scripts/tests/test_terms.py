@@ -119,3 +119,23 @@ def test_model_and_basis() -> None:
     v = terms.model_avar(tau, {"N": 2.0, "B": 1.0, "K": None})
     np.testing.assert_allclose(v, 4.0 / tau + 2 * math.log(2) / math.pi)
     assert terms.B_READOFF == pytest.approx(0.6643, abs=1e-4)
+
+
+def test_nonnegative_least_squares_is_scipys() -> None:
+    """The fit's non-negative least squares (on unit-norm columns, scipy's solver called without
+    its argument checks where scipy has it) gives scipy.optimize.nnls's answer to the last bit,
+    on problems shaped like the fit's (tens of points, columns 1e-20 to 1e20 apart), and
+    refuses a non-finite column as scipy does."""
+    from scipy import optimize
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        m, k = int(rng.integers(4, 25)), int(rng.integers(1, 7))
+        A = rng.standard_normal((m, k)) * np.exp(rng.uniform(-20, 20, k))
+        y = rng.standard_normal(m) * math.exp(rng.uniform(-5, 5))
+        norm = np.sqrt(np.sum(A * A, axis=0))
+        want = optimize.nnls(A / norm, y, maxiter=50 * k)[0] / norm
+        assert np.array_equal(terms._nnls(A, y), want)
+    A[0, 0] = np.nan
+    with pytest.raises(ValueError):
+        terms._nnls(A, y)

@@ -52,8 +52,9 @@ def average_autocov(fc: float, fs: float, stages: int) -> np.ndarray:
     w = X3DB[stages] / float(fc) * fs  # the width in samples
     q = int(math.ceil(stages * w))
     r = bspline(np.arange(q + 1) / w, 2 * stages - 1)
-    r = np.trim_zeros(r, "b")
-    r = r * (fs / (r[0] + 2.0 * np.sum(r[1:])))
+    nz = np.flatnonzero(r)  # the trailing zeros cut (numpy.trim_zeros, at a tenth of its cost)
+    r = r[: nz[-1] + 1 if nz.size else 0]
+    r = r * (fs / (r[0] + 2.0 * r[1:].sum()))
     r.setflags(write=False)  # shared by the cache
     return r
 
@@ -68,7 +69,7 @@ def avar_from_autocov(m: ArrayLike, r: np.ndarray) -> np.ndarray:
     c1 = np.concatenate(([0.0], np.cumsum(k * r[1:])))
 
     def S(n: np.ndarray) -> np.ndarray:
-        j = np.clip(np.ceil(n).astype(np.int64) - 1, 0, r.size - 1)  # lags 1 .. j, j < n
+        j = np.minimum(np.maximum(np.ceil(n).astype(np.int64) - 1, 0), r.size - 1)  # lags 1 .. j, j < n
         return n * (r[0] + 2.0 * c0[j]) - 2.0 * c1[j]
 
     return (4.0 * S(m) - S(2.0 * m)) / (2.0 * m * m)

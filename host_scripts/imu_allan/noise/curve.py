@@ -37,11 +37,11 @@ from numpy.typing import ArrayLike
 from scipy import optimize
 
 from ..stats import dist
-from ..stats.edf import alpha_from_slope
 from .flicker import Flicker
+from .lsq import _least_squares, _nnls
 from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
-from .terms import _least_squares, _nnls
+from .terms import local_alpha
 
 GM_T_MIN = 10.0
 """A Gauss-Markov process's T is at least this many shortest taus (its ADEV hump,
@@ -82,19 +82,55 @@ class Structure:
 def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.ndarray:
     """(points, columns) AVAR per unit coefficient, in the order of s.names()."""
     cols = []
+    at = (fs, m.tobytes())
     for k in s.linear:
         if k == "N" and s.lp:
-            cols.append(LP(1.0, math.exp(theta[0]), s.lp, s.shape).avar(m, fs))
+            cols.append(_column(("LP", s.lp, s.shape, float(theta[0])), at, m, fs))
         else:
             cols.append(_fixed(k, m, fs, s.flicker()))
     i = 1 if s.lp else 0
     for j in range(s.ngm):
-        cols.append(AR1(1.0, math.exp(theta[i + j])).avar(m, fs))
+        cols.append(_column(("GM", float(theta[i + j])), at, m, fs))
     if s.res:
-        cols.append(resonance(theta, s.res_at()).avar(m, fs))
+        i = s.res_at()
+        cols.append(_column(("RES", float(theta[i]), float(theta[i + 1])), at, m, fs))
     if s.sine:
-        cols.append(Sine(1.0, math.exp(theta[-1])).avar(m, fs))
-    return np.stack(cols, axis=1) if cols else np.zeros((m.size, 0))
+        cols.append(_column(("SIN", float(theta[-1])), at, m, fs))
+    out = np.empty((m.size, len(cols)))
+    for j, col in enumerate(cols):
+        out[:, j] = col
+    return out
+
+
+_COLUMNS: dict[tuple, np.ndarray] = {}
+
+
+def _column(what: tuple, at: tuple, m: np.ndarray, fs: float) -> np.ndarray:
+    """The column of a process with parameters (``what``: its kind and log parameters), kept:
+    the selection asks for the same band limit, time or resonance again under other weights,
+    beside other terms or with another parameter changed (a grid, a refit of one parameter)."""
+    key = what + at
+    col = _COLUMNS.get(key)
+    if col is None:
+        kind = what[0]
+        if kind == "LP":
+            proc = LP(1.0, math.exp(what[3]), what[1], what[2])
+        elif kind == "GM":
+            proc = AR1(1.0, math.exp(what[1]))
+        elif kind == "RES":
+            proc = resonance(np.array(what[1:]), 0)
+        else:
+            proc = Sine(1.0, math.exp(what[1]))
+        col = proc.avar(m, fs)
+        col.setflags(write=False)
+        if len(_COLUMNS) > COLUMNS_KEPT:
+            _COLUMNS.clear()
+        _COLUMNS[key] = col
+    return col
+
+
+COLUMNS_KEPT = 4096
+"""Columns kept by _column (a fit asks for a few thousand, about a third of them again)."""
 
 
 _FIXED: dict[tuple, np.ndarray] = {}
@@ -131,14 +167,16 @@ class _Gls:
         robust: Optional[np.ndarray] = None,
         power: float = 1.0,
     ) -> None:
-        from .terms import _cholesky, octave_correlation
+        from .lsq import _cholesky
+        from .terms import octave_correlation
 
         sd = ref * np.sqrt(2.0 / e)
-        S = octave_correlation(t, alpha, kind, power) * np.outer(sd, sd)
-        S[np.diag_indices_from(S)] += (floor * ref) ** 2
-        self.sd = np.sqrt(np.diag(S))
-        if robust is not None:  # points far off the model: their variance raised (influence capped)
-            S = S * np.sqrt(np.outer(robust, robust))
+        S = octave_correlation(t, alpha, kind, power) * (sd[:, None] * sd[None, :])
+        diag = S.reshape(-1)[:: t.size + 1]  # a view: the variances
+        diag += (floor * ref) ** 2
+        self.sd = np.sqrt(diag)
+        if robust is not None and (robust != 1.0).any():  # points far off the model: their variance raised
+            S = S * np.sqrt(robust[:, None] * robust[None, :])
         self.S = S
         self.Li = np.linalg.inv(_cholesky(S))
 
@@ -157,29 +195,40 @@ class _Problem:
         self.robust_on = False
         self.sine_on = False
         self.power = 1.0  # the octave correlation's decay (terms.octave_correlation); K's inversion sets its own
+        self._weights: dict[tuple, tuple] = {}
         self.set_reference(y)
 
     def set_reference(self, ref: np.ndarray) -> None:
-        self.ref = np.where(ref > 0, ref, self.y)
-        self.alpha = alphas(self.t, self.ref)
-        self.e = self.edf_of(self.alpha)
-        self.gls = _Gls(self.t, self.ref, self.e, self.alpha, self.kind, self.floor, self.robust, self.power)
-        self.yw = self.gls.white(self.y)
+        key = tuple(np.asarray(v, dtype=np.float64).tobytes() for v in (ref, self.floor, self.robust)) + (self.power,)
+        w = self._weights.get(key)  # the selection sets weights it had before (a structure's, restored)
+        if w is None:
+            r = np.where(ref > 0, ref, self.y)
+            alpha = alphas(self.t, r)
+            e = self.edf_of(alpha)
+            gls = _Gls(self.t, r, e, alpha, self.kind, self.floor, self.robust, self.power)
+            w = (r, alpha, e, gls, gls.white(self.y))
+            for v in (r, alpha, w[4]):
+                v.setflags(write=False)
+            if len(self._weights) > WEIGHTS_KEPT:
+                self._weights.clear()
+            self._weights[key] = w
+        self.ref, self.alpha, self.e, self.gls, self.yw = w
 
     def solve(self, s: Structure, theta: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         A = columns(s, theta, self.m, self.fs)
         Aw = self.gls.white(A)
         c = _nnls(Aw, self.yw) if A.shape[1] else np.zeros(0)
-        return c, float(np.sum((self.yw - Aw @ c) ** 2)), A
+        r = self.yw - Aw @ c
+        return c, float((r * r).sum()), A
+
+
+WEIGHTS_KEPT = 64
+"""Weights kept by _Problem.set_reference (each a covariance and its inverse factor)."""
 
 
 def alphas(t: np.ndarray, model: np.ndarray) -> np.ndarray:
-    lt, la = np.log(t), np.log(model)
-    out = np.zeros(t.size, dtype=np.int64)
-    for i in range(t.size):  # over curve points (tens)
-        a, b = max(i - 1, 0), min(i + 1, t.size - 1)
-        out[i] = alpha_from_slope((la[b] - la[a]) / (lt[b] - lt[a]) if b > a else -1.0)
-    return out
+    """The noise type of each point from the model's local slope (terms.local_alpha)."""
+    return local_alpha(t, model)
 
 
 RES_TAUS = 5.0
@@ -271,7 +320,7 @@ GM_LP_FACTOR = 10.0
 
 
 def _clip(s: Structure, th: np.ndarray, lims: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    th = np.clip(th, lims[0], lims[1])
+    th = np.minimum(np.maximum(th, lims[0]), lims[1])  # numpy.clip's own rule, without its wrapper
     if s.lp and s.ngm:
         th[1 : 1 + s.ngm] = np.maximum(th[1 : 1 + s.ngm], math.log(GM_LP_FACTOR / (2 * math.pi)) - th[0])
     return th
@@ -338,10 +387,10 @@ def _log_parts(p: _Problem, mod: np.ndarray) -> tuple[np.ndarray, np.ndarray, np
 
 
 def _quad(u: np.ndarray, var: np.ndarray, C: np.ndarray) -> float:
-    from .terms import _cholesky
+    from .lsq import _cholesky
 
     sd = np.sqrt(var)
-    r = np.linalg.solve(_cholesky(C * np.outer(sd, sd)), u)
+    r = np.linalg.solve(_cholesky(C * (sd[:, None] * sd[None, :])), u)
     return float(r @ r)
 
 

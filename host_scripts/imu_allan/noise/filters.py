@@ -54,16 +54,30 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
     bp = np.concatenate((b, np.zeros(na + 1 - b.size)))  # numerator in powers of z, degree na
     p = _poles(a)
 
-    def H(z: np.ndarray) -> np.ndarray:
-        return np.polyval(bp, z) / np.polyval(a, z)
+    def H(z: np.complex128) -> np.complex128:
+        return _polyval(bp, z) / _polyval(a, z)
 
     c = np.empty(na, dtype=np.complex128)
     for i in range(na):  # over the poles (one or two)
-        others = np.prod([p[i] - p[j] for j in range(na) if j != i]) if na > 1 else 1.0
-        c[i] = np.polyval(bp, p[i]) / others * H(1.0 / p[i]) / p[i]
+        others = np.prod([p[i] - p[j] for j in range(na) if j != i]) if na > 2 else p[i] - p[1 - i] if na > 1 else 1.0
+        c[i] = _polyval(bp, p[i]) / others * H(1.0 / p[i]) / p[i]
     h0 = bp[-1] / a[-1]  # H(0) (z -> 0 of the z-polynomial form)
-    r0 = float(np.real(h0 * bp[0] + np.sum(c)))
+    r0 = float((h0 * bp[0] + c.sum()).real)
     return r0, c, p
+
+
+def _polyval(coef: np.ndarray, z: np.complex128) -> np.complex128:
+    """numpy.polyval at one complex point by its own steps (z as a 0-d array: numpy's complex
+    product of arrays may fuse a multiply and an add, its scalars' do not), without its
+    conversions (the fit asks for thousands of cutoffs: numpy.polyval costs 20 us a call)."""
+    x = np.asanyarray(z)
+    y = _ZERO
+    for v in coef:
+        y = y * x + v
+    return y
+
+
+_ZERO = np.zeros((), dtype=np.complex128)
 
 
 def _poles(a: np.ndarray) -> np.ndarray:
@@ -99,7 +113,7 @@ def mean_pole_autocov(fc: float, fs: float, order: int) -> tuple[float, np.ndarr
         raise ValueError(f"low-pass order must be 1 or 2, got {order}")
     x = lam / float(fs)
     em1 = np.expm1(x)
-    r0 = float(np.real(np.sum(2.0 * A * (em1 - x) / x**2)))
+    r0 = float((2.0 * A * (em1 - x) / x**2).sum().real)
     p = em1 + 1.0
     c = A * em1**2 / (x**2 * p)
     if order == 1:

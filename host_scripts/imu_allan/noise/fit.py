@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..stats.dist import Z95
+from .blas import one_thread
 from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, covariance, free_parameters, set_floor
 from .identify import runs
 from .kinterval import k_interval
@@ -77,6 +78,7 @@ class CurveFit(FitResult):
         return out
 
 
+@one_thread  # its matrices are tens of points across: BLAS threads only wait (blas.py)
 def fit_curve(
     tau: ArrayLike,
     avar: ArrayLike,

@@ -61,8 +61,10 @@ def _inversion(p: _Problem, s: Structure, theta: np.ndarray, extra: float, start
     A = columns(s2, theta, p.m, p.fs)
     ref0 = p.ref.copy()
 
+    rest = np.delete(A, j, axis=1)
+
     def inside(u: float) -> bool:
-        c, var = _k_at(p, A, j, u, ref0)
+        c, var = _k_at(p, A, rest, j, u, ref0)
         return abs(c - u) <= Z95 * math.sqrt(var + extra * u * u)
 
     # the fitted K, or from 8 times the K whose line meets one of the last points down to
@@ -104,13 +106,13 @@ def _edge(inside: Callable[[float], bool], u: float, step: float, stop: float) -
     return a
 
 
-def _k_at(p: _Problem, A: np.ndarray, j: int, u: float, ref0: np.ndarray) -> tuple[float, float]:
+def _k_at(p: _Problem, A: np.ndarray, rest: np.ndarray, j: int, u: float, ref0: np.ndarray) -> tuple[float, float]:
     """The GLS estimate of K^2 (column j of A) and its variance under the weights of the model
     at K^2 = u (the other columns refitted, non-negative, PROFILE_ROUNDS times; those at 0 left
-    out), each point's deviation from that model taken at its chi-squared quantile (_scores)."""
+    out; ``rest`` A without column j), each point's deviation from that model taken at its
+    chi-squared quantile (_scores)."""
     from .terms import _least_squares, _nnls
 
-    rest = np.delete(A, j, axis=1)
     mod, co = ref0, np.zeros(rest.shape[1])
     for _ in range(PROFILE_ROUNDS):
         p.set_reference(mod)

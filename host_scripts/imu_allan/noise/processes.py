@@ -40,9 +40,11 @@ def _m(m: ArrayLike) -> np.ndarray:
 
 def _geo_sum(m: np.ndarray, p: complex | float) -> np.ndarray:
     """sum_{k=1}^{m-1} (m - k) p^k, vectorized over m (p real or complex, |p| < 1)."""
-    if isinstance(p, complex) or np.iscomplexobj(p):
-        if abs(np.imag(p)) == 0.0:
-            p = float(np.real(p))
+    if isinstance(p, complex):  # numpy's complex scalars too
+        if p.imag == 0.0:
+            p = float(p.real)
+    elif np.iscomplexobj(p) and abs(np.imag(p)) == 0.0:
+        p = float(np.real(p))
     with np.errstate(under="ignore"):
         pm = np.power(p, m)
     return p * (m * (1 - p) - (1 - pm)) / (1 - p) ** 2
@@ -61,7 +63,7 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
     tot = mm * r0
     for ci, pi in zip(c, p):  # over the poles (one or two)
         if np.iscomplexobj(pi) and np.imag(pi) != 0.0:
-            tot = tot + 2.0 * np.real(ci * _geo_sum(mm, complex(pi)))
+            tot = tot + 2.0 * (ci * _geo_sum(mm, complex(pi))).real
         else:
             tot = tot + 2.0 * float(np.real(ci)) * _geo_sum(mm, float(np.real(pi)))
     S1, S2 = tot[: m.size].reshape(m.shape), tot[m.size :].reshape(m.shape)
@@ -202,7 +204,7 @@ def _lp_shape(fc: float, fs: float, order: int, shape: str = "pole") -> tuple:
         c, p = np.array([r0]), np.array([a1])
     else:
         r0, c, p = filter_autocov(b, a)
-    dc = float(np.sum(b) / np.sum(a))  # unit white in -> low-frequency gain dc
+    dc = float(b.sum() / a.sum())  # unit white in -> low-frequency gain dc
     return b, a, r0, c, p, fs / dc**2
 
 

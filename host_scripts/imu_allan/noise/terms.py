@@ -49,10 +49,10 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import optimize
 
 from ..stats import dist
 from ..stats.dist import Z95
+from .lsq import _cholesky, _least_squares, _nnls
 
 TERMS = ("Q", "N", "B", "K", "R")
 B_FACTOR = 2.0 * math.log(2.0) / math.pi
@@ -124,15 +124,15 @@ class FitResult:
 
 def local_alpha(tau: np.ndarray, avar: np.ndarray) -> np.ndarray:
     """Noise type from the local log-log slope of AVAR (neighbours on each side)."""
-    from ..stats.edf import alpha_from_slope
+    from ..stats.edf import alpha_from_slopes
 
     lt, la = np.log(tau), np.log(avar)
-    out = np.zeros(tau.size, dtype=np.int64)
-    for i in range(tau.size):  # over curve points (tens), not samples
-        a, b = max(i - 1, 0), min(i + 1, tau.size - 1)
-        mu = (la[b] - la[a]) / (lt[b] - lt[a]) if b > a else -1.0
-        out[i] = alpha_from_slope(mu)
-    return out
+    mu = np.full(tau.size, -1.0)  # one point: -1
+    if tau.size > 1:  # each point's neighbours, the end points' one and themselves
+        mu[1:-1] = (la[2:] - la[:-2]) / (lt[2:] - lt[:-2])
+        mu[0] = (la[1] - la[0]) / (lt[1] - lt[0])
+        mu[-1] = (la[-1] - la[-2]) / (lt[-1] - lt[-2])
+    return alpha_from_slopes(mu)
 
 
 RHO = {
@@ -157,11 +157,22 @@ def octave_correlation(t: np.ndarray, alpha: np.ndarray, kind: str, power: float
     """Correlation of the Allan estimates at octave taus ``t``: RHO per octave
     apart for each point's noise type ``alpha``, the geometric mean of the two;
     d octaves apart RHO^(d^power) (power 1: RHO^d)."""
-    rho = RHO[kind]
-    lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
-    l2 = np.log2(t)
-    dist = np.abs(l2[:, None] - l2[None, :])
-    return np.exp(-(dist if power == 1.0 else dist**power) * (lam[:, None] + lam[None, :]) / 2.0)
+    t, alpha, rho = np.asarray(t), np.asarray(alpha), RHO[kind]
+    key = (tuple(rho.items()), power, t.dtype.str, t.tobytes(), alpha.dtype.str, alpha.tobytes())
+    out = _CORRELATION.get(key)  # a fit asks for the same noise types hundreds of times
+    if out is None:
+        lam = -np.log(np.array([rho.get(int(a), rho[0]) for a in alpha]))
+        l2 = np.log2(t)
+        dist = np.abs(l2[:, None] - l2[None, :])
+        out = np.exp(-(dist if power == 1.0 else dist**power) * (lam[:, None] + lam[None, :]) / 2.0)
+        out.setflags(write=False)
+        if len(_CORRELATION) > 256:
+            _CORRELATION.clear()
+        _CORRELATION[key] = out
+    return out
+
+
+_CORRELATION: dict[tuple, np.ndarray] = {}
 
 
 class _Gls:
@@ -184,47 +195,6 @@ class _Gls:
 
     def white(self, v: np.ndarray) -> np.ndarray:
         return self.Li @ v
-
-
-def _cholesky(S: np.ndarray) -> np.ndarray:
-    d = np.sqrt(np.diag(S))
-    C = S / np.outer(d, d)
-    for jitter in (0.0, 1e-9, 1e-6, 1e-3, 1e-2):
-        try:
-            return np.linalg.cholesky(C + jitter * np.eye(C.shape[0])) * d[:, None]
-        except np.linalg.LinAlgError:
-            continue
-    w, V = np.linalg.eigh(C)  # last resort: clip the spectrum
-    C2 = (V * np.maximum(w, 1e-3)) @ V.T
-    return np.linalg.cholesky(C2) * d[:, None]
-
-
-def _least_squares(X: np.ndarray, y: Optional[np.ndarray] = None) -> tuple[Optional[np.ndarray], np.ndarray]:
-    """Unconstrained least squares min |X c - y| (c None without y) and the inverse of X'X,
-    computed on unit-norm columns: the terms' columns differ in scale by up to 1e20."""
-    scale = np.linalg.norm(X, axis=0)
-    scale[scale == 0] = 1.0
-    Xs = X / scale
-    inv = np.linalg.pinv(Xs.T @ Xs)
-    c = None if y is None else (inv @ (Xs.T @ y)) / scale
-    return c, inv / np.outer(scale, scale)
-
-
-def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np.ndarray:
-    """min |Aw c - yw| with 0 <= c (<= ub, the caps that keep each term's line under the curve)."""
-    scale = np.linalg.norm(Aw, axis=0)
-    scale[scale == 0] = 1.0
-    if ub is None or not np.any(np.isfinite(ub)):
-        c, _ = optimize.nnls(Aw / scale, yw, maxiter=50 * max(Aw.shape[1], 1))
-        return c / scale
-    hi = np.where(np.isfinite(ub), ub * scale, np.inf)
-    r = optimize.lsq_linear(
-        Aw / scale,
-        yw,
-        bounds=(np.zeros(hi.size), np.maximum(hi, 1e-300)),
-        method="bvls",
-    )
-    return np.clip(r.x, 0.0, hi) / scale
 
 
 def usable_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike] = None) -> np.ndarray:
@@ -251,11 +221,19 @@ def fit_points(tau: np.ndarray, avar: np.ndarray, mask: Optional[ArrayLike]) -> 
 def points_edf(edf_fn: EdfFn, idx: np.ndarray, size: int) -> Callable[[np.ndarray], np.ndarray]:
     """EDF of the fitted points (idx of ``size``) for their noise types; 1 where none."""
 
+    seen: dict[bytes, np.ndarray] = {}
+
     def edf_of(alpha: np.ndarray) -> np.ndarray:
-        full = np.zeros(size, dtype=np.int64)
-        full[idx] = alpha
-        e = np.asarray(edf_fn(full), dtype=np.float64)[idx]
-        return np.where(np.isfinite(e) & (e > 0), e, 1.0)
+        key = np.asarray(alpha, dtype=np.int64).tobytes()
+        e = seen.get(key)  # a fit asks for the same noise types hundreds of times
+        if e is None:
+            full = np.zeros(size, dtype=np.int64)
+            full[idx] = alpha
+            e = np.asarray(edf_fn(full), dtype=np.float64)[idx]
+            e = np.where(np.isfinite(e) & (e > 0), e, 1.0)
+            e.setflags(write=False)
+            seen[key] = e
+        return e
 
     return edf_of
 

@@ -26,6 +26,7 @@ import math
 from typing import Optional
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import special
 
 from . import dist
@@ -219,13 +220,17 @@ def chi2_interval(
 
 
 def alpha_from_slope(mu: float) -> int:
-    """alpha of the power-law noise whose AVAR goes as tau^mu: -mu - 1, rounded
-    and kept within the IMU noise types (+2 for mu <= -1.5: white angle)."""
-    if not math.isfinite(mu):
-        return 0
-    if mu <= -1.5:
-        return 2
-    return int(min(max(round(-mu - 1), -2), 0))
+    """alpha of the power-law noise whose AVAR goes as tau^mu (alpha_from_slopes)."""
+    return int(alpha_from_slopes(np.array([mu], dtype=np.float64))[0])
+
+
+def alpha_from_slopes(mu: ArrayLike) -> np.ndarray:
+    """alpha of the power-law noise whose AVAR goes as tau^mu, for each mu: -mu - 1, rounded
+    (half to even) and kept within the IMU noise types (+2 for mu <= -1.5: white angle; 0
+    where mu is not finite)."""
+    mu = np.asarray(mu, dtype=np.float64)
+    a = np.where(mu <= -1.5, 2.0, np.minimum(np.maximum(np.rint(-mu - 1.0), -2.0), 0.0))
+    return np.where(np.isfinite(mu), a, 0.0).astype(np.int64)
 
 
 def edf_points(
