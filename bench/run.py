@@ -30,6 +30,8 @@ SIM = BUILD / "host" / "imu-sim"
 ENV = dict(os.environ, PYTHONPATH=str(REPO / "host_scripts"))
 sys.path.insert(0, str(REPO / "host_scripts"))
 
+from noise_fits import noise_fit, noise_fit_real  # noqa: E402  (beside this file)
+
 from imu_allan.channels import CODE_MAX, RATES_HZ  # noqa: E402  (this checkout's package, from the path above)
 
 RATES = list(RATES_HZ)  # the offered rates, ascending: the firmware's list
@@ -429,7 +431,14 @@ TARGETS = [
         "<=",
         0.5,
         "s",
-        "CPU seconds of the whole-curve noise fit of one channel of 1e6 samples (bench/run.py noise_fit)",
+        "CPU seconds of the whole-curve noise fit of one channel of 1e6 samples (bench/noise_fits.py noise_fit)",
+    ),
+    (
+        "noise_fit_real_s_per_channel_max",
+        "<=",
+        0.5,
+        "s",
+        "CPU seconds of the same fit on the real recording's slowest channel (bench/noise_fits.py noise_fit_real)",
     ),
     # The project's budget, not the chip's: optiboot's 512 bytes leave 15872.
     # 15250 again once the room the console and the commands' check took
@@ -529,70 +538,6 @@ TARGETS = [
 ]
 
 
-def noise_fit() -> dict:
-    """Seconds of the whole-curve noise fit (imu_allan.noise.fit) per channel of a
-    1e6-sample recording: a catalogue stream with a band limit, flicker, a rate random
-    walk and a Gauss-Markov process (the curve, its EDF and the fit; the curve itself
-    is the octave engine's, timed elsewhere).  Process CPU time, median, min and max of 5."""
-    from imu_allan.noise import AR1, LP, RW, Flicker
-    from imu_allan.noise.fit import fit_curve
-    from imu_allan.stats import allan, edf
-
-    fs, n = 100.0, 10**6
-    out = []
-    for seed in range(5):
-        x = (LP(0.8, 30.0, 1) + Flicker(0.2) + RW(0.015) + AR1(0.3, 120.0)).simulate(n, fs, seed)
-        ms = allan.tau_grid("octave", allan.max_m("oavar", n))
-        var, _ = allan.oavar(x, ms)
-        t0 = time.process_time()
-        efn = edf.edf_function(ms, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
-        fit_curve(ms / fs, var, efn, fs=fs)
-        out.append(time.process_time() - t0)
-    return {
-        "noise_fit_s_per_channel": round(float(np.median(out)), 3),
-        "noise_fit_s_per_channel_min": round(float(np.min(out)), 3),
-        "noise_fit_s_per_channel_max": round(float(np.max(out)), 3),
-        "noise_fit_s_per_channel_runs": [round(v, 3) for v in out],
-    }
-
-
-REAL = REPO.parent / "shared" / "data" / "adis16405_imu2_codes.tsv.gz"
-"""The real ADIS16405 at rest (100 Hz, 1e6 rows), beside the repository where it is present."""
-
-
-def noise_fit_real() -> dict:
-    """The same fit's seconds on each channel of the real recording (gyros and accelerometers:
-    the accelerometers' resonance and line trials cost the most), process CPU time; each
-    channel's curve once, after one untimed fit of a textbook curve on the same taus (what a
-    process builds once, the flicker table, is built; the columns the fit keeps are not those of
-    a curve timed after it: the first channel's own curve would be fitted from its own)."""
-    if not REAL.is_file():
-        return {"noise_fit_real": f"skipped: {REAL.name} absent"}
-    import gzip
-
-    from imu_allan.noise.fit import fit_curve
-    from imu_allan.stats import allan, edf
-
-    with gzip.open(REAL, "rt") as f:
-        rows = np.loadtxt(f, dtype=np.float64)
-    fs, n = 100.0, rows.shape[0]
-    ms = allan.tau_grid("octave", allan.max_m("oavar", n))
-    efn = edf.edf_function(ms, np.full(ms.size, n + 1), np.ones(ms.size, dtype=np.int64))
-    curves = [allan.oavar(rows[:, c], ms)[0] for c in range(6)]
-    tau = ms / fs
-    fit_curve(tau, 1e-4 / tau + 1e-8 * tau, efn, fs=fs)  # white noise and a walk
-    out = []
-    for var in curves:
-        t0 = time.process_time()
-        fit_curve(ms / fs, var, efn, fs=fs)
-        out.append(time.process_time() - t0)
-    return {
-        "noise_fit_real_s_per_channel": round(float(np.median(out)), 3),
-        "noise_fit_real_s_per_channel_max": round(float(np.max(out)), 3),
-        "noise_fit_real_s_per_channel_runs": [round(v, 3) for v in out],
-    }
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="smaller host inputs (1e6 / 1e7), for a fast look")
@@ -629,7 +574,10 @@ def main() -> int:
         "which implementation the host figures measured: the compiled kernels "
         "(make ext / pip install) or the numpy fallback"
     )
-    Path(args.out).write_text(json.dumps(res, indent=2) + "\n")
+    out = Path(args.out)
+    if out.exists():  # the long recording's figures (bench/long.py merges them in), kept until it runs again
+        res.update({k: v for k, v in json.loads(out.read_text()).items() if k.startswith("long_")})
+    out.write_text(json.dumps(res, indent=2) + "\n")
     print(f"{'figure':34} {'value':>12}  target")
     for key, op, target, unit, _ in TARGETS:
         v = res.get(key)
