@@ -29,4 +29,16 @@ struct device_test {
 /* Lists the tests (no argument) or runs the one named by argv[1]. */
 int device_main(const struct device_test *tests, size_t n, int argc, char **argv);
 
+/* A row of a test file's table (CMake reads the rows to name the ctests). */
+#define DEVICE_TEST(f)                                                                                       \
+  {                                                                                                          \
+#    f, f                                                                                                    \
+  }
+/* The test file's main(): its table listed or one test run. */
+#define DEVICE_MAIN(table)                                                                                   \
+  int main(int argc, char **argv)                                                                            \
+  {                                                                                                          \
+    return device_main(table, sizeof table / sizeof table[0], argc, argv);                                   \
+  }
+
 #endif /* DEVICE_CHECK_H */

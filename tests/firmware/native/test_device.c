@@ -252,26 +252,18 @@ static void test_start_count_is_kept_through_a_rate_change(void)
 }
 
 static const struct device_test tests[] = {
-#define T(f)                                                                                                 \
-  {                                                                                                          \
-#    f, f                                                                                                    \
-  }
-    T(test_boot_line_names_protocol_version_and_reset_cause),
-    T(test_status_reply_is_framed_and_checksummed),
-    T(test_unknown_command_gets_error_and_sampling_goes_on),
-    T(test_rate_change_resets_run),
-    T(test_range_command_drives_gselect_pins),
-    T(test_save_writes_a_checked_record_and_load_restores_it),
-    T(test_saved_settings_are_in_force_at_power_up),
-    T(test_link_budget_refuses_raw_at_1000_hz),
-    T(test_infeasible_saved_settings_load_defaults_and_say_so),
-    T(test_saved_record_with_a_spare_bit_set_is_refused),
-    T(test_start_count_stops_at_count_through_a_reset),
-    T(test_start_count_is_kept_through_a_rate_change),
-#undef T
+    DEVICE_TEST(test_boot_line_names_protocol_version_and_reset_cause),
+    DEVICE_TEST(test_status_reply_is_framed_and_checksummed),
+    DEVICE_TEST(test_unknown_command_gets_error_and_sampling_goes_on),
+    DEVICE_TEST(test_rate_change_resets_run),
+    DEVICE_TEST(test_range_command_drives_gselect_pins),
+    DEVICE_TEST(test_save_writes_a_checked_record_and_load_restores_it),
+    DEVICE_TEST(test_saved_settings_are_in_force_at_power_up),
+    DEVICE_TEST(test_link_budget_refuses_raw_at_1000_hz),
+    DEVICE_TEST(test_infeasible_saved_settings_load_defaults_and_say_so),
+    DEVICE_TEST(test_saved_record_with_a_spare_bit_set_is_refused),
+    DEVICE_TEST(test_start_count_stops_at_count_through_a_reset),
+    DEVICE_TEST(test_start_count_is_kept_through_a_rate_change),
 };
 
-int main(int argc, char **argv)
-{
-  return device_main(tests, sizeof tests / sizeof tests[0], argc, argv);
-}
+DEVICE_MAIN(tests)

@@ -278,22 +278,14 @@ static void test_command_check_runs_as_sent_or_refuses_a_changed_line(void)
 }
 
 static const struct device_test tests[] = {
-#define T(f)                                                                                                 \
-  {                                                                                                          \
-#    f, f                                                                                                    \
-  }
-    T(test_line_with_nul_is_refused_whole_and_runs_nothing),
-    T(test_backspace_and_delete_erase_the_last_character),
-    T(test_stray_byte_without_end_delays_no_report_and_times_out),
-    T(test_line_that_lost_a_byte_to_an_overrun_is_refused_whole),
-    T(test_back_to_back_commands_run_as_sent_or_get_error_5),
-    T(test_ctrl_c_or_esc_then_a_command_runs_in_every_mode),
-    T(test_dropped_line_is_marked_on_the_screen),
-    T(test_command_check_runs_as_sent_or_refuses_a_changed_line),
-#undef T
+    DEVICE_TEST(test_line_with_nul_is_refused_whole_and_runs_nothing),
+    DEVICE_TEST(test_backspace_and_delete_erase_the_last_character),
+    DEVICE_TEST(test_stray_byte_without_end_delays_no_report_and_times_out),
+    DEVICE_TEST(test_line_that_lost_a_byte_to_an_overrun_is_refused_whole),
+    DEVICE_TEST(test_back_to_back_commands_run_as_sent_or_get_error_5),
+    DEVICE_TEST(test_ctrl_c_or_esc_then_a_command_runs_in_every_mode),
+    DEVICE_TEST(test_dropped_line_is_marked_on_the_screen),
+    DEVICE_TEST(test_command_check_runs_as_sent_or_refuses_a_changed_line),
 };
 
-int main(int argc, char **argv)
-{
-  return device_main(tests, sizeof tests / sizeof tests[0], argc, argv);
-}
+DEVICE_MAIN(tests)

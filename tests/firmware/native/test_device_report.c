@@ -449,23 +449,15 @@ static void test_seq_advances_when_a_report_starts_and_reset_changes_id(void)
 }
 
 static const struct device_test tests[] = {
-#define T(f)                                                                                                 \
-  {                                                                                                          \
-#    f, f                                                                                                    \
-  }
-    T(test_reply_between_report_lines_pauses_report),
-    T(test_raw_mode_writes_every_set_in_order_with_count_lines),
-    T(test_noise_terms_match_float_on_many_reports),
-    T(test_summary_in_physical_units_matches_float_on_many_reports),
-    T(test_units_typed_during_a_report_apply_to_the_next),
-    T(test_periodic_report_follows_the_interval),
-    T(test_report_header_temp_is_dash_or_mean_min_max),
-    T(test_report_check_line_binds_rows_to_header),
-    T(test_seq_advances_when_a_report_starts_and_reset_changes_id),
-#undef T
+    DEVICE_TEST(test_reply_between_report_lines_pauses_report),
+    DEVICE_TEST(test_raw_mode_writes_every_set_in_order_with_count_lines),
+    DEVICE_TEST(test_noise_terms_match_float_on_many_reports),
+    DEVICE_TEST(test_summary_in_physical_units_matches_float_on_many_reports),
+    DEVICE_TEST(test_units_typed_during_a_report_apply_to_the_next),
+    DEVICE_TEST(test_periodic_report_follows_the_interval),
+    DEVICE_TEST(test_report_header_temp_is_dash_or_mean_min_max),
+    DEVICE_TEST(test_report_check_line_binds_rows_to_header),
+    DEVICE_TEST(test_seq_advances_when_a_report_starts_and_reset_changes_id),
 };
 
-int main(int argc, char **argv)
-{
-  return device_main(tests, sizeof tests / sizeof tests[0], argc, argv);
-}
+DEVICE_MAIN(tests)
