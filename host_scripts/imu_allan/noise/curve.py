@@ -41,6 +41,7 @@ from .flicker import Flicker
 from .lsq import _least_squares, _nnls
 from .processes import AR1, FC_CEILING, LP, QN, RW, WN, Ramp, Sine
 from .resonance import Resonance
+from .simplex import nelder_mead
 from .terms import local_alpha
 
 GM_T_MIN = 10.0
@@ -82,12 +83,13 @@ class Structure:
 def columns(s: Structure, theta: np.ndarray, m: np.ndarray, fs: float) -> np.ndarray:
     """(points, columns) AVAR per unit coefficient, in the order of s.names()."""
     cols = []
-    at = (fs, m.tobytes())
+    mb = m.tobytes()
+    at = (fs, mb)
     for k in s.linear:
         if k == "N" and s.lp:
             cols.append(_column(("LP", s.lp, s.shape, float(theta[0])), at, m, fs))
         else:
-            cols.append(_fixed(k, m, fs, s.flicker()))
+            cols.append(_fixed(k, m, fs, s.flicker() if k == "B" else "", mb))
     i = 1 if s.lp else 0
     for j in range(s.ngm):
         cols.append(_column(("GM", float(theta[i + j])), at, m, fs))
@@ -136,10 +138,11 @@ COLUMNS_KEPT = 4096
 _FIXED: dict[tuple, np.ndarray] = {}
 
 
-def _fixed(k: str, m: np.ndarray, fs: float, flicker: str) -> np.ndarray:
+def _fixed(k: str, m: np.ndarray, fs: float, flicker: str, mb: Optional[bytes] = None) -> np.ndarray:
     """The column of an IEEE 952 term without parameters (the fit asks for it thousands of
-    times on the same taus): computed once per curve; B's as the samples see it (``flicker``)."""
-    key = (k, flicker if k == "B" else "", fs, m.tobytes())
+    times on the same taus): computed once per curve; B's as the samples see it (``flicker``);
+    ``mb`` m's bytes where the caller has them."""
+    key = (k, flicker if k == "B" else "", fs, m.tobytes() if mb is None else mb)
     col = _FIXED.get(key)
     if col is None:
         proc = {"Q": QN(1.0), "N": WN(1.0), "K": RW(1.0), "R": Ramp(1.0)}.get(k) or Flicker(1.0, flicker)
@@ -297,14 +300,9 @@ def _optimize(p: _Problem, s: Structure, theta0: np.ndarray, new: Optional[int])
         )
         theta = np.array([r.x]) if r.fun <= f(theta) else theta
     else:
-        r = optimize.minimize(
-            f,
-            theta,
-            method="Nelder-Mead",
-            options={"xatol": NM_XATOL, "fatol": NM_FATOL, "maxfev": NM_MAXFEV * theta.size},
-        )
-        if r.fun <= f(theta):
-            theta = np.asarray(r.x)
+        x, fun = nelder_mead(f, theta, NM_XATOL, NM_FATOL, NM_MAXFEV * theta.size)
+        if fun <= f(theta):
+            theta = np.asarray(x)
     theta = _clip(s, theta, lims)
     return theta, f(theta)
 

@@ -103,9 +103,9 @@ def mean_pole_autocov(fc: float, fs: float, order: int) -> tuple[float, np.ndarr
     so that its Allan variance at m samples is the continuous one at tau = m dt (for order 1
     IEEE 952's band-limited white noise, annex C's exponentially correlated noise)."""
     wc = 2.0 * math.pi * float(fc)
-    if order == 1:
-        lam, A = np.array([-wc], dtype=np.complex128), np.array([wc / 2.0], dtype=np.complex128)
-    elif order == 2:
+    if order == 1:  # one real pole: the complex arithmetic below on floats (the fit asks for thousands)
+        return _mean_rc_autocov(wc, float(fs))
+    if order == 2:
         l1 = wc * np.exp(0.75j * math.pi)
         lam = np.array([l1, np.conj(l1)])
         A = np.array([wc**4 / ((u - v) * (-2.0 * u) * (-(u + v))) for u, v in ((lam[0], lam[1]), (lam[1], lam[0]))])
@@ -116,9 +116,21 @@ def mean_pole_autocov(fc: float, fs: float, order: int) -> tuple[float, np.ndarr
     r0 = float((2.0 * A * (em1 - x) / x**2).sum().real)
     p = em1 + 1.0
     c = A * em1**2 / (x**2 * p)
-    if order == 1:
-        return r0, np.real(c), np.real(p)
     return r0, c, p
+
+
+def _mean_rc_autocov(wc: float, fs: float) -> tuple[float, np.ndarray, np.ndarray]:
+    """mean_pole_autocov of the RC (pole -wc, residue wc / 2), each complex operation of the
+    general form done on the real parts it reduces to, so as to give its very bits: numpy
+    divides complex numbers by the reciprocal of the divisor (Smith's method), so a / b is
+    a * (1 / b) here; a square is x * x."""
+    x = -wc * (1.0 / fs)
+    em1 = math.expm1(x)
+    A = wc / 2.0
+    r0 = (2.0 * A * (em1 - x)) * (1.0 / (x * x))
+    p = em1 + 1.0
+    c = (A * (em1 * em1)) * (1.0 / ((x * x) * p))
+    return r0, np.array([c]), np.array([p])
 
 
 def arma_factor(r0: float, c: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -4,6 +4,7 @@ non-negative one, each on unit-norm columns (the terms' columns differ in scale 
 
 from __future__ import annotations
 
+import math
 from typing import Callable, Optional
 
 import numpy as np
@@ -37,10 +38,13 @@ def _least_squares(X: np.ndarray, y: Optional[np.ndarray] = None) -> tuple[Optio
 def _nnls(Aw: np.ndarray, yw: np.ndarray, ub: Optional[np.ndarray] = None) -> np.ndarray:
     """min |Aw c - yw| with 0 <= c (<= ub, the caps that keep each term's line under the curve)."""
     scale = np.sqrt(np.add.reduce(Aw * Aw, axis=0))  # the columns' norms (numpy.linalg.norm's sum)
-    scale[scale == 0] = 1.0
+    norms = scale.tolist()  # the few norms as floats: cheaper to test than numpy's reductions
+    if 0.0 in norms:
+        scale[scale == 0] = 1.0
     if ub is None or not np.any(np.isfinite(ub)):
         maxiter = 50 * max(Aw.shape[1], 1)
-        if _NNLS is not None and np.isfinite(Aw).all() and np.isfinite(yw).all():
+        # finite norms: Aw finite (a norm overflowing sends a finite Aw to scipy's own call, the same solve)
+        if _NNLS is not None and all(map(math.isfinite, norms)) and all(map(math.isfinite, yw.tolist())):
             c, _, info = _NNLS(np.ascontiguousarray(Aw / scale), np.ascontiguousarray(yw, dtype=np.float64), maxiter)
             if info != 3:  # else scipy's own call, which says so
                 return c / scale

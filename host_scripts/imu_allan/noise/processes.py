@@ -54,11 +54,15 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
     """AVAR of a stationary sequence with r(0) = r0 and r(k) = sum c_i p_i^k (k >= 1)."""
     m = _m(m)
     if len(p) == 1 and not np.iscomplexobj(p):  # one real pole (RC, Gauss-Markov): the common case
-        # 4 S(m) - S(2m) = 2 m r0 + 2 c p ((2 m (1 - p) - (1 - p^m)(3 - p^m)) / (1 - p)^2: one power
         p1, c1 = float(p[0]), float(c[0])
+        if m.ndim == 1:
+            return real_pole_avar(m, r0, c1, p1)
+        # 4 S(m) - S(2m) = 2 m r0 + 2 c p ((2 m (1 - p) - (1 - p^m)(3 - p^m)) / (1 - p)^2: one power
         with np.errstate(under="ignore"):
             q = np.power(p1, m)
         return (m * r0 + c1 * p1 * (2.0 * m * (1.0 - p1) - (1.0 - q) * (3.0 - q)) / (1.0 - p1) ** 2) / (m * m)
+    if len(p) == 1 and m.ndim == 1 and np.imag(p[0]) != 0.0:  # one complex pole: a resonance
+        return complex_pole_avar(m, r0, c[0], complex(p[0]))
     mm = np.concatenate((m.ravel(), 2.0 * m.ravel()))  # S at m and 2m in one pass
     tot = mm * r0
     for ci, pi in zip(c, p):  # over the poles (one or two)
@@ -68,6 +72,56 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
             tot = tot + 2.0 * float(np.real(ci)) * _geo_sum(mm, float(np.real(pi)))
     S1, S2 = tot[: m.size].reshape(m.shape), tot[m.size :].reshape(m.shape)
     return (4.0 * S1 - S2) / (2.0 * m * m)
+
+
+def real_pole_avar(m: np.ndarray, r0: float, c1: float, p1: float) -> np.ndarray:
+    """avar_from_poles of one real pole (1-d float64 m): its formula's operations in the same
+    order, in place, with m's products kept (the fit asks for thousands of columns)."""
+    two_m, m_sq = _m_products(m)[:2]
+    with np.errstate(under="ignore"):
+        q = np.power(p1, m)
+    d = 1.0 - p1
+    g = two_m * d
+    h = 1.0 - q
+    q = np.subtract(3.0, q, out=q)
+    h *= q
+    g -= h
+    g *= c1 * p1
+    g /= d**2
+    out = m * r0
+    out += g
+    out /= m_sq
+    return out
+
+
+def complex_pole_avar(m: np.ndarray, r0: float, c1: complex, p: complex) -> np.ndarray:
+    """avar_from_poles of one complex pole p (1-d float64 m, p.imag != 0): the general loop's
+    operations in the same order, without its conversions (a resonance's column)."""
+    mm, two_m_sq = _m_products(m)[2:]
+    with np.errstate(under="ignore"):
+        pm = np.power(p, mm)
+    geo = p * (mm * (1 - p) - (1 - pm)) / (1 - p) ** 2
+    tot = mm * r0 + 2.0 * (c1 * geo).real
+    n = m.size
+    return (4.0 * tot[:n] - tot[n:]) / two_m_sq
+
+
+_M_PRODUCTS: dict[bytes, tuple] = {}
+
+
+def _m_products(m: np.ndarray) -> tuple:
+    """(2 m, m m, [m, 2 m], 2 m m) of the cluster sizes m, kept (the fit asks for thousands of
+    columns on the same taus)."""
+    key = m.tobytes() + str(m.shape).encode()
+    v = _M_PRODUCTS.get(key)
+    if v is None:
+        v = (2.0 * m, m * m, np.concatenate((m.ravel(), 2.0 * m.ravel())), 2.0 * m * m)
+        for a in v:
+            a.setflags(write=False)
+        if len(_M_PRODUCTS) > 64:
+            _M_PRODUCTS.clear()
+        _M_PRODUCTS[key] = v
+    return v
 
 
 class Process:
