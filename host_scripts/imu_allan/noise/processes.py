@@ -54,13 +54,7 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
     """AVAR of a stationary sequence with r(0) = r0 and r(k) = sum c_i p_i^k (k >= 1)."""
     m = _m(m)
     if len(p) == 1 and not np.iscomplexobj(p):  # one real pole (RC, Gauss-Markov): the common case
-        p1, c1 = float(p[0]), float(c[0])
-        if m.ndim == 1:
-            return real_pole_avar(m, r0, c1, p1)
-        # 4 S(m) - S(2m) = 2 m r0 + 2 c p ((2 m (1 - p) - (1 - p^m)(3 - p^m)) / (1 - p)^2: one power
-        with np.errstate(under="ignore"):
-            q = np.power(p1, m)
-        return (m * r0 + c1 * p1 * (2.0 * m * (1.0 - p1) - (1.0 - q) * (3.0 - q)) / (1.0 - p1) ** 2) / (m * m)
+        return real_pole_avar(m.ravel(), r0, float(c[0]), float(p[0])).reshape(m.shape)
     if len(p) == 1 and m.ndim == 1 and np.imag(p[0]) != 0.0:  # one complex pole: a resonance
         return complex_pole_avar(m, r0, c[0], complex(p[0]))
     mm = np.concatenate((m.ravel(), 2.0 * m.ravel()))  # S at m and 2m in one pass
@@ -75,8 +69,9 @@ def avar_from_poles(m: ArrayLike, r0: float, c: np.ndarray, p: np.ndarray) -> np
 
 
 def real_pole_avar(m: np.ndarray, r0: float, c1: float, p1: float) -> np.ndarray:
-    """avar_from_poles of one real pole (1-d float64 m): its formula's operations in the same
-    order, in place, with m's products kept (the fit asks for thousands of columns)."""
+    """avar_from_poles of one real pole (1-d float64 m), in place, with m's products kept (the
+    fit asks for thousands of columns): 4 S(m) - S(2m) = 2 m r0 + 2 c p (2 m (1 - p) -
+    (1 - p^m)(3 - p^m)) / (1 - p)^2, one power."""
     two_m, m_sq = _m_products(m)[:2]
     with np.errstate(under="ignore"):
         q = np.power(p1, m)
