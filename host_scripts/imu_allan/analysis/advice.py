@@ -162,6 +162,7 @@ def record_for_target(
     targets=TARGETS_PCT,
     model_error: bool = False,
     aims: Optional[dict[str, tuple[float, ...]]] = None,
+    ratios: Optional[dict[str, float]] = None,
 ) -> dict[str, dict[str, Optional[float]]]:
     """Per term: the predicted +-% now (``pct``) and the recording time (s) for each target
     (and, as ``check<i>``, the time its +-% would be ``aims[name][i]`` times what it is now:
@@ -169,25 +170,29 @@ def record_for_target(
     ``model_error``, the model error the fit granted (None: a model error the record's length
     cannot beat): found on a quarter-octave grid of longer
     records and interpolated in log-log; for a target already met, the shorter record whose
-    EDFs give it (every EDF in proportion)."""
+    EDFs give it (every EDF in proportion).  ``ratios``: per term, the fit's interval over the
+    one its points' EDFs give (at least 1), which a longer record keeps: the times are those
+    of the prediction times it (K's interval is also judged under the structures the curve
+    cannot tell apart and by test inversion: on white noise and a walk about 1.1 times)."""
     scales = 2.0 ** (np.arange(0, 4 * 24 + 1) / 4.0)
     preds: list[dict[str, float]] = []
     for sc in scales:  # until every term reaches the smallest target
         preds.append(predicted_pct(fit, points, float(sc), overlapping, model_error))
-        if all(v <= min(targets) for v in preds[-1].values()):
+        if all(v * (ratios or {}).get(k, 1.0) <= min(targets) for k, v in preds[-1].items()):
             break
     scales = scales[: len(preds)]
     out: dict[str, dict[str, Optional[float]]] = {}
     for name, now in preds[0].items():
-        curve = np.array([p.get(name, math.inf) for p in preds])
+        r = (ratios or {}).get(name, 1.0)
+        curve = np.array([p.get(name, math.inf) for p in preds]) * r
         item: dict[str, Optional[float]] = {"pct": now}
         for target in targets:
-            if now <= target:
-                item[target] = duration * edf_for(target / 100) / edf_for(now / 100)
+            if now * r <= target:
+                item[target] = duration * edf_for(target / 100) / edf_for(now * r / 100)
             else:
                 item[target] = _crossing(scales, curve, target, duration)
         for i, factor in enumerate((aims or {}).get(name, ())):
-            item[f"check{i}"] = _crossing(scales, curve, now * factor, duration) if factor < 1 else None
+            item[f"check{i}"] = _crossing(scales, curve, now * r * factor, duration) if factor < 1 else None
         out[name] = item
     return out
 
@@ -236,6 +241,9 @@ def add_to_analysis(doc: dict[str, Any], level: float = LEVEL, fits: Optional[di
             for k, t in terms.items()
         }
         model = record_for_target(fit, points, duration, overlapping, aims=aims) if usable else {}
+        ratios = _ratios(terms, model)
+        if ratios:  # the fit's interval wider than its points' EDFs give, by a share a longer record keeps
+            model = record_for_target(fit, points, duration, overlapping, aims=aims, ratios=ratios)
         granted = usable and (getattr(fit, "model_error", 0.0) > 0 or getattr(fit, "widened", 1.0) > 1)
         with_error = (
             record_for_target(fit, points, duration, overlapping, TARGETS_PCT, True, aims) if granted else model
@@ -263,6 +271,19 @@ def add_to_analysis(doc: dict[str, Any], level: float = LEVEL, fits: Optional[di
                     t = duration * edf_for(aim / 100, level) / nu if nu and duration and aim else None
                     term[f"{key}_s_for_{target}pct"] = t
             _stage(term, duration)
+
+
+def _ratios(terms: dict[str, Any], model: dict[str, dict[str, Optional[float]]]) -> dict[str, float]:
+    """Per term, its interval now over the one the points' EDFs give (``model``'s pct), where
+    that is above 1 and not the model error's (at most MODEL_ERROR_RATIO): the part of the
+    interval the fit adds beyond the EDFs (structures it cannot tell apart, a test inversion)
+    scales with it as the record grows."""
+    out = {}
+    for name, term in terms.items():
+        exp, pct = model.get(name, {}).get("pct"), term.get("interval_pct")
+        if exp and pct and exp < pct <= MODEL_ERROR_RATIO * exp:
+            out[name] = pct / exp
+    return out
 
 
 def _stage(term: dict[str, Any], duration: float) -> None:
