@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from imu_allan.noise import terms
+from imu_allan.noise import lsq, terms
 from imu_allan.noise.streams import Flicker
 from imu_allan.stats import allan, edf
 
@@ -135,7 +135,7 @@ def test_nonnegative_least_squares_is_scipys() -> None:
         y = rng.standard_normal(m) * math.exp(rng.uniform(-5, 5))
         norm = np.sqrt(np.sum(A * A, axis=0))
         want = optimize.nnls(A / norm, y, maxiter=50 * k)[0] / norm
-        assert np.array_equal(terms._nnls(A, y), want)
+        assert np.array_equal(lsq._nnls(A, y), want)
     A[0, 0] = np.nan
     with pytest.raises(ValueError):
-        terms._nnls(A, y)
+        lsq._nnls(A, y)

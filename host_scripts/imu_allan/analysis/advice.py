@@ -129,6 +129,7 @@ def predicted_pct(
     record adds the next octave, whose EDF is the longest point's now (the same fraction of the
     record, hence about the same EDF)."""
     from ..noise import curve as F
+    from ..noise.terms import local_alpha
 
     used = [p for p in points if p.get("used") and p.get("edf")]
     if len(used) < 2 or not list(fit.fitted):
@@ -139,7 +140,7 @@ def predicted_pct(
         tau = np.append(tau, tau[-1] * 2)
         edf = np.append(edf, used[-1]["edf"] * scale / 2**i)
     ref = fit.model(tau)
-    alpha = F.alphas(tau, ref)
+    alpha = local_alpha(tau, ref)
     floor, widened = (getattr(fit, "model_error", 0.0), getattr(fit, "widened", 1.0)) if model_error else (0.0, 1.0)
     gls = F._Gls(tau, ref, edf, alpha, "overlapping" if overlapping else "nonoverlapping", floor)
     Jw = gls.white(_jacobian(fit, tau))

@@ -206,7 +206,7 @@ class _Problem:
         w = self._weights.get(key)  # the selection sets weights it had before (a structure's, restored)
         if w is None:
             r = np.where(ref > 0, ref, self.y)
-            alpha = alphas(self.t, r)
+            alpha = local_alpha(self.t, r)
             e = self.edf_of(alpha)
             gls = _Gls(self.t, r, e, alpha, self.kind, self.floor, self.robust, self.power)
             w = (r, alpha, e, gls, gls.white(self.y))
@@ -227,11 +227,6 @@ class _Problem:
 
 WEIGHTS_KEPT = 64
 """Weights kept by _Problem.set_reference (each a covariance and its inverse factor)."""
-
-
-def alphas(t: np.ndarray, model: np.ndarray) -> np.ndarray:
-    """The noise type of each point from the model's local slope (terms.local_alpha)."""
-    return local_alpha(t, model)
 
 
 RES_TAUS = 5.0
@@ -363,6 +358,12 @@ FIT_LEVEL = 0.95
 """A model misfits when its chi2 exceeds this point of chi2 with its degrees of freedom:
 below it, chi2/dof above 1 is chance, and the points' own variances (known from their
 EDF) stand; the intervals then depend on the record's length and the model only."""
+
+
+def residual_dof(p: _Problem, c: np.ndarray, theta: np.ndarray) -> int:
+    """The degrees of freedom a fit leaves: the points less the terms it keeps (c > 0) and its
+    nonlinear parameters, at least 1."""
+    return max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
 
 
 def misfits(chi2: float, dof: int) -> bool:

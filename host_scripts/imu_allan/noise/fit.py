@@ -30,13 +30,24 @@ from numpy.typing import ArrayLike
 
 from ..stats.dist import Z95
 from .blas import one_thread
-from .curve import LINEAR, MODEL_ERR, Structure, _Problem, columns, covariance, free_parameters, set_floor
+from .curve import (
+    LINEAR,
+    MODEL_ERR,
+    Structure,
+    _Problem,
+    columns,
+    covariance,
+    free_parameters,
+    residual_dof,
+    set_floor,
+)
 from .identify import runs
 from .kinterval import k_interval
+from .lsq import _least_squares
 from .processes import FC_CEILING, LP, WN, Model
 from .reading import _compare, _linear_term, _unexplained, slope_reading, to_model
 from .select import LP_BEND, LP_FORMS, choose, shown
-from .terms import TERMS, EdfFn, FitResult, Term, _least_squares, b_classic, fit_points, points_edf
+from .terms import TERMS, EdfFn, FitResult, Term, b_classic, fit_points, points_edf
 
 
 @dataclass
@@ -150,7 +161,7 @@ def _result(
     from .curve import log_chi2, misfits
 
     c, chi2, A = p.solve(s, theta)
-    dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
+    dof = residual_dof(p, c, theta)
     notes: list[str] = []
     floor = set_floor(p, s, theta, c, dof)
     if floor.any():
@@ -370,19 +381,25 @@ def _k_interval(p: _Problem, s: Structure, theta: np.ndarray, t: Term, fitted: t
     the curve cannot tell from s where K is read (_k_alternatives), whose inversions are
     joined to s's."""
     sel, c = fitted
-    lo, hi = k_interval(p, s, theta, sel / c**2 if c > 0 else 0.0, c)
+    extra = sel / c**2 if c > 0 else 0.0
+    lo, hi = k_interval(p, s, theta, extra, c)
     for s2, th2 in alts:
-        lo_b, hi_b = k_interval(p, s2, th2, sel / c**2 if c > 0 else 0.0, c)
+        lo_b, hi_b = k_interval(p, s2, th2, extra, c)
         if hi_b > 0:
             lo, hi = (min(lo, lo_b), max(hi, hi_b)) if hi > 0 else (lo_b, hi_b)
     if t.value is None:
-        if hi > t.upper:
-            t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {hi:.3g}")
-            t.upper = hi
+        _raise_bound(t, hi)
         return
     if hi > 0:
         t.low, t.high = min(lo, t.low), max(hi, t.high)
         t.upper = t.high
+
+
+def _raise_bound(t: Term, top: float) -> None:
+    """An absent term's bound raised to ``top`` where that is higher, its note saying so."""
+    if top > t.upper:
+        t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {top:.3g}")
+        t.upper = top
 
 
 def _k_alternatives(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray, lin: tuple[str, ...]) -> list:
@@ -450,9 +467,7 @@ def _gm_as_walk(
         top = math.sqrt(2.0 * (c[k] + Z95 * sd[0][k]) / t_lo)
         cross = math.sqrt(3.0) * n / k_eq  # where its walk line meets N's
         if cross > T / 8:  # an octave of the walk's rise shown, not two: K's bound reaches it
-            if top > t.upper:
-                t.note = t.note.replace(f"at most {t.upper:.3g}", f"at most {top:.3g}")
-                t.upper = top
+            _raise_bound(t, top)
             continue
         t.value, t.estimate = k_eq, k_eq
         t.low, t.high, t.upper = math.sqrt(2.0 * max(c[k] - Z95 * sd[0][k], 0.0) / t_hi), top, top

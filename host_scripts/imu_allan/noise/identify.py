@@ -196,7 +196,7 @@ def _floor(fit_at) -> float:
 def _quick(A: np.ndarray, y: np.ndarray, e: np.ndarray, keep: np.ndarray, coef: bool = False) -> np.ndarray:
     """Model AVAR at every point from a diagonal-weight NNLS on the kept points
     (model-based weights, three rounds): fast enough to redo per point set aside."""
-    from .terms import _nnls
+    from .lsq import _nnls
 
     ref = y.copy()
     c = np.zeros(A.shape[1])

@@ -60,7 +60,6 @@ def _inversion(p: _Problem, s: Structure, theta: np.ndarray, extra: float, start
     j = s2.names().index("K")
     A = columns(s2, theta, p.m, p.fs)
     ref0 = p.ref.copy()
-
     rest = np.delete(A, j, axis=1)
 
     def inside(u: float) -> bool:
@@ -111,7 +110,7 @@ def _k_at(p: _Problem, A: np.ndarray, rest: np.ndarray, j: int, u: float, ref0: 
     at K^2 = u (the other columns refitted, non-negative, PROFILE_ROUNDS times; those at 0 left
     out; ``rest`` A without column j), each point's deviation from that model taken at its
     chi-squared quantile (_scores)."""
-    from .terms import _least_squares, _nnls
+    from .lsq import _least_squares, _nnls
 
     mod, co = ref0, np.zeros(rest.shape[1])
     for _ in range(PROFILE_ROUNDS):

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .filters import lfilter
-from .processes import Process, _m, _Stream, avar_from_poles, complex_pole_avar
+from .processes import Process, _m, _Stream, avar_from_poles
 
 
 @dataclass(repr=False)
@@ -55,10 +55,7 @@ class Resonance(Process):
 
     def avar(self, m: ArrayLike, fs: float) -> np.ndarray:
         s2 = self.sigma**2
-        m, p = _m(m), self.pole(fs)
-        if m.ndim == 1 and p.imag != 0.0:  # the fit's columns: avar_from_poles' own path, called directly
-            return complex_pole_avar(m, s2, np.complex128(s2), p)
-        return avar_from_poles(m, s2, np.array([complex(s2)]), np.array([p]))
+        return avar_from_poles(m, s2, np.array([complex(s2)]), np.array([self.pole(fs)]))
 
     def psd(self, f: ArrayLike, fs: float) -> np.ndarray:
         a = math.exp(-1.0 / (fs * self.T))

@@ -51,6 +51,7 @@ from .curve import (
     local_floor,
     log_chi2,
     misfits,
+    residual_dof,
     set_floor,
     settle,
 )
@@ -94,7 +95,7 @@ def choose(
 
     p, s, theta = select(np.zeros(t.size))
     c, chi2, _ = p.solve(s, theta)
-    floor = set_floor(p, s, theta, c, max(p.t.size - int(np.sum(c > 0)) - theta.size, 1))
+    floor = set_floor(p, s, theta, c, residual_dof(p, c, theta))
     if floor.any():  # a real sensor: select again, the model error in the weights, robustly
         # a sinusoid where the curve shows an oscillation's hump, or where no model error the
         # fit may grant brings the first model to the curve (the one process not tried yet)
@@ -134,13 +135,13 @@ def _res_at_chance(
     s2 = replace(base, res=1)
     th2, c2, chi2b = fit_structure(pc, s2, _res_grid(pc, base, th), None)
     k = s2.names().index("RES")
-    dof = max(pc.t.size - int(np.sum(c2 > 0)) - th2.size, 1)
+    dof = residual_dof(pc, c2, th2)
     if not (c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and _shows(pc, s2, th2, c2, k, RES_SHARE)):
         return p, s, theta
     if not _res_pinned(pc, s2, th2, c2):
         return p, s, theta
     s2, th2, c2, _ = _stepwise(pc, s2, th2, keep=("N",))
-    floor = set_floor(pc, s2, th2, c2, max(pc.t.size - int(np.sum(c2 > 0)) - th2.size, 1))
+    floor = set_floor(pc, s2, th2, c2, residual_dof(pc, c2, th2))
     p2 = _Problem(pc.t, pc.y, pc.fs, pc.edf_of, pc.kind, floor)
     p2.robust_on = True
     th2, c2, _ = fit_structure(p2, s2, th2, None)
@@ -283,7 +284,7 @@ def _stepwise(
             theta, c, chi2 = fit_structure(p, s, theta, None, rounds=1)
             continue
         active = [k for k, v in zip(names, c) if v > 0 and k in s.linear and k not in keep]
-        dof = max(p.t.size - int(np.sum(c > 0)) - theta.size, 1)
+        dof = residual_dof(p, c, theta)
         if len(active) + len(keep) <= 1:
             return s, theta, c, chi2
         best = None
@@ -336,7 +337,7 @@ def _extend(
         chi2_0 = chi2 if s0 == s else fit_structure(p, s0, theta, None, rounds=1)[2]
         th0 = np.concatenate((theta, [math.log(p.t[p.t.size // 2])]))
         th, c2, chi2b = fit_structure(p, s2, th0, th0.size - 1)
-        dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
+        dof = residual_dof(p, c2, th)
         if c2[-1] > 0 and _test(min(chi2, chi2_0) - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2):
             s, theta, c, chi2 = _stepwise(p, s2, th, keep=("N",))
         elif (
@@ -414,7 +415,7 @@ def _try_sine(
         p.set_reference(mod)
         th0 = _sine_start(p, s, theta, c, s2)
         th, c2, chi2b = fit_structure(p, s2, th0, None)
-        dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
+        dof = residual_dof(p, c2, th)
         if c2[-1] > 0 and _test(chi2 - chi2b, chi2b, dof, 2) and _gm_visible(p, s2, th, c2, 0.2):
             return _stepwise(p, s2, th, keep=("N",))
         p.robust = saved
@@ -448,7 +449,7 @@ def _try_res(
     s2 = replace(s, res=1)
     saved = p.ref.copy()  # the weights as they were, exactly, where it is not kept
     th, c2, chi2b = fit_structure(p, s2, _res_grid(p, s, theta) if start is None else start, None)
-    dof = max(p.t.size - int(np.sum(c2 > 0)) - th.size, 1)
+    dof = residual_dof(p, c2, th)
     k = s2.names().index("RES")
     seen = _shows(p, s2, th, c2, k, RES_SHARE)
     # resolved only where the model with it fits within chance: under a model error its bump and the
@@ -477,7 +478,7 @@ def _res_own_error(
     saved = p.floor.copy(), p.ref.copy(), p.robust.copy()
     s2 = replace(s, res=1)
     th2, c2, _ = fit_structure(p, s2, _res_grid(p, s, theta), None, rounds=1)
-    set_floor(p, s2, th2, c2, max(p.t.size - int(np.sum(c2 > 0)) - th2.size, 1))
+    set_floor(p, s2, th2, c2, residual_dof(p, c2, th2))
     th1, c1, chi1 = fit_structure(p, s, theta, None, rounds=1)
     r = _try_res(p, s, th1, c1, chi1, start=th2)
     if r[0].res:
