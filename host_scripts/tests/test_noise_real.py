@@ -139,3 +139,23 @@ def test_a_known_walk_on_each_gyro_is_inside_K_s_interval_for_most_draws(data, f
             k = api.noise_terms(data[:, c] + walk, FS).terms["K"]
             held += k.value is not None and k.low <= truth <= k.high
     assert held >= 10, held
+
+
+def test_a_hump_the_first_1000_s_fall_from_is_a_gauss_markov_process_not_a_walk(data) -> None:
+    """The first 1000 s of gz (the part settling): allantools' ADEV climbs above N's line
+    from 10 s, peaks and falls after (a Gauss-Markov hump, ADEV peak at 1.89 T; a walk's
+    ADEV only rises).  The walk's model misfits that curve as a whole where the process
+    fits it at chance: the process, its peak where allantools' is, and no K."""
+    import allantools
+
+    x = data[: int(1000 * FS), GYROS[2]]
+    taus = 0.32 * 2.0 ** np.arange(11)
+    t, ad, _, _ = allantools.oadev(x, rate=FS, data_type="freq", taus=taus)
+    hump = t >= 10  # beyond the white line's fall
+    i = int(np.argmax(np.where(hump, ad, 0)))
+    peak = float(t[i])
+    assert ad[i] > 1.1 * ad[hump][0] and ad[-1] < 0.7 * ad[i] and peak < t[-1] / 2  # it rises, then falls
+    terms = api.noise_terms(x, FS).terms
+    gms = [v for k, v in terms.items() if k.startswith("GM") and v.value is not None]
+    assert len(gms) == 1 and peak / 2 <= 1.89 * gms[0].extra["tau_c"] <= 2 * peak, (peak, gms)
+    assert terms["K"].value is None, terms["K"]

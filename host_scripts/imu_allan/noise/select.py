@@ -195,7 +195,8 @@ def _rivals(p: _Problem, s: Structure, theta: np.ndarray, c: np.ndarray) -> tupl
 
 def _rise_as_k(p: _Problem, s: Structure, theta: np.ndarray) -> tuple[Structure, np.ndarray]:
     """A rise at the curve's end is read as K (IEEE 952: a +1/2 slope) unless a ramp, a long
-    Gauss-Markov process or a sinusoid beats K by the RISE_LEVEL point on the log-AVAR scale.
+    Gauss-Markov process or a sinusoid beats K by the RISE_LEVEL point on the log-AVAR scale,
+    or fits the curve at chance where K's structure misfits it as a whole.
 
     The last octaves hold a few degrees of freedom: their estimates are chi-squared with one
     to five, skewed far from the normal the weights assume (a point 5 times its mean costs
@@ -227,6 +228,10 @@ def _rise_as_k(p: _Problem, s: Structure, theta: np.ndarray) -> tuple[Structure,
     ls = log_chi2(p, A @ c)
     extra = max(1, int(np.sum(c > 0)) + theta.size - int(np.sum(ck > 0)) - thk.size)
     if lk - ls >= float(dist.chi2_ppf(RISE_LEVEL, extra)):
+        return s, theta
+    # the level guards K against the last octaves' skew, not against a misfit of the whole
+    # curve: a walk cannot follow a hump the curve falls from
+    if misfits(lk, residual_dof(p, ck, thk)) and not misfits(ls, residual_dof(p, c, theta)):
         return s, theta
     return sk, thk
 
