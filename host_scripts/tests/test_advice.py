@@ -4,6 +4,7 @@ analyze JSON and text that carry it."""
 
 from __future__ import annotations
 
+import gzip
 import json
 import math
 import subprocess
@@ -12,8 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_real_recording import NAME, _find
 
 from imu_allan.analysis import advice, dynamic
+from imu_allan.analysis.pipeline import Options, analyze
+from imu_allan.profiles import build_profile
+from imu_allan.sources.detect import SampleSource, Source
 from imu_allan.stats.edf import chi2_interval
 
 HOST = Path(__file__).resolve().parents[1]
@@ -89,3 +94,31 @@ def test_analyze_reports_warm_up_and_record_times(tmp_path: Path) -> None:
     assert skipped["source"]["n"] == n - 300 * fs
     text = run().stdout
     assert "Warm-up and stationarity" in text and "gx: warm-up" in text and "Recording length" in text
+
+
+def test_a_target_the_interval_meets_now_is_advised_within_the_record() -> None:
+    """The first 1000 s of the real recording (test_real_recording.py): its accelerometers keep
+    a mount mode whose frequency or quality the fit may hold at its search's bound.  Whatever a
+    term sits beside, a target its interval meets now is advised a time within the record."""
+    src = _find()
+    if src is None:
+        pytest.skip(f"the real recording {NAME} is absent (see test_real_recording.py)")
+    with gzip.open(src, "rt") as f:
+        x = np.loadtxt(f, max_rows=100_000)[:, :3].T  # ax ay az, 100 Hz
+    chans = ["ax", "ay", "az"]
+    ss = SampleSource("csv", "first 1000 s", chans, lambda: iter([x]), False, fs=100.0)
+    profile = build_profile(None, {c: (1.0, "m/s^2") for c in chans})
+    res = analyze(Source("first 1000 s", ss, None), profile, Options(fs=100.0, model=False, extra_curves=False))
+    advice.add_to_analysis(res.doc, fits=res.fits)
+    duration = res.doc["source"]["duration_s"]
+    assert duration == pytest.approx(x.shape[1] / 100.0)
+    met = []
+    for ch in res.doc["channels"].values():
+        for name, term in ch["terms"].items():
+            for target in advice.TARGETS_PCT:
+                predicted = term and term.get("expected_pct") is not None  # not LP: its interval is fc's
+                if predicted and term["interval_pct"] is not None and term["interval_pct"] <= target:
+                    met.append((name, target, term["interval_pct"], term[f"record_s_for_{target}pct"]))
+    assert len(met) >= 6  # N at least, on each channel and for both targets
+    late = [m for m in met if m[3] is None or m[3] > duration * (1 + 1e-9)]
+    assert not late, late

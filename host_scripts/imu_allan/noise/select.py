@@ -263,12 +263,19 @@ def _shows_oscillation(p: _Problem, s: Structure, theta: np.ndarray) -> bool:
     may have stood in for the hump, not fitting it)."""
     forms = [(s, theta)]
     if s.ngm:
-        forms.append((replace(s, ngm=0), theta[: 1 if s.lp else 0]))
+        forms.append(_without_gms(s, theta))
     for s1, th1 in forms:
         c, _, A = p.solve(s1, th1)
         if any(r["kind"] in ("oscillation", "hump") for r in _unexplained(p, A @ c, p.e)):
             return True
     return False
+
+
+def _without_gms(s: Structure, theta: np.ndarray) -> tuple[Structure, np.ndarray]:
+    """s without its Gauss-Markov processes: their times leave theta, and the parameters after
+    them (a resonance's, a sinusoid's) stay."""
+    i0 = 1 if s.lp else 0
+    return replace(s, ngm=0), np.delete(theta, np.arange(i0, i0 + s.ngm))
 
 
 def _test(gain: float, chi2_big: float, dof_big: int, params: int) -> bool:
