@@ -127,7 +127,9 @@ def _res_at_chance(
     is the first points' own precision, and the band limit's bend and N traded for it (a real
     accelerometer's N read 3-7 % higher at 100 Hz than averaged down by 10, where the mode is
     gone).  Kept, the structure is refitted under the model error it needs (set_floor), and the
-    resonance stays only where that error leaves it pinned (_res_pinned)."""
+    resonance stays only where that error leaves it pinned (_res_pinned), and below the band
+    limit's cutoff (the part's filter would take a mount mode above it; there it stood in for a
+    filter steeper than the catalogue's and traded with flicker)."""
     if s.res or not s.lp or pc.t.size - (len(lin) + s.ngm + len(s.nonlinear()) + 3) < 2:
         return p, s, theta
     base = replace(s, linear=tuple(k for k in lin if k != "Q"))
@@ -137,6 +139,8 @@ def _res_at_chance(
     k = s2.names().index("RES")
     dof = residual_dof(pc, c2, th2)
     if not (c2[k] > 0 and _test(chi2 - chi2b, chi2b, dof, 3) and _shows(pc, s2, th2, c2, k, RES_SHARE)):
+        return p, s, theta
+    if th2[s2.res_at()] > th2[0]:  # beyond the band limit's cutoff: the part's filter would take a mode
         return p, s, theta
     if not _res_pinned(pc, s2, th2, c2):
         return p, s, theta
