@@ -51,3 +51,17 @@ def test_an_rc_averaged_over_each_sample_is_ieee_exponentially_correlated_noise(
     tau, Tc = M / FS, 1.0 / wc
     want = (wc / 2.0) * Tc**2 / tau**2 * (2.0 * tau / Tc - 3.0 + 4.0 * np.exp(-tau / Tc) - np.exp(-2.0 * tau / Tc))
     assert np.allclose(LP(1.0, fc, 1, "pole_mean").avar(M, FS), want, rtol=1e-7)
+
+
+@pytest.mark.parametrize("fc", [0.5, 4.0, 20.0, 45.0])
+def test_a_four_pole_band_limit_is_its_summed_definition_through_scipys_butterworth(fc):
+    """White noise of low-frequency density N through scipy.signal.butter(4, fc): its autocovariance
+    from the filter's impulse response (summed to where it has died out), the Allan variance summed."""
+    from scipy import signal
+
+    b, a = signal.butter(4, fc, fs=FS)
+    h = signal.lfilter(b, a, np.r_[1.0, np.zeros(int(200 * FS / fc))])
+    var_in = FS / (np.sum(b) / np.sum(a)) ** 2  # unit density: variance fs per sample at unit DC gain
+    r = np.correlate(h, h, "full")[h.size - 1 :] * var_in
+    want = _avar_by_sums(r[0], lambda k: r[k], M)
+    assert np.allclose(LP(1.0, fc, 4).avar(M, FS), want, rtol=1e-8)

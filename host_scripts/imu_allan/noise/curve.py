@@ -55,7 +55,7 @@ LINEAR = ("Q", "N", "B", "K", "R")
 @dataclass
 class Structure:
     linear: tuple[str, ...] = LINEAR  # which IEEE 952 columns are free
-    lp: int = 0  # 0: white N; 1 or 2: N low-passed (order)
+    lp: int = 0  # 0: white N; 1, 2 or 4: N low-passed (order)
     ngm: int = 0
     sine: int = 0  # 1: a sinusoid (amplitude, frequency)
     res: int = 0  # 1: a resonance (sd; frequency and quality, theta before the sinusoid's)

@@ -547,6 +547,7 @@ def _res_term(s: Structure, theta: np.ndarray, c: np.ndarray, sd_th: np.ndarray,
 LP_WORDS = {
     ("pole", 1): "a one-pole low-pass",
     ("pole", 2): "a two-pole low-pass",
+    ("pole", 4): "a four-pole low-pass",
     ("average", 1): "a moving average",
     ("average", 2): "two moving averages in cascade (a Bartlett window)",
     ("pole_mean", 1): "a one-pole low-pass averaged over each sample",

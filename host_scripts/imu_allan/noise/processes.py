@@ -259,7 +259,7 @@ def _lp_shape(fc: float, fs: float, order: int, shape: str = "pole") -> tuple:
 
 @dataclass(repr=False)
 class LP(Process):
-    """White rate noise through a one- or two-pole low-pass of cutoff fc
+    """White rate noise through a one-, two- or four-pole low-pass of cutoff fc
     (band-limited white noise; ``shape`` "pole"), or through one or two cascaded
     averages (``shape`` "average", order the number of averages: 2 is the Bartlett
     window; averaging.py), or through a continuous RC or Butterworth whose output

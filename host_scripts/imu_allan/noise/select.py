@@ -60,11 +60,15 @@ from .reading import _unexplained
 from .terms import CHI2_1_95
 
 MAX_GM = 2
-LP_FORMS = (("pole", 1), ("pole", 2), ("average", 1), ("average", 2), ("pole_mean", 1))
+LP_FORMS = (("pole", 1), ("pole", 2), ("average", 1), ("average", 2), ("pole_mean", 1), ("pole", 4))
 """The band limits tried: a one-pole RC, a two-pole Butterworth, a moving average, two
 averages in cascade (the Bartlett window of parts that average at an internal rate), an RC
 whose output each sample averages (a record averaged down: the one form whose cutoff may lie
-above fs / 2; there one order is all the curve can tell, the filter's delay)."""
+above fs / 2; there one order is all the curve can tell, the filter's delay), a four-pole
+Butterworth (a steeper DLPF, whose sharper bend the others left to a sinusoid at its cutoff)."""
+CLASSIC_POLES = (1, 2)
+"""The pole orders the band limit's form is chosen among by chi2 alone; the others are forms
+that must fit decisively better (_lp_form)."""
 CHI2_1_999 = 10.83
 """The 99.9 % point of chi2 with one degree of freedom."""
 SINE = False
@@ -333,8 +337,12 @@ def _extend(
     cands = []
     for shape, order in LP_FORMS:
         s2 = Structure(base_lin, order, 0, shape=shape)
+        saved = p.ref.copy(), p.robust.copy()
         th, c2, chi2b = fit_structure(p, s2, np.array([math.log(0.25 * p.fs)]), 0)
         cands.append((chi2b, s2, th, c2))
+        if shape == "pole" and order not in CLASSIC_POLES:  # the newer form leaves the weights as it found them
+            p.robust = saved[1]
+            p.set_reference(saved[0])
     chi2b, s2, th, c2 = _lp_form(p, cands)
     dof = max(p.t.size - int(np.sum(c2 > 0)) - 1, 1)
     # its gain is judged against white N with the same terms: the terms let in again
@@ -405,11 +413,12 @@ def _lp_form(p: _Problem, cands: list[tuple]) -> tuple:
     averaged over each sample; another form only where it fits decisively better (a 95 %
     F test with one degree of freedom): on a curve that cannot tell them apart, the
     classic form."""
-    pole = min((x for x in cands if x[1].shape == "pole"), key=lambda x: x[0])
+    classic = [x for x in cands if x[1].shape == "pole" and x[1].lp in CLASSIC_POLES]
+    pole = min(classic, key=lambda x: x[0])
     first = pole
     if _pinned(pole[1], pole[2], p.fs):
         first = next((x for x in cands if x[1].shape == "pole_mean" and not _pinned(x[1], x[2], p.fs)), pole)
-    others = [x for x in cands if x[1].shape not in ("pole", first[1].shape)]
+    others = [x for x in cands if x is not first and not any(x is y for y in classic)]
     alt = min(others, key=lambda x: x[0], default=None)
     if alt is None:
         return first
