@@ -31,7 +31,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import averaging
-from .filters import arma_factor, filter_autocov, freq_response, lfilter, lowpass_filter, mean_pole_autocov
+from .filters import (
+    arma_factor,
+    butter4_autocov,
+    filter_autocov,
+    freq_response,
+    lfilter,
+    lowpass_filter,
+    mean_pole_autocov,
+)
 
 
 def _m(m: ArrayLike) -> np.ndarray:
@@ -251,6 +259,8 @@ def _lp_shape(fc: float, fs: float, order: int, shape: str = "pole") -> tuple:
         a1 = -float(a[1])
         r0 = float(b[0]) ** 2 / (1.0 - a1 * a1)
         c, p = np.array([r0]), np.array([a1])
+    elif order == 4:
+        r0, c, p = butter4_autocov(fc, fs, b, a)
     else:
         r0, c, p = filter_autocov(b, a)
     dc = float(b.sum() / a.sum())  # unit white in -> low-frequency gain dc
