@@ -431,3 +431,27 @@ def test_stamps_taken_on_arrival_come_bunched_and_the_span_gives_the_rate(tmp_pa
     # a pair's arrival stands for two samples: the count is known to one sample
     assert "about 30 samples missing" in gaps[0] or "about 31 samples missing" in gaps[0]
     assert not any("over the whole file" in note for note in doc["notes"])  # the gap is no change of rate
+
+
+def test_stamps_rounded_coarser_than_the_period_are_no_gaps(tmp_path: Path, run_cli) -> None:
+    """A writer that keeps two decimals of the time (phyphox-like exports, a logger's %.2f)
+    from 100 s on: at 200 Hz each 0.01 s stamp step stands for two samples, and every other
+    step is 0. Every sample is there (the rows over the span give the rate): no gaps, no
+    samples missing, no other rate over the whole file; a real gap in such a file still is one."""
+    fs, n = 200.0, 60000
+    rng = np.random.default_rng(3)
+    t = np.arange(n) / fs
+    x = rng.normal(0.0, 0.3, n)
+    stamp = [repr(float(v)) if v < 100 else f"{v:.2f}" for v in t]
+    p = tmp_path / "rounded.csv"
+    p.write_text("time [s],gz [deg/s]\n" + "".join(f"{s},{float(v)!r}\n" for s, v in zip(stamp, x)))
+    doc = _analyze(run_cli, p)
+    assert doc["source"]["fs_hz"] == pytest.approx(fs, rel=1e-6)
+    notes = [note for note in doc["notes"] if note.startswith("the time column")]
+    assert len(notes) == 1 and "coarser than the sample period" in notes[0], notes
+    assert "samples missing" not in notes[0] and "over the whole file" not in notes[0]
+    cut = np.r_[0:30000, 30050:n]  # 50 samples never written, in the rounded part
+    q = tmp_path / "rounded_gap.csv"
+    q.write_text("time [s],gz [deg/s]\n" + "".join(f"{stamp[i]},{float(x[i])!r}\n" for i in cut))
+    gap = [note for note in _analyze(run_cli, q)["notes"] if note.startswith("the time column")]
+    assert len(gap) == 1 and "samples missing" in gap[0], gap

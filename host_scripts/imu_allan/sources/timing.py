@@ -33,6 +33,11 @@ samples arrive (a bag's receive times, a driver's clock) come in pairs and burst
 The median step is then no period; the span over the rows is (bunching moves
 stamps, not the count of samples between them)."""
 
+COARSE_MIN = 10
+"""Long steps and steps not forward, each at least this many, before stamps are read as
+rounded coarser than the sample period (TimeCheck._coarse): one gap beside one repeated
+stamp is a gap and a repeat."""
+
 UNIT_NAMES = {1e-9: "ns", 1e-6: "us", 1e-3: "ms", 1.0: "s"}
 
 
@@ -120,11 +125,13 @@ class TimeCheck:
     _longest: float = 0.0
     _longest_at: float = 0.0
     _back: int = 0
+    _shortest_gap: float = math.inf
 
     def start(self) -> None:
         self._last = self._first = None
         self._rows = self._gaps = self._back = 0
         self._missing = self._longest = self._longest_at = 0.0
+        self._shortest_gap = math.inf
 
     def feed(self, t: np.ndarray) -> None:
         if not t.size:
@@ -139,6 +146,7 @@ class TimeCheck:
         if gap.any():
             self._gaps += int(np.count_nonzero(gap))
             self._missing += float(np.sum(np.rint(steps[gap] / period) - 1.0))
+            self._shortest_gap = min(self._shortest_gap, float(steps[gap].min()))
             k = int(np.argmax(steps))
             if steps[k] > self._longest:
                 self._longest = float(steps[k])
@@ -161,14 +169,23 @@ class TimeCheck:
             "steps_not_forward": self._back,
         }
         said = []
-        if self._gaps:
+        if self._coarse(span):  # stamps written coarser than the sample period, not samples missing
+            self.found["missing_samples"], self._missing = 0, 0.0
+            self.found["coarse_stamps"] = True
+            said.append(
+                f"{self._gaps} steps over {self.gap_s * self.fs:.3g} sample periods and {self._back} that do "
+                f"not go forward, while the rows over the span give {(self._rows - 1) / span:.6g} Hz, the "
+                "first rows' rate: the stamps are coarser than the sample period there (rounded), "
+                "no samples are missing"
+            )
+        elif self._gaps:
             said.append(
                 f"{self._gaps} gap{'s' if self._gaps > 1 else ''} (steps over "
                 f"{self.gap_s * self.fs:.3g} sample periods; "
                 f"about {int(self._missing)} samples missing; the longest {self._longest:.6g} s, "
                 f"{self._longest_at:.6g} s in): the series has gaps, which the statistics take as continuous"
             )
-        if self._back:
+        if self._back and not self.found.get("coarse_stamps"):
             said.append(
                 f"{self._back} step{'s' if self._back > 1 else ''} that do not go forward (repeated or out of order)"
             )
@@ -177,3 +194,13 @@ class TimeCheck:
             said.append(f"over the whole file the stamps give {whole:.6g} Hz, not the first rows' {self.fs:.6g} Hz")
         if said:
             notes.append(f"{self.what}: " + "; ".join(said))
+
+    def _coarse(self, span: float) -> bool:
+        """Stamps rounded coarser than the sample period (a writer's fixed decimals or
+        significant digits): many long steps and many that do not go forward, and the rows
+        over the span at the first rows' rate, to the stamps' own resolution."""
+        if min(self._gaps, self._back) < COARSE_MIN or span <= 0:
+            return False
+        # the span's ends are each off by at most a quantum (the shortest long step): the rows
+        # it holds at the first rows' rate are known to that, and must all be there
+        return abs((self._rows - 1) - span * self.fs) <= 2.0 * self._shortest_gap * self.fs + 1.0
