@@ -217,6 +217,15 @@ class _Problem:
             self._weights[key] = w
         self.ref, self.alpha, self.e, self.gls, self.yw = w
 
+    def kept(self) -> tuple[np.ndarray, np.ndarray]:
+        """The weights' state (reference curve, robust variances), for restore: a trial that
+        is not kept leaves the weights as it found them."""
+        return self.ref.copy(), self.robust.copy()
+
+    def restore(self, kept: tuple[np.ndarray, np.ndarray]) -> None:
+        self.robust = kept[1]
+        self.set_reference(kept[0])
+
     def solve(self, s: Structure, theta: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         A = columns(s, theta, self.m, self.fs)
         Aw = self.gls.white(A)

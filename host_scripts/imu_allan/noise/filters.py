@@ -54,21 +54,28 @@ def lowpass_filter(fc: float, fs: float, order: int) -> tuple[np.ndarray, np.nda
     raise ValueError(f"low-pass order must be 1, 2 or 4, got {order}")
 
 
-def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+def filter_autocov(b: np.ndarray, a: np.ndarray, p: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray]:
     """Autocovariance of unit white noise through b/a (len(b) <= len(a), distinct
-    poles): r(0) and (c, p) with r(k) = sum c_i p_i^k for k >= 1, by residues:
-    r(k) = sum_i Res_{p_i} H(z) H(1/z) z^(k-1), plus H(0) H(inf) at k = 0."""
+    poles ``p``, the roots of a when not given): r(0) and (c, p) with r(k) = sum c_i p_i^k
+    for k >= 1, by residues: r(k) = sum_i Res_{p_i} H(z) H(1/z) z^(k-1), plus H(0) H(inf)
+    at k = 0.  One or two poles one at a time (their columns' very bits), more at once."""
     na = a.size - 1
     bp = np.concatenate((b, np.zeros(na + 1 - b.size)))  # numerator in powers of z, degree na
-    p = _poles(a)
+    p = _poles(a) if p is None else p
+    if na > 2:
+        d = p[:, None] - p[None, :]
+        d[np.diag_indices(na)] = 1.0
+        q = 1.0 / p
+        c = np.polyval(bp, p) / d.prod(axis=1) * (np.polyval(bp, q) / np.polyval(a, q)) / p
+    else:
 
-    def H(z: np.complex128) -> np.complex128:
-        return _polyval(bp, z) / _polyval(a, z)
+        def H(z: np.complex128) -> np.complex128:
+            return _polyval(bp, z) / _polyval(a, z)
 
-    c = np.empty(na, dtype=np.complex128)
-    for i in range(na):  # over the poles (one or two)
-        others = np.prod([p[i] - p[j] for j in range(na) if j != i]) if na > 2 else p[i] - p[1 - i] if na > 1 else 1.0
-        c[i] = _polyval(bp, p[i]) / others * H(1.0 / p[i]) / p[i]
+        c = np.empty(na, dtype=np.complex128)
+        for i in range(na):
+            others = p[i] - p[1 - i] if na > 1 else 1.0
+            c[i] = _polyval(bp, p[i]) / others * H(1.0 / p[i]) / p[i]
     h0 = bp[-1] / a[-1]  # H(0) (z -> 0 of the z-polynomial form)
     r0 = float((h0 * bp[0] + c.sum()).real)
     return r0, c, p
@@ -77,19 +84,13 @@ def filter_autocov(b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.
 def butter4_autocov(fc: float, fs: float, b: np.ndarray, a: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """filter_autocov of the four-pole Butterworth b/a (lowpass_filter's) with its poles in
     closed form (the bilinear images z = (2 fs + s) / (2 fs - s) of the prewarped analog ones
-    s = W e^(i theta), theta = 5 pi / 8 ... 11 pi / 8) and the residues over the four at once;
-    returned as the upper half-plane pair with c doubled: the conjugate pair's terms of r(k)
-    are each other's conjugates, so r(k) = sum Re(2 c_i p_i^k) over the pair (what
-    avar_from_poles sums), at half the cost."""
+    s = W e^(i theta), theta = 5 pi / 8 ... 11 pi / 8, the upper half-plane pair first),
+    returned as that pair with c doubled: the conjugate pair's terms of r(k) are each
+    other's conjugates, so r(k) = sum Re(2 c_i p_i^k) over the pair (what avar_from_poles
+    sums), at half the cost."""
     w = 2.0 * fs * math.tan(math.pi * fc / fs)
     s = w * np.exp(1j * np.pi * np.array([5.0, 7.0, 9.0, 11.0]) / 8.0)
-    p = (2.0 * fs + s) / (2.0 * fs - s)
-    bp = np.concatenate((b, np.zeros(a.size - b.size)))
-    d = p[:, None] - p[None, :]
-    d[np.diag_indices(4)] = 1.0
-    q = 1.0 / p
-    c = np.polyval(bp, p) / d.prod(axis=1) * (np.polyval(bp, q) / np.polyval(a, q)) / p
-    r0 = float((bp[-1] / a[-1] * bp[0] + c.sum()).real)
+    r0, c, p = filter_autocov(b, a, (2.0 * fs + s) / (2.0 * fs - s))
     return r0, 2.0 * c[:2], p[:2]
 
 

@@ -337,12 +337,12 @@ def _extend(
     cands = []
     for shape, order in LP_FORMS:
         s2 = Structure(base_lin, order, 0, shape=shape)
-        saved = p.ref.copy(), p.robust.copy()
+        newer = shape == "pole" and order not in CLASSIC_POLES  # leaves the weights as it found them
+        saved = p.kept() if newer else None
         th, c2, chi2b = fit_structure(p, s2, np.array([math.log(0.25 * p.fs)]), 0)
         cands.append((chi2b, s2, th, c2))
-        if shape == "pole" and order not in CLASSIC_POLES:  # the newer form leaves the weights as it found them
-            p.robust = saved[1]
-            p.set_reference(saved[0])
+        if saved is not None:
+            p.restore(saved)
     chi2b, s2, th, c2 = _lp_form(p, cands)
     dof = max(p.t.size - int(np.sum(c2 > 0)) - 1, 1)
     # its gain is judged against white N with the same terms: the terms let in again
@@ -396,14 +396,13 @@ def _gm_in_place(
     300 s on) would be given to it."""
     if not any(k in ("K", "R") and v > 0 for k, v in zip(s.names(), c)):
         return None
-    saved = p.ref.copy(), p.robust.copy()
+    saved = p.kept()
     s3, th3, c3, chi3 = _stepwise(p, s2, th, keep=("N",))
     rise = [k for k, v in zip(s3.names(), c3) if k in ("K", "R") and v > 0]
     if s3.ngm == s2.ngm and c3[-1] > 0 and not rise and s3.ngm - 1 not in _rivals(p, s3, th3, c3)[1]:
         if chi3 + 2 * (np.sum(c3 > 0) + th3.size) < chi2 + 2 * (np.sum(c > 0) + theta.size):
             return s3, th3, c3, chi3
-    p.robust = saved[1]
-    p.set_reference(saved[0])
+    p.restore(saved)
     return None
 
 

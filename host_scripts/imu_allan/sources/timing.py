@@ -169,7 +169,8 @@ class TimeCheck:
             "steps_not_forward": self._back,
         }
         said = []
-        if self._coarse(span):  # stamps written coarser than the sample period, not samples missing
+        coarse = self._coarse(span)
+        if coarse:  # stamps written coarser than the sample period, not samples missing
             self.found["missing_samples"], self._missing = 0, 0.0
             self.found["coarse_stamps"] = True
             said.append(
@@ -185,7 +186,7 @@ class TimeCheck:
                 f"about {int(self._missing)} samples missing; the longest {self._longest:.6g} s, "
                 f"{self._longest_at:.6g} s in): the series has gaps, which the statistics take as continuous"
             )
-        if self._back and not self.found.get("coarse_stamps"):
+        if self._back and not coarse:
             said.append(
                 f"{self._back} step{'s' if self._back > 1 else ''} that do not go forward (repeated or out of order)"
             )
